@@ -1,0 +1,2 @@
+// Replaced by the full executable in the next commit.
+int main() { return 0; }

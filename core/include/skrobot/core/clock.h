@@ -1,0 +1,27 @@
+// Monotonic time in nanoseconds, and small helpers.
+#pragma once
+
+#include <cstdint>
+#include <ctime>
+
+namespace skr {
+
+using Nanos = std::int64_t;
+
+inline Nanos monotonicNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<Nanos>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// CPU time consumed by the calling thread.
+inline Nanos threadCpuNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<Nanos>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+constexpr Nanos kNsPerMs = 1'000'000;
+constexpr Nanos kNsPerSec = 1'000'000'000;
+
+}  // namespace skr

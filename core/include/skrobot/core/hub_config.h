@@ -1,0 +1,55 @@
+// The hub's configuration, loaded from JSON and validated before anything starts.
+#pragma once
+
+#include <skrobot/core/json_schema.h>
+#include <skrobot/core/log.h>
+#include <skrobot/core/loop.h>
+#include <skrobot/core/result.h>
+
+#include <json/value.h>
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace skr {
+
+// One entry of "modules": found by `name` on the module search path, or by `path`.
+struct ModuleEntry {
+  std::string name;            // module name; from the file name when only `path` is given
+  std::filesystem::path path;  // resolved absolute path when given in the config, else empty
+  bool enabled = true;
+  bool own_thread = false;  // run on its own loop thread
+  LoopOptions loop;         // that thread's loop (inherits the hub's unless overridden)
+  Json::Value config = Json::Value(Json::objectValue);  // the module's own object
+  std::string json_path;  // where it stands in the config, e.g. "$.modules[2]"
+};
+
+struct HubConfig {
+  std::string app_name = "Robot";
+  log::Level log_level = log::Level::info;
+  LoopOptions loop;                                 // the main loop
+  std::vector<std::filesystem::path> module_paths;  // searched before the built-in ones
+  std::vector<ModuleEntry> modules;
+  std::filesystem::path config_file;  // absolute path of the file loaded
+  Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections
+};
+
+// Loads and validates a config file. On failure the error message lists every problem found,
+// one per line, as "<file>: <json path>: <reason>" (or "<file>:<line>:<col>: <reason>" for
+// JSON syntax errors). Relative paths in the file are resolved against its directory.
+// The error code is Errc::config_error for a bad document, Errc::not_found or Errc::io_error
+// when the file cannot be read.
+[[nodiscard]] Result<HubConfig> loadHubConfig(const std::filesystem::path& file);
+
+// The same, from text already in memory; `origin` names it in messages and `base_dir` resolves
+// relative paths.
+[[nodiscard]] Result<HubConfig> parseHubConfig(std::string_view text, const std::string& origin,
+                                               const std::filesystem::path& base_dir);
+
+// The schema of the whole document; adding a top-level section is one line in its definition.
+// docs/config.md describes every key.
+[[nodiscard]] schema::Schema hubSchema();
+
+}  // namespace skr

@@ -255,12 +255,14 @@ void Loop::startTicks() {
 }
 
 void Loop::armTimerAt(Nanos target_ns) {
-  // libuv timers count whole milliseconds of its cached loop time; round up so the timer never
-  // fires before target_ns on a precise clock (onTimer re-checks for coarse clocks).
+  // libuv timers count whole milliseconds from its cached loop time. Round the real remaining
+  // time up (never before target_ns on a precise clock; onTimer re-checks for coarse clocks);
+  // rounding the target in loop time instead would add up to 1 ms of truncation error.
   uv_update_time(uv_);
-  const auto target_ms = static_cast<uint64_t>((target_ns + kNsPerMs - 1) / kNsPerMs);
-  const uint64_t now_ms = uv_now(uv_);
-  uv_timer_start(timer_, &Loop::onTimer, target_ms > now_ms ? target_ms - now_ms : 0, 0);
+  const Nanos remaining = target_ns - monotonicNs();
+  const auto timeout_ms =
+      remaining <= 0 ? 0 : static_cast<uint64_t>((remaining + kNsPerMs - 1) / kNsPerMs);
+  uv_timer_start(timer_, &Loop::onTimer, timeout_ms, 0);
 }
 
 void Loop::armFastTimer(Nanos now) {
@@ -294,8 +296,12 @@ void Loop::onTimer(uv_timer_t* handle) {
       uv_idle_start(self->idle_, &Loop::onIdle);
       break;
     case TimingMode::socket_driven:
+      // The longest wait is over. libuv may run this in its timer phase, before the poll, so
+      // tick (and re-arm) here: leaving it to onCheck would let the poll sleep with no timer.
+      self->fireTicks(now);
+      break;
     case TimingMode::none:
-      break;  // only wakes the loop; onCheck / onIdle tick
+      break;  // onIdle ticks
   }
 }
 

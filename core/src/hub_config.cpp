@@ -1,0 +1,285 @@
+#include <skrobot/core/hub_config.h>
+
+#include <json/reader.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <system_error>
+
+namespace skr {
+namespace {
+
+namespace fs = std::filesystem;
+namespace s = schema;
+
+// Names that end up in file names (/tmp/<app_name>, <module>.so): [A-Za-z0-9_.-], not "." or "..".
+s::Check plainName(std::string note) {
+  return [note = std::move(note)](const Json::Value& v, const std::string& path, s::Problems& out) {
+    const std::string name = v.asString();
+    for (const char c : name) {
+      const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '_' || c == '.' || c == '-';
+      if (!ok) {
+        out.push_back({path, "may contain only letters, digits, '_', '.' and '-'" + note +
+                                 ", got \"" + name + "\""});
+        return;
+      }
+    }
+    if (name == "." || name == "..") out.push_back({path, "must not be \".\" or \"..\""});
+  };
+}
+
+// sun_path holds 108 bytes, "/tmp/" and the terminating NUL included.
+void fitsSocketPath(const Json::Value& v, const std::string& path, s::Problems& out) {
+  if (v.asString().size() > 100) {
+    out.push_back({path, "must be at most 100 characters (it names the socket /tmp/<app_name>)"});
+  }
+}
+
+// The top-level loop has defaults; a module's loop has none, so that what it leaves out is
+// inherited from the top-level one.
+s::Schema loopSchema(bool with_defaults) {
+  const auto d = [&](Json::Value v) { return with_defaults ? v : Json::Value(); };
+  return s::object({
+      s::optional("timing",
+                  s::string().oneOf({"coarse", "pseudo-realtime", "socket-driven", "none"}),
+                  d("coarse")),
+      s::optional("fast_tick_ms", s::number().range(0.1, 1000), d(10)),
+      s::optional("slow_tick_ms", s::number(), d(100)),  // >= fast_tick_ms, see readLoop()
+      s::optional("load_warning_ratio", s::number().range(0.05, 1), d(0.8)),
+  });
+}
+
+void nameOrPath(const Json::Value& m, const std::string& path, s::Problems& out) {
+  if (!m.isMember("name") && !m.isMember("path")) {
+    out.push_back({path, "needs \"name\" (found on the module search path) or \"path\""});
+  }
+}
+
+void loopNeedsOwnThread(const Json::Value& m, const std::string& path, s::Problems& out) {
+  if (m.isMember("loop") && !m["own_thread"].asBool()) {
+    out.push_back(
+        {s::childPath(path, "loop"), "applies only to a module with \"own_thread\": true"});
+  }
+}
+
+s::Schema moduleSchema() {
+  return s::object({
+                       s::optional("name", s::string().nonEmpty().check(plainName(""))),
+                       s::optional("path", s::string().nonEmpty()),
+                       s::optional("enabled", s::boolean(), true),
+                       s::optional("own_thread", s::boolean(), false),
+                       s::optional("loop", loopSchema(false)),
+                       s::optional("config", s::anyObject(), Json::objectValue),
+                   })
+      .check(nameOrPath)
+      .check(loopNeedsOwnThread);
+}
+
+// Turns jsoncpp's "* Line 3, Column 7\n  Missing ':' ...\n" into "<origin>:3:7: Missing ':' ...".
+std::string syntaxErrors(const std::string& errs, const std::string& origin) {
+  std::istringstream in(errs);
+  std::string line;
+  std::string out;
+  while (std::getline(in, line)) {
+    int l = 0;
+    int c = 0;
+    if (std::sscanf(line.c_str(), "* Line %d, Column %d", &l, &c) == 2) {
+      out += (out.empty() ? "" : "\n") + origin + ":" + std::to_string(l) + ":" +
+             std::to_string(c) + ":";
+    } else if (const auto start = line.find_first_not_of(' '); start != std::string::npos) {
+      if (out.empty()) out = origin + ":";
+      out += " " + line.substr(start);
+    }
+  }
+  return out.empty() ? origin + ": invalid JSON" : out;
+}
+
+Result<Json::Value> parseJson(std::string_view text, const std::string& origin) {
+  Json::CharReaderBuilder builder;
+  builder["collectComments"] = false;
+  builder["rejectDupKeys"] = true;
+  builder["failIfExtra"] = true;
+  const std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
+  Json::Value doc;
+  std::string errs;
+  try {
+    if (!reader->parse(text.data(), text.data() + text.size(), &doc, &errs)) {
+      return makeError(Errc::config_error, syntaxErrors(errs, origin));
+    }
+  } catch (const std::exception& e) {  // jsoncpp throws when nesting exceeds its stack limit
+    return makeError(Errc::config_error, origin + ": " + e.what());
+  }
+  return doc;
+}
+
+Nanos msToNs(double ms) {
+  return static_cast<Nanos>(std::llround(ms * 1e6));
+}
+double nsToMs(Nanos ns) {
+  return static_cast<double>(ns) / 1e6;
+}
+
+// Applies the keys present in `obj` over `loop` and checks that slow >= fast. `written` is what
+// the user wrote (to say where a value came from); `inherited` names where missing ones came from.
+void readLoop(const Json::Value& obj, const Json::Value& written, const std::string& inherited,
+              const std::string& path, LoopOptions& loop, s::Problems& out) {
+  if (!obj.isObject()) return;
+  // The schema already reported what is wrong here; checking further would only repeat it.
+  const bool reported = std::any_of(out.begin(), out.end(), [&](const s::Problem& p) {
+    return p.path == path || p.path.starts_with(path + ".");
+  });
+  if (reported) return;
+  if (const Json::Value& t = obj["timing"];
+      t.isString() && !parseTimingMode(t.asString(), loop.mode)) {
+    out.push_back({s::childPath(path, "timing"), "unknown timing mode \"" + t.asString() + "\""});
+  }
+  const auto number = [&](const char* key, double fallback) {
+    return obj[key].isNumeric() ? obj[key].asDouble() : fallback;
+  };
+  loop.fast_interval_ns = msToNs(number("fast_tick_ms", nsToMs(loop.fast_interval_ns)));
+  loop.slow_interval_ns = msToNs(number("slow_tick_ms", nsToMs(loop.slow_interval_ns)));
+  loop.load_warning_ratio = number("load_warning_ratio", loop.load_warning_ratio);
+  if (loop.slow_interval_ns >= loop.fast_interval_ns) return;
+  const auto given = [&](const char* key) { return written.isObject() && written.isMember(key); };
+  const std::string fast = s::formatNumber(nsToMs(loop.fast_interval_ns));
+  const std::string slow = s::formatNumber(nsToMs(loop.slow_interval_ns));
+  out.push_back({s::childPath(path, "slow_tick_ms"),
+                 "must be >= fast_tick_ms (" + fast +
+                     (given("fast_tick_ms") ? "" : ", " + inherited) + "), got " + slow +
+                     (given("slow_tick_ms") ? "" : " (" + inherited + ")")});
+}
+
+// "libcamera.so" and "camera.so.1" are both "camera".
+std::string nameFromPath(const fs::path& file) {
+  std::string name = file.filename().string();
+  if (const auto so = name.find(".so");
+      so != std::string::npos && (so + 3 == name.size() || name[so + 3] == '.')) {
+    name.resize(so);
+  }
+  if (name.size() > 3 && name.starts_with("lib")) name.erase(0, 3);
+  return name;
+}
+
+fs::path resolve(const fs::path& base_dir, const std::string& text) {
+  const fs::path p(text);
+  return (p.is_absolute() ? p : base_dir / p).lexically_normal();
+}
+
+void readModules(const Json::Value& list, const fs::path& base_dir, HubConfig& cfg,
+                 s::Problems& out) {
+  std::map<std::string, const ModuleEntry*> enabled;  // name -> first enabled entry
+  cfg.modules.reserve(list.size());
+  for (Json::ArrayIndex i = 0; list.isArray() && i < list.size(); ++i) {
+    const Json::Value& m = list[i];
+    if (!m.isObject()) continue;
+    ModuleEntry e;
+    e.json_path = s::indexPath("$.modules", i);
+    if (m["name"].isString()) e.name = m["name"].asString();
+    if (m["path"].isString() && !m["path"].asString().empty()) {
+      e.path = resolve(base_dir, m["path"].asString());
+      if (e.name.empty()) e.name = nameFromPath(e.path);
+      if (e.name.empty()) out.push_back({s::childPath(e.json_path, "path"), "names no file"});
+    }
+    if (m["enabled"].isBool()) e.enabled = m["enabled"].asBool();
+    if (m["own_thread"].isBool()) e.own_thread = m["own_thread"].asBool();
+    if (m["config"].isObject()) e.config = m["config"];
+    e.loop = cfg.loop;
+    e.loop.name = e.name;
+    readLoop(m["loop"], m["loop"], "inherited from $.loop", s::childPath(e.json_path, "loop"),
+             e.loop, out);
+    cfg.modules.push_back(std::move(e));
+  }
+  for (const ModuleEntry& e : cfg.modules) {
+    if (!e.enabled || e.name.empty()) continue;
+    const auto [it, inserted] = enabled.emplace(e.name, &e);
+    if (inserted) continue;
+    const auto where = [](const ModuleEntry& x) {
+      return x.json_path + (x.path.empty() ? "" : " (" + x.path.string() + ")");
+    };
+    out.push_back({e.json_path, "duplicate module name \"" + e.name + "\": " + where(*it->second) +
+                                    " and " + where(e) + " are both enabled"});
+  }
+}
+
+Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
+                        const fs::path& base_dir) {
+  const s::Schema schema = hubSchema();
+  s::Problems problems = s::validate(doc, schema);
+  HubConfig cfg;
+  cfg.raw = s::withDefaults(doc, schema);
+  const Json::Value& d = cfg.raw;
+  if (d.isObject()) {
+    if (d["app_name"].isString()) cfg.app_name = d["app_name"].asString();
+    if (d["log"].isObject() && d["log"]["level"].isString()) {
+      log::parseLevel(d["log"]["level"].asString(), cfg.log_level);
+    }
+    readLoop(d["loop"], doc["loop"], "the default", "$.loop", cfg.loop, problems);
+    for (Json::ArrayIndex i = 0; d["module_paths"].isArray() && i < d["module_paths"].size(); ++i) {
+      const Json::Value& p = d["module_paths"][i];
+      if (p.isString() && !p.asString().empty()) {
+        cfg.module_paths.push_back(resolve(base_dir, p.asString()));
+      }
+    }
+    readModules(d["modules"], base_dir, cfg, problems);
+  }
+  if (!problems.empty()) return makeError(Errc::config_error, s::formatProblems(problems, origin));
+  return cfg;
+}
+
+}  // namespace
+
+s::Schema hubSchema() {
+  // One line per top-level section. Later sections (server, accounts, data directory) go here.
+  return s::object({
+      s::optional("app_name",
+                  s::string()
+                      .nonEmpty()
+                      .check(plainName(" (it names the socket /tmp/<app_name>)"))
+                      .check(fitsSocketPath),
+                  "Robot"),
+      s::optional("log",
+                  s::object({s::optional(
+                      "level", s::string().oneOf({"debug", "info", "warn", "error"}), "info")}),
+                  Json::objectValue),
+      s::optional("loop", loopSchema(true), Json::objectValue),
+      s::optional("module_paths", s::arrayOf(s::string().nonEmpty()), Json::arrayValue),
+      s::optional("modules", s::arrayOf(moduleSchema()), Json::arrayValue),
+  });
+}
+
+Result<HubConfig> parseHubConfig(std::string_view text, const std::string& origin,
+                                 const fs::path& base_dir) {
+  try {
+    Result<Json::Value> doc = parseJson(text, origin);
+    if (!doc) return doc.error();
+    std::error_code ec;
+    const fs::path dir = fs::absolute(base_dir, ec);
+    return build(*doc, origin, ec ? base_dir : dir);
+  } catch (const std::exception& e) {  // a bug here must not take the hub down with it
+    return makeError(Errc::exception, origin + ": " + e.what());
+  }
+}
+
+Result<HubConfig> loadHubConfig(const fs::path& file) {
+  const std::string origin = file.string();
+  std::error_code ec;
+  if (!fs::exists(file, ec)) return makeError(Errc::not_found, origin + ": no such file");
+  if (fs::is_directory(file, ec)) return makeError(Errc::io_error, origin + ": is a directory");
+  std::ifstream in(file, std::ios::binary);
+  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (!in.is_open() || in.bad()) return makeError(Errc::io_error, origin + ": cannot read");
+  const fs::path absolute = fs::absolute(file, ec).lexically_normal();
+  Result<HubConfig> cfg = parseHubConfig(text, origin, absolute.parent_path());
+  if (cfg) cfg->config_file = absolute;
+  return cfg;
+}
+
+}  // namespace skr

@@ -1,0 +1,320 @@
+// Config loading and validation: defaults, every kind of error, path resolution.
+#include <skrobot/core/hub_config.h>
+#include <skrobot/core/json_schema.h>
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <fstream>
+#include <iterator>
+#include <string>
+
+namespace skr {
+namespace {
+
+namespace fs = std::filesystem;
+
+Result<HubConfig> parse(std::string_view text) {
+  return parseHubConfig(text, "test.json", "/etc/robot");
+}
+
+// The error message of a document that must fail.
+std::string errorOf(std::string_view text) {
+  Result<HubConfig> r = parse(text);
+  if (r.ok()) {
+    ADD_FAILURE() << "expected an error for: " << text;
+    return {};
+  }
+  EXPECT_EQ(r.error().code, Errc::config_error);
+  return r.error().message;
+}
+
+#define EXPECT_HAS(haystack, needle) \
+  EXPECT_NE((haystack).find(needle), std::string::npos) << (haystack)
+
+TEST(ConfigTest, DefaultConfigLoads) {
+  Result<HubConfig> r = loadHubConfig(fs::path(SKROBOT_SOURCE_DIR) / "config" / "default.json");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->app_name, "Robot");
+  EXPECT_EQ(r->log_level, log::Level::info);
+  EXPECT_EQ(r->loop.mode, TimingMode::coarse);
+  EXPECT_EQ(r->loop.fast_interval_ns, 10 * kNsPerMs);
+  EXPECT_EQ(r->loop.slow_interval_ns, 100 * kNsPerMs);
+  ASSERT_EQ(r->modules.size(), 1u);
+  const ModuleEntry& m = r->modules[0];
+  EXPECT_EQ(m.name, "example");
+  EXPECT_TRUE(m.enabled);
+  EXPECT_FALSE(m.own_thread);
+  EXPECT_TRUE(m.path.empty());
+  EXPECT_EQ(m.json_path, "$.modules[0]");
+  EXPECT_EQ(m.config["greeting"].asString(), "hello from the example module");
+  EXPECT_EQ(m.config["period_ms"].asInt(), 1000);
+  EXPECT_TRUE(r->config_file.is_absolute());
+  EXPECT_EQ(r->config_file.filename(), "default.json");
+}
+
+// The example in the user documentation stays valid.
+TEST(ConfigTest, DocumentedExampleLoads) {
+  std::ifstream in(fs::path(SKROBOT_SOURCE_DIR) / "docs" / "config.md");
+  const std::string md{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  const auto start = md.find("```json\n");
+  ASSERT_NE(start, std::string::npos);
+  const auto end = md.find("```", start + 8);
+  Result<HubConfig> r = parse(md.substr(start + 8, end - start - 8));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->modules.size(), 3u);
+  EXPECT_EQ(r->modules[1].name, "face-detect");
+  EXPECT_EQ(r->modules[1].loop.mode, TimingMode::none);
+}
+
+TEST(ConfigTest, CommentsAreAccepted) {
+  EXPECT_TRUE(parse("// the hub\n{ /* no modules yet */ \"modules\": [] }").ok());
+}
+
+TEST(ConfigTest, DefaultsFillIn) {
+  Result<HubConfig> r = parse(R"({"modules": [{"name": "a"}]})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->app_name, "Robot");
+  EXPECT_EQ(r->log_level, log::Level::info);
+  EXPECT_EQ(r->loop.mode, TimingMode::coarse);
+  EXPECT_EQ(r->loop.fast_interval_ns, 10 * kNsPerMs);
+  EXPECT_EQ(r->loop.slow_interval_ns, 100 * kNsPerMs);
+  EXPECT_DOUBLE_EQ(r->loop.load_warning_ratio, 0.8);
+  EXPECT_TRUE(r->module_paths.empty());
+  ASSERT_EQ(r->modules.size(), 1u);
+  EXPECT_TRUE(r->modules[0].enabled);
+  EXPECT_FALSE(r->modules[0].own_thread);
+  EXPECT_TRUE(r->modules[0].config.isObject());
+  EXPECT_TRUE(r->modules[0].config.empty());
+  EXPECT_EQ(r->modules[0].loop.name, "a");
+  EXPECT_EQ(r->modules[0].loop.fast_interval_ns, 10 * kNsPerMs);
+  // raw keeps the document, defaults included, for sections read elsewhere.
+  EXPECT_EQ(r->raw["loop"]["timing"].asString(), "coarse");
+  EXPECT_EQ(r->raw["modules"][0]["name"].asString(), "a");
+}
+
+TEST(ConfigTest, ValuesAreRead) {
+  Result<HubConfig> r = parse(R"({
+    "app_name": "nao-1.lab_2",
+    "log": {"level": "debug"},
+    "loop": {"timing": "pseudo-realtime", "fast_tick_ms": 2.5, "slow_tick_ms": 50,
+             "load_warning_ratio": 0.5},
+    "modules": [
+      {"name": "cam", "own_thread": true, "loop": {"timing": "none", "fast_tick_ms": 1},
+       "config": {"fps": 30}},
+      {"name": "off", "enabled": false}
+    ]})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->app_name, "nao-1.lab_2");
+  EXPECT_EQ(r->log_level, log::Level::debug);
+  EXPECT_EQ(r->loop.mode, TimingMode::pseudo_realtime);
+  EXPECT_EQ(r->loop.fast_interval_ns, 2'500'000);
+  EXPECT_EQ(r->loop.slow_interval_ns, 50 * kNsPerMs);
+  EXPECT_DOUBLE_EQ(r->loop.load_warning_ratio, 0.5);
+  ASSERT_EQ(r->modules.size(), 2u);
+  const ModuleEntry& cam = r->modules[0];
+  EXPECT_TRUE(cam.own_thread);
+  EXPECT_EQ(cam.loop.name, "cam");
+  EXPECT_EQ(cam.loop.mode, TimingMode::none);
+  EXPECT_EQ(cam.loop.fast_interval_ns, 1 * kNsPerMs);
+  EXPECT_EQ(cam.loop.slow_interval_ns, 50 * kNsPerMs);  // inherited
+  EXPECT_DOUBLE_EQ(cam.loop.load_warning_ratio, 0.5);   // inherited
+  EXPECT_EQ(cam.config["fps"].asInt(), 30);
+  EXPECT_FALSE(r->modules[1].enabled);
+}
+
+TEST(ConfigTest, SyntaxErrorHasLineAndColumn) {
+  std::string msg = errorOf("{\n  \"app_name\": \"x\",\n  \"log\" {}\n}");
+  EXPECT_HAS(msg, "test.json:3:9: Missing ':'");
+  msg = errorOf(R"({"app_name": "a", "app_name": "b"})");
+  EXPECT_HAS(msg, "test.json:1:");
+  EXPECT_HAS(msg, "Duplicate key: 'app_name'");
+  EXPECT_HAS(errorOf(""), "test.json:1:1: ");
+  EXPECT_HAS(errorOf("{} {}"), "Extra non-whitespace");
+}
+
+TEST(ConfigTest, UnknownKeyWithSuggestion) {
+  std::string msg = errorOf(R"({"loop": {"fast_tik_ms": 5}})");
+  EXPECT_EQ(msg, R"(test.json: $.loop: unknown key "fast_tik_ms" (did you mean "fast_tick_ms"?))");
+  msg = errorOf(R"({"network": {}})");
+  EXPECT_EQ(msg, R"(test.json: $: unknown key "network")");
+  msg = errorOf(R"({"modules": [{"name": "a", "enable": false}]})");
+  EXPECT_EQ(msg, R"(test.json: $.modules[0]: unknown key "enable" (did you mean "enabled"?))");
+}
+
+TEST(ConfigTest, WrongType) {
+  EXPECT_EQ(errorOf(R"({"modules": [{"name": "a"}, {"name": "b", "enabled": "yes"}]})"),
+            "test.json: $.modules[1].enabled: expected boolean, got string");
+  EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": "10"}})"),
+            "test.json: $.loop.fast_tick_ms: expected number, got string");
+  EXPECT_EQ(errorOf(R"({"modules": {"name": "a"}})"),
+            "test.json: $.modules: expected array, got object");
+  EXPECT_EQ(errorOf(R"({"modules": [{"name": "a", "config": []}]})"),
+            "test.json: $.modules[0].config: expected object, got array");
+  EXPECT_EQ(errorOf("[]"), "test.json: $: expected object, got array");
+}
+
+TEST(ConfigTest, OutOfRange) {
+  EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": 0}})"),
+            "test.json: $.loop.fast_tick_ms: must be >= 0.1, got 0");
+  EXPECT_EQ(errorOf(R"({"loop": {"load_warning_ratio": 2}})"),
+            "test.json: $.loop.load_warning_ratio: must be <= 1, got 2");
+  // An out-of-range fast tick is reported once, not again by the slow >= fast check.
+  EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": 5000}})"),
+            "test.json: $.loop.fast_tick_ms: must be <= 1000, got 5000");
+}
+
+TEST(ConfigTest, BadEnumValue) {
+  EXPECT_EQ(errorOf(R"({"loop": {"timing": "fast"}})"),
+            R"(test.json: $.loop.timing: must be one of "coarse", "pseudo-realtime", )"
+            R"("socket-driven", "none", got "fast")");
+  EXPECT_EQ(
+      errorOf(R"({"log": {"level": "verbose"}})"),
+      R"(test.json: $.log.level: must be one of "debug", "info", "warn", "error", got "verbose")");
+}
+
+TEST(ConfigTest, SlowTickBelowFastTick) {
+  EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": 50, "slow_tick_ms": 20}})"),
+            "test.json: $.loop.slow_tick_ms: must be >= fast_tick_ms (50), got 20");
+  EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": 200}})"),
+            "test.json: $.loop.slow_tick_ms: must be >= fast_tick_ms (200), got 100 (the default)");
+  EXPECT_EQ(errorOf(R"({"modules": [{"name": "a", "own_thread": true,
+                                      "loop": {"slow_tick_ms": 5}}]})"),
+            "test.json: $.modules[0].loop.slow_tick_ms: must be >= fast_tick_ms "
+            "(10, inherited from $.loop), got 5");
+}
+
+TEST(ConfigTest, ModuleNeedsNameOrPath) {
+  EXPECT_EQ(errorOf(R"({"modules": [{"enabled": true}]})"),
+            R"(test.json: $.modules[0]: needs "name" (found on the module search path) or "path")");
+}
+
+TEST(ConfigTest, ModuleLoopNeedsOwnThread) {
+  EXPECT_EQ(errorOf(R"({"modules": [{"name": "a", "loop": {"fast_tick_ms": 1}}]})"),
+            R"(test.json: $.modules[0].loop: applies only to a module with "own_thread": true)");
+}
+
+TEST(ConfigTest, DuplicateEnabledModuleNames) {
+  const std::string msg = errorOf(R"({"modules": [
+      {"path": "a/libcam.so"}, {"name": "other"}, {"name": "cam", "path": "/opt/cam.so"}]})");
+  EXPECT_EQ(msg,
+            "test.json: $.modules[2]: duplicate module name \"cam\": $.modules[0] "
+            "(/etc/robot/a/libcam.so) and $.modules[2] (/opt/cam.so) are both enabled");
+  // A disabled duplicate is fine: it is how one keeps an alternative at hand.
+  EXPECT_TRUE(parse(R"({"modules": [{"name": "cam"}, {"name": "cam", "enabled": false}]})").ok());
+}
+
+TEST(ConfigTest, AppNameMustNameASocketFile) {
+  EXPECT_EQ(errorOf(R"({"app_name": ""})"), "test.json: $.app_name: must not be empty");
+  EXPECT_HAS(errorOf(R"({"app_name": "my robot"})"),
+             "test.json: $.app_name: may contain only letters, digits, '_', '.' and '-'");
+  EXPECT_HAS(errorOf(R"({"app_name": "../x"})"), "$.app_name: may contain only");
+  EXPECT_EQ(errorOf(R"({"app_name": ".."})"), R"(test.json: $.app_name: must not be "." or "..")");
+  EXPECT_HAS(errorOf("{\"app_name\": \"" + std::string(101, 'a') + "\"}"), "at most 100");
+}
+
+TEST(ConfigTest, RelativePathsResolveAgainstConfigDir) {
+  Result<HubConfig> r = parse(R"({"module_paths": ["mods", "../lib/skrobot", "/usr/lib/sk"],
+                                  "modules": [{"path": "build/libcamera.so"},
+                                              {"path": "/opt/motion.so.1"}]})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->module_paths.size(), 3u);
+  EXPECT_EQ(r->module_paths[0], "/etc/robot/mods");
+  EXPECT_EQ(r->module_paths[1], "/etc/lib/skrobot");
+  EXPECT_EQ(r->module_paths[2], "/usr/lib/sk");
+  EXPECT_EQ(r->modules[0].path, "/etc/robot/build/libcamera.so");
+  EXPECT_EQ(r->modules[0].name, "camera");
+  EXPECT_EQ(r->modules[1].path, "/opt/motion.so.1");
+  EXPECT_EQ(r->modules[1].name, "motion");
+  EXPECT_EQ(errorOf(R"({"modules": [{"path": "mods/"}]})"),
+            "test.json: $.modules[0].path: names no file");
+}
+
+TEST(ConfigTest, LoadResolvesAgainstTheFilesDirectory) {
+  const fs::path dir = fs::temp_directory_path() / ("skrobot-config-" + std::to_string(getpid()));
+  fs::create_directories(dir / "sub");
+  const fs::path file = dir / "sub" / "hub.json";
+  std::ofstream(file) << R"({"modules": [{"path": "../mods/x.so"}]})";
+  Result<HubConfig> r = loadHubConfig(file);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->config_file, file);
+  EXPECT_EQ(r->modules[0].path, dir / "mods" / "x.so");
+
+  std::ofstream(file) << R"({"log": {"level": 3}})";
+  r = loadHubConfig(file);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, file.string() + ": $.log.level: expected string, got integer");
+
+  EXPECT_EQ(loadHubConfig(dir).error().code, Errc::io_error);  // a directory
+  fs::remove_all(dir);
+
+  r = loadHubConfig(dir / "missing.json");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, Errc::not_found);
+}
+
+TEST(ConfigTest, EveryProblemIsReportedAtOnce) {
+  const std::string msg = errorOf(R"({
+    "app_name": "a b",
+    "loop": {"fast_tik_ms": 5, "timing": "socket"},
+    "modules": [{"name": "m", "enabled": 1}, {"own_thread": false}],
+    "extra": true})");
+  EXPECT_EQ(
+      msg,
+      "test.json: $.app_name: may contain only letters, digits, '_', '.' and '-' (it names "
+      "the socket /tmp/<app_name>), got \"a b\"\n"
+      "test.json: $.loop.timing: must be one of \"coarse\", \"pseudo-realtime\", "
+      "\"socket-driven\", \"none\", got \"socket\"\n"
+      "test.json: $.loop: unknown key \"fast_tik_ms\" (did you mean \"fast_tick_ms\"?)\n"
+      "test.json: $.modules[0].enabled: expected boolean, got integer\n"
+      "test.json: $.modules[1]: needs \"name\" (found on the module search path) or \"path\"\n"
+      "test.json: $: unknown key \"extra\"");
+}
+
+// The schema on its own, for the parts the hub's config does not exercise.
+TEST(JsonSchemaTest, RequiredIntegerAndArrayBounds) {
+  namespace s = schema;
+  const s::Schema server = s::object({
+      s::required("port", s::integer().range(1, 65535)),
+      s::optional("hosts", s::arrayOf(s::string()).items(1, 2)),
+      s::optional("extra", s::anyObject()),
+  });
+  Json::Value v(Json::objectValue);
+  v["hosts"] = Json::Value(Json::arrayValue);
+  s::Problems p = s::validate(v, server, "$.server");
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p[0].path, "$.server.port");
+  EXPECT_EQ(p[0].reason, "required key missing");
+  EXPECT_EQ(p[1].path, "$.server.hosts");
+  EXPECT_EQ(p[1].reason, "must have at least 1 items, got 0");
+
+  v["port"] = 1.5;
+  p = s::validate(v, server.allowUnknownKeys(), "$");
+  ASSERT_FALSE(p.empty());
+  EXPECT_EQ(p[0].reason, "expected integer, got non-integral number");
+  v["port"] = 8080.0;  // integral, written with a decimal point
+  v["hosts"].append("a");
+  v["whatever"] = 1;
+  EXPECT_TRUE(s::validate(v, server.allowUnknownKeys()).empty());
+}
+
+TEST(JsonSchemaTest, WithDefaultsFillsNestedSections) {
+  namespace s = schema;
+  const s::Schema doc = s::object({
+      s::optional("net", s::object({s::optional("port", s::integer(), 7000)}), Json::objectValue),
+      s::optional("items", s::arrayOf(s::object({s::optional("on", s::boolean(), true)}))),
+      s::optional("absent", s::string()),
+  });
+  Json::Value v(Json::objectValue);
+  v["items"].append(Json::Value(Json::objectValue));
+  const Json::Value filled = s::withDefaults(v, doc);
+  EXPECT_EQ(filled["net"]["port"].asInt(), 7000);
+  EXPECT_TRUE(filled["items"][0]["on"].asBool());
+  EXPECT_FALSE(filled.isMember("absent"));
+  EXPECT_EQ(s::childPath("$", "a key"), R"($["a key"])");
+  EXPECT_EQ(s::indexPath("$.m", 3), "$.m[3]");
+}
+
+}  // namespace
+}  // namespace skr

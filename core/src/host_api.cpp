@@ -1,0 +1,303 @@
+// The C table of host services (skr_host_api). Every function is called from module code
+// through C frames: none may throw, so each one catches what the C++ below could raise.
+#include "module_record.h"
+
+#include <skrobot/core/clock.h>
+#include <skrobot/core/log.h>
+
+#include <json/writer.h>
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string>
+
+namespace skr {
+
+// ABI 1.0 as shipped (LP64). A change here breaks every built module: it needs a new major, or
+// for a minor, fields appended at the end / reserved slots filled.
+#if UINTPTR_MAX == 0xffffffffffffffffu
+static_assert(offsetof(skr_module_descriptor, name) == 8);
+static_assert(offsetof(skr_module_descriptor, init) == 40);
+static_assert(sizeof(skr_module_descriptor) == 72);
+static_assert(offsetof(skr_host_api, log) == 8);
+static_assert(offsetof(skr_host_api, reserved) == 144);
+static_assert(sizeof(skr_host_api) == 400);
+static_assert(sizeof(skr_loop_info) == 40);
+#endif
+
+bool PostQueue::post(const std::shared_ptr<PostQueue>& self, Loop& loop, skr_callback fn,
+                     skr_callback cancel, void* user) {
+  // Under the lock: once close() returned, no call reaches `loop`, which may be gone by then.
+  std::lock_guard lock(mutex_);
+  if (!open_) return false;
+  items_.push_back(Item{fn, cancel, user});
+  try {
+    loop.post([self] { self->runOne(); });
+  } catch (...) {
+    items_.pop_back();
+    throw;
+  }
+  return true;
+}
+
+void PostQueue::runOne() {
+  Item item{};
+  {
+    std::lock_guard lock(mutex_);
+    if (items_.empty()) return;  // cancelled by close()
+    item = items_.front();
+    items_.pop_front();
+  }
+  item.fn(item.user);
+}
+
+void PostQueue::close() noexcept {
+  std::deque<Item> left;
+  {
+    std::lock_guard lock(mutex_);
+    open_ = false;
+    left.swap(items_);
+  }
+  for (const Item& item : left) {
+    if (item.cancel != nullptr) item.cancel(item.user);
+  }
+}
+
+const char* statusText(skr_status status) noexcept {
+  switch (status) {
+    case SKR_OK:
+      return "ok";
+    case SKR_ERR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case SKR_ERR_NOT_FOUND:
+      return "not found";
+    case SKR_ERR_FAILED:
+      return "failed";
+    case SKR_ERR_EXCEPTION:
+      return "exception";
+    case SKR_ERR_NOT_ON_LOOP_THREAD:
+      return "not on the module's loop thread";
+    case SKR_ERR_BAD_STATE:
+      return "not allowed in this lifecycle step";
+    case SKR_ERR_NO_MEMORY:
+      return "out of memory";
+    case SKR_ERR_UNSUPPORTED:
+      return "unsupported";
+    case SKR_ERR_CONFIG:
+      return "invalid config";
+    default:
+      return "unknown status";
+  }
+}
+
+namespace {
+
+std::atomic<skr_tick_handle> g_next_tick_handle{1};
+
+log::Level toLevel(skr_log_level level) noexcept {
+  switch (level) {
+    case SKR_LOG_DEBUG:
+      return log::Level::debug;
+    case SKR_LOG_INFO:
+      return log::Level::info;
+    case SKR_LOG_WARN:
+      return log::Level::warn;
+    default:
+      return log::Level::error;
+  }
+}
+
+const Json::Value* member(skr_module_ctx* ctx, const char* key) noexcept {
+  if (ctx == nullptr || key == nullptr || !ctx->entry.config.isObject()) return nullptr;
+  return ctx->entry.config.find(key, key + std::strlen(key));
+}
+
+void reportConfig(skr_module_ctx* ctx, const char* key, const char* reason,
+                  log::Level level = log::Level::error) noexcept {
+  try {
+    std::string text = ctx->json_path + ".config." + (key != nullptr ? key : "?") + ": " +
+                       (reason != nullptr ? reason : "invalid");
+    log::write(level, ctx->log_source, "MODULE-CONFIG", text);
+    std::lock_guard lock(ctx->error_mutex);
+    ctx->config_error = std::move(text);
+  } catch (...) {
+  }
+}
+
+// A value of the wrong type: say so and let the getter return the default.
+void wrongType(skr_module_ctx* ctx, const char* key, const char* expected) noexcept {
+  try {
+    reportConfig(ctx, key, (std::string("expected ") + expected + ", using the default").c_str(),
+                 log::Level::warn);
+  } catch (...) {
+  }
+}
+
+void hostLog(skr_module_ctx* ctx, skr_log_level level, const char* tag,
+             const char* message) noexcept {
+  if (ctx == nullptr) return;
+  try {
+    log::write(toLevel(level), ctx->log_source, tag != nullptr ? tag : "",
+               message != nullptr ? message : "");
+  } catch (...) {
+  }
+}
+
+int hostLogEnabled(skr_module_ctx*, skr_log_level level) noexcept {
+  return log::enabled(toLevel(level));
+}
+
+const char* configString(skr_module_ctx* ctx, const char* key, const char* def) noexcept {
+  const Json::Value* v = member(ctx, key);
+  if (v == nullptr) return def;
+  if (!v->isString()) {
+    wrongType(ctx, key, "a string");
+    return def;
+  }
+  return v->asCString();  // points into ctx->entry.config, which lives until the ctx does
+}
+
+int64_t configInt(skr_module_ctx* ctx, const char* key, int64_t def) noexcept {
+  const Json::Value* v = member(ctx, key);
+  if (v == nullptr) return def;
+  if (!v->isInt64()) {
+    wrongType(ctx, key, "an integer");
+    return def;
+  }
+  return v->asInt64();
+}
+
+double configDouble(skr_module_ctx* ctx, const char* key, double def) noexcept {
+  const Json::Value* v = member(ctx, key);
+  if (v == nullptr) return def;
+  if (!v->isNumeric()) {
+    wrongType(ctx, key, "a number");
+    return def;
+  }
+  return v->asDouble();
+}
+
+int configBool(skr_module_ctx* ctx, const char* key, int def) noexcept {
+  const Json::Value* v = member(ctx, key);
+  if (v == nullptr) return def;
+  if (!v->isBool()) {
+    wrongType(ctx, key, "true or false");
+    return def;
+  }
+  return v->asBool() ? 1 : 0;
+}
+
+int configHas(skr_module_ctx* ctx, const char* key) noexcept {
+  return member(ctx, key) != nullptr ? 1 : 0;
+}
+
+const char* configJson(skr_module_ctx* ctx) noexcept {
+  return ctx != nullptr ? ctx->config_json.c_str() : "{}";
+}
+
+void configError(skr_module_ctx* ctx, const char* key, const char* reason) noexcept {
+  if (ctx != nullptr) reportConfig(ctx, key, reason);
+}
+
+skr_status tickAdd(skr_module_ctx* ctx, skr_tick which, skr_callback fn, void* user,
+                   skr_tick_handle* out) noexcept {
+  if (ctx == nullptr || fn == nullptr || out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  if (which != SKR_TICK_FAST && which != SKR_TICK_SLOW && which != SKR_TICK_ONE_SEC) {
+    return SKR_ERR_INVALID_ARGUMENT;
+  }
+  if (!ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
+  if (!ctx->accepting) return SKR_ERR_BAD_STATE;
+  try {
+    // The gate keeps handlers added during init silent until start.
+    const TickId id = ctx->loop->addTickHandler(static_cast<Tick>(which), [ctx, fn, user] {
+      if (ctx->ticking) fn(user);
+    });
+    const skr_tick_handle handle = g_next_tick_handle.fetch_add(1);
+    ctx->ticks.emplace_back(handle, id);
+    *out = handle;
+    return SKR_OK;
+  } catch (...) {
+    return SKR_ERR_NO_MEMORY;
+  }
+}
+
+skr_status tickRemove(skr_module_ctx* ctx, skr_tick_handle handle) noexcept {
+  if (ctx == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  if (!ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
+  for (auto it = ctx->ticks.begin(); it != ctx->ticks.end(); ++it) {
+    if (it->first == handle) {
+      ctx->loop->removeTickHandler(it->second);
+      ctx->ticks.erase(it);
+      return SKR_OK;
+    }
+  }
+  return SKR_ERR_NOT_FOUND;
+}
+
+skr_status post(skr_module_ctx* ctx, skr_callback fn, skr_callback cancel, void* user) noexcept {
+  if (ctx == nullptr || fn == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  try {
+    return ctx->posts->post(ctx->posts, *ctx->loop, fn, cancel, user) ? SKR_OK : SKR_ERR_BAD_STATE;
+  } catch (...) {
+    return SKR_ERR_NO_MEMORY;
+  }
+}
+
+int64_t nowNs() noexcept {
+  return monotonicNs();
+}
+
+const skr_loop_info* loopInfo(skr_module_ctx* ctx) noexcept {
+  return &ctx->loop_info;
+}
+
+void setError(skr_module_ctx* ctx, const char* message) noexcept {
+  if (ctx == nullptr) return;
+  try {
+    std::lock_guard lock(ctx->error_mutex);
+    ctx->error = message != nullptr ? message : "";
+  } catch (...) {
+  }
+}
+
+const char* strError(skr_status status) noexcept {
+  return statusText(status);
+}
+
+const char* moduleName(skr_module_ctx* ctx) noexcept {
+  return ctx != nullptr ? ctx->name.c_str() : "";
+}
+
+const skr_host_api kHostApi = {
+    .struct_size = sizeof(skr_host_api),
+    .abi_major = SKR_PLUGIN_ABI_MAJOR,
+    .abi_minor = SKR_PLUGIN_ABI_MINOR,
+    .log = &hostLog,
+    .log_enabled = &hostLogEnabled,
+    .config_string = &configString,
+    .config_int = &configInt,
+    .config_double = &configDouble,
+    .config_bool = &configBool,
+    .config_has = &configHas,
+    .config_json = &configJson,
+    .config_error = &configError,
+    .tick_add = &tickAdd,
+    .tick_remove = &tickRemove,
+    .post = &post,
+    .now_ns = &nowNs,
+    .loop_info = &loopInfo,
+    .set_error = &setError,
+    .strerror = &strError,
+    .module_name = &moduleName,
+    .reserved = {},
+};
+
+}  // namespace
+
+const skr_host_api* hostApi() noexcept {
+  return &kHostApi;
+}
+
+}  // namespace skr

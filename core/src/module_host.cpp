@@ -1,0 +1,255 @@
+#include <skrobot/core/module_host.h>
+
+#include "module_record.h"
+
+#include <skrobot/core/log.h>
+
+#include <json/writer.h>
+
+#include <functional>
+#include <string>
+#include <utility>
+
+namespace skr {
+namespace {
+
+constexpr std::string_view kSource = "core.modules";
+
+// Runs `fn` on the module's loop thread and waits for it.
+template <typename F>
+void onModuleThread(skr_module_ctx& m, F&& fn) {
+  if (m.own_thread && m.thread) {
+    m.thread->loop().invoke(std::function<void()>(std::forward<F>(fn)));
+  } else {
+    fn();
+  }
+}
+
+std::string describe(const skr_module_ctx& m) {
+  return "module " + m.name + (m.file.empty() ? "" : " (" + m.file.string() + ")");
+}
+
+// Why a step failed: the module's message, else its config problem, else its status.
+std::string stepFailure(skr_module_ctx& m, skr_status status) {
+  std::string why = m.takeError();
+  if (why.empty()) {
+    std::lock_guard lock(m.error_mutex);
+    if (!m.config_error.empty()) why = "config error: " + m.config_error;
+  }
+  const std::string code =
+      "status " + std::to_string(static_cast<int>(status)) + " (" + statusText(status) + ")";
+  return why.empty() ? "returned " + code : why + " [" + code + "]";
+}
+
+std::string_view openTag(Errc code) {
+  switch (code) {
+    case Errc::io_error:
+      return "MODULE-LOAD";
+    case Errc::not_found:
+      return "MODULE-NO-ENTRY";
+    case Errc::abi_mismatch:
+      return "MODULE-ABI";
+    default:
+      return "MODULE-DESCRIPTOR";
+  }
+}
+
+}  // namespace
+
+ModuleHost::ModuleHost(Loop& main_loop, const std::vector<std::filesystem::path>& module_paths)
+    : main_loop_(main_loop),
+      control_thread_(std::this_thread::get_id()),
+      search_path_(moduleSearchPath(module_paths)) {}
+
+ModuleHost::~ModuleHost() {
+  shutdown();
+}
+
+void ModuleHost::fail(skr_module_ctx& m, std::string_view tag, const std::string& reason) {
+  log::error(kSource, tag, describe(m) + ": " + reason);
+  failures_.push_back(ModuleFailure{m.name, m.file, std::string(tag), reason});
+}
+
+void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    auto m = std::make_unique<skr_module_ctx>();
+    m->entry = entries[i];
+    m->name = !m->entry.name.empty() ? m->entry.name : m->entry.path.stem().string();
+    m->entry.name = m->name;
+    m->log_source = "mod." + m->name;
+    m->json_path =
+        !m->entry.json_path.empty() ? m->entry.json_path : "$.modules[" + std::to_string(i) + "]";
+    if (!m->entry.enabled) {
+      log::info(kSource, "MODULE-DISABLED", describe(*m) + " is disabled in the config");
+      continue;
+    }
+    auto file = resolveModule(m->entry, search_path_);
+    if (!file) {
+      fail(*m, "MODULE-NOT-FOUND", file.error().message);
+      continue;
+    }
+    m->file = file.value();
+    auto opened = openModule(m->file);
+    if (!opened) {
+      fail(*m, openTag(opened.error().code), opened.error().message);
+      continue;
+    }
+    m->library = std::move(opened->library);
+    m->descriptor = *opened->descriptor;  // the 1.0 fields; a newer struct only appends
+    m->descriptor.struct_size = sizeof(skr_module_descriptor);
+    m->info = std::move(opened->info);
+    m->own_thread = m->entry.own_thread || (m->info.flags & SKR_MODULE_WANTS_OWN_THREAD) != 0;
+    m->control_thread = control_thread_;
+    m->config_json = Json::writeString(Json::StreamWriterBuilder(), m->entry.config);
+    log::info(kSource, "MODULE-LOADED",
+              describe(*m) + ": " + m->info.name + " " + m->info.version +
+                  (m->own_thread ? " on its own thread" : ""));
+    modules_.push_back(std::move(m));
+  }
+}
+
+void ModuleHost::initAll() {
+  for (auto it = modules_.begin(); it != modules_.end();) {
+    skr_module_ctx& m = **it;
+    if (m.state != ModuleState::loaded) {
+      ++it;
+      continue;
+    }
+    if (m.own_thread) {
+      LoopOptions options = m.entry.loop;
+      if (options.name.empty() || options.name == main_loop_.name()) options.name = m.log_source;
+      try {
+        m.thread = std::make_unique<LoopThread>(std::move(options));
+        m.thread->start();
+      } catch (const std::exception& e) {  // std::system_error: no thread for it
+        fail(m, "MODULE-INIT", std::string("cannot start its loop thread: ") + e.what());
+        m.thread.reset();  // never ran: nothing to invoke on it
+        release(m, false);
+        it = modules_.erase(it);
+        continue;
+      }
+      m.loop = &m.thread->loop();
+    } else {
+      m.loop = &main_loop_;
+    }
+    const LoopOptions& lo = m.loop->options();
+    m.loop_name = lo.name;
+    m.loop_info =
+        skr_loop_info{sizeof(skr_loop_info), m.own_thread ? 1u : 0u,        lo.fast_interval_ns,
+                      lo.slow_interval_ns,   static_cast<int32_t>(lo.mode), 0,
+                      m.loop_name.c_str()};
+    skr_status status = SKR_OK;
+    onModuleThread(m, [&m, &status] {
+      m.accepting = true;
+      void* instance = nullptr;
+      status = m.descriptor.init(hostApi(), &m, &instance);
+      if (status == SKR_OK) {
+        m.instance = instance;
+      } else {
+        m.removeRegistrations();
+      }
+    });
+    if (status != SKR_OK) {
+      fail(m, "MODULE-INIT", "init failed: " + stepFailure(m, status));
+      release(m, false);
+      it = modules_.erase(it);
+      continue;
+    }
+    m.state = ModuleState::inited;
+    ++it;
+  }
+}
+
+void ModuleHost::startAll() {
+  for (auto it = modules_.begin(); it != modules_.end();) {
+    skr_module_ctx& m = **it;
+    if (m.state != ModuleState::inited) {
+      ++it;
+      continue;
+    }
+    skr_status status = SKR_OK;
+    onModuleThread(m, [&m, &status] {
+      m.clearError();
+      // Ticks flow from here: handlers the module adds in start run from the next tick.
+      if (m.descriptor.start != nullptr) status = m.descriptor.start(m.instance);
+      if (status == SKR_OK) {
+        m.ticking = true;
+      } else {
+        m.removeRegistrations();
+      }
+    });
+    if (status != SKR_OK) {
+      fail(m, "MODULE-START", "start failed: " + stepFailure(m, status));
+      release(m, true);
+      it = modules_.erase(it);
+      continue;
+    }
+    m.state = ModuleState::started;
+    running_.push_back(&m);
+    started_.push_back(m.name);
+    log::info(kSource, "MODULE-STARTED", describe(m));
+    ++it;
+  }
+}
+
+void ModuleHost::stopAll() noexcept {
+  while (!running_.empty()) {
+    skr_module_ctx& m = *running_.back();
+    running_.pop_back();
+    skr_status status = SKR_OK;
+    try {
+      onModuleThread(m, [&m, &status] {
+        m.ticking = false;
+        m.clearError();
+        if (m.descriptor.stop != nullptr) status = m.descriptor.stop(m.instance);
+        m.removeRegistrations();  // whatever it forgot, and work it posted that did not run
+      });
+      if (status != SKR_OK) fail(m, "MODULE-STOP", "stop failed: " + stepFailure(m, status));
+      log::info(kSource, "MODULE-STOPPED", describe(m));
+    } catch (...) {  // out of memory while logging: the module is stopped all the same
+    }
+    m.state = ModuleState::stopped;
+  }
+}
+
+void ModuleHost::release(skr_module_ctx& m, bool call_fini) noexcept {
+  try {
+    onModuleThread(m, [&m, call_fini] {
+      m.removeRegistrations();
+      if (call_fini && m.descriptor.fini != nullptr) m.descriptor.fini(m.instance);
+      m.instance = nullptr;
+    });
+  } catch (...) {
+  }
+  if (m.thread) m.thread->stop();  // after fini: the module's code ran on it until now
+  m.thread.reset();
+  m.library.close();
+  m.state = ModuleState::unloaded;
+}
+
+void ModuleHost::unloadAll() noexcept {
+  stopAll();
+  for (auto it = modules_.rbegin(); it != modules_.rend(); ++it) {
+    skr_module_ctx& m = **it;
+    if (m.state == ModuleState::unloaded) continue;
+    release(m, m.state != ModuleState::loaded);
+  }
+}
+
+void ModuleHost::start(const std::vector<ModuleEntry>& entries) {
+  load(entries);
+  initAll();
+  startAll();
+}
+
+std::vector<ModuleInfo> ModuleHost::modules() const {
+  std::vector<ModuleInfo> out;
+  out.reserve(modules_.size());
+  for (const auto& m : modules_) {
+    out.push_back(ModuleInfo{m->name, m->info.name, m->info.version, m->info.description, m->file,
+                             m->state, m->own_thread});
+  }
+  return out;
+}
+
+}  // namespace skr

@@ -1,0 +1,116 @@
+// The host's record of one module; also the opaque skr_module_ctx handed to it. Internal.
+#pragma once
+
+#include "shared_library.h"
+
+#include <skrobot/core/hub_config.h>
+#include <skrobot/core/loop.h>
+#include <skrobot/core/module_host.h>
+#include <skrobot/plugin.h>
+
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+namespace skr {
+
+// Work a module posted that has not run yet. post() from any thread; runOne() and close() on the
+// module's loop thread. Each queued item is paired with exactly one Loop::post of runOne, so
+// items run in FIFO order; close() cancels what is left, before the module's code is unloaded.
+class PostQueue {
+ public:
+  // Queues fn and wakes `loop`. False when closed: the caller keeps `user`. `self` is this queue,
+  // kept alive by the loop until runOne ran.
+  [[nodiscard]] bool post(const std::shared_ptr<PostQueue>& self, Loop& loop, skr_callback fn,
+                          skr_callback cancel, void* user);
+  void runOne();
+  void close() noexcept;
+
+ private:
+  struct Item {
+    skr_callback fn;
+    skr_callback cancel;
+    void* user;
+  };
+  std::mutex mutex_;
+  bool open_ = true;
+  std::deque<Item> items_;
+};
+
+// The host's table of services (host_api.cpp).
+[[nodiscard]] const skr_host_api* hostApi() noexcept;
+[[nodiscard]] const char* statusText(skr_status status) noexcept;
+
+// Checks a descriptor the way the host loads it (module_files.cpp). The library stays open.
+struct OpenedModule {
+  SharedLibrary library;
+  const skr_module_descriptor* descriptor = nullptr;
+  ModuleFileInfo info;
+};
+[[nodiscard]] Result<OpenedModule> openModule(const std::filesystem::path& file);
+// The file for an entry: its `path`, or <dir>/<name>.so in `search_path`. Errc::not_found says
+// where it looked.
+[[nodiscard]] Result<std::filesystem::path> resolveModule(
+    const ModuleEntry& entry, const std::vector<std::filesystem::path>& search_path);
+
+}  // namespace skr
+
+struct skr_module_ctx {
+  skr::ModuleEntry entry;
+  std::string name;        // entry.name, or the file's stem
+  std::string log_source;  // "mod.<name>"
+  std::string json_path;   // "$.modules[N]"
+  std::string config_json;
+  std::filesystem::path file;
+
+  skr::SharedLibrary library;
+  skr_module_descriptor descriptor{};  // copy of the 1.0 fields; pointers into `library`
+  skr::ModuleFileInfo info;            // strings copied out of the library
+  skr::ModuleState state = skr::ModuleState::loaded;
+  void* instance = nullptr;
+
+  bool own_thread = false;
+  std::unique_ptr<skr::LoopThread> thread;  // when own_thread; stopped after fini
+  skr::Loop* loop = nullptr;                // the module's loop: main or thread->loop()
+  std::thread::id control_thread;           // runs the main loop (see ModuleHost)
+  std::string loop_name;
+  skr_loop_info loop_info{};
+
+  // Loop thread only.
+  bool accepting = false;  // registrations allowed: from init until stop returned
+  bool ticking = false;    // ticks delivered: from start until stop
+  std::vector<std::pair<skr_tick_handle, skr::TickId>> ticks;
+  std::shared_ptr<skr::PostQueue> posts = std::make_shared<skr::PostQueue>();
+
+  std::mutex error_mutex;  // set_error / config_error may come from any thread
+  std::string error;       // set_error during the current step
+  std::string config_error;
+
+  // True on the module's loop thread; for the main loop also before it first ran.
+  [[nodiscard]] bool onLoopThread() const noexcept {
+    return loop != nullptr &&
+           (loop->isLoopThread() || (!own_thread && std::this_thread::get_id() == control_thread));
+  }
+  // Removes what the module left registered and cancels its pending work. Loop thread.
+  void removeRegistrations() noexcept {
+    accepting = false;
+    ticking = false;
+    for (const auto& t : ticks) loop->removeTickHandler(t.second);
+    ticks.clear();
+    posts->close();
+  }
+  void clearError() {
+    std::lock_guard lock(error_mutex);
+    error.clear();
+  }
+  [[nodiscard]] std::string takeError() {
+    std::lock_guard lock(error_mutex);
+    std::string e = std::move(error);
+    error.clear();
+    return e;
+  }
+};

@@ -1,2 +1,222 @@
-// Replaced by the full executable in the next commit.
-int main() { return 0; }
+// skrobot: the hub executable. Loads the config, starts the modules on the main loop, runs until
+// SIGINT/SIGTERM, then stops the modules in reverse order and exits 0.
+#include <skrobot/core/hub_config.h>
+#include <skrobot/core/log.h>
+#include <skrobot/core/loop.h>
+#include <skrobot/core/module_host.h>
+#include <skrobot/plugin.h>
+
+#include <uv.h>
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kExitOk = 0;
+constexpr int kExitCheckFailed = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitConfig = 3;
+
+constexpr const char* kUsage =
+    "usage: skrobot [--config FILE] [--check-config | --list-modules] [--log-level LEVEL]\n"
+    "       skrobot --version | --help\n"
+    "\n"
+    "  --config FILE      the hub's JSON config (default: config/default.json, or\n"
+    "                     $SKROBOT_CONFIG when set)\n"
+    "  --check-config     validate the config and that every enabled module can be loaded;\n"
+    "                     exit 0 when all is well, 1 when a module would fail, 3 on config errors\n"
+    "  --list-modules     list the module files found on the search path\n"
+    "  --log-level LEVEL  debug, info, warn or error (overrides the config)\n"
+    "  --version          print the version\n"
+    "  --help             print this help\n"
+    "\n"
+    "SIGINT or SIGTERM stops the modules in reverse order and exits 0.\n"
+    "Config reference: docs/config.md; modules: docs/plugins.md.\n";
+
+struct Options {
+  fs::path config;
+  bool check = false;
+  bool list = false;
+  std::string log_level;
+};
+
+fs::path defaultConfig() {
+  if (const char* env = std::getenv("SKROBOT_CONFIG"); env != nullptr && *env != '\0') return env;
+  return "config/default.json";
+}
+
+int checkConfig(const skr::HubConfig& cfg) {
+  int problems = 0;
+  const auto search = skr::moduleSearchPath(cfg.module_paths);
+  size_t enabled = 0;
+  for (const auto& m : cfg.modules) {
+    if (!m.enabled) {
+      std::printf("  %-20s disabled\n", m.name.c_str());
+      continue;
+    }
+    ++enabled;
+    fs::path file = m.path;
+    if (file.empty()) {
+      for (const auto& dir : search) {
+        if (fs::exists(dir / (m.name + ".so"))) {
+          file = dir / (m.name + ".so");
+          break;
+        }
+      }
+    }
+    if (file.empty() || !fs::exists(file)) {
+      std::printf("  %-20s NOT FOUND (%s)\n", m.name.c_str(),
+                  m.path.empty() ? "not on the module search path" : m.path.c_str());
+      ++problems;
+      continue;
+    }
+    auto info = skr::readModuleDescriptor(file);
+    if (!info) {
+      std::printf("  %-20s BAD %s: %s\n", m.name.c_str(), file.c_str(),
+                  info.error().message.c_str());
+      ++problems;
+      continue;
+    }
+    std::printf("  %-20s ok  %s %s (ABI %u.%u)\n", m.name.c_str(), file.c_str(),
+                info->version.c_str(), info->abi_major, info->abi_minor);
+  }
+  if (problems > 0) {
+    std::printf("config %s is valid, but %d of %zu enabled modules would fail to load\n",
+                cfg.config_file.c_str(), problems, enabled);
+    for (const auto& dir : search) std::printf("  searched: %s\n", dir.c_str());
+    return kExitCheckFailed;
+  }
+  std::printf("config %s is valid; %zu enabled modules can be loaded\n", cfg.config_file.c_str(),
+              enabled);
+  return kExitOk;
+}
+
+int listModules(const std::vector<fs::path>& config_paths) {
+  const auto search = skr::moduleSearchPath(config_paths);
+  size_t found = 0;
+  for (const auto& item : skr::listModuleFiles(search)) {
+    ++found;
+    if (item.info) {
+      std::printf("%-20s %-10s ABI %u.%u  %s\n    %s\n", item.info->name.c_str(),
+                  item.info->version.c_str(), item.info->abi_major, item.info->abi_minor,
+                  item.file.c_str(), item.info->description.c_str());
+    } else {
+      std::printf("%-20s unusable: %s\n    %s\n", item.file.stem().c_str(),
+                  item.info.error().message.c_str(), item.file.c_str());
+    }
+  }
+  if (found == 0) std::printf("no modules found\n");
+  for (const auto& dir : search) std::printf("searched: %s\n", dir.c_str());
+  return kExitOk;
+}
+
+struct SignalWatch {
+  uv_signal_t handle{};
+  skr::Loop* loop = nullptr;
+};
+
+void onSignal(uv_signal_t* handle, int signum) {
+  auto* w = static_cast<SignalWatch*>(handle->data);
+  skr::log::info("hub", "HUB-SIGNAL", std::string("received ") + strsignal(signum) + ", stopping");
+  w->loop->stop();
+}
+
+int runHub(const skr::HubConfig& cfg) {
+  skr::Loop loop(cfg.loop);
+  SignalWatch watches[2];
+  const int signums[2] = {SIGINT, SIGTERM};
+  for (int i = 0; i < 2; ++i) {
+    watches[i].loop = &loop;
+    watches[i].handle.data = &watches[i];
+    uv_signal_init(loop.uv(), &watches[i].handle);
+    uv_signal_start(&watches[i].handle, &onSignal, signums[i]);
+  }
+  skr::log::info("hub", "HUB-START",
+                 "skrobot " SKROBOT_VERSION " app " + cfg.app_name + ", config " +
+                     cfg.config_file.string() + ", loop " +
+                     std::string(skr::timingModeName(cfg.loop.mode)) + " " +
+                     std::to_string(cfg.loop.fast_interval_ns / 1000) + " us / " +
+                     std::to_string(cfg.loop.slow_interval_ns / 1000) + " us");
+  {
+    skr::ModuleHost host(loop, cfg.module_paths);
+    host.start(cfg.modules);
+    skr::log::info("hub", "HUB-READY",
+                   std::to_string(host.modules().size()) + " modules running, " +
+                       std::to_string(host.failures().size()) + " failed");
+    loop.run();
+    host.shutdown();
+  }
+  for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
+  uv_run(loop.uv(), UV_RUN_NOWAIT);  // let the close callbacks run before the loop goes
+  skr::log::info("hub", "HUB-STOP", "stopped");
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  bool config_given = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    const auto value = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "skrobot: %s needs a value\n%s", argv[i], kUsage);
+        std::exit(kExitUsage);
+      }
+      return argv[++i];
+    };
+    if (arg == "--help" || arg == "-h") {
+      std::fputs(kUsage, stdout);
+      return kExitOk;
+    } else if (arg == "--version") {
+      std::printf("skrobot %s (plugin ABI %d.%d)\n", SKROBOT_VERSION, SKR_PLUGIN_ABI_MAJOR,
+                  SKR_PLUGIN_ABI_MINOR);
+      return kExitOk;
+    } else if (arg == "--config") {
+      opt.config = value();
+      config_given = true;
+    } else if (arg == "--check-config") {
+      opt.check = true;
+    } else if (arg == "--list-modules") {
+      opt.list = true;
+    } else if (arg == "--log-level") {
+      opt.log_level = value();
+    } else {
+      std::fprintf(stderr, "skrobot: unknown option '%s'\n%s", argv[i], kUsage);
+      return kExitUsage;
+    }
+  }
+  if (opt.check && opt.list) {
+    std::fprintf(stderr, "skrobot: --check-config and --list-modules exclude each other\n");
+    return kExitUsage;
+  }
+  if (!config_given) opt.config = defaultConfig();
+
+  if (opt.list && !config_given && !fs::exists(opt.config)) return listModules({});
+  auto cfg = skr::loadHubConfig(opt.config);
+  if (!cfg) {
+    std::fprintf(stderr, "skrobot: config error\n%s\n", cfg.error().message.c_str());
+    return kExitConfig;
+  }
+  skr::log::setLevel(cfg->log_level);
+  if (!opt.log_level.empty()) {
+    skr::log::Level level{};
+    if (!skr::log::parseLevel(opt.log_level, level)) {
+      std::fprintf(stderr, "skrobot: --log-level must be debug, info, warn or error\n");
+      return kExitUsage;
+    }
+    skr::log::setLevel(level);
+  }
+  if (opt.check) return checkConfig(*cfg);
+  if (opt.list) return listModules(cfg->module_paths);
+  return runHub(*cfg);
+}

@@ -55,8 +55,12 @@ TEST_P(TickModes, TicksComeInOrderAndNeverFasterThanNominal) {
   ASSERT_FALSE(seq.empty());
   EXPECT_EQ(seq.front(), 'f');
   for (size_t i = 1; i < seq.size(); ++i) {
-    if (seq[i] == 's') EXPECT_EQ(seq[i - 1], 'f');
-    if (seq[i] == '1') EXPECT_TRUE(seq[i - 1] == 'f' || seq[i - 1] == 's');
+    if (seq[i] == 's') {
+      EXPECT_EQ(seq[i - 1], 'f');
+    }
+    if (seq[i] == '1') {
+      EXPECT_TRUE(seq[i - 1] == 'f' || seq[i - 1] == 's');
+    }
   }
   EXPECT_GT(st.fast_rate_hz, 0.0);
 }
@@ -166,7 +170,9 @@ TEST(Loop, LightLoadGivesNoWarning) {
   EXPECT_LT(loop.stats().work_ratio_mean, 0.5);
   // A machine too busy to wake us in time makes the loop skip ticks, and that is worth a
   // warning; without skips an idle loop must stay quiet.
-  if (loop.stats().skipped_ticks == 0) EXPECT_FALSE(logs.sawTag("LOOP-OVERLOAD"));
+  if (loop.stats().skipped_ticks == 0) {
+    EXPECT_FALSE(logs.sawTag("LOOP-OVERLOAD"));
+  }
 }
 
 TEST(LoopThread, RunsOnItsOwnThreadAndStopsCleanly) {

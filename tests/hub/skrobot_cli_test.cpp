@@ -1,0 +1,171 @@
+// The skrobot executable as a user runs it: options, config errors, module failures, signals.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Run {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (fs::temp_directory_path() / "skrobot-cli-XXXXXX").string();
+    path_ = mkdtemp(tmpl.data());
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  TempDir(TempDir&&) = delete;
+  TempDir& operator=(TempDir&&) = delete;
+  [[nodiscard]] const fs::path& path() const { return path_; }
+  fs::path write(const std::string& name, const std::string& text) const {
+    std::ofstream(path_ / name) << text;
+    return path_ / name;
+  }
+
+ private:
+  fs::path path_;
+};
+
+std::string slurp(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Starts skrobot with `args`, output to `log`. Returns the pid.
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    FILE* out = std::fopen(log.c_str(), "w");
+    dup2(fileno(out), 1);
+    dup2(fileno(out), 2);
+    std::vector<char*> argv{const_cast<char*>(SKROBOT_BIN)};
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(SKROBOT_BIN, argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int waitExit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+Run run(const std::vector<std::string>& args) {
+  TempDir dir;
+  const fs::path log = dir.path() / "out.txt";
+  Run r;
+  r.exit_code = waitExit(spawn(args, log));
+  r.output = slurp(log);
+  return r;
+}
+
+bool waitFor(const fs::path& log, const std::string& text) {
+  for (int i = 0; i < 3000; ++i) {  // up to 30 s on a loaded machine
+    if (slurp(log).find(text) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+const std::string kDefaultConfig = std::string(SKROBOT_SOURCE_DIR) + "/config/default.json";
+
+TEST(SkrobotCli, VersionAndHelp) {
+  auto v = run({"--version"});
+  EXPECT_EQ(v.exit_code, 0);
+  EXPECT_NE(v.output.find("skrobot " SKROBOT_VERSION), std::string::npos) << v.output;
+  auto h = run({"--help"});
+  EXPECT_EQ(h.exit_code, 0);
+  EXPECT_NE(h.output.find("--check-config"), std::string::npos);
+  auto bad = run({"--frobnicate"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("unknown option '--frobnicate'"), std::string::npos);
+}
+
+TEST(SkrobotCli, DefaultConfigChecksOut) {
+  auto r = run({"--config", kDefaultConfig, "--check-config"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("example"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("is valid"), std::string::npos) << r.output;
+}
+
+TEST(SkrobotCli, BadConfigIsRefusedWithPathAndReason) {
+  TempDir dir;
+  auto cfg = dir.write("bad.json", R"({"loop": {"fast_tick_ms": 0}, "modlues": []})");
+  auto r = run({"--config", cfg.string()});
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("$.loop.fast_tick_ms"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("unknown key \"modlues\""), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("HUB-START"), std::string::npos) << "must not start";
+}
+
+TEST(SkrobotCli, CheckConfigReportsModulesThatWouldFail) {
+  TempDir dir;
+  auto cfg = dir.write("cfg.json", R"({"modules": [{"name": "example"}, {"name": "no_such_module"},
+      {"path": ")" SKROBOT_TEST_MODULE_DIR R"(/test_abi_major.so"}]})");
+  auto r = run({"--config", cfg.string(), "--check-config"});
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("no_such_module"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("test_abi_major"), std::string::npos) << r.output;
+}
+
+TEST(SkrobotCli, ListModulesShowsDescriptors) {
+  auto r = run({"--config", kDefaultConfig, "--list-modules"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("example"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("ABI 1."), std::string::npos) << r.output;
+}
+
+TEST(SkrobotCli, RunsModulesSurvivesBadOnesAndStopsInReverseOrderOnSignal) {
+  for (int sig : {SIGTERM, SIGINT}) {
+    TempDir dir;
+    auto cfg = dir.write("cfg.json", R"({
+      "module_paths": [")" SKROBOT_TEST_MODULE_DIR R"("],
+      "modules": [
+        {"name": "example", "config": {"greeting": "hi", "period_ms": 50}},
+        {"name": "test_init_throws"},
+        {"name": "not_there"},
+        {"name": "test_plain_c"}
+      ]})");
+    const fs::path log = dir.path() / "hub.log";
+    const pid_t pid = spawn({"--config", cfg.string()}, log);
+    ASSERT_TRUE(waitFor(log, "HUB-READY")) << slurp(log);
+    ASSERT_TRUE(waitFor(log, "EXAMPLE-TICK")) << slurp(log);
+    kill(pid, sig);
+    EXPECT_EQ(waitExit(pid), 0);
+    const std::string out = slurp(log);
+    EXPECT_NE(out.find("2 modules running, 2 failed"), std::string::npos) << out;
+    EXPECT_NE(out.find("MODULE-INIT"), std::string::npos) << out;
+    EXPECT_NE(out.find("MODULE-NOT-FOUND"), std::string::npos) << out;
+    // Reverse order: test_plain_c stops before example.
+    const auto plain = out.find("MODULE-STOPPED module test_plain_c");
+    const auto example = out.find("MODULE-STOPPED module example");
+    ASSERT_NE(plain, std::string::npos) << out;
+    ASSERT_NE(example, std::string::npos) << out;
+    EXPECT_LT(plain, example) << out;
+    EXPECT_NE(out.find("HUB-STOP"), std::string::npos) << out;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Set-up for a fresh Debian 12 machine, then run the hub or the tests.
+#
+#   tools/bootstrap.sh run    install what is missing, build, start the hub with config/default.json
+#   tools/bootstrap.sh test   install what is missing, build, run every test
+#
+# Idempotent: packages already installed and an up-to-date build are left alone.
+set -euo pipefail
+
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+MODE=${1:-}
+case "$MODE" in
+  run|test|build) ;;
+  *) echo "usage: tools/bootstrap.sh run|test|build" >&2; exit 2 ;;
+esac
+shift || true
+
+JOBS=$(nproc 2>/dev/null || echo 2)
+STEP=0
+step() { STEP=$((STEP + 1)); echo "==> [$STEP] $*"; }
+
+# Debian packages the build, the hub and the tests need.
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config git ca-certificates
+  libuv1-dev libjsoncpp-dev libsodium-dev
+  googletest libgtest-dev
+  clang libclang-rt-14-dev
+  python3
+)
+
+step "checking Debian packages (${#PACKAGES[@]})"
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if ((${#missing[@]} > 0)); then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null; then SUDO=sudo; else
+      echo "need root to install: ${missing[*]}" >&2; exit 1
+    fi
+  fi
+  step "installing ${missing[*]} (apt-get, a few minutes on a fresh machine)"
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get update -q
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+else
+  echo "    all present"
+fi
+
+build_preset() {
+  local preset=$1
+  step "configuring ($preset preset, build/$preset)"
+  cmake --preset "$preset" >/dev/null
+  step "building ($preset, $JOBS jobs)"
+  cmake --build --preset "$preset" -j "$JOBS"
+}
+
+build_preset release
+
+case "$MODE" in
+  build)
+    echo "built: build/release/bin/skrobot"
+    ;;
+  run)
+    step "starting the hub: build/release/bin/skrobot --config config/default.json (Ctrl-C stops it)"
+    exec "$ROOT/build/release/bin/skrobot" --config "$ROOT/config/default.json" "$@"
+    ;;
+  test)
+    step "running the tests (release build)"
+    ctest --preset release -j "$JOBS" "$@"
+    ;;
+esac

@@ -1,0 +1,252 @@
+// `skrobot user ...`: add, remove, re-password and list the accounts of the users file.
+#include "user_command.h"
+
+#include <skrobot/flow/accounts.h>
+
+#include <sodium.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace {
+
+namespace fs = std::filesystem;
+using skr::flow::UsersFile;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailed = 1;
+constexpr int kExitUsage = 2;
+
+constexpr const char* kUsage =
+    "usage: skrobot user add NAME    [--users FILE] [--password-stdin]\n"
+    "       skrobot user del NAME    [--users FILE]\n"
+    "       skrobot user passwd NAME [--users FILE] [--password-stdin]\n"
+    "       skrobot user list        [--users FILE]\n"
+    "\n"
+    "  --users FILE      the users file (default: $SKROBOT_USERS, else\n"
+    "                    $XDG_DATA_HOME/skrobot/users.json, else "
+    "~/.local/share/skrobot/users.json)\n"
+    "  --password-stdin  read the password as one line from stdin (also when stdin is not a\n"
+    "                    terminal); otherwise it is asked twice, without echo\n"
+    "\n"
+    "NAME: 1..64 characters of [A-Za-z0-9_-]. Passwords are stored as argon2id hashes.\n"
+    "Exit codes: 0 done, 1 the operation failed, 2 usage. See docs/accounts.md.\n";
+
+struct Args {
+  std::string verb;
+  std::string name;
+  std::optional<fs::path> users;
+  bool password_stdin = false;
+};
+
+int usage(const std::string& problem) {
+  std::fprintf(stderr, "skrobot user: %s\n%s", problem.c_str(), kUsage);
+  return kExitUsage;
+}
+
+int failed(const std::string& problem) {
+  std::fprintf(stderr, "skrobot user: %s\n", problem.c_str());
+  return kExitFailed;
+}
+
+std::optional<fs::path> defaultUsersFile() {
+  const auto env = [](const char* name) -> std::string {
+    const char* v = std::getenv(name);
+    return v != nullptr ? v : "";
+  };
+  if (auto v = env("SKROBOT_USERS"); !v.empty()) return fs::path(v);
+  if (auto v = env("XDG_DATA_HOME"); !v.empty() && fs::path(v).is_absolute()) {
+    return fs::path(v) / "skrobot" / "users.json";
+  }
+  if (auto v = env("HOME"); !v.empty()) return fs::path(v) / ".local/share/skrobot/users.json";
+  return std::nullopt;
+}
+
+void wipe(std::string& secret) {
+  if (!secret.empty()) sodium_memzero(secret.data(), secret.size());
+}
+
+// One line from fd 0, without its "\n" (or "\r\n"). Unbuffered, so that nothing after the line is
+// consumed. nullopt on EOF before any byte, or on a read error.
+std::optional<std::string> readLine() {
+  std::string line;
+  bool any = false;
+  for (;;) {
+    char c = 0;
+    const ssize_t n = ::read(STDIN_FILENO, &c, 1);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return std::nullopt;
+    if (n == 0) break;
+    any = true;
+    if (c == '\n') break;
+    // Far beyond the limit: stop storing, validatePassword() refuses it anyway.
+    if (line.size() <= skr::flow::kMaxPasswordBytes) line.push_back(c);
+  }
+  if (!any) return std::nullopt;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
+// Terminal echo is turned off while a password is typed; these put it back if a signal ends us.
+termios g_saved_termios{};
+volatile sig_atomic_t g_echo_off = 0;
+
+void restoreEchoAndDie(int sig) {
+  if (g_echo_off != 0) ::tcsetattr(STDIN_FILENO, TCSAFLUSH, &g_saved_termios);
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+std::optional<std::string> readHidden(const char* prompt) {
+  std::fprintf(stderr, "%s", prompt);
+  std::fflush(stderr);
+  if (::tcgetattr(STDIN_FILENO, &g_saved_termios) != 0) return readLine();
+  termios quiet = g_saved_termios;
+  quiet.c_lflag &= ~static_cast<tcflag_t>(ECHO);
+  quiet.c_lflag |= ECHONL;
+  const auto old_int = std::signal(SIGINT, restoreEchoAndDie);
+  const auto old_term = std::signal(SIGTERM, restoreEchoAndDie);
+  g_echo_off = 1;
+  ::tcsetattr(STDIN_FILENO, TCSAFLUSH, &quiet);
+  auto line = readLine();
+  ::tcsetattr(STDIN_FILENO, TCSAFLUSH, &g_saved_termios);
+  g_echo_off = 0;
+  std::signal(SIGINT, old_int);
+  std::signal(SIGTERM, old_term);
+  return line;
+}
+
+// The new password of `name`, from the terminal (twice) or one line of stdin.
+std::optional<std::string> askPassword(const Args& args, std::string& problem) {
+  if (args.password_stdin || ::isatty(STDIN_FILENO) == 0) {
+    auto line = readLine();
+    if (!line) problem = "no password on stdin";
+    return line;
+  }
+  const std::string prompt = "Password for " + args.name + ": ";
+  auto first = readHidden(prompt.c_str());
+  if (!first) {
+    problem = "no password entered";
+    return std::nullopt;
+  }
+  auto again = readHidden("Again: ");
+  if (!again || *again != *first) {
+    wipe(*first);
+    if (again) wipe(*again);
+    problem = "the two passwords differ; nothing changed";
+    return std::nullopt;
+  }
+  wipe(*again);
+  return first;
+}
+
+// Parses everything after "user". Returns an error text for usage problems, empty when fine.
+std::string parse(int argc, char** argv, Args& out) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view a = argv[i];
+    if (a == "--users") {
+      if (i + 1 >= argc) return "--users needs a FILE";
+      out.users = fs::path(argv[++i]);
+    } else if (a.rfind("--users=", 0) == 0) {
+      out.users = fs::path(std::string(a.substr(8)));
+    } else if (a == "--password-stdin") {
+      out.password_stdin = true;
+    } else if (a.size() > 1 && a[0] == '-') {
+      return "unknown option " + std::string(a);
+    } else if (out.verb.empty()) {
+      out.verb = a;
+    } else if (out.name.empty() && out.verb != "list") {
+      out.name = a;
+    } else {
+      return "unexpected argument " + std::string(a);
+    }
+  }
+  if (out.verb.empty()) return "missing command";
+  if (out.verb != "add" && out.verb != "del" && out.verb != "passwd" && out.verb != "list") {
+    return "unknown command " + out.verb;
+  }
+  if (out.verb != "list" && out.name.empty()) return out.verb + " needs a user NAME";
+  if (out.users && out.users->empty()) return "--users needs a FILE";
+  return {};
+}
+
+int save(const UsersFile& file) {
+  if (auto saved = file.save(); !saved) return failed("cannot save: " + saved.error().message);
+  return kExitOk;
+}
+
+int run(const Args& args, const fs::path& path) {
+  auto loaded = UsersFile::load(path);
+  if (!loaded) return failed("cannot read the users file: " + loaded.error().message);
+  UsersFile& file = loaded.value();
+
+  if (args.verb == "list") {
+    for (const auto& name : file.names()) std::printf("%s\n", name.c_str());
+    if (file.empty()) std::fprintf(stderr, "no users in %s\n", path.c_str());
+    return kExitOk;
+  }
+  if (args.verb == "del") {
+    if (auto removed = file.remove(args.name); !removed) {
+      return failed("no user " + args.name + " in " + path.string());
+    }
+    if (const int rc = save(file); rc != kExitOk) return rc;
+    std::printf("removed user %s\n", args.name.c_str());
+    return kExitOk;
+  }
+
+  // add, passwd: check what can be checked before asking for a password.
+  const bool adding = args.verb == "add";
+  if (adding && file.contains(args.name)) {
+    return failed("user " + args.name + " already exists in " + path.string() +
+                  " (skrobot user passwd " + args.name + " changes the password)");
+  }
+  if (!adding && !file.contains(args.name)) {
+    return failed("no user " + args.name + " in " + path.string());
+  }
+  std::string problem;
+  auto password = askPassword(args, problem);
+  if (!password) return failed(problem);
+  auto changed = adding ? file.add(args.name, *password) : file.setPassword(args.name, *password);
+  wipe(*password);
+  if (!changed) return failed(changed.error().message);
+  if (const int rc = save(file); rc != kExitOk) return rc;
+  if (adding) {
+    std::printf("added user %s\n", args.name.c_str());
+  } else {
+    std::printf("changed the password of %s\n", args.name.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int runUserCommand(int argc, char** argv) {
+  Args args;
+  if (argc >= 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h" ||
+                    std::string_view(argv[1]) == "help")) {
+    std::printf("%s", kUsage);
+    return kExitOk;
+  }
+  if (const std::string problem = parse(argc, argv, args); !problem.empty()) {
+    return usage(problem);
+  }
+  if (args.verb != "list") {
+    if (auto valid = skr::flow::validateUserName(args.name); !valid) {
+      return usage(valid.error().message);
+    }
+  }
+  const auto path = args.users ? args.users : defaultUsersFile();
+  if (!path) return failed("no users file: set $SKROBOT_USERS or $HOME, or use --users FILE");
+  std::fprintf(stderr, "users file: %s\n", path->c_str());
+  const int rc = run(args, *path);
+  std::fflush(stdout);
+  return rc;
+}

@@ -1,0 +1,311 @@
+// The users file: validation, argon2id hashing, JSON load and crash-safe save.
+#include <skrobot/core/log.h>
+#include <skrobot/flow/accounts.h>
+
+#include <fcntl.h>
+#include <json/reader.h>
+#include <json/writer.h>
+#include <sodium.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <system_error>
+
+namespace skr::flow {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::string_view kLogSource = "flow.accounts";
+
+// An argon2id hash (INTERACTIVE limits, like every hash we make) of a random password nobody
+// knows. Unknown users are verified against it, so that they take as long as known ones.
+constexpr const char* kDummyHash =
+    "$argon2id$v=19$m=65536,t=2,p=1$AlT+KLbb5GJ6yjH7QF6e0g$"
+    "UbWx93kXVNl+0ArFQyKilwRB6LQA2uh5IS3KQCZHGwU";
+
+std::string errnoText(int err) {
+  return std::strerror(err);
+}
+
+std::string nowUtc() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+Result<std::string> hashPassword(std::string_view password) {
+  if (auto ready = sodiumReady(); !ready) return ready.error();
+  if (auto valid = validatePassword(password); !valid) return valid.error();
+  char out[crypto_pwhash_STRBYTES];
+  if (crypto_pwhash_str_alg(out, password.data(), password.size(),
+                            crypto_pwhash_OPSLIMIT_INTERACTIVE, crypto_pwhash_MEMLIMIT_INTERACTIVE,
+                            crypto_pwhash_ALG_ARGON2ID13) != 0) {
+    return makeError(Errc::limit_exceeded, "argon2id hashing failed (out of memory?)");
+  }
+  return std::string(out);
+}
+
+// Writes all of `data` to `fd`, retrying short writes and EINTR.
+bool writeAll(int fd, const std::string& data) {
+  size_t done = 0;
+  while (done < data.size()) {
+    const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+class Fd {
+ public:
+  explicit Fd(int fd) noexcept : fd_(fd) {}
+  ~Fd() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  Fd(Fd&&) = delete;
+  Fd& operator=(Fd&&) = delete;
+  [[nodiscard]] int get() const noexcept { return fd_; }
+  // close(2)'s own result matters for a file we wrote: it may report a failed write-back.
+  int close() noexcept {
+    const int r = ::close(fd_);
+    fd_ = -1;
+    return r;
+  }
+
+ private:
+  int fd_;
+};
+
+Error fileError(const fs::path& path, const std::string& what, int err) {
+  return makeError(Errc::io_error,
+                   "users file " + path.string() + ": " + what + ": " + errnoText(err));
+}
+
+}  // namespace
+
+Result<void> validateUserName(std::string_view name) {
+  if (name.empty()) return makeError(Errc::invalid_argument, "user name is empty");
+  if (name.size() > kMaxUserNameBytes) {
+    return makeError(Errc::invalid_argument, "user name is longer than " +
+                                                 std::to_string(kMaxUserNameBytes) + " characters");
+  }
+  for (const char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '-';
+    if (!ok) {
+      return makeError(Errc::invalid_argument,
+                       "user name \"" + std::string(name) +
+                           "\" may contain only letters, digits, '_' and '-' (channel names are "
+                           "<user>.<name>)");
+    }
+  }
+  return {};
+}
+
+Result<void> validatePassword(std::string_view password) {
+  if (password.size() < kMinPasswordBytes) {
+    return makeError(Errc::invalid_argument, "password is empty");
+  }
+  if (password.size() > kMaxPasswordBytes) {
+    return makeError(Errc::invalid_argument,
+                     "password is longer than " + std::to_string(kMaxPasswordBytes) + " bytes");
+  }
+  return {};
+}
+
+Result<void> sodiumReady() {
+  // sodium_init() is itself thread-safe and idempotent; the static only saves the call.
+  static const bool ready = sodium_init() >= 0;
+  if (!ready) return makeError(Errc::io_error, "libsodium could not be initialised");
+  return {};
+}
+
+bool verifyPasswordHash(const std::string& hash, std::string_view password) {
+  if (!sodiumReady()) return false;
+  return crypto_pwhash_str_verify(hash.c_str(), password.data(), password.size()) == 0;
+}
+
+Result<UsersFile> UsersFile::load(const fs::path& path) {
+  if (path.empty()) return makeError(Errc::invalid_argument, "users file path is empty");
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT) return UsersFile(path);
+    return fileError(path, "cannot stat", errno);
+  }
+  if (!S_ISREG(st.st_mode)) {
+    return makeError(Errc::io_error, "users file " + path.string() + " is not a regular file");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fileError(path, "cannot open", errno);
+  if ((st.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    log::warn(
+        kLogSource, "ACCOUNTS-PERMS",
+        "users file " + path.string() + " has mode " + mode + "; it should be 0600 (chmod 600 it)");
+  }
+
+  const auto corrupt = [&path](const std::string& why) {
+    return makeError(Errc::parse_error, "users file " + path.string() + " is corrupt: " + why);
+  };
+  Json::CharReaderBuilder builder;
+  builder["collectComments"] = false;
+  builder["rejectDupKeys"] = true;
+  Json::Value root;
+  std::string errs;
+  if (!Json::parseFromStream(builder, in, &root, &errs)) {
+    while (!errs.empty() && (errs.back() == '\n' || errs.back() == ' ')) errs.pop_back();
+    return corrupt("not valid JSON: " + errs);
+  }
+  if (!root.isObject()) return corrupt("the top level is not an object");
+  const Json::Value& format = root["format"];
+  if (!format.isInt() || format.asInt() != kUsersFileFormat) {
+    return corrupt("\"format\" must be " + std::to_string(kUsersFileFormat) +
+                   " (the only format this build reads)");
+  }
+  const Json::Value& users = root["users"];
+  if (!users.isNull() && !users.isObject()) return corrupt("\"users\" is not an object");
+
+  UsersFile file(path);
+  for (const auto& name : users.getMemberNames()) {
+    const Json::Value& u = users[name];
+    const std::string at = "users." + name;
+    if (auto valid = validateUserName(name); !valid) return corrupt(valid.error().message);
+    if (!u.isObject()) return corrupt(at + " is not an object");
+    if (!u["hash"].isString() || u["hash"].asString().rfind("$argon2id$", 0) != 0) {
+      return corrupt(at + ".hash is not an argon2id hash string");
+    }
+    if (!u["created"].isNull() && !u["created"].isString()) {
+      return corrupt(at + ".created is not a string");
+    }
+    file.users_[name] = Entry{u["hash"].asString(), u["created"].asString()};
+  }
+  return file;
+}
+
+Result<void> UsersFile::save() const {
+  if (path_.empty()) return makeError(Errc::invalid_argument, "users file has no path");
+  Json::Value root(Json::objectValue);
+  root["format"] = kUsersFileFormat;
+  Json::Value& users = root["users"] = Json::Value(Json::objectValue);
+  for (const auto& [name, e] : users_) {
+    users[name]["hash"] = e.hash;
+    users[name]["created"] = e.created;
+  }
+  Json::StreamWriterBuilder writer;
+  writer["indentation"] = "  ";
+  const std::string text = Json::writeString(writer, root) + "\n";
+
+  const fs::path dir = path_.has_parent_path() ? path_.parent_path() : fs::path(".");
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) {
+    fs::create_directories(dir, ec);
+    if (ec) return fileError(path_, "cannot create directory " + dir.string(), ec.value());
+    fs::permissions(dir, fs::perms::owner_all, ec);  // best effort; the file is 0600 anyway
+  }
+
+  const fs::path tmp = path_.string() + ".tmp-" + std::to_string(::getpid());
+  {
+    Fd fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600));
+    if (fd.get() < 0) return fileError(tmp, "cannot create", errno);
+    // O_CREAT's mode does not apply to a leftover file of the same name; fchmod does.
+    if (::fchmod(fd.get(), 0600) != 0 || !writeAll(fd.get(), text) || ::fsync(fd.get()) != 0 ||
+        fd.close() != 0) {
+      const int err = errno;
+      ::unlink(tmp.c_str());
+      return fileError(tmp, "cannot write", err);
+    }
+  }
+  if (::rename(tmp.c_str(), path_.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    return fileError(path_, "cannot rename " + tmp.string() + " over it", err);
+  }
+  // The rename is durable only once the directory entry is.
+  Fd dfd(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (dfd.get() < 0 || ::fsync(dfd.get()) != 0) {
+    return fileError(path_, "cannot fsync directory " + dir.string(), errno);
+  }
+  return {};
+}
+
+Result<void> UsersFile::add(std::string_view user, std::string_view password) {
+  if (auto valid = validateUserName(user); !valid) return valid.error();
+  if (contains(user)) {
+    return makeError(Errc::already_exists, "user " + std::string(user) + " already exists");
+  }
+  auto hash = hashPassword(password);
+  if (!hash) return hash.error();
+  users_.emplace(std::string(user), Entry{std::move(hash.value()), nowUtc()});
+  return {};
+}
+
+Result<void> UsersFile::remove(std::string_view user) {
+  const auto it = users_.find(user);
+  if (it == users_.end()) {
+    return makeError(Errc::not_found, "no user " + std::string(user));
+  }
+  users_.erase(it);
+  return {};
+}
+
+Result<void> UsersFile::setPassword(std::string_view user, std::string_view password) {
+  const auto it = users_.find(user);
+  if (it == users_.end()) {
+    return makeError(Errc::not_found, "no user " + std::string(user));
+  }
+  auto hash = hashPassword(password);
+  if (!hash) return hash.error();
+  it->second.hash = std::move(hash.value());
+  return {};
+}
+
+bool UsersFile::verify(std::string_view user, std::string_view password) const {
+  const auto it = users_.find(user);
+  const bool known = it != users_.end();
+  const bool match = verifyPasswordHash(known ? it->second.hash : kDummyHash, password);
+  return known && match;
+}
+
+std::vector<std::string> UsersFile::names() const {
+  std::vector<std::string> out;
+  out.reserve(users_.size());
+  for (const auto& [name, e] : users_) out.push_back(name);  // std::map: already sorted
+  return out;
+}
+
+bool UsersFile::contains(std::string_view user) const {
+  return users_.find(user) != users_.end();
+}
+
+std::optional<std::string> UsersFile::hashOf(std::string_view user) const {
+  const auto it = users_.find(user);
+  if (it == users_.end()) return std::nullopt;
+  return it->second.hash;
+}
+
+std::optional<std::string> UsersFile::createdOf(std::string_view user) const {
+  const auto it = users_.find(user);
+  if (it == users_.end()) return std::nullopt;
+  return it->second.created;
+}
+
+std::string_view dummyPasswordHash() noexcept {
+  return kDummyHash;
+}
+
+}  // namespace skr::flow

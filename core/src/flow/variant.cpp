@@ -1,0 +1,260 @@
+// Variant accessors, equality, UTF-8 validation and base64. The binary codec is in
+// variant_binary.cpp, the JSON mapping in variant_json.cpp.
+#include <skrobot/flow/variant.h>
+
+#include <cmath>
+#include <limits>
+
+namespace skr::flow {
+
+std::string_view Variant::typeName(Type type) noexcept {
+  switch (type) {
+    case Type::null:
+      return "null";
+    case Type::boolean:
+      return "bool";
+    case Type::int64:
+      return "int64";
+    case Type::uint64:
+      return "uint64";
+    case Type::float64:
+      return "float64";
+    case Type::string:
+      return "string";
+    case Type::bytes:
+      return "bytes";
+    case Type::list:
+      return "list";
+    case Type::map:
+      return "map";
+  }
+  return "unknown";
+}
+
+std::optional<bool> Variant::asBool() const noexcept {
+  if (const bool* b = std::get_if<bool>(&v_)) return *b;
+  return std::nullopt;
+}
+
+namespace {
+// 2^63 and 2^64 are exact doubles; an integral double d fits int64 iff -2^63 <= d < 2^63.
+constexpr double kTwo63 = 9223372036854775808.0;
+constexpr double kTwo64 = 18446744073709551616.0;
+}  // namespace
+
+std::optional<int64_t> Variant::asInt64() const noexcept {
+  switch (type()) {
+    case Type::int64:
+      return std::get<int64_t>(v_);
+    case Type::uint64: {
+      const uint64_t u = std::get<uint64_t>(v_);
+      if (u <= static_cast<uint64_t>(std::numeric_limits<int64_t>::max())) {
+        return static_cast<int64_t>(u);
+      }
+      return std::nullopt;
+    }
+    case Type::float64: {
+      const double d = std::get<double>(v_);
+      if (std::trunc(d) == d && d >= -kTwo63 && d < kTwo63) return static_cast<int64_t>(d);
+      return std::nullopt;
+    }
+    default:
+      return std::nullopt;
+  }
+}
+
+std::optional<uint64_t> Variant::asUint64() const noexcept {
+  switch (type()) {
+    case Type::uint64:
+      return std::get<uint64_t>(v_);
+    case Type::int64: {
+      const int64_t i = std::get<int64_t>(v_);
+      if (i >= 0) return static_cast<uint64_t>(i);
+      return std::nullopt;
+    }
+    case Type::float64: {
+      const double d = std::get<double>(v_);
+      if (std::trunc(d) == d && d >= 0 && d < kTwo64) return static_cast<uint64_t>(d);
+      return std::nullopt;
+    }
+    default:
+      return std::nullopt;
+  }
+}
+
+std::optional<double> Variant::asDouble() const noexcept {
+  switch (type()) {
+    case Type::float64:
+      return std::get<double>(v_);
+    case Type::int64:
+      return static_cast<double>(std::get<int64_t>(v_));
+    case Type::uint64:
+      return static_cast<double>(std::get<uint64_t>(v_));
+    default:
+      return std::nullopt;
+  }
+}
+
+const std::string* Variant::asString() const noexcept {
+  return std::get_if<std::string>(&v_);
+}
+const Variant::Bytes* Variant::asBytes() const noexcept {
+  return std::get_if<Bytes>(&v_);
+}
+
+const Variant::List* Variant::asList() const noexcept {
+  const auto* b = std::get_if<detail::Boxed<List>>(&v_);
+  return b ? &b->get() : nullptr;
+}
+Variant::List* Variant::asList() noexcept {
+  auto* b = std::get_if<detail::Boxed<List>>(&v_);
+  return b ? &b->get() : nullptr;
+}
+const Variant::Map* Variant::asMap() const noexcept {
+  const auto* b = std::get_if<detail::Boxed<Map>>(&v_);
+  return b ? &b->get() : nullptr;
+}
+Variant::Map* Variant::asMap() noexcept {
+  auto* b = std::get_if<detail::Boxed<Map>>(&v_);
+  return b ? &b->get() : nullptr;
+}
+
+const Variant* Variant::find(std::string_view key) const noexcept {
+  const Map* m = asMap();
+  if (m == nullptr) return nullptr;
+  const auto it = m->find(key);
+  return it == m->end() ? nullptr : &it->second;
+}
+
+bool operator==(const Variant& a, const Variant& b) noexcept {
+  if (a.type() != b.type()) return false;
+  switch (a.type()) {
+    case Variant::Type::null:
+      return true;
+    case Variant::Type::boolean:
+      return *a.asBool() == *b.asBool();
+    case Variant::Type::int64:
+      return std::get<int64_t>(a.v_) == std::get<int64_t>(b.v_);
+    case Variant::Type::uint64:
+      return std::get<uint64_t>(a.v_) == std::get<uint64_t>(b.v_);
+    case Variant::Type::float64: {
+      const double x = std::get<double>(a.v_);
+      const double y = std::get<double>(b.v_);
+      return x == y || (std::isnan(x) && std::isnan(y));
+    }
+    case Variant::Type::string:
+      return *a.asString() == *b.asString();
+    case Variant::Type::bytes:
+      return *a.asBytes() == *b.asBytes();
+    case Variant::Type::list:
+      return *a.asList() == *b.asList();
+    case Variant::Type::map:
+      return *a.asMap() == *b.asMap();
+  }
+  return false;
+}
+
+bool isValidUtf8(std::string_view s) noexcept {
+  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
+  const auto* end = p + s.size();
+  while (p < end) {
+    const unsigned c = *p;
+    if (c < 0x80) {
+      ++p;
+      continue;
+    }
+    size_t n = 0;
+    uint32_t cp = 0;
+    uint32_t min = 0;
+    if (c >= 0xC2 && c <= 0xDF) {
+      n = 1, cp = c & 0x1F, min = 0x80;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      n = 2, cp = c & 0x0F, min = 0x800;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      n = 3, cp = c & 0x07, min = 0x10000;
+    } else {
+      return false;  // continuation byte, overlong lead (C0, C1) or beyond U+10FFFF (F5..FF)
+    }
+    if (static_cast<size_t>(end - p) <= n) return false;
+    for (size_t i = 1; i <= n; ++i) {
+      if ((p[i] & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (p[i] & 0x3F);
+    }
+    if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    p += n + 1;
+  }
+  return true;
+}
+
+namespace {
+constexpr char kBase64Alphabet[] =
+    "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+int base64Value(char c) noexcept {
+  if (c >= 'A' && c <= 'Z') return c - 'A';
+  if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+  if (c >= '0' && c <= '9') return c - '0' + 52;
+  if (c == '+') return 62;
+  if (c == '/') return 63;
+  return -1;
+}
+}  // namespace
+
+std::string base64Encode(std::string_view bytes) {
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  size_t i = 0;
+  for (; i + 3 <= bytes.size(); i += 3) {
+    const uint32_t n = (uint32_t{p[i]} << 16) | (uint32_t{p[i + 1]} << 8) | p[i + 2];
+    out += kBase64Alphabet[(n >> 18) & 63];
+    out += kBase64Alphabet[(n >> 12) & 63];
+    out += kBase64Alphabet[(n >> 6) & 63];
+    out += kBase64Alphabet[n & 63];
+  }
+  const size_t left = bytes.size() - i;
+  if (left > 0) {
+    const uint32_t n = (uint32_t{p[i]} << 16) | (left == 2 ? uint32_t{p[i + 1]} << 8 : 0);
+    out += kBase64Alphabet[(n >> 18) & 63];
+    out += kBase64Alphabet[(n >> 12) & 63];
+    out += left == 2 ? kBase64Alphabet[(n >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+std::optional<std::string> base64Decode(std::string_view text) {
+  if (text.size() % 4 != 0) return std::nullopt;
+  size_t pad = 0;
+  if (!text.empty() && text.back() == '=')
+    pad = text.size() >= 2 && text[text.size() - 2] == '=' ? 2 : 1;
+  std::string out;
+  out.reserve(text.size() / 4 * 3);
+  for (size_t i = 0; i < text.size(); i += 4) {
+    const bool last = i + 4 == text.size();
+    const size_t digits = last ? 4 - pad : 4;
+    uint32_t n = 0;
+    for (size_t j = 0; j < 4; ++j) {
+      int v = 0;
+      if (j < digits) {
+        v = base64Value(text[i + j]);
+        if (v < 0) return std::nullopt;
+      }
+      n = (n << 6) | static_cast<uint32_t>(v);
+    }
+    out += static_cast<char>((n >> 16) & 0xFF);
+    if (digits == 2) {
+      if ((n & 0xFFFF) != 0) return std::nullopt;  // unused bits must be zero
+      break;
+    }
+    out += static_cast<char>((n >> 8) & 0xFF);
+    if (digits == 3) {
+      if ((n & 0xFF) != 0) return std::nullopt;
+      break;
+    }
+    out += static_cast<char>(n & 0xFF);
+  }
+  return out;
+}
+
+}  // namespace skr::flow

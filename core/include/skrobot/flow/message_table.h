@@ -1,0 +1,59 @@
+// Every message struct of messages.h, for code that must handle them all (the fuzz target, the
+// round-trip tests): forEachMessage(f) calls f(M{}) once per message type.
+#pragma once
+
+#include <skrobot/flow/messages.h>
+
+namespace skr::flow {
+
+template <class F>
+void forEachMessage(F&& f) {
+  using namespace msg;
+  f(Login{});
+  f(LoginOk{});
+  f(DbSelect{});
+  f(DbCreate{});
+  f(DbSave{});
+  f(DbRemove{});
+  f(VarGet{});
+  f(VarSet{});
+  f(VarDel{});
+  f(Empty<Code::var_get_all>{});
+  f(PollRegister{});
+  f(PollFetch{});
+  f(ServiceCall{});
+  f(Ping{});
+  f(ChanInfoByName{});
+  f(ReplyError{});
+  f(ReplyValue{});
+  f(PollData{});
+  f(ChannelList{});
+  f(ChannelInfoReply{});
+  f(ChanAdd{});
+  f(ChanRemove{});
+  f(Subscribe{});
+  f(Unsubscribe{});
+  f(Publish{});
+  f(ServiceRequest{});
+  f(ServiceResponse{});
+  f(DbSetCurrent{});
+  f(DbCreateAsync{});
+  f(DbRemoveAsync{});
+  f(DbSaveAsync{});
+  f(VarSetAsync{});
+  f(VarDelAsync{});
+  f(ChanSetProps{});
+  f(EvDbChanged{});
+  f(EvChanAdded{});
+  f(EvChanRemoved{});
+  f(EvChanHeader{});
+  f(EvServiceRequest{});
+  f(EvStartPublish{});
+  f(EvStopPublish{});
+  f(EvData{});
+  f(EvServiceResponse{});
+  f(EvError{});
+  f(EvDropped{});
+}
+
+}  // namespace skr::flow

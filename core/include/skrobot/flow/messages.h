@@ -1,0 +1,400 @@
+// The body of every FlowProtocol frame as a struct. Each struct lists its fields once, in wire
+// order, in `io()`; the same list drives encoding and decoding (see codec.h), so the two cannot
+// disagree. Field types and their wire form:
+//   uint8_t/uint16_t/uint32_t/uint64_t  fixed-size little-endian
+//   std::string                          str16: u16 length + bytes
+//   Text32                               str32: u32 length + bytes
+//   Variant                              value: u8 encoding (0 binary, 1 JSON) + binary Variant or
+//                                        str32 JSON text
+//   Rest                                 the remaining bytes of the frame (payloads), a view
+#pragma once
+
+#include <skrobot/flow/protocol.h>
+#include <skrobot/flow/variant.h>
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace skr::flow::msg {
+
+struct Text32 {
+  std::string text;
+};
+struct Rest {
+  std::string_view bytes;  // points into the decoded frame, or at the data to encode
+};
+
+// --- synchronous requests ------------------------------------------------------------------
+struct Login {
+  static constexpr Code code = Code::login;
+  uint16_t major = kProtocolMajor;
+  uint16_t minor = kProtocolMinor;
+  uint8_t value_encoding = 0;  // ValueEncoding the hub uses for values it sends
+  std::string user, password, client_name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(major) && f(minor) && f(value_encoding) && f(user) && f(password) && f(client_name);
+  }
+};
+struct LoginOk {
+  static constexpr Code code = Code::reply_ok;
+  uint16_t major = kProtocolMajor;
+  uint16_t minor = kProtocolMinor;
+  uint32_t connection_id = 0;
+  std::string app_name, user, current_db;
+  template <class IO>
+  bool io(IO& f) {
+    return f(major) && f(minor) && f(connection_id) && f(app_name) && f(user) && f(current_db);
+  }
+};
+// db_select, db_create, db_save, db_remove (empty name = the current database for save).
+template <Code C>
+struct DbName {
+  static constexpr Code code = C;
+  std::string name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(name);
+  }
+};
+using DbSelect = DbName<Code::db_select>;
+using DbCreate = DbName<Code::db_create>;
+using DbSave = DbName<Code::db_save>;
+using DbRemove = DbName<Code::db_remove>;
+struct VarGet {
+  static constexpr Code code = Code::var_get;
+  std::string key;
+  template <class IO>
+  bool io(IO& f) {
+    return f(key);
+  }
+};
+struct VarSet {
+  static constexpr Code code = Code::var_set;
+  std::string key;
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(key) && f(value);
+  }
+};
+struct VarDel {
+  static constexpr Code code = Code::var_del;
+  std::string key;
+  template <class IO>
+  bool io(IO& f) {
+    return f(key);
+  }
+};
+// var_get_all, var_keys, chan_list, go_async, db_list: no body.
+template <Code C>
+struct Empty {
+  static constexpr Code code = C;
+  template <class IO>
+  bool io(IO&) {
+    return true;
+  }
+};
+struct PollRegister {
+  static constexpr Code code = Code::poll_register;
+  uint16_t chan_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id);
+  }
+};
+struct PollFetch {
+  static constexpr Code code = Code::poll_fetch;
+  uint16_t chan_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id);
+  }
+};
+struct ServiceCall {
+  static constexpr Code code = Code::service_call;
+  uint16_t chan_id = 0;
+  uint32_t timeout_ms = 0;
+  std::string command;
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(timeout_ms) && f(command) && f(value);
+  }
+};
+struct Ping {
+  static constexpr Code code = Code::ping;
+  Rest echo;
+  template <class IO>
+  bool io(IO& f) {
+    return f(echo);
+  }
+};
+struct ChanInfoByName {
+  static constexpr Code code = Code::chan_info;
+  std::string name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(name);
+  }
+};
+
+// --- replies -------------------------------------------------------------------------------
+struct ReplyError {
+  static constexpr Code code = Code::reply_error;
+  uint16_t error = 0;  // ErrorCode
+  std::string message;
+  template <class IO>
+  bool io(IO& f) {
+    return f(error) && f(message);
+  }
+};
+// REPLY_OK bodies: nothing, a value, or the structs below.
+struct ReplyValue {
+  static constexpr Code code = Code::reply_ok;
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(value);
+  }
+};
+struct PollData {
+  static constexpr Code code = Code::reply_ok;
+  uint64_t seq = 0;  // 0: nothing published yet
+  Rest payload;
+  template <class IO>
+  bool io(IO& f) {
+    return f(seq) && f(payload);
+  }
+};
+
+// Everything a satellite learns about a channel.
+struct ChannelInfo {
+  uint16_t id = 0;
+  uint64_t hash = 0;  // unique per channel instance: a re-created channel gets a new one
+  uint8_t kind = 0;   // ChannelKind
+  std::string name;   // <user>.<short name>
+  std::string owner;  // user name of the owner
+  uint32_t owner_connection = 0;
+  std::string mime;
+  uint32_t subscribers = 0;
+  Variant props;  // the channel's database, a map
+  template <class IO>
+  bool io(IO& f) {
+    return f(id) && f(hash) && f(kind) && f(name) && f(owner) && f(owner_connection) && f(mime) &&
+           f(subscribers) && f(props);
+  }
+};
+struct ChannelList {
+  static constexpr Code code = Code::reply_ok;
+  std::vector<ChannelInfo> channels;
+  template <class IO>
+  bool io(IO& f) {
+    return f(channels);
+  }
+};
+struct ChannelInfoReply {
+  static constexpr Code code = Code::reply_ok;
+  ChannelInfo info;
+  template <class IO>
+  bool io(IO& f) {
+    return info.io(f);
+  }
+};
+
+// --- asynchronous commands -----------------------------------------------------------------
+struct ChanAdd {
+  static constexpr Code code = Code::chan_add;
+  uint32_t tag = 0;
+  uint8_t kind = 0;        // ChannelKind
+  std::string short_name;  // the hub prefixes "<user>."
+  std::string mime;
+  Variant props;  // a map (or null): the channel's database
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(kind) && f(short_name) && f(mime) && f(props);
+  }
+};
+template <Code C>
+struct TagChan {
+  static constexpr Code code = C;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id);
+  }
+};
+using ChanRemove = TagChan<Code::chan_remove>;
+using Subscribe = TagChan<Code::subscribe>;
+using Unsubscribe = TagChan<Code::unsubscribe>;
+struct Publish {
+  static constexpr Code code = Code::publish;
+  uint16_t chan_id = 0;
+  Rest payload;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(payload);
+  }
+};
+struct ServiceRequest {
+  static constexpr Code code = Code::service_request;
+  uint32_t tag = 0;  // echoed in the EV_SERVICE_RESPONSE
+  uint16_t chan_id = 0;
+  std::string command;
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(command) && f(value);
+  }
+};
+struct ServiceResponse {
+  static constexpr Code code = Code::service_response;
+  uint16_t chan_id = 0;
+  uint64_t request = 0;  // the request hash from EV_SERVICE_REQUEST
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(request) && f(value);
+  }
+};
+template <Code C>
+struct TagName {
+  static constexpr Code code = C;
+  uint32_t tag = 0;
+  std::string name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(name);
+  }
+};
+using DbSetCurrent = TagName<Code::db_set_current>;
+using DbCreateAsync = TagName<Code::db_create_async>;
+using DbRemoveAsync = TagName<Code::db_remove_async>;
+using DbSaveAsync = TagName<Code::db_save_async>;
+using VarDelAsync = TagName<Code::var_del_async>;
+struct VarSetAsync {
+  static constexpr Code code = Code::var_set_async;
+  uint32_t tag = 0;
+  std::string key;
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(key) && f(value);
+  }
+};
+struct ChanSetProps {
+  static constexpr Code code = Code::chan_set_props;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  Variant props;  // a map: keys set (null values remove a key)
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(props);
+  }
+};
+
+// --- events --------------------------------------------------------------------------------
+struct EvDbChanged {
+  static constexpr Code code = Code::ev_db_changed;
+  std::string name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(name);
+  }
+};
+struct EvChanAdded {
+  static constexpr Code code = Code::ev_chan_added;
+  uint32_t tag = 0;  // the creator's CHAN_ADD tag in the creator's copy, else 0
+  ChannelInfo info;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && info.io(f);
+  }
+};
+struct EvChanRemoved {
+  static constexpr Code code = Code::ev_chan_removed;
+  uint16_t chan_id = 0;
+  uint64_t hash = 0;
+  std::string name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(hash) && f(name);
+  }
+};
+struct EvChanHeader {
+  static constexpr Code code = Code::ev_chan_header;
+  ChannelInfo info;
+  template <class IO>
+  bool io(IO& f) {
+    return info.io(f);
+  }
+};
+struct EvServiceRequest {
+  static constexpr Code code = Code::ev_service_request;
+  uint16_t chan_id = 0;
+  uint64_t request = 0;  // answer with SERVICE_RESPONSE carrying this
+  std::string command;
+  std::string requester;  // user name of the caller
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(request) && f(command) && f(requester) && f(value);
+  }
+};
+template <Code C>
+struct ChanOnly {
+  static constexpr Code code = C;
+  uint16_t chan_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id);
+  }
+};
+using EvStartPublish = ChanOnly<Code::ev_start_publish>;
+using EvStopPublish = ChanOnly<Code::ev_stop_publish>;
+struct EvData {
+  static constexpr Code code = Code::ev_data;
+  uint16_t chan_id = 0;
+  Rest payload;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(payload);
+  }
+};
+struct EvServiceResponse {
+  static constexpr Code code = Code::ev_service_response;
+  uint16_t chan_id = 0;
+  uint32_t tag = 0;    // the SERVICE_REQUEST's tag
+  uint16_t error = 0;  // ErrorCode; ok: value is the owner's answer, else a message string
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(tag) && f(error) && f(value);
+  }
+};
+struct EvError {
+  static constexpr Code code = Code::ev_error;
+  uint8_t command = 0;   // the code of the command that failed
+  uint32_t tag = 0;      // its tag (0 for PUBLISH)
+  uint16_t chan_id = 0;  // the channel concerned, or 0
+  uint16_t error = 0;    // ErrorCode
+  std::string message;
+  template <class IO>
+  bool io(IO& f) {
+    return f(command) && f(tag) && f(chan_id) && f(error) && f(message);
+  }
+};
+struct EvDropped {
+  static constexpr Code code = Code::ev_dropped;
+  uint16_t chan_id = 0;
+  uint32_t count = 0;  // data frames of this channel dropped for this subscriber since the last
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(count);
+  }
+};
+
+}  // namespace skr::flow::msg

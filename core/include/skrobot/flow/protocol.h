@@ -1,0 +1,151 @@
+// FlowProtocol: frame layout, command codes, error codes and limits. docs/flow-protocol.md is the
+// byte-by-byte specification; this header is its code. Used by the hub, the satellite libraries,
+// the tests and the fuzz targets.
+//
+// A frame: u32 length (bytes after this field, >= 1), u8 code, body. Little-endian throughout.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace skr::flow {
+
+constexpr uint16_t kProtocolMajor = 1;
+constexpr uint16_t kProtocolMinor = 0;
+
+constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
+constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
+constexpr uint32_t kMaxChannels = 32768;
+
+enum class Code : uint8_t {
+  // Synchronous requests, client -> hub; each gets exactly one REPLY_OK or REPLY_ERROR, in order.
+  login = 0x01,
+  db_select = 0x02,
+  db_create = 0x03,
+  db_save = 0x04,
+  db_remove = 0x05,
+  var_get = 0x06,
+  var_set = 0x07,
+  var_del = 0x08,
+  var_get_all = 0x09,
+  var_keys = 0x0A,
+  chan_list = 0x0B,
+  poll_register = 0x0C,
+  poll_fetch = 0x0D,
+  service_call = 0x0E,
+  go_async = 0x0F,
+  ping = 0x10,
+  db_list = 0x11,
+  chan_info = 0x12,
+
+  // Asynchronous commands, client -> hub, on a flow. No reply on success; failures come back as
+  // EV_ERROR carrying the command's tag.
+  chan_add = 0x40,
+  chan_remove = 0x41,
+  subscribe = 0x42,
+  unsubscribe = 0x43,
+  publish = 0x44,
+  service_request = 0x45,
+  service_response = 0x46,
+  db_set_current = 0x47,
+  db_create_async = 0x48,
+  db_remove_async = 0x49,
+  db_save_async = 0x4A,
+  var_set_async = 0x4B,
+  var_del_async = 0x4C,
+  chan_set_props = 0x4D,
+
+  // Hub -> client.
+  reply_ok = 0x80,
+  reply_error = 0x81,
+  ev_db_changed = 0x90,
+  ev_chan_added = 0x91,
+  ev_chan_removed = 0x92,
+  ev_chan_header = 0x93,
+  ev_service_request = 0x94,
+  ev_start_publish = 0x95,
+  ev_stop_publish = 0x96,
+  ev_data = 0x97,
+  ev_service_response = 0x98,
+  ev_error = 0x99,
+  ev_dropped = 0x9A,
+
+  // Reserved and specified; not implemented by protocol 1.0 hubs (answered with `unsupported`).
+  blob_list = 0xC0,
+  blob_get = 0xC1,
+  blob_put = 0xC2,
+  blob_mkdir = 0xC3,
+  blob_rmdir = 0xC4,
+  blob_remove = 0xC5,
+  blob_chunk = 0xC6,
+  sync_pulse = 0xD0,
+  sync_source_register = 0xD1,
+  sync_target_register = 0xD2,
+  replicate_channel = 0xE0,
+  replicate_stop = 0xE1,
+  hub_link_hello = 0xE8,
+  hub_link_channels = 0xE9,
+  hub_link_forward = 0xEA,
+};
+
+[[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
+
+enum class ErrorCode : uint16_t {
+  ok = 0,
+  protocol_error = 1,
+  version_mismatch = 2,
+  auth_failed = 3,
+  not_logged_in = 4,
+  not_found = 5,
+  already_exists = 6,
+  permission_denied = 7,
+  invalid_argument = 8,
+  timeout = 9,
+  owner_gone = 10,
+  overflow = 11,
+  unsupported = 12,
+  limit_exceeded = 13,
+  io_error = 14,
+  internal = 15,
+};
+
+[[nodiscard]] std::string_view errorCodeName(ErrorCode code) noexcept;
+
+enum class ChannelKind : uint8_t { streaming = 1, service = 2, blob = 3 };
+[[nodiscard]] std::string_view channelKindName(ChannelKind kind) noexcept;
+
+// How a frame carries a typed value: u8 encoding, then a binary Variant or u32 length + JSON text.
+enum class ValueEncoding : uint8_t { binary = 0, json = 1 };
+
+// Splits a byte stream into frames. Feed it what the socket gave; it never allocates more than
+// the announced length of a frame, and only after checking that length against the limit.
+class FrameSplitter {
+ public:
+  explicit FrameSplitter(uint32_t max_frame_bytes = kDefaultMaxFrameBytes)
+      : max_(max_frame_bytes) {}
+
+  enum class Status { frame, need_more, too_large, empty_frame };
+
+  // Looks at the buffered bytes [data, data+size) and reports the next frame: on `frame`,
+  // `code`, `body` (a view into data) and `consumed` (header + body) are set. On `need_more`,
+  // `wanted` is the total number of bytes the next frame needs (header included) when known.
+  struct Next {
+    Status status = Status::need_more;
+    uint8_t code = 0;
+    std::string_view body;
+    size_t consumed = 0;
+    size_t wanted = 0;
+    uint32_t announced = 0;  // the length field, for error messages
+  };
+  [[nodiscard]] Next next(const uint8_t* data, size_t size) const noexcept;
+  [[nodiscard]] uint32_t maxFrameBytes() const noexcept { return max_; }
+
+ private:
+  uint32_t max_;
+};
+
+// Appends a frame header for a body of `body_bytes` bytes; the caller appends the body.
+void appendHeader(std::string& out, Code code, size_t body_bytes);
+
+}  // namespace skr::flow

@@ -1,0 +1,234 @@
+#include <skrobot/flow/codec.h>
+#include <skrobot/flow/protocol.h>
+
+namespace skr::flow {
+
+std::string_view codeName(uint8_t code) noexcept {
+  switch (static_cast<Code>(code)) {
+    case Code::login:
+      return "LOGIN";
+    case Code::db_select:
+      return "DB_SELECT";
+    case Code::db_create:
+      return "DB_CREATE";
+    case Code::db_save:
+      return "DB_SAVE";
+    case Code::db_remove:
+      return "DB_REMOVE";
+    case Code::var_get:
+      return "VAR_GET";
+    case Code::var_set:
+      return "VAR_SET";
+    case Code::var_del:
+      return "VAR_DEL";
+    case Code::var_get_all:
+      return "VAR_GET_ALL";
+    case Code::var_keys:
+      return "VAR_KEYS";
+    case Code::chan_list:
+      return "CHAN_LIST";
+    case Code::poll_register:
+      return "POLL_REGISTER";
+    case Code::poll_fetch:
+      return "POLL_FETCH";
+    case Code::service_call:
+      return "SERVICE_CALL";
+    case Code::go_async:
+      return "GO_ASYNC";
+    case Code::ping:
+      return "PING";
+    case Code::db_list:
+      return "DB_LIST";
+    case Code::chan_info:
+      return "CHAN_INFO";
+    case Code::chan_add:
+      return "CHAN_ADD";
+    case Code::chan_remove:
+      return "CHAN_REMOVE";
+    case Code::subscribe:
+      return "SUBSCRIBE";
+    case Code::unsubscribe:
+      return "UNSUBSCRIBE";
+    case Code::publish:
+      return "PUBLISH";
+    case Code::service_request:
+      return "SERVICE_REQUEST";
+    case Code::service_response:
+      return "SERVICE_RESPONSE";
+    case Code::db_set_current:
+      return "DB_SET_CURRENT";
+    case Code::db_create_async:
+      return "DB_CREATE_ASYNC";
+    case Code::db_remove_async:
+      return "DB_REMOVE_ASYNC";
+    case Code::db_save_async:
+      return "DB_SAVE_ASYNC";
+    case Code::var_set_async:
+      return "VAR_SET_ASYNC";
+    case Code::var_del_async:
+      return "VAR_DEL_ASYNC";
+    case Code::chan_set_props:
+      return "CHAN_SET_PROPS";
+    case Code::reply_ok:
+      return "REPLY_OK";
+    case Code::reply_error:
+      return "REPLY_ERROR";
+    case Code::ev_db_changed:
+      return "EV_DB_CHANGED";
+    case Code::ev_chan_added:
+      return "EV_CHAN_ADDED";
+    case Code::ev_chan_removed:
+      return "EV_CHAN_REMOVED";
+    case Code::ev_chan_header:
+      return "EV_CHAN_HEADER";
+    case Code::ev_service_request:
+      return "EV_SERVICE_REQUEST";
+    case Code::ev_start_publish:
+      return "EV_START_PUBLISH";
+    case Code::ev_stop_publish:
+      return "EV_STOP_PUBLISH";
+    case Code::ev_data:
+      return "EV_DATA";
+    case Code::ev_service_response:
+      return "EV_SERVICE_RESPONSE";
+    case Code::ev_error:
+      return "EV_ERROR";
+    case Code::ev_dropped:
+      return "EV_DROPPED";
+    case Code::blob_list:
+      return "BLOB_LIST";
+    case Code::blob_get:
+      return "BLOB_GET";
+    case Code::blob_put:
+      return "BLOB_PUT";
+    case Code::blob_mkdir:
+      return "BLOB_MKDIR";
+    case Code::blob_rmdir:
+      return "BLOB_RMDIR";
+    case Code::blob_remove:
+      return "BLOB_REMOVE";
+    case Code::blob_chunk:
+      return "BLOB_CHUNK";
+    case Code::sync_pulse:
+      return "SYNC_PULSE";
+    case Code::sync_source_register:
+      return "SYNC_SOURCE_REGISTER";
+    case Code::sync_target_register:
+      return "SYNC_TARGET_REGISTER";
+    case Code::replicate_channel:
+      return "REPLICATE_CHANNEL";
+    case Code::replicate_stop:
+      return "REPLICATE_STOP";
+    case Code::hub_link_hello:
+      return "HUB_LINK_HELLO";
+    case Code::hub_link_channels:
+      return "HUB_LINK_CHANNELS";
+    case Code::hub_link_forward:
+      return "HUB_LINK_FORWARD";
+  }
+  return "UNKNOWN";
+}
+
+std::string_view errorCodeName(ErrorCode code) noexcept {
+  switch (code) {
+    case ErrorCode::ok:
+      return "ok";
+    case ErrorCode::protocol_error:
+      return "protocol_error";
+    case ErrorCode::version_mismatch:
+      return "version_mismatch";
+    case ErrorCode::auth_failed:
+      return "auth_failed";
+    case ErrorCode::not_logged_in:
+      return "not_logged_in";
+    case ErrorCode::not_found:
+      return "not_found";
+    case ErrorCode::already_exists:
+      return "already_exists";
+    case ErrorCode::permission_denied:
+      return "permission_denied";
+    case ErrorCode::invalid_argument:
+      return "invalid_argument";
+    case ErrorCode::timeout:
+      return "timeout";
+    case ErrorCode::owner_gone:
+      return "owner_gone";
+    case ErrorCode::overflow:
+      return "overflow";
+    case ErrorCode::unsupported:
+      return "unsupported";
+    case ErrorCode::limit_exceeded:
+      return "limit_exceeded";
+    case ErrorCode::io_error:
+      return "io_error";
+    case ErrorCode::internal:
+      return "internal";
+  }
+  return "unknown";
+}
+
+std::string_view channelKindName(ChannelKind kind) noexcept {
+  switch (kind) {
+    case ChannelKind::streaming:
+      return "streaming";
+    case ChannelKind::service:
+      return "service";
+    case ChannelKind::blob:
+      return "blob";
+  }
+  return "unknown";
+}
+
+FrameSplitter::Next FrameSplitter::next(const uint8_t* data, size_t size) const noexcept {
+  Next n;
+  ByteReader r(data, size);
+  uint32_t length = 0;
+  if (!r.u32(length)) {
+    n.wanted = 4;
+    return n;
+  }
+  n.announced = length;
+  if (length == 0) {
+    n.status = Status::empty_frame;
+    return n;
+  }
+  if (length > max_) {
+    n.status = Status::too_large;
+    return n;
+  }
+  n.wanted = 4 + static_cast<size_t>(length);
+  if (size < n.wanted) return n;
+  n.status = Status::frame;
+  n.code = data[4];
+  n.body = std::string_view(reinterpret_cast<const char*>(data) + kFrameHeaderBytes, length - 1);
+  n.consumed = n.wanted;
+  return n;
+}
+
+void appendHeader(std::string& out, Code code, size_t body_bytes) {
+  ByteWriter w(out);
+  w.u32(static_cast<uint32_t>(body_bytes + 1));
+  w.u8(static_cast<uint8_t>(code));
+}
+
+bool FieldReader::operator()(Variant& v) {
+  uint8_t enc = 0;
+  if (!r_.u8(enc)) return fail("value encoding");
+  if (enc == static_cast<uint8_t>(ValueEncoding::binary)) {
+    auto decoded = decodeVariant(r_, limits_);
+    if (!decoded) return failWith(decoded.error().message);
+    v = std::move(decoded).value();
+    return true;
+  }
+  if (enc == static_cast<uint8_t>(ValueEncoding::json)) {
+    std::string_view text;
+    if (!r_.str32(text)) return fail("JSON value");
+    auto parsed = variantFromJsonText(text);
+    if (!parsed) return failWith("JSON value: " + parsed.error().message);
+    v = std::move(parsed).value();
+    return true;
+  }
+  return failWith("unknown value encoding " + std::to_string(enc));
+}
+
+}  // namespace skr::flow

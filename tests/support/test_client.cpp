@@ -1,0 +1,182 @@
+#include "test_client.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace skr::test {
+
+TestClient::~TestClient() {
+  close();
+}
+
+TestClient::TestClient(TestClient&& o) noexcept
+    : fd_(o.fd_), buf_(std::move(o.buf_)), skipped_(std::move(o.skipped_)) {
+  o.fd_ = -1;
+}
+
+TestClient& TestClient::operator=(TestClient&& o) noexcept {
+  if (this != &o) {
+    close();
+    fd_ = o.fd_;
+    o.fd_ = -1;
+    buf_ = std::move(o.buf_);
+    skipped_ = std::move(o.skipped_);
+  }
+  return *this;
+}
+
+void TestClient::close() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+}
+
+Result<TestClient> TestClient::connectUnix(const std::string& path) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof(addr.sun_path) - 1);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    const int e = errno;
+    ::close(fd);
+    return makeError(Errc::io_error, "connect " + path + ": " + std::strerror(e));
+  }
+  return TestClient(fd);
+}
+
+Result<TestClient> TestClient::connectTcp(const std::string& host, uint16_t port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(port);
+  inet_pton(AF_INET, host.c_str(), &addr.sin_addr);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    const int e = errno;
+    ::close(fd);
+    return makeError(Errc::io_error, "connect " + host + ": " + std::strerror(e));
+  }
+  int one = 1;
+  setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  return TestClient(fd);
+}
+
+bool TestClient::sendRaw(std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+  return true;
+}
+
+bool TestClient::fill(int timeout_ms) {
+  pollfd p{fd_, POLLIN, 0};
+  if (::poll(&p, 1, timeout_ms) <= 0) return false;
+  char tmp[65536];
+  const ssize_t n = ::recv(fd_, tmp, sizeof tmp, 0);
+  if (n <= 0) return false;
+  buf_.append(tmp, static_cast<size_t>(n));
+  return true;
+}
+
+std::optional<Frame> TestClient::readFrame(int timeout_ms) {
+  for (;;) {
+    if (buf_.size() >= 5) {
+      uint32_t len = 0;
+      std::memcpy(&len, buf_.data(), 4);
+      if (buf_.size() >= 4 + static_cast<size_t>(len)) {
+        Frame f;
+        f.code = static_cast<uint8_t>(buf_[4]);
+        f.body = buf_.substr(5, len - 1);
+        buf_.erase(0, 4 + static_cast<size_t>(len));
+        return f;
+      }
+    }
+    if (fd_ < 0 || !fill(timeout_ms)) return std::nullopt;
+  }
+}
+
+std::optional<Frame> TestClient::recv(int timeout_ms) {
+  if (!skipped_.empty()) {
+    Frame f = std::move(skipped_.front());
+    skipped_.pop_front();
+    return f;
+  }
+  return readFrame(timeout_ms);
+}
+
+std::optional<Frame> TestClient::waitFor(flow::Code code, int timeout_ms) {
+  for (auto it = skipped_.begin(); it != skipped_.end(); ++it) {
+    if (it->kind() == code) {
+      Frame f = std::move(*it);
+      skipped_.erase(it);
+      return f;
+    }
+  }
+  for (;;) {
+    auto f = readFrame(timeout_ms);
+    if (!f) return std::nullopt;
+    if (f->kind() == code) return f;
+    skipped_.push_back(std::move(*f));
+  }
+}
+
+std::optional<Frame> TestClient::recvReply(int timeout_ms) {
+  for (;;) {
+    auto f = recv(timeout_ms);
+    if (!f) return f;
+    if (f->kind() == flow::Code::reply_ok || f->kind() == flow::Code::reply_error) return f;
+  }
+}
+
+bool TestClient::closedByPeer(int timeout_ms) {
+  for (;;) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, timeout_ms) <= 0) return false;
+    char tmp[4096];
+    const ssize_t n = ::recv(fd_, tmp, sizeof tmp, 0);
+    if (n == 0) return true;
+    if (n < 0) return errno == ECONNRESET;
+  }
+}
+
+Result<flow::msg::LoginOk> TestClient::login(const std::string& user, const std::string& password,
+                                             flow::ValueEncoding enc) {
+  flow::msg::Login m;
+  m.value_encoding = static_cast<uint8_t>(enc);
+  m.user = user;
+  m.password = password;
+  m.client_name = "test";
+  auto reply = call(m);
+  if (!reply) return makeError(Errc::timeout, "no reply to LOGIN");
+  if (reply->kind() == flow::Code::reply_error) {
+    auto e = flow::decode<flow::msg::ReplyError>(reply->body);
+    return makeError(Errc::permission_denied, e ? e->message : "bad REPLY_ERROR");
+  }
+  auto ok = flow::decode<flow::msg::LoginOk>(reply->body);
+  if (!ok) return ok.error();
+  return std::move(ok).value();
+}
+
+Result<flow::msg::LoginOk> TestClient::loginFlow(const std::string& user,
+                                                 const std::string& password) {
+  auto r = login(user, password);
+  if (!r) return r;
+  auto reply = call(flow::msg::Empty<flow::Code::go_async>{});
+  if (!reply || reply->kind() != flow::Code::reply_ok) {
+    return makeError(Errc::protocol_error, "GO_ASYNC refused");
+  }
+  return r;
+}
+
+}  // namespace skr::test

@@ -1,0 +1,95 @@
+// A blocking FlowProtocol client for tests and benchmarks: one socket, explicit frames.
+#pragma once
+
+#include <skrobot/core/result.h>
+#include <skrobot/flow/codec.h>
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace skr::test {
+
+struct Frame {
+  uint8_t code = 0;
+  std::string body;
+  [[nodiscard]] flow::Code kind() const { return static_cast<flow::Code>(code); }
+};
+
+class TestClient {
+ public:
+  TestClient() = default;
+  ~TestClient();
+  TestClient(const TestClient&) = delete;
+  TestClient& operator=(const TestClient&) = delete;
+  TestClient(TestClient&& o) noexcept;
+  TestClient& operator=(TestClient&& o) noexcept;
+
+  [[nodiscard]] static Result<TestClient> connectUnix(const std::string& path);
+  [[nodiscard]] static Result<TestClient> connectTcp(const std::string& host, uint16_t port);
+
+  // LOGIN and wait for the reply.
+  [[nodiscard]] Result<flow::msg::LoginOk> login(
+      const std::string& user, const std::string& password,
+      flow::ValueEncoding enc = flow::ValueEncoding::binary);
+  // LOGIN then GO_ASYNC.
+  [[nodiscard]] Result<flow::msg::LoginOk> loginFlow(const std::string& user,
+                                                     const std::string& password);
+
+  template <class M>
+  bool send(const M& m, flow::ValueEncoding enc = flow::ValueEncoding::binary) {
+    std::string out;
+    if (!flow::encode(out, m, enc)) return false;
+    return sendRaw(out);
+  }
+  bool sendRaw(std::string_view bytes);
+
+  // The next frame (from the queue of frames skipped by waitFor, then the socket).
+  [[nodiscard]] std::optional<Frame> recv(int timeout_ms = 5000);
+  // The next frame with `code`; other frames are kept for later recv() calls.
+  [[nodiscard]] std::optional<Frame> waitFor(flow::Code code, int timeout_ms = 5000);
+  // A sync request and its reply frame (REPLY_OK or REPLY_ERROR).
+  template <class M>
+  std::optional<Frame> call(const M& m, flow::ValueEncoding enc = flow::ValueEncoding::binary) {
+    if (!send(m, enc)) return std::nullopt;
+    return recvReply();
+  }
+  std::optional<Frame> recvReply(int timeout_ms = 5000);
+
+  // True once the hub closed the connection (reads EOF within the timeout).
+  [[nodiscard]] bool closedByPeer(int timeout_ms = 5000);
+  [[nodiscard]] int fd() const noexcept { return fd_; }
+  void close();
+
+ private:
+  explicit TestClient(int fd) : fd_(fd) {}
+  std::optional<Frame> readFrame(int timeout_ms);
+  bool fill(int timeout_ms);
+
+  int fd_ = -1;
+  std::string buf_;
+  std::deque<Frame> skipped_;
+};
+
+// A decoded message that owns the frame its payload views point into.
+template <class M>
+struct Decoded : M {
+  std::shared_ptr<const Frame> frame;
+};
+
+// Decodes a frame body as M (gtest-friendly: nullopt on mismatch).
+template <class M>
+std::optional<Decoded<M>> as(const std::optional<Frame>& f) {
+  if (!f || f->code != static_cast<uint8_t>(M::code)) return std::nullopt;
+  auto owned = std::make_shared<const Frame>(*f);
+  auto r = flow::decode<M>(owned->body);
+  if (!r) return std::nullopt;
+  Decoded<M> d{std::move(r).value()};
+  d.frame = std::move(owned);
+  return d;
+}
+
+}  // namespace skr::test

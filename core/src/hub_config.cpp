@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <fstream>
 #include <iterator>
@@ -209,6 +210,66 @@ void readModules(const Json::Value& list, const fs::path& base_dir, HubConfig& c
   }
 }
 
+s::Schema serverSchema() {
+  return s::object({
+      s::optional("unix_socket", s::boolean(), true),
+      s::optional("unix_path", s::string(), ""),
+      s::optional("tcp", s::boolean(), false),
+      s::optional("tcp_address", s::string().nonEmpty(), "127.0.0.1"),
+      s::optional("tcp_port", s::integer().range(0, 65535), 9000),
+      s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
+      s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
+      s::optional("max_connections", s::integer().range(1, 100000), 1024),
+      s::optional("login_timeout_ms", s::integer().range(100, 600000), 10000),
+      s::optional("max_pending_requests", s::integer().range(1, 1000000), 1024),
+  });
+}
+
+s::Schema accountsSchema() {
+  return s::object({
+      s::optional("users_file", s::string(), ""),
+      s::optional("dev_account", s::object({s::required("user", s::string().nonEmpty()),
+                                            s::required("password", s::string().nonEmpty())})),
+  });
+}
+
+fs::path defaultDataDir(const std::string& app_name) {
+  if (const char* x = std::getenv("XDG_DATA_HOME"); x != nullptr && *x == '/') {
+    return fs::path(x) / "skrobot" / app_name;
+  }
+  const char* home = std::getenv("HOME");
+  return fs::path(home != nullptr && *home != '\0' ? home : "/tmp") / ".local/share/skrobot" /
+         app_name;
+}
+
+void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) {
+  const Json::Value& s = d["server"];
+  ServerConfig& out = cfg.server;
+  if (s.isObject()) {
+    out.unix_enabled = s["unix_socket"].asBool();
+    out.unix_path = s["unix_path"].asString();
+    if (!out.unix_path.empty()) out.unix_path = resolve(base_dir, out.unix_path).string();
+    out.tcp_enabled = s["tcp"].asBool();
+    out.tcp_address = s["tcp_address"].asString();
+    out.tcp_port = static_cast<uint16_t>(s["tcp_port"].asInt());
+    out.max_frame_bytes = s["max_frame_bytes"].asUInt();
+    out.subscriber_queue_bytes = s["subscriber_queue_bytes"].asUInt();
+    out.max_connections = s["max_connections"].asUInt();
+    out.login_timeout_ms = s["login_timeout_ms"].asUInt();
+    out.max_pending_requests = s["max_pending_requests"].asUInt();
+  }
+  const std::string data_dir = d["data_dir"].isString() ? d["data_dir"].asString() : "";
+  out.data_dir = data_dir.empty() ? defaultDataDir(cfg.app_name) : resolve(base_dir, data_dir);
+  const Json::Value& a = d["accounts"];
+  const std::string users =
+      a.isObject() && a["users_file"].isString() ? a["users_file"].asString() : "";
+  out.users_file = users.empty() ? out.data_dir / "users.json" : resolve(base_dir, users);
+  if (a.isObject() && a["dev_account"].isObject()) {
+    out.dev_account = std::make_pair(a["dev_account"]["user"].asString(),
+                                     a["dev_account"]["password"].asString());
+  }
+}
+
 Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
                         const fs::path& base_dir) {
   const s::Schema schema = hubSchema();
@@ -229,6 +290,7 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
       }
     }
     readModules(d["modules"], base_dir, cfg, problems);
+    readServer(d, base_dir, cfg);
   }
   if (!problems.empty()) return makeError(Errc::config_error, s::formatProblems(problems, origin));
   return cfg;
@@ -237,7 +299,7 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
 }  // namespace
 
 s::Schema hubSchema() {
-  // One line per top-level section. Later sections (server, accounts, data directory) go here.
+  // One line per top-level section.
   return s::object({
       s::optional("app_name",
                   s::string()
@@ -252,6 +314,9 @@ s::Schema hubSchema() {
       s::optional("loop", loopSchema(true), Json::objectValue),
       s::optional("module_paths", s::arrayOf(s::string().nonEmpty()), Json::arrayValue),
       s::optional("modules", s::arrayOf(moduleSchema()), Json::arrayValue),
+      s::optional("data_dir", s::string(), ""),
+      s::optional("server", serverSchema(), Json::objectValue),
+      s::optional("accounts", accountsSchema(), Json::objectValue),
   });
 }
 

@@ -9,8 +9,10 @@
 #include <json/value.h>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace skr {
@@ -26,12 +28,30 @@ struct ModuleEntry {
   std::string json_path;  // where it stands in the config, e.g. "$.modules[2]"
 };
 
+// The FlowNetwork server, its databases and accounts ("server", "data_dir", "accounts").
+struct ServerConfig {
+  bool unix_enabled = true;
+  std::string unix_path;  // empty: /tmp/<app_name>
+  bool tcp_enabled = false;
+  std::string tcp_address = "127.0.0.1";
+  uint16_t tcp_port = 9000;
+  uint32_t max_frame_bytes = 16u << 20;
+  size_t subscriber_queue_bytes = 8u << 20;
+  size_t max_connections = 1024;
+  uint32_t login_timeout_ms = 10000;
+  size_t max_pending_requests = 1024;
+  std::filesystem::path data_dir;    // resolved; default $XDG_DATA_HOME/skrobot/<app_name>
+  std::filesystem::path users_file;  // resolved; default <data_dir>/users.json
+  std::optional<std::pair<std::string, std::string>> dev_account;  // user, password
+};
+
 struct HubConfig {
   std::string app_name = "Robot";
   log::Level log_level = log::Level::info;
   LoopOptions loop;                                 // the main loop
   std::vector<std::filesystem::path> module_paths;  // searched before the built-in ones
   std::vector<ModuleEntry> modules;
+  ServerConfig server;
   std::filesystem::path config_file;  // absolute path of the file loaded
   Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections
 };

@@ -1,0 +1,150 @@
+// The FlowNetwork server: the hub's side of the FlowProtocol. It accepts satellites on a Unix
+// socket and (optionally) TCP, logs them in, keeps the channels, routes data, service requests
+// and database commands, and gives modules the same channels in process (LocalClient).
+//
+// Threading: everything here runs on the hub's main loop thread (the Loop passed in), except
+// where a method says otherwise. Bad input never disturbs anyone but its sender: a frame that
+// breaks the protocol closes that connection only, with a FLOW-PROTOCOL log line.
+#pragma once
+
+#include <skrobot/core/loop.h>
+#include <skrobot/core/result.h>
+#include <skrobot/flow/protocol.h>
+#include <skrobot/flow/variant.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace skr::flow {
+
+struct ServerOptions {
+  std::string app_name = "Robot";
+  bool unix_enabled = true;
+  std::string unix_path;  // empty: /tmp/<app_name>
+  bool tcp_enabled = false;
+  std::string tcp_address = "127.0.0.1";
+  uint16_t tcp_port = 9000;  // 0: any free port (see tcpPort())
+  uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
+  // Streaming data queued for one subscriber beyond this is dropped, oldest first.
+  size_t subscriber_queue_bytes = 8u << 20;
+  size_t max_connections = 1024;
+  uint32_t login_timeout_ms = 10000;
+  size_t max_pending_requests = 1024;  // unanswered service requests per channel
+  std::filesystem::path data_dir;      // persistent databases; empty: nothing is saved
+  std::filesystem::path users_file;    // empty: <data_dir>/users.json
+  // A development account accepted on the Unix socket only (guest/password in the default
+  // config). TCP never starts without real accounts in the users file.
+  std::optional<std::pair<std::string, std::string>> dev_account;
+};
+
+// Counters a test or an operator can read (FlowServer::stats()).
+struct ServerStats {
+  uint64_t connections_accepted = 0;
+  uint64_t connections_open = 0;
+  uint64_t protocol_errors = 0;  // connections closed for breaking the protocol
+  uint64_t logins_failed = 0;
+  uint64_t frames_in = 0;
+  uint64_t data_frames_out = 0;
+  uint64_t data_frames_dropped = 0;  // slow subscribers
+};
+
+class Channel;
+class LocalClient;
+
+// Events a LocalClient (an in-process satellite) receives. Data arrives as a view of the
+// publisher's buffer, valid only during the call: no copy is made for in-process subscribers.
+struct LocalHandlers {
+  std::function<void(uint16_t chan_id, std::string_view payload)> on_data;
+  std::function<void(uint16_t chan_id, bool first)> on_subscribers;  // first arrived / last gone
+  // A request to a service channel this client owns; answer with LocalClient::respond().
+  std::function<void(uint16_t chan_id, uint64_t request, const std::string& command,
+                     const std::string& requester, const Variant& value)>
+      on_request;
+  // The answer to LocalClient::request() (error != ok: value holds the message).
+  std::function<void(uint16_t chan_id, uint32_t tag, ErrorCode error, const Variant& value)>
+      on_response;
+  std::function<void(uint16_t chan_id, const std::string& name, bool added)> on_channel;
+};
+
+class FlowServer {
+ public:
+  // Does not listen yet; start() does. `loop` must outlive the server.
+  FlowServer(Loop& loop, ServerOptions options);
+  ~FlowServer();  // closes every connection and listener
+  FlowServer(const FlowServer&) = delete;
+  FlowServer& operator=(const FlowServer&) = delete;
+  FlowServer(FlowServer&&) = delete;
+  FlowServer& operator=(FlowServer&&) = delete;
+
+  // Loads the databases and accounts, then listens. Fails (and listens on nothing) when a
+  // transport cannot be opened, or TCP is enabled without real accounts.
+  [[nodiscard]] Result<void> start();
+  // Saves dirty persistent databases, closes all connections and listeners. Idempotent.
+  void stop() noexcept;
+
+  [[nodiscard]] const ServerOptions& options() const noexcept;
+  [[nodiscard]] std::string unixPath() const;
+  [[nodiscard]] uint16_t tcpPort() const noexcept;  // the bound port (useful with port 0)
+  [[nodiscard]] const ServerStats& stats() const noexcept;
+  [[nodiscard]] size_t channelCount() const noexcept;
+
+  // An in-process satellite (a module) logged in as `user`, with its own flow database.
+  // Handlers run on the main loop thread. The client must be destroyed before the server.
+  [[nodiscard]] std::unique_ptr<LocalClient> attachLocal(const std::string& user,
+                                                         const std::string& name,
+                                                         LocalHandlers handlers);
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// An in-process satellite. Main loop thread only. Its channels are removed when it is
+// destroyed, and everyone is told, exactly as for a satellite that disconnects.
+class LocalClient {
+ public:
+  ~LocalClient();
+  LocalClient(const LocalClient&) = delete;
+  LocalClient& operator=(const LocalClient&) = delete;
+  LocalClient(LocalClient&&) = delete;
+  LocalClient& operator=(LocalClient&&) = delete;
+
+  // Creates "<user>.<short_name>"; props become the channel's database.
+  [[nodiscard]] Result<uint16_t> createChannel(const std::string& short_name, ChannelKind kind,
+                                               const std::string& mime, const Variant& props);
+  [[nodiscard]] Result<void> removeChannel(uint16_t chan_id);
+  // The channel's current id, if it exists now.
+  [[nodiscard]] std::optional<uint16_t> findChannel(const std::string& name) const;
+  // Publishes on an owned streaming channel: in-process subscribers get a view of `payload`
+  // (no copy), satellites a frame each.
+  [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
+  // Subscribes by name; if the channel does not exist yet the subscription waits for it, and it
+  // follows the channel when it is removed and created again.
+  [[nodiscard]] Result<void> subscribe(const std::string& name);
+  void unsubscribe(const std::string& name);
+  // A service request; the answer comes through on_response with `tag`.
+  [[nodiscard]] Result<void> request(uint16_t chan_id, uint32_t tag, const std::string& command,
+                                     const Variant& value);
+  [[nodiscard]] Result<void> respond(uint16_t chan_id, uint64_t request, const Variant& value);
+  // Databases: reads anywhere, writes where this client may write (see docs/pair-databases.md).
+  [[nodiscard]] std::optional<Variant> getVariable(const std::string& db, const std::string& key);
+  [[nodiscard]] Result<void> setVariable(const std::string& db, const std::string& key,
+                                         const Variant& value);
+  [[nodiscard]] const std::string& user() const noexcept;
+  [[nodiscard]] uint32_t id() const noexcept;
+
+  struct Impl;
+  explicit LocalClient(std::unique_ptr<Impl> impl);
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace skr::flow

@@ -1,0 +1,389 @@
+#include "connection.h"
+
+#include <skrobot/core/log.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace skr::flow {
+namespace {
+
+constexpr size_t kReadChunk = 64 * 1024;
+constexpr size_t kKeepBuffer = 1 << 20;  // shrink buffers above this once they drain
+
+bool inRange(uint8_t code, uint8_t lo, uint8_t hi) {
+  return code >= lo && code <= hi;
+}
+
+}  // namespace
+
+Connection::Connection(FlowServer::Impl& server, Transport transport)
+    : server_(server), transport_(transport), splitter_(server.opt.max_frame_bytes) {
+  handle_.pipe.data = this;  // both members start with the uv_handle_t fields
+}
+
+// The close callback deletes a connection, possibly after the server is gone: close() has
+// already detached it from the server, so the destructor must not touch it.
+Connection::~Connection() = default;
+
+std::string Connection::describe() const {
+  std::string s = "connection " + std::to_string(id);
+  if (!user.empty()) s += " (" + user + (client_name.empty() ? "" : "/" + client_name) + ")";
+  s += transport_ == Transport::tcp ? " tcp" : " unix";
+  return s;
+}
+
+bool Connection::congested() const {
+  return out_.size() > server_.opt.subscriber_queue_bytes;
+}
+
+void Connection::startReading() {
+  if (reading_ || state_ == State::closing) return;
+  if (int rc = uv_read_start(stream(), &Connection::onAlloc, &Connection::onRead); rc < 0) {
+    close(uv_strerror(rc));
+    return;
+  }
+  reading_ = true;
+}
+
+void Connection::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
+  auto* c = static_cast<Connection*>(h->data);
+  const size_t have = c->rend_ - c->rstart_;
+  // Room for the rest of the frame being received (its length was checked against the limit by
+  // the splitter before rneed_ was set), and at least one chunk.
+  const size_t want = std::max(kReadChunk, c->rneed_ > have ? c->rneed_ - have : 0);
+  if (c->rcap_ - c->rend_ < want) {
+    if (c->rstart_ > 0) {
+      std::memmove(c->rbuf_.get(), c->rbuf_.get() + c->rstart_, have);
+      c->rstart_ = 0;
+      c->rend_ = have;
+    }
+    if (c->rcap_ - c->rend_ < want) {
+      const size_t cap = c->rend_ + want;
+      auto bigger = std::make_unique<char[]>(cap);
+      if (have > 0) std::memcpy(bigger.get(), c->rbuf_.get(), have);
+      c->rbuf_ = std::move(bigger);
+      c->rcap_ = cap;
+    }
+  }
+  *buf = uv_buf_init(c->rbuf_.get() + c->rend_, static_cast<unsigned>(c->rcap_ - c->rend_));
+}
+
+void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t*) {
+  auto* c = static_cast<Connection*>(s->data);
+  if (nread == 0) return;
+  if (nread < 0) {
+    c->close(nread == UV_EOF ? "peer closed the connection" : uv_strerror(static_cast<int>(nread)));
+    return;
+  }
+  c->rend_ += static_cast<size_t>(nread);
+  c->processInput();
+}
+
+void Connection::processInput() {
+  while (!blocked_ && state_ != State::closing) {
+    const auto n =
+        splitter_.next(reinterpret_cast<const uint8_t*>(rbuf_.get()) + rstart_, rend_ - rstart_);
+    if (n.status == FrameSplitter::Status::need_more) {
+      rneed_ = n.wanted;
+      break;
+    }
+    if (n.status == FrameSplitter::Status::too_large) {
+      protocolError("frame length " + std::to_string(n.announced) + " exceeds the limit of " +
+                    std::to_string(splitter_.maxFrameBytes()) + " bytes");
+      return;
+    }
+    if (n.status == FrameSplitter::Status::empty_frame) {
+      protocolError("frame length 0 (a frame holds at least its code)");
+      return;
+    }
+    rstart_ += n.consumed;  // before handling: a handler may block and resume later
+    rneed_ = 0;
+    ++server_.stats.frames_in;
+    handleFrame(n.code, n.body);
+  }
+  if (rstart_ == rend_) {
+    rstart_ = rend_ = 0;
+    if (rcap_ > kKeepBuffer) {
+      rbuf_.reset();
+      rcap_ = 0;
+    }
+  }
+}
+
+void Connection::block() {
+  blocked_ = true;
+  if (reading_) uv_read_stop(stream());
+  reading_ = false;
+}
+
+void Connection::unblock() {
+  if (!blocked_) return;
+  blocked_ = false;
+  processInput();
+  if (!blocked_ && state_ != State::closing) startReading();
+}
+
+void Connection::handleFrame(uint8_t code, std::string_view body) {
+  const bool sync_code = inRange(code, 0x01, 0x3F);
+  const bool async_code = inRange(code, 0x40, 0x7F);
+  const bool reserved = code >= 0xC0;
+  if (!sync_code && !async_code && !reserved) {
+    protocolError("code 0x" +
+                  [&] {
+                    char b[3];
+                    std::snprintf(b, sizeof b, "%02x", code);
+                    return std::string(b);
+                  }() +
+                  " (" + std::string(codeName(code)) + ") is not sent by satellites");
+    return;
+  }
+  switch (state_) {
+    case State::login:
+      if (static_cast<Code>(code) == Code::login) {
+        handleLogin(body);
+      } else {
+        replyError(ErrorCode::not_logged_in, std::string(codeName(code)) + " before LOGIN");
+        closeAfterFlush("command before login");
+      }
+      return;
+    case State::authenticating:
+    case State::closing:
+      return;  // not reached: reading is paused
+    case State::sync:
+      if (sync_code) {
+        handleSync(static_cast<Code>(code), body);
+      } else if (async_code) {
+        replyError(ErrorCode::invalid_argument,
+                   std::string(codeName(code)) + " is asynchronous: send GO_ASYNC first");
+      } else {
+        replyError(ErrorCode::unsupported,
+                   std::string(codeName(code)) + " is reserved and not implemented by this hub");
+      }
+      return;
+    case State::flow:
+      if (async_code) {
+        handleAsync(static_cast<Code>(code), body);
+      } else if (sync_code) {
+        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
+                std::string(codeName(code)) +
+                    " is synchronous: use a synchronous connection, the flow never blocks");
+      } else {
+        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
+                std::string(codeName(code)) + " is reserved and not implemented by this hub");
+      }
+      return;
+  }
+}
+
+void Connection::protocolError(const std::string& why) {
+  ++server_.stats.protocol_errors;
+  log::warn(kLogSource, "FLOW-PROTOCOL", "killing spurious client, " + describe() + ": " + why);
+  close("protocol error");
+}
+
+void Connection::replyError(ErrorCode error, const std::string& message) {
+  send(msg::ReplyError{static_cast<uint16_t>(error), message.substr(0, 0xFFFF)});
+}
+
+void Connection::replyOk() {
+  appendHeader(out_, Code::reply_ok, 0);
+  queued();
+}
+
+void Connection::close(const char* why) noexcept {
+  if (state_ == State::closing) return;
+  state_ = State::closing;
+  log::debug(kLogSource, "FLOW-CLOSE", describe() + ": " + why);
+  server_.removeEndpoint(*this);
+  if (flush_queued) std::erase(server_.dirty, this);
+  flush_queued = false;
+  if (reading_) uv_read_stop(stream());
+  reading_ = false;
+  uv_close(reinterpret_cast<uv_handle_t*>(&handle_),
+           [](uv_handle_t* h) { delete static_cast<Connection*>(h->data); });
+}
+
+void Connection::closeAfterFlush(const char* why) {
+  close_after_flush_ = true;
+  log::debug(kLogSource, "FLOW-CLOSE", describe() + ": " + why + " (after sending replies)");
+  block();
+  server_.markDirty(this);
+}
+
+// --- output ----------------------------------------------------------------------------------
+
+void Connection::queued() {
+  if (state_ == State::closing) {
+    out_.clear();
+    return;
+  }
+  const size_t hard =
+      server_.opt.subscriber_queue_bytes * 2 + server_.opt.max_frame_bytes + (64u << 10);
+  if (out_.size() > hard) {
+    log::warn(kLogSource, "FLOW-SLOW-CLIENT",
+              describe() + ": " + std::to_string(out_.size()) +
+                  " bytes of events and replies wait unread; closing");
+    close("not reading");
+    return;
+  }
+  server_.markDirty(this);
+}
+
+void Connection::onData(const Channel& ch, std::string_view payload) {
+  if (state_ != State::flow) return;
+  const size_t frame = kFrameHeaderBytes + 2 + payload.size();
+  const size_t limit = server_.opt.subscriber_queue_bytes;
+  if (!out_.empty() && out_.size() + frame > limit) {
+    dropOldestData(frame);
+    if (!out_.empty() && out_.size() + frame > limit) {
+      ++dropped_[ch.id];
+      ++dropped_total_;
+      ++server_.stats.data_frames_dropped;
+      return;
+    }
+  }
+  ByteWriter w(out_);
+  w.u32(static_cast<uint32_t>(1 + 2 + payload.size()));
+  w.u8(static_cast<uint8_t>(Code::ev_data));
+  w.u16(ch.id);
+  w.raw(payload);
+  ++server_.stats.data_frames_out;
+  if (!flush_queued) server_.markDirty(this);
+}
+
+// A slow subscriber loses its oldest data frames; events and replies are kept. Drops a quarter
+// more than needed so that a subscriber that stays slow is not compacted for every frame.
+void Connection::dropOldestData(size_t needed) {
+  const size_t limit = server_.opt.subscriber_queue_bytes;
+  const size_t target = limit - std::min(limit, needed + limit / 4);
+  size_t size = out_.size();
+  std::string kept;
+  kept.reserve(out_.size());
+  size_t pos = 0;
+  uint64_t dropped = 0;
+  while (pos + kFrameHeaderBytes <= out_.size()) {
+    uint32_t len = 0;
+    std::memcpy(&len, out_.data() + pos, 4);
+    const size_t frame = 4 + static_cast<size_t>(len);
+    const auto code = static_cast<Code>(static_cast<uint8_t>(out_[pos + 4]));
+    if (code == Code::ev_data && size > target) {
+      uint16_t chan = 0;
+      std::memcpy(&chan, out_.data() + pos + 5, 2);
+      ++dropped_[chan];
+      ++dropped;
+      size -= frame;
+    } else {
+      kept.append(out_, pos, frame);
+    }
+    pos += frame;
+  }
+  out_.swap(kept);
+  dropped_total_ += dropped;
+  server_.stats.data_frames_dropped += dropped;
+  if (auto* db = server_.dbs.find("_flow." + std::to_string(id))) {
+    (void)db->set("dropped_frames", Variant(static_cast<int64_t>(dropped_total_)));
+  }
+  const Nanos now = monotonicNs();
+  if (now - last_drop_log_ > kNsPerSec) {
+    last_drop_log_ = now;
+    log::warn(kLogSource, "FLOW-SLOW-SUBSCRIBER",
+              describe() + ": dropped " + std::to_string(dropped) + " oldest data frames (" +
+                  std::to_string(dropped_total_) + " in all), its queue holds " +
+                  std::to_string(limit) + " bytes");
+  }
+}
+
+void Connection::flush() {
+  if (writing_ || state_ == State::closing) return;
+  if (!dropped_.empty()) {
+    for (const auto& [chan, count] : dropped_) {
+      (void)encode(out_, msg::EvDropped{chan, count}, enc_);
+    }
+    dropped_.clear();
+  }
+  if (out_.empty()) {
+    if (close_after_flush_) close("replies sent");
+    return;
+  }
+  inflight_.swap(out_);
+  out_.clear();
+  uv_buf_t buf = uv_buf_init(inflight_.data(), static_cast<unsigned>(inflight_.size()));
+  writing_ = true;
+  if (int rc = uv_write(&wreq_, stream(), &buf, 1, &Connection::onWrite); rc < 0) {
+    writing_ = false;
+    close(uv_strerror(rc));
+  }
+}
+
+void Connection::onWrite(uv_write_t* req, int status) {
+  auto* c = static_cast<Connection*>(req->handle->data);
+  c->writing_ = false;
+  if (c->state_ == State::closing) return;
+  if (status < 0) {
+    c->close(uv_strerror(status));
+    return;
+  }
+  if (c->inflight_.capacity() > kKeepBuffer) {
+    std::string().swap(c->inflight_);
+  } else {
+    c->inflight_.clear();
+  }
+  if (!c->out_.empty() || !c->dropped_.empty() || c->close_after_flush_) c->flush();
+}
+
+// --- events ----------------------------------------------------------------------------------
+
+void Connection::onSubscribers(const Channel& ch, bool first) {
+  if (state_ != State::flow) return;
+  if (first) {
+    send(msg::EvStartPublish{ch.id});
+  } else {
+    send(msg::EvStopPublish{ch.id});
+  }
+}
+
+void Connection::onRequest(const Channel& ch, uint64_t request, const std::string& command,
+                           const std::string& requester, const Variant& value) {
+  send(msg::EvServiceRequest{ch.id, request, command, requester, value});
+}
+
+void Connection::onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode error,
+                            const Variant& value) {
+  if (sync) {
+    if (error == ErrorCode::ok) {
+      send(msg::ReplyValue{value});
+    } else {
+      replyError(error, value.isString() ? *value.asString() : std::string(errorCodeName(error)));
+    }
+    unblock();
+    return;
+  }
+  if (state_ == State::flow) {
+    send(msg::EvServiceResponse{chan_id, tag, static_cast<uint16_t>(error), value});
+  }
+}
+
+void Connection::onChannelAdded(const Channel& ch, uint32_t tag) {
+  if (state_ == State::flow) send(msg::EvChanAdded{tag, server_.info(ch)});
+}
+
+void Connection::onChannelRemoved(const Channel& ch) {
+  if (state_ == State::flow) send(msg::EvChanRemoved{ch.id, ch.hash, ch.name});
+}
+
+void Connection::onChannelHeader(const Channel& ch) {
+  if (state_ == State::flow) send(msg::EvChanHeader{server_.info(ch)});
+}
+
+void Connection::onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
+                         const std::string& message) {
+  send(msg::EvError{static_cast<uint8_t>(command), tag, chan_id, static_cast<uint16_t>(error),
+                    message.substr(0, 0xFFFF)});
+}
+
+void Connection::onDbChanged(const std::string& name) {
+  if (state_ == State::flow) send(msg::EvDbChanged{name});
+}
+
+}  // namespace skr::flow

@@ -1,0 +1,111 @@
+// One satellite connected over a socket (Unix or TCP). Owns its libuv stream, a read buffer that
+// frames are parsed from in place, and an output queue flushed once per loop iteration (many
+// frames per write system call). Main loop thread only.
+#pragma once
+
+#include "server_impl.h"
+
+#include <skrobot/flow/codec.h>
+
+#include <map>
+#include <memory>
+#include <string>
+
+namespace skr::flow {
+
+class Connection final : public Endpoint {
+ public:
+  enum class State { login, authenticating, sync, flow, closing };
+
+  Connection(FlowServer::Impl& server, Transport transport);
+  ~Connection() override;
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+  Connection(Connection&&) = delete;
+  Connection& operator=(Connection&&) = delete;
+
+  // The libuv stream this connection reads and writes (initialised by the server's accept).
+  [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&handle_); }
+  void startReading();
+  // Closes now: the connection leaves every channel at once; memory goes with the close callback.
+  void close(const char* why) noexcept;
+  // Sends what is queued, then closes.
+  void closeAfterFlush(const char* why);
+  void flush();
+
+  [[nodiscard]] State state() const noexcept { return state_; }
+  [[nodiscard]] Transport transport() const noexcept { return transport_; }
+  Nanos login_deadline = 0;
+  bool flush_queued = false;
+
+  // Endpoint
+  [[nodiscard]] bool receivesEvents() const override { return state_ == State::flow; }
+  [[nodiscard]] bool congested() const override;
+  [[nodiscard]] std::string describe() const override;
+  void onData(const Channel& ch, std::string_view payload) override;
+  void onSubscribers(const Channel& ch, bool first) override;
+  void onRequest(const Channel& ch, uint64_t request, const std::string& command,
+                 const std::string& requester, const Variant& value) override;
+  void onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode error,
+                  const Variant& value) override;
+  void onChannelAdded(const Channel& ch, uint32_t tag) override;
+  void onChannelRemoved(const Channel& ch) override;
+  void onChannelHeader(const Channel& ch) override;
+  void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
+               const std::string& message) override;
+  void onDbChanged(const std::string& name) override;
+
+ private:
+  static void onAlloc(uv_handle_t* h, size_t suggested, uv_buf_t* buf);
+  static void onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf);
+  static void onWrite(uv_write_t* req, int status);
+
+  void processInput();
+  void handleFrame(uint8_t code, std::string_view body);
+  void handleLogin(std::string_view body);
+  void handleSync(Code code, std::string_view body);
+  void handleAsync(Code code, std::string_view body);
+  void protocolError(const std::string& why);
+  void replyError(ErrorCode error, const std::string& message);
+  void replyOk();
+  // Pauses reading until the pending reply is sent (sync requests answer in order).
+  void block();
+  void unblock();
+
+  template <class M>
+  void send(const M& m) {
+    if (!encode(out_, m, enc_)) {
+      log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
+    }
+    queued();
+  }
+  void queued();  // after appending to out_: limits, then flush scheduling
+  void dropOldestData(size_t needed);
+
+  FlowServer::Impl& server_;
+  Transport transport_;
+  union Handle {
+    uv_pipe_t pipe;
+    uv_tcp_t tcp;
+  } handle_{};
+  State state_ = State::login;
+  ValueEncoding enc_ = ValueEncoding::binary;
+  FrameSplitter splitter_;
+
+  // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
+  std::unique_ptr<char[]> rbuf_;
+  size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
+  bool blocked_ = false;  // a sync reply is pending: do not parse further frames
+  bool reading_ = false;
+
+  // Output: frames accumulate in out_; inflight_ is being written.
+  std::string out_, inflight_;
+  uv_write_t wreq_{};
+  bool writing_ = false;
+  bool close_after_flush_ = false;
+  std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED
+  uint64_t dropped_total_ = 0;
+  Nanos last_drop_log_ = 0;
+};
+
+}  // namespace skr::flow

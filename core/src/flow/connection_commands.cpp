@@ -1,0 +1,305 @@
+// What a connection does with each command it receives.
+#include "connection.h"
+
+#include <skrobot/core/log.h>
+
+namespace skr::flow {
+
+namespace {
+
+// Decodes `body` as M, or closes the connection as a protocol breaker.
+#define SKR_DECODE(M, var)                  \
+  auto var##_r = decode<M>(body, limits);   \
+  if (!var##_r) {                           \
+    protocolError(var##_r.error().message); \
+    return;                                 \
+  }                                         \
+  auto& var = var##_r.value();
+
+}  // namespace
+
+void Connection::handleLogin(std::string_view body) {
+  const DecodeLimits limits{32, server_.opt.max_frame_bytes};
+  SKR_DECODE(msg::Login, m);
+  if (m.major != kProtocolMajor) {
+    const std::string why = "this hub speaks FlowProtocol " + std::to_string(kProtocolMajor) + "." +
+                            std::to_string(kProtocolMinor) + ", the client " +
+                            std::to_string(m.major) + "." + std::to_string(m.minor);
+    log::warn(kLogSource, "FLOW-VERSION", describe() + ": " + why);
+    replyError(ErrorCode::version_mismatch, why);
+    closeAfterFlush("protocol version mismatch");
+    return;
+  }
+  if (m.value_encoding > static_cast<uint8_t>(ValueEncoding::json)) {
+    protocolError("LOGIN: unknown value encoding " + std::to_string(m.value_encoding));
+    return;
+  }
+  enc_ = static_cast<ValueEncoding>(m.value_encoding);
+  client_name = m.client_name;
+  state_ = State::authenticating;
+  block();
+  const uint32_t my_id = id;
+  FlowServer::Impl& server = server_;
+  server_.auth->verify(
+      m.user, std::move(m.password), transport_,
+      [&server, my_id, user = m.user](const LoginResult& r) {
+        auto it = server.connections.find(my_id);
+        if (it == server.connections.end()) return;  // gone meanwhile
+        Connection& c = *it->second;
+        if (!r.ok) {
+          ++server.stats.logins_failed;
+          log::warn(kLogSource, "FLOW-AUTH-FAILED",
+                    c.describe() + ": login as \"" + user + "\" refused (" + r.reason + ")");
+          c.replyError(ErrorCode::auth_failed, "wrong user name or password");
+          c.closeAfterFlush("login refused");
+          return;
+        }
+        c.user = user;
+        server.loggedIn(c);
+        c.state_ = State::sync;
+        c.send(msg::LoginOk{kProtocolMajor, kProtocolMinor, c.id, server.opt.app_name, c.user,
+                            c.current_db});
+        log::info(kLogSource, "FLOW-LOGIN", c.describe() + " logged in");
+        c.unblock();
+      });
+}
+
+void Connection::handleSync(Code code, std::string_view body) {
+  const DecodeLimits limits{32, server_.opt.max_frame_bytes};
+  std::string why;
+  const auto answer = [&](ErrorCode e) {
+    if (e == ErrorCode::ok) {
+      replyOk();
+    } else {
+      replyError(e, why);
+    }
+  };
+  switch (code) {
+    case Code::db_select: {
+      SKR_DECODE(msg::DbSelect, m);
+      answer(server_.selectDb(*this, m.name, why));
+      return;
+    }
+    case Code::db_create: {
+      SKR_DECODE(msg::DbCreate, m);
+      answer(server_.createDb(*this, m.name, why));
+      return;
+    }
+    case Code::db_save: {
+      SKR_DECODE(msg::DbSave, m);
+      answer(server_.saveDb(*this, m.name, why));
+      return;
+    }
+    case Code::db_remove: {
+      SKR_DECODE(msg::DbRemove, m);
+      answer(server_.removeDb(*this, m.name, why));
+      return;
+    }
+    case Code::var_get: {
+      SKR_DECODE(msg::VarGet, m);
+      const PairDatabase* db = server_.currentDb(*this);
+      const Variant* v = db != nullptr ? db->get(m.key) : nullptr;
+      if (v == nullptr) {
+        replyError(ErrorCode::not_found,
+                   "no variable \"" + m.key + "\" in database \"" + current_db + "\"");
+      } else {
+        send(msg::ReplyValue{*v});
+      }
+      return;
+    }
+    case Code::var_set: {
+      SKR_DECODE(msg::VarSet, m);
+      answer(server_.setVar(*this, {}, m.key, m.value, why));
+      return;
+    }
+    case Code::var_del: {
+      SKR_DECODE(msg::VarDel, m);
+      answer(server_.delVar(*this, {}, m.key, why));
+      return;
+    }
+    case Code::var_get_all:
+    case Code::var_keys: {
+      if (!body.empty()) return protocolError(std::string(codeName(uint8_t(code))) + " has a body");
+      const PairDatabase* db = server_.currentDb(*this);
+      if (code == Code::var_get_all) {
+        send(msg::ReplyValue{db->all()});
+      } else {
+        Variant::List keys;
+        for (auto& k : db->keys()) keys.emplace_back(k);
+        send(msg::ReplyValue{Variant(std::move(keys))});
+      }
+      return;
+    }
+    case Code::db_list: {
+      if (!body.empty()) return protocolError("DB_LIST has a body");
+      Variant::List names;
+      for (auto& n : server_.dbs.names()) names.emplace_back(n);
+      send(msg::ReplyValue{Variant(std::move(names))});
+      return;
+    }
+    case Code::chan_list: {
+      if (!body.empty()) return protocolError("CHAN_LIST has a body");
+      msg::ChannelList list;
+      for (const auto& ch : server_.channels) {
+        if (ch != nullptr) list.channels.push_back(server_.info(*ch));
+      }
+      send(list);
+      return;
+    }
+    case Code::chan_info: {
+      SKR_DECODE(msg::ChanInfoByName, m);
+      const Channel* ch = server_.channelByName(m.name);
+      if (ch == nullptr) {
+        replyError(ErrorCode::not_found, "no channel \"" + m.name + "\"");
+      } else {
+        send(msg::ChannelInfoReply{server_.info(*ch)});
+      }
+      return;
+    }
+    case Code::poll_register:
+    case Code::poll_fetch: {
+      SKR_DECODE(msg::PollFetch, m);  // both are a u16 channel id
+      Channel* ch = server_.channel(m.chan_id);
+      if (ch == nullptr || ch->kind != ChannelKind::streaming) {
+        replyError(ErrorCode::not_found,
+                   "no streaming channel with id " + std::to_string(m.chan_id));
+      } else if (code == Code::poll_register) {
+        ch->polled = true;
+        replyOk();
+      } else {
+        send(msg::PollData{ch->polled ? ch->seq : 0, msg::Rest{ch->last}});
+      }
+      return;
+    }
+    case Code::service_call: {
+      SKR_DECODE(msg::ServiceCall, m);
+      const ErrorCode e =
+          server_.request(*this, m.chan_id, 0, true, m.timeout_ms, m.command, m.value, why);
+      if (e != ErrorCode::ok) {
+        replyError(e, why);
+      } else {
+        block();  // the reply is the owner's response, or a timeout
+      }
+      return;
+    }
+    case Code::go_async: {
+      if (!body.empty()) return protocolError("GO_ASYNC has a body");
+      replyOk();
+      state_ = State::flow;
+      log::debug(kLogSource, "FLOW-ASYNC", describe() + " is now a flow");
+      return;
+    }
+    case Code::ping: {
+      appendHeader(out_, Code::reply_ok, body.size());
+      out_.append(body);
+      queued();
+      return;
+    }
+    default:
+      replyError(ErrorCode::unsupported,
+                 std::string(codeName(static_cast<uint8_t>(code))) + " is not implemented");
+      return;
+  }
+}
+
+void Connection::handleAsync(Code code, std::string_view body) {
+  const DecodeLimits limits{32, server_.opt.max_frame_bytes};
+  std::string why;
+  const auto check = [&](ErrorCode e, uint32_t tag, uint16_t chan) {
+    if (e != ErrorCode::ok) onError(code, tag, chan, e, why);
+  };
+  switch (code) {
+    case Code::publish: {
+      // The hot path: no decoding beyond the channel id, the payload stays in the read buffer.
+      ByteReader r(body);
+      uint16_t chan = 0;
+      if (!r.u16(chan)) return protocolError("PUBLISH: truncated channel id");
+      check(server_.publish(*this, chan, r.rest(), why), 0, chan);
+      return;
+    }
+    case Code::chan_add: {
+      SKR_DECODE(msg::ChanAdd, m);
+      auto r = server_.createChannel(*this, m.short_name, static_cast<ChannelKind>(m.kind), m.mime,
+                                     m.props, m.tag);
+      if (!r) {
+        why = r.error().message;
+        check(toErrorCode(r.error().code), m.tag, 0);
+      }
+      return;
+    }
+    case Code::chan_remove: {
+      SKR_DECODE(msg::ChanRemove, m);
+      check(server_.removeChannel(*this, m.chan_id, why), m.tag, m.chan_id);
+      return;
+    }
+    case Code::subscribe: {
+      SKR_DECODE(msg::Subscribe, m);
+      check(server_.subscribe(*this, m.chan_id, why), m.tag, m.chan_id);
+      return;
+    }
+    case Code::unsubscribe: {
+      SKR_DECODE(msg::Unsubscribe, m);
+      check(server_.unsubscribe(*this, m.chan_id, why), m.tag, m.chan_id);
+      return;
+    }
+    case Code::service_request: {
+      SKR_DECODE(msg::ServiceRequest, m);
+      const ErrorCode e =
+          server_.request(*this, m.chan_id, m.tag, false, 0, m.command, m.value, why);
+      // Failures of a request come back as its response, where the caller waits for them.
+      if (e != ErrorCode::ok)
+        send(msg::EvServiceResponse{m.chan_id, m.tag, uint16_t(e), Variant(why)});
+      return;
+    }
+    case Code::service_response: {
+      SKR_DECODE(msg::ServiceResponse, m);
+      check(server_.respond(*this, m.chan_id, m.request, m.value, why), 0, m.chan_id);
+      return;
+    }
+    case Code::db_set_current: {
+      SKR_DECODE(msg::DbSetCurrent, m);
+      const ErrorCode e = server_.selectDb(*this, m.name, why);
+      check(e, m.tag, 0);
+      if (e == ErrorCode::ok) onDbChanged(m.name);
+      return;
+    }
+    case Code::db_create_async: {
+      SKR_DECODE(msg::DbCreateAsync, m);
+      check(server_.createDb(*this, m.name, why), m.tag, 0);
+      return;
+    }
+    case Code::db_remove_async: {
+      SKR_DECODE(msg::DbRemoveAsync, m);
+      check(server_.removeDb(*this, m.name, why), m.tag, 0);
+      return;
+    }
+    case Code::db_save_async: {
+      SKR_DECODE(msg::DbSaveAsync, m);
+      check(server_.saveDb(*this, m.name, why), m.tag, 0);
+      return;
+    }
+    case Code::var_set_async: {
+      SKR_DECODE(msg::VarSetAsync, m);
+      check(server_.setVar(*this, {}, m.key, m.value, why), m.tag, 0);
+      return;
+    }
+    case Code::var_del_async: {
+      SKR_DECODE(msg::VarDelAsync, m);
+      check(server_.delVar(*this, {}, m.name, why), m.tag, 0);
+      return;
+    }
+    case Code::chan_set_props: {
+      SKR_DECODE(msg::ChanSetProps, m);
+      check(server_.setProps(*this, m.chan_id, m.props, why), m.tag, m.chan_id);
+      return;
+    }
+    default:
+      onError(code, 0, 0, ErrorCode::unsupported,
+              std::string(codeName(static_cast<uint8_t>(code))) + " is not implemented");
+      return;
+  }
+}
+
+#undef SKR_DECODE
+
+}  // namespace skr::flow

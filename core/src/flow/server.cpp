@@ -1,0 +1,340 @@
+// FlowServer: transports, connection lifecycle, output flushing and timeouts.
+#include "connection.h"
+#include "server_impl.h"
+
+#include <skrobot/core/log.h>
+
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <random>
+
+namespace skr::flow {
+namespace {
+
+template <typename H>
+H* newHandle(FlowServer::Impl* owner) {
+  auto* h = new H{};
+  h->data = owner;
+  return h;
+}
+
+template <typename H>
+void closeHandle(H*& h) {
+  if (h == nullptr) return;
+  uv_close(reinterpret_cast<uv_handle_t*>(h),
+           [](uv_handle_t* handle) { delete reinterpret_cast<H*>(handle); });
+  h = nullptr;
+}
+
+}  // namespace
+
+FlowServer::Impl::Impl(Loop& l, ServerOptions options)
+    : loop(l), opt(std::move(options)), dbs(opt.data_dir), rng(std::random_device{}()) {
+  unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
+  channels.resize(kMaxChannels);
+}
+
+Result<void> FlowServer::Impl::start() {
+  if (started) return {};
+  if (auto loaded = dbs.loadAll(); !loaded) {
+    return loaded.error();
+  } else {
+    for (const auto& p : loaded->problems) {
+      log::error(kLogSource, "FLOW-DB-CORRUPT",
+                 "database file " + p.file + ": " + p.reason +
+                     (p.renamed_to.empty() ? "" : "; kept as " + p.renamed_to));
+    }
+    if (!opt.data_dir.empty()) {
+      log::info(kLogSource, "FLOW-DB-LOADED",
+                std::to_string(loaded->loaded.size()) + " databases from " + dbs.dbDir().string());
+    }
+  }
+  std::optional<DevAccount> dev;
+  if (opt.dev_account) dev = DevAccount{opt.dev_account->first, opt.dev_account->second};
+  std::filesystem::path users = opt.users_file;
+  if (users.empty() && !opt.data_dir.empty()) users = opt.data_dir / "users.json";
+  auto a = Authenticator::create(users, dev, loop);
+  if (!a) return a.error();
+  auth = std::move(a).value();
+  if (dev) {
+    log::warn(kLogSource, "FLOW-DEV-ACCOUNT",
+              "development account \"" + dev->user +
+                  "\" is enabled on the Unix socket only (never on TCP); replace it with real "
+                  "accounts: skrobot user add NAME, and remove accounts.dev_account");
+  }
+  if (opt.tcp_enabled && !auth->hasRealAccounts()) {
+    return makeError(Errc::permission_denied,
+                     "TCP is enabled but " +
+                         (users.empty() ? std::string("no users file is configured")
+                                        : "the users file " + users.string() + " has no accounts") +
+                         "; create one with: skrobot user add NAME");
+  }
+
+  flush_prepare = newHandle<uv_prepare_t>(this);
+  uv_prepare_init(loop.uv(), flush_prepare);
+  uv_prepare_start(flush_prepare,
+                   [](uv_prepare_t* h) { static_cast<Impl*>(h->data)->flushDirty(); });
+  flush_check = newHandle<uv_check_t>(this);
+  uv_check_init(loop.uv(), flush_check);
+  uv_check_start(flush_check, [](uv_check_t* h) { static_cast<Impl*>(h->data)->flushDirty(); });
+  sweep_timer = newHandle<uv_timer_t>(this);
+  uv_timer_init(loop.uv(), sweep_timer);
+  uv_timer_start(
+      sweep_timer, [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(); }, 20, 20);
+
+  if (opt.unix_enabled) {
+    if (auto r = listenUnix(); !r) {
+      stop();
+      return r;
+    }
+  }
+  if (opt.tcp_enabled) {
+    if (auto r = listenTcp(); !r) {
+      stop();
+      return r;
+    }
+  }
+  started = true;
+  return {};
+}
+
+Result<void> FlowServer::Impl::listenUnix() {
+  // A socket file left by a hub that crashed would make bind fail: remove it, but only if no
+  // hub answers on it (two hubs with the same app name must not steal each other's socket).
+  struct stat st {};
+  if (lstat(unix_path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) {
+      return makeError(Errc::already_exists, unix_path + " exists and is not a socket");
+    }
+    const int probe = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, unix_path.c_str(), sizeof(addr.sun_path) - 1);
+    const bool live = ::connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(probe);
+    if (live) return makeError(Errc::already_exists, "another hub listens on " + unix_path);
+    ::unlink(unix_path.c_str());
+  }
+  unix_listener = newHandle<uv_pipe_t>(this);
+  uv_pipe_init(loop.uv(), unix_listener, 0);
+  int rc = uv_pipe_bind(unix_listener, unix_path.c_str());
+  if (rc == 0) {
+    rc = uv_listen(reinterpret_cast<uv_stream_t*>(unix_listener), 128,
+                   [](uv_stream_t* l, int status) {
+                     if (status == 0) {
+                       static_cast<Impl*>(l->data)->accept(l, Transport::unix_socket);
+                     }
+                   });
+  }
+  if (rc != 0) {
+    closeHandle(unix_listener);
+    return makeError(Errc::io_error, "cannot listen on " + unix_path + ": " + uv_strerror(rc));
+  }
+  ::chmod(unix_path.c_str(), 0660);
+  log::info(kLogSource, "FLOW-LISTEN", "Unix socket " + unix_path);
+  return {};
+}
+
+Result<void> FlowServer::Impl::listenTcp() {
+  sockaddr_storage addr{};
+  int rc =
+      uv_ip4_addr(opt.tcp_address.c_str(), opt.tcp_port, reinterpret_cast<sockaddr_in*>(&addr));
+  if (rc != 0) {
+    rc = uv_ip6_addr(opt.tcp_address.c_str(), opt.tcp_port, reinterpret_cast<sockaddr_in6*>(&addr));
+  }
+  if (rc != 0) return makeError(Errc::invalid_argument, "bad TCP address " + opt.tcp_address);
+  tcp_listener = newHandle<uv_tcp_t>(this);
+  uv_tcp_init(loop.uv(), tcp_listener);
+  rc = uv_tcp_bind(tcp_listener, reinterpret_cast<sockaddr*>(&addr), 0);
+  if (rc == 0) {
+    rc = uv_listen(reinterpret_cast<uv_stream_t*>(tcp_listener), 128,
+                   [](uv_stream_t* l, int status) {
+                     if (status == 0) static_cast<Impl*>(l->data)->accept(l, Transport::tcp);
+                   });
+  }
+  if (rc != 0) {
+    closeHandle(tcp_listener);
+    return makeError(Errc::io_error, "cannot listen on TCP " + opt.tcp_address + ":" +
+                                         std::to_string(opt.tcp_port) + ": " + uv_strerror(rc));
+  }
+  sockaddr_storage bound{};
+  int len = sizeof bound;
+  uv_tcp_getsockname(tcp_listener, reinterpret_cast<sockaddr*>(&bound), &len);
+  tcp_port = ntohs(reinterpret_cast<sockaddr_in*>(&bound)->sin_port);
+  log::info(kLogSource, "FLOW-LISTEN", "TCP " + opt.tcp_address + ":" + std::to_string(tcp_port));
+  return {};
+}
+
+void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
+  auto* c = new Connection(*this, transport);
+  if (transport == Transport::tcp) {
+    uv_tcp_init(loop.uv(), reinterpret_cast<uv_tcp_t*>(c->stream()));
+  } else {
+    uv_pipe_init(loop.uv(), reinterpret_cast<uv_pipe_t*>(c->stream()), 0);
+  }
+  c->stream()->data = c;
+  if (uv_accept(listener, c->stream()) != 0) {
+    uv_close(reinterpret_cast<uv_handle_t*>(c->stream()),
+             [](uv_handle_t* h) { delete static_cast<Connection*>(h->data); });
+    return;
+  }
+  if (transport == Transport::tcp) uv_tcp_nodelay(reinterpret_cast<uv_tcp_t*>(c->stream()), 1);
+  addEndpoint(c);
+  connections[c->id] = c;
+  ++stats.connections_accepted;
+  ++stats.connections_open;
+  if (connections.size() > opt.max_connections) {
+    log::warn(kLogSource, "FLOW-LIMIT",
+              "refusing " + c->describe() + ": " + std::to_string(opt.max_connections) +
+                  " connections already");
+    c->close("too many connections");
+    return;
+  }
+  c->login_deadline = monotonicNs() + static_cast<Nanos>(opt.login_timeout_ms) * kNsPerMs;
+  c->startReading();
+}
+
+void FlowServer::Impl::markDirty(Connection* c) {
+  if (c->flush_queued || c->state() == Connection::State::closing) return;
+  c->flush_queued = true;
+  dirty.push_back(c);
+}
+
+void FlowServer::Impl::flushDirty() {
+  // flush() may close a connection (which erases it from `dirty` in its destructor only later).
+  while (!dirty.empty()) {
+    std::vector<Connection*> batch;
+    batch.swap(dirty);
+    for (Connection* c : batch) {
+      c->flush_queued = false;
+      c->flush();
+    }
+  }
+}
+
+void FlowServer::Impl::sweep() {
+  const Nanos now = monotonicNs();
+  std::vector<Connection*> late;
+  for (auto& [id, c] : connections) {
+    if (c->state() == Connection::State::login && now > c->login_deadline) late.push_back(c);
+  }
+  for (Connection* c : late) {
+    log::warn(kLogSource, "FLOW-LOGIN-TIMEOUT", c->describe() + ": no login in time");
+    c->close("login timeout");
+  }
+  std::vector<std::pair<uint64_t, PendingRequest>> expired;
+  for (const auto& [id, p] : requests) {
+    if (p.sync && now > p.deadline) expired.emplace_back(id, p);
+  }
+  for (const auto& [id, p] : expired) {
+    requests.erase(id);
+    if (Channel* ch = channel(p.chan_id)) --ch->pending_requests;
+    if (auto e = endpoints.find(p.requester); e != endpoints.end()) {
+      e->second->onResponse(p.chan_id, p.tag, true, ErrorCode::timeout,
+                            Variant("the service did not answer in time"));
+    }
+  }
+}
+
+uint32_t FlowServer::Impl::addEndpoint(Endpoint* e) {
+  e->id = next_endpoint_id++;
+  if (next_endpoint_id == 0) next_endpoint_id = 1;
+  endpoints[e->id] = e;
+  return e->id;
+}
+
+void FlowServer::Impl::loggedIn(Endpoint& e) {
+  const std::string flow_db = "_flow." + std::to_string(e.id);
+  (void)dbs.getOrCreate(flow_db, DatabaseKind::transient);
+  db_owners[flow_db] = DbOwner{DbOwner::Kind::flow, e.user, e.id};
+  if (dbs.find(e.user) == nullptr) (void)dbs.create(e.user, DatabaseKind::persistent);
+  db_owners[e.user] = DbOwner{DbOwner::Kind::user, e.user, 0};
+  e.current_db = e.user;
+}
+
+void FlowServer::Impl::removeEndpoint(Endpoint& e) {
+  if (endpoints.erase(e.id) == 0) return;
+  connections.erase(e.id);
+  if (stats.connections_open > 0 && dynamic_cast<Connection*>(&e) != nullptr) {
+    --stats.connections_open;
+  }
+  std::string why;
+  for (uint16_t id : std::vector<uint16_t>(e.subscribed)) (void)unsubscribe(e, id, why);
+  for (uint16_t id : std::vector<uint16_t>(e.owned)) (void)removeChannel(e, id, why);
+  // Its own requests: nobody will read the answers.
+  for (auto it = requests.begin(); it != requests.end();) {
+    if (it->second.requester == e.id) {
+      if (Channel* ch = channel(it->second.chan_id)) --ch->pending_requests;
+      it = requests.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  const std::string flow_db = "_flow." + std::to_string(e.id);
+  db_owners.erase(flow_db);
+  (void)dbs.remove(flow_db);
+  for (auto it = local_wanted.begin(); it != local_wanted.end();) {
+    it = it->second == e.id ? local_wanted.erase(it) : std::next(it);
+  }
+}
+
+void FlowServer::Impl::stop() noexcept {
+  std::vector<Connection*> all;
+  for (auto& [id, c] : connections) all.push_back(c);
+  for (Connection* c : all) c->close("hub stopping");
+  closeHandle(unix_listener);
+  closeHandle(tcp_listener);
+  closeHandle(flush_prepare);
+  closeHandle(flush_check);
+  closeHandle(sweep_timer);
+  if (started) {
+    if (!opt.data_dir.empty()) {
+      if (auto r = dbs.saveAll(); !r) {
+        log::error(kLogSource, "FLOW-DB-SAVE", r.error().message);
+      }
+    }
+    ::unlink(unix_path.c_str());
+    started = false;
+  }
+  auth.reset();
+}
+
+// --- FlowServer ------------------------------------------------------------------------------
+
+FlowServer::FlowServer(Loop& loop, ServerOptions options)
+    : impl_(std::make_unique<Impl>(loop, std::move(options))) {}
+
+// Connections and handles are freed by their close callbacks when the loop next runs; none of
+// them touches the server again.
+FlowServer::~FlowServer() {
+  impl_->stop();
+}
+
+Result<void> FlowServer::start() {
+  return impl_->start();
+}
+void FlowServer::stop() noexcept {
+  impl_->stop();
+}
+const ServerOptions& FlowServer::options() const noexcept {
+  return impl_->opt;
+}
+std::string FlowServer::unixPath() const {
+  return impl_->unix_path;
+}
+uint16_t FlowServer::tcpPort() const noexcept {
+  return impl_->tcp_port;
+}
+const ServerStats& FlowServer::stats() const noexcept {
+  return impl_->stats;
+}
+size_t FlowServer::channelCount() const noexcept {
+  return impl_->channel_count;
+}
+
+}  // namespace skr::flow

@@ -1,0 +1,121 @@
+// A hub's FlowServer on its own loop thread, and clients that talk to it over real sockets.
+#pragma once
+
+#include "test_client.h"
+
+#include <skrobot/core/loop.h>
+#include <skrobot/flow/server.h>
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace skr::test {
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "skrobot-flow-XXXXXX").string();
+    path_ = mkdtemp(tmpl.data());
+  }
+  ~TempDir() { std::filesystem::remove_all(path_); }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  TempDir(TempDir&&) = delete;
+  TempDir& operator=(TempDir&&) = delete;
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+class FlowFixture : public ::testing::Test {
+ protected:
+  flow::ServerOptions defaults() {
+    flow::ServerOptions o;
+    o.app_name = "skrobot-test-" + std::to_string(::getpid());
+    o.unix_path = (dir_.path() / "hub.sock").string();
+    o.data_dir = dir_.path() / "data";
+    o.dev_account = std::make_pair(std::string("guest"), std::string("password"));
+    return o;
+  }
+
+  Result<void> startHub(flow::ServerOptions o) {
+    opts_ = o;
+    hub_ = std::make_unique<LoopThread>(LoopOptions{});
+    hub_->start();
+    Result<void> r;
+    hub_->loop().invoke([&] {
+      server_ = std::make_unique<flow::FlowServer>(hub_->loop(), o);
+      r = server_->start();
+    });
+    return r;
+  }
+  void startHub() { ASSERT_TRUE(startHub(defaults())); }
+
+  void stopHub() {
+    if (!hub_) return;
+    hub_->loop().invoke([&] { server_.reset(); });
+    hub_.reset();
+  }
+  void TearDown() override { stopHub(); }
+
+  template <class F>
+  void onHub(F&& f) {
+    hub_->loop().invoke(std::forward<F>(f));
+  }
+  flow::ServerStats stats() {
+    flow::ServerStats s;
+    onHub([&] { s = server_->stats(); });
+    return s;
+  }
+
+  TestClient connect() {
+    auto c = TestClient::connectUnix(opts_.unix_path);
+    EXPECT_TRUE(c) << c.error().message;
+    return c ? std::move(c).value() : TestClient();
+  }
+  TestClient flowClient(const std::string& user = "guest", const std::string& pw = "password") {
+    TestClient c = connect();
+    auto r = c.loginFlow(user, pw);
+    EXPECT_TRUE(r) << r.error().message;
+    return c;
+  }
+  TestClient syncClient(const std::string& user = "guest", const std::string& pw = "password") {
+    TestClient c = connect();
+    auto r = c.login(user, pw);
+    EXPECT_TRUE(r) << r.error().message;
+    return c;
+  }
+
+  // Creates a channel from `owner` and returns its id (from the creator's EV_CHAN_ADDED).
+  uint16_t addChannel(TestClient& owner, const std::string& name,
+                      flow::ChannelKind kind = flow::ChannelKind::streaming,
+                      flow::Variant props = flow::Variant(flow::Variant::Map{}),
+                      uint32_t tag = 77) {
+    flow::msg::ChanAdd m;
+    m.tag = tag;
+    m.kind = static_cast<uint8_t>(kind);
+    m.short_name = name;
+    m.mime = "application/octet-stream";
+    m.props = std::move(props);
+    EXPECT_TRUE(owner.send(m));
+    for (;;) {
+      auto ev = as<flow::msg::EvChanAdded>(owner.waitFor(flow::Code::ev_chan_added));
+      EXPECT_TRUE(ev.has_value());
+      if (!ev) return 0;
+      if (ev->tag == tag) return ev->info.id;
+    }
+  }
+
+  TempDir dir_;
+  flow::ServerOptions opts_;
+  std::unique_ptr<LoopThread> hub_;
+  std::unique_ptr<flow::FlowServer> server_;
+};
+
+}  // namespace skr::test

@@ -1,0 +1,561 @@
+// The FlowServer over real sockets: login, databases, channels, services, bad input, overload.
+#include "flow_fixture.h"
+
+#include <skrobot/flow/accounts.h>
+
+#include <sys/socket.h>
+
+#include <thread>
+
+namespace skr::test {
+namespace {
+
+using flow::Code;
+using flow::ErrorCode;
+using flow::Variant;
+namespace msg = flow::msg;
+
+uint16_t errorOf(const std::optional<Frame>& f) {
+  auto e = as<msg::ReplyError>(f);
+  return e ? e->error : 0;
+}
+
+class Server : public FlowFixture {};
+
+TEST_F(Server, LoginWithDevAccountOnUnixSocket) {
+  startHub();
+  TestClient c = connect();
+  auto ok = c.login("guest", "password");
+  ASSERT_TRUE(ok) << ok.error().message;
+  EXPECT_EQ(ok->user, "guest");
+  EXPECT_EQ(ok->major, flow::kProtocolMajor);
+  EXPECT_EQ(ok->current_db, "guest");
+  EXPECT_NE(ok->connection_id, 0u);
+}
+
+TEST_F(Server, WrongPasswordIsRefusedAndClosed) {
+  startHub();
+  TestClient c = connect();
+  EXPECT_FALSE(c.login("guest", "nope"));
+  EXPECT_TRUE(c.closedByPeer());
+  EXPECT_EQ(stats().logins_failed, 1u);
+  // The hub goes on.
+  TestClient d = connect();
+  EXPECT_TRUE(d.login("guest", "password"));
+}
+
+TEST_F(Server, VersionMismatchIsExplained) {
+  startHub();
+  TestClient c = connect();
+  msg::Login m;
+  m.major = 2;
+  m.user = "guest";
+  m.password = "password";
+  auto reply = c.call(m);
+  auto err = as<msg::ReplyError>(reply);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->error, uint16_t(ErrorCode::version_mismatch));
+  EXPECT_NE(err->message.find("FlowProtocol 1.0"), std::string::npos) << err->message;
+  EXPECT_NE(err->message.find("client 2.0"), std::string::npos) << err->message;
+  EXPECT_TRUE(c.closedByPeer());
+}
+
+TEST_F(Server, CommandsBeforeLoginAreRefused) {
+  startHub();
+  TestClient c = connect();
+  EXPECT_EQ(errorOf(c.call(msg::VarGet{"x"})), uint16_t(ErrorCode::not_logged_in));
+  EXPECT_TRUE(c.closedByPeer());
+}
+
+TEST_F(Server, LoginTimeoutClosesIdleConnections) {
+  auto o = defaults();
+  o.login_timeout_ms = 100;
+  ASSERT_TRUE(startHub(o));
+  TestClient c = connect();
+  EXPECT_TRUE(c.closedByPeer(10000));
+}
+
+TEST_F(Server, RealAccountsAndTcp) {
+  auto o = defaults();
+  o.tcp_enabled = true;
+  o.tcp_port = 0;
+  o.users_file = dir_.path() / "users.json";
+  // Without real accounts TCP refuses to start.
+  EXPECT_FALSE(startHub(o));
+  stopHub();
+  auto users = flow::UsersFile::load(o.users_file);
+  ASSERT_TRUE(users);
+  ASSERT_TRUE(users->add("alice", "s3cret-pass"));
+  ASSERT_TRUE(users->save());
+  ASSERT_TRUE(startHub(o));
+  uint16_t port = 0;
+  onHub([&] { port = server_->tcpPort(); });
+  auto tcp = TestClient::connectTcp("127.0.0.1", port);
+  ASSERT_TRUE(tcp);
+  EXPECT_TRUE(tcp->login("alice", "s3cret-pass"));
+  // The development account is for the Unix socket only.
+  auto tcp2 = TestClient::connectTcp("127.0.0.1", port);
+  ASSERT_TRUE(tcp2);
+  EXPECT_FALSE(tcp2->login("guest", "password"));
+  // Real accounts work on the Unix socket too.
+  TestClient u = connect();
+  EXPECT_TRUE(u.login("alice", "s3cret-pass"));
+}
+
+TEST_F(Server, VariablesInTheCurrentDatabase) {
+  startHub();
+  TestClient c = syncClient();
+  EXPECT_EQ(c.call(msg::VarSet{"speed", Variant(1.5)})->kind(), Code::reply_ok);
+  EXPECT_EQ(c.call(msg::VarSet{"name", Variant("nao")})->kind(), Code::reply_ok);
+  auto v = as<msg::ReplyValue>(c.call(msg::VarGet{"speed"}));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->value, Variant(1.5));
+  auto keys = as<msg::ReplyValue>(c.call(msg::Empty<Code::var_keys>{}));
+  ASSERT_TRUE(keys);
+  EXPECT_EQ(keys->value, Variant(Variant::List{Variant("name"), Variant("speed")}));
+  auto all = as<msg::ReplyValue>(c.call(msg::Empty<Code::var_get_all>{}));
+  ASSERT_TRUE(all && all->value.isMap());
+  EXPECT_EQ(all->value.asMap()->size(), 2u);
+  EXPECT_EQ(c.call(msg::VarDel{"speed"})->kind(), Code::reply_ok);
+  EXPECT_EQ(errorOf(c.call(msg::VarGet{"speed"})), uint16_t(ErrorCode::not_found));
+  EXPECT_EQ(errorOf(c.call(msg::VarDel{"speed"})), uint16_t(ErrorCode::not_found));
+}
+
+TEST_F(Server, NamedDatabasesAndPermissions) {
+  startHub();
+  TestClient c = syncClient();
+  EXPECT_EQ(c.call(msg::DbCreate{"robot"})->kind(), Code::reply_ok);
+  EXPECT_EQ(errorOf(c.call(msg::DbCreate{"robot"})), uint16_t(ErrorCode::already_exists));
+  EXPECT_EQ(errorOf(c.call(msg::DbCreate{"../etc"})), uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(errorOf(c.call(msg::DbCreate{"_hub"})), uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(c.call(msg::DbSelect{"robot"})->kind(), Code::reply_ok);
+  EXPECT_EQ(c.call(msg::VarSet{"legs", Variant(int64_t{2})})->kind(), Code::reply_ok);
+  auto names = as<msg::ReplyValue>(c.call(msg::Empty<Code::db_list>{}));
+  ASSERT_TRUE(names);
+  bool found = false;
+  for (const auto& n : *names->value.asList()) found = found || n == Variant("robot");
+  EXPECT_TRUE(found);
+  EXPECT_EQ(errorOf(c.call(msg::DbSelect{"nope"})), uint16_t(ErrorCode::not_found));
+  // Another user's database is readable, not writable; user databases cannot be removed.
+  EXPECT_EQ(c.call(msg::DbSelect{"guest"})->kind(), Code::reply_ok);
+  EXPECT_EQ(c.call(msg::VarSet{"mine", Variant(true)})->kind(), Code::reply_ok);
+  EXPECT_EQ(errorOf(c.call(msg::DbRemove{"guest"})), uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(c.call(msg::DbRemove{"robot"})->kind(), Code::reply_ok);
+}
+
+TEST_F(Server, DatabasesPersistAcrossRestart) {
+  startHub();
+  {
+    TestClient c = syncClient();
+    ASSERT_EQ(c.call(msg::DbCreate{"calibration"})->kind(), Code::reply_ok);
+    ASSERT_EQ(c.call(msg::DbSelect{"calibration"})->kind(), Code::reply_ok);
+    ASSERT_EQ(c.call(msg::VarSet{"offset", Variant(-0.25)})->kind(), Code::reply_ok);
+    ASSERT_EQ(c.call(msg::DbSave{""})->kind(), Code::reply_ok);
+    ASSERT_EQ(c.call(msg::DbSelect{"guest"})->kind(), Code::reply_ok);
+    ASSERT_EQ(c.call(msg::VarSet{"unsaved-but-saved-at-stop", Variant("yes")})->kind(),
+              Code::reply_ok);
+  }
+  stopHub();
+  startHub();
+  TestClient c = syncClient();
+  ASSERT_EQ(c.call(msg::DbSelect{"calibration"})->kind(), Code::reply_ok);
+  auto v = as<msg::ReplyValue>(c.call(msg::VarGet{"offset"}));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->value, Variant(-0.25));
+  ASSERT_EQ(c.call(msg::DbSelect{"guest"})->kind(), Code::reply_ok);
+  auto w = as<msg::ReplyValue>(c.call(msg::VarGet{"unsaved-but-saved-at-stop"}));
+  ASSERT_TRUE(w);
+  EXPECT_EQ(w->value, Variant("yes"));
+}
+
+TEST_F(Server, JsonTwinForClientsWithoutAVariantCodec) {
+  startHub();
+  TestClient c = connect();
+  ASSERT_TRUE(c.login("guest", "password", flow::ValueEncoding::json));
+  // Values sent as JSON text, answered as JSON text.
+  EXPECT_EQ(c.call(msg::VarSet{"pose", Variant(Variant::Map{{"x", Variant(1.0)}})},
+                   flow::ValueEncoding::json)
+                ->kind(),
+            Code::reply_ok);
+  auto reply = c.call(msg::VarGet{"pose"});
+  ASSERT_TRUE(reply && reply->kind() == Code::reply_ok);
+  ASSERT_GE(reply->body.size(), 1u);
+  EXPECT_EQ(reply->body[0], 1);  // JSON encoding
+  EXPECT_NE(reply->body.find("{\"x\":1"), std::string::npos) << reply->body;
+}
+
+TEST_F(Server, StreamingChannelLifecycle) {
+  startHub();
+  TestClient owner = flowClient();
+  TestClient sub = flowClient();
+  const uint16_t id = addChannel(owner, "camera", flow::ChannelKind::streaming,
+                                 Variant(Variant::Map{{"width", Variant(int64_t{640})}}));
+  ASSERT_NE(id, 0);
+  auto added = as<msg::EvChanAdded>(sub.waitFor(Code::ev_chan_added));
+  ASSERT_TRUE(added);
+  EXPECT_EQ(added->tag, 0u);  // only the creator sees its tag
+  EXPECT_EQ(added->info.name, "guest.camera");
+  EXPECT_EQ(added->info.id, id);
+  EXPECT_EQ(*added->info.props.find("width"), Variant(int64_t{640}));
+
+  ASSERT_TRUE(sub.send(msg::Subscribe{1, id}));
+  auto start = as<msg::EvStartPublish>(owner.waitFor(Code::ev_start_publish));
+  ASSERT_TRUE(start);
+  EXPECT_EQ(start->chan_id, id);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(owner.send(msg::Publish{id, msg::Rest{"frame" + std::to_string(i)}}));
+  }
+  for (int i = 0; i < 3; ++i) {
+    auto d = as<msg::EvData>(sub.waitFor(Code::ev_data));
+    ASSERT_TRUE(d);
+    EXPECT_EQ(d->chan_id, id);
+    EXPECT_EQ(d->payload.bytes, "frame" + std::to_string(i));
+  }
+  ASSERT_TRUE(sub.send(msg::Unsubscribe{2, id}));
+  EXPECT_TRUE(as<msg::EvStopPublish>(owner.waitFor(Code::ev_stop_publish)));
+
+  // The owner leaves: its channel goes, everyone is told.
+  owner.close();
+  auto removed = as<msg::EvChanRemoved>(sub.waitFor(Code::ev_chan_removed));
+  ASSERT_TRUE(removed);
+  EXPECT_EQ(removed->name, "guest.camera");
+  onHub([&] { EXPECT_EQ(server_->channelCount(), 0u); });
+}
+
+TEST_F(Server, OnlyTheOwnerPublishesOrRemoves) {
+  startHub();
+  TestClient owner = flowClient();
+  TestClient other = flowClient();
+  const uint16_t id = addChannel(owner, "sense");
+  ASSERT_TRUE(other.send(msg::Publish{id, msg::Rest{"spoof"}}));
+  auto e1 = as<msg::EvError>(other.waitFor(Code::ev_error));
+  ASSERT_TRUE(e1);
+  EXPECT_EQ(e1->error, uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(e1->command, uint8_t(Code::publish));
+  ASSERT_TRUE(other.send(msg::ChanRemove{9, id}));
+  auto e2 = as<msg::EvError>(other.waitFor(Code::ev_error));
+  ASSERT_TRUE(e2);
+  EXPECT_EQ(e2->error, uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(e2->tag, 9u);
+  // A second channel with the same name is refused.
+  msg::ChanAdd again;
+  again.tag = 5;
+  again.kind = uint8_t(flow::ChannelKind::streaming);
+  again.short_name = "sense";
+  ASSERT_TRUE(owner.send(again));
+  auto e3 = as<msg::EvError>(owner.waitFor(Code::ev_error));
+  ASSERT_TRUE(e3);
+  EXPECT_EQ(e3->error, uint16_t(ErrorCode::already_exists));
+  onHub([&] { EXPECT_EQ(server_->channelCount(), 1u); });
+}
+
+TEST_F(Server, ChannelPropertiesAreReadableByOthers) {
+  startHub();
+  TestClient owner = flowClient();
+  addChannel(
+      owner, "mic", flow::ChannelKind::streaming,
+      Variant(Variant::Map{{"rate", Variant(int64_t{22050})}, {"format", Variant("S16LE")}}));
+  TestClient reader = syncClient();
+  ASSERT_EQ(reader.call(msg::DbSelect{"guest.mic"})->kind(), Code::reply_ok);
+  auto rate = as<msg::ReplyValue>(reader.call(msg::VarGet{"rate"}));
+  ASSERT_TRUE(rate);
+  EXPECT_EQ(rate->value, Variant(int64_t{22050}));
+  // Not writable by others.
+  EXPECT_EQ(errorOf(reader.call(msg::VarSet{"rate", Variant(int64_t{1})})),
+            uint16_t(ErrorCode::permission_denied));
+  auto list = as<msg::ChannelList>(reader.call(msg::Empty<Code::chan_list>{}));
+  ASSERT_TRUE(list);
+  ASSERT_EQ(list->channels.size(), 1u);
+  EXPECT_EQ(list->channels[0].name, "guest.mic");
+  EXPECT_EQ(*list->channels[0].props.find("format"), Variant("S16LE"));
+  auto info = as<msg::ChannelInfoReply>(reader.call(msg::ChanInfoByName{"guest.mic"}));
+  ASSERT_TRUE(info);
+  EXPECT_EQ(info->info.kind, uint8_t(flow::ChannelKind::streaming));
+}
+
+TEST_F(Server, PollingTheLatestBuffer) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "battery");
+  TestClient poller = syncClient();
+  EXPECT_EQ(poller.call(msg::PollRegister{id})->kind(), Code::reply_ok);
+  auto none = as<msg::PollData>(poller.call(msg::PollFetch{id}));
+  ASSERT_TRUE(none);
+  EXPECT_EQ(none->seq, 0u);
+  ASSERT_TRUE(owner.send(msg::Publish{id, msg::Rest{"87%"}}));
+  ASSERT_TRUE(owner.send(msg::Publish{id, msg::Rest{"86%"}}));
+  for (int i = 0; i < 100; ++i) {
+    auto p = as<msg::PollData>(poller.call(msg::PollFetch{id}));
+    ASSERT_TRUE(p);
+    if (p->seq == 2) {
+      EXPECT_EQ(p->payload.bytes, "86%");
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  FAIL() << "the latest buffer never arrived";
+}
+
+TEST_F(Server, ServiceRoundTripAsyncAndSync) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "say", flow::ChannelKind::service);
+  TestClient caller = flowClient();
+  ASSERT_TRUE(caller.send(msg::ServiceRequest{42, id, "speak", Variant("hello")}));
+  auto req = as<msg::EvServiceRequest>(owner.waitFor(Code::ev_service_request));
+  ASSERT_TRUE(req);
+  EXPECT_EQ(req->command, "speak");
+  EXPECT_EQ(req->value, Variant("hello"));
+  EXPECT_EQ(req->requester, "guest");
+  ASSERT_TRUE(owner.send(msg::ServiceResponse{id, req->request, Variant("spoken")}));
+  auto resp = as<msg::EvServiceResponse>(caller.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(resp);
+  EXPECT_EQ(resp->tag, 42u);
+  EXPECT_EQ(resp->error, 0);
+  EXPECT_EQ(resp->value, Variant("spoken"));
+
+  // A blocking call on a synchronous connection; the owner answers from another thread.
+  std::thread answer([&] {
+    auto r = as<msg::EvServiceRequest>(owner.waitFor(Code::ev_service_request));
+    if (r) (void)owner.send(msg::ServiceResponse{id, r->request, Variant(int64_t{7})});
+  });
+  TestClient sync = syncClient();
+  auto v = as<msg::ReplyValue>(sync.call(msg::ServiceCall{id, 5000, "count", Variant()}));
+  answer.join();
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->value, Variant(int64_t{7}));
+  // Answering twice, or someone else's request, is refused.
+  ASSERT_TRUE(owner.send(msg::ServiceResponse{id, req->request, Variant()}));
+  auto e = as<msg::EvError>(owner.waitFor(Code::ev_error));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->error, uint16_t(ErrorCode::not_found));
+}
+
+TEST_F(Server, SyncServiceCallTimesOut) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "silent", flow::ChannelKind::service);
+  TestClient sync = syncClient();
+  auto reply = sync.call(msg::ServiceCall{id, 50, "ping", Variant()});
+  EXPECT_EQ(errorOf(reply), uint16_t(ErrorCode::timeout));
+  // The connection still works afterwards.
+  EXPECT_EQ(sync.call(msg::VarSet{"after", Variant(true)})->kind(), Code::reply_ok);
+}
+
+TEST_F(Server, RequestsToAVanishedOwnerFail) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "slowsvc", flow::ChannelKind::service);
+  TestClient caller = flowClient();
+  ASSERT_TRUE(caller.send(msg::ServiceRequest{1, id, "a", Variant()}));
+  ASSERT_TRUE(owner.waitFor(Code::ev_service_request));
+  TestClient sync = syncClient();
+  std::optional<Frame> sync_reply;
+  std::thread t([&] { sync_reply = sync.call(msg::ServiceCall{id, 10000, "b", Variant()}); });
+  ASSERT_TRUE(owner.waitFor(Code::ev_service_request));
+  owner.close();
+  auto resp = as<msg::EvServiceResponse>(caller.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(resp);
+  EXPECT_EQ(resp->error, uint16_t(ErrorCode::owner_gone));
+  t.join();
+  EXPECT_EQ(errorOf(sync_reply), uint16_t(ErrorCode::owner_gone));
+  // A request to a channel that is gone fails at once.
+  ASSERT_TRUE(caller.send(msg::ServiceRequest{2, id, "c", Variant()}));
+  auto gone = as<msg::EvServiceResponse>(caller.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(gone);
+  EXPECT_EQ(gone->error, uint16_t(ErrorCode::not_found));
+}
+
+TEST_F(Server, OversizedFrameClosesOnlyThatConnection) {
+  auto o = defaults();
+  o.max_frame_bytes = 1024;
+  ASSERT_TRUE(startHub(o));
+  TestClient good = flowClient();
+  const uint16_t id = addChannel(good, "ok");
+  TestClient bad = flowClient();
+  // Announces 1 GiB: refused before anything is allocated.
+  std::string frame;
+  flow::ByteWriter w(frame);
+  w.u32(1u << 30);
+  w.u8(uint8_t(Code::publish));
+  ASSERT_TRUE(bad.sendRaw(frame));
+  EXPECT_TRUE(bad.closedByPeer());
+  EXPECT_EQ(stats().protocol_errors, 1u);
+  // Everyone else goes on.
+  TestClient sub = flowClient();
+  ASSERT_TRUE(sub.send(msg::Subscribe{1, id}));
+  ASSERT_TRUE(good.waitFor(Code::ev_start_publish));
+  ASSERT_TRUE(good.send(msg::Publish{id, msg::Rest{"still here"}}));
+  auto d = as<msg::EvData>(sub.waitFor(Code::ev_data));
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->payload.bytes, "still here");
+}
+
+TEST_F(Server, MalformedFramesCloseTheSender) {
+  startHub();
+  const std::vector<std::string> bad_frames = {
+      std::string("\x00\x00\x00\x00", 4),              // empty frame
+      std::string("\x01\x00\x00\x00\x97", 5),          // a hub-to-client code
+      std::string("\x03\x00\x00\x00\x42\x01\x00", 7),  // SUBSCRIBE cut short
+      std::string("\x02\x00\x00\x00\x44\x01", 6),      // PUBLISH without a full channel id
+  };
+  for (const auto& f : bad_frames) {
+    TestClient c = flowClient();
+    ASSERT_TRUE(c.sendRaw(f));
+    EXPECT_TRUE(c.closedByPeer()) << "frame of " << f.size() << " bytes";
+  }
+  // A login with a truncated body, and garbage before login.
+  TestClient l = connect();
+  ASSERT_TRUE(l.sendRaw(std::string("\x03\x00\x00\x00\x01\x01\x00", 7)));
+  EXPECT_TRUE(l.closedByPeer());
+  EXPECT_EQ(stats().protocol_errors, bad_frames.size() + 1);
+  TestClient fine = syncClient();
+  EXPECT_EQ(fine.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);
+}
+
+TEST_F(Server, ClientKilledMidFrame) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "half");
+  {
+    TestClient dying = flowClient();
+    ASSERT_TRUE(dying.send(msg::Subscribe{1, id}));
+    ASSERT_TRUE(owner.waitFor(Code::ev_start_publish));
+    std::string frame;
+    ASSERT_TRUE(flow::encode(frame, msg::ChanAdd{3, 1, "partial", "", Variant()}));
+    ASSERT_TRUE(dying.sendRaw(std::string_view(frame).substr(0, frame.size() / 2)));
+    // Closing with a half-sent frame; its subscription goes with it.
+  }
+  EXPECT_TRUE(as<msg::EvStopPublish>(owner.waitFor(Code::ev_stop_publish)));
+  onHub([&] { EXPECT_EQ(server_->channelCount(), 1u); });
+  EXPECT_EQ(stats().protocol_errors, 0u);
+}
+
+TEST_F(Server, SlowSubscriberLosesOldestFramesAndDelaysNobody) {
+  auto o = defaults();
+  o.subscriber_queue_bytes = 1024 * 1024;
+  ASSERT_TRUE(startHub(o));
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "video");
+  TestClient fast = flowClient();
+  TestClient slow = flowClient();
+  // The slow one's socket buffer is small and it does not read until the end.
+  int small = 4096;
+  setsockopt(slow.fd(), SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+  ASSERT_TRUE(fast.send(msg::Subscribe{1, id}));
+  ASSERT_TRUE(slow.send(msg::Subscribe{1, id}));
+  ASSERT_TRUE(owner.waitFor(Code::ev_start_publish));
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // both subscriptions in place
+  constexpr int kFrames = 6000;  // 6 MB: far more than the slow one's queue and socket hold
+  const std::string payload(1000, 'x');
+  std::thread reader([&] {
+    for (int i = 0; i < kFrames; ++i) {
+      auto d = fast.waitFor(Code::ev_data, 10000);
+      ASSERT_TRUE(d) << "fast subscriber lost frame " << i;
+    }
+  });
+  for (int i = 0; i < kFrames; ++i) {
+    std::string p = payload;
+    std::memcpy(p.data(), &i, sizeof i);
+    ASSERT_TRUE(owner.send(msg::Publish{id, msg::Rest{p}}));
+    // A steady stream (about 10 MB/s) that a reading subscriber keeps up with.
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+  reader.join();  // the fast subscriber got every frame while the slow one slept
+  const auto s = stats();
+  EXPECT_GT(s.data_frames_dropped, 0u);
+  // The slow subscriber sees EV_DROPPED and, last, the newest frames.
+  auto dropped = as<msg::EvDropped>(slow.waitFor(Code::ev_dropped, 10000));
+  ASSERT_TRUE(dropped);
+  EXPECT_EQ(dropped->chan_id, id);
+  EXPECT_GT(dropped->count, 0u);
+  int last = -1;
+  while (auto f = slow.recv(500)) {
+    if (auto d = as<msg::EvData>(f)) std::memcpy(&last, d->payload.bytes.data(), sizeof last);
+  }
+  EXPECT_EQ(last, kFrames - 1);
+  // The count is visible in its flow's database.
+  TestClient reader2 = syncClient();
+  auto names = as<msg::ReplyValue>(reader2.call(msg::Empty<Code::db_list>{}));
+  ASSERT_TRUE(names);
+  int64_t counted = 0;
+  for (const auto& n : *names->value.asList()) {
+    if (!n.asString()->starts_with("_flow.")) continue;
+    ASSERT_EQ(reader2.call(msg::DbSelect{*n.asString()})->kind(), Code::reply_ok);
+    if (auto v = as<msg::ReplyValue>(reader2.call(msg::VarGet{"dropped_frames"}))) {
+      counted += *v->value.asInt64();
+    }
+  }
+  EXPECT_EQ(static_cast<uint64_t>(counted), s.data_frames_dropped);
+}
+
+// 50+ satellites at once over both transports: every subscriber gets every frame in order.
+TEST_F(Server, ManyConcurrentClientsOverBothTransports) {
+  auto o = defaults();
+  o.tcp_enabled = true;
+  o.tcp_port = 0;
+  o.users_file = dir_.path() / "users.json";
+  auto users = flow::UsersFile::load(o.users_file);
+  ASSERT_TRUE(users);
+  ASSERT_TRUE(users->add("robot", "robot-pass"));
+  ASSERT_TRUE(users->save());
+  ASSERT_TRUE(startHub(o));
+  uint16_t port = 0;
+  onHub([&] { port = server_->tcpPort(); });
+
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "broadcast");
+  constexpr int kClients = 60;
+  constexpr int kMessages = 200;
+  std::vector<TestClient> subs;
+  for (int i = 0; i < kClients; ++i) {
+    Result<TestClient> c = i % 2 == 0 ? TestClient::connectUnix(opts_.unix_path)
+                                      : TestClient::connectTcp("127.0.0.1", port);
+    ASSERT_TRUE(c) << c.error().message;
+    ASSERT_TRUE(c->loginFlow("robot", "robot-pass"));
+    ASSERT_TRUE(c->send(msg::Subscribe{1, id}));
+    subs.push_back(std::move(c).value());
+  }
+  // Wait until all subscriptions are in place.
+  for (int i = 0; i < 500; ++i) {
+    size_t n = 0;
+    onHub([&] { n = server_->stats().connections_open; });
+    TestClient probe = syncClient();
+    auto info = as<msg::ChannelInfoReply>(probe.call(msg::ChanInfoByName{"guest.broadcast"}));
+    if (info && info->info.subscribers == kClients) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  for (int m = 0; m < kMessages; ++m) {
+    ASSERT_TRUE(owner.send(msg::Publish{id, msg::Rest{std::to_string(m)}}));
+  }
+  std::vector<std::thread> readers;
+  std::atomic<int> complete{0};
+  for (auto& s : subs) {
+    readers.emplace_back([&s, &complete, id] {
+      for (int m = 0; m < kMessages; ++m) {
+        auto d = as<msg::EvData>(s.waitFor(Code::ev_data, 10000));
+        if (!d || d->chan_id != id || d->payload.bytes != std::to_string(m)) return;
+      }
+      ++complete;
+    });
+  }
+  for (auto& t : readers) t.join();
+  EXPECT_EQ(complete.load(), kClients);
+  EXPECT_EQ(stats().data_frames_dropped, 0u);
+}
+
+TEST_F(Server, AsyncCommandOnSyncConnectionAndSyncOnFlowAreErrorsNotKills) {
+  startHub();
+  TestClient sync = syncClient();
+  EXPECT_EQ(errorOf(sync.call(msg::Subscribe{1, 1})), uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(errorOf(sync.call(msg::Empty<Code::sync_pulse>{})), uint16_t(ErrorCode::unsupported));
+  TestClient f = flowClient();
+  ASSERT_TRUE(f.send(msg::VarGet{"x"}));
+  auto e = as<msg::EvError>(f.waitFor(Code::ev_error));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->error, uint16_t(ErrorCode::unsupported));
+  EXPECT_EQ(stats().protocol_errors, 0u);
+}
+
+}  // namespace
+}  // namespace skr::test

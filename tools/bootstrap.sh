@@ -69,7 +69,15 @@ case "$MODE" in
     exec "$ROOT/build/release/bin/skrobot" --config "$ROOT/config/default.json" "$@"
     ;;
   test)
+    build_preset asan
+    step "running the tests under AddressSanitizer + UndefinedBehaviorSanitizer (build/asan)"
+    ctest --preset asan -j "$JOBS" "$@"
+    step "fuzzing the network decoders (clang + libFuzzer, ${FUZZ_SECONDS:-30} s per target)"
+    fuzz_status=0
+    tools/fuzz.sh "${FUZZ_SECONDS:-30}" || fuzz_status=$?
     step "running the tests (release build)"
     ctest --preset release -j "$JOBS" "$@"
+    if [ "$fuzz_status" -ne 0 ]; then echo "the fuzzers found a failure (above)"; fi
+    exit "$fuzz_status"
     ;;
 esac

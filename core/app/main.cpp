@@ -4,9 +4,12 @@
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/core/module_host.h>
+#include <skrobot/flow/server.h>
 #include <skrobot/plugin.h>
 
 #include <uv.h>
+
+#include "user_command.h"
 
 #include <csignal>
 #include <cstdio>
@@ -24,9 +27,11 @@ constexpr int kExitOk = 0;
 constexpr int kExitCheckFailed = 1;
 constexpr int kExitUsage = 2;
 constexpr int kExitConfig = 3;
+constexpr int kExitServer = 4;
 
 constexpr const char* kUsage =
     "usage: skrobot [--config FILE] [--check-config | --list-modules] [--log-level LEVEL]\n"
+    "       skrobot user add|del|passwd|list [NAME] [--users FILE] [--password-stdin]\n"
     "       skrobot --version | --help\n"
     "\n"
     "  --config FILE      the hub's JSON config (default: config/default.json, or\n"
@@ -37,6 +42,8 @@ constexpr const char* kUsage =
     "  --log-level LEVEL  debug, info, warn or error (overrides the config)\n"
     "  --version          print the version\n"
     "  --help             print this help\n"
+    "\n"
+    "  user ...           manage the accounts of the users file (docs/accounts.md)\n"
     "\n"
     "SIGINT or SIGTERM stops the modules in reverse order and exits 0.\n"
     "Config reference: docs/config.md; modules: docs/plugins.md.\n";
@@ -129,6 +136,26 @@ void onSignal(uv_signal_t* handle, int signum) {
   w->loop->stop();
 }
 
+skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
+  skr::flow::ServerOptions o;
+  const skr::ServerConfig& s = cfg.server;
+  o.app_name = cfg.app_name;
+  o.unix_enabled = s.unix_enabled;
+  o.unix_path = s.unix_path;
+  o.tcp_enabled = s.tcp_enabled;
+  o.tcp_address = s.tcp_address;
+  o.tcp_port = s.tcp_port;
+  o.max_frame_bytes = s.max_frame_bytes;
+  o.subscriber_queue_bytes = s.subscriber_queue_bytes;
+  o.max_connections = s.max_connections;
+  o.login_timeout_ms = s.login_timeout_ms;
+  o.max_pending_requests = s.max_pending_requests;
+  o.data_dir = s.data_dir;
+  o.users_file = s.users_file;
+  o.dev_account = s.dev_account;
+  return o;
+}
+
 int runHub(const skr::HubConfig& cfg) {
   skr::Loop loop(cfg.loop);
   SignalWatch watches[2];
@@ -145,8 +172,16 @@ int runHub(const skr::HubConfig& cfg) {
                      std::string(skr::timingModeName(cfg.loop.mode)) + " " +
                      std::to_string(cfg.loop.fast_interval_ns / 1000) + " us / " +
                      std::to_string(cfg.loop.slow_interval_ns / 1000) + " us");
+  skr::flow::FlowServer server(loop, serverOptions(cfg));
+  if (auto started = server.start(); !started) {
+    skr::log::error("hub", "HUB-SERVER",
+                    "the FlowNetwork server cannot start: " + started.error().message);
+    for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
+    uv_run(loop.uv(), UV_RUN_NOWAIT);
+    return kExitServer;
+  }
   {
-    skr::ModuleHost host(loop, cfg.module_paths);
+    skr::ModuleHost host(loop, cfg.module_paths, &server);
     host.start(cfg.modules);
     skr::log::info("hub", "HUB-READY",
                    std::to_string(host.modules().size()) + " modules running, " +
@@ -154,6 +189,7 @@ int runHub(const skr::HubConfig& cfg) {
     loop.run();
     host.shutdown();
   }
+  server.stop();
   for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
   uv_run(loop.uv(), UV_RUN_NOWAIT);  // let the close callbacks run before the loop goes
   skr::log::info("hub", "HUB-STOP", "stopped");
@@ -163,6 +199,7 @@ int runHub(const skr::HubConfig& cfg) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc > 1 && std::string_view(argv[1]) == "user") return runUserCommand(argc - 1, argv + 1);
   Options opt;
   bool config_given = false;
   for (int i = 1; i < argc; ++i) {

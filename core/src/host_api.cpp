@@ -22,7 +22,8 @@ static_assert(offsetof(skr_module_descriptor, name) == 8);
 static_assert(offsetof(skr_module_descriptor, init) == 40);
 static_assert(sizeof(skr_module_descriptor) == 72);
 static_assert(offsetof(skr_host_api, log) == 8);
-static_assert(offsetof(skr_host_api, reserved) == 144);
+static_assert(offsetof(skr_host_api, channel_create) == 144);  // 1.0 ends here
+static_assert(offsetof(skr_host_api, reserved) == 224);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -270,6 +271,65 @@ const char* moduleName(skr_module_ctx* ctx) noexcept {
   return ctx != nullptr ? ctx->name.c_str() : "";
 }
 
+// --- FlowNetwork channels and databases (ABI 1.1) ---
+// Modules on the hub's main loop only: the server lives there. The module's ModuleFlow (its
+// LocalClient) is made by the first call.
+skr_status withFlow(skr_module_ctx* ctx,
+                    const std::function<skr_status(ModuleFlow&)>& fn) noexcept {
+  if (ctx == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  if (ctx->own_thread || !ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
+  if (ctx->server == nullptr) return SKR_ERR_UNSUPPORTED;
+  if (!ctx->accepting) return SKR_ERR_BAD_STATE;
+  try {
+    if (!ctx->flow) ctx->flow = std::make_unique<ModuleFlow>(*ctx->server, ctx->name);
+    return fn(*ctx->flow);
+  } catch (...) {
+    return SKR_ERR_NO_MEMORY;
+  }
+}
+
+skr_status channelCreate(skr_module_ctx* ctx, const char* short_name, skr_channel_kind kind,
+                         const char* mime, const char* props_json, skr_subscribers_fn on_subs,
+                         skr_request_fn on_request, void* user, uint16_t* out) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) {
+    return f.createChannel(short_name, kind, mime, props_json, on_subs, on_request, user, out);
+  });
+}
+skr_status channelRemove(skr_module_ctx* ctx, uint16_t chan_id) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.removeChannel(chan_id); });
+}
+skr_status channelFind(skr_module_ctx* ctx, const char* name, uint16_t* out) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.findChannel(name, out); });
+}
+skr_status publishData(skr_module_ctx* ctx, uint16_t chan_id, const void* data,
+                       size_t size) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.publish(chan_id, data, size); });
+}
+skr_status subscribeChannel(skr_module_ctx* ctx, const char* name, skr_data_fn fn, void* user,
+                            skr_sub_handle* out) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.subscribe(name, fn, user, out); });
+}
+skr_status unsubscribeChannel(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.unsubscribe(handle); });
+}
+skr_status serviceRequest(skr_module_ctx* ctx, uint16_t chan_id, uint32_t tag, const char* command,
+                          const char* value_json, skr_response_fn fn, void* user) noexcept {
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.request(chan_id, tag, command, value_json, fn, user); });
+}
+skr_status serviceRespond(skr_module_ctx* ctx, uint16_t chan_id, uint64_t request,
+                          const char* value_json) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.respond(chan_id, request, value_json); });
+}
+skr_status dbGet(skr_module_ctx* ctx, const char* db, const char* key, char* buf, size_t cap,
+                 size_t* len_out) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbGet(db, key, buf, cap, len_out); });
+}
+skr_status dbSet(skr_module_ctx* ctx, const char* db, const char* key,
+                 const char* value_json) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbSet(db, key, value_json); });
+}
+
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
     .abi_major = SKR_PLUGIN_ABI_MAJOR,
@@ -291,6 +351,16 @@ const skr_host_api kHostApi = {
     .set_error = &setError,
     .strerror = &strError,
     .module_name = &moduleName,
+    .channel_create = &channelCreate,
+    .channel_remove = &channelRemove,
+    .channel_find = &channelFind,
+    .publish = &publishData,
+    .subscribe = &subscribeChannel,
+    .unsubscribe = &unsubscribeChannel,
+    .service_request = &serviceRequest,
+    .service_respond = &serviceRespond,
+    .db_get = &dbGet,
+    .db_set = &dbSet,
     .reserved = {},
 };
 

@@ -56,8 +56,10 @@ std::string_view openTag(Errc code) {
 
 }  // namespace
 
-ModuleHost::ModuleHost(Loop& main_loop, const std::vector<std::filesystem::path>& module_paths)
+ModuleHost::ModuleHost(Loop& main_loop, const std::vector<std::filesystem::path>& module_paths,
+                       flow::FlowServer* server)
     : main_loop_(main_loop),
+      server_(server),
       control_thread_(std::this_thread::get_id()),
       search_path_(moduleSearchPath(module_paths)) {}
 
@@ -77,6 +79,7 @@ void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
     m->name = !m->entry.name.empty() ? m->entry.name : m->entry.path.stem().string();
     m->entry.name = m->name;
     m->log_source = "mod." + m->name;
+    m->server = server_;
     m->json_path =
         !m->entry.json_path.empty() ? m->entry.json_path : "$.modules[" + std::to_string(i) + "]";
     if (!m->entry.enabled) {

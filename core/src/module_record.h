@@ -1,6 +1,7 @@
 // The host's record of one module; also the opaque skr_module_ctx handed to it. Internal.
 #pragma once
 
+#include "module_flow.h"
 #include "shared_library.h"
 
 #include <skrobot/core/hub_config.h>
@@ -85,6 +86,8 @@ struct skr_module_ctx {
   bool ticking = false;    // ticks delivered: from start until stop
   std::vector<std::pair<skr_tick_handle, skr::TickId>> ticks;
   std::shared_ptr<skr::PostQueue> posts = std::make_shared<skr::PostQueue>();
+  skr::flow::FlowServer* server = nullptr;  // the hub's, for channel calls (ABI 1.1)
+  std::unique_ptr<skr::ModuleFlow> flow;    // created by the first channel call
 
   std::mutex error_mutex;  // set_error / config_error may come from any thread
   std::string error;       // set_error during the current step
@@ -102,6 +105,7 @@ struct skr_module_ctx {
     for (const auto& t : ticks) loop->removeTickHandler(t.second);
     ticks.clear();
     posts->close();
+    flow.reset();  // its channels and subscriptions go, and everyone is told
   }
   void clearError() {
     std::lock_guard lock(error_mutex);

@@ -267,8 +267,8 @@ INSTANTIATE_TEST_SUITE_P(
     Cases, BadModule,
     ::testing::Values(
         BadCase{"test_no_entry", "MODULE-NO-ENTRY", {"skrobot_module_entry"}},
-        BadCase{"test_abi_major", "MODULE-ABI", {"ABI 2.0", "ABI 1.0"}},
-        BadCase{"test_abi_minor", "MODULE-ABI", {"ABI 1.1", "ABI 1.0", "newer minor"}},
+        BadCase{"test_abi_major", "MODULE-ABI", {"ABI 2.0", "ABI 1.1"}},
+        BadCase{"test_abi_minor", "MODULE-ABI", {"ABI 1.2", "ABI 1.1", "newer minor"}},
         BadCase{"test_short_descriptor", "MODULE-DESCRIPTOR", {"16 bytes"}},
         BadCase{"test_null_descriptor", "MODULE-DESCRIPTOR", {"no descriptor"}},
         BadCase{"garbage", "MODULE-LOAD", {"garbage.so"}},

@@ -1,4 +1,6 @@
 // The skrobot executable as a user runs it: options, config errors, module failures, signals.
+#include "test_client.h"
+
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -141,6 +143,9 @@ TEST(SkrobotCli, RunsModulesSurvivesBadOnesAndStopsInReverseOrderOnSignal) {
   for (int sig : {SIGTERM, SIGINT}) {
     TempDir dir;
     auto cfg = dir.write("cfg.json", R"({
+      "app_name": "skrobot-cli-)" + std::to_string(getpid()) +
+                                         R"(",
+      "data_dir": "data",
       "module_paths": [")" SKROBOT_TEST_MODULE_DIR R"("],
       "modules": [
         {"name": "example", "config": {"greeting": "hi", "period_ms": 50}},
@@ -166,6 +171,53 @@ TEST(SkrobotCli, RunsModulesSurvivesBadOnesAndStopsInReverseOrderOnSignal) {
     EXPECT_LT(plain, example) << out;
     EXPECT_NE(out.find("HUB-STOP"), std::string::npos) << out;
   }
+}
+
+TEST(SkrobotCli, HubServesSatellitesOnItsUnixSocket) {
+  TempDir dir;
+  const std::string app = "skrobot-cli-sat-" + std::to_string(getpid());
+  auto cfg = dir.write("cfg.json", R"({"app_name": ")" + app + R"(", "data_dir": "data",
+      "accounts": {"dev_account": {"user": "guest", "password": "password"}}})");
+  const fs::path log = dir.path() / "hub.log";
+  const pid_t pid = spawn({"--config", cfg.string()}, log);
+  ASSERT_TRUE(waitFor(log, "HUB-READY")) << slurp(log);
+  EXPECT_NE(slurp(log).find("FLOW-DEV-ACCOUNT"), std::string::npos) << "the dev account is logged";
+  {
+    auto c = skr::test::TestClient::connectUnix("/tmp/" + app);
+    ASSERT_TRUE(c) << c.error().message;
+    auto ok = c->login("guest", "password");
+    ASSERT_TRUE(ok) << ok.error().message;
+    EXPECT_EQ(ok->app_name, app);
+  }
+  kill(pid, SIGTERM);
+  EXPECT_EQ(waitExit(pid), 0);
+  EXPECT_FALSE(fs::exists("/tmp/" + app)) << "the socket file is removed at exit";
+}
+
+TEST(SkrobotCli, TcpNeedsRealAccountsMadeWithTheUserCommand) {
+  TempDir dir;
+  const std::string app = "skrobot-cli-tcp-" + std::to_string(getpid());
+  const std::string users = (dir.path() / "users.json").string();
+  auto cfg = dir.write("cfg.json", R"({"app_name": ")" + app + R"(", "data_dir": "data",
+      "server": {"tcp": true, "tcp_port": 0}, "accounts": {"users_file": "users.json"}})");
+  auto refused = run({"--config", cfg.string()});
+  EXPECT_EQ(refused.exit_code, 4) << refused.output;
+  EXPECT_NE(refused.output.find("skrobot user add"), std::string::npos) << refused.output;
+
+  // `skrobot user add` with the password on stdin, as a script would.
+  const std::string cmd = std::string("echo 'r0b0t-pass' | ") + SKROBOT_BIN +
+                          " user add operator --users " + users + " --password-stdin";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  auto listed = run({"user", "list", "--users", users});
+  EXPECT_EQ(listed.exit_code, 0);
+  EXPECT_NE(listed.output.find("operator"), std::string::npos) << listed.output;
+
+  const fs::path log = dir.path() / "hub.log";
+  const pid_t pid = spawn({"--config", cfg.string()}, log);
+  ASSERT_TRUE(waitFor(log, "HUB-READY")) << slurp(log);
+  EXPECT_NE(slurp(log).find("FLOW-LISTEN TCP"), std::string::npos) << slurp(log);
+  kill(pid, SIGINT);
+  EXPECT_EQ(waitExit(pid), 0);
 }
 
 }  // namespace

@@ -44,7 +44,7 @@ extern "C" {
 /* Major: incompatible changes; the host refuses another major. Minor: additions at the end of
  * the structs or in reserved slots; the host refuses a module built for a newer minor. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 0
+#define SKR_PLUGIN_ABI_MINOR 1
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -95,6 +95,30 @@ typedef struct skr_loop_info {
 } skr_loop_info;
 
 typedef void (*skr_callback)(void* user);
+
+/* --- FlowNetwork channels (ABI 1.1) --- */
+typedef enum skr_channel_kind {
+  SKR_CHANNEL_STREAMING = 1, /* one publisher (the owner), many subscribers */
+  SKR_CHANNEL_SERVICE = 2    /* requests to the owner, one response each */
+} skr_channel_kind;
+
+/* Handle of a subscription; 0 is never a valid handle. */
+typedef uint64_t skr_sub_handle;
+
+/* Data on a subscribed channel: `data` is the publisher's buffer, valid only during the call
+ * (no copy is made for modules). */
+typedef void (*skr_data_fn)(void* user, uint16_t chan_id, const void* data, size_t size);
+/* An owned streaming channel got its first subscriber (first = 1) or lost its last (first = 0):
+ * start or stop producing. */
+typedef void (*skr_subscribers_fn)(void* user, uint16_t chan_id, int first);
+/* A request to an owned service channel. Answer with service_respond(request, ...), now or later.
+ * Strings are valid during the call; `value_json` is the request's value as JSON text. */
+typedef void (*skr_request_fn)(void* user, uint16_t chan_id, uint64_t request, const char* command,
+                               const char* requester, const char* value_json);
+/* The answer to service_request: status SKR_OK and the owner's value, or an error status with a
+ * JSON string explaining it (owner gone, no such channel, overflow). */
+typedef void (*skr_response_fn)(void* user, uint16_t chan_id, uint32_t tag, skr_status status,
+                                const char* value_json);
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -154,8 +178,43 @@ typedef struct skr_host_api {
   /* The module's name in the config (its log source is "mod.<name>"). */
   const char* (*module_name)(skr_module_ctx* ctx);
 
-  /* Later minors fill these (channels, databases); NULL in 1.0. */
-  void (*reserved[32])(void);
+  /* --- FlowNetwork channels and databases (ABI 1.1; loop, modules on the hub's main loop only:
+   * a module on its own thread gets SKR_ERR_NOT_ON_LOOP_THREAD). Allowed from start until stop
+   * returns; the host removes the module's channels and subscriptions when it stops. Values
+   * cross the seam as JSON text (docs/pair-databases.md gives the mapping). --- */
+  /* Creates "<module name>.<short_name>" with `props_json` (a JSON object, or NULL) as its
+   * database. Callbacks may be NULL. Other satellites see it at once. */
+  skr_status (*channel_create)(skr_module_ctx* ctx, const char* short_name, skr_channel_kind kind,
+                               const char* mime, const char* props_json,
+                               skr_subscribers_fn on_subscribers, skr_request_fn on_request,
+                               void* user, uint16_t* chan_id_out);
+  skr_status (*channel_remove)(skr_module_ctx* ctx, uint16_t chan_id);
+  /* SKR_ERR_NOT_FOUND when no channel has that full name now. */
+  skr_status (*channel_find)(skr_module_ctx* ctx, const char* name, uint16_t* chan_id_out);
+  /* Publishes on an owned streaming channel; other modules get `data` without a copy. */
+  skr_status (*publish)(skr_module_ctx* ctx, uint16_t chan_id, const void* data, size_t size);
+  /* Subscribes to a streaming channel by full name. If it does not exist yet the subscription
+   * waits for it, and it follows the channel when it is removed and created again. */
+  skr_status (*subscribe)(skr_module_ctx* ctx, const char* name, skr_data_fn fn, void* user,
+                          skr_sub_handle* handle_out);
+  skr_status (*unsubscribe)(skr_module_ctx* ctx, skr_sub_handle handle);
+  /* A request to a service channel; fn(user, ...) gets the answer with `tag` (fn may be NULL). */
+  skr_status (*service_request)(skr_module_ctx* ctx, uint16_t chan_id, uint32_t tag,
+                                const char* command, const char* value_json, skr_response_fn fn,
+                                void* user);
+  skr_status (*service_respond)(skr_module_ctx* ctx, uint16_t chan_id, uint64_t request,
+                                const char* value_json);
+  /* A variable as JSON text into buf (NUL-terminated). SKR_ERR_NOT_FOUND for no such database or
+   * key; SKR_ERR_NO_MEMORY when cap is too small, with *len_out the size needed (NUL included). */
+  skr_status (*db_get)(skr_module_ctx* ctx, const char* db, const char* key, char* buf, size_t cap,
+                       size_t* len_out);
+  /* Sets a variable of a database the module may write (named ones, its own user database
+   * "<module name>", its channels' databases). */
+  skr_status (*db_set)(skr_module_ctx* ctx, const char* db, const char* key,
+                       const char* value_json);
+
+  /* Later minors fill these; NULL until then. */
+  void (*reserved[22])(void);
 } skr_host_api;
 
 /* Flags of skr_module_descriptor. Unknown flags are ignored. */

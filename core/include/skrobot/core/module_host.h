@@ -32,6 +32,10 @@ struct skr_module_ctx;  // the host's per-module record (core/src/module_record.
 
 namespace skr {
 
+namespace flow {
+class FlowServer;
+}
+
 enum class ModuleState { loaded, inited, started, stopped, unloaded };
 [[nodiscard]] std::string_view moduleStateName(ModuleState state) noexcept;
 
@@ -89,7 +93,9 @@ struct ModuleListing {
 class ModuleHost {
  public:
   // `main_loop` must outlive the host. `module_paths` come from HubConfig::module_paths.
-  ModuleHost(Loop& main_loop, const std::vector<std::filesystem::path>& module_paths);
+  // `server` (may be null) gives modules the FlowNetwork's channels; it must outlive the host.
+  ModuleHost(Loop& main_loop, const std::vector<std::filesystem::path>& module_paths,
+             flow::FlowServer* server = nullptr);
   ~ModuleHost();  // shutdown()
   ModuleHost(const ModuleHost&) = delete;
   ModuleHost& operator=(const ModuleHost&) = delete;
@@ -127,6 +133,7 @@ class ModuleHost {
   void release(skr_module_ctx& m, bool call_fini) noexcept;
 
   Loop& main_loop_;
+  flow::FlowServer* server_;
   std::thread::id control_thread_;
   std::vector<std::filesystem::path> search_path_;
   std::vector<std::unique_ptr<skr_module_ctx>> modules_;  // config order; failed ones removed

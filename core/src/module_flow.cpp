@@ -1,0 +1,209 @@
+#include "module_flow.h"
+
+#include <skrobot/core/log.h>
+#include <skrobot/flow/variant.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace skr {
+namespace {
+
+skr_status toStatus(Errc code) {
+  switch (code) {
+    case Errc::ok:
+      return SKR_OK;
+    case Errc::not_found:
+      return SKR_ERR_NOT_FOUND;
+    case Errc::invalid_argument:
+    case Errc::parse_error:
+    case Errc::already_exists:
+    case Errc::permission_denied:
+      return SKR_ERR_INVALID_ARGUMENT;
+    default:
+      return SKR_ERR_FAILED;
+  }
+}
+
+skr_status toStatus(flow::ErrorCode code) {
+  switch (code) {
+    case flow::ErrorCode::ok:
+      return SKR_OK;
+    case flow::ErrorCode::not_found:
+    case flow::ErrorCode::owner_gone:
+      return SKR_ERR_NOT_FOUND;
+    case flow::ErrorCode::invalid_argument:
+    case flow::ErrorCode::permission_denied:
+      return SKR_ERR_INVALID_ARGUMENT;
+    default:
+      return SKR_ERR_FAILED;
+  }
+}
+
+Result<flow::Variant> fromJson(const char* json) {
+  if (json == nullptr || *json == '\0') return flow::Variant();
+  return flow::variantFromJsonText(json);
+}
+
+}  // namespace
+
+ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name)
+    : name_(module_name) {
+  flow::LocalHandlers h;
+  h.on_data = [this](uint16_t chan_id, std::string_view payload) {
+    // Index loop: a callback may subscribe or unsubscribe.
+    for (size_t i = 0; i < subs_.size(); ++i) {
+      const Sub s = subs_[i];
+      if (s.chan_id == chan_id) s.fn(s.user, chan_id, payload.data(), payload.size());
+    }
+  };
+  h.on_subscribers = [this](uint16_t chan_id, bool first) {
+    if (creating_ && owned_.find(chan_id) == owned_.end()) owned_[chan_id] = *creating_;
+    auto it = owned_.find(chan_id);
+    if (it != owned_.end() && it->second.on_subscribers != nullptr) {
+      it->second.on_subscribers(it->second.user, chan_id, first ? 1 : 0);
+    }
+  };
+  h.on_request = [this](uint16_t chan_id, uint64_t request, const std::string& command,
+                        const std::string& requester, const flow::Variant& value) {
+    auto it = owned_.find(chan_id);
+    if (it == owned_.end() || it->second.on_request == nullptr) {
+      (void)client_->respond(chan_id, request, flow::Variant("this channel takes no requests"));
+      return;
+    }
+    const std::string json = flow::variantToJsonText(value);
+    it->second.on_request(it->second.user, chan_id, request, command.c_str(), requester.c_str(),
+                          json.c_str());
+  };
+  h.on_response = [this](uint16_t chan_id, uint32_t tag, flow::ErrorCode error,
+                         const flow::Variant& value) {
+    auto it = pending_.find(tag);
+    if (it == pending_.end()) return;
+    const Pending p = it->second;
+    pending_.erase(it);
+    if (p.fn == nullptr) return;
+    const std::string json = flow::variantToJsonText(value);
+    p.fn(p.user, chan_id, p.tag, toStatus(error), json.c_str());
+  };
+  h.on_channel = [this](uint16_t chan_id, const std::string& name, bool added) {
+    for (Sub& s : subs_) {
+      if (s.name == name) s.chan_id = added ? chan_id : 0;
+    }
+  };
+  client_ = server.attachLocal(module_name, module_name, std::move(h));
+}
+
+ModuleFlow::~ModuleFlow() = default;
+
+skr_status ModuleFlow::fail(const std::string& what, const Error& error) const {
+  log::warn("mod." + name_, "MODULE-FLOW", what + ": " + error.message);
+  return toStatus(error.code);
+}
+
+skr_status ModuleFlow::createChannel(const char* short_name, skr_channel_kind kind,
+                                     const char* mime, const char* props_json,
+                                     skr_subscribers_fn on_subscribers, skr_request_fn on_request,
+                                     void* user, uint16_t* chan_id_out) {
+  if (short_name == nullptr || chan_id_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  auto props = fromJson(props_json);
+  if (!props) return fail("channel_create " + std::string(short_name), props.error());
+  // A waiting subscription may attach during creation: the callbacks must be known by then.
+  creating_ = Owned{on_subscribers, on_request, user};
+  auto r = client_->createChannel(short_name, static_cast<flow::ChannelKind>(kind),
+                                  mime != nullptr ? mime : "", *props);
+  creating_.reset();
+  if (!r) return fail("channel_create " + std::string(short_name), r.error());
+  owned_[*r] = Owned{on_subscribers, on_request, user};
+  *chan_id_out = *r;
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::removeChannel(uint16_t chan_id) {
+  auto r = client_->removeChannel(chan_id);
+  if (!r) return fail("channel_remove", r.error());
+  owned_.erase(chan_id);
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::findChannel(const char* name, uint16_t* chan_id_out) const {
+  if (name == nullptr || chan_id_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  auto id = client_->findChannel(name);
+  if (!id) return SKR_ERR_NOT_FOUND;
+  *chan_id_out = *id;
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::publish(uint16_t chan_id, const void* data, size_t size) {
+  if (data == nullptr && size > 0) return SKR_ERR_INVALID_ARGUMENT;
+  auto r = client_->publish(
+      chan_id, std::string_view(static_cast<const char*>(data), data != nullptr ? size : 0));
+  return r ? SKR_OK : fail("publish", r.error());
+}
+
+skr_status ModuleFlow::subscribe(const char* name, skr_data_fn fn, void* user,
+                                 skr_sub_handle* handle_out) {
+  if (name == nullptr || fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  const skr_sub_handle handle = next_handle_++;
+  subs_.push_back(Sub{handle, name, client_->findChannel(name).value_or(0), fn, user});
+  if (auto r = client_->subscribe(name); !r) {
+    subs_.pop_back();
+    return fail("subscribe " + std::string(name), r.error());
+  }
+  *handle_out = handle;
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::unsubscribe(skr_sub_handle handle) {
+  auto it = std::find_if(subs_.begin(), subs_.end(),
+                         [handle](const Sub& s) { return s.handle == handle; });
+  if (it == subs_.end()) return SKR_ERR_NOT_FOUND;
+  const std::string name = it->name;
+  subs_.erase(it);
+  const bool still =
+      std::any_of(subs_.begin(), subs_.end(), [&name](const Sub& s) { return s.name == name; });
+  if (!still) client_->unsubscribe(name);
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::request(uint16_t chan_id, uint32_t tag, const char* command,
+                               const char* value_json, skr_response_fn fn, void* user) {
+  auto value = fromJson(value_json);
+  if (!value) return fail("service_request", value.error());
+  const uint32_t internal = next_tag_++;
+  pending_[internal] = Pending{tag, fn, user};
+  auto r = client_->request(chan_id, internal, command != nullptr ? command : "", *value);
+  if (!r) {
+    pending_.erase(internal);
+    return fail("service_request", r.error());
+  }
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::respond(uint16_t chan_id, uint64_t request, const char* value_json) {
+  auto value = fromJson(value_json);
+  if (!value) return fail("service_respond", value.error());
+  auto r = client_->respond(chan_id, request, *value);
+  return r ? SKR_OK : fail("service_respond", r.error());
+}
+
+skr_status ModuleFlow::dbGet(const char* db, const char* key, char* buf, size_t cap,
+                             size_t* len_out) {
+  if (db == nullptr || key == nullptr || len_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  auto v = client_->getVariable(db, key);
+  if (!v) return SKR_ERR_NOT_FOUND;
+  const std::string json = flow::variantToJsonText(*v);
+  *len_out = json.size() + 1;
+  if (buf == nullptr || cap < json.size() + 1) return SKR_ERR_NO_MEMORY;
+  std::memcpy(buf, json.c_str(), json.size() + 1);
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::dbSet(const char* db, const char* key, const char* value_json) {
+  if (db == nullptr || key == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  auto value = fromJson(value_json);
+  if (!value) return fail("db_set", value.error());
+  auto r = client_->setVariable(db, key, *value);
+  return r ? SKR_OK : fail("db_set " + std::string(db) + "." + key, r.error());
+}
+
+}  // namespace skr

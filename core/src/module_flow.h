@@ -1,0 +1,73 @@
+// A module's satellite in the hub: the ABI 1.1 channel and database calls of one module, on top
+// of a flow::LocalClient. Created by the module's first such call, destroyed when it stops (its
+// channels and subscriptions go with it). Main loop thread only.
+#pragma once
+
+#include <skrobot/flow/server.h>
+#include <skrobot/plugin.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace skr {
+
+class ModuleFlow {
+ public:
+  ModuleFlow(flow::FlowServer& server, const std::string& module_name);
+  ~ModuleFlow();
+  ModuleFlow(const ModuleFlow&) = delete;
+  ModuleFlow& operator=(const ModuleFlow&) = delete;
+  ModuleFlow(ModuleFlow&&) = delete;
+  ModuleFlow& operator=(ModuleFlow&&) = delete;
+
+  skr_status createChannel(const char* short_name, skr_channel_kind kind, const char* mime,
+                           const char* props_json, skr_subscribers_fn on_subscribers,
+                           skr_request_fn on_request, void* user, uint16_t* chan_id_out);
+  skr_status removeChannel(uint16_t chan_id);
+  skr_status findChannel(const char* name, uint16_t* chan_id_out) const;
+  skr_status publish(uint16_t chan_id, const void* data, size_t size);
+  skr_status subscribe(const char* name, skr_data_fn fn, void* user, skr_sub_handle* handle_out);
+  skr_status unsubscribe(skr_sub_handle handle);
+  skr_status request(uint16_t chan_id, uint32_t tag, const char* command, const char* value_json,
+                     skr_response_fn fn, void* user);
+  skr_status respond(uint16_t chan_id, uint64_t request, const char* value_json);
+  skr_status dbGet(const char* db, const char* key, char* buf, size_t cap, size_t* len_out);
+  skr_status dbSet(const char* db, const char* key, const char* value_json);
+
+ private:
+  struct Owned {
+    skr_subscribers_fn on_subscribers;
+    skr_request_fn on_request;
+    void* user;
+  };
+  struct Sub {
+    skr_sub_handle handle;
+    std::string name;
+    uint16_t chan_id;  // 0 while the channel does not exist
+    skr_data_fn fn;
+    void* user;
+  };
+  struct Pending {
+    uint32_t tag;
+    skr_response_fn fn;
+    void* user;
+  };
+
+  skr_status fail(const std::string& what, const Error& error) const;
+
+  std::string name_;
+  std::unique_ptr<flow::LocalClient> client_;
+  std::unordered_map<uint16_t, Owned> owned_;
+  std::optional<Owned> creating_;  // callbacks of the channel being created
+  std::vector<Sub> subs_;
+  std::map<uint32_t, Pending> pending_;  // by the internal tag given to the server
+  uint32_t next_tag_ = 1;
+  skr_sub_handle next_handle_ = 1;
+};
+
+}  // namespace skr

@@ -1,0 +1,133 @@
+// Modules on the FlowNetwork: the ABI 1.1 calls from a C module, and in-process zero-copy.
+#include "flow_fixture.h"
+
+#include <skrobot/core/module_host.h>
+
+namespace skr::test {
+namespace {
+
+using flow::Code;
+using flow::Variant;
+namespace msg = flow::msg;
+
+class ModuleChannels : public FlowFixture {
+ protected:
+  void startModules() {
+    onHub([&] {
+      host_ = std::make_unique<ModuleHost>(hub_->loop(), std::vector<std::filesystem::path>{},
+                                           server_.get());
+      ModuleEntry e;
+      e.name = "test_channel_echo";
+      e.path = std::filesystem::path(SKROBOT_TEST_MODULE_DIR) / "test_channel_echo.so";
+      host_->start({e});
+      EXPECT_EQ(host_->failures().size(), 0u);
+      EXPECT_EQ(host_->modules().size(), 1u);
+    });
+  }
+  void TearDown() override {
+    if (hub_) onHub([&] { host_.reset(); });
+    FlowFixture::TearDown();
+  }
+  std::unique_ptr<ModuleHost> host_;
+};
+
+TEST_F(ModuleChannels, CModuleCreatesPublishesSubscribesAndAnswers) {
+  startHub();
+  startModules();
+  TestClient sat = flowClient();
+  // The module's channels exist, with their properties.
+  TestClient sync = syncClient();
+  auto info = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_channel_echo.out"}));
+  ASSERT_TRUE(info);
+  EXPECT_EQ(*info->info.props.find("note"), Variant("echo of guest.in"));
+  EXPECT_EQ(info->info.owner, "test_channel_echo");
+  auto svc = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_channel_echo.svc"}));
+  ASSERT_TRUE(svc);
+
+  // Subscribing to the module's output tells the module (first subscriber).
+  ASSERT_TRUE(sat.send(msg::Subscribe{1, info->info.id}));
+  // guest.in appears: the module's waiting subscription attaches, so the satellite hears that
+  // its channel has a subscriber.
+  const uint16_t in = addChannel(sat, "in");
+  ASSERT_TRUE(sat.waitFor(Code::ev_start_publish));
+  ASSERT_TRUE(sat.send(msg::Publish{in, msg::Rest{"hello module"}}));
+  auto echoed = as<msg::EvData>(sat.waitFor(Code::ev_data));
+  ASSERT_TRUE(echoed);
+  EXPECT_EQ(echoed->chan_id, info->info.id);
+  EXPECT_EQ(echoed->payload.bytes, "hello module");
+
+  // Its service answers.
+  ASSERT_TRUE(sat.send(msg::ServiceRequest{5, svc->info.id, "shout", Variant("hi")}));
+  auto resp = as<msg::EvServiceResponse>(sat.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(resp);
+  EXPECT_EQ(resp->error, 0);
+  EXPECT_EQ(*resp->value.find("echo"), Variant("hi"));
+  EXPECT_EQ(*resp->value.find("cmd"), Variant("shout"));
+
+  // Its database, written through db_set.
+  ASSERT_EQ(sync.call(msg::DbSelect{"test_channel_echo"})->kind(), Code::reply_ok);
+  auto count = as<msg::ReplyValue>(sync.call(msg::VarGet{"echoed"}));
+  ASSERT_TRUE(count);
+  EXPECT_EQ(count->value, Variant(int64_t{1}));
+
+  // Stopping the module removes its channels, and everyone is told.
+  onHub([&] { host_->shutdown(); });
+  bool out_gone = false;
+  for (int i = 0; i < 2; ++i) {
+    auto removed = as<msg::EvChanRemoved>(sat.waitFor(Code::ev_chan_removed));
+    ASSERT_TRUE(removed);
+    out_gone = out_gone || removed->name == "test_channel_echo.out";
+  }
+  EXPECT_TRUE(out_gone);
+}
+
+TEST_F(ModuleChannels, InProcessSubscribersGetThePublishersBufferWithoutCopy) {
+  startHub();
+  onHub([&] {
+    const void* seen = nullptr;
+    size_t calls = 0;
+    flow::LocalHandlers sub_handlers;
+    sub_handlers.on_data = [&](uint16_t, std::string_view payload) {
+      seen = payload.data();
+      ++calls;
+    };
+    auto publisher = server_->attachLocal("camera", "camera", {});
+    auto subscriber = server_->attachLocal("vision", "vision", std::move(sub_handlers));
+    ASSERT_TRUE(subscriber->subscribe("camera.frames"));  // before the channel exists
+    auto id = publisher->createChannel("frames", flow::ChannelKind::streaming, "image/jpeg",
+                                       Variant(Variant::Map{}));
+    ASSERT_TRUE(id);
+    const std::string frame(640 * 360, 'j');
+    ASSERT_TRUE(publisher->publish(*id, frame));
+    EXPECT_EQ(calls, 1u);
+    EXPECT_EQ(seen, frame.data());  // the very same bytes: no copy
+    // Re-created channel: the subscription follows it.
+    ASSERT_TRUE(publisher->removeChannel(*id));
+    auto again = publisher->createChannel("frames", flow::ChannelKind::streaming, "", Variant());
+    ASSERT_TRUE(again);
+    ASSERT_TRUE(publisher->publish(*again, "x"));
+    EXPECT_EQ(calls, 2u);
+    // Only the owner publishes.
+    EXPECT_FALSE(subscriber->publish(*again, "spoof"));
+  });
+}
+
+TEST_F(ModuleChannels, ModulesOnTheirOwnThreadAreToldChannelCallsAreMainLoopOnly) {
+  startHub();
+  onHub([&] {
+    host_ = std::make_unique<ModuleHost>(hub_->loop(), std::vector<std::filesystem::path>{},
+                                         server_.get());
+    ModuleEntry e;
+    e.name = "test_channel_echo";
+    e.path = std::filesystem::path(SKROBOT_TEST_MODULE_DIR) / "test_channel_echo.so";
+    e.own_thread = true;
+    host_->start({e});
+    ASSERT_EQ(host_->failures().size(), 1u);
+    EXPECT_EQ(host_->failures()[0].tag, "MODULE-START");
+    EXPECT_NE(host_->failures()[0].reason.find("loop thread"), std::string::npos)
+        << host_->failures()[0].reason;
+  });
+}
+
+}  // namespace
+}  // namespace skr::test

@@ -26,7 +26,7 @@ PACKAGES=(
   libuv1-dev libjsoncpp-dev libsodium-dev
   googletest libgtest-dev
   clang libclang-rt-14-dev
-  python3
+  python3 python3-pip python3-setuptools python3-lib2to3
 )
 
 step "checking Debian packages (${#PACKAGES[@]})"

@@ -45,16 +45,16 @@ constexpr double kTwo64 = 18446744073709551616.0;
 std::optional<int64_t> Variant::asInt64() const noexcept {
   switch (type()) {
     case Type::int64:
-      return std::get<int64_t>(v_);
+      return *std::get_if<int64_t>(&v_);
     case Type::uint64: {
-      const uint64_t u = std::get<uint64_t>(v_);
+      const uint64_t u = *std::get_if<uint64_t>(&v_);
       if (u <= static_cast<uint64_t>(std::numeric_limits<int64_t>::max())) {
         return static_cast<int64_t>(u);
       }
       return std::nullopt;
     }
     case Type::float64: {
-      const double d = std::get<double>(v_);
+      const double d = *std::get_if<double>(&v_);
       if (std::trunc(d) == d && d >= -kTwo63 && d < kTwo63) return static_cast<int64_t>(d);
       return std::nullopt;
     }
@@ -66,14 +66,14 @@ std::optional<int64_t> Variant::asInt64() const noexcept {
 std::optional<uint64_t> Variant::asUint64() const noexcept {
   switch (type()) {
     case Type::uint64:
-      return std::get<uint64_t>(v_);
+      return *std::get_if<uint64_t>(&v_);
     case Type::int64: {
-      const int64_t i = std::get<int64_t>(v_);
+      const int64_t i = *std::get_if<int64_t>(&v_);
       if (i >= 0) return static_cast<uint64_t>(i);
       return std::nullopt;
     }
     case Type::float64: {
-      const double d = std::get<double>(v_);
+      const double d = *std::get_if<double>(&v_);
       if (std::trunc(d) == d && d >= 0 && d < kTwo64) return static_cast<uint64_t>(d);
       return std::nullopt;
     }
@@ -85,11 +85,11 @@ std::optional<uint64_t> Variant::asUint64() const noexcept {
 std::optional<double> Variant::asDouble() const noexcept {
   switch (type()) {
     case Type::float64:
-      return std::get<double>(v_);
+      return *std::get_if<double>(&v_);
     case Type::int64:
-      return static_cast<double>(std::get<int64_t>(v_));
+      return static_cast<double>(*std::get_if<int64_t>(&v_));
     case Type::uint64:
-      return static_cast<double>(std::get<uint64_t>(v_));
+      return static_cast<double>(*std::get_if<uint64_t>(&v_));
     default:
       return std::nullopt;
   }
@@ -134,12 +134,12 @@ bool operator==(const Variant& a, const Variant& b) noexcept {
     case Variant::Type::boolean:
       return *a.asBool() == *b.asBool();
     case Variant::Type::int64:
-      return std::get<int64_t>(a.v_) == std::get<int64_t>(b.v_);
+      return *std::get_if<int64_t>(&a.v_) == *std::get_if<int64_t>(&b.v_);
     case Variant::Type::uint64:
-      return std::get<uint64_t>(a.v_) == std::get<uint64_t>(b.v_);
+      return *std::get_if<uint64_t>(&a.v_) == *std::get_if<uint64_t>(&b.v_);
     case Variant::Type::float64: {
-      const double x = std::get<double>(a.v_);
-      const double y = std::get<double>(b.v_);
+      const double x = *std::get_if<double>(&a.v_);
+      const double y = *std::get_if<double>(&b.v_);
       return x == y || (std::isnan(x) && std::isnan(y));
     }
     case Variant::Type::string:

@@ -107,10 +107,10 @@ class Decoder {
     return static_cast<size_t>(r_.position() - start_);
   }
 
-  Error fail(std::string why, size_t at) {
+  Error fail(const std::string& why, size_t at) {
     return makeError(Errc::protocol_error, why + " (at byte " + std::to_string(at) + ")");
   }
-  Error fail(std::string why) { return fail(std::move(why), offset()); }
+  Error fail(const std::string& why) { return fail(why, offset()); }
 
   // What is left, for messages: the value size limit may be what cut the input short.
   [[nodiscard]] std::string bytesLeft() const {

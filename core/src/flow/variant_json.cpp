@@ -121,7 +121,10 @@ class FromJson {
     Variant::Map entries;
     for (auto it = j.begin(); it != j.end(); ++it) {
       std::string key = it.name();
-      const std::string at = path + "." + key;
+      std::string at = path;  // for messages: long keys shortened, so paths stay short
+      at += '.';
+      at.append(key, 0, 64);
+      if (key.size() > 64) at += "...";
       if (key.size() > std::numeric_limits<uint16_t>::max()) {
         return fail(path, "key of " + std::to_string(key.size()) + " bytes exceeds 65535");
       }
@@ -145,11 +148,11 @@ Json::Value Variant::toJson() const {
     case Type::boolean:
       return Json::Value(*asBool());
     case Type::int64:
-      return Json::Value(static_cast<Json::Int64>(std::get<int64_t>(v_)));
+      return Json::Value(static_cast<Json::Int64>(*std::get_if<int64_t>(&v_)));
     case Type::uint64:
-      return Json::Value(static_cast<Json::UInt64>(std::get<uint64_t>(v_)));
+      return Json::Value(static_cast<Json::UInt64>(*std::get_if<uint64_t>(&v_)));
     case Type::float64: {
-      const double d = std::get<double>(v_);
+      const double d = *std::get_if<double>(&v_);
       return std::isfinite(d) ? Json::Value(d) : Json::Value(Json::nullValue);
     }
     case Type::string: {

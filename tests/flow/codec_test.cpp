@@ -173,7 +173,9 @@ TEST(FrameSplitter, FramesLimitsAndPartialInput) {
   for (size_t n = 0; n < a.consumed; ++n) {
     auto partial = s.next(p, n);
     EXPECT_EQ(partial.status, FrameSplitter::Status::need_more);
-    if (n >= 4) EXPECT_EQ(partial.wanted, a.consumed);
+    if (n >= 4) {
+      EXPECT_EQ(partial.wanted, a.consumed);
+    }
   }
   const uint8_t big[] = {101, 0, 0, 0, 0x44};
   EXPECT_EQ(s.next(big, sizeof big).status, FrameSplitter::Status::too_large);

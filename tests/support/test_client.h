@@ -87,7 +87,7 @@ std::optional<Decoded<M>> as(const std::optional<Frame>& f) {
   auto owned = std::make_shared<const Frame>(*f);
   auto r = flow::decode<M>(owned->body);
   if (!r) return std::nullopt;
-  Decoded<M> d{std::move(r).value()};
+  Decoded<M> d{std::move(r).value(), nullptr};
   d.frame = std::move(owned);
   return d;
 }

@@ -44,14 +44,14 @@ Result<void> FlowServer::Impl::start() {
   if (auto loaded = dbs.loadAll(); !loaded) {
     return loaded.error();
   } else {
-    for (const auto& p : loaded->problems) {
-      log::error(kLogSource, "FLOW-DB-CORRUPT",
-                 "database file " + p.file + ": " + p.reason +
-                     (p.renamed_to.empty() ? "" : "; kept as " + p.renamed_to));
-    }
+    // The store logs each corrupt file itself (DB-CORRUPT) and sets it aside.
     if (!opt.data_dir.empty()) {
       log::info(kLogSource, "FLOW-DB-LOADED",
-                std::to_string(loaded->loaded.size()) + " databases from " + dbs.dbDir().string());
+                std::to_string(loaded->loaded.size()) + " databases from " +
+                    dbs.dbDir().string() +
+                    (loaded->problems.empty()
+                         ? std::string()
+                         : ", " + std::to_string(loaded->problems.size()) + " corrupt set aside"));
     }
   }
   std::optional<DevAccount> dev;

@@ -431,6 +431,40 @@ TEST_F(Server, ClientKilledMidFrame) {
   EXPECT_EQ(stats().protocol_errors, 0u);
 }
 
+// A subscriber that vanishes while the hub has data queued for it: the write fails with EPIPE
+// and only that connection closes. Without SIGPIPE ignored, the whole process dies here.
+TEST_F(Server, PeerClosingBeforeTheHubWritesDoesNotKillTheHub) {
+  startHub();
+  std::unique_ptr<flow::LocalClient> camera;
+  uint16_t id = 0;
+  onHub([&] {
+    camera = server_->attachLocal("camera", "camera", {});
+    auto r = camera->createChannel("frames", flow::ChannelKind::streaming, "", Variant());
+    ASSERT_TRUE(r);
+    id = *r;
+  });
+  TestClient sub = flowClient();
+  ASSERT_TRUE(sub.send(msg::Subscribe{1, id}));
+  TestClient probe = syncClient();
+  for (int i = 0; i < 500; ++i) {
+    auto info = as<msg::ChannelInfoReply>(probe.call(msg::ChanInfoByName{"camera.frames"}));
+    if (info && info->info.subscribers == 1) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  // On the hub's thread: the peer goes away, then data is queued for it. The hub writes it at
+  // its next flush, before it polls and sees the end of the connection.
+  onHub([&] {
+    sub.close();
+    ASSERT_TRUE(camera->publish(id, std::string(1000, 'x')));
+  });
+  for (int i = 0; i < 500 && stats().connections_open > 1; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(stats().connections_open, 1u);  // only the probe is left
+  EXPECT_EQ(probe.call(msg::Ping{msg::Rest{"alive"}})->kind(), Code::reply_ok);
+  onHub([&] { camera.reset(); });
+}
+
 TEST_F(Server, SlowSubscriberLosesOldestFramesAndDelaysNobody) {
   auto o = defaults();
   o.subscriber_queue_bytes = 1024 * 1024;

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <random>
 
@@ -41,14 +42,17 @@ FlowServer::Impl::Impl(Loop& l, ServerOptions options)
 
 Result<void> FlowServer::Impl::start() {
   if (started) return {};
+  // libuv writes with write(2): a satellite that closes while the hub writes to it would raise
+  // SIGPIPE and kill the whole hub. Ignored, the write fails with EPIPE and only that
+  // connection closes.
+  std::signal(SIGPIPE, SIG_IGN);
   if (auto loaded = dbs.loadAll(); !loaded) {
     return loaded.error();
   } else {
     // The store logs each corrupt file itself (DB-CORRUPT) and sets it aside.
     if (!opt.data_dir.empty()) {
       log::info(kLogSource, "FLOW-DB-LOADED",
-                std::to_string(loaded->loaded.size()) + " databases from " +
-                    dbs.dbDir().string() +
+                std::to_string(loaded->loaded.size()) + " databases from " + dbs.dbDir().string() +
                     (loaded->problems.empty()
                          ? std::string()
                          : ", " + std::to_string(loaded->problems.size()) + " corrupt set aside"));

@@ -83,7 +83,8 @@ class FlowServer {
   FlowServer& operator=(FlowServer&&) = delete;
 
   // Loads the databases and accounts, then listens. Fails (and listens on nothing) when a
-  // transport cannot be opened, or TCP is enabled without real accounts.
+  // transport cannot be opened, or TCP is enabled without real accounts. Sets SIGPIPE to be
+  // ignored for the process: a peer that closes mid-write must not kill the hub.
   [[nodiscard]] Result<void> start();
   // Saves dirty persistent databases, closes all connections and listeners. Idempotent.
   void stop() noexcept;

@@ -81,6 +81,22 @@ TEST_F(ModuleChannels, CModuleCreatesPublishesSubscribesAndAnswers) {
   EXPECT_TRUE(out_gone);
 }
 
+TEST_F(ModuleChannels, BlockingCallsAnsweredAtOnceByAModuleKeepTheConnectionUsable) {
+  startHub();
+  startModules();
+  TestClient sync = syncClient();
+  auto svc = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_channel_echo.svc"}));
+  ASSERT_TRUE(svc);
+  // The module answers inside the request: the reply must still come, each time.
+  for (int i = 0; i < 3; ++i) {
+    auto v = as<msg::ReplyValue>(
+        sync.call(msg::ServiceCall{svc->info.id, 5000, "n", Variant(int64_t{i})}));
+    ASSERT_TRUE(v) << "call " << i;
+    EXPECT_EQ(*v->value.find("echo"), Variant(int64_t{i}));
+  }
+  EXPECT_EQ(sync.call(msg::Ping{msg::Rest{"still"}})->kind(), Code::reply_ok);
+}
+
 TEST_F(ModuleChannels, InProcessSubscribersGetThePublishersBufferWithoutCopy) {
   startHub();
   onHub([&] {

@@ -173,12 +173,14 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::service_call: {
       SKR_DECODE(msg::ServiceCall, m);
+      // Block first: the reply is the owner's response (an in-hub module may answer inside
+      // request()), or a timeout.
+      block();
       const ErrorCode e =
           server_.request(*this, m.chan_id, 0, true, m.timeout_ms, m.command, m.value, why);
       if (e != ErrorCode::ok) {
         replyError(e, why);
-      } else {
-        block();  // the reply is the owner's response, or a timeout
+        unblock();
       }
       return;
     }

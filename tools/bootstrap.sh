@@ -60,6 +60,12 @@ build_preset() {
 
 build_preset release
 
+step "installing the PySketch Python package (pysketch-executor on PATH)"
+PIP=(/usr/bin/python3 -m pip install --quiet --break-system-packages --no-build-isolation --no-deps
+     --no-index "$ROOT/satellite/python")
+if [ "$(id -u)" -eq 0 ]; then "${PIP[@]}"; elif command -v sudo >/dev/null; then sudo "${PIP[@]}"; fi
+rm -rf "$ROOT/satellite/python/build" "$ROOT"/satellite/python/*.egg-info
+
 case "$MODE" in
   build)
     echo "built: build/release/bin/skrobot"

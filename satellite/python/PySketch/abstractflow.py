@@ -1,0 +1,290 @@
+"""What FlowSat (the asynchronous flow) and FlowSync (the synchronous connection) share:
+FlowChannel, the hub's address (ROBOT_ADDRESS), credentials, sockets and frame splitting."""
+from __future__ import print_function, division, absolute_import
+
+import errno
+import os
+import re
+import socket
+import struct
+import sys
+
+from PySketch.flowproto import (
+    ChanKind_T, Code, DEFAULT_ADDRESS, DEFAULT_PORT, Flow_T, FlowError, PROTOCOL_MAJOR,
+    PROTOCOL_MINOR, ProtocolError, Reader, Variant_T, frame, str16, text_type)
+
+# The name a satellite gives the hub when the sketch sets none (the executor sets it to the
+# sketch's file name).
+defaultClientName = None
+
+_SHORT_NAME = re.compile(r"^[A-Za-z0-9_\-][A-Za-z0-9_.\-]{0,127}$")
+
+
+def enumLookup(enum, v):
+    """The member of `enum` named or numbered `v`, or None. (Members are ints: FT_BLOB is 0,
+    so never test them with `or`.)"""
+    m = enum.byName(v)
+    return m if m is not None else enum.byValue(v)
+
+
+def validShortName(name):
+    """A channel's short name: 1-128 of A-Z a-z 0-9 _ - . (not starting with '.')."""
+    return isinstance(name, (str, text_type)) and _SHORT_NAME.match(name) is not None
+
+
+class FlowChannel(object):
+    """A channel as a satellite sees it.
+
+    chanID      the hub's id (changes when the channel is re-created, e.g. after a hub restart)
+    hashID      unique per channel instance
+    name        "<user>.<short name>"
+    kind        ChanKind_T.CK_STREAMING, CK_SERVICE or CK_BLOB
+    mime        what the payloads are ("" when the owner said nothing)
+    props       the channel's database as it was announced (a dict)
+    flowType    Flow_T from props["flow_type"] (None when absent)
+    dataType    Variant_T from props["data_type"] (None when absent)
+    owner       the owner's user name
+    isOwned     True for channels this satellite created
+    isPublishingEnabled  owned streaming channels: someone subscribes (start/stop callbacks)
+    isSubscribed         this satellite subscribes to it
+    """
+
+    def __init__(self, chanID=0, name="", kind=ChanKind_T.CK_STREAMING, mime="", props=None,
+                 hashID=0, owner="", ownerConnection=0, subscribers=0):
+        self.chanID = chanID
+        self.hashID = hashID
+        self.name = name
+        self.kind = ChanKind_T.byValue(kind) or kind
+        self.mime = mime
+        self.props = dict(props or {})
+        self.owner = owner
+        self.ownerConnection = ownerConnection
+        self.subscribers = subscribers
+        self.isOwned = False
+        self.isPublishingEnabled = False
+        self.isSubscribed = False
+
+    @classmethod
+    def fromInfo(cls, info):
+        return cls(info.chanID, info.name, info.kind, info.mime, info.props, info.hashID,
+                   info.owner, info.ownerConnection, info.subscribers)
+
+    def update(self, info):
+        self.hashID = info.hashID
+        self.mime = info.mime
+        self.props = dict(info.props)
+        self.subscribers = info.subscribers
+
+    @property
+    def shortName(self):
+        return self.name.split(".", 1)[1] if "." in self.name else self.name
+
+    @property
+    def flowType(self):
+        return enumLookup(Flow_T, self.props.get("flow_type"))
+
+    @property
+    def dataType(self):
+        return enumLookup(Variant_T, self.props.get("data_type"))
+
+    # Older spellings some sketches use
+    @property
+    def flow_t(self):
+        return self.flowType
+
+    @property
+    def data_t(self):
+        return self.dataType
+
+    def isStreaming(self):
+        return self.kind == ChanKind_T.CK_STREAMING
+
+    def isService(self):
+        return self.kind == ChanKind_T.CK_SERVICE
+
+    def isBlob(self):
+        return self.kind == ChanKind_T.CK_BLOB
+
+    def __repr__(self):
+        kind = getattr(self.kind, "name", self.kind)
+        return "FlowChannel(%d, %r, %s)" % (self.chanID, self.name, kind)
+
+
+###############################################################################
+# Addresses
+
+
+def robotAddress(address=None):
+    """The hub's address: `address`, else $ROBOT_ADDRESS, else local:/tmp/Robot."""
+    if address:
+        return address
+    return os.environ.get("ROBOT_ADDRESS") or DEFAULT_ADDRESS
+
+
+def parseAddress(address):
+    """("local", path) for local:/path, ("tcp", (host, port)) for tcp:host[:port] (default port
+    9000; IPv6 as tcp:[::1]:9000). Raises ValueError."""
+    if address.startswith("local:"):
+        path = address[len("local:"):]
+        if not path:
+            raise ValueError("ROBOT_ADDRESS %r: no socket path" % address)
+        return "local", path
+    if address.startswith("tcp:"):
+        rest = address[len("tcp:"):].lstrip("/")
+        port = DEFAULT_PORT
+        if rest.startswith("["):
+            end = rest.find("]")
+            if end < 0:
+                raise ValueError("ROBOT_ADDRESS %r: unclosed [" % address)
+            host = rest[1:end]
+            tail = rest[end + 1:]
+            if tail.startswith(":"):
+                port = int(tail[1:])
+            elif tail:
+                raise ValueError("ROBOT_ADDRESS %r: bad port" % address)
+        elif rest.count(":") == 1:
+            host, p = rest.split(":")
+            port = int(p)
+        else:
+            host = rest
+        if not host:
+            raise ValueError("ROBOT_ADDRESS %r: no host" % address)
+        if not 0 < port < 65536:
+            raise ValueError("ROBOT_ADDRESS %r: bad port" % address)
+        return "tcp", (host, port)
+    raise ValueError("ROBOT_ADDRESS %r: expected local:/path or tcp:host[:port]" % address)
+
+
+def openSocket(address, blocking=True, timeout=10.0):
+    """A socket to the hub. With blocking=False the connection may still be in progress (TCP):
+    returns (sock, done)."""
+    kind, where = parseAddress(address)
+    if kind == "local":
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        target = where
+    else:
+        infos = socket.getaddrinfo(where[0], where[1], 0, socket.SOCK_STREAM)
+        family, stype, proto, _, target = infos[0]
+        sock = socket.socket(family, stype, proto)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    try:
+        if blocking:
+            sock.settimeout(timeout)
+            sock.connect(target)
+            return sock, True
+        sock.setblocking(False)
+        rc = sock.connect_ex(target)
+        if rc == 0:
+            return sock, True
+        if kind == "tcp" and rc in (errno.EINPROGRESS, errno.EWOULDBLOCK, errno.EALREADY):
+            return sock, False
+        raise socket.error(rc, os.strerror(rc))
+    except Exception:
+        sock.close()
+        raise
+
+
+###############################################################################
+# The parts every connection has
+
+
+class AbstractFlow(object):
+    """Credentials, the client name, the LOGIN frame and frame splitting."""
+
+    def __init__(self):
+        self._userName = "guest"
+        self._passwd = "password"
+        self._appName = None
+        self._nodeName = None
+        self._address = None
+        self._sock = None
+        self._inbuf = bytearray()
+        self._inpos = 0
+        self.connectionID = None
+        self.hubAppName = None
+        self.currentDbName = None
+        self.lastError = None
+
+    # -- identity
+    def setLogin(self, user, password):
+        self._userName = user
+        self._passwd = password
+
+    def setAppName(self, name):
+        self._appName = name
+
+    def setNodeName(self, name):
+        self._nodeName = name
+
+    def userName(self):
+        return self._userName
+
+    def clientName(self):
+        name = self._nodeName or self._appName or defaultClientName
+        if not name:
+            name = os.path.splitext(os.path.basename(sys.argv[0] or "python"))[0]
+        return name
+
+    def setAddress(self, address):
+        """Overrides ROBOT_ADDRESS for the next connect()."""
+        self._address = address
+
+    def address(self):
+        return robotAddress(self._address)
+
+    # -- frames
+    def _loginFrame(self):
+        body = (struct.pack("<HHB", PROTOCOL_MAJOR, PROTOCOL_MINOR, 0) + str16(self._userName) +
+                str16(self._passwd) + str16(self.clientName()))
+        return frame(Code.LOGIN, body)
+
+    def _readLoginOk(self, body):
+        r = Reader(body)
+        major = r.u16()
+        r.u16()
+        if major != PROTOCOL_MAJOR:
+            raise ProtocolError("hub speaks FlowProtocol %d" % major)
+        self.connectionID = r.u32()
+        self.hubAppName = r.str16()
+        self._userName = r.str16()
+        self.currentDbName = r.str16()
+
+    @staticmethod
+    def _replyError(body):
+        r = Reader(body)
+        code = r.u16("error")
+        message = r.str16("message")
+        return FlowError(code, message)
+
+    def _nextFrame(self):
+        """(code, body) of the next complete frame in the input buffer, or None."""
+        buf = self._inbuf
+        have = len(buf) - self._inpos
+        if have < 4:
+            return None
+        n = struct.unpack_from("<I", buf, self._inpos)[0]
+        if n == 0:
+            raise ProtocolError("frame length 0")
+        if have < 4 + n:
+            return None
+        start = self._inpos
+        code = buf[start + 4]
+        body = bytes(buf[start + 5:start + 4 + n])
+        self._inpos = start + 4 + n
+        return code, body
+
+    def _compactInput(self):
+        if self._inpos:
+            del self._inbuf[:self._inpos]
+            self._inpos = 0
+
+    def _closeSocket(self):
+        if self._sock is not None:
+            try:
+                self._sock.close()
+            except (socket.error, OSError):
+                pass
+        self._sock = None
+        self._inbuf = bytearray()
+        self._inpos = 0
+

@@ -1,0 +1,596 @@
+"""FlowProtocol 1.0 for Python: enums, command codes, error codes and the Variant codec.
+
+The byte-by-byte specification is docs/flow-protocol.md. Everything here is plain standard
+library (struct, little-endian) and parses under Python 2.7 and Python 3.
+
+Values map between Python and the protocol's binary Variant like this:
+
+    None                      <-> null     (tag 0x00)
+    bool                      <-> bool     (tag 0x01)
+    int in int64 range        <-> int64    (tag 0x02)
+    int above INT64_MAX       <-> uint64   (tag 0x03; decoded back to int)
+    float                     <-> float64  (tag 0x04)
+    str (text)                <-> string   (tag 0x05, UTF-8)
+    bytes, bytearray          <-> bytes    (tag 0x06; decoded to bytes)
+    list, tuple               <-> list     (tag 0x07; decoded to list)
+    dict (text keys)          <-> map      (tag 0x08; keys written in byte order, like the hub)
+
+Under Python 2 a `unicode` is text; a `str` is text when it is valid UTF-8, bytes otherwise;
+strings are decoded to native `str` (UTF-8 bytes) so that they compare with literals.
+"""
+from __future__ import print_function, division, absolute_import
+
+import json
+import math
+import struct
+import sys
+import base64
+
+PY2 = sys.version_info[0] == 2
+
+if PY2:  # pragma: no cover - Python 2 only
+    text_type = unicode  # noqa: F821
+    integer_types = (int, long)  # noqa: F821
+else:
+    text_type = str
+    integer_types = (int,)
+
+PROTOCOL_MAJOR = 1
+PROTOCOL_MINOR = 0
+
+DEFAULT_PORT = 9000
+DEFAULT_ADDRESS = "local:/tmp/Robot"
+MAX_DEPTH = 32
+
+INT64_MIN = -(1 << 63)
+INT64_MAX = (1 << 63) - 1
+UINT64_MAX = (1 << 64) - 1
+
+
+###############################################################################
+# Small enums that work the same under Python 2.7 (no enum module) and Python 3
+
+
+class EnumValue(int):
+    """A member of one of the enums below: an int with a `name` and a `value`."""
+
+    def __new__(cls, enum_name, name, value):
+        obj = int.__new__(cls, value)
+        obj.name = name
+        obj.value = value
+        obj.enumName = enum_name
+        return obj
+
+    def __repr__(self):
+        return "<%s.%s: %d>" % (self.enumName, self.name, self.value)
+
+    def __str__(self):
+        return "%s.%s" % (self.enumName, self.name)
+
+    def __reduce__(self):
+        return (int, (self.value,))
+
+
+class _EnumMeta(type):
+    def __iter__(cls):
+        return iter(cls._members)
+
+    def __len__(cls):
+        return len(cls._members)
+
+    def __contains__(cls, item):
+        return cls.byValue(item) is not None or cls.byName(item) is not None
+
+    def __call__(cls, value):
+        m = cls.byValue(value)
+        if m is None:
+            m = cls.byName(value)
+        if m is None:
+            raise ValueError("%r is not a valid %s" % (value, cls.__name__))
+        return m
+
+    def __getitem__(cls, name):
+        m = cls.byName(name)
+        if m is None:
+            raise KeyError(name)
+        return m
+
+
+def _enum(enum_name, members, doc):
+    attrs = {"__doc__": doc}
+    values = []
+    for name, value in members:
+        m = EnumValue(enum_name, name, value)
+        attrs[name] = m
+        values.append(m)
+    attrs["_members"] = tuple(values)
+
+    def byValue(cls, value):
+        if isinstance(value, integer_types) and not isinstance(value, bool):
+            for m in cls._members:
+                if m.value == value:
+                    return m
+        return None
+
+    def byName(cls, name):
+        if isinstance(name, EnumValue):
+            name = name.name
+        for m in cls._members:
+            if m.name == name:
+                return m
+        return None
+
+    attrs["byValue"] = classmethod(byValue)
+    attrs["byName"] = classmethod(byName)
+    return _EnumMeta(enum_name, (object,), attrs)
+
+
+Variant_T = _enum("Variant_T", [
+    ("T_NULL", 0), ("T_BOOL", 1),
+    ("T_INT8", 2), ("T_UINT8", 3), ("T_INT16", 4), ("T_UINT16", 5),
+    ("T_INT32", 6), ("T_UINT32", 7), ("T_INT64", 8), ("T_UINT64", 9),
+    ("T_FLOAT", 10), ("T_DOUBLE", 11),
+    ("T_STRING", 12), ("T_BYTEARRAY", 13),
+    ("T_LIST", 14), ("T_MAP", 15), ("T_PAIR", 16), ("T_JSON", 17),
+], "What a channel's payloads hold (PySketch's data types). Written to the channel's "
+   "properties as `data_type` by FlowSat.addStreamingChannel; the wire never depends on it.")
+
+Flow_T = _enum("Flow_T", [
+    ("FT_BLOB", 0), ("FT_STREAMING", 1), ("FT_SERVICE", 2),
+    ("FT_AUDIO_DATA", 3), ("FT_VIDEO_DATA", 4), ("FT_IMAGE_DATA", 5),
+    ("FT_SENSOR_DATA", 6), ("FT_CTRL_DATA", 7), ("FT_TEXT", 8),
+], "What kind of flow a channel carries (PySketch's flow types). FT_BLOB is opaque data. "
+   "Written to the channel's properties as `flow_type`.")
+
+ChanKind_T = _enum("ChanKind_T", [
+    ("CK_STREAMING", 1), ("CK_SERVICE", 2), ("CK_BLOB", 3),
+], "Channel kinds on the wire (ChannelInfo.kind).")
+
+Error_T = _enum("Error_T", [
+    ("ok", 0), ("protocol_error", 1), ("version_mismatch", 2), ("auth_failed", 3),
+    ("not_logged_in", 4), ("not_found", 5), ("already_exists", 6),
+    ("permission_denied", 7), ("invalid_argument", 8), ("timeout", 9),
+    ("owner_gone", 10), ("overflow", 11), ("unsupported", 12), ("limit_exceeded", 13),
+    ("io_error", 14), ("internal", 15),
+], "FlowProtocol error codes.")
+
+
+class FlowChanID(int):
+    """A channel id (u16, 1..32767). Callbacks get plain ints; both compare equal."""
+
+    def __repr__(self):
+        return "FlowChanID(%d)" % int(self)
+
+
+class Code(object):
+    """Frame codes (docs/flow-protocol.md)."""
+    LOGIN = 0x01
+    DB_SELECT = 0x02
+    DB_CREATE = 0x03
+    DB_SAVE = 0x04
+    DB_REMOVE = 0x05
+    VAR_GET = 0x06
+    VAR_SET = 0x07
+    VAR_DEL = 0x08
+    VAR_GET_ALL = 0x09
+    VAR_KEYS = 0x0A
+    CHAN_LIST = 0x0B
+    POLL_REGISTER = 0x0C
+    POLL_FETCH = 0x0D
+    SERVICE_CALL = 0x0E
+    GO_ASYNC = 0x0F
+    PING = 0x10
+    DB_LIST = 0x11
+    CHAN_INFO = 0x12
+
+    CHAN_ADD = 0x40
+    CHAN_REMOVE = 0x41
+    SUBSCRIBE = 0x42
+    UNSUBSCRIBE = 0x43
+    PUBLISH = 0x44
+    SERVICE_REQUEST = 0x45
+    SERVICE_RESPONSE = 0x46
+    DB_SET_CURRENT = 0x47
+    DB_CREATE_ASYNC = 0x48
+    DB_REMOVE_ASYNC = 0x49
+    DB_SAVE_ASYNC = 0x4A
+    VAR_SET_ASYNC = 0x4B
+    VAR_DEL_ASYNC = 0x4C
+    CHAN_SET_PROPS = 0x4D
+
+    REPLY_OK = 0x80
+    REPLY_ERROR = 0x81
+    EV_DB_CHANGED = 0x90
+    EV_CHAN_ADDED = 0x91
+    EV_CHAN_REMOVED = 0x92
+    EV_CHAN_HEADER = 0x93
+    EV_SERVICE_REQUEST = 0x94
+    EV_START_PUBLISH = 0x95
+    EV_STOP_PUBLISH = 0x96
+    EV_DATA = 0x97
+    EV_SERVICE_RESPONSE = 0x98
+    EV_ERROR = 0x99
+    EV_DROPPED = 0x9A
+
+
+def codeName(code):
+    for k, v in Code.__dict__.items():
+        if not k.startswith("_") and v == code:
+            return k
+    return "0x%02x" % code
+
+
+def errorName(error):
+    m = Error_T.byValue(error)
+    return m.name if m is not None else "error %d" % error
+
+
+class FlowError(Exception):
+    """A REPLY_ERROR, an EV_ERROR, or a broken frame. `code` is an Error_T value."""
+
+    def __init__(self, code, message):
+        Exception.__init__(self, "%s: %s" % (errorName(code), message))
+        self.code = code
+        self.message = message
+
+
+class ProtocolError(FlowError):
+    def __init__(self, message):
+        FlowError.__init__(self, 1, message)
+
+
+###############################################################################
+# Text and bytes that behave the same under both interpreters
+
+
+def toBytes(data):
+    """bytes (py3) / str (py2) from bytes, bytearray, memoryview, a DataBuffer or text."""
+    if isinstance(data, bytes):
+        return data
+    if isinstance(data, text_type):
+        return data.encode("utf-8")
+    if isinstance(data, memoryview):
+        return data.tobytes()
+    if isinstance(data, bytearray):
+        return bytes(data)
+    to = getattr(data, "toBytes", None)
+    if to is not None:
+        return to()
+    raise TypeError("expected bytes-like data, got %s" % type(data).__name__)
+
+
+def utf8(s):
+    """Text to UTF-8 bytes (a py2 `str` is taken as already encoded)."""
+    if isinstance(s, text_type):
+        return s.encode("utf-8")
+    if isinstance(s, (bytes, bytearray)):
+        return bytes(s)
+    return text_type(s).encode("utf-8")
+
+
+def native(b):
+    """UTF-8 bytes to the native `str` (py3: decoded text; py2: the bytes themselves)."""
+    if PY2:  # pragma: no cover
+        return bytes(b)
+    return bytes(b).decode("utf-8", "replace")
+
+
+def _isText(v):
+    if isinstance(v, text_type):
+        return True
+    if PY2 and isinstance(v, str):  # pragma: no cover
+        try:
+            v.decode("utf-8")
+            return True
+        except UnicodeDecodeError:
+            return False
+    return False
+
+
+###############################################################################
+# Writing
+
+
+def u8(v):
+    return struct.pack("<B", v)
+
+
+def u16(v):
+    return struct.pack("<H", v)
+
+
+def u32(v):
+    return struct.pack("<I", v)
+
+
+def u64(v):
+    return struct.pack("<Q", v)
+
+
+def str16(s):
+    b = utf8(s)
+    if len(b) > 0xFFFF:
+        raise ValueError("text of %d bytes exceeds 65535" % len(b))
+    return struct.pack("<H", len(b)) + b
+
+
+def str32(s):
+    b = utf8(s)
+    return struct.pack("<I", len(b)) + b
+
+
+def frame(code, body=b""):
+    """One frame: u32 length (code + body), u8 code, body."""
+    return struct.pack("<IB", len(body) + 1, code) + body
+
+
+def _sortKey(item):
+    return utf8(item[0])
+
+
+def _encode(v, out, depth):
+    if depth > MAX_DEPTH:
+        raise ValueError("value nests deeper than %d levels" % MAX_DEPTH)
+    if v is None:
+        out.append(b"\x00")
+    elif isinstance(v, bool):
+        out.append(b"\x01\x01" if v else b"\x01\x00")
+    elif isinstance(v, integer_types):
+        if INT64_MIN <= v <= INT64_MAX:
+            out.append(struct.pack("<Bq", 2, v))
+        elif INT64_MAX < v <= UINT64_MAX:
+            out.append(struct.pack("<BQ", 3, v))
+        else:
+            raise ValueError("integer %d does not fit 64 bits" % v)
+    elif isinstance(v, float):
+        out.append(struct.pack("<Bd", 4, v))
+    elif _isText(v):
+        b = utf8(v)
+        out.append(struct.pack("<BI", 5, len(b)))
+        out.append(b)
+    elif isinstance(v, (bytes, bytearray, memoryview)):
+        b = toBytes(v)
+        out.append(struct.pack("<BI", 6, len(b)))
+        out.append(b)
+    elif isinstance(v, (list, tuple)):
+        out.append(struct.pack("<BI", 7, len(v)))
+        for item in v:
+            _encode(item, out, depth + 1)
+    elif isinstance(v, dict):
+        items = []
+        for k, item in v.items():
+            if not _isText(k):
+                raise ValueError("map keys must be text, got %r" % (k,))
+            items.append((utf8(k), item))
+        items.sort(key=lambda kv: kv[0])
+        out.append(struct.pack("<BI", 8, len(items)))
+        for k, item in items:
+            if len(k) > 0xFFFF:
+                raise ValueError("map key of %d bytes exceeds 65535" % len(k))
+            out.append(struct.pack("<H", len(k)))
+            out.append(k)
+            _encode(item, out, depth + 1)
+    elif hasattr(v, "toBytes"):  # a DataBuffer
+        _encode(v.toBytes(), out, depth)
+    elif isinstance(v, EnumValue):
+        _encode(int(v), out, depth)
+    else:
+        # numpy scalars and the like
+        try:
+            if float(v) == int(v):
+                _encode(int(v), out, depth)
+            else:
+                _encode(float(v), out, depth)
+        except (TypeError, ValueError):
+            raise ValueError("cannot encode a %s as a Variant" % type(v).__name__)
+
+
+def encodeVariant(value):
+    """A Python value as a binary Variant (tag + bytes)."""
+    out = []
+    _encode(value, out, 1)
+    return b"".join(out)
+
+
+def encodeValue(value):
+    """A `value` field: u8 encoding 0 (binary), then the Variant."""
+    return b"\x00" + encodeVariant(value)
+
+
+def toJsonText(value):
+    """The JSON twin of a value (bytes become {"$base64": ...})."""
+    def conv(v):
+        if isinstance(v, (bytearray, memoryview)) or (isinstance(v, bytes) and not _isText(v)):
+            return {"$base64": base64.b64encode(toBytes(v)).decode("ascii")}
+        if isinstance(v, (list, tuple)):
+            return [conv(x) for x in v]
+        if isinstance(v, dict):
+            return dict((k, conv(x)) for k, x in v.items())
+        if isinstance(v, float) and (math.isnan(v) or math.isinf(v)):
+            raise ValueError("non-finite floats have no JSON form")
+        return v
+    return json.dumps(conv(value), sort_keys=True)
+
+
+def fromJsonText(text):
+    def conv(v):
+        if isinstance(v, dict):
+            if len(v) == 1 and "$base64" in v:
+                return base64.b64decode(v["$base64"])
+            if len(v) == 1 and "$map" in v:
+                return dict((_nativeKey(k), conv(x)) for k, x in v["$map"].items())
+            return dict((_nativeKey(k), conv(x)) for k, x in v.items())
+        if isinstance(v, list):
+            return [conv(x) for x in v]
+        if PY2 and isinstance(v, text_type):  # pragma: no cover
+            return v.encode("utf-8")
+        return v
+    return conv(json.loads(native(text) if not PY2 else text))
+
+
+def _nativeKey(k):
+    if PY2 and isinstance(k, text_type):  # pragma: no cover
+        return k.encode("utf-8")
+    return k
+
+
+###############################################################################
+# Reading
+
+
+class Reader(object):
+    """Reads a frame body; every length is checked against the bytes left."""
+
+    def __init__(self, data, offset=0):
+        self.data = data
+        self.pos = offset
+        self.end = len(data)
+
+    def left(self):
+        return self.end - self.pos
+
+    def _need(self, n, what):
+        if self.end - self.pos < n:
+            raise ProtocolError("truncated %s: needs %d bytes, %d left" % (what, n, self.left()))
+
+    def _unpack(self, fmt, n, what):
+        self._need(n, what)
+        v = struct.unpack_from(fmt, self.data, self.pos)[0]
+        self.pos += n
+        return v
+
+    def u8(self, what="u8"):
+        return self._unpack("<B", 1, what)
+
+    def u16(self, what="u16"):
+        return self._unpack("<H", 2, what)
+
+    def u32(self, what="u32"):
+        return self._unpack("<I", 4, what)
+
+    def u64(self, what="u64"):
+        return self._unpack("<Q", 8, what)
+
+    def i64(self, what="i64"):
+        return self._unpack("<q", 8, what)
+
+    def f64(self, what="f64"):
+        return self._unpack("<d", 8, what)
+
+    def raw(self, n, what="bytes"):
+        self._need(n, what)
+        b = bytes(self.data[self.pos:self.pos + n])
+        self.pos += n
+        return b
+
+    def str16(self, what="str16"):
+        return native(self.raw(self.u16(what), what))
+
+    def str32raw(self, what="str32"):
+        return self.raw(self.u32(what), what)
+
+    def rest(self):
+        b = bytes(self.data[self.pos:self.end])
+        self.pos = self.end
+        return b
+
+    def done(self, what):
+        if self.pos != self.end:
+            raise ProtocolError("%s: %d trailing bytes" % (what, self.end - self.pos))
+
+    def variant(self, depth=1):
+        if depth > MAX_DEPTH:
+            raise ProtocolError("variant nests deeper than %d levels" % MAX_DEPTH)
+        tag = self.u8("variant tag")
+        if tag == 0:
+            return None
+        if tag == 1:
+            b = self.u8("bool")
+            if b > 1:
+                raise ProtocolError("bad bool byte 0x%02x" % b)
+            return b == 1
+        if tag == 2:
+            return self.i64("int64")
+        if tag == 3:
+            return self.u64("uint64")
+        if tag == 4:
+            return self.f64("float64")
+        if tag == 5:
+            raw = self.str32raw("string")
+            try:
+                text = raw.decode("utf-8")
+            except UnicodeDecodeError:
+                raise ProtocolError("string is not valid UTF-8")
+            return raw if PY2 else text
+        if tag == 6:
+            return self.str32raw("bytes")
+        if tag == 7:
+            n = self.u32("list count")
+            if n > self.left():
+                raise ProtocolError("list count %d exceeds the %d bytes left" % (n, self.left()))
+            return [self.variant(depth + 1) for _ in range(n)]
+        if tag == 8:
+            n = self.u32("map count")
+            if n > self.left() // 3:
+                raise ProtocolError("map count %d exceeds the %d bytes left" % (n, self.left()))
+            out = {}
+            for _ in range(n):
+                key = self.raw(self.u16("map key"), "map key")
+                try:
+                    key.decode("utf-8")
+                except UnicodeDecodeError:
+                    raise ProtocolError("map key is not valid UTF-8")
+                key = native(key)
+                if key in out:
+                    raise ProtocolError("duplicate map key %r" % (key,))
+                out[key] = self.variant(depth + 1)
+            return out
+        raise ProtocolError("unknown variant tag 0x%02x" % tag)
+
+    def value(self):
+        """A `value` field: u8 encoding, then a binary Variant or str32 JSON text."""
+        enc = self.u8("value encoding")
+        if enc == 0:
+            return self.variant()
+        if enc == 1:
+            text = self.str32raw("JSON value")
+            try:
+                return fromJsonText(text)
+            except ValueError as e:
+                raise ProtocolError("bad JSON value: %s" % e)
+        raise ProtocolError("unknown value encoding %d" % enc)
+
+
+def decodeVariant(data, offset=0):
+    """(value, offset after it) from a binary Variant at `offset`."""
+    r = Reader(data, offset)
+    v = r.variant()
+    return v, r.pos
+
+
+def decodeValue(data):
+    r = Reader(data)
+    v = r.value()
+    r.done("value")
+    return v
+
+
+class ChannelInfo(object):
+    """ChannelInfo as the hub sends it (see docs/flow-protocol.md)."""
+    __slots__ = ("chanID", "hashID", "kind", "name", "owner", "ownerConnection", "mime",
+                 "subscribers", "props")
+
+    @classmethod
+    def read(cls, r):
+        i = cls()
+        i.chanID = r.u16("chan_id")
+        i.hashID = r.u64("hash")
+        i.kind = r.u8("kind")
+        i.name = r.str16("name")
+        i.owner = r.str16("owner")
+        i.ownerConnection = r.u32("owner_connection")
+        i.mime = r.str16("mime")
+        i.subscribers = r.u32("subscribers")
+        props = r.value()
+        i.props = props if isinstance(props, dict) else {}
+        return i

@@ -1,0 +1,984 @@
+"""FlowSat: a satellite's flow, the one asynchronous connection that carries all its channels.
+
+Typical use in a sketch (run by the executor, which calls setup() once and loop() until it
+returns False):
+
+    sat = FlowSat()
+    def setup():
+        sat.setLogin("guest", "password")
+        sat.setTickTimer(0.02)                      # loop() cadence, seconds
+        sat.setNewChanCallBack(onChannelAdded)
+        if not sat.connect():                       # ROBOT_ADDRESS, default local:/tmp/Robot
+            return False
+        sat.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_FLOAT, "sine")   # -> guest.sine
+        return True
+    def loop():
+        sat.tick()                                  # sleeps to keep the cadence, runs callbacks
+        return sat.isConnected()
+
+Timing: tick() waits until the next absolute deadline (start + k * tick, so the cadence does
+not drift; when a loop() overruns, the missed deadlines are skipped) and meanwhile reads the
+flow and runs the callbacks for every event that arrives. setSpeedMonitorEnabled(True) prints,
+every `check` seconds, the frequency, the requested tick, the corrected tick (how long tick()
+actually waited, i.e. the requested tick minus the sketch's own work), the measured tick and
+the error (measured - requested) in seconds and percent.
+
+Callbacks (all run inside tick() or connect()):
+    setNewChanCallBack(f(ch))            a channel appeared (also every channel present at
+                                         connect, and the creator's own channels: that is how
+                                         it learns their chanID)
+    setDelChanCallBack(f(ch))            a channel went away
+    setStartChanPubReqCallBack(f(ch))    an owned streaming channel got its first subscriber
+    setStopChanPubReqCallBack(f(ch))     ... and lost its last (ch.isPublishingEnabled follows)
+    setGrabDataCallBack(f(chanID, data)) data (bytes) on a subscribed channel
+    setRequestCallBack(f(chanID, hash, cmdName, value))  a request on an owned service channel;
+                                         answer with sendServiceResponse(chanID, hash, value)
+    setResponseCallBack(f(chanID, value)) the answer to sendServiceRequest (f(value) works too)
+
+Reconnection: when the hub goes away (it stopped or restarted), the flow notices at once (end
+of file), calls the del-channel callback for every channel it knew, and tick() keeps trying to
+reconnect (backoff from 50 ms up to 1 s; an attempt never blocks: connecting and logging in
+are driven by the following ticks). isConnected() stays True meanwhile (use isOnline() for
+the state of the socket), so a sketch whose loop() returns sat.isConnected() keeps running.
+Once logged in again, the flow re-selects the current database it had selected, re-creates
+the channels this satellite had created (same short names, mime and properties, including
+variables it set in their databases with setVariable), re-subscribes to the channels it had
+subscribed to (by NAME: ids change after a restart; a channel that is not back yet is
+subscribed to when it reappears), then calls the new-channel callback for every channel, its
+own included when the hub confirms them, so the sketch refreshes its channel ids.
+Subscriptions are kept by name in the same way when a publisher goes away and comes back.
+setReconnectEnabled(False) turns this off: isConnected() then becomes False when the hub goes.
+
+Not thread-safe: call it from the sketch's thread only.
+"""
+from __future__ import print_function, division, absolute_import
+
+import errno
+import inspect
+import select
+import socket
+import struct
+import time
+from collections import OrderedDict
+
+from PySketch import log
+from PySketch.abstractflow import (
+    AbstractFlow, FlowChannel, enumLookup, openSocket, validShortName)
+from PySketch.elapsedtime import ElapsedTime, now
+from PySketch.flowproto import (
+    ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T, FlowError, ProtocolError, Reader,
+    Variant_T, codeName, encodeValue, errorName, frame, integer_types, str16, text_type,
+    toBytes, u16, u32, u64, utf8)
+from PySketch.flowsync import FlowSync
+
+_WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
+_OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
+_HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
+_BACKOFF_MIN = 0.05
+_BACKOFF_MAX = 1.0
+
+
+def _arity(f):
+    """How many positional arguments `f` takes (None: any number)."""
+    try:
+        if hasattr(inspect, "signature"):
+            n = 0
+            for p in inspect.signature(f).parameters.values():
+                if p.kind == p.VAR_POSITIONAL:
+                    return None
+                if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD):
+                    n += 1
+            return n
+        target = f  # pragma: no cover - Python 2
+        if not (inspect.isfunction(f) or inspect.ismethod(f)):
+            target = f.__call__
+        spec = inspect.getargspec(target)
+        if spec.varargs:
+            return None
+        n = len(spec.args)
+        if inspect.ismethod(target) and target.__self__ is not None:
+            n -= 1
+        return n
+    except (TypeError, ValueError):
+        return None
+
+
+class TickTimer(ElapsedTime):
+    """FlowSat._timer: the tick settings; stop() gives the seconds since the satellite was made."""
+
+    def __init__(self, interval=0.01, check=1.0):
+        ElapsedTime.__init__(self)
+        self.interval = interval
+        self.check = check
+
+
+class _Speed(object):
+    def __init__(self):
+        self.reset(now())
+
+    def reset(self, t):
+        self.since = t
+        self.count = 0
+        self.waited = 0.0
+        self.lastReturn = None
+        self.sumPeriod = 0.0
+        self.periods = 0
+
+
+class FlowSat(AbstractFlow):
+    def __init__(self):
+        AbstractFlow.__init__(self)
+        self._timer = TickTimer()
+        self._deadline = None
+        self._speedMonitor = False
+        self._speedLabel = None
+        self._speed = _Speed()
+
+        self._state = "closed"     # closed | offline | connecting | login | listing | online
+        self._wanted = False       # connect() succeeded and close() was not called
+        self._reconnect = True
+        self._everOnline = False
+        self._gen = 0              # bumped whenever the socket is dropped
+        self._outbuf = bytearray()
+        self._attemptStarted = 0.0
+        self._nextAttempt = 0.0
+        self._backoff = _BACKOFF_MIN
+        self._listed = None
+        self._failure = None
+        self._deferred = []        # channels listed at login, announced at the next tick
+        self._hold = False         # connect(): leave events in the buffer for tick()
+
+        self._channels = OrderedDict()     # chanID -> FlowChannel
+        self._byName = {}                  # name -> FlowChannel
+        self._specs = OrderedDict()        # short name -> what addXChannel asked for
+        self._pendingAdds = {}             # tag -> short name
+        self._wantedSubs = set()           # channel names this satellite subscribes to
+        self._subscribedIDs = set()        # ... and their ids on this connection
+        self._pendingRequests = {}         # tag -> chanID
+        self._selectedDb = None            # what setCurrentDbName asked for
+        self._tag = 0
+        self._errorsLogged = {}
+
+        self._onNewChan = None
+        self._onDelChan = None
+        self._onStartPub = None
+        self._onStopPub = None
+        self._onGrab = None
+        self._onRequest = None
+        self._onResponse = None
+        self._responseArity = None
+        self._onChanHeader = None
+        self._onDbChanged = None
+        self._onError = None
+        self.lastRequester = None
+
+    ###########################################################################
+    # Settings
+
+    def setTickTimer(self, tick, check=None):
+        """loop() cadence in seconds; `check`: the speed monitor's report period (default 1 s,
+        at least one tick)."""
+        tick = float(tick)
+        if tick <= 0:
+            raise ValueError("tick must be > 0")
+        self._timer.interval = tick
+        self._timer.check = max(float(check), tick) if check else max(1.0, tick)
+        self._deadline = None
+
+    def getTickTimer(self):
+        return self._timer.interval
+
+    def setSpeedMonitorEnabled(self, enabled, label=None):
+        self._speedMonitor = bool(enabled)
+        self._speedLabel = label
+        self._speed.reset(now())
+
+    def setReconnectEnabled(self, enabled):
+        self._reconnect = bool(enabled)
+
+    def setNewChanCallBack(self, f):
+        self._onNewChan = f
+
+    def setDelChanCallBack(self, f):
+        self._onDelChan = f
+
+    def setStartChanPubReqCallBack(self, f):
+        self._onStartPub = f
+
+    def setStopChanPubReqCallBack(self, f):
+        self._onStopPub = f
+
+    def setGrabDataCallBack(self, f):
+        self._onGrab = f
+
+    def setRequestCallBack(self, f):
+        self._onRequest = f
+
+    def setResponseCallBack(self, f):
+        self._onResponse = f
+        self._responseArity = _arity(f) if f is not None else None
+
+    def setChanHeaderCallBack(self, f):
+        """f(ch) when a channel's properties change (EV_CHAN_HEADER)."""
+        self._onChanHeader = f
+
+    def setDbChangedCallBack(self, f):
+        """f(name) when the current database of the flow changed."""
+        self._onDbChanged = f
+
+    def setErrorCallBack(self, f):
+        """f(FlowError) for every failed asynchronous command (they are also logged)."""
+        self._onError = f
+
+    ###########################################################################
+    # Connection
+
+    def connect(self, address=None, timeout=10.0):
+        """Connects to the hub at `address` (default: $ROBOT_ADDRESS, else local:/tmp/Robot),
+        logs in and becomes a flow. Blocks up to `timeout` s. Returns bool."""
+        if address:
+            self._address = address
+        if self._state == "online":
+            return True
+        self._drop()
+        self._failure = None
+        deadline = now() + timeout
+        self._hold = True
+        try:
+            if self._beginAttempt(quiet=False):
+                while self._state not in ("online", "offline", "closed"):
+                    left = deadline - now()
+                    if left <= 0:
+                        self._failure = "no answer from the hub in %.1f s" % timeout
+                        self._drop()
+                        break
+                    self._pump(left)
+        finally:
+            self._hold = False
+        if self._state != "online":
+            log.err("FlowSat: cannot connect to %s as %s: %s"
+                    % (self.address(), self._userName, self._failure or "connection lost"))
+            self._wanted = False
+            self._drop()
+            self._state = "closed"
+            return False
+        self._wanted = True
+        return True
+
+    def isConnected(self):
+        """True from a successful connect() until close(), also while reconnecting to a hub
+        that went away (unless setReconnectEnabled(False))."""
+        if self._state == "online":
+            return True
+        return self._wanted and self._reconnect
+
+    def isOnline(self):
+        """True while the flow is connected and logged in."""
+        return self._state == "online"
+
+    def close(self):
+        """Disconnects; the hub removes this satellite's channels."""
+        self._wanted = False
+        self._drop()
+        self._state = "closed"
+        self._forgetChannels(callbacks=False)
+
+    disconnect = close
+
+    def _beginAttempt(self, quiet):
+        self._attemptStarted = now()
+        self._listed = None
+        try:
+            sock, done = openSocket(self.address(), blocking=False)
+        except (socket.error, OSError, ValueError) as e:
+            self._failure = str(e)
+            if not quiet:
+                return False
+            self._scheduleRetry()
+            return False
+        self._sock = sock
+        self._gen += 1
+        self._outbuf = bytearray()
+        self._state = "connecting"
+        if done:
+            self._connected()
+        return True
+
+    def _connected(self):
+        self._state = "login"
+        self._outbuf.extend(self._loginFrame())
+        self._flush()
+
+    def _scheduleRetry(self):
+        self._state = "offline"
+        self._nextAttempt = now() + self._backoff
+        self._backoff = min(self._backoff * 2, _BACKOFF_MAX)
+
+    def _drop(self):
+        """Closes the socket, keeps everything needed to reconnect."""
+        self._closeSocket()
+        self._outbuf = bytearray()
+        self._gen += 1
+        self._subscribedIDs = set()
+        self._pendingAdds = {}
+        self._pendingRequests = {}
+        self._deferred = []
+        if self._state != "closed":
+            self._state = "offline"
+
+    def _lost(self, why):
+        """The connection broke: forget the hub's channels and start reconnecting."""
+        was_online = self._state == "online"
+        self._failure = why
+        self._drop()
+        if not self._wanted:
+            return
+        if was_online:
+            log.wrn("FlowSat: lost the hub at %s (%s)%s" % (
+                self.address(), why, ", reconnecting" if self._reconnect else ""))
+            self._backoff = _BACKOFF_MIN
+            self._forgetChannels(callbacks=True)
+        if self._reconnect:
+            self._scheduleRetry()
+        else:
+            self._wanted = False
+            self._state = "closed"
+
+    def _forgetChannels(self, callbacks):
+        gone = list(self._channels.values())
+        self._channels = OrderedDict()
+        self._byName = {}
+        for ch in gone:
+            ch.isPublishingEnabled = False
+            ch.isSubscribed = False
+            if callbacks and self._onDelChan is not None:
+                self._onDelChan(ch)
+
+    def _maintain(self, t):
+        """Reconnection attempts and handshake time-outs, from tick()."""
+        if not self._wanted:
+            return
+        if self._state == "offline" and t >= self._nextAttempt:
+            self._beginAttempt(quiet=True)
+        elif self._state in ("connecting", "login", "listing"):
+            if t - self._attemptStarted > _HANDSHAKE_TIMEOUT:
+                self._closeSocket()
+                self._gen += 1
+                self._failure = "handshake timed out"
+                self._scheduleRetry()
+
+    ###########################################################################
+    # I/O
+
+    def _pump(self, timeout):
+        """Waits up to `timeout` s for the socket, then reads, dispatches and writes."""
+        sock = self._sock
+        if sock is None:
+            if timeout > 0:
+                time.sleep(timeout)
+            return
+        wlist = [sock] if (self._outbuf or self._state == "connecting") else []
+        try:
+            r, w, _ = select.select([sock], wlist, [], max(0.0, timeout))
+        except (select.error, OSError, ValueError) as e:
+            if getattr(e, "args", (None,))[0] == errno.EINTR:
+                return
+            self._lost(str(e))
+            return
+        gen = self._gen
+        if w and self._state == "connecting":
+            rc = sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+            if rc != 0:
+                self._failure = "connect: %s" % errno.errorcode.get(rc, rc)
+                self._closeSocket()
+                self._gen += 1
+                self._scheduleRetry()
+                return
+            self._connected()
+        elif w:
+            self._flush()
+        if gen != self._gen or not r:
+            return
+        self._readAvailable()
+
+    def _readAvailable(self):
+        sock = self._sock
+        gen = self._gen
+        eof = None
+        while True:
+            try:
+                data = sock.recv(262144)
+            except socket.error as e:
+                if e.args and e.args[0] in _WOULD_BLOCK:
+                    break
+                eof = str(e)
+                break
+            if not data:
+                eof = "the hub closed the connection"
+                break
+            self._inbuf.extend(data)
+            if len(data) < 262144:
+                break
+        self._processBuffered()
+        if gen == self._gen and eof is not None:
+            self._lost(eof)
+
+    def _processBuffered(self):
+        """Dispatches the frames already received (and the channels listed at login)."""
+        gen = self._gen
+        try:
+            while gen == self._gen:
+                if self._hold and self._state == "online":
+                    return
+                if self._deferred:
+                    self._announceListed()
+                    continue
+                f = self._nextFrame()
+                if f is None:
+                    break
+                self._handle(f[0], f[1])
+        except (ProtocolError, struct.error) as e:
+            if gen == self._gen:
+                log.err("FlowSat: broken frame from the hub: %s" % e)
+                self._lost("protocol error")
+            return
+        if gen == self._gen:
+            self._compactInput()
+
+    def _announceListed(self):
+        todo, self._deferred = self._deferred, []
+        gen = self._gen
+        for ch in todo:
+            if gen != self._gen:
+                return
+            if self._channels.get(ch.chanID) is ch and self._onNewChan is not None:
+                self._onNewChan(ch)
+
+    def _flush(self):
+        while self._outbuf and self._sock is not None:
+            try:
+                n = self._sock.send(self._outbuf)
+            except socket.error as e:
+                if e.args and e.args[0] in _WOULD_BLOCK:
+                    return
+                self._lost(str(e))
+                return
+            del self._outbuf[:n]
+
+    def _send(self, data):
+        """Queues a frame on the flow; False when offline."""
+        if self._state != "online":
+            return False
+        self._outbuf.extend(data)
+        self._flush()
+        if len(self._outbuf) > _OUT_LIMIT:
+            deadline = now() + 10.0
+            gen = self._gen
+            while gen == self._gen and len(self._outbuf) > _OUT_LIMIT // 2:
+                left = deadline - now()
+                if left <= 0:
+                    self._lost("the hub does not read")
+                    return False
+                try:
+                    select.select([], [self._sock], [], left)
+                except (select.error, OSError, ValueError):
+                    pass
+                self._flush()
+        return True
+
+    def _nextTag(self):
+        self._tag = self._tag % 0xFFFFFFFF + 1
+        return self._tag
+
+    ###########################################################################
+    # Frames from the hub
+
+    def _handle(self, code, body):
+        st = self._state
+        if st == "online":
+            self._event(code, body)
+        elif st == "login":
+            if code == Code.REPLY_OK:
+                self._readLoginOk(body)
+                self._state = "listing"
+                self._listed = None
+                self._outbuf.extend(frame(Code.CHAN_LIST) + frame(Code.GO_ASYNC))
+                self._flush()
+            elif code == Code.REPLY_ERROR:
+                e = self._replyError(body)
+                self._failure = str(e)
+                self._loginRefused(e)
+            else:
+                raise ProtocolError("%s before the login reply" % codeName(code))
+        elif st == "listing":
+            if code == Code.REPLY_ERROR:
+                e = self._replyError(body)
+                self._failure = str(e)
+                self._closeSocket()
+                self._gen += 1
+                self._scheduleRetry()
+            elif code != Code.REPLY_OK:
+                raise ProtocolError("%s before GO_ASYNC was answered" % codeName(code))
+            elif self._listed is None:
+                r = Reader(body)
+                self._listed = [ChannelInfo.read(r) for _ in range(r.u32())]
+                r.done("CHAN_LIST reply")
+            else:
+                self._online(self._listed)
+        else:
+            raise ProtocolError("%s while not logged in" % codeName(code))
+
+    def _loginRefused(self, e):
+        self._closeSocket()
+        self._gen += 1
+        if self._wanted:
+            log.err("FlowSat: the hub refused the login of %s: %s" % (self._userName, e))
+            self._scheduleRetry()
+        else:
+            self._state = "offline"
+
+    def _online(self, infos):
+        again = self._everOnline
+        self._state = "online"
+        self._everOnline = True
+        self._backoff = _BACKOFF_MIN
+        self._failure = None
+        if again:
+            log.msg("FlowSat: reconnected to %s (connection %s)" % (self.address(),
+                                                                 self.connectionID))
+        self._channels = OrderedDict()
+        self._byName = {}
+        fresh = [self._addChannel(info) for info in infos]
+        for short in list(self._specs.keys()):
+            self._sendChanAdd(short)
+        # After the channels: the selected database may be one of theirs.
+        if self._selectedDb and self._selectedDb != self.currentDbName:
+            self._send(frame(Code.DB_SET_CURRENT, u32(self._nextTag()) + str16(self._selectedDb)))
+        for ch in fresh:
+            self._autoSubscribe(ch)
+        # The new-channel callbacks run from the next tick(), in order with the events that
+        # follow (a sketch may set its callbacks after connect()).
+        self._deferred = fresh
+
+    def _addChannel(self, info):
+        ch = FlowChannel.fromInfo(info)
+        ch.isOwned = info.ownerConnection != 0 and info.ownerConnection == self.connectionID
+        old = self._byName.get(ch.name)
+        if old is not None:
+            self._channels.pop(old.chanID, None)
+        self._channels[ch.chanID] = ch
+        self._byName[ch.name] = ch
+        return ch
+
+    def _autoSubscribe(self, ch):
+        if ch.name in self._wantedSubs and ch.kind == ChanKind_T.CK_STREAMING:
+            self._subscribe(ch.chanID)
+            ch.isSubscribed = True
+
+    def _event(self, code, body):
+        r = Reader(body)
+        if code == Code.EV_DATA:
+            chan = r.u16()
+            if self._onGrab is not None:
+                self._onGrab(chan, r.rest())
+        elif code == Code.EV_CHAN_ADDED:
+            tag = r.u32()
+            info = ChannelInfo.read(r)
+            r.done("EV_CHAN_ADDED")
+            self._pendingAdds.pop(tag, None)
+            ch = self._addChannel(info)
+            self._autoSubscribe(ch)
+            if self._onNewChan is not None:
+                self._onNewChan(ch)
+        elif code == Code.EV_CHAN_REMOVED:
+            chan = r.u16()
+            r.u64()
+            name = r.str16()
+            ch = self._channels.pop(chan, None)
+            if ch is None:
+                ch = FlowChannel(chan, name)
+            elif self._byName.get(ch.name) is ch:
+                del self._byName[ch.name]
+            self._subscribedIDs.discard(chan)
+            ch.isPublishingEnabled = False
+            ch.isSubscribed = False
+            if self._onDelChan is not None:
+                self._onDelChan(ch)
+        elif code == Code.EV_CHAN_HEADER:
+            info = ChannelInfo.read(r)
+            ch = self._channels.get(info.chanID)
+            if ch is None:
+                ch = self._addChannel(info)
+            else:
+                ch.update(info)
+            if self._onChanHeader is not None:
+                self._onChanHeader(ch)
+        elif code in (Code.EV_START_PUBLISH, Code.EV_STOP_PUBLISH):
+            chan = r.u16()
+            start = code == Code.EV_START_PUBLISH
+            ch = self._channels.get(chan)
+            if ch is None:
+                return
+            ch.isPublishingEnabled = start
+            f = self._onStartPub if start else self._onStopPub
+            if f is not None:
+                f(ch)
+        elif code == Code.EV_SERVICE_REQUEST:
+            chan = r.u16()
+            request = r.u64()
+            cmd = r.str16()
+            self.lastRequester = r.str16()
+            value = r.value()
+            if self._onRequest is not None:
+                self._onRequest(chan, request, cmd, value)
+            else:
+                self.sendServiceResponse(chan, request, None)
+        elif code == Code.EV_SERVICE_RESPONSE:
+            chan = r.u16()
+            tag = r.u32()
+            error = r.u16()
+            value = r.value()
+            self._pendingRequests.pop(tag, None)
+            if error != 0:
+                log.wrn("FlowSat: service request on channel %d failed: %s: %s"
+                        % (chan, errorName(error), value))
+                if self._onError is not None:
+                    self._onError(FlowError(error, str(value)))
+            if self._onResponse is not None:
+                if self._responseArity == 1:
+                    self._onResponse(value)
+                else:
+                    self._onResponse(chan, value)
+        elif code == Code.EV_DB_CHANGED:
+            self.currentDbName = r.str16()
+            if self._onDbChanged is not None:
+                self._onDbChanged(self.currentDbName)
+        elif code == Code.EV_ERROR:
+            command = r.u8()
+            tag = r.u32()
+            chan = r.u16()
+            error = r.u16()
+            message = r.str16()
+            self._commandFailed(command, tag, chan, error, message)
+        elif code == Code.EV_DROPPED:
+            chan = r.u16()
+            count = r.u32()
+            self._logOnce(("dropped", chan), "FlowSat: the hub dropped %d frames of channel %d "
+                          "(this satellite reads too slowly)" % (count, chan))
+        # Anything else (a later minor version's events) is ignored.
+
+    def _commandFailed(self, command, tag, chan, error, message):
+        if command == Code.CHAN_ADD:
+            short = self._pendingAdds.pop(tag, None)
+            if short is not None:
+                self._specs.pop(short, None)
+        elif command == Code.SUBSCRIBE:
+            self._subscribedIDs.discard(chan)
+        self._logOnce((command, chan, error), "FlowSat: %s failed: %s: %s"
+                      % (codeName(command), errorName(error), message))
+        if self._onError is not None:
+            self._onError(FlowError(error, message))
+
+    def _logOnce(self, key, text):
+        """Logs a line at most once a second per key (publishing errors come in floods)."""
+        t = now()
+        if t - self._errorsLogged.get(key, -10.0) >= 1.0:
+            self._errorsLogged[key] = t
+            log.err(text)
+
+    ###########################################################################
+    # The loop
+
+    def tick(self):
+        """Call once per loop(): dispatches pending events and sleeps until the next tick."""
+        interval = self._timer.interval
+        enter = now()
+        if self._deadline is None:
+            self._deadline = enter + interval
+        self._maintain(enter)
+        self._flush()
+        if self._sock is not None:
+            self._processBuffered()
+        self._pump(0.0)
+        while True:
+            t = now()
+            self._maintain(t)
+            left = self._deadline - t
+            if left <= 0:
+                break
+            if self._state == "offline" and self._wanted:
+                left = min(left, max(0.0, self._nextAttempt - t))
+                if left <= 0:
+                    continue
+            self._pump(left)
+        t = now()
+        self._deadline += interval
+        if self._deadline <= t:  # overran: skip the deadlines already missed
+            self._deadline += interval * (int((t - self._deadline) / interval) + 1)
+        if self._speedMonitor:
+            self._measure(enter, t)
+
+    def _measure(self, enter, t):
+        s = self._speed
+        s.count += 1
+        s.waited += t - enter
+        if s.lastReturn is not None:
+            s.sumPeriod += t - s.lastReturn
+            s.periods += 1
+        s.lastReturn = t
+        if t - s.since < self._timer.check or s.periods == 0:
+            return
+        requested = self._timer.interval
+        measured = s.sumPeriod / s.periods
+        corrected = s.waited / s.count
+        error = measured - requested
+        label = " [%s]" % self._speedLabel if self._speedLabel else ""
+        log.msg("SPEED-MONITOR%s: frequency %.2f Hz, requested tick %.6f s, corrected tick %.6f s, "
+                "measured tick %.6f s, error %+.6f s (%+.2f %%)"
+                % (label, 1.0 / measured if measured > 0 else 0.0, requested, corrected,
+                   measured, error, 100.0 * error / requested))
+        last = s.lastReturn
+        s.reset(t)
+        s.lastReturn = last
+
+    ###########################################################################
+    # Channels
+
+    def _flowTypeName(self, v):
+        m = enumLookup(Flow_T, v)
+        return m.name if m is not None else None
+
+    def _dataTypeName(self, v):
+        m = enumLookup(Variant_T, v)
+        return m.name if m is not None else None
+
+    def _addSpec(self, kind, name, mime, props):
+        if not validShortName(name):
+            log.err("FlowSat: bad channel name %r: 1 to 128 of A-Z a-z 0-9 _ - . "
+                    "(not starting with '.')" % (name,))
+            return False
+        if name in self._specs:
+            log.err("FlowSat: channel %s.%s was already added" % (self._userName, name))
+            return False
+        if props is not None and not isinstance(props, dict):
+            log.err("FlowSat: channel properties must be a dict")
+            return False
+        self._specs[name] = {"kind": kind, "mime": mime or "", "props": dict(props or {})}
+        if self._state == "online":
+            self._sendChanAdd(name)
+        return True
+
+    def _sendChanAdd(self, short):
+        spec = self._specs[short]
+        tag = self._nextTag()
+        self._pendingAdds[tag] = short
+        body = (u32(tag) + struct.pack("<B", spec["kind"]) + str16(short) + str16(spec["mime"]) +
+                encodeValue(spec["props"]))
+        self._send(frame(Code.CHAN_ADD, body))
+
+    def addStreamingChannel(self, flow_type=Flow_T.FT_BLOB, data_type=Variant_T.T_BYTEARRAY,
+                            name=None, mime="", props=None):
+        """Creates the streaming channel "<user>.<name>". Its id arrives with the new-channel
+        callback. `props` (a dict) become the channel's database; flow_type and data_type are
+        added to it as "flow_type" and "data_type" (their names). Returns bool (the command was
+        accepted locally; the hub's refusal is logged). Before connect() or while reconnecting,
+        the channel is created as soon as the flow is online."""
+        p = dict(props or {}) if isinstance(props, dict) or props is None else props
+        if isinstance(p, dict):
+            ft = self._flowTypeName(flow_type)
+            dt = self._dataTypeName(data_type)
+            if ft is not None and "flow_type" not in p:
+                p["flow_type"] = ft
+            if dt is not None and "data_type" not in p:
+                p["data_type"] = dt
+        return self._addSpec(ChanKind_T.CK_STREAMING.value, name, mime, p)
+
+    def addServiceChannel(self, name, mime="", props=None):
+        """Creates the service channel "<user>.<name>". Returns bool."""
+        return self._addSpec(ChanKind_T.CK_SERVICE.value, name, mime, props)
+
+    def removeChannel(self, chanID):
+        """Removes a channel this satellite created."""
+        ch = self._channels.get(chanID)
+        if ch is not None and ch.isOwned:
+            self._specs.pop(ch.shortName, None)
+        return self._send(frame(Code.CHAN_REMOVE, u32(self._nextTag()) + u16(chanID)))
+
+    def setChannelProperties(self, chanID, props):
+        """Sets (a None value removes) keys of an owned channel's database."""
+        ch = self._channels.get(chanID)
+        if ch is not None and ch.shortName in self._specs:
+            sp = self._specs[ch.shortName]["props"]
+            for k, v in props.items():
+                if v is None:
+                    sp.pop(k, None)
+                else:
+                    sp[k] = v
+        return self._send(frame(Code.CHAN_SET_PROPS,
+                                u32(self._nextTag()) + u16(chanID) + encodeValue(props)))
+
+    def _subscribe(self, chanID):
+        if chanID in self._subscribedIDs:
+            return True
+        if self._send(frame(Code.SUBSCRIBE, u32(self._nextTag()) + u16(chanID))):
+            self._subscribedIDs.add(chanID)
+            return True
+        return False
+
+    def subscribeChannel(self, chan):
+        """Subscribes to a streaming channel, given its chanID or its name. The subscription
+        is kept by name: it comes back after a reconnection or when the channel reappears."""
+        if isinstance(chan, (str, text_type)):
+            self._wantedSubs.add(chan)
+            ch = self._byName.get(chan)
+            if ch is None:
+                return True
+            chan = ch.chanID
+        ch = self._channels.get(chan)
+        if ch is not None:
+            self._wantedSubs.add(ch.name)
+            ch.isSubscribed = True
+        return self._subscribe(chan)
+
+    def unsubscribeChannel(self, chan):
+        if isinstance(chan, (str, text_type)):
+            self._wantedSubs.discard(chan)
+            ch = self._byName.get(chan)
+            if ch is None:
+                return True
+            chan = ch.chanID
+        ch = self._channels.get(chan)
+        if ch is not None:
+            self._wantedSubs.discard(ch.name)
+            ch.isSubscribed = False
+        self._subscribedIDs.discard(chan)
+        return self._send(frame(Code.UNSUBSCRIBE, u32(self._nextTag()) + u16(chan)))
+
+    def channelByID(self, chanID):
+        return self._channels.get(chanID)
+
+    def channelByName(self, name):
+        return self._byName.get(name)
+
+    def channelID(self, name):
+        ch = self._byName.get(name)
+        return ch.chanID if ch is not None else None
+
+    def channels(self):
+        return list(self._channels.values())
+
+    def channelsNames(self):
+        return [ch.name for ch in self._channels.values()]
+
+    ###########################################################################
+    # Publishing
+
+    def publish(self, chanID, data):
+        """Publishes bytes (or a DataBuffer, bytearray, memoryview) on an owned streaming
+        channel. Returns False when offline."""
+        return self._send(frame(Code.PUBLISH, u16(chanID) + toBytes(data)))
+
+    def _publishPacked(self, chanID, fmt, values):
+        if not isinstance(values, (list, tuple)):
+            values = [values]
+        return self.publish(chanID, struct.pack("<%d%s" % (len(values), fmt), *values))
+
+    def publishInt8(self, chanID, v):
+        return self._publishPacked(chanID, "b", v)
+
+    def publishUInt8(self, chanID, v):
+        return self._publishPacked(chanID, "B", v)
+
+    def publishInt16(self, chanID, v):
+        return self._publishPacked(chanID, "h", v)
+
+    def publishUInt16(self, chanID, v):
+        return self._publishPacked(chanID, "H", v)
+
+    def publishInt32(self, chanID, v):
+        return self._publishPacked(chanID, "i", v)
+
+    def publishUInt32(self, chanID, v):
+        return self._publishPacked(chanID, "I", v)
+
+    def publishInt64(self, chanID, v):
+        return self._publishPacked(chanID, "q", v)
+
+    def publishUInt64(self, chanID, v):
+        return self._publishPacked(chanID, "Q", v)
+
+    def publishFloat(self, chanID, v):
+        """One float32, or a list of them, little-endian."""
+        return self._publishPacked(chanID, "f", v)
+
+    def publishDouble(self, chanID, v):
+        return self._publishPacked(chanID, "d", v)
+
+    def publishString(self, chanID, s):
+        """Text as UTF-8 bytes."""
+        return self.publish(chanID, utf8(s))
+
+    ###########################################################################
+    # Services
+
+    def sendServiceRequest(self, chanID, cmdName, value=None):
+        """Sends a request to a service channel (non-blocking); the answer arrives at the
+        response callback. Returns the request's tag (true) or 0 when offline."""
+        tag = self._nextTag()
+        body = u32(tag) + u16(chanID) + str16(cmdName) + encodeValue(value)
+        if not self._send(frame(Code.SERVICE_REQUEST, body)):
+            return 0
+        self._pendingRequests[tag] = chanID
+        return tag
+
+    def sendServiceResponse(self, chanID, hash, value):
+        """Answers the request `hash` (as given to the request callback) on an owned service
+        channel."""
+        return self._send(frame(Code.SERVICE_RESPONSE,
+                                u16(chanID) + u64(int(hash)) + encodeValue(value)))
+
+    ###########################################################################
+    # Pair databases (asynchronous: failures are logged)
+
+    def setCurrentDbName(self, name):
+        """Selects the flow's current database (a channel's name selects its properties)."""
+        self._selectedDb = name
+        return self._send(frame(Code.DB_SET_CURRENT, u32(self._nextTag()) + str16(name)))
+
+    def setVariable(self, key, value):
+        """Sets `key` in the current database."""
+        db = self._selectedDb
+        if db is not None and db.startswith(self._userName + "."):
+            spec = self._specs.get(db[len(self._userName) + 1:])
+            if spec is not None:
+                spec["props"][key] = value
+        return self._send(frame(Code.VAR_SET_ASYNC,
+                                u32(self._nextTag()) + str16(key) + encodeValue(value)))
+
+    def delVariable(self, key):
+        db = self._selectedDb
+        if db is not None and db.startswith(self._userName + "."):
+            spec = self._specs.get(db[len(self._userName) + 1:])
+            if spec is not None:
+                spec["props"].pop(key, None)
+        return self._send(frame(Code.VAR_DEL_ASYNC, u32(self._nextTag()) + str16(key)))
+
+    removeVariable = delVariable
+
+    def createDatabase(self, name):
+        return self._send(frame(Code.DB_CREATE_ASYNC, u32(self._nextTag()) + str16(name)))
+
+    def saveDatabase(self, name=""):
+        return self._send(frame(Code.DB_SAVE_ASYNC, u32(self._nextTag()) + str16(name)))
+
+    def removeDatabase(self, name):
+        return self._send(frame(Code.DB_REMOVE_ASYNC, u32(self._nextTag()) + str16(name)))
+
+    def newSyncClient(self, timeout=10.0):
+        """A FlowSync on a new synchronous connection, logged in with the same address and
+        credentials (check isConnected(); close() it when done)."""
+        sync = FlowSync(self.address(), self._userName, self._passwd,
+                        self.clientName() + "-sync", timeout)
+        sync.connect()
+        return sync
+

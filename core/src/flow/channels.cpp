@@ -41,6 +41,26 @@ Channel* FlowServer::Impl::channelByName(const std::string& name) noexcept {
   return it == channel_by_name.end() ? nullptr : channel(it->second);
 }
 
+Channel* FlowServer::Impl::existing(uint16_t id, ErrorCode& err, std::string& why) {
+  Channel* ch = channel(id);
+  if (ch == nullptr) {
+    why = "no channel with id " + std::to_string(id);
+    err = ErrorCode::not_found;
+  }
+  return ch;
+}
+
+Channel* FlowServer::Impl::owned(const Endpoint& e, uint16_t id, const char* action, ErrorCode& err,
+                                 std::string& why) {
+  Channel* ch = existing(id, err, why);
+  if (ch != nullptr && ch->owner != &e) {
+    why = std::string("only the owner ") + action + " " + ch->name;
+    err = ErrorCode::permission_denied;
+    return nullptr;
+  }
+  return ch;
+}
+
 msg::ChannelInfo FlowServer::Impl::info(const Channel& ch) {
   msg::ChannelInfo i;
   i.id = ch.id;
@@ -126,15 +146,9 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
 }
 
 ErrorCode FlowServer::Impl::removeChannel(Endpoint& by, uint16_t id, std::string& why) {
-  Channel* ch = channel(id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(id);
-    return ErrorCode::not_found;
-  }
-  if (ch->owner != &by) {
-    why = "only the owner removes " + ch->name;
-    return ErrorCode::permission_denied;
-  }
+  ErrorCode err = ErrorCode::ok;
+  Channel* ch = owned(by, id, "removes", err, why);
+  if (ch == nullptr) return err;
   failRequests(id, ErrorCode::owner_gone, "channel " + ch->name + " was removed");
   for (Endpoint* s : ch->subscribers) {
     if (s != nullptr) std::erase(s->subscribed, id);
@@ -151,11 +165,9 @@ ErrorCode FlowServer::Impl::removeChannel(Endpoint& by, uint16_t id, std::string
 }
 
 ErrorCode FlowServer::Impl::subscribe(Endpoint& e, uint16_t id, std::string& why) {
-  Channel* ch = channel(id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(id);
-    return ErrorCode::not_found;
-  }
+  ErrorCode err = ErrorCode::ok;
+  Channel* ch = existing(id, err, why);
+  if (ch == nullptr) return err;
   if (ch->kind != ChannelKind::streaming) {
     why = ch->name + " is not a streaming channel";
     return ErrorCode::invalid_argument;
@@ -170,11 +182,9 @@ ErrorCode FlowServer::Impl::subscribe(Endpoint& e, uint16_t id, std::string& why
 }
 
 ErrorCode FlowServer::Impl::unsubscribe(Endpoint& e, uint16_t id, std::string& why) {
-  Channel* ch = channel(id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(id);
-    return ErrorCode::not_found;
-  }
+  ErrorCode err = ErrorCode::ok;
+  Channel* ch = existing(id, err, why);
+  if (ch == nullptr) return err;
   auto it = std::find(ch->subscribers.begin(), ch->subscribers.end(), &e);
   if (it == ch->subscribers.end()) return ErrorCode::ok;
   if (dispatching > 0) {
@@ -196,15 +206,9 @@ void FlowServer::Impl::compact(Channel& ch) {
 
 ErrorCode FlowServer::Impl::publish(Endpoint& e, uint16_t id, std::string_view payload,
                                     std::string& why) {
-  Channel* ch = channel(id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(id);
-    return ErrorCode::not_found;
-  }
-  if (ch->owner != &e) {
-    why = "only the owner publishes to " + ch->name;
-    return ErrorCode::permission_denied;
-  }
+  ErrorCode err = ErrorCode::ok;
+  Channel* ch = owned(e, id, "publishes to", err, why);
+  if (ch == nullptr) return err;
   if (ch->kind != ChannelKind::streaming) {
     why = ch->name + " is not a streaming channel";
     return ErrorCode::invalid_argument;
@@ -228,15 +232,9 @@ ErrorCode FlowServer::Impl::publish(Endpoint& e, uint16_t id, std::string_view p
 
 ErrorCode FlowServer::Impl::setProps(Endpoint& e, uint16_t id, const Variant& props,
                                      std::string& why) {
-  Channel* ch = channel(id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(id);
-    return ErrorCode::not_found;
-  }
-  if (ch->owner != &e) {
-    why = "only the owner changes the properties of " + ch->name;
-    return ErrorCode::permission_denied;
-  }
+  ErrorCode err = ErrorCode::ok;
+  Channel* ch = owned(e, id, "changes the properties of", err, why);
+  if (ch == nullptr) return err;
   const auto* map = props.asMap();
   if (map == nullptr) {
     why = "channel properties must be a map";

@@ -1,6 +1,8 @@
 // DatabaseStore: the hub's databases and their files. A save writes a temporary file, fsyncs
 // it, renames it over the old one and fsyncs the directory; rename(2) is atomic, so after a crash
 // the file is the old one or the new one, and a leftover temporary is never read.
+#include "json_errors.h"
+
 #include <skrobot/core/log.h>
 #include <skrobot/flow/pair_database.h>
 
@@ -155,24 +157,6 @@ bool isStaleTmp(const std::string& file) {
   return ::kill(pid, 0) != 0 && errno == ESRCH;
 }
 
-// jsoncpp's "* Line 1, Column 8\n  Duplicate key: 'a'\n" as one line: "line 1, column 8: ...".
-std::string oneLine(const std::string& errors) {
-  std::string out;
-  size_t i = 0;
-  while (i < errors.size()) {
-    size_t end = errors.find('\n', i);
-    if (end == std::string::npos) end = errors.size();
-    std::string_view line(errors.data() + i, end - i);
-    while (!line.empty() && (line.front() == ' ' || line.front() == '*')) line.remove_prefix(1);
-    if (!line.empty()) {
-      if (!out.empty()) out += line.starts_with("Line ") ? "; " : ": ";
-      out += line;
-    }
-    i = end + 1;
-  }
-  return out;
-}
-
 Result<Json::Value> readJsonFile(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return ioError("cannot open", path, errno);
@@ -186,7 +170,7 @@ Result<Json::Value> readJsonFile(const fs::path& path) {
   std::string errors;
   try {
     if (!reader->parse(text.data(), text.data() + text.size(), &root, &errors)) {
-      return makeError(Errc::parse_error, "invalid JSON: " + oneLine(errors));
+      return makeError(Errc::parse_error, "invalid JSON: " + jsonErrorsOneLine(errors));
     }
   } catch (const std::exception& e) {
     return makeError(Errc::parse_error, std::string("invalid JSON: ") + e.what());

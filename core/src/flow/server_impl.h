@@ -152,6 +152,11 @@ struct FlowServer::Impl {
   // --- channels (channels.cpp)
   Channel* channel(uint16_t id) noexcept;
   Channel* channelByName(const std::string& name) noexcept;
+  // The channel `id`; else nullptr with `err` and `why` set.
+  Channel* existing(uint16_t id, ErrorCode& err, std::string& why);
+  // The channel `id` when `e` owns it ("only the owner <action> <name>" otherwise).
+  Channel* owned(const Endpoint& e, uint16_t id, const char* action, ErrorCode& err,
+                 std::string& why);
   Result<Channel*> createChannel(Endpoint& owner, const std::string& short_name, ChannelKind kind,
                                  const std::string& mime, const Variant& props, uint32_t tag);
   ErrorCode removeChannel(Endpoint& by, uint16_t id, std::string& why);

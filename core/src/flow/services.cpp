@@ -10,11 +10,9 @@ namespace skr::flow {
 ErrorCode FlowServer::Impl::request(Endpoint& from, uint16_t chan_id, uint32_t tag, bool sync,
                                     uint32_t timeout_ms, const std::string& command,
                                     const Variant& value, std::string& why) {
-  Channel* ch = channel(chan_id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(chan_id);
-    return ErrorCode::not_found;
-  }
+  ErrorCode err = ErrorCode::ok;
+  Channel* ch = existing(chan_id, err, why);
+  if (ch == nullptr) return err;
   if (ch->kind != ChannelKind::service) {
     why = ch->name + " is not a service channel";
     return ErrorCode::invalid_argument;

@@ -1,5 +1,7 @@
 // The JSON mapping of Variant (docs/pair-databases.md) and the JSON text of the protocol's
 // "JSON twin" commands.
+#include "json_errors.h"
+
 #include <skrobot/flow/variant.h>
 
 #include <json/reader.h>
@@ -30,24 +32,6 @@ std::string_view jsonString(const Json::Value& v) {
   const char* end = nullptr;
   if (!v.getString(&begin, &end)) return {};
   return {begin, static_cast<size_t>(end - begin)};
-}
-
-// jsoncpp's "* Line 1, Column 8\n  Duplicate key: 'a'\n" as one line: "line 1, column 8: ...".
-std::string oneLine(const std::string& errors) {
-  std::string out;
-  size_t i = 0;
-  while (i < errors.size()) {
-    size_t end = errors.find('\n', i);
-    if (end == std::string::npos) end = errors.size();
-    std::string_view line(errors.data() + i, end - i);
-    while (!line.empty() && (line.front() == ' ' || line.front() == '*')) line.remove_prefix(1);
-    if (!line.empty()) {
-      if (!out.empty()) out += line.starts_with("Line ") ? "; " : ": ";
-      out += line;
-    }
-    i = end + 1;
-  }
-  return out;
 }
 
 class FromJson {
@@ -226,7 +210,7 @@ Result<Variant> variantFromJsonText(std::string_view text, const DecodeLimits& l
   std::string errors;
   try {
     if (!reader->parse(text.data(), text.data() + text.size(), &root, &errors)) {
-      return makeError(Errc::parse_error, oneLine(errors));
+      return makeError(Errc::parse_error, jsonErrorsOneLine(errors));
     }
   } catch (const std::exception& e) {  // jsoncpp throws when nesting exceeds stackLimit
     return makeError(Errc::parse_error, e.what());

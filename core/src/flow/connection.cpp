@@ -60,7 +60,7 @@ void Connection::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
     }
     if (c->rcap_ - c->rend_ < want) {
       const size_t cap = c->rend_ + want;
-      auto bigger = std::make_unique<char[]>(cap);
+      auto bigger = std::make_unique_for_overwrite<char[]>(cap);  // no zero-fill
       if (have > 0) std::memcpy(bigger.get(), c->rbuf_.get(), have);
       c->rbuf_ = std::move(bigger);
       c->rcap_ = cap;
@@ -77,6 +77,7 @@ void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t*) {
     return;
   }
   c->rend_ += static_cast<size_t>(nread);
+  c->server_.loop.noteActivity();
   c->processInput();
 }
 
@@ -243,11 +244,15 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
       return;
     }
   }
-  ByteWriter w(out_);
-  w.u32(static_cast<uint32_t>(1 + 2 + payload.size()));
-  w.u8(static_cast<uint8_t>(Code::ev_data));
-  w.u16(ch.id);
-  w.raw(payload);
+  // One resize and two copies: this runs once per subscriber per message.
+  const size_t at = out_.size();
+  out_.resize(at + frame);
+  char* p = out_.data() + at;
+  const uint32_t length = static_cast<uint32_t>(1 + 2 + payload.size());
+  std::memcpy(p, &length, 4);
+  p[4] = static_cast<char>(Code::ev_data);
+  std::memcpy(p + 5, &ch.id, 2);
+  if (!payload.empty()) std::memcpy(p + 7, payload.data(), payload.size());
   ++server_.stats.data_frames_out;
   if (!flush_queued) server_.markDirty(this);
 }
@@ -306,9 +311,28 @@ void Connection::flush() {
     if (close_after_flush_) close("replies sent");
     return;
   }
+  // Try the socket directly first: when everything fits (the common case) no write request is
+  // queued, and libuv does not have to watch the socket for writability.
+  uv_buf_t direct = uv_buf_init(out_.data(), static_cast<unsigned>(out_.size()));
+  const int sent = uv_try_write(stream(), &direct, 1);
+  if (sent == static_cast<int>(out_.size())) {
+    if (out_.capacity() > kKeepBuffer) {
+      std::string().swap(out_);  // a burst is over: give the memory back
+    } else {
+      out_.clear();
+    }
+    if (close_after_flush_) close("replies sent");
+    return;
+  }
+  if (sent < 0 && sent != UV_EAGAIN) {
+    close(uv_strerror(sent));
+    return;
+  }
   inflight_.swap(out_);
   out_.clear();
-  uv_buf_t buf = uv_buf_init(inflight_.data(), static_cast<unsigned>(inflight_.size()));
+  const size_t done = sent > 0 ? static_cast<size_t>(sent) : 0;
+  uv_buf_t buf =
+      uv_buf_init(inflight_.data() + done, static_cast<unsigned>(inflight_.size() - done));
   writing_ = true;
   if (int rc = uv_write(&wreq_, stream(), &buf, 1, &Connection::onWrite); rc < 0) {
     writing_ = false;

@@ -15,7 +15,7 @@
 // Round trips alternate between raw and hub in blocks, so that load changes touch both alike.
 //
 //   flow_relay [--quick] [--seconds S] [--unix-only | --tcp-only] [--queue-mb M]
-//              [--only round-trip|1:1|fan-out]
+//              [--only round-trip|1:1|fan-out] [--busy-poll-us N]
 //
 // Exits 1 on a real error (lost connection, frames missing beyond the reported drops, a hub
 // that does not answer); a missed target is reported, not an error.
@@ -85,16 +85,18 @@ struct Options {
   bool tcp_rows = true;
   size_t queue_bytes = 8 * kMiB;  // ServerOptions::subscriber_queue_bytes
   std::string only;               // empty, "round-trip", "1:1" or "fan-out"
+  long busy_poll_us = 0;          // the hub loop's busy_poll_us (0: the default, off)
 };
 
 void usage() {
   std::printf(
       "usage: flow_relay [--quick] [--seconds S] [--unix-only | --tcp-only] [--queue-mb M]\n"
-      "                  [--only round-trip|1:1|fan-out]\n"
+      "                  [--only round-trip|1:1|fan-out] [--busy-poll-us N]\n"
       "  --quick       a short run (a few seconds), used by the test suite as a smoke test\n"
       "  --seconds S   seconds per throughput measurement (default 1.5)\n"
       "  --queue-mb M  the hub's subscriber queue in MiB (default 8, the hub's default)\n"
-      "  --only TEST   run one kind of test (for profiling)\n");
+      "  --only TEST   run one kind of test (for profiling)\n"
+      "  --busy-poll-us N  the hub loop keeps polling N us after I/O (config loop.busy_poll_us)\n");
 }
 
 Options parseOptions(int argc, char** argv) {
@@ -110,6 +112,8 @@ Options parseOptions(int argc, char** argv) {
       seconds_given = true;
     } else if (a == "--queue-mb" && has_value) {
       o.queue_bytes = static_cast<size_t>(std::atof(argv[++i]) * kMiB);
+    } else if (a == "--busy-poll-us" && has_value) {
+      o.busy_poll_us = std::atol(argv[++i]);
     } else if (a == "--only" && has_value) {
       o.only = argv[++i];
     } else if (a == "--unix-only") {
@@ -412,7 +416,10 @@ class Hub {
       createAccount(so.users_file);
     }
     unix_path_ = so.unix_path;
-    thread_ = std::make_unique<skr::LoopThread>(skr::LoopOptions{});
+    skr::LoopOptions lo;
+    lo.name = "hub";
+    lo.busy_poll_ns = o.busy_poll_us * 1000;
+    thread_ = std::make_unique<skr::LoopThread>(lo);
     thread_->start();
     skr::Result<void> r;
     thread_->loop().invoke([&] {
@@ -993,10 +1000,11 @@ void printPreamble(const Options& o) {
       "  round trip: one message in flight, %d/%d/%d round trips at 16 B/1 KB/64 KB\n"
       "  streaming: %.2f s per figure, %zu KB per send(), %zu KB recv buffer, publisher at most "
       "%zu MB ahead\n"
-      "  hub subscriber queue %zu KB; MB = 2^20 bytes of payload; drops = EV_DROPPED frames\n\n",
+      "  hub subscriber queue %zu KB, hub loop busy_poll_us %ld; MB = 2^20 bytes of payload; "
+      "drops = EV_DROPPED frames\n\n",
       std::thread::hardware_concurrency(), load[0], roundsFor(16, o.quick),
       roundsFor(kKiB, o.quick), roundsFor(64 * kKiB, o.quick), o.seconds, kBatchBytes / kKiB,
-      kRecvBytes / kKiB, kWindowBytes / kMiB, o.queue_bytes / kKiB);
+      kRecvBytes / kKiB, kWindowBytes / kMiB, o.queue_bytes / kKiB, o.busy_poll_us);
 }
 
 }  // namespace

@@ -55,6 +55,7 @@ s::Schema loopSchema(bool with_defaults) {
       s::optional("fast_tick_ms", s::number().range(0.1, 1000), d(10)),
       s::optional("slow_tick_ms", s::number(), d(100)),  // >= fast_tick_ms, see readLoop()
       s::optional("load_warning_ratio", s::number().range(0.05, 1), d(0.8)),
+      s::optional("busy_poll_us", s::integer().range(0, 100000), d(0)),
   });
 }
 
@@ -148,6 +149,8 @@ void readLoop(const Json::Value& obj, const Json::Value& written, const std::str
   loop.fast_interval_ns = msToNs(number("fast_tick_ms", nsToMs(loop.fast_interval_ns)));
   loop.slow_interval_ns = msToNs(number("slow_tick_ms", nsToMs(loop.slow_interval_ns)));
   loop.load_warning_ratio = number("load_warning_ratio", loop.load_warning_ratio);
+  loop.busy_poll_ns = static_cast<Nanos>(
+      number("busy_poll_us", static_cast<double>(loop.busy_poll_ns) / 1000.0) * 1000.0);
   if (loop.slow_interval_ns >= loop.fast_interval_ns) return;
   const auto given = [&](const char* key) { return written.isObject() && written.isMember(key); };
   const std::string fast = s::formatNumber(nsToMs(loop.fast_interval_ns));

@@ -90,6 +90,8 @@ Loop::Loop(LoopOptions options) : options_(std::move(options)) {
   uv_idle_init(uv_, idle_);
   check_ = makeHandle<uv_check_t>(this);
   uv_check_init(uv_, check_);
+  busy_idle_ = makeHandle<uv_idle_t>(this);
+  uv_idle_init(uv_, busy_idle_);
 }
 
 Loop::~Loop() {
@@ -98,6 +100,7 @@ Loop::~Loop() {
   closeHandle(stop_timer_);
   closeHandle(idle_);
   closeHandle(check_);
+  closeHandle(busy_idle_);
   // Let close callbacks run; handles opened by others on this loop must be closed by now.
   uv_run(uv_, UV_RUN_NOWAIT);
   if (uv_loop_close(uv_) != 0) {
@@ -325,7 +328,24 @@ void Loop::onCheck(uv_check_t* handle) {
   self->fireTicks(monotonicNs());
 }
 
-void Loop::onStopTimer(uv_timer_t*) {}  // only wakes runUntil's uv_run(UV_RUN_ONCE)
+void Loop::onStopTimer(uv_timer_t*) {}
+
+void Loop::noteActivity() noexcept {
+  if (options_.busy_poll_ns <= 0) return;
+  last_activity_ns_ = monotonicNs();
+  if (!busy_) {
+    busy_ = true;
+    uv_idle_start(busy_idle_, &Loop::onBusyIdle);  // an active idle handle makes the poll not wait
+  }
+}
+
+void Loop::onBusyIdle(uv_idle_t* handle) {
+  auto* self = static_cast<Loop*>(handle->data);
+  if (monotonicNs() - self->last_activity_ns_ > self->options_.busy_poll_ns) {
+    self->busy_ = false;
+    uv_idle_stop(self->busy_idle_);
+  }
+}  // only wakes runUntil's uv_run(UV_RUN_ONCE)
 
 void Loop::onAsync(uv_async_t* handle) {
   auto* self = static_cast<Loop*>(handle->data);

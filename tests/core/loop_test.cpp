@@ -91,6 +91,28 @@ TEST(Loop, SocketDrivenTicksEarlyOnIo) {
   EXPECT_TRUE(ok);
 }
 
+TEST(Loop, BusyPollingAfterActivityThenSleepingAgain) {
+  // Socket-driven ticks come with every loop iteration, so they show whether the loop sleeps:
+  // the 10 s interval would allow one tick; busy polling gives thousands.
+  LoopOptions o = options(TimingMode::socket_driven, 10'000, 10'000);
+  o.busy_poll_ns = 300 * kNsPerMs;
+  Loop loop(o);
+  loop.post([&] { loop.noteActivity(); });
+  ASSERT_TRUE(loop.runUntil([&] { return loop.stats().fast_ticks >= 1000; }, kLongTimeout));
+  // Without further activity it goes back to sleep within busy_poll_ns.
+  loop.runFor(1500 * kNsPerMs);
+  const auto before = loop.stats().fast_ticks;
+  loop.runFor(1000 * kNsPerMs);
+  EXPECT_LE(loop.stats().fast_ticks - before, 2u);  // runFor's own time-limit wake-up ticks
+}
+
+TEST(Loop, NoBusyPollingByDefault) {
+  Loop loop(options(TimingMode::socket_driven, 10'000, 10'000));
+  loop.post([&] { loop.noteActivity(); });
+  loop.runFor(300 * kNsPerMs);
+  EXPECT_LT(loop.stats().fast_ticks, 10u);
+}
+
 TEST(Loop, PostFromManyThreadsRunsEverythingInOrderPerThread) {
   Loop loop;
   constexpr int kThreads = 4;

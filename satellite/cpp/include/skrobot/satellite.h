@@ -1,0 +1,13 @@
+// The C++ satellite library: everything a satellite includes.
+//   find_package(skrobot_satellite) -> skrobot::satellite, or pkg-config skrobot-satellite.
+// docs/cpp-satellites.md is the guide.
+#pragma once
+
+#include <skrobot/core/log.h>
+#include <skrobot/core/loop.h>
+#include <skrobot/core/signal.h>
+#include <skrobot/flow/variant.h>
+#include <skrobot/satellite/address.h>
+#include <skrobot/satellite/satellite.h>
+#include <skrobot/satellite/sketch.h>
+#include <skrobot/satellite/sync_client.h>

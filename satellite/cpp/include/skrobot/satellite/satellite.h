@@ -1,0 +1,197 @@
+// A satellite on a skr::Loop: the flow (one asynchronous connection to the hub) as an skr::Object
+// that emits typed signals, with channels, publishing, services and databases.
+//
+//   skr::Loop loop;
+//   skr::sat::Satellite sat(loop, skr::sat::SatelliteOptions::fromEnvironment("viewer").value());
+//   sat.data.connect(&sat, [&](uint16_t id, const std::string& payload) { ... });
+//   sat.subscribe("guest.camera");      // by name: waits for the channel to appear
+//   sat.start();
+//   loop.run();
+//
+// Threading: a Satellite belongs to the loop it was created with. Create it, call its methods and
+// destroy it on that loop's thread. Its socket is a libuv stream on loop.uv(); nothing here blocks
+// except the methods marked BLOCKING, which use a separate synchronous connection (so the flow
+// is never blocked, but the calling loop thread waits).
+//
+// Signals are emitted on the loop thread while the satellite handles a frame. A slot may call
+// any method, stop() included, but must not destroy the satellite (use skr::deleteLater).
+// Connect slots before start(): connections take effect at the loop's next pulse.
+//
+// Reconnection: when the link drops, the hub restarts, or the hub breaks the protocol, the
+// satellite closes the connection (logging why), emits `disconnected`, and retries with a backoff
+// (100 ms doubling to 2 s). Once logged in again it re-creates its channels (same short names and
+// properties), re-subscribes by name, re-selects its flow database and emits `connected`, then
+// `channelReady` / `subscribed` with the new ids.
+#pragma once
+
+#include <skrobot/core/clock.h>
+#include <skrobot/core/object.h>
+#include <skrobot/core/signal.h>
+#include <skrobot/satellite/sync_client.h>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace skr::sat {
+
+struct SatelliteOptions {
+  ConnectOptions connection;
+  bool reconnect = true;                        // false: stay disconnected after the first loss
+  Nanos reconnect_min_ns = 100 * kNsPerMs;      // first retry delay, doubled on each failure
+  Nanos reconnect_max_ns = 2 * kNsPerSec;       // ... up to this
+  Nanos handshake_timeout_ns = 10 * kNsPerSec;  // connect + login + GO_ASYNC
+  size_t max_queued_bytes = 8u << 20;  // outgoing bytes waiting; publish() fails beyond this
+
+  // ConnectOptions::fromEnvironment() with the defaults above.
+  [[nodiscard]] static Result<SatelliteOptions> fromEnvironment(std::string client_name = {});
+};
+
+// A channel this satellite owns, "<user>.<name>".
+struct ChannelSpec {  // NOLINT(bugprone-exception-escape): Variant moves do not throw
+  std::string name;   // the short name: 1-128 of A-Z a-z 0-9 _ - . (not starting with '.')
+  flow::ChannelKind kind = flow::ChannelKind::streaming;
+  std::string mime = {};                       // what the payloads are, e.g. "image/jpeg"
+  flow::Variant props = flow::Variant::Map{};  // the channel's database (sample rate, size, ...)
+};
+
+// A request to one of our service channels: answer with respond(request, value).
+using Request = flow::msg::EvServiceRequest;
+// The answer to request(); `error` is ok, or why it failed (value then holds a message).
+struct Response {  // NOLINT(bugprone-exception-escape): Variant moves do not throw
+  uint16_t chan_id = 0;
+  uint32_t tag = 0;
+  flow::ErrorCode error = flow::ErrorCode::ok;
+  flow::Variant value;
+  [[nodiscard]] bool ok() const noexcept { return error == flow::ErrorCode::ok; }
+};
+// A command the hub refused (EV_ERROR: `command` and `tag` name it), a refused login (command
+// LOGIN), or a local failure (command 0): protocol_error when the hub broke the protocol,
+// io_error when the first connection failed and `reconnect` is off.
+using FlowError = flow::msg::EvError;
+
+struct SatelliteStats {
+  uint64_t connections = 0;  // successful logins
+  uint64_t frames_in = 0;
+  uint64_t frames_out = 0;
+  uint64_t writes = 0;        // write calls: frames_out / writes is the batching
+  uint64_t data_dropped = 0;  // data frames the hub dropped for us (EV_DROPPED)
+  uint64_t protocol_errors = 0;
+};
+
+class Satellite : public Object {
+ public:
+  using ResponseHandler = std::function<void(const Response&)>;
+
+  // Does not connect yet: start() does.
+  Satellite(Loop& loop, SatelliteOptions options);
+  ~Satellite() override;  // closes the flow; pending request handlers are not called
+  Satellite(const Satellite&) = delete;
+  Satellite& operator=(const Satellite&) = delete;
+  Satellite(Satellite&&) = delete;
+  Satellite& operator=(Satellite&&) = delete;
+
+  // Starts connecting, and returns at once. Idempotent.
+  void start();
+  // Closes the flow and stops reconnecting; start() connects again. Idempotent.
+  void stop();
+
+  [[nodiscard]] bool isConnected() const noexcept;  // logged in, flow open
+  [[nodiscard]] const SatelliteOptions& options() const noexcept;
+  [[nodiscard]] const LoginInfo& login() const noexcept;  // from the last login
+  [[nodiscard]] const std::string& user() const noexcept { return login().user; }
+  [[nodiscard]] const SatelliteStats& stats() const noexcept;
+
+  // --- channels ------------------------------------------------------------------------------
+  // Declares a channel of ours: created now when connected, and after every reconnection;
+  // `channelReady` gives its id each time. Errc::already_exists when declared already,
+  // Errc::invalid_argument for a bad name. The hub may still refuse it (`error` signal).
+  [[nodiscard]] Result<void> addChannel(ChannelSpec spec);
+  // Removes one of ours (by short name). Errc::not_found.
+  [[nodiscard]] Result<void> removeChannel(std::string_view name);
+  // Merges keys into one of our channels' properties (a null value removes a key); everyone gets
+  // `channelChanged`. Kept for re-creation.
+  [[nodiscard]] Result<void> setChannelProperties(std::string_view name, flow::Variant::Map props);
+
+  // A channel as the hub describes it now: by id, by full name, or by the short name of one of
+  // ours. nullptr (nullopt) when it does not exist now. Pointers last until the next event.
+  [[nodiscard]] const ChannelInfo* channel(uint16_t chan_id) const;
+  [[nodiscard]] const ChannelInfo* channel(std::string_view name) const;
+  [[nodiscard]] std::optional<uint16_t> channelId(std::string_view name) const;
+  [[nodiscard]] std::vector<ChannelInfo> channels() const;  // every channel of the hub now
+  // Whether one of our streaming channels has subscribers now (start/stop publish).
+  [[nodiscard]] bool hasSubscribers(std::string_view name) const;
+
+  // Subscribes by full name ("<user>.<name>"): at once when the channel exists, else as soon as
+  // it appears; kept when the channel is re-created and across reconnections. Idempotent.
+  void subscribe(std::string name);
+  // Subscribes to the channel that has this id now (kept by its name, as above).
+  [[nodiscard]] Result<void> subscribe(uint16_t chan_id);
+  void unsubscribe(std::string_view name);
+  [[nodiscard]] bool isSubscribed(std::string_view name) const;  // attached to the channel now
+
+  // Publishes on one of our streaming channels. Queued: everything queued during one loop
+  // iteration goes out in one write. Errc::closed (not connected), Errc::not_found (no such
+  // channel of ours yet), Errc::limit_exceeded (max_queued_bytes wait: the frame is dropped).
+  [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
+  [[nodiscard]] Result<void> publish(std::string_view name, std::string_view payload);
+  [[nodiscard]] size_t queuedBytes() const noexcept;  // written soon, or being written
+
+  // --- services ------------------------------------------------------------------------------
+  // An asynchronous request to a service channel (by name or id). The answer comes as the
+  // `serviceResponse` signal and to `done`, matched by the returned tag; a lost connection
+  // answers with error io_error. Errc::closed, Errc::not_found (no such channel now).
+  [[nodiscard]] Result<uint32_t> request(std::string_view service, const std::string& command,
+                                         const flow::Variant& value, ResponseHandler done = {});
+  [[nodiscard]] Result<uint32_t> request(uint16_t chan_id, const std::string& command,
+                                         const flow::Variant& value, ResponseHandler done = {});
+  // Answers a request made to one of our service channels.
+  [[nodiscard]] Result<void> respond(const Request& request, const flow::Variant& value);
+  // BLOCKING: a synchronous service call over the synchronous connection (see SyncClient::call).
+  // Never call one of this satellite's own services this way: nobody would answer it.
+  [[nodiscard]] Result<flow::Variant> call(std::string_view service, const std::string& command,
+                                           const flow::Variant& value, uint32_t timeout_ms = 5000);
+
+  // --- databases -----------------------------------------------------------------------------
+  // BLOCKING reads over the synchronous connection. `db` empty: the user's database.
+  [[nodiscard]] Result<flow::Variant> get(const std::string& key, const std::string& db = {});
+  [[nodiscard]] Result<flow::Variant::Map> getAll(const std::string& db = {});
+  [[nodiscard]] Result<std::vector<std::string>> keys(const std::string& db = {});
+  // Writes on the flow (asynchronous; a refusal comes as the `error` signal with the returned
+  // tag). `db` empty: the flow's current database (the user's, unless selectDatabase()).
+  [[nodiscard]] Result<uint32_t> set(const std::string& key, const flow::Variant& value,
+                                     const std::string& db = {});
+  [[nodiscard]] Result<uint32_t> del(const std::string& key, const std::string& db = {});
+  [[nodiscard]] Result<uint32_t> createDatabase(const std::string& name);
+  [[nodiscard]] Result<uint32_t> saveDatabase(const std::string& name = {});
+  // The flow's current database from now on (and after reconnections).
+  [[nodiscard]] Result<uint32_t> selectDatabase(const std::string& name);
+  // BLOCKING: the synchronous connection itself, opened (or re-opened) as needed; valid until
+  // the next BLOCKING call or the satellite's destruction.
+  [[nodiscard]] Result<SyncClient*> syncClient();
+
+  // --- signals (emitted on the loop thread) ---------------------------------------------------
+  Signal<> connected{*this};                       // logged in, flow open (after each connection)
+  Signal<const std::string&> disconnected{*this};  // why; ids are void until connected again
+  Signal<const ChannelInfo&> channelReady{*this};  // one of ours was created: its id
+  Signal<const ChannelInfo&> subscribed{*this};    // a subscription by name attached: the id
+  Signal<const ChannelInfo&> channelAdded{*this};
+  Signal<const ChannelInfo&> channelRemoved{*this};
+  Signal<const ChannelInfo&> channelChanged{*this};  // properties (EV_CHAN_HEADER)
+  Signal<uint16_t> startPublish{*this};              // first subscriber of one of ours
+  Signal<uint16_t> stopPublish{*this};               // last subscriber left
+  Signal<uint16_t, const std::string&> data{*this};  // chan_id, payload
+  Signal<const Request&> serviceRequest{*this};
+  Signal<const Response&> serviceResponse{*this};
+  Signal<const FlowError&> error{*this};
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace skr::sat

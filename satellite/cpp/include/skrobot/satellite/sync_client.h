@@ -1,0 +1,100 @@
+// A synchronous connection to a hub: one request, one reply, in the calling thread.
+//
+// This is the short-lived connection of the FlowProtocol for look-ups that block (database
+// reads, blocking service calls, channel lists), kept apart from the satellite's flow so that the
+// flow never blocks. Every method blocks the calling thread until the reply arrives or
+// ConnectOptions::timeout_ms passes. Not thread-safe: use one SyncClient from one thread at a time.
+//
+// Errors: a refusal by the hub keeps its FlowProtocol error in lastError() and maps onto Errc
+// (not_found, already_exists, permission_denied, invalid_argument, timeout, ...); the connection
+// stays usable. A lost or broken connection gives Errc::closed or Errc::protocol_error and closes.
+#pragma once
+
+#include <skrobot/core/result.h>
+#include <skrobot/flow/messages.h>
+#include <skrobot/satellite/address.h>
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace skr::sat {
+
+using ChannelInfo = flow::msg::ChannelInfo;
+using LoginInfo = flow::msg::LoginOk;
+
+// The Errc that a hub's FlowProtocol error maps onto.
+[[nodiscard]] Errc toErrc(flow::ErrorCode error) noexcept;
+
+class SyncClient {
+ public:
+  SyncClient() = default;
+  ~SyncClient();
+  SyncClient(const SyncClient&) = delete;
+  SyncClient& operator=(const SyncClient&) = delete;
+  SyncClient(SyncClient&& o) noexcept;
+  SyncClient& operator=(SyncClient&& o) noexcept;
+
+  // Connects and logs in. Errors:
+  //   Errc::io_error           nobody listens: "no hub at local:/tmp/Robot: is skrobot running?"
+  //   Errc::permission_denied  the login was refused (lastError() is auth_failed)
+  //   Errc::protocol_error     another protocol major, or a reply that breaks the protocol
+  //   Errc::timeout            no answer within options.timeout_ms
+  [[nodiscard]] static Result<SyncClient> connect(const ConnectOptions& options);
+
+  [[nodiscard]] bool isOpen() const noexcept { return fd_ >= 0; }
+  [[nodiscard]] const LoginInfo& login() const noexcept { return login_; }
+  // The hub's error code for the last failed request (ok after a success).
+  [[nodiscard]] flow::ErrorCode lastError() const noexcept { return last_error_; }
+  void close() noexcept;
+
+  // Databases. The current database starts as the user's own.
+  [[nodiscard]] Result<void> selectDatabase(const std::string& name);
+  [[nodiscard]] Result<void> createDatabase(const std::string& name);
+  [[nodiscard]] Result<void> saveDatabase(const std::string& name = {});  // empty: current
+  [[nodiscard]] Result<void> removeDatabase(const std::string& name);
+  [[nodiscard]] Result<std::vector<std::string>> databases();
+  // Variables of the current database.
+  [[nodiscard]] Result<flow::Variant> get(const std::string& key);
+  [[nodiscard]] Result<void> set(const std::string& key, const flow::Variant& value);
+  [[nodiscard]] Result<void> del(const std::string& key);
+  [[nodiscard]] Result<flow::Variant::Map> getAll();
+  [[nodiscard]] Result<std::vector<std::string>> keys();
+
+  // Channels of the hub now.
+  [[nodiscard]] Result<std::vector<ChannelInfo>> channels();
+  [[nodiscard]] Result<ChannelInfo> channel(const std::string& name);
+
+  // A blocking service call (SERVICE_CALL): waits for the owner's answer for up to timeout_ms
+  // (Errc::timeout), or fails when the owner goes away (Errc::closed, lastError() owner_gone).
+  [[nodiscard]] Result<flow::Variant> call(uint16_t chan_id, const std::string& command,
+                                           const flow::Variant& value, uint32_t timeout_ms = 5000);
+  // The same by channel name (one CHAN_INFO first).
+  [[nodiscard]] Result<flow::Variant> call(const std::string& service, const std::string& command,
+                                           const flow::Variant& value, uint32_t timeout_ms = 5000);
+
+  // Round trip with the hub.
+  [[nodiscard]] Result<void> ping();
+
+ private:
+  struct Reply {
+    uint8_t code = 0;
+    std::string body;
+  };
+  explicit SyncClient(int fd, ConnectOptions options);
+  template <class M>
+  Result<Reply> request(const M& m, uint32_t timeout_ms);
+  Result<Reply> roundTrip(const std::string& frame, uint32_t timeout_ms);
+  Result<void> expectEmpty(Result<Reply> r);
+  Result<flow::Variant> expectValue(Result<Reply> r);
+  Error fail(Errc code, std::string message);
+
+  int fd_ = -1;
+  ConnectOptions options_;
+  LoginInfo login_;
+  flow::ErrorCode last_error_ = flow::ErrorCode::ok;
+  std::string rbuf_;
+};
+
+}  // namespace skr::sat

@@ -1,0 +1,76 @@
+#include <skrobot/satellite/address.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstdlib>
+
+namespace skr::sat {
+
+std::string Address::toString() const {
+  if (kind == Kind::local) return "local:" + path;
+  const bool v6 = host.find(':') != std::string::npos;
+  return "tcp:" + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+Result<Address> Address::parse(std::string_view text) {
+  const auto bad = [&](const std::string& why) {
+    return makeError(Errc::invalid_argument, "bad hub address \"" + std::string(text) +
+                                                 "\": " + why +
+                                                 " (expected local:/path or tcp:host[:port])");
+  };
+  Address a;
+  if (text.starts_with("local:")) {
+    a.path = std::string(text.substr(6));
+    if (a.path.empty()) return bad("empty socket path");
+    if (a.path.size() >= 108) return bad("socket path longer than 107 bytes");
+    return a;
+  }
+  if (!text.starts_with("tcp:")) return bad("unknown transport");
+  a.kind = Kind::tcp;
+  std::string_view rest = text.substr(4);
+  std::string_view port;
+  if (rest.starts_with("[")) {  // [v6]:port
+    const size_t close = rest.find(']');
+    if (close == std::string_view::npos) return bad("missing ']'");
+    a.host = std::string(rest.substr(1, close - 1));
+    rest.remove_prefix(close + 1);
+    if (!rest.empty()) {
+      if (rest[0] != ':') return bad("text after ']'");
+      port = rest.substr(1);
+    }
+  } else {
+    const size_t colon = rest.rfind(':');
+    a.host = std::string(rest.substr(0, colon));
+    if (colon != std::string_view::npos) port = rest.substr(colon + 1);
+  }
+  if (a.host.empty()) return bad("empty host");
+  if (!port.empty() || (rest.size() > 0 && rest.back() == ':')) {
+    unsigned value = 0;
+    const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
+    if (ec != std::errc() || end != port.data() + port.size() || value == 0 || value > 65535) {
+      return bad("port must be 1-65535");
+    }
+    a.port = static_cast<uint16_t>(value);
+  }
+  return a;
+}
+
+Result<ConnectOptions> ConnectOptions::fromEnvironment(std::string client_name) {
+  ConnectOptions o;
+  o.client_name = std::move(client_name);
+  if (o.client_name.empty()) o.client_name = program_invocation_short_name;  // GNU: argv[0]
+  const auto env = [](const char* name) -> std::string {
+    const char* v = std::getenv(name);
+    return v != nullptr ? std::string(v) : std::string();
+  };
+  if (const std::string addr = env("ROBOT_ADDRESS"); !addr.empty()) {
+    auto a = Address::parse(addr);
+    if (!a) return makeError(a.error().code, "ROBOT_ADDRESS: " + a.error().message);
+    o.address = std::move(a).value();
+  }
+  if (std::string u = env("ROBOT_USER"); !u.empty()) o.user = std::move(u);
+  if (std::string p = env("ROBOT_PASSWORD"); !p.empty()) o.password = std::move(p);
+  return o;
+}
+
+}  // namespace skr::sat

@@ -1,0 +1,116 @@
+#include "posix_socket.h"
+
+#include <fcntl.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace skr::sat::detail {
+namespace {
+
+Error noHub(const Address& a, const std::string& why) {
+  return makeError(Errc::io_error,
+                   "no hub at " + a.toString() + ": is skrobot running? (" + why + ")");
+}
+
+// Non-blocking connect bounded by timeout_ms; leaves the fd blocking again. Returns 0 or errno.
+int connectWithin(int fd, const sockaddr* addr, socklen_t len, uint32_t timeout_ms) {
+  const int flags = fcntl(fd, F_GETFL);
+  fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+  int err = 0;
+  if (::connect(fd, addr, len) != 0) {
+    err = errno;
+    if (err == EINPROGRESS) {
+      pollfd p{fd, POLLOUT, 0};
+      const int n = ::poll(&p, 1, static_cast<int>(timeout_ms));
+      if (n <= 0) {
+        err = n == 0 ? ETIMEDOUT : errno;
+      } else {
+        socklen_t sl = sizeof err;
+        getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &sl);
+      }
+    }
+  }
+  fcntl(fd, F_SETFL, flags);
+  return err;
+}
+
+}  // namespace
+
+Result<int> connectSocket(const Address& a, uint32_t timeout_ms) {
+  if (a.kind == Address::Kind::local) {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) return makeError(Errc::io_error, std::string("socket: ") + std::strerror(errno));
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, a.path.c_str(), sizeof(addr.sun_path) - 1);
+    if (int err = connectWithin(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr, timeout_ms)) {
+      ::close(fd);
+      return noHub(a, std::string("connect: ") + std::strerror(err));
+    }
+    return fd;
+  }
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* list = nullptr;
+  const std::string port = std::to_string(a.port);
+  if (int rc = getaddrinfo(a.host.c_str(), port.c_str(), &hints, &list); rc != 0) {
+    return noHub(a, std::string("resolve: ") + gai_strerror(rc));
+  }
+  std::string why = "no address";
+  for (addrinfo* ai = list; ai != nullptr; ai = ai->ai_next) {
+    const int fd = ::socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC, ai->ai_protocol);
+    if (fd < 0) continue;
+    if (int err = connectWithin(fd, ai->ai_addr, ai->ai_addrlen, timeout_ms); err != 0) {
+      why = std::string("connect: ") + std::strerror(err);
+      ::close(fd);
+      continue;
+    }
+    int one = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    freeaddrinfo(list);
+    return fd;
+  }
+  freeaddrinfo(list);
+  return noHub(a, why);
+}
+
+Result<void> sendAll(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return makeError(Errc::closed, std::string("send: ") + std::strerror(errno));
+    }
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+  return {};
+}
+
+Result<void> readSome(int fd, std::string& buf, uint32_t timeout_ms) {
+  for (;;) {
+    pollfd p{fd, POLLIN, 0};
+    const int n = ::poll(&p, 1, static_cast<int>(timeout_ms));
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0)
+      return makeError(Errc::timeout, "no reply within " + std::to_string(timeout_ms) + " ms");
+    if (n < 0) return makeError(Errc::io_error, std::string("poll: ") + std::strerror(errno));
+    char tmp[64 * 1024];
+    const ssize_t got = ::recv(fd, tmp, sizeof tmp, 0);
+    if (got < 0 && errno == EINTR) continue;
+    if (got == 0) return makeError(Errc::closed, "the hub closed the connection");
+    if (got < 0) return makeError(Errc::closed, std::string("recv: ") + std::strerror(errno));
+    buf.append(tmp, static_cast<size_t>(got));
+    return {};
+  }
+}
+
+}  // namespace skr::sat::detail

@@ -1,0 +1,202 @@
+// Events on the flow: the channel table, subscriptions by name, data, services, errors. A frame
+// that breaks the protocol closes the connection (SAT-PROTOCOL) and the satellite reconnects.
+#include <skrobot/core/log.h>
+
+#include <algorithm>
+
+#include "satellite_impl.h"
+
+namespace skr::sat {
+
+namespace msg = flow::msg;
+using flow::Code;
+
+// Decodes `body` as M into `var`, or drops the connection as the hub broke the protocol.
+// NOLINTBEGIN(bugprone-macro-parentheses): `M` is a type
+#define SAT_DECODE(M, var)                      \
+  auto var##_r = flow::decode<M>(body, limits); \
+  if (!var##_r) {                               \
+    drop(var##_r.error().message, true);        \
+    return;                                     \
+  }                                             \
+  auto& var = var##_r.value();
+// NOLINTEND(bugprone-macro-parentheses)
+
+void Satellite::Impl::event(uint8_t code, std::string_view body) {
+  const flow::DecodeLimits limits{32, opt.connection.max_frame_bytes};
+  const uint64_t gen = generation;
+  switch (static_cast<Code>(code)) {
+    case Code::ev_data: {
+      SAT_DECODE(msg::EvData, m);
+      self.data.emit(m.chan_id, std::string(m.payload.bytes));
+      return;
+    }
+    case Code::ev_chan_added: {
+      SAT_DECODE(msg::EvChanAdded, m);
+      onChanAdded(m);
+      return;
+    }
+    case Code::ev_chan_removed: {
+      SAT_DECODE(msg::EvChanRemoved, m);
+      onChanRemoved(m);
+      return;
+    }
+    case Code::ev_chan_header: {
+      SAT_DECODE(msg::EvChanHeader, m);
+      upsert(m.info);
+      self.channelChanged.emit(m.info);
+      return;
+    }
+    case Code::ev_start_publish:
+    case Code::ev_stop_publish: {
+      SAT_DECODE(msg::EvStartPublish, m);  // both are a u16 channel id
+      const bool start = static_cast<Code>(code) == Code::ev_start_publish;
+      for (auto& [name, o] : own) {
+        if (o.id == m.chan_id && o.id != 0) o.subscribers = start;
+      }
+      if (start) {
+        self.startPublish.emit(m.chan_id);
+      } else {
+        self.stopPublish.emit(m.chan_id);
+      }
+      return;
+    }
+    case Code::ev_service_request: {
+      SAT_DECODE(msg::EvServiceRequest, m);
+      self.serviceRequest.emit(m);
+      return;
+    }
+    case Code::ev_service_response: {
+      SAT_DECODE(msg::EvServiceResponse, m);
+      Response r{m.chan_id, m.tag, static_cast<flow::ErrorCode>(m.error), std::move(m.value)};
+      ResponseHandler handler;
+      if (auto it = pending.find(m.tag); it != pending.end()) {
+        handler = std::move(it->second);
+        pending.erase(it);
+      }
+      if (handler) handler(r);
+      if (gen == generation) self.serviceResponse.emit(r);
+      return;
+    }
+    case Code::ev_error: {
+      SAT_DECODE(msg::EvError, m);
+      onHubError(m);
+      return;
+    }
+    case Code::ev_db_changed: {
+      SAT_DECODE(msg::EvDbChanged, m);  // flow_db follows what we asked, in flow order
+      (void)m;
+      return;
+    }
+    case Code::ev_dropped: {
+      SAT_DECODE(msg::EvDropped, m);
+      stats.data_dropped += m.count;
+      const Nanos now = monotonicNs();
+      if (now - last_drop_log_ns > kNsPerSec) {
+        last_drop_log_ns = now;
+        log::warn(kLogSource, "SAT-DROPPED",
+                  "the hub dropped " + std::to_string(m.count) + " data frames of channel " +
+                      std::to_string(m.chan_id) + ": this satellite reads too slowly");
+      }
+      return;
+    }
+    default: {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02x", code);
+      drop("the hub sent " + std::string(flow::codeName(code)) + " (" + hex + ") on a flow", true);
+      return;
+    }
+  }
+}
+
+#undef SAT_DECODE
+
+void Satellite::Impl::upsert(const ChannelInfo& info) {
+  if (auto old = table.find(info.id); old != table.end() && old->second.name != info.name) {
+    by_name.erase(old->second.name);
+  }
+  table[info.id] = info;
+  by_name[info.name] = info.id;
+}
+
+void Satellite::Impl::onChanAdded(msg::EvChanAdded& ev) {
+  const uint64_t gen = generation;
+  upsert(ev.info);
+  Own* mine = nullptr;
+  if (ev.tag != 0) {
+    for (auto& [name, o] : own) {
+      if (o.tag == ev.tag) mine = &o;
+    }
+  }
+  if (auto orphan = std::find(orphan_tags.begin(), orphan_tags.end(), ev.tag);
+      ev.tag != 0 && orphan != orphan_tags.end()) {
+    orphan_tags.erase(orphan);
+    send(msg::ChanRemove{nextTag(), ev.info.id});
+  }
+  if (mine != nullptr) {
+    mine->id = ev.info.id;
+    mine->tag = 0;
+    mine->retries = 0;
+    log::debug(kLogSource, "SAT-CHANNEL",
+               "channel " + ev.info.name + " is ready (id " + std::to_string(ev.info.id) + ")");
+  }
+  self.channelAdded.emit(ev.info);
+  if (gen != generation) return;
+  if (mine != nullptr) {
+    self.channelReady.emit(ev.info);
+    if (gen != generation) return;
+  }
+  if (auto it = subs.find(ev.info.name); it != subs.end() && it->second == 0) {
+    attach(ev.info.name, ev.info.id);
+  }
+}
+
+void Satellite::Impl::onChanRemoved(const msg::EvChanRemoved& ev) {
+  auto it = table.find(ev.chan_id);
+  if (it == table.end() || it->second.hash != ev.hash) return;  // not the instance we know
+  const ChannelInfo info = std::move(it->second);
+  table.erase(it);
+  if (auto n = by_name.find(info.name); n != by_name.end() && n->second == info.id) {
+    by_name.erase(n);
+  }
+  for (auto& [name, o] : own) {
+    if (o.id == info.id) o.id = 0, o.subscribers = false;
+  }
+  if (auto s = subs.find(info.name); s != subs.end() && s->second == info.id) s->second = 0;
+  self.channelRemoved.emit(info);
+}
+
+void Satellite::Impl::onHubError(const msg::EvError& ev) {
+  const auto command = static_cast<Code>(ev.command);
+  std::string what = std::string(flow::codeName(ev.command));
+  if (command == Code::chan_add && ev.tag != 0) {
+    for (auto& [name, o] : own) {
+      if (o.tag != ev.tag) continue;
+      o.tag = 0;
+      ++o.retries;  // an old copy of it may still be going away: onOneSecond() asks again
+      what += " " + name;
+    }
+  }
+  log::warn(kLogSource, "SAT-HUB-ERROR",
+            "the hub refused " + what + ": " +
+                std::string(flow::errorCodeName(static_cast<flow::ErrorCode>(ev.error))) + ": " +
+                ev.message);
+  self.error.emit(ev);
+}
+
+void Satellite::Impl::attach(const std::string& name, uint16_t id) {
+  subs[name] = id;
+  send(msg::Subscribe{nextTag(), id});
+  if (auto it = table.find(id); it != table.end()) {
+    const ChannelInfo info = it->second;
+    self.subscribed.emit(info);
+  }
+}
+
+void Satellite::Impl::sendChanAdd(Own& o) {
+  o.tag = nextTag();
+  send(msg::ChanAdd{o.tag, static_cast<uint8_t>(o.spec.kind), o.spec.name, o.spec.mime,
+                    o.spec.props});
+}
+
+}  // namespace skr::sat

@@ -1,0 +1,116 @@
+// The inside of a Satellite (internal): connection state machine, channel table, pending
+// requests. Everything runs on the satellite's loop thread.
+#pragma once
+
+#include <skrobot/flow/codec.h>
+#include <skrobot/satellite/satellite.h>
+
+#include <uv.h>
+
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "link.h"
+
+namespace skr::sat {
+
+inline constexpr std::string_view kLogSource = "satellite";
+
+struct Satellite::Impl final : detail::Link::Handler {
+  enum class State { stopped, waiting, connecting, login, listing, going_async, flow };
+
+  struct Own {
+    ChannelSpec spec;
+    uint16_t id = 0;   // 0: not created on this connection (yet)
+    uint32_t tag = 0;  // CHAN_ADD in flight
+    bool subscribers = false;
+    int retries = 0;  // CHAN_ADD refusals on this connection
+  };
+
+  Impl(Satellite& self, SatelliteOptions options);
+  ~Impl();
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+  Impl(Impl&&) = delete;
+  Impl& operator=(Impl&&) = delete;
+
+  // --- connection (satellite_link.cpp) ---
+  void start();
+  void stop();
+  void connectNow();
+  void onLinkConnected() override;
+  void onLinkFrame(uint8_t code, std::string_view body) override;
+  void onLinkClosed(const std::string& why, bool protocol) override;
+  // Closes the link (if any) for `why` and schedules a reconnection.
+  void drop(const std::string& why, bool protocol = false);
+  void lost(const std::string& why, bool protocol);
+  void handshake(uint8_t code, std::string_view body);
+  void onFlowOpen();
+  void armTimer(Nanos delay_ns);
+  static void onTimer(uv_timer_t* timer);
+  void onOneSecond();
+
+  // --- events on the flow (satellite_events.cpp) ---
+  void event(uint8_t code, std::string_view body);
+  void onChanAdded(flow::msg::EvChanAdded& ev);
+  void onChanRemoved(const flow::msg::EvChanRemoved& ev);
+  void onHubError(const flow::msg::EvError& ev);
+  void upsert(const ChannelInfo& info);
+  void attach(const std::string& name, uint16_t id);
+  void sendChanAdd(Own& own);
+
+  // --- helpers ---
+  template <class M>
+  void send(const M& m) {
+    if (link == nullptr) return;
+    if (flow::encode(link->out(), m)) {
+      ++stats.frames_out;
+      link->queued();
+    }
+  }
+  [[nodiscard]] uint32_t nextTag() noexcept { return next_tag == 0 ? ++next_tag : next_tag++; }
+  [[nodiscard]] bool flowOpen() const noexcept { return state == State::flow && link != nullptr; }
+  [[nodiscard]] Own* findOwn(std::string_view name);  // short or full name
+  [[nodiscard]] const Own* findOwn(std::string_view name) const;
+  [[nodiscard]] Result<SyncClient*> syncClient();
+  // Runs fn(SyncClient&) once, and once more on a fresh connection if the cached one was stale.
+  template <class F>
+  auto withSync(F&& fn) -> decltype(fn(std::declval<SyncClient&>())) {
+    for (int attempt = 0;; ++attempt) {
+      auto c = syncClient();
+      if (!c) return c.error();
+      auto r = fn(**c);
+      if (r || (*c)->isOpen() || attempt == 1) return r;
+      sync.reset();
+    }
+  }
+
+  Satellite& self;
+  SatelliteOptions opt;
+  State state = State::stopped;
+  uint64_t generation = 0;  // bumped on every connection attempt; slots may change it
+  detail::Link* link = nullptr;
+  uv_timer_t* timer = nullptr;
+  Nanos backoff_ns = 0;
+  bool failure_logged = false;
+  bool stopping = false;  // stop() is closing: no retry
+  Nanos last_drop_log_ns = 0;
+
+  LoginInfo login;
+  SatelliteStats stats;
+  std::map<uint16_t, ChannelInfo> table;                 // every channel of the hub
+  std::map<std::string, uint16_t, std::less<>> by_name;  // full name -> id
+  std::map<std::string, Own, std::less<>> own;           // short name -> our channel
+  std::map<std::string, uint16_t, std::less<>> subs;     // full name -> id attached (0: waiting)
+  std::map<uint32_t, ResponseHandler> pending;           // request tag -> handler
+  std::vector<uint32_t> orphan_tags;  // CHAN_ADDs in flight for channels removed meanwhile
+  std::string wanted_db;              // selectDatabase(); empty: the user's
+  std::string flow_db;                // the flow's current database, as last asked
+  uint32_t next_tag = 1;
+  std::optional<SyncClient> sync;
+};
+
+}  // namespace skr::sat

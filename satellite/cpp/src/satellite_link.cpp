@@ -1,0 +1,242 @@
+// The satellite's connection: connect, LOGIN, CHAN_LIST, GO_ASYNC, and reconnection with backoff.
+#include <skrobot/core/log.h>
+
+#include "satellite_impl.h"
+
+namespace skr::sat {
+
+namespace msg = flow::msg;
+using flow::Code;
+
+Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std::move(options)) {
+  if (opt.reconnect_min_ns <= 0) opt.reconnect_min_ns = kNsPerMs;
+  opt.reconnect_max_ns = std::max(opt.reconnect_max_ns, opt.reconnect_min_ns);
+  backoff_ns = opt.reconnect_min_ns;
+  timer = new uv_timer_t{};
+  uv_timer_init(self.loop().uv(), timer);
+  timer->data = this;
+  login.user = opt.connection.user;
+}
+
+Satellite::Impl::~Impl() {
+  if (link != nullptr) link->close();
+  link = nullptr;
+  uv_timer_stop(timer);
+  uv_close(reinterpret_cast<uv_handle_t*>(timer),
+           [](uv_handle_t* h) { delete reinterpret_cast<uv_timer_t*>(h); });
+}
+
+void Satellite::Impl::start() {
+  if (state != State::stopped) return;
+  backoff_ns = opt.reconnect_min_ns;
+  failure_logged = false;
+  connectNow();
+}
+
+void Satellite::Impl::stop() {
+  if (state == State::stopped) return;
+  if (state == State::flow) {
+    log::info(kLogSource, "SAT-STOP", "closing the flow to " + opt.connection.address.toString());
+  }
+  stopping = true;
+  drop("stopped");
+  stopping = false;
+  state = State::stopped;
+}
+
+void Satellite::Impl::connectNow() {
+  ++generation;
+  state = State::connecting;
+  link = detail::Link::open(self.loop().uv(), opt.connection.address,
+                            opt.connection.max_frame_bytes, *this);
+  armTimer(opt.handshake_timeout_ns);
+}
+
+void Satellite::Impl::armTimer(Nanos delay_ns) {
+  uv_update_time(self.loop().uv());
+  uv_timer_start(timer, &Impl::onTimer, static_cast<uint64_t>((delay_ns + kNsPerMs - 1) / kNsPerMs),
+                 0);
+}
+
+void Satellite::Impl::onTimer(uv_timer_t* t) {
+  auto* impl = static_cast<Impl*>(t->data);
+  switch (impl->state) {
+    case State::waiting:
+      impl->connectNow();
+      return;
+    case State::connecting:
+    case State::login:
+    case State::listing:
+    case State::going_async:
+      impl->drop("no answer from the hub within " +
+                 std::to_string(impl->opt.handshake_timeout_ns / kNsPerMs) + " ms");
+      return;
+    case State::stopped:
+    case State::flow:
+      return;
+  }
+}
+
+void Satellite::Impl::onLinkConnected() {
+  state = State::login;
+  msg::Login m;
+  m.user = opt.connection.user;
+  m.password = opt.connection.password;
+  m.client_name = opt.connection.client_name;
+  send(m);
+}
+
+void Satellite::Impl::onLinkFrame(uint8_t code, std::string_view body) {
+  ++stats.frames_in;
+  if (state == State::flow) {
+    event(code, body);
+  } else {
+    handshake(code, body);
+  }
+}
+
+void Satellite::Impl::onLinkClosed(const std::string& why, bool protocol) {
+  link = nullptr;  // it deletes itself
+  lost(why, protocol);
+}
+
+void Satellite::Impl::drop(const std::string& why, bool protocol) {
+  if (link != nullptr) link->close();
+  link = nullptr;
+  lost(why, protocol);
+}
+
+void Satellite::Impl::lost(const std::string& why, bool protocol) {
+  const bool was_flow = state == State::flow;
+  const std::string where = opt.connection.address.toString();
+  if (stopping) {
+    // stop() logged it
+  } else if (protocol) {
+    ++stats.protocol_errors;
+    log::warn(kLogSource, "SAT-PROTOCOL",
+              "killing the connection to the hub at " + where + ", it broke the protocol: " + why);
+  } else if (was_flow) {
+    log::warn(kLogSource, "SAT-DISCONNECTED", "lost the hub at " + where + ": " + why);
+  } else if (!stopping && !failure_logged) {
+    failure_logged = true;
+    log::warn(kLogSource, "SAT-RETRY",
+              "cannot reach the hub at " + where + ": " + why + "; retrying in the background");
+  } else {
+    log::debug(kLogSource, "SAT-RETRY", "hub at " + where + ": " + why);
+  }
+  uv_timer_stop(timer);
+  table.clear();
+  by_name.clear();
+  for (auto& [name, o] : own) o.id = 0, o.tag = 0, o.subscribers = false, o.retries = 0;
+  for (auto& [name, id] : subs) id = 0;
+  flow_db.clear();
+  orphan_tags.clear();
+  auto failed = std::move(pending);
+  pending.clear();
+  if (opt.reconnect && !stopping) {
+    state = State::waiting;
+    armTimer(backoff_ns);
+    backoff_ns = std::min(backoff_ns * 2, opt.reconnect_max_ns);
+  } else {
+    state = State::stopped;
+  }
+  const uint64_t gen = generation;
+  for (auto& [tag, handler] : failed) {
+    Response r{0, tag, flow::ErrorCode::io_error,
+               flow::Variant("the connection to the hub was lost")};
+    if (handler) handler(r);
+    self.serviceResponse.emit(r);
+  }
+  if (protocol && gen == generation) {
+    self.error.emit(FlowError{0, 0, 0, uint16_t(flow::ErrorCode::protocol_error), why});
+  } else if (!was_flow && !stopping && !opt.reconnect && gen == generation) {
+    self.error.emit(FlowError{0, 0, 0, uint16_t(flow::ErrorCode::io_error), why});  // gave up
+  }
+  if (was_flow && gen == generation) self.disconnected.emit(why);
+}
+
+void Satellite::Impl::handshake(uint8_t code, std::string_view body) {
+  const auto c = static_cast<Code>(code);
+  if (c == Code::reply_error && state == State::login) {
+    auto e = flow::decode<msg::ReplyError>(body);
+    if (!e) return drop("REPLY_ERROR: " + e.error().message, true);
+    const std::string why = "login to " + opt.connection.address.toString() + " as \"" +
+                            opt.connection.user + "\" refused: " + e->message;
+    log::error(kLogSource, "SAT-LOGIN", why);
+    backoff_ns = opt.reconnect_max_ns;  // a refused login is not retried in a hurry
+    failure_logged = true;
+    const uint64_t gen = generation;
+    self.error.emit(FlowError{uint8_t(Code::login), 0, 0, e->error, e->message});
+    if (gen == generation) drop(why);
+    return;
+  }
+  if (c != Code::reply_ok) {
+    return drop("the hub sent " + std::string(flow::codeName(code)) + " during login", true);
+  }
+  switch (state) {
+    case State::login: {
+      auto ok = flow::decode<msg::LoginOk>(body);
+      if (!ok) return drop(ok.error().message, true);
+      login = std::move(ok).value();
+      flow_db = login.current_db;
+      send(msg::Empty<Code::chan_list>{});  // the channels that exist, then the flow: both go
+      send(msg::Empty<Code::go_async>{});   // in one write, so no channel is missed in between
+      state = State::listing;
+      return;
+    }
+    case State::listing: {
+      auto list = flow::decode<msg::ChannelList>(body);
+      if (!list) return drop(list.error().message, true);
+      for (const auto& info : list->channels) upsert(info);
+      state = State::going_async;
+      return;
+    }
+    case State::going_async:
+      if (!body.empty()) return drop("GO_ASYNC reply has a body", true);
+      state = State::flow;
+      uv_timer_stop(timer);
+      onFlowOpen();
+      return;
+    default:
+      return;
+  }
+}
+
+void Satellite::Impl::onFlowOpen() {
+  ++stats.connections;
+  backoff_ns = opt.reconnect_min_ns;
+  failure_logged = false;
+  log::info(kLogSource, "SAT-CONNECTED",
+            "connected to " + login.app_name + " at " + opt.connection.address.toString() + " as " +
+                login.user + " (connection " + std::to_string(login.connection_id) + ")");
+  if (!wanted_db.empty() && wanted_db != flow_db) {
+    send(msg::DbSetCurrent{nextTag(), wanted_db});
+    flow_db = wanted_db;
+  }
+  const uint64_t gen = generation;
+  self.connected.emit();
+  if (gen != generation || state != State::flow) return;
+  for (auto& [name, o] : own) {
+    if (o.id == 0 && o.tag == 0) sendChanAdd(o);
+  }
+  std::vector<std::pair<std::string, uint16_t>> ready;
+  for (const auto& [name, id] : subs) {
+    if (auto it = by_name.find(name); it != by_name.end() && id == 0)
+      ready.emplace_back(name, it->second);
+  }
+  for (const auto& [name, id] : ready) {
+    attach(name, id);
+    if (gen != generation || state != State::flow) return;
+  }
+}
+
+// Channels of ours that the hub refused for a moment (the old connection's copy still there)
+// are asked for again once a second, a few times.
+void Satellite::Impl::onOneSecond() {
+  if (!flowOpen()) return;
+  for (auto& [name, o] : own) {
+    if (o.id == 0 && o.tag == 0 && o.retries > 0 && o.retries < 10) sendChanAdd(o);
+  }
+}
+
+}  // namespace skr::sat

@@ -1,0 +1,131 @@
+// Satellite: service requests and answers, and PairDatabase access (blocking reads over the
+// synchronous connection, writes on the flow).
+#include "satellite_impl.h"
+
+namespace skr::sat {
+
+namespace msg = flow::msg;
+using flow::Variant;
+
+namespace {
+Error notConnected() {
+  return makeError(Errc::closed, "not connected to the hub");
+}
+}  // namespace
+
+Result<uint32_t> Satellite::request(std::string_view service, const std::string& command,
+                                    const Variant& value, ResponseHandler done) {
+  if (!impl_->flowOpen()) return notConnected();
+  auto id = channelId(service);
+  if (!id) return makeError(Errc::not_found, "no channel " + std::string(service));
+  return request(*id, command, value, std::move(done));
+}
+
+Result<uint32_t> Satellite::request(uint16_t chan_id, const std::string& command,
+                                    const Variant& value, ResponseHandler done) {
+  if (!impl_->flowOpen()) return notConnected();
+  const uint32_t tag = impl_->nextTag();
+  impl_->pending[tag] = std::move(done);
+  impl_->send(msg::ServiceRequest{tag, chan_id, command, value});
+  return tag;
+}
+
+Result<void> Satellite::respond(const Request& request, const Variant& value) {
+  if (!impl_->flowOpen()) return notConnected();
+  impl_->send(msg::ServiceResponse{request.chan_id, request.request, value});
+  return {};
+}
+
+Result<SyncClient*> Satellite::Impl::syncClient() {
+  if (sync && sync->isOpen()) return &*sync;
+  ConnectOptions o = opt.connection;
+  o.client_name = (o.client_name.empty() ? "satellite" : o.client_name) + "/sync";
+  auto c = SyncClient::connect(o);
+  if (!c) return c.error();
+  sync = std::move(c).value();
+  return &*sync;
+}
+
+Result<SyncClient*> Satellite::syncClient() {
+  return impl_->syncClient();
+}
+
+Result<Variant> Satellite::call(std::string_view service, const std::string& command,
+                                const Variant& value, uint32_t timeout_ms) {
+  const std::string name(service);
+  const auto known = channelId(name);
+  return impl_->withSync([&](SyncClient& c) -> Result<Variant> {
+    if (known) return c.call(*known, command, value, timeout_ms);
+    return c.call(name, command, value, timeout_ms);
+  });
+}
+
+Result<Variant> Satellite::get(const std::string& key, const std::string& db) {
+  return impl_->withSync([&](SyncClient& c) -> Result<Variant> {
+    if (auto s = c.selectDatabase(db.empty() ? c.login().user : db); !s) return s.error();
+    return c.get(key);
+  });
+}
+
+Result<Variant::Map> Satellite::getAll(const std::string& db) {
+  return impl_->withSync([&](SyncClient& c) -> Result<Variant::Map> {
+    if (auto s = c.selectDatabase(db.empty() ? c.login().user : db); !s) return s.error();
+    return c.getAll();
+  });
+}
+
+Result<std::vector<std::string>> Satellite::keys(const std::string& db) {
+  return impl_->withSync([&](SyncClient& c) -> Result<std::vector<std::string>> {
+    if (auto s = c.selectDatabase(db.empty() ? c.login().user : db); !s) return s.error();
+    return c.keys();
+  });
+}
+
+// Writes to another database than the flow's current one switch to it and back, in order.
+Result<uint32_t> Satellite::set(const std::string& key, const Variant& value,
+                                const std::string& db) {
+  if (!impl_->flowOpen()) return notConnected();
+  const std::string back = impl_->flow_db;
+  const bool other = !db.empty() && db != back;
+  if (other) impl_->send(msg::DbSetCurrent{impl_->nextTag(), db});
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::VarSetAsync{tag, key, value});
+  if (other) impl_->send(msg::DbSetCurrent{impl_->nextTag(), back});
+  return tag;
+}
+
+Result<uint32_t> Satellite::del(const std::string& key, const std::string& db) {
+  if (!impl_->flowOpen()) return notConnected();
+  const std::string back = impl_->flow_db;
+  const bool other = !db.empty() && db != back;
+  if (other) impl_->send(msg::DbSetCurrent{impl_->nextTag(), db});
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::VarDelAsync{tag, key});
+  if (other) impl_->send(msg::DbSetCurrent{impl_->nextTag(), back});
+  return tag;
+}
+
+Result<uint32_t> Satellite::createDatabase(const std::string& name) {
+  if (!impl_->flowOpen()) return notConnected();
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::DbCreateAsync{tag, name});
+  return tag;
+}
+
+Result<uint32_t> Satellite::saveDatabase(const std::string& name) {
+  if (!impl_->flowOpen()) return notConnected();
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::DbSaveAsync{tag, name});
+  return tag;
+}
+
+Result<uint32_t> Satellite::selectDatabase(const std::string& name) {
+  impl_->wanted_db = name;
+  if (!impl_->flowOpen()) return notConnected();
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::DbSetCurrent{tag, name});
+  impl_->flow_db = name;
+  return tag;
+}
+
+}  // namespace skr::sat

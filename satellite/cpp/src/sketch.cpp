@@ -1,0 +1,144 @@
+#include <skrobot/core/log.h>
+#include <skrobot/satellite/sketch.h>
+
+#include <uv.h>
+
+#include <algorithm>
+#include <cmath>
+#include <csignal>
+
+namespace skr::sat {
+
+Result<SketchOptions> SketchOptions::fromEnvironment(std::string client_name) {
+  auto s = SatelliteOptions::fromEnvironment(std::move(client_name));
+  if (!s) return s.error();
+  SketchOptions o;
+  o.satellite = std::move(s).value();
+  return o;
+}
+
+namespace {
+
+LoopOptions loopOptions(const SketchOptions& o) {
+  LoopOptions l;
+  l.name = "sketch";
+  l.mode = o.timing;
+  const double hz = o.rate_hz > 0 && std::isfinite(o.rate_hz) ? o.rate_hz : 10;
+  l.fast_interval_ns = static_cast<Nanos>(static_cast<double>(kNsPerSec) / hz);
+  l.slow_interval_ns = std::max<Nanos>(l.fast_interval_ns, 100 * kNsPerMs);
+  return l;
+}
+
+}  // namespace
+
+Sketch::Sketch() {
+  auto o = SketchOptions::fromEnvironment();
+  if (o) {
+    options_ = std::move(o).value();
+  } else {
+    log::error("satellite", "SAT-OPTIONS", o.error().message);
+    options_ok_ = false;
+  }
+  loop_ = std::make_unique<Loop>(loopOptions(options_));
+  satellite_ = std::make_unique<Satellite>(*loop_, options_.satellite);
+}
+
+Sketch::Sketch(SketchOptions options)
+    : options_(std::move(options)),
+      loop_(std::make_unique<Loop>(loopOptions(options_))),
+      satellite_(std::make_unique<Satellite>(*loop_, options_.satellite)) {}
+
+Sketch::~Sketch() {
+  satellite_.reset();  // before its loop
+  loop_.reset();
+}
+
+void Sketch::stop() noexcept {
+  loop_->stop();
+}
+
+int Sketch::run() {
+  if (!options_ok_) return 2;
+  Satellite& s = *satellite_;
+  s.connected.connect(&s, [this] {
+    onConnected();
+    if (!set_up_) {
+      set_up_ = true;
+      setup();
+    }
+  });
+  s.disconnected.connect(&s, [this](const std::string& why) { onDisconnected(why); });
+  s.channelReady.connect(&s, [this](const ChannelInfo& i) { onChannelReady(i); });
+  s.subscribed.connect(&s, [this](const ChannelInfo& i) { onSubscribed(i); });
+  s.channelAdded.connect(&s, [this](const ChannelInfo& i) { onChannelAdded(i); });
+  s.channelRemoved.connect(&s, [this](const ChannelInfo& i) { onChannelRemoved(i); });
+  s.startPublish.connect(&s, [this](uint16_t id) { onStartPublish(id); });
+  s.stopPublish.connect(&s, [this](uint16_t id) { onStopPublish(id); });
+  s.data.connect(&s, [this](uint16_t id, const std::string& p) { onData(id, p); });
+  s.serviceRequest.connect(&s, [this](const Request& r) { onRequest(r); });
+  s.serviceResponse.connect(&s, [this](const Response& r) { onResponse(r); });
+  s.error.connect(&s, [this](const FlowError& e) { onError(e); });
+  const TickId tick = loop_->addTickHandler(Tick::fast, [this] { this->tick(); });
+
+  // SIGINT/SIGTERM stop the loop through libuv, so that nothing runs in signal context.
+  std::vector<uv_signal_t*> signals;
+  if (options_.handle_signals) {
+    for (int signum : {SIGINT, SIGTERM}) {
+      auto* h = new uv_signal_t{};
+      uv_signal_init(loop_->uv(), h);
+      h->data = loop_.get();
+      uv_signal_start(
+          h, [](uv_signal_t* sig, int) { static_cast<Loop*>(sig->data)->stop(); }, signum);
+      signals.push_back(h);
+    }
+  }
+  s.start();
+  window_start_ns_ = monotonicNs();
+  loop_->run();
+  s.stop();
+  loop_->removeTickHandler(tick);
+  for (auto* h : signals) {
+    uv_close(reinterpret_cast<uv_handle_t*>(h),
+             [](uv_handle_t* handle) { delete reinterpret_cast<uv_signal_t*>(handle); });
+  }
+  return 0;
+}
+
+void Sketch::tick() {
+  const Nanos start = monotonicNs();
+  stats_.requested_hz =
+      static_cast<double>(kNsPerSec) / static_cast<double>(loop_->options().fast_interval_ns);
+  if (last_tick_ns_ != 0) {
+    const double err = std::abs(static_cast<double>(start - last_tick_ns_) -
+                                static_cast<double>(loop_->options().fast_interval_ns));
+    window_error_sum_ns_ += err;
+    window_error_max_ns_ = std::max(window_error_max_ns_, err);
+  }
+  last_tick_ns_ = start;
+  ++window_ticks_;
+  if (set_up_) {
+    loop();
+    ++stats_.loops;
+    ++window_loops_;
+  }
+  window_work_sum_ += static_cast<double>(monotonicNs() - start) /
+                      static_cast<double>(loop_->options().fast_interval_ns);
+  if (start - window_start_ns_ >= kNsPerSec) measureSecond();
+}
+
+void Sketch::measureSecond() {
+  const Nanos now = monotonicNs();
+  const double elapsed_s = static_cast<double>(now - window_start_ns_) / kNsPerSec;
+  const double ticks = static_cast<double>(std::max<uint64_t>(window_ticks_, 1));
+  stats_.measured_hz = elapsed_s > 0 ? static_cast<double>(window_loops_) / elapsed_s : 0;
+  stats_.period_error_mean_ms = window_error_sum_ns_ / ticks / kNsPerMs;
+  stats_.period_error_max_ms = window_error_max_ns_ / kNsPerMs;
+  stats_.work_ratio_mean = window_work_sum_ / ticks;
+  stats_.skipped = loop_->stats().skipped_ticks;
+  window_start_ns_ = now;
+  window_loops_ = 0;
+  window_ticks_ = 0;
+  window_error_sum_ns_ = window_error_max_ns_ = window_work_sum_ = 0;
+}
+
+}  // namespace skr::sat

@@ -1,0 +1,187 @@
+// Satellites recover by themselves: a hub restarted under them, and a "hub" that sends garbage.
+#include <skrobot/flow/codec.h>
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+
+#include <atomic>
+#include <thread>
+
+#include "sat_fixture.h"
+
+namespace skr::sat::test {
+namespace {
+
+using flow::Variant;
+namespace msg = flow::msg;
+
+class Reconnect : public SatTest {};
+
+TEST_F(Reconnect, HubRestartUnderRunningPublisherAndSubscriber) {
+  startHub();
+  auto pub = satellite("pub");
+  ASSERT_TRUE(pub->on([](Satellite& s) {
+    return s.addChannel({.name = "counter", .props = Variant::Map{{"unit", "ticks"}}});
+  }));
+  auto sub = satellite("sub");
+  sub->on([](Satellite& s) { s.subscribe("guest.counter"); });
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.counter") == 1; }));
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.publish("counter", "before"); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.counter:before") == 1; }));
+
+  ASSERT_EQ(hub_->stop(), 0);
+  ASSERT_TRUE(eventually([&] {
+    return pub->events.count("disconnected:") == 1 && sub->events.count("disconnected:") == 1;
+  }));
+  EXPECT_FALSE(pub->connected());
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.publish("counter", "lost").error().code; }),
+            Errc::closed);
+
+  startHub();  // same socket, a new hub: new connection ids, channels to re-create
+  ASSERT_TRUE(eventually([&] {
+    return pub->events.count("ready:guest.counter") == 2 &&
+           sub->events.count("subscribed:guest.counter") == 2 &&
+           pub->events.count("start:guest.counter") == 2;
+  })) << pub->events.dump()
+      << sub->events.dump() << hubLog();
+  EXPECT_EQ(pub->events.count("connected"), 2u);
+  // Same name, same properties, and data flows again.
+  const ChannelInfo info = sub->on([](Satellite& s) { return *s.channel("guest.counter"); });
+  EXPECT_EQ(*info.props.find("unit"), Variant("ticks"));
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.publish("counter", "after"); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.counter:after") == 1; }));
+}
+
+// A Unix socket server that answers each connection with the next script of bad bytes.
+class GarbageHub {
+ public:
+  explicit GarbageHub(const fs::path& path) : path_(path) {
+    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, path.c_str(), sizeof(addr.sun_path) - 1);
+    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    EXPECT_EQ(::listen(fd_, 8), 0);
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~GarbageHub() {
+    stop_ = true;
+    thread_.join();
+    ::close(fd_);
+    fs::remove(path_);
+  }
+  GarbageHub(const GarbageHub&) = delete;
+  GarbageHub& operator=(const GarbageHub&) = delete;
+  GarbageHub(GarbageHub&&) = delete;
+  GarbageHub& operator=(GarbageHub&&) = delete;
+  [[nodiscard]] int accepted() const { return accepted_.load(); }
+
+ private:
+  static bool readSome(int fd) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 2000) <= 0) return false;
+    char buf[4096];
+    return ::recv(fd, buf, sizeof buf, 0) > 0;
+  }
+  static void sendAll(int fd, const std::string& bytes) {
+    (void)!::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+  }
+  static std::string handshake() {
+    std::string out;
+    EXPECT_TRUE(flow::encode(out, msg::LoginOk{1, 0, 7, "garbage", "guest", "guest"}));
+    return out;
+  }
+  void serve() {
+    while (!stop_) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 50) <= 0) continue;
+      const int c = ::accept4(fd_, nullptr, nullptr, SOCK_CLOEXEC);
+      if (c < 0) continue;
+      const int script = accepted_++ % 5;
+      if (readSome(c)) {  // the LOGIN
+        switch (script) {
+          case 0:
+            sendAll(c, std::string("\0\0\0\0", 4));  // a frame of length 0
+            break;
+          case 1:
+            sendAll(c, "\xff\xff\xff\xff\x80");  // 4 GiB announced
+            break;
+          case 2:
+            sendAll(c, std::string("\x03\0\0\0\x80\x01\0", 7));  // a truncated LOGIN reply
+            break;
+          default: {  // a proper handshake, then a bad frame on the flow
+            sendAll(c, handshake());
+            readSome(c);  // CHAN_LIST + GO_ASYNC
+            std::string reply;
+            EXPECT_TRUE(flow::encode(reply, msg::ChannelList{}));
+            flow::appendHeader(reply, flow::Code::reply_ok, 0);
+            if (script == 3) {
+              flow::appendHeader(reply, flow::Code::var_get, 0);  // a request code, from a hub
+            } else {
+              reply += std::string("\x02\0\0\0\x97\x01", 6);  // EV_DATA, 1 byte of a u16
+            }
+            sendAll(c, reply);
+          }
+        }
+      }
+      char buf[256];
+      pollfd q{c, POLLIN, 0};
+      while (::poll(&q, 1, 2000) > 0 && ::recv(c, buf, sizeof buf, 0) > 0) {
+      }  // until the satellite hangs up
+      ::close(c);
+    }
+  }
+
+  fs::path path_;
+  int fd_ = -1;
+  std::atomic<bool> stop_{false};
+  std::atomic<int> accepted_{0};
+  std::thread thread_;
+};
+
+TEST_F(Reconnect, GarbageFromTheHubDropsTheConnectionAndRetries) {
+  const fs::path socket = dir_.path() / "hub.sock";
+  auto garbage = std::make_unique<GarbageHub>(socket);
+  auto s = satellite("victim", false);
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.addChannel({.name = "survivor"}); }));
+  ASSERT_TRUE(eventually([&] {
+    return s->on([](Satellite& x) { return x.stats().protocol_errors; }) >= 5;
+  })) << s->events.dump();
+  EXPECT_GE(garbage->accepted(), 5);
+  EXPECT_GE(s->events.count("connected"), 2u) << "scripts 3 and 4 open the flow first";
+  EXPECT_GE(s->events.count("disconnected:"), 2u);
+  // A real hub at the same place: the satellite settles there, channel and all.
+  garbage.reset();
+  startHub();
+  ASSERT_TRUE(eventually([&] { return s->events.count("ready:guest.survivor") == 1; }))
+      << s->events.dump() << hubLog();
+  EXPECT_TRUE(s->connected());
+}
+
+TEST_F(Reconnect, SatelliteStartedBeforeTheHubConnectsWhenItComes) {
+  auto s = satellite("early", false);
+  s->on([](Satellite& x) { x.subscribe("guest.later"); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_FALSE(s->connected());
+  startHub();
+  ASSERT_TRUE(eventually([&] { return s->connected(); })) << hubLog();
+  auto pub = satellite("later");
+  ASSERT_TRUE(pub->on([](Satellite& x) { return x.addChannel({.name = "later"}); }));
+  ASSERT_TRUE(eventually([&] { return s->events.count("subscribed:guest.later") == 1; }));
+}
+
+TEST_F(Reconnect, StopMeansNoReconnection) {
+  startHub();
+  auto s = satellite("quitter");
+  s->on([](Satellite& x) { x.stop(); });
+  EXPECT_FALSE(s->connected());
+  EXPECT_EQ(s->events.count("disconnected:stopped"), 1u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_FALSE(s->connected());
+  s->start();
+  ASSERT_TRUE(eventually([&] { return s->connected(); }));
+}
+
+}  // namespace
+}  // namespace skr::sat::test

@@ -1,0 +1,225 @@
+// Two or more C++ satellites through a real hub: channels, data, properties, services, databases.
+#include "sat_fixture.h"
+
+namespace skr::sat::test {
+namespace {
+
+using flow::Variant;
+
+class Satellites : public SatTest {
+ protected:
+  void SetUp() override { startHub(); }
+  // The hub's count, asked over a synchronous connection of the test's own.
+  uint32_t subscribers(const std::string& name) {
+    auto c = SyncClient::connect(options("probe").connection);
+    auto info = c ? c->channel(name) : Result<ChannelInfo>(c.error());
+    return info ? info->subscribers : 0;
+  }
+};
+
+TEST_F(Satellites, PublishAndSubscribeByNameInBatches) {
+  auto sub = satellite("sub");
+  sub->on([](Satellite& s) { s.subscribe("guest.numbers"); });  // before it exists
+  auto pub = satellite("pub");
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "numbers"}); }));
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.numbers") == 1; }))
+      << pub->events.dump();
+  EXPECT_EQ(sub->events.count("subscribed:guest.numbers"), 1u);
+  EXPECT_TRUE(sub->on([](Satellite& s) { return s.isSubscribed("guest.numbers"); }));
+
+  // 200 frames queued in one loop iteration leave in a few writes, not 200.
+  const uint64_t writes_before = pub->on([](Satellite& s) { return s.stats().writes; });
+  pub->on([](Satellite& s) {
+    for (int i = 0; i < 200; ++i) ASSERT_TRUE(s.publish("numbers", std::to_string(i)));
+  });
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.numbers:") == 200; }))
+      << sub->events.count("data:");
+  const auto data = sub->events.with("data:guest.numbers:");
+  for (int i = 0; i < 200; ++i) EXPECT_EQ(data[i], std::to_string(i));
+  const uint64_t writes = pub->on([](Satellite& s) { return s.stats().writes; }) - writes_before;
+  EXPECT_LE(writes, 5u) << "frames of one iteration go out together";
+
+  // Publishing on someone else's channel, or an unknown one, is refused locally.
+  const uint16_t id = pub->on([](Satellite& s) { return *s.channelId("numbers"); });
+  EXPECT_EQ(sub->on([&](Satellite& s) { return s.publish(id, "x").error().code; }),
+            Errc::not_found);
+  EXPECT_FALSE(pub->on([](Satellite& s) { return s.publish("nope", "x"); }));
+}
+
+TEST_F(Satellites, FirstAndLastSubscriberEvents) {
+  auto pub = satellite("pub");
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "camera"}); }));
+  ASSERT_TRUE(eventually([&] { return pub->events.count("ready:guest.camera") == 1; }));
+  EXPECT_FALSE(pub->on([](Satellite& s) { return s.hasSubscribers("camera"); }));
+  auto a = satellite("a");
+  auto b = satellite("b");
+  a->on([](Satellite& s) { s.subscribe("guest.camera"); });
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:") == 1; }));
+  EXPECT_TRUE(pub->on([](Satellite& s) { return s.hasSubscribers("guest.camera"); }));
+  b->on([](Satellite& s) { s.subscribe("guest.camera"); });
+  ASSERT_TRUE(eventually([&] { return subscribers("guest.camera") == 2; }));
+  a->on([](Satellite& s) { s.unsubscribe("guest.camera"); });
+  b->on([](Satellite& s) { s.unsubscribe("guest.camera"); });
+  ASSERT_TRUE(eventually([&] { return pub->events.count("stop:guest.camera") == 1; }));
+  EXPECT_EQ(pub->events.count("start:"), 1u) << "the second subscriber is not announced";
+  EXPECT_FALSE(pub->on([](Satellite& s) { return s.hasSubscribers("camera"); }));
+}
+
+TEST_F(Satellites, ChannelPropertiesAreReadByAnother) {
+  auto pub = satellite("mic");
+  ASSERT_TRUE(pub->on([](Satellite& s) {
+    return s.addChannel({.name = "audio",
+                         .mime = "audio/pcm",
+                         .props = Variant::Map{{"rate", 16000}, {"format", "s16le"}}});
+  }));
+  auto sub = satellite("listener");
+  ASSERT_TRUE(eventually(
+      [&] { return sub->on([](Satellite& s) { return s.channel("guest.audio") != nullptr; }); }));
+  const ChannelInfo info = sub->on([](Satellite& s) { return *s.channel("guest.audio"); });
+  EXPECT_EQ(info.mime, "audio/pcm");
+  EXPECT_EQ(*info.props.find("rate"), Variant(16000));
+  // The channel's database, read by blocking request over the synchronous connection.
+  auto rate = sub->on([](Satellite& s) { return s.get("rate", "guest.audio"); });
+  ASSERT_TRUE(rate) << rate.error().message;
+  EXPECT_EQ(*rate, Variant(16000));
+  // Changed properties reach everyone.
+  ASSERT_TRUE(pub->on([](Satellite& s) {
+    return s.setChannelProperties("audio", {{"rate", 48000}, {"format", nullptr}});
+  }));
+  ASSERT_TRUE(eventually([&] {
+    return sub->events.count("changed:guest.audio:{\"rate\":48000}") == 1;
+  })) << sub->events.dump();
+}
+
+TEST_F(Satellites, RemovedChannelsAndSubscriptionsThatFollowThem) {
+  auto pub = satellite("pub");
+  auto sub = satellite("sub");
+  sub->on([](Satellite& s) { s.subscribe("guest.temp"); });
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "temp"}); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("subscribed:guest.temp") == 1; }));
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.removeChannel("temp"); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("removed:guest.temp") == 1; }));
+  EXPECT_FALSE(sub->on([](Satellite& s) { return s.isSubscribed("guest.temp"); }));
+  // Created again (a new instance): the subscription by name follows it.
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "temp"}); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("subscribed:guest.temp") == 2; }));
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.temp") == 2; }));
+  // Removed before the hub even made it: it does not stay behind.
+  pub->on([](Satellite& s) {
+    ASSERT_TRUE(s.addChannel({.name = "ghost"}));
+    ASSERT_TRUE(s.removeChannel("ghost"));
+  });
+  ASSERT_TRUE(eventually([&] { return sub->events.count("removed:guest.ghost") == 1; }));
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.addChannel({.name = "temp"}).error().code; }),
+            Errc::already_exists);
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.addChannel({.name = ".bad"}).error().code; }),
+            Errc::invalid_argument);
+}
+
+TEST_F(Satellites, ServiceRoundTripAsyncAndBlocking) {
+  auto provider = satellite("provider");
+  provider->on([](Satellite& s) {
+    ASSERT_TRUE(s.addChannel({.name = "math", .kind = flow::ChannelKind::service}));
+    s.serviceRequest.connect(&s, [&s](const Request& r) {
+      if (r.command == "double") (void)s.respond(r, *r.value.asInt64() * 2);
+      // "silent" is never answered
+    });
+  });
+  ASSERT_TRUE(eventually([&] { return provider->events.count("ready:guest.math") == 1; }));
+  auto caller = satellite("caller");
+  ASSERT_TRUE(eventually(
+      [&] { return caller->on([](Satellite& s) { return s.channel("guest.math") != nullptr; }); }));
+  // Asynchronous: the answer comes to the handler and as the serviceResponse signal.
+  auto answer = std::make_shared<Events>();
+  auto tag = caller->on([&](Satellite& s) {
+    return s.request("guest.math", "double", 21, [answer](const Response& r) {
+      answer->add(flow::variantToJsonText(r.value));
+    });
+  });
+  ASSERT_TRUE(tag) << tag.error().message;
+  ASSERT_TRUE(eventually([&] { return answer->count("42") == 1; }));
+  EXPECT_EQ(caller->events.count("response:" + std::to_string(*tag) + ":42"), 1u);
+  // Blocking: over the synchronous connection.
+  auto v = caller->on([](Satellite& s) { return s.call("guest.math", "double", 50); });
+  ASSERT_TRUE(v) << v.error().message;
+  EXPECT_EQ(*v, Variant(100));
+  auto slow = caller->on([](Satellite& s) { return s.call("guest.math", "silent", 1, 200); });
+  ASSERT_FALSE(slow);
+  EXPECT_EQ(slow.error().code, Errc::timeout);
+  auto none = caller->on([](Satellite& s) { return s.request("guest.nope", "x", 1); });
+  ASSERT_FALSE(none);
+  EXPECT_EQ(none.error().code, Errc::not_found);
+  // The flow goes on after a timed-out blocking call.
+  ASSERT_TRUE(caller->on([](Satellite& s) { return s.request("guest.math", "double", 2); }));
+  ASSERT_TRUE(eventually([&] { return caller->events.count("response:") == 2; }));
+}
+
+TEST_F(Satellites, DatabasesWrittenOnTheFlowReadBlocking) {
+  auto s = satellite("db");
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.set("speed", 1.5); }));
+  ASSERT_TRUE(eventually([&] {
+    auto v = s->on([](Satellite& x) { return x.get("speed"); });
+    return v && *v == Variant(1.5);
+  }));
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.createDatabase("calibration"); }));
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.set("offset", -2, "calibration"); }));
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.set("gain", 3); }));  // back in the user's db
+  ASSERT_TRUE(eventually([&] {
+    auto v = s->on([](Satellite& x) { return x.get("gain"); });
+    return v && *v == Variant(3);
+  }));
+  auto offset = s->on([](Satellite& x) { return x.get("offset", "calibration"); });
+  ASSERT_TRUE(offset) << offset.error().message;
+  EXPECT_EQ(*offset, Variant(-2));
+  auto keys = s->on([](Satellite& x) { return x.keys(); });
+  ASSERT_TRUE(keys);
+  EXPECT_EQ(*keys, (std::vector<std::string>{"gain", "speed"}));
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.del("speed"); }));
+  ASSERT_TRUE(eventually([&] {
+    return s->on([](Satellite& x) {
+      auto r = x.get("speed");
+      return !r && r.error().code == Errc::not_found;
+    });
+  }));
+  // A refused write comes back as an error event.
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.set("k", 1, "no-such-db"); }));
+  ASSERT_TRUE(eventually([&] { return s->events.count("error:") >= 1; })) << s->events.dump();
+}
+
+}  // namespace
+}  // namespace skr::sat::test
+
+namespace skr::sat::test {
+namespace {
+
+class OverTcp : public SatTest {};
+
+TEST_F(OverTcp, PublishAndSubscribeWithARealAccount) {
+  startHub("alice");
+  const std::string tcp = hub_->tcpAddress();
+  ASSERT_FALSE(tcp.empty()) << hubLog();
+  SatelliteOptions o = options("tcp");
+  o.connection.address = Address::parse(tcp).value();
+  o.connection.user = "alice";
+  o.connection.password = "s3cret-pass";
+  SatOnThread pub(o);
+  SatOnThread sub(o);
+  ASSERT_TRUE(pub.on([](Satellite& s) { return s.addChannel({.name = "lidar"}); }));
+  sub.on([](Satellite& s) { s.subscribe("alice.lidar"); });
+  pub.start();
+  sub.start();
+  ASSERT_TRUE(eventually([&] { return pub.events.count("start:alice.lidar") == 1; }))
+      << pub.events.dump() << hubLog();
+  ASSERT_TRUE(pub.on([](Satellite& s) { return s.publish("lidar", "scan"); }));
+  ASSERT_TRUE(eventually([&] { return sub.events.count("data:alice.lidar:scan") == 1; }));
+  // The development account is refused on TCP: the satellite says why and keeps trying.
+  o.connection.user = "guest";
+  o.connection.password = "password";
+  SatOnThread guest(o);
+  guest.start();
+  ASSERT_TRUE(eventually([&] { return guest.events.count("error:") >= 1; }));
+  EXPECT_FALSE(guest.connected());
+}
+
+}  // namespace
+}  // namespace skr::sat::test

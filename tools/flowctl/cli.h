@@ -1,0 +1,70 @@
+// flowctl internals: options, exit codes, argument helpers and output shared by the commands.
+#pragma once
+
+#include <skrobot/satellite.h>
+
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace flowctl {
+
+// Exit codes, stable for scripts (documented in `flowctl --help` and docs/cpp-satellites.md).
+enum Exit : int {
+  kOk = 0,
+  kFailed = 1,        // the hub refused the command, or it failed otherwise
+  kUsage = 2,         // bad command line
+  kNoHub = 3,         // nobody listens at the address (or the hub went away)
+  kLoginRefused = 4,  // wrong user name or password
+  kNotFound = 5,      // no such channel, variable or database
+  kTimeout = 6,       // a service call was not answered in time
+  kDenied = 7,        // not allowed (someone else's channel or database)
+};
+
+struct Cli {
+  skr::sat::ConnectOptions connect;
+  bool json = false;  // machine-readable output
+  std::string command;
+  std::vector<std::string> args;  // after the command
+};
+
+// Command-line arguments of one command: flags, options with values, positionals.
+class Args {
+ public:
+  explicit Args(std::vector<std::string> args) : args_(std::move(args)) {}
+  // "--name VALUE" or "--name=VALUE"; removes it. nullopt when absent; an error when the value
+  // is missing (reported by error()).
+  std::optional<std::string> option(std::string_view name);
+  bool flag(std::string_view name);  // "--name"; removes it
+  // What is left: positionals. An unknown "--option" left over is an error.
+  [[nodiscard]] std::vector<std::string> rest();
+  [[nodiscard]] const std::string& error() const { return error_; }
+
+ private:
+  std::vector<std::string> args_;
+  std::string error_;
+};
+
+// Prints "flowctl: <message>" to stderr and returns `code`.
+int fail(int code, const std::string& message);
+// The exit code for a failed request (by its Errc).
+int exitFor(const skr::Error& error);
+// Connects the synchronous connection, or explains why not (and sets `code`).
+std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code);
+// Parses a number argument; false (after printing a usage error) when it is not one.
+bool parseNumber(const std::string& text, const char* what, double& out);
+
+// Commands. Each returns an exit code.
+int cmdLs(const Cli& cli);
+int cmdEcho(const Cli& cli);
+int cmdPub(const Cli& cli);
+int cmdCall(const Cli& cli);
+int cmdDb(const Cli& cli);
+
+// Help texts: the overview, or one command's (empty if unknown).
+std::string_view usage();
+std::string_view commandHelp(std::string_view command);
+
+}  // namespace flowctl

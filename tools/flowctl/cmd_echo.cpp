@@ -1,0 +1,115 @@
+// flowctl echo: print what a streaming channel carries.
+#include "session.h"
+
+namespace flowctl {
+
+using skr::flow::Variant;
+
+namespace {
+
+bool printable(std::string_view s) {
+  if (!skr::flow::isValidUtf8(s)) return false;
+  for (unsigned char c : s) {
+    if (c < 0x20 && c != '\n' && c != '\t' && c != '\r') return false;
+  }
+  return true;
+}
+
+std::string hex(std::string_view s) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  out.reserve(s.size() * 2);
+  for (unsigned char c : s) out += {digits[c >> 4], digits[c & 15]};
+  return out;
+}
+
+// A payload as a value: a binary Variant, else JSON text, else bytes.
+Variant asValue(std::string_view payload) {
+  skr::flow::ByteReader r(payload);
+  if (auto v = skr::flow::decodeVariant(r); v && r.empty()) return std::move(v).value();
+  if (auto v = skr::flow::variantFromJsonText(payload)) return std::move(v).value();
+  return Variant::Bytes(std::string(payload));
+}
+
+std::string render(const std::string& format, bool json, const std::string& channel,
+                   std::string_view payload) {
+  const bool text = format == "text" || (format == "auto" && printable(payload));
+  if (!json) {
+    if (format == "json") return skr::flow::variantToJsonText(asValue(payload));
+    return text ? std::string(payload) : hex(payload);
+  }
+  Variant data;
+  if (format == "json") {
+    data = asValue(payload);
+  } else if (format == "hex" || !text || !skr::flow::isValidUtf8(payload)) {
+    data = format == "hex" ? Variant(hex(payload)) : Variant(Variant::Bytes(std::string(payload)));
+  } else {
+    data = std::string(payload);
+  }
+  return skr::flow::variantToJsonText(
+      Variant::Map{{"channel", channel}, {"bytes", payload.size()}, {"data", std::move(data)}});
+}
+
+}  // namespace
+
+int cmdEcho(const Cli& cli) {
+  Args args(cli.args);
+  const std::string format = args.option("--format").value_or("auto");
+  const auto count_text = args.option("--count");
+  const bool rate = args.flag("--rate");
+  const bool wait = args.flag("--wait");
+  const auto rest = args.rest();
+  if (!args.error().empty()) return fail(kUsage, args.error());
+  if (rest.size() != 1) return fail(kUsage, "usage: flowctl echo CHANNEL [options]");
+  if (format != "auto" && format != "text" && format != "hex" && format != "json") {
+    return fail(kUsage, "--format is auto, text, hex or json, not '" + format + "'");
+  }
+  double count = 0;
+  if (count_text && !parseNumber(*count_text, "--count", count)) return kUsage;
+  const std::string& name = rest[0];
+  {
+    int code = kOk;
+    auto sync = connectSync(cli, code);
+    if (!sync) return code;
+    auto info = sync->channel(name);
+    if (!info && sync->lastError() == skr::flow::ErrorCode::not_found) {
+      if (!wait) return fail(kNotFound, "no such channel " + name + " (--wait waits for it)");
+    } else if (!info) {
+      return fail(exitFor(info.error()), info.error().message);
+    } else if (info->kind != uint8_t(skr::flow::ChannelKind::streaming)) {
+      return fail(kFailed, name + " is not a streaming channel (a service? use flowctl call)");
+    }
+  }
+  Session s(cli, 100 * skr::kNsPerMs);
+  uint64_t received = 0, window_msgs = 0, window_bytes = 0;
+  s.satellite.data.connect(&s.satellite, [&](uint16_t id, const std::string& payload) {
+    const auto* info = s.satellite.channel(id);
+    if (info == nullptr || info->name != name) return;
+    ++window_msgs;
+    window_bytes += payload.size();
+    if (!rate) {
+      const std::string line = render(format, cli.json, name, payload) + "\n";
+      std::fwrite(line.data(), 1, line.size(), stdout);
+      std::fflush(stdout);
+    }
+    if (count > 0 && ++received >= static_cast<uint64_t>(count)) s.loop.stop();
+  });
+  if (rate) {
+    s.loop.addTickHandler(skr::Tick::one_sec, [&] {
+      if (cli.json) {
+        std::printf("{\"channel\":\"%s\",\"messages_per_s\":%llu,\"bytes_per_s\":%llu}\n",
+                    name.c_str(), (unsigned long long)window_msgs,
+                    (unsigned long long)window_bytes);
+      } else {
+        std::printf("%s: %llu msg/s, %llu B/s\n", name.c_str(), (unsigned long long)window_msgs,
+                    (unsigned long long)window_bytes);
+      }
+      std::fflush(stdout);
+      window_msgs = window_bytes = 0;
+    });
+  }
+  s.satellite.subscribe(name);
+  return s.run();
+}
+
+}  // namespace flowctl

@@ -1,0 +1,108 @@
+// flowctl pub: publish on one of the caller's channels, creating it for the time flowctl runs.
+#include <algorithm>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+
+#include "session.h"
+
+namespace flowctl {
+
+int cmdPub(const Cli& cli) {
+  Args args(cli.args);
+  const auto file = args.option("--file");
+  const auto repeat_text = args.option("--repeat");
+  const auto rate_text = args.option("--rate");
+  const std::string mime = args.option("--mime").value_or("text/plain");
+  const auto wait_text = args.option("--wait-ms");
+  const bool variant = args.flag("--variant");
+  const auto rest = args.rest();
+  if (!args.error().empty()) return fail(kUsage, args.error());
+  if (rest.empty() || rest.size() > 2 || (rest.size() == 2 && file)) {
+    return fail(kUsage, "usage: flowctl pub CHANNEL [PAYLOAD | --file PATH] [options]");
+  }
+  double repeat = 1, rate = 0, wait_ms = 1000;
+  if (repeat_text && !parseNumber(*repeat_text, "--repeat", repeat)) return kUsage;
+  if (rate_text && !parseNumber(*rate_text, "--rate", rate)) return kUsage;
+  if (wait_text && !parseNumber(*wait_text, "--wait-ms", wait_ms)) return kUsage;
+  const bool forever = rate > 0 && !repeat_text;
+
+  std::string payload;
+  if (rest.size() == 2) {
+    payload = rest[1];
+  } else if (file) {
+    std::ifstream in(*file, std::ios::binary);
+    if (!in) return fail(kFailed, "cannot read " + *file);
+    payload.assign(std::istreambuf_iterator<char>(in), {});
+  } else {
+    payload.assign(std::istreambuf_iterator<char>(std::cin), {});
+  }
+  if (variant) {
+    auto v = skr::flow::variantFromJsonText(payload);
+    if (!v) return fail(kUsage, "--variant: the payload must be JSON: " + v.error().message);
+    payload.clear();
+    skr::flow::ByteWriter w(payload);
+    skr::flow::encodeVariant(*v, w);
+  }
+
+  std::string full = rest[0], short_name;
+  {
+    int code = kOk;
+    auto sync = connectSync(cli, code);
+    if (!sync) return code;
+    const std::string prefix = sync->login().user + ".";
+    if (full.find('.') == std::string::npos) full = prefix + full;
+    if (!full.starts_with(prefix)) {
+      return fail(kDenied, full + " is not yours: you publish on " + prefix +
+                               "<name> channels (logged in as " + sync->login().user + ")");
+    }
+    short_name = full.substr(prefix.size());
+    if (auto info = sync->channel(full)) {
+      return fail(kDenied, full + " exists and belongs to connection " +
+                               std::to_string(info->owner_connection) +
+                               ": only its owner publishes on it");
+    }
+  }
+  const skr::Nanos tick =
+      rate > 0 ? static_cast<skr::Nanos>(1e9 / rate) : skr::Nanos{skr::kNsPerMs};
+  Session s(cli, std::max<skr::Nanos>(tick, 1000));
+  if (auto added = s.satellite.addChannel({.name = short_name, .mime = mime}); !added) {
+    return fail(kUsage, added.error().message);
+  }
+  skr::Nanos ready_ns = 0;
+  bool publishing = false;
+  uint64_t sent = 0, bytes = 0;
+  const auto total = static_cast<uint64_t>(repeat);
+  s.satellite.channelReady.connect(&s.satellite,
+                                   [&](const sat::ChannelInfo&) { ready_ns = skr::monotonicNs(); });
+  s.loop.addTickHandler(skr::Tick::fast, [&] {
+    if (ready_ns == 0 || !s.satellite.isConnected()) return;
+    if (!publishing) {
+      const bool waited = skr::monotonicNs() - ready_ns >= static_cast<skr::Nanos>(wait_ms * 1e6);
+      publishing = s.satellite.hasSubscribers(short_name) || waited;
+      if (!publishing) return;
+    }
+    // With a rate, one message per tick; without, as many as the queue takes.
+    while ((forever || sent < total) && s.satellite.queuedBytes() < (1u << 20)) {
+      if (auto r = s.satellite.publish(short_name, payload); !r) {
+        return s.end(kFailed, r.error().message);
+      }
+      ++sent;
+      bytes += payload.size();
+      if (rate > 0) break;
+    }
+    if (!forever && sent >= total && s.satellite.queuedBytes() == 0) s.loop.stop();
+  });
+  const int code = s.run();
+  if (code != kOk) return code;
+  if (cli.json) {
+    std::printf("{\"channel\":\"%s\",\"messages\":%llu,\"bytes\":%llu}\n", full.c_str(),
+                (unsigned long long)sent, (unsigned long long)bytes);
+  } else {
+    std::printf("published %llu message%s (%llu bytes) on %s\n", (unsigned long long)sent,
+                sent == 1 ? "" : "s", (unsigned long long)bytes, full.c_str());
+  }
+  return kOk;
+}
+
+}  // namespace flowctl

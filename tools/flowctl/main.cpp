@@ -1,0 +1,168 @@
+// flowctl: an operator's tool for a running hub, as handy as redis-cli.
+//   flowctl ls | echo CHANNEL | pub CHANNEL [PAYLOAD] | call SERVICE CMD [VALUE] | db ...
+#include <skrobot/core/log.h>
+
+#include <cstdlib>
+#include <cstring>
+
+#include "cli.h"
+
+namespace flowctl {
+
+std::string_view usage() {
+  return R"(usage: flowctl [--address ADDR] [--user NAME] [--password PW] [--json] COMMAND ...
+
+Commands:
+  ls                          list the hub's channels: id, kind, name, owner, subscribers, mime,
+                              properties
+  echo CHANNEL                print the data published on a streaming channel
+  pub CHANNEL [PAYLOAD]       publish on one of your channels (<user>.<name>), creating it
+  call SERVICE CMD [VALUE]    call a service channel; VALUE is JSON; prints the answer
+  db get|set|del|ls|save|databases [--db NAME] [KEY [VALUE]]
+                              read and write PairDatabases
+  help [COMMAND]              this text, or a command's options
+
+Global options:
+  --address ADDR    local:/path or tcp:host[:port] (default: $ROBOT_ADDRESS, else local:/tmp/Robot)
+  --user NAME       (default: $ROBOT_USER, else guest)
+  --password PW     (default: $ROBOT_PASSWORD, else password)
+  --json            machine-readable output (one JSON document, or one JSON line per message)
+
+Exit codes: 0 ok, 1 refused or failed, 2 usage, 3 no hub (or hub lost), 4 login refused,
+            5 no such channel/variable/database, 6 timeout, 7 permission denied.
+
+Accounts are managed on the hub's machine with `skrobot user add|del|passwd|list`
+(docs/accounts.md). More: docs/cpp-satellites.md, section flowctl.
+)";
+}
+
+std::string_view commandHelp(std::string_view command) {
+  if (command == "ls") {
+    return R"(usage: flowctl ls [FILTER]
+  Lists the channels whose name contains FILTER (all without it).
+)";
+  }
+  if (command == "echo") {
+    return R"(usage: flowctl echo CHANNEL [--format auto|text|hex|json] [--count N] [--rate] [--wait]
+  Subscribes to a streaming channel and prints each message.
+  --format    auto (text when printable, else hex; the default), text, hex, or json (a
+              binary Variant payload or JSON text, shown as JSON)
+  --count N   stop after N messages
+  --rate      print messages/s and bytes/s once a second instead of the data
+  --wait      wait for the channel to appear instead of failing (exit 5) when it is absent
+)";
+  }
+  if (command == "pub") {
+    return R"(usage: flowctl pub CHANNEL [PAYLOAD | --file PATH] [--repeat N] [--rate HZ] [options]
+  Publishes on CHANNEL, which must be yours: <user>.<name> (or just <name>). It is created for
+  the time flowctl runs, unless it exists already (then its owner alone may publish on it).
+  The payload is PAYLOAD, the bytes of --file, or else standard input.
+  --repeat N     publish N times (default 1; with --rate and no --repeat: until Ctrl-C)
+  --rate HZ      publish HZ times a second
+  --variant      PAYLOAD is JSON: publish its binary Variant encoding
+  --mime TYPE    the channel's mime type when flowctl creates it (default text/plain)
+  --wait-ms MS   when flowctl created the channel, wait up to MS for a first subscriber before
+                 publishing (default 1000; 0: do not wait)
+)";
+  }
+  if (command == "call") {
+    return R"(usage: flowctl call SERVICE CMD [VALUE] [--timeout-ms MS]
+  Calls a service channel and prints its answer as JSON. VALUE is JSON (default null); quote
+  strings: '"text"'. Exit 6 when no answer came within MS milliseconds (default 5000).
+)";
+  }
+  if (command == "db") {
+    return R"(usage: flowctl db get KEY | set KEY VALUE | del KEY | ls | save | databases [--db NAME]
+  get KEY          print a variable as JSON (exit 5 when absent)
+  set KEY VALUE    set a variable; VALUE is JSON (quote strings: '"text"')
+  del KEY          remove a variable
+  ls               every variable of the database
+  save             save the database to disk now
+  databases        the names of all databases
+  --db NAME        the database (default: your user's); a channel's is named after it
+)";
+  }
+  return {};
+}
+
+}  // namespace flowctl
+
+int main(int argc, char** argv) {
+  using namespace flowctl;
+  skr::log::setLevel(skr::log::Level::error);  // flowctl speaks for itself
+  Cli cli;
+  std::string env_error;  // a bad ROBOT_ADDRESS matters only without --address
+  if (auto env = skr::sat::ConnectOptions::fromEnvironment("flowctl")) {
+    cli.connect = std::move(env).value();
+  } else {
+    env_error = env.error().message;
+    cli.connect.client_name = "flowctl";
+    if (const char* u = std::getenv("ROBOT_USER"); u != nullptr && *u != '\0') cli.connect.user = u;
+    if (const char* p = std::getenv("ROBOT_PASSWORD"); p != nullptr && *p != '\0') {
+      cli.connect.password = p;
+    }
+  }
+  bool help = false;
+  bool positional_only = false;
+  bool address_given = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (!positional_only) {
+      std::string* target = nullptr;
+      std::string address;
+      std::string name = a.substr(0, a.find('='));
+      if (name == "--address") target = &address;
+      if (name == "--user") target = &cli.connect.user;
+      if (name == "--password") target = &cli.connect.password;
+      if (target != nullptr) {
+        if (name.size() < a.size()) {
+          *target = a.substr(name.size() + 1);
+        } else if (i + 1 < argc) {
+          *target = argv[++i];
+        } else {
+          return fail(kUsage, name + " needs a value");
+        }
+        if (target == &address) {
+          auto parsed = skr::sat::Address::parse(address);
+          if (!parsed) return fail(kUsage, parsed.error().message);
+          cli.connect.address = std::move(parsed).value();
+          address_given = true;
+        }
+        continue;
+      }
+      if (a == "--json") {
+        cli.json = true;
+        continue;
+      }
+      if (a == "--help" || a == "-h") {
+        help = true;
+        continue;
+      }
+      if (a == "--") positional_only = true;
+    }
+    if (cli.command.empty() && !a.starts_with("-")) {
+      cli.command = a;
+    } else {
+      cli.args.push_back(a);
+    }
+  }
+  if (cli.command == "help") {
+    help = true;
+    cli.command = cli.args.empty() ? "" : cli.args[0];
+  }
+  if (help || cli.command.empty()) {
+    const auto text = cli.command.empty() ? usage() : commandHelp(cli.command);
+    if (text.empty()) {
+      return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
+    }
+    std::fputs(std::string(text).c_str(), help ? stdout : stderr);
+    return help ? kOk : kUsage;
+  }
+  if (!env_error.empty() && !address_given) return fail(kUsage, env_error);
+  if (cli.command == "ls") return cmdLs(cli);
+  if (cli.command == "echo") return cmdEcho(cli);
+  if (cli.command == "pub") return cmdPub(cli);
+  if (cli.command == "call") return cmdCall(cli);
+  if (cli.command == "db") return cmdDb(cli);
+  return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
+}

@@ -1,0 +1,98 @@
+// flowctl echo and pub: a satellite flow on a loop of flowctl's own (internal).
+#pragma once
+
+#include <uv.h>
+
+#include <csignal>
+#include <string>
+
+#include "cli.h"
+
+namespace flowctl {
+
+namespace sat = skr::sat;
+
+// SIGINT/SIGTERM stop the loop (flowctl then exits 0); closed when it goes out of scope.
+class StopOnSignals {
+ public:
+  explicit StopOnSignals(skr::Loop& loop) {
+    for (int i = 0; i < 2; ++i) {
+      handles_[i] = new uv_signal_t{};
+      uv_signal_init(loop.uv(), handles_[i]);
+      handles_[i]->data = &loop;
+      uv_signal_start(
+          handles_[i], [](uv_signal_t* h, int) { static_cast<skr::Loop*>(h->data)->stop(); },
+          i == 0 ? SIGINT : SIGTERM);
+    }
+  }
+  ~StopOnSignals() {
+    for (auto* h : handles_) {
+      uv_close(reinterpret_cast<uv_handle_t*>(h),
+               [](uv_handle_t* x) { delete reinterpret_cast<uv_signal_t*>(x); });
+    }
+  }
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+  StopOnSignals(StopOnSignals&&) = delete;
+  StopOnSignals& operator=(StopOnSignals&&) = delete;
+
+ private:
+  uv_signal_t* handles_[2] = {};
+};
+
+// What echo and pub share: a flow that does not reconnect, and how it ends.
+struct Session {
+  explicit Session(const Cli& cli, skr::Nanos tick_ns)
+      : loop(skr::LoopOptions{.name = "flowctl", .fast_interval_ns = tick_ns}),
+        satellite(loop,
+                  [&] {
+                    sat::SatelliteOptions o;
+                    o.connection = cli.connect;
+                    o.reconnect = false;
+                    return o;
+                  }()),
+        signals(loop) {
+    satellite.disconnected.connect(&satellite, [this](const std::string& why) {
+      if (!finished)
+        end(kNoHub,
+            "lost the hub at " + satellite.options().connection.address.toString() + ": " + why);
+    });
+    satellite.error.connect(&satellite, [this](const sat::FlowError& e) {
+      const auto code = static_cast<skr::flow::ErrorCode>(e.error);
+      if (e.command == 0 || e.command == uint8_t(skr::flow::Code::login) ||
+          e.command == uint8_t(skr::flow::Code::chan_add)) {
+        int exit_code = exitFor({sat::toErrc(code), ""});
+        if (code == skr::flow::ErrorCode::auth_failed) exit_code = kLoginRefused;
+        if (code == skr::flow::ErrorCode::io_error) exit_code = kNoHub;
+        end(exit_code, e.message);
+      }
+    });
+    loop.addTickHandler(skr::Tick::one_sec, [this] {
+      if (!satellite.isConnected() && ++seconds_unconnected >= 10) {
+        end(kNoHub,
+            "no answer from the hub at " + satellite.options().connection.address.toString());
+      }
+    });
+  }
+  void end(int exit_code, const std::string& why) {
+    if (code == kOk && exit_code != kOk) fail(exit_code, why);
+    if (code == kOk) code = exit_code;
+    loop.stop();
+  }
+  int run() {
+    satellite.start();
+    loop.run();
+    finished = true;
+    satellite.stop();
+    return code;
+  }
+
+  skr::Loop loop;
+  sat::Satellite satellite;
+  StopOnSignals signals;
+  int code = kOk;
+  int seconds_unconnected = 0;
+  bool finished = false;  // the loop ended: the flow closes on purpose
+};
+
+}  // namespace flowctl

@@ -1,0 +1,199 @@
+// flowctl, the built binary, against a real hub: every command and its error cases.
+#include <fstream>
+
+#include "sat_fixture.h"
+
+namespace skr::sat::test {
+namespace {
+
+using flow::Variant;
+
+struct Ran {
+  int code = -1;
+  std::string out;  // stdout and stderr
+};
+
+class Flowctl : public SatTest {
+ protected:
+  void SetUp() override { startHub(); }
+
+  Ran flowctl(std::vector<std::string> args, const std::string& input = {},
+              std::vector<std::string> env = {}) {
+    args.insert(args.begin(), FLOWCTL_BIN);
+    if (env.empty()) env.push_back("ROBOT_ADDRESS=" + address());
+    Child c(args, env, dir_.path() / ("flowctl-" + std::to_string(++runs_) + ".out"), input);
+    Ran r;
+    r.code = c.wait();
+    r.out = c.output();
+    return r;
+  }
+  std::unique_ptr<Child> background(std::vector<std::string> args) {
+    args.insert(args.begin(), FLOWCTL_BIN);
+    return std::make_unique<Child>(args, std::vector<std::string>{"ROBOT_ADDRESS=" + address()},
+                                   dir_.path() / ("bg-" + std::to_string(++runs_) + ".out"));
+  }
+  // A satellite owning guest.counter (streaming) and guest.adder (a service).
+  std::unique_ptr<SatOnThread> owner() {
+    auto s = satellite("owner");
+    s->on([](Satellite& x) {
+      ASSERT_TRUE(x.addChannel(
+          {.name = "counter", .mime = "text/plain", .props = Variant::Map{{"unit", "ticks"}}}));
+      ASSERT_TRUE(x.addChannel({.name = "adder", .kind = flow::ChannelKind::service}));
+      x.serviceRequest.connect(&x, [&x](const Request& r) {
+        if (r.command == "add") (void)x.respond(r, *r.value.asList()->at(0).asInt64() + 1);
+      });
+    });
+    EXPECT_TRUE(eventually([&] { return s->events.count("ready:") == 2; }));
+    return s;
+  }
+  int runs_ = 0;
+};
+
+bool has(const Ran& r, const std::string& text) {
+  return r.out.find(text) != std::string::npos;
+}
+
+TEST_F(Flowctl, HelpAndUsageErrors) {
+  auto help = flowctl({"--help"});
+  EXPECT_EQ(help.code, 0);
+  for (const char* word : {"ls", "echo", "pub", "call", "db", "skrobot user", "Exit codes"}) {
+    EXPECT_TRUE(has(help, word)) << word << "\n" << help.out;
+  }
+  EXPECT_TRUE(has(flowctl({"help", "pub"}), "--repeat"));
+  EXPECT_TRUE(has(flowctl({"echo", "--help"}), "--format"));
+  EXPECT_EQ(flowctl({"frobnicate"}).code, 2);
+  EXPECT_EQ(flowctl({}).code, 2);
+  EXPECT_EQ(flowctl({"ls", "--bogus"}).code, 2);
+  EXPECT_EQ(flowctl({"db", "get"}).code, 2);
+  EXPECT_EQ(flowctl({"echo", "x", "--format", "morse"}).code, 2);
+  auto bad_env = flowctl({"ls"}, {}, {"ROBOT_ADDRESS=pigeon:home"});
+  EXPECT_EQ(bad_env.code, 2);
+  EXPECT_TRUE(has(bad_env, "ROBOT_ADDRESS")) << bad_env.out;
+}
+
+TEST_F(Flowctl, NoHubAndWrongPassword) {
+  auto none = flowctl({"ls", "--address", "local:" + (dir_.path() / "nothing").string()});
+  EXPECT_EQ(none.code, 3);
+  EXPECT_TRUE(has(none, "no hub at local:")) << none.out;
+  EXPECT_TRUE(has(none, "is skrobot running?")) << none.out;
+  auto echo = background({"echo", "guest.later", "--wait"});
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  hub_->stop();
+  EXPECT_EQ(echo->wait(), 3);
+  EXPECT_TRUE(echo->waitOutput("lost the hub")) << echo->output();
+  startHub();
+  auto refused = flowctl({"--password", "wrong", "ls"});
+  EXPECT_EQ(refused.code, 4);
+  EXPECT_TRUE(has(refused, "wrong user name or password")) << refused.out;
+}
+
+TEST_F(Flowctl, ListsChannels) {
+  EXPECT_TRUE(has(flowctl({"ls"}), "no channels"));
+  auto o = owner();
+  auto ls = flowctl({"ls"});
+  EXPECT_EQ(ls.code, 0);
+  for (const char* text : {"guest.counter", "streaming", "guest.adder", "service", "text/plain",
+                           "{\"unit\":\"ticks\"}", "SUBS"}) {
+    EXPECT_TRUE(has(ls, text)) << text << "\n" << ls.out;
+  }
+  auto json = flowctl({"--json", "ls", "counter"});
+  ASSERT_EQ(json.code, 0);
+  auto v = flow::variantFromJsonText(json.out.substr(0, json.out.find('\n')));
+  ASSERT_TRUE(v) << json.out;
+  ASSERT_EQ(v->asList()->size(), 1u);
+  const Variant& c = v->asList()->at(0);
+  EXPECT_EQ(*c.find("name"), Variant("guest.counter"));
+  EXPECT_EQ(*c.find("kind"), Variant("streaming"));
+  EXPECT_EQ(*c.find("owner"), Variant("guest"));
+  EXPECT_EQ(*c.find("props")->find("unit"), Variant("ticks"));
+}
+
+TEST_F(Flowctl, EchoWhatPubPublishes) {
+  EXPECT_EQ(flowctl({"echo", "guest.nothing"}).code, 5);
+  auto echo = background({"echo", "guest.hello", "--wait", "--count", "3"});
+  auto pub = flowctl({"pub", "hello", "hi there", "--repeat", "3"});
+  EXPECT_EQ(pub.code, 0) << pub.out;
+  EXPECT_TRUE(has(pub, "published 3 messages (24 bytes) on guest.hello")) << pub.out;
+  EXPECT_EQ(echo->wait(), 0) << echo->output();
+  EXPECT_EQ(echo->output(), "hi there\nhi there\nhi there\n");
+
+  // Formats: hex, and JSON of a binary Variant published with --variant.
+  auto hex = background({"echo", "guest.bin", "--wait", "--count", "1", "--format", "hex"});
+  EXPECT_EQ(flowctl({"pub", "guest.bin", "--wait-ms", "5000"}, std::string("\x01\xff", 2)).code, 0);
+  EXPECT_EQ(hex->wait(), 0);
+  EXPECT_EQ(hex->output(), "01ff\n");
+  auto json =
+      background({"--json", "echo", "guest.v", "--wait", "--count", "1", "--format", "json"});
+  EXPECT_EQ(flowctl({"pub", "v", "--variant", R"({"x":[1,2]})", "--wait-ms", "5000"}).code, 0);
+  EXPECT_EQ(json->wait(), 0);
+  EXPECT_EQ(json->output(), "{\"bytes\":31,\"channel\":\"guest.v\",\"data\":{\"x\":[1,2]}}\n");
+
+  // A payload from a file, and a rate.
+  std::ofstream(dir_.path() / "payload.txt") << "from a file";
+  auto rate = background({"echo", "guest.f", "--wait", "--count", "4"});
+  auto file = flowctl({"pub", "f", "--file", (dir_.path() / "payload.txt").string(), "--repeat",
+                       "4", "--rate", "20", "--wait-ms", "5000"});
+  EXPECT_EQ(file.code, 0) << file.out;
+  EXPECT_EQ(rate->wait(), 0);
+  EXPECT_EQ(rate->output(), "from a file\nfrom a file\nfrom a file\nfrom a file\n");
+}
+
+TEST_F(Flowctl, EchoRateAndOthersChannels) {
+  auto o = owner();
+  auto rate = background({"echo", "guest.counter", "--rate"});
+  ASSERT_TRUE(eventually([&] { return o->events.count("start:guest.counter") == 1; }));
+  for (int i = 0; i < 30 && rate->output().find("msg/s") == std::string::npos; ++i) {
+    o->on([](Satellite& x) { (void)x.publish("counter", "0123456789"); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(rate->waitOutput("guest.counter: ")) << rate->output();
+  EXPECT_TRUE(rate->waitOutput(" B/s")) << rate->output();
+  rate->signal(SIGINT);
+  EXPECT_EQ(rate->wait(), 0);
+  // Only the owner publishes; only one's own names can be created.
+  auto taken = flowctl({"pub", "guest.counter", "x"});
+  EXPECT_EQ(taken.code, 7);
+  EXPECT_TRUE(has(taken, "only its owner")) << taken.out;
+  auto theirs = flowctl({"pub", "bob.counter", "x"});
+  EXPECT_EQ(theirs.code, 7);
+  EXPECT_TRUE(has(theirs, "is not yours")) << theirs.out;
+  auto service = flowctl({"echo", "guest.adder"});
+  EXPECT_EQ(service.code, 1);
+  EXPECT_TRUE(has(service, "not a streaming channel")) << service.out;
+}
+
+TEST_F(Flowctl, CallsServices) {
+  auto o = owner();
+  auto ok = flowctl({"call", "guest.adder", "add", "[41]"});
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_EQ(ok.out, "42\n");
+  auto timeout = flowctl({"call", "guest.adder", "ignored", "null", "--timeout-ms", "200"});
+  EXPECT_EQ(timeout.code, 6) << timeout.out;
+  EXPECT_TRUE(has(timeout, "did not answer within 200 ms")) << timeout.out;
+  EXPECT_EQ(flowctl({"call", "guest.nope", "add", "[1]"}).code, 5);
+  EXPECT_EQ(flowctl({"call", "guest.adder", "add", "not json"}).code, 2);
+  EXPECT_EQ(flowctl({"call", "guest.counter", "add", "[1]"}).code, 1);
+}
+
+TEST_F(Flowctl, Databases) {
+  EXPECT_EQ(flowctl({"db", "set", "speed", "1.5"}).code, 0);
+  EXPECT_EQ(flowctl({"db", "set", "name", "\"nao\""}).code, 0);
+  EXPECT_EQ(flowctl({"db", "get", "speed"}).out, "1.5\n");
+  EXPECT_EQ(flowctl({"db", "ls"}).out, "name = \"nao\"\nspeed = 1.5\n");
+  EXPECT_EQ(flowctl({"--json", "db", "ls"}).out, "{\"name\":\"nao\",\"speed\":1.5}\n");
+  EXPECT_EQ(flowctl({"db", "del", "speed"}).code, 0);
+  auto gone = flowctl({"db", "get", "speed"});
+  EXPECT_EQ(gone.code, 5);
+  EXPECT_TRUE(has(gone, "no variable \"speed\"")) << gone.out;
+  EXPECT_EQ(flowctl({"db", "set", "x", "unquoted"}).code, 2);
+  EXPECT_EQ(flowctl({"db", "save"}).code, 0);
+  EXPECT_TRUE(has(flowctl({"db", "databases"}), "guest\n"));
+  EXPECT_EQ(flowctl({"db", "get", "k", "--db", "no-such-db"}).code, 5);
+  auto o = owner();
+  EXPECT_EQ(flowctl({"db", "get", "unit", "--db", "guest.counter"}).out, "\"ticks\"\n");
+  auto denied = flowctl({"db", "set", "unit", "1", "--db", "guest.counter"});
+  EXPECT_EQ(denied.code, 7) << denied.out;
+}
+
+}  // namespace
+}  // namespace skr::sat::test

@@ -391,6 +391,20 @@ TEST_F(Server, OversizedFrameClosesOnlyThatConnection) {
   EXPECT_EQ(d->payload.bytes, "still here");
 }
 
+TEST_F(Server, ValuesAreBoundedBelowTheFrameLimit) {
+  startHub();
+  TestClient c = syncClient();
+  EXPECT_EQ(c.call(msg::VarSet{"big", Variant(std::string(1 << 20, 'v'))})->kind(), Code::reply_ok);
+  // 5 MiB in one value: over the 4 MiB value limit, although the frame is within 16 MiB.
+  ASSERT_TRUE(c.send(msg::VarSet{"huge", Variant(std::string(5 << 20, 'v'))}));
+  EXPECT_TRUE(c.closedByPeer());
+  EXPECT_EQ(stats().protocol_errors, 1u);
+  TestClient d = syncClient();
+  auto v = as<msg::ReplyValue>(d.call(msg::VarGet{"big"}));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->value.asString()->size(), 1u << 20);
+}
+
 TEST_F(Server, MalformedFramesCloseTheSender) {
   startHub();
   const std::vector<std::string> bad_frames = {

@@ -3,9 +3,20 @@
 
 #include <skrobot/core/log.h>
 
+#include <algorithm>
+
 namespace skr::flow {
 
 namespace {
+
+// One typed value in a command: a decoded Variant takes up to ~40 bytes of memory per input byte
+// (a list of nulls), so values are bounded well below the frame limit. Payloads (PUBLISH) are
+// never decoded and take the whole frame limit.
+constexpr size_t kMaxValueBytes = 4u << 20;
+
+DecodeLimits valueLimits(const ServerOptions& opt) {
+  return DecodeLimits{32, std::min<size_t>(opt.max_frame_bytes, kMaxValueBytes)};
+}
 
 // Decodes `body` as M, or closes the connection as a protocol breaker.
 #define SKR_DECODE(M, var)                  \
@@ -19,7 +30,7 @@ namespace {
 }  // namespace
 
 void Connection::handleLogin(std::string_view body) {
-  const DecodeLimits limits{32, server_.opt.max_frame_bytes};
+  const DecodeLimits limits = valueLimits(server_.opt);
   SKR_DECODE(msg::Login, m);
   if (m.major != kProtocolMajor) {
     const std::string why = "this hub speaks FlowProtocol " + std::to_string(kProtocolMajor) + "." +
@@ -65,7 +76,7 @@ void Connection::handleLogin(std::string_view body) {
 }
 
 void Connection::handleSync(Code code, std::string_view body) {
-  const DecodeLimits limits{32, server_.opt.max_frame_bytes};
+  const DecodeLimits limits = valueLimits(server_.opt);
   std::string why;
   const auto answer = [&](ErrorCode e) {
     if (e == ErrorCode::ok) {
@@ -205,7 +216,7 @@ void Connection::handleSync(Code code, std::string_view body) {
 }
 
 void Connection::handleAsync(Code code, std::string_view body) {
-  const DecodeLimits limits{32, server_.opt.max_frame_bytes};
+  const DecodeLimits limits = valueLimits(server_.opt);
   std::string why;
   const auto check = [&](ErrorCode e, uint32_t tag, uint16_t chan) {
     if (e != ErrorCode::ok) onError(code, tag, chan, e, why);

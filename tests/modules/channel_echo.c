@@ -73,10 +73,22 @@ static skr_status echo_start(void* instance) {
   return e->host->subscribe(e->ctx, "guest.in", on_data, e, &sub);
 }
 
-static void echo_fini(void* instance) { free(instance); }
+static void echo_fini(void* instance) {
+  free(instance);
+}
 
-static const skr_module_descriptor k_descriptor = {
-    sizeof(skr_module_descriptor), SKR_PLUGIN_ABI_MAJOR, SKR_PLUGIN_ABI_MINOR, "channel_echo",
-    "1.0.0", "test: FlowNetwork calls from C", 0, echo_init, echo_start, NULL, echo_fini};
+static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor),
+                                                   SKR_PLUGIN_ABI_MAJOR,
+                                                   SKR_PLUGIN_ABI_MINOR,
+                                                   "channel_echo",
+                                                   "1.0.0",
+                                                   "test: FlowNetwork calls from C",
+                                                   0,
+                                                   echo_init,
+                                                   echo_start,
+                                                   NULL,
+                                                   echo_fini};
 
-SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) { return &k_descriptor; }
+SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {
+  return &k_descriptor;
+}

@@ -1,5 +1,6 @@
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
+#include "uv_handle.h"
 
 #include <uv.h>
 
@@ -17,21 +18,6 @@ thread_local Loop* t_current = nullptr;
 
 constexpr Nanos kOneSecond = kNsPerSec;
 constexpr Nanos kWarningInterval = 10 * kNsPerSec;  // at most one LOOP-OVERLOAD line per 10 s
-
-template <typename H>
-H* makeHandle(Loop* owner) {
-  auto* h = new H{};
-  h->data = owner;
-  return h;
-}
-
-template <typename H>
-void closeHandle(H*& h) {
-  if (h == nullptr) return;
-  uv_close(reinterpret_cast<uv_handle_t*>(h),
-           [](uv_handle_t* handle) { delete reinterpret_cast<H*>(handle); });
-  h = nullptr;
-}
 
 void runGuarded(const std::function<void()>& fn, const std::string& loop_name, const char* what) {
   // An exception must not unwind through libuv's C frames: log it and go on.
@@ -80,27 +66,27 @@ Loop::Loop(LoopOptions options) : options_(std::move(options)) {
     std::fprintf(stderr, "uv_loop_init failed: %s\n", uv_strerror(rc));
     std::abort();  // nothing can run without a loop
   }
-  async_ = makeHandle<uv_async_t>(this);
+  async_ = newUvHandle<uv_async_t>(this);
   uv_async_init(uv_, async_, &Loop::onAsync);
-  timer_ = makeHandle<uv_timer_t>(this);
+  timer_ = newUvHandle<uv_timer_t>(this);
   uv_timer_init(uv_, timer_);
-  stop_timer_ = makeHandle<uv_timer_t>(this);
+  stop_timer_ = newUvHandle<uv_timer_t>(this);
   uv_timer_init(uv_, stop_timer_);
-  idle_ = makeHandle<uv_idle_t>(this);
+  idle_ = newUvHandle<uv_idle_t>(this);
   uv_idle_init(uv_, idle_);
-  check_ = makeHandle<uv_check_t>(this);
+  check_ = newUvHandle<uv_check_t>(this);
   uv_check_init(uv_, check_);
-  busy_idle_ = makeHandle<uv_idle_t>(this);
+  busy_idle_ = newUvHandle<uv_idle_t>(this);
   uv_idle_init(uv_, busy_idle_);
 }
 
 Loop::~Loop() {
-  closeHandle(async_);
-  closeHandle(timer_);
-  closeHandle(stop_timer_);
-  closeHandle(idle_);
-  closeHandle(check_);
-  closeHandle(busy_idle_);
+  closeUvHandle(async_);
+  closeUvHandle(timer_);
+  closeUvHandle(stop_timer_);
+  closeUvHandle(idle_);
+  closeUvHandle(check_);
+  closeUvHandle(busy_idle_);
   // Let close callbacks run; handles opened by others on this loop must be closed by now.
   uv_run(uv_, UV_RUN_NOWAIT);
   if (uv_loop_close(uv_) != 0) {

@@ -1,6 +1,7 @@
 // FlowServer: transports, connection lifecycle, output flushing and timeouts.
 #include "connection.h"
 #include "server_impl.h"
+#include "uv_handle.h"
 
 #include <skrobot/core/log.h>
 
@@ -15,25 +16,6 @@
 #include <random>
 
 namespace skr::flow {
-namespace {
-
-template <typename H>
-H* newHandle(FlowServer::Impl* owner) {
-  auto* h = new H{};
-  h->data = owner;
-  return h;
-}
-
-template <typename H>
-void closeHandle(H*& h) {
-  if (h == nullptr) return;
-  uv_close(reinterpret_cast<uv_handle_t*>(h),
-           [](uv_handle_t* handle) { delete reinterpret_cast<H*>(handle); });
-  h = nullptr;
-}
-
-}  // namespace
-
 FlowServer::Impl::Impl(Loop& l, ServerOptions options)
     : loop(l), opt(std::move(options)), dbs(opt.data_dir), rng(std::random_device{}()) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
@@ -79,14 +61,14 @@ Result<void> FlowServer::Impl::start() {
                          "; create one with: skrobot user add NAME");
   }
 
-  flush_prepare = newHandle<uv_prepare_t>(this);
+  flush_prepare = newUvHandle<uv_prepare_t>(this);
   uv_prepare_init(loop.uv(), flush_prepare);
   uv_prepare_start(flush_prepare,
                    [](uv_prepare_t* h) { static_cast<Impl*>(h->data)->flushDirty(); });
-  flush_check = newHandle<uv_check_t>(this);
+  flush_check = newUvHandle<uv_check_t>(this);
   uv_check_init(loop.uv(), flush_check);
   uv_check_start(flush_check, [](uv_check_t* h) { static_cast<Impl*>(h->data)->flushDirty(); });
-  sweep_timer = newHandle<uv_timer_t>(this);
+  sweep_timer = newUvHandle<uv_timer_t>(this);
   uv_timer_init(loop.uv(), sweep_timer);
   uv_timer_start(
       sweep_timer, [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(); }, 20, 20);
@@ -124,7 +106,7 @@ Result<void> FlowServer::Impl::listenUnix() {
     if (live) return makeError(Errc::already_exists, "another hub listens on " + unix_path);
     ::unlink(unix_path.c_str());
   }
-  unix_listener = newHandle<uv_pipe_t>(this);
+  unix_listener = newUvHandle<uv_pipe_t>(this);
   uv_pipe_init(loop.uv(), unix_listener, 0);
   int rc = uv_pipe_bind(unix_listener, unix_path.c_str());
   if (rc == 0) {
@@ -136,7 +118,7 @@ Result<void> FlowServer::Impl::listenUnix() {
                    });
   }
   if (rc != 0) {
-    closeHandle(unix_listener);
+    closeUvHandle(unix_listener);
     return makeError(Errc::io_error, "cannot listen on " + unix_path + ": " + uv_strerror(rc));
   }
   ::chmod(unix_path.c_str(), 0660);
@@ -152,7 +134,7 @@ Result<void> FlowServer::Impl::listenTcp() {
     rc = uv_ip6_addr(opt.tcp_address.c_str(), opt.tcp_port, reinterpret_cast<sockaddr_in6*>(&addr));
   }
   if (rc != 0) return makeError(Errc::invalid_argument, "bad TCP address " + opt.tcp_address);
-  tcp_listener = newHandle<uv_tcp_t>(this);
+  tcp_listener = newUvHandle<uv_tcp_t>(this);
   uv_tcp_init(loop.uv(), tcp_listener);
   rc = uv_tcp_bind(tcp_listener, reinterpret_cast<sockaddr*>(&addr), 0);
   if (rc == 0) {
@@ -162,7 +144,7 @@ Result<void> FlowServer::Impl::listenTcp() {
                    });
   }
   if (rc != 0) {
-    closeHandle(tcp_listener);
+    closeUvHandle(tcp_listener);
     return makeError(Errc::io_error, "cannot listen on TCP " + opt.tcp_address + ":" +
                                          std::to_string(opt.tcp_port) + ": " + uv_strerror(rc));
   }
@@ -291,11 +273,11 @@ void FlowServer::Impl::stop() noexcept {
   std::vector<Connection*> all;
   for (auto& [id, c] : connections) all.push_back(c);
   for (Connection* c : all) c->close("hub stopping");
-  closeHandle(unix_listener);
-  closeHandle(tcp_listener);
-  closeHandle(flush_prepare);
-  closeHandle(flush_check);
-  closeHandle(sweep_timer);
+  closeUvHandle(unix_listener);
+  closeUvHandle(tcp_listener);
+  closeUvHandle(flush_prepare);
+  closeUvHandle(flush_check);
+  closeUvHandle(sweep_timer);
   if (started) {
     if (!opt.data_dir.empty()) {
       if (auto r = dbs.saveAll(); !r) {

@@ -2,6 +2,7 @@
 // how many it spends (about 25 in all).
 #include <skrobot/core/loop.h>
 #include <skrobot/flow/accounts.h>
+#include "temp_dir.h"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -24,26 +25,7 @@ namespace skr::flow {
 namespace {
 
 namespace fs = std::filesystem;
-
-class TempDir {
- public:
-  TempDir() {
-    std::string templ = (fs::temp_directory_path() / "skrobot-accounts-XXXXXX").string();
-    path_ = ::mkdtemp(templ.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  TempDir(TempDir&&) = delete;
-  TempDir& operator=(TempDir&&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
+using skr::test::TempDir;
 
 std::string readFile(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);

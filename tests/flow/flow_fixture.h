@@ -1,6 +1,7 @@
 // A hub's FlowServer on its own loop thread, and clients that talk to it over real sockets.
 #pragma once
 
+#include "temp_dir.h"
 #include "test_client.h"
 
 #include <skrobot/core/loop.h>
@@ -15,23 +16,6 @@
 #include <string>
 
 namespace skr::test {
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (std::filesystem::temp_directory_path() / "skrobot-flow-XXXXXX").string();
-    path_ = mkdtemp(tmpl.data());
-  }
-  ~TempDir() { std::filesystem::remove_all(path_); }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  TempDir(TempDir&&) = delete;
-  TempDir& operator=(TempDir&&) = delete;
-  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 class FlowFixture : public ::testing::Test {
  protected:

@@ -2,6 +2,8 @@
 // leftovers and corrupt files.
 #include <skrobot/core/log.h>
 #include <skrobot/flow/pair_database.h>
+#include "log_capture.h"
+#include "temp_dir.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -23,31 +25,13 @@ namespace skr::flow {
 namespace {
 
 namespace fs = std::filesystem;
+using skr::test::TempDir;
 using Map = Variant::Map;
 using List = Variant::List;
 using Bytes = Variant::Bytes;
 
 #define EXPECT_HAS(haystack, needle) \
   EXPECT_NE((haystack).find(needle), std::string::npos) << (haystack)
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "skr-db-test-XXXXXX").string();
-    if (::mkdtemp(tmpl.data()) == nullptr) std::abort();
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 std::string readFile(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -66,27 +50,7 @@ std::vector<std::string> filesIn(const fs::path& dir) {
 }
 
 // Log lines "<tag> <message>" while alive.
-class LogCapture {
- public:
-  LogCapture() { log::setHook(&LogCapture::hook, this); }
-  ~LogCapture() { log::setHook(nullptr, nullptr); }
-  LogCapture(const LogCapture&) = delete;
-  LogCapture& operator=(const LogCapture&) = delete;
-  [[nodiscard]] std::vector<std::string> lines() const {
-    std::lock_guard lock(mutex_);
-    return lines_;
-  }
-
- private:
-  static void hook(log::Level, std::string_view, std::string_view tag, std::string_view msg,
-                   void* user) {
-    auto* self = static_cast<LogCapture*>(user);
-    std::lock_guard lock(self->mutex_);
-    self->lines_.push_back(std::string(tag) + " " + std::string(msg));
-  }
-  mutable std::mutex mutex_;
-  std::vector<std::string> lines_;
-};
+using skr::test::LogCapture;
 
 PairDatabase* mustCreate(DatabaseStore& store, const std::string& name, DatabaseKind kind) {
   Result<PairDatabase*> db = store.create(name, kind);

@@ -1,4 +1,5 @@
 // The skrobot executable as a user runs it: options, config errors, module failures, signals.
+#include "temp_dir.h"
 #include "test_client.h"
 
 #include <gtest/gtest.h>
@@ -18,31 +19,11 @@
 namespace {
 
 namespace fs = std::filesystem;
+using skr::test::TempDir;
 
 struct Run {
   int exit_code = -1;
   std::string output;  // stdout and stderr together
-};
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "skrobot-cli-XXXXXX").string();
-    path_ = mkdtemp(tmpl.data());
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  TempDir(TempDir&&) = delete;
-  TempDir& operator=(TempDir&&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-  fs::path write(const std::string& name, const std::string& text) const {
-    std::ofstream(path_ / name) << text;
-    return path_ / name;
-  }
-
- private:
-  fs::path path_;
 };
 
 std::string slurp(const fs::path& file) {

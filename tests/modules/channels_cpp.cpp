@@ -1,0 +1,68 @@
+// A C++ module on plugin_channels.hpp:
+//   <name>.upper   streaming: what arrives on config "input" (default guest.in), upper-cased
+//   <name>.ask     service: forwards each request to config "forward" (a service channel) with
+//                  Requester and answers with {"forwarded": <the answer>} or {"error": ...}
+// It counts what it upper-cased in its database, key "count", and frames read with
+// skr::media::parseFrame in key "media_seq".
+#include <skrobot/media_frame.hpp>
+#include <skrobot/plugin_channels.hpp>
+
+#include <cctype>
+#include <string>
+
+namespace {
+
+class ChannelsCpp final : public skr::plugin::Module {
+ public:
+  explicit ChannelsCpp(skr::plugin::Host& host)
+      : host_(host),
+        input_(host.configString("input", "guest.in")),
+        forward_(host.configString("forward", "")) {}
+
+  void start() override {
+    using namespace skr::plugin;
+    const std::string self(host_.name());
+    upper_ = StreamChannel(host_, "upper", "text/plain", R"({"case":"upper"})");
+    ask_ = ServiceChannel(host_, "ask", [this](const ServiceRequest& r) { onAsk(r); });
+    requester_.emplace(host_);
+    in_ = Subscription(host_, input_, [this, self](std::string_view payload) {
+      if (auto frame = skr::media::parseFrame(payload)) {
+        skr::plugin::dbSet(host_, self, "media_seq", std::to_string(frame->header.seq));
+        return;
+      }
+      std::string text(payload);
+      for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      upper_.publish(text);
+      skr::plugin::dbSet(host_, self, "count", std::to_string(++count_));
+    });
+  }
+  void stop() override {
+    in_.reset();
+    requester_.reset();
+    ask_.reset();
+    upper_.reset();
+  }
+
+ private:
+  void onAsk(const skr::plugin::ServiceRequest& r) {
+    const uint64_t id = r.id;
+    const bool sent = requester_->request(
+        forward_, r.command, r.value_json, [this, id](bool ok, const std::string& value) {
+          ask_.respond(id, ok ? R"({"forwarded":)" + value + "}" : R"({"error":)" + value + "}");
+        });
+    if (!sent) ask_.respond(id, R"({"error":"no such channel"})");
+  }
+
+  skr::plugin::Host& host_;
+  std::string input_;
+  std::string forward_;
+  skr::plugin::StreamChannel upper_;
+  skr::plugin::ServiceChannel ask_;
+  skr::plugin::Subscription in_;
+  std::optional<skr::plugin::Requester> requester_;
+  long count_ = 0;
+};
+
+}  // namespace
+
+SKROBOT_MODULE(ChannelsCpp, "test_channels_cpp", "1.0.0", "plugin_channels.hpp in use", 0)

@@ -1,0 +1,391 @@
+// websocket-ui: serves the avatar page and bridges browsers to the FlowNetwork
+// (docs/websocket-ui.md).
+//
+// Threads: libwebsockets runs on the WsServer's thread; what browsers send is checked there and
+// handed to the hub's loop thread with host.post; everything touching channels runs on the loop.
+#include "avatar_behaviour.h"
+#include "browser_protocol.h"
+#include "json_text.h"
+#include "visemes.h"
+#include "ws_server.h"
+
+#include <skrobot/media_frame.hpp>
+#include <skrobot/plugin_channels.hpp>
+
+#include <json/json.h>
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <string>
+
+#ifndef SKROBOT_WEB_ROOT
+#define SKROBOT_WEB_ROOT ""
+#endif
+
+namespace skr::wsui {
+namespace {
+
+using skr::plugin::Failure;
+
+struct Counters {
+  std::uint64_t camera_frames = 0;
+  std::uint64_t mic_frames = 0;
+  std::uint64_t mic_gaps = 0;
+  std::uint64_t say_requests = 0;
+  std::uint64_t detections_sent = 0;
+};
+
+class WebsocketUi final : public skr::plugin::Module {
+ public:
+  explicit WebsocketUi(skr::plugin::Host& host) : host_(host), avatar_(readAvatar(host)) {
+    readServer();
+    limits_.mic_sample_rate = static_cast<std::uint32_t>(host.configInt("mic_sample_rate", 22050));
+    camera_width_ = static_cast<int>(host.configInt("camera_width", 640));
+    camera_height_ = static_cast<int>(host.configInt("camera_height", 360));
+    camera_fps_ = static_cast<int>(host.configInt("camera_fps", 15));
+    jpeg_quality_ = host.configDouble("jpeg_quality", 0.7);
+    faces_ = host.configString("faces", "face-detect.faces");
+    motion_ = host.configString("motion", "motion.motion");
+    codes_ = host.configString("codes", "qrcode.codes");
+    bands_ = host.configString("bands", "fft-audio.bands");
+    speech_ = host.configString("speech", "speech.say");
+    voice_ = host.configString("voice", "speech.voice");
+    phonemes_ = host.configString("phonemes", "speech.phonemes");
+    if (camera_width_ < 16 || camera_width_ > limits_.max_width || camera_height_ < 16 ||
+        camera_height_ > limits_.max_height) {
+      host.configError("camera_width", "camera size must be 16x16 to 1920x1080");
+      throw Failure(SKR_ERR_CONFIG, "bad camera size");
+    }
+    if (camera_fps_ < 1 || camera_fps_ > 60) {
+      host.configError("camera_fps", "must be 1 to 60");
+      throw Failure(SKR_ERR_CONFIG, "bad camera_fps");
+    }
+    if (limits_.mic_sample_rate < 8000 || limits_.mic_sample_rate > 48000) {
+      host.configError("mic_sample_rate", "must be 8000 to 48000");
+      throw Failure(SKR_ERR_CONFIG, "bad mic_sample_rate");
+    }
+  }
+
+  void start() override {
+    using namespace skr::plugin;
+    camera_ = StreamChannel(host_, "camera", "image/jpeg",
+                            object({{"width", camera_width_},
+                                    {"height", camera_height_},
+                                    {"fps", camera_fps_},
+                                    {"pixel_format", "yuvj420p"},
+                                    {"codec", "jpeg"}}));
+    mic_ = StreamChannel(host_, "mic", "audio/L16",
+                         object({{"sample_rate", static_cast<int>(limits_.mic_sample_rate)},
+                                 {"channels", 1},
+                                 {"format", "s16le"}}));
+    say_ = ServiceChannel(
+        host_, "say", [this](const ServiceRequest& r) { onSayRequest(r); },
+        object({{"commands", "say"}, {"value", "{\"text\": string, \"voice\": string}"}}));
+    requester_.emplace(host_);
+    subscribe(faces_, [this](std::string_view p) { onFaces(p); });
+    subscribe(motion_, [this](std::string_view p) { onMotion(p); });
+    subscribe(codes_, [this](std::string_view p) { forward("codes", p); });
+    subscribe(bands_, [this](std::string_view p) { forward("bands", p); });
+    subscribe(phonemes_, [this](std::string_view p) { onPhonemes(p); });
+    subscribe(voice_, [this](std::string_view p) {
+      if (skr::media::parseFrame(p)) server_.send(0, true, std::string(p), false);
+    });
+
+    WsServerEvents events;
+    events.log = [this](int level, const std::string& line) {
+      host_.log.write(static_cast<skr_log_level>(level), "WSUI-LWS", line);
+    };
+    events.opened = [this](std::uint64_t conn, const std::string& peer) {
+      server_.send(conn, false, welcome());
+      host_.post([this, conn, peer] {
+        ++browsers_;
+        host_.log.info("WSUI-BROWSER", "browser ", conn, " connected from ", peer);
+      });
+    };
+    events.closed = [this](std::uint64_t conn, const std::string& why) {
+      host_.post([this, conn, why] {
+        --browsers_;
+        mic_expected_.erase(conn);
+        host_.log.info("WSUI-BROWSER", "browser ", conn, " left: ", why);
+      });
+    };
+    events.message = [this](std::uint64_t conn, bool binary, std::string&& data,
+                            int& code) -> std::optional<std::string> {
+      return onBrowserMessage(conn, binary, std::move(data), code);
+    };
+    if (auto error = server_.start(server_opts_, std::move(events))) {
+      throw Failure(SKR_ERR_FAILED, *error);
+    }
+    host_.log.info("WSUI-LISTENING", "avatar page on ",
+                   server_opts_.tls_cert.empty() ? "http" : "https", "://", server_opts_.address,
+                   ":", server_.port(), "/ (web root ", server_opts_.web_root, ")");
+    fast_ = host_.onTick(skr::plugin::Tick::fast, [this] { behave(); });
+    second_ = host_.onTick(skr::plugin::Tick::one_sec, [this] { report(); });
+  }
+
+  void stop() override {
+    server_.stop();  // joins the server thread: no more posts from it
+    fast_.reset();
+    second_.reset();
+    subs_.clear();
+    requester_.reset();
+    say_.reset();
+    mic_.reset();
+    camera_.reset();
+  }
+
+ private:
+  static AvatarOptions readAvatar(skr::plugin::Host& host) {
+    AvatarOptions o;
+    o.blink_min_ms = host.configInt("blink_min_ms", o.blink_min_ms);
+    o.blink_max_ms = host.configInt("blink_max_ms", o.blink_max_ms);
+    o.blink_close_ms = host.configInt("blink_close_ms", o.blink_close_ms);
+    o.blink_open_ms = host.configInt("blink_open_ms", o.blink_open_ms);
+    o.min_motion = host.configDouble("min_motion", o.min_motion);
+    o.face_hold_ms = host.configInt("face_hold_ms", o.face_hold_ms);
+    if (o.blink_min_ms < 100 || o.blink_max_ms < o.blink_min_ms) {
+      host.configError("blink_max_ms", "need 100 <= blink_min_ms <= blink_max_ms");
+      throw Failure(SKR_ERR_CONFIG, "bad blink interval");
+    }
+    return o;
+  }
+
+  void readServer() {
+    WsServerOptions& o = server_opts_;
+    o.address = host_.configString("address", o.address);
+    o.port = static_cast<int>(host_.configInt("port", o.port));
+    o.web_root = host_.configString("web_root", SKROBOT_WEB_ROOT);
+    o.tls_cert = host_.configString("tls_cert", "");
+    o.tls_key = host_.configString("tls_key", "");
+    o.max_message_bytes = static_cast<std::size_t>(host_.configInt("max_message_bytes", 1 << 20));
+    o.max_queued_bytes = static_cast<std::size_t>(host_.configInt("max_queued_bytes", 8 << 20));
+    if (o.port < 0 || o.port > 65535) {
+      host_.configError("port", "must be 0 to 65535");
+      throw Failure(SKR_ERR_CONFIG, "bad port");
+    }
+    if (o.max_message_bytes < 64 * 1024 || o.max_message_bytes > (64u << 20)) {
+      host_.configError("max_message_bytes", "must be 64 KiB to 64 MiB");
+      throw Failure(SKR_ERR_CONFIG, "bad max_message_bytes");
+    }
+  }
+
+  void subscribe(const std::string& channel, skr::plugin::Subscription::DataFn fn) {
+    if (channel.empty()) return;
+    subs_.emplace_back(host_, channel, std::move(fn));
+  }
+
+  std::string welcome() const {
+    return object({{"type", "welcome"},
+                   {"version", 1},
+                   {"camera", Json::Value(Json::objectValue)},
+                   {"mic_sample_rate", static_cast<int>(limits_.mic_sample_rate)}},
+                  [this](Json::Value& v) {
+                    v["camera"]["width"] = camera_width_;
+                    v["camera"]["height"] = camera_height_;
+                    v["camera"]["fps"] = camera_fps_;
+                    v["camera"]["jpeg_quality"] = jpeg_quality_;
+                  });
+  }
+
+  // Server thread: check, then hand to the loop.
+  std::optional<std::string> onBrowserMessage(std::uint64_t conn, bool binary, std::string&& data,
+                                              int& code) {
+    Inbound in = parseInbound(binary, data, limits_);
+    if (auto* r = std::get_if<Refusal>(&in)) {
+      code = r->close_code;
+      return r->reason;
+    }
+    if (std::holds_alternative<Hello>(in)) return std::nullopt;
+    if (auto* say = std::get_if<Say>(&in)) {
+      host_.post([this, conn, s = *say] { sayFromBrowser(conn, s); });
+      return std::nullopt;
+    }
+    const bool camera = std::holds_alternative<CameraFrame>(in);
+    const skr::media::FrameHeader h =
+        camera ? std::get<CameraFrame>(in).header : std::get<MicFrame>(in).header;
+    host_.post([this, conn, camera, h, msg = std::move(data)]() mutable {
+      camera ? publishCamera(h, msg) : publishMic(conn, h, msg);
+    });
+    return std::nullopt;
+  }
+
+  // The channel's own frame numbers: browsers come and go, the channel's sequence goes on.
+  void publishCamera(skr::media::FrameHeader h, std::string& msg) {
+    h.seq = camera_seq_++;
+    skr::media::writeHeader(h, msg.data());
+    camera_.publish(msg);
+    ++counters_.camera_frames;
+  }
+
+  // Sample counter of the channel; a gap in a browser's own counter becomes a gap here too.
+  void publishMic(std::uint64_t conn, skr::media::FrameHeader h, std::string& msg) {
+    const std::uint64_t samples = (msg.size() - skr::media::kHeaderBytes) / 2;
+    auto it = mic_expected_.find(conn);
+    if (it != mic_expected_.end() && h.seq > it->second) {
+      mic_seq_ += h.seq - it->second;
+      ++counters_.mic_gaps;
+    }
+    mic_expected_[conn] = h.seq + samples;
+    h.seq = mic_seq_;
+    mic_seq_ += samples;
+    skr::media::writeHeader(h, msg.data());
+    mic_.publish(msg);
+    ++counters_.mic_frames;
+  }
+
+  void onFaces(std::string_view payload) {
+    Json::Value v;
+    if (!parseJson(payload, v)) return;
+    std::vector<Box> boxes;
+    for (const auto& f : v["faces"]) {
+      boxes.push_back(
+          Box{f["x"].asDouble(), f["y"].asDouble(), f["w"].asDouble(), f["h"].asDouble()});
+    }
+    avatar_.onFaces(boxes, v["width"].asDouble(), v["height"].asDouble(), nowMs());
+    sendWrapped("faces", v);
+  }
+
+  void onMotion(std::string_view payload) {
+    Json::Value v;
+    if (!parseJson(payload, v)) return;
+    std::optional<std::pair<double, double>> centre;
+    if (v["center"].isObject()) centre = {v["center"]["x"].asDouble(), v["center"]["y"].asDouble()};
+    avatar_.onMotion(v["amount"].asDouble(), centre, v["width"].asDouble(), v["height"].asDouble(),
+                     nowMs());
+    sendWrapped("motion", v);
+  }
+
+  void forward(const char* type, std::string_view payload) {
+    Json::Value v;
+    if (parseJson(payload, v)) sendWrapped(type, v);
+  }
+
+  void sendWrapped(const char* type, const Json::Value& data) {
+    if (browsers_ <= 0) return;
+    Json::Value msg(Json::objectValue);
+    msg["type"] = type;
+    msg["data"] = data;
+    server_.send(0, false, compact(msg));
+    ++counters_.detections_sent;
+  }
+
+  // The phoneme timeline of an utterance becomes a viseme timeline, sent before its audio.
+  void onPhonemes(std::string_view payload) {
+    Json::Value v;
+    if (!parseJson(payload, v)) return;
+    std::vector<TimedPhoneme> phonemes;
+    for (const auto& p : v["phonemes"])
+      phonemes.push_back({p["ph"].asString(), p["start_ms"].asDouble()});
+    const double duration = v["duration_ms"].asDouble();
+    Json::Value msg(Json::objectValue);
+    msg["type"] = "speech";
+    msg["utterance"] = v["utterance"];
+    msg["start_seq"] = v["start_seq"];
+    msg["sample_rate"] = v["sample_rate"];
+    msg["duration_ms"] = duration;
+    msg["text"] = v["text"];
+    Json::Value& list = msg["visemes"] = Json::Value(Json::arrayValue);
+    for (const auto& tv : visemeTimeline(phonemes, duration)) {
+      Json::Value e(Json::objectValue);
+      e["t_ms"] = tv.t_ms;
+      e["v"] = tv.viseme.name;
+      e["open"] = tv.viseme.open;
+      e["wide"] = tv.viseme.wide;
+      e["round"] = tv.viseme.round;
+      list.append(e);
+    }
+    server_.send(0, false, compact(msg), false);
+  }
+
+  void onSayRequest(const skr::plugin::ServiceRequest& r) {
+    ++counters_.say_requests;
+    const std::uint64_t id = r.id;
+    const bool sent = requester_->request(
+        speech_, "say", r.value_json, [this, id](bool ok, const std::string& value) {
+          say_.respond(id, ok ? value : R"({"error":)" + value + "}");
+        });
+    if (!sent)
+      say_.respond(id, R"({"error":"the speech service )" + speech_ + R"( is not running"})");
+  }
+
+  void sayFromBrowser(std::uint64_t conn, const Say& s) {
+    ++counters_.say_requests;
+    Json::Value value(Json::objectValue);
+    value["text"] = s.text;
+    if (!s.voice.empty()) value["voice"] = s.voice;
+    requester_->request(speech_, "say", compact(value),
+                        [this, conn](bool ok, const std::string& v) {
+                          server_.send(conn, false,
+                                       std::string(R"({"type":"said","ok":)") +
+                                           (ok ? "true" : "false") + R"(,"result":)" + v + "}");
+                        });
+  }
+
+  void behave() {
+    const std::int64_t now = nowMs();
+    if (auto g = avatar_.gazeDue(now)) {
+      Json::Value msg(Json::objectValue);
+      msg["type"] = "gaze";
+      msg["x"] = g->x;
+      msg["y"] = g->y;
+      msg["source"] = g->source;
+      server_.send(0, false, compact(msg));
+    }
+    if (auto b = avatar_.blinkDue(now)) {
+      Json::Value msg(Json::objectValue);
+      msg["type"] = "blink";
+      msg["close_ms"] = static_cast<Json::Int64>(b->close_ms);
+      msg["hold_ms"] = static_cast<Json::Int64>(b->hold_ms);
+      msg["open_ms"] = static_cast<Json::Int64>(b->open_ms);
+      server_.send(0, false, compact(msg));
+    }
+  }
+
+  void report() {
+    const WsServerStats s = server_.stats();
+    const std::string db(host_.name());
+    using skr::plugin::dbSet;
+    dbSet(host_, db, "browsers", std::to_string(s.connections));
+    dbSet(host_, db, "browsers_accepted", std::to_string(s.accepted));
+    dbSet(host_, db, "refused", std::to_string(s.refused));
+    dbSet(host_, db, "dropped", std::to_string(s.dropped));
+    dbSet(host_, db, "camera_frames", std::to_string(counters_.camera_frames));
+    dbSet(host_, db, "mic_frames", std::to_string(counters_.mic_frames));
+    dbSet(host_, db, "mic_gaps", std::to_string(counters_.mic_gaps));
+    dbSet(host_, db, "say_requests", std::to_string(counters_.say_requests));
+    dbSet(host_, db, "gaze_source", quote(avatar_.lastGaze().source));
+    dbSet(host_, db, "port", std::to_string(server_.port()));
+  }
+
+  std::int64_t nowMs() const { return host_.nowNs() / 1000000; }
+
+  skr::plugin::Host& host_;
+  WsServerOptions server_opts_;
+  InboundLimits limits_;
+  int camera_width_ = 640, camera_height_ = 360, camera_fps_ = 15;
+  double jpeg_quality_ = 0.7;
+  std::string faces_, motion_, codes_, bands_, speech_, voice_, phonemes_;
+
+  AvatarBehaviour avatar_;
+  WsServer server_;
+  skr::plugin::StreamChannel camera_, mic_;
+  skr::plugin::ServiceChannel say_;
+  std::optional<skr::plugin::Requester> requester_;
+  std::vector<skr::plugin::Subscription> subs_;
+  skr::plugin::TickHandle fast_, second_;
+
+  // Loop thread only.
+  int browsers_ = 0;
+  std::uint64_t camera_seq_ = 0;
+  std::uint64_t mic_seq_ = 0;
+  std::map<std::uint64_t, std::uint64_t> mic_expected_;  // browser -> its next sample index
+  Counters counters_;
+};
+
+}  // namespace
+}  // namespace skr::wsui
+
+SKROBOT_MODULE(
+    skr::wsui::WebsocketUi, "websocket-ui", "1.0.0",
+    "serves the avatar page; browsers' camera and microphone to channels, avatar behaviour", 0)

@@ -1,0 +1,10 @@
+# cmake -DSRC=web -DOUT=<build>/web -DTHREE=<three.module.js> -P copy_web.cmake
+if(NOT EXISTS ${THREE})
+  message(FATAL_ERROR "three.js is missing (${THREE}): run `npm ci --prefix web` "
+                      "(tools/bootstrap.sh does it)")
+endif()
+file(MAKE_DIRECTORY ${OUT}/js ${OUT}/vendor)
+file(COPY ${SRC}/index.html ${SRC}/style.css DESTINATION ${OUT})
+file(COPY ${SRC}/js/ DESTINATION ${OUT}/js)
+file(COPY ${THREE} DESTINATION ${OUT}/vendor)
+file(COPY ${SRC}/node_modules/three/LICENSE DESTINATION ${OUT}/vendor)

@@ -36,6 +36,10 @@ PACKAGES=(
   libwebsockets-dev chromium
 )
 
+# Node.js and npm for the web page's packages and its browser tests: Debian's, unless the machine
+# already has a node (e.g. from NodeSource, whose nodejs package brings its own npm).
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then PACKAGES+=(nodejs npm); fi
+
 step "checking Debian packages (${#PACKAGES[@]})"
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -64,6 +68,13 @@ build_preset() {
   step "building ($preset, $JOBS jobs)"
   cmake --build --preset "$preset" -j "$JOBS"
 }
+
+step "installing the web page's npm packages (three.js, playwright-core, ws) into web/node_modules"
+if [ ! -f web/node_modules/.package-lock.json ] || [ web/package-lock.json -nt web/node_modules/.package-lock.json ]; then
+  npm ci --prefix web --no-audit --no-fund --loglevel=error
+else
+  echo "    up to date"
+fi
 
 build_preset release
 

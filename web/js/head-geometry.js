@@ -95,7 +95,7 @@ function eyelid(radius) {
 
 function eye(side, materials) {
   const group = new THREE.Group();
-  group.position.set(side * 0.3, 0.17, FRONT_Z - 0.2);
+  group.position.set(side * 0.3, 0.17, FRONT_Z - 0.15);
   const ball = new THREE.Mesh(new THREE.SphereGeometry(0.13, 32, 24), materials.white);
   const iris = new THREE.Mesh(new THREE.CircleGeometry(0.062, 32), materials.iris);
   iris.position.z = 0.1305;

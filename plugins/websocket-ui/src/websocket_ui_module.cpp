@@ -94,7 +94,9 @@ class WebsocketUi final : public skr::plugin::Module {
 
     WsServerEvents events;
     events.log = [this](int level, const std::string& line) {
-      host_.log.write(static_cast<skr_log_level>(level), "WSUI-LWS", line);
+      const auto space = line.find(' ');
+      host_.log.write(static_cast<skr_log_level>(level), line.substr(0, space),
+                      space == std::string::npos ? "" : line.substr(space + 1));
     };
     events.opened = [this](std::uint64_t conn, const std::string& peer) {
       server_.send(conn, false, welcome());
@@ -349,6 +351,7 @@ class WebsocketUi final : public skr::plugin::Module {
     dbSet(host_, db, "browsers", std::to_string(s.connections));
     dbSet(host_, db, "browsers_accepted", std::to_string(s.accepted));
     dbSet(host_, db, "refused", std::to_string(s.refused));
+    dbSet(host_, db, "refused_handshakes", std::to_string(s.refused_handshakes));
     dbSet(host_, db, "dropped", std::to_string(s.dropped));
     dbSet(host_, db, "camera_frames", std::to_string(counters_.camera_frames));
     dbSet(host_, db, "mic_frames", std::to_string(counters_.mic_frames));

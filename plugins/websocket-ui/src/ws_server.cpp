@@ -47,7 +47,7 @@ void lwsLog(int level, const char* line) {
   std::string text(line);
   while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
   std::lock_guard lock(g_log_mutex);
-  if (g_log) g_log(level == LLL_ERR ? 3 : level == LLL_WARN ? 2 : 0, "libwebsockets: " + text);
+  if (g_log) g_log(level == LLL_ERR ? 3 : level == LLL_WARN ? 2 : 0, "WSUI-LWS " + text);
 }
 
 std::string header(lws* wsi, lws_token_indexes token) {
@@ -90,6 +90,11 @@ struct WsServer::Impl {
   std::vector<lws_protocol_vhost_options> headers;
   lws_http_mount mount{};
   lws_protocols protocols[3]{};
+
+  void countHandshakeRefused() {
+    std::lock_guard lock(mutex);
+    ++stats.refused_handshakes;
+  }
 
   void log(int level, const std::string& line) const {
     if (events.log) events.log(level, line);
@@ -235,6 +240,7 @@ int wsCallback(lws* wsi, lws_callback_reasons reason, void* user, void* in, std:
   switch (reason) {
     case LWS_CALLBACK_FILTER_PROTOCOL_CONNECTION:
       if (auto why = impl->filter(wsi)) {
+        impl->countHandshakeRefused();
         impl->log(2, "WSUI-REFUSED connection: " + *why);
         return 1;
       }
@@ -282,6 +288,7 @@ int wsCallback(lws* wsi, lws_callback_reasons reason, void* user, void* in, std:
 int httpCallback(lws* wsi, lws_callback_reasons reason, void* user, void* in, std::size_t len) {
   if (reason == LWS_CALLBACK_FILTER_PROTOCOL_CONNECTION) {
     auto* impl = static_cast<WsServer::Impl*>(lws_context_user(lws_get_context(wsi)));
+    impl->countHandshakeRefused();
     impl->log(
         2, "WSUI-REFUSED connection: WebSocket without the subprotocol " + impl->opts.subprotocol);
     return 1;

@@ -39,14 +39,16 @@ struct WsServerEvents {
                                            int& close_code)>
       message;
   std::function<void(std::uint64_t conn, const std::string& why)> closed;
-  std::function<void(int level, const std::string& line)> log;  // 0 debug .. 3 error
+  // A log line "<TAG> <text>" (WSUI-REFUSED, WSUI-LWS for libwebsockets' own); 0 debug .. 3 error.
+  std::function<void(int level, const std::string& line)> log;
 };
 
 struct WsServerStats {
-  std::uint64_t connections = 0;  // open now
-  std::uint64_t accepted = 0;     // since start
-  std::uint64_t refused = 0;      // messages refused (connection closed)
-  std::uint64_t dropped = 0;      // outgoing messages dropped for slow browsers
+  std::uint64_t connections = 0;         // open now
+  std::uint64_t accepted = 0;            // since start
+  std::uint64_t refused = 0;             // messages refused (connection closed)
+  std::uint64_t refused_handshakes = 0;  // WebSocket upgrades refused (path, subprotocol, origin)
+  std::uint64_t dropped = 0;             // outgoing messages dropped for slow browsers
 };
 
 class WsServer {

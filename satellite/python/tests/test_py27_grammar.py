@@ -98,7 +98,7 @@ class Python27Grammar(unittest.TestCase):
         names = [os.path.basename(f) for f in files]
         for expected in ("flowsat.py", "executor.py", "sketch-executor.py", "pysketch-executor",
                          "publisher.py", "subscriber.py", "service_provider.py",
-                         "service_caller.py"):
+                         "service_caller.py", "nao_sketch.py"):
             self.assertIn(expected, names)
         for path in files:
             with io.open(path, encoding="utf-8") as f:

@@ -1,0 +1,261 @@
+// nao-bridge: a Nao on the FlowNetwork. See docs/nao.md.
+//   <name>.command   service: JSON commands (commands.h), answered {"ok":true} or an error
+//   <name>.status    streaming: {"connected":..,"backend":..,"error":..,"retry_in_ms":..}
+//   <name>.joints|sonar|battery|posture|fall   streaming state at configured rates
+//   <name>.results   streaming: outcome of each command read from a configured queue
+// Channel calls happen on the hub's loop thread; robot I/O on the RobotWorker thread, whose
+// results come back through host.post().
+#include "backends.h"
+#include "robot_worker.h"
+
+#include <skrobot/plugin_channels.hpp>
+
+#include <json/json.h>
+
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+using nao::StateKind;
+namespace plugin = skr::plugin;
+
+std::string compact(const Json::Value& v) {
+  Json::StreamWriterBuilder w;
+  w["indentation"] = "";
+  return Json::writeString(w, v);
+}
+
+Json::Value parse(const std::string& text) {
+  Json::CharReaderBuilder b;
+  Json::Value v;
+  std::string errors;
+  std::istringstream in(text);
+  if (!Json::parseFromStream(b, in, &v, &errors)) return Json::Value();
+  return v;
+}
+
+class NaoBridge final : public plugin::Module {
+ public:
+  explicit NaoBridge(plugin::Host& host) : host_(host) {
+    const Json::Value config = parse(host.configJson());
+    backend_name_ = host.configString("backend", "simulated");
+    if (backend_name_ != "simulated" && backend_name_ != "naoqi") {
+      host.configError("backend", "must be \"simulated\" or \"naoqi\"");
+      throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
+    }
+    const Json::Value& rates = config["rates_hz"];
+    for (StateKind k : nao::kStateKinds) {
+      const char* n = nao::stateName(k);
+      if (rates.isObject() && rates.isMember(n)) {
+        if (!rates[n].isNumeric() || rates[n].asDouble() < 0 || rates[n].asDouble() > 100) {
+          host.configError("rates_hz", std::string(n) + " must be a number in [0, 100]");
+          throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
+        }
+        worker_opt_.rate_hz[static_cast<std::size_t>(k)] = rates[n].asDouble();
+      }
+    }
+    const Json::Value& queues = config["queues"];
+    if (!queues.isNull() && !queues.isArray()) {
+      host.configError("queues", "must be an array of channel names (\"user.name\")");
+      throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
+    }
+    for (const auto& q : queues) {
+      if (!q.isString() || q.asString().find('.') == std::string::npos) {
+        host.configError("queues", "each entry must be a channel name \"user.name\"");
+        throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
+      }
+      queues_.push_back(q.asString());
+    }
+    worker_opt_.reconnect_min_ms = static_cast<int>(host.configInt("reconnect_min_ms", 500));
+    worker_opt_.reconnect_max_ms = static_cast<int>(host.configInt("reconnect_max_ms", 10000));
+    if (worker_opt_.reconnect_min_ms < 10 ||
+        worker_opt_.reconnect_max_ms < worker_opt_.reconnect_min_ms) {
+      host.configError("reconnect_min_ms", "must be >= 10 and <= reconnect_max_ms");
+      throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
+    }
+  }
+
+  void start() override {
+    const std::string self(host_.name());
+    const auto names = nao::jointNames();
+    Json::Value joint_props(Json::objectValue);
+    joint_props["units"] = "rad";
+    for (const auto& n : names) joint_props["names"].append(n);
+    joint_props["hand_units"] = "fraction open (LHand, RHand)";
+    const std::array<Json::Value, 5> props = {joint_props, props2("m", "left", "right"),
+                                              props1("fraction", "charge"),
+                                              props1("name", "posture"), props1("bool", "fallen")};
+    for (StateKind k : nao::kStateKinds) {
+      const auto i = static_cast<std::size_t>(k);
+      Json::Value p = props[i];
+      p["rate_hz"] = worker_opt_.rate_hz[i];
+      p["backend"] = backend_name_;
+      state_[i] = plugin::StreamChannel(host_, nao::stateName(k), "application/json", compact(p),
+                                        [this, k](bool first) {
+                                          if (worker_) worker_->setStreaming(k, first);
+                                        });
+    }
+    status_ = plugin::StreamChannel(host_, "status", "application/json",
+                                    R"({"keys":["connected","backend","error","retry_in_ms"]})",
+                                    [this](bool first) {
+                                      if (first) status_.publish(status_json_);
+                                    });
+    results_ = plugin::StreamChannel(host_, "results", "application/json",
+                                     R"({"keys":["queue","seq","ok","code","error"]})");
+    command_ = plugin::ServiceChannel(
+        host_, "command", [this](const plugin::ServiceRequest& r) { onRequest(r); },
+        R"({"commands":["say","posture","head","joints","walk","stop","leds","rest","wake"]})");
+    auto backend = makeBackend();
+    // The simulator is there at once; a real robot is "connecting" until the worker says so.
+    // (The worker thread does not run yet: asking the backend here is safe.)
+    const bool ready = backend->connected();
+    setStatus(ready, ready ? backend->describe() : "connecting", 0);
+
+    worker_ = std::make_unique<nao::RobotWorker>(
+        std::move(backend), worker_opt_,
+        nao::WorkerCallbacks{[this](bool c, const std::string& d, int ms) {
+                               host_.post([this, c, d, ms] { setStatus(c, d, ms); });
+                             },
+                             [this](StateKind k, const std::string& j) {
+                               host_.post([this, k, j] {
+                                 state_[static_cast<std::size_t>(k)].publish(j);
+                               });
+                             }});
+    for (StateKind k : nao::kStateKinds) {
+      worker_->setStreaming(k, state_[static_cast<std::size_t>(k)].hasSubscribers());
+    }
+    worker_->start();
+    for (const auto& q : queues_) {
+      subs_.emplace_back(
+          host_, q, [this, q](std::string_view payload) { onQueued(q, std::string(payload)); });
+    }
+    host_.log.info("NAO-START", "backend ", backend_name_, ", ", queues_.size(), " queue(s)");
+  }
+
+  void stop() override {
+    subs_.clear();
+    if (worker_) worker_->stop();  // joins: nothing posts after this
+    worker_.reset();
+    command_.reset();
+    results_.reset();
+    status_.reset();
+    for (auto& s : state_) s.reset();
+  }
+
+ private:
+  static Json::Value props1(const char* units, const char* key) {
+    Json::Value p(Json::objectValue);
+    p["units"] = units;
+    p["keys"].append(key);
+    return p;
+  }
+  static Json::Value props2(const char* units, const char* a, const char* b) {
+    Json::Value p = props1(units, a);
+    p["keys"].append(b);
+    return p;
+  }
+
+  std::unique_ptr<nao::RobotBackend> makeBackend() {
+    if (backend_name_ == "simulated") {
+      nao::SimOptions o;
+      o.room_size_m = host_.configDouble("sim_room_m", 4.0);
+      o.battery = host_.configDouble("sim_battery", 1.0);
+      o.drain_scale = host_.configDouble("sim_drain_scale", 1.0);
+      return std::make_unique<nao::SimBackend>(o);
+    }
+    nao::NaoqiOptions o;
+    o.client.host = host_.configString("host", "nao.local");
+    o.client.port = static_cast<std::uint16_t>(host_.configInt("port", 9559));
+    o.client.connect_timeout_ms = static_cast<int>(host_.configInt("connect_timeout_ms", 2000));
+    o.client.lookup_timeout_ms = static_cast<int>(host_.configInt("call_timeout_ms", 2000));
+    o.client.max_payload = static_cast<std::uint32_t>(
+        host_.configInt("max_message_bytes", nao::qi::kDefaultMaxPayload));
+    o.client.authenticate = host_.configBool("authenticate", true);
+    o.client.user = host_.configString("user", "");
+    o.client.token = host_.configString("token", "");
+    o.call_timeout_ms = o.client.lookup_timeout_ms;
+    o.motion_timeout_ms = static_cast<int>(host_.configInt("motion_timeout_ms", 30000));
+    return std::make_unique<nao::NaoqiBackend>(o);
+  }
+
+  void setStatus(bool connected, const std::string& detail, int retry_in_ms) {
+    if (connected != connected_ || detail != last_detail_) {
+      if (connected) {
+        host_.log.info("NAO-CONNECTED", detail);
+      } else if (detail != "connecting") {
+        host_.log.warn("NAO-DISCONNECTED", detail, "; retrying in ", retry_in_ms, " ms");
+      }
+    }
+    connected_ = connected;
+    last_detail_ = detail;
+    Json::Value v(Json::objectValue);
+    v["connected"] = connected;
+    v["backend"] = backend_name_;
+    v["error"] = connected ? "" : detail;
+    v["retry_in_ms"] = retry_in_ms;
+    status_json_ = compact(v);
+    status_.publish(status_json_);
+    plugin::dbSet(host_, std::string(host_.name()), "status", status_json_);
+  }
+
+  // Parses and checks on the loop thread, so refusals never wait for the robot. Queued commands
+  // (`ordered`) report refusals through the worker too, so that their results keep queue order.
+  template <class Reply>
+  void run(const std::string& json, const std::string& default_cmd, bool ordered, Reply reply) {
+    nao::Parsed p = nao::parseCommand(json, default_cmd);
+    nao::CommandResult refusal = p.result;
+    if (refusal.ok() && !connected_) {
+      refusal = nao::CommandResult::failure(nao::CommandError::not_connected,
+                                            "the robot is not connected (" + last_detail_ + ")");
+    }
+    auto back = [this, reply](nao::CommandResult r) { host_.post([reply, r] { reply(r); }); };
+    if (refusal.ok()) {
+      worker_->submit(std::move(p.command), back);
+    } else if (ordered) {
+      worker_->submitResult(refusal, back);
+    } else {
+      reply(refusal);
+    }
+  }
+
+  void onRequest(const plugin::ServiceRequest& r) {
+    const std::uint64_t id = r.id;
+    run(r.value_json, r.command, false,
+        [this, id](const nao::CommandResult& res) { command_.respond(id, res.json()); });
+  }
+
+  void onQueued(const std::string& queue, std::string payload) {
+    const std::uint64_t seq = ++queue_seq_;
+    run(payload, "", true, [this, queue, seq](const nao::CommandResult& res) {
+      if (!res.ok()) host_.log.warn("NAO-QUEUE", queue, " #", seq, ": ", res.message);
+      Json::Value v = parse(res.json());
+      v["queue"] = queue;
+      v["seq"] = static_cast<Json::UInt64>(seq);
+      results_.publish(compact(v));
+    });
+  }
+
+  plugin::Host& host_;
+  std::string backend_name_;
+  nao::WorkerOptions worker_opt_;
+  std::vector<std::string> queues_;
+  std::array<plugin::StreamChannel, 5> state_;
+  plugin::StreamChannel status_;
+  plugin::StreamChannel results_;
+  plugin::ServiceChannel command_;
+  std::vector<plugin::Subscription> subs_;
+  std::unique_ptr<nao::RobotWorker> worker_;
+  bool connected_ = false;
+  std::string last_detail_;
+  std::string status_json_ = "{}";
+  std::uint64_t queue_seq_ = 0;
+};
+
+}  // namespace
+
+SKROBOT_MODULE(NaoBridge, "nao-bridge", "1.0.0",
+               "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0)

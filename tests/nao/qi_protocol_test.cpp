@@ -1,0 +1,284 @@
+// The qi codec (signatures, values, message framing) and a full client session against
+// QiTestServer: authentication, service look-up, metaObject, calls with arguments and their
+// replies, an error reply, oversized and malformed messages, and a dropped connection.
+#include "qi_client.h"
+#include "qi_test_server.h"
+
+#include <gtest/gtest.h>
+
+namespace nao::qi {
+namespace {
+
+TEST(QiSignature, ParsesNestedTypesAndAnnotations) {
+  auto t = parseSignature(kMetaObjectSignature);
+  ASSERT_TRUE(t) << t.error().message;
+  EXPECT_EQ(t->kind, '(');
+  EXPECT_EQ(t->name, "MetaObject");
+  ASSERT_EQ(t->items.size(), 4u);
+  EXPECT_EQ(t->items[0].kind, '{');
+  EXPECT_EQ(t->items[0].items[1].name, "MetaMethod");
+  EXPECT_EQ(toString(t.value()), kMetaObjectSignature);
+  EXPECT_EQ(toString(parseSignature("{sm}").value()), "{sm}");
+  for (const char* bad : {"", "[s", "{s}", "(s", "q", "ss", "(s)<A,b", "(s)<A b>", "[]"}) {
+    EXPECT_FALSE(parseSignature(bad)) << bad;
+  }
+  EXPECT_FALSE(parseSignature(std::string(40, '[') + "s" + std::string(40, ']')));  // depth
+}
+
+TEST(QiValue, RoundTripsEveryKind) {
+  const Value v = Value::tuple(
+      {Value::boolean(true), Value::integer(-5, 'c'), Value::integer(65000, 'W'),
+       Value::integer(-7), Value::integer(4000000000LL, 'I'), Value::integer(-1LL << 40, 'l'),
+       Value::real(0.5), Value::real(1e300, 'd'), Value::string("héllo"),
+       Value::strings({"a", "b"}),
+       Value::map({{Value::string("k"), Value::list({Value::integer(1), Value::string("x")})}})});
+  const char* sig = "(bcWiIlfds[s]{sm})";
+  auto bytes = encode(sig, v);
+  ASSERT_TRUE(bytes) << bytes.error().message;
+  std::size_t used = 0;
+  auto back = decode(sig, bytes.value(), &used);
+  ASSERT_TRUE(back) << back.error().message;
+  EXPECT_EQ(used, bytes->size());
+  EXPECT_EQ(back.value(), v);
+  // The dynamic list of mixed items is sent as "[m]"; a uniform one as "[s]".
+  EXPECT_EQ(toString(v.items()[10].naturalType()), "{s[m]}");
+  EXPECT_EQ(toString(Value::strings({"a"}).naturalType()), "[s]");
+}
+
+TEST(QiValue, WireFormatIsLittleEndianWithLengthPrefixes) {
+  EXPECT_EQ(encode("s", Value::string("ab")).value(), std::string("\x02\0\0\0ab", 6));
+  EXPECT_EQ(encode("m", Value::integer(1)).value(), std::string("\x01\0\0\0i\x01\0\0\0", 9));
+  EXPECT_EQ(encode("[b]", Value::list({Value::boolean(true)})).value(),
+            std::string("\x01\0\0\0\x01", 5));
+}
+
+TEST(QiValue, RefusesShortCountsAndConversionsThatDoNotFit) {
+  // A list announcing 2^31 strings in 8 bytes is refused before any allocation.
+  EXPECT_FALSE(decode("[s]", std::string("\0\0\0\x80\0\0\0\0", 8)));
+  EXPECT_FALSE(decode("s", std::string("\x05\0\0\0ab", 6)));
+  EXPECT_FALSE(decode("[()]", std::string("\x05\0\0\0", 4)));  // zero-size elements
+  EXPECT_FALSE(decode("m", std::string("\x01\0\0\0q", 5)));    // unknown dynamic type
+  std::string deep;
+  for (int i = 0; i < 40; ++i) deep += std::string("\x01\0\0\0m", 5);
+  EXPECT_FALSE(decode("m", deep));  // nesting limit
+  // 300000 one-byte booleans would take ~60 MB as values: refused by the value budget.
+  std::string many("\xe0\x93\x04\0", 4);
+  many.append(300000, '\1');
+  auto budget = decode("[b]", many);
+  ASSERT_FALSE(budget);
+  EXPECT_NE(budget.error().message.find("values"), std::string::npos);
+  EXPECT_FALSE(encode("i", Value::integer(1LL << 40)));
+  EXPECT_FALSE(encode("I", Value::integer(-1)));
+  EXPECT_FALSE(encode("s", Value::integer(1)));
+  EXPECT_FALSE(encode("(ss)", Value::tuple({Value::string("a")})));
+  EXPECT_TRUE(encode("d", Value::integer(3)));  // integers widen to floats
+}
+
+TEST(QiMessage, FramesHeaderAndPayloadAndRefusesBadHeaders) {
+  Header h;
+  h.id = 7;
+  h.type = MsgType::call;
+  h.service = 1;
+  h.object = 1;
+  h.action = 100;
+  const std::string bytes = encodeMessage(h, "abc");
+  ASSERT_EQ(bytes.size(), kHeaderSize + 3);
+  EXPECT_EQ(bytes.substr(0, 4), "\x42\xde\xad\x42");  // magic, big-endian
+  MessageFramer f;
+  f.append(bytes.substr(0, 10));
+  auto none = f.next();
+  ASSERT_TRUE(none);
+  EXPECT_FALSE(none.value());
+  f.append(bytes.substr(10) + bytes);
+  for (int i = 0; i < 2; ++i) {
+    auto m = f.next();
+    ASSERT_TRUE(m && m.value());
+    EXPECT_EQ(m.value()->header.id, 7u);
+    EXPECT_EQ(m.value()->header.action, 100u);
+    EXPECT_EQ(m.value()->payload, "abc");
+  }
+
+  MessageFramer small(100);
+  std::string big = encodeMessage(h, std::string(101, 'x'));
+  small.append(big.substr(0, kHeaderSize));  // refused from the header alone
+  auto r = small.next();
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("exceeds the limit"), std::string::npos);
+
+  std::string bad = bytes;
+  bad[0] = 0x43;
+  MessageFramer g;
+  g.append(bad);
+  EXPECT_FALSE(g.next());
+  bad = bytes;
+  bad[14] = 42;  // unknown type
+  MessageFramer k;
+  k.append(bad);
+  EXPECT_FALSE(k.next());
+}
+
+class QiSession : public ::testing::Test {
+ protected:
+  ClientOptions options() {
+    ClientOptions o;
+    o.port = server_.port();
+    o.lookup_timeout_ms = 2000;
+    return o;
+  }
+  test::QiTestServer server_;
+  QiClient client_;
+};
+
+TEST_F(QiSession, AuthenticatesLooksUpAndCallsWithArguments) {
+  ASSERT_TRUE(client_.connect(options()));
+  EXPECT_EQ(server_.authentications(), 1);
+
+  auto info = client_.serviceInfo("ALMotion");
+  ASSERT_TRUE(info) << info.error().message;
+  EXPECT_EQ(info->service_id, 11u);
+  EXPECT_EQ(info->endpoints.at(0), "tcp://127.0.0.1:" + std::to_string(server_.port()));
+  auto meta = client_.metaObject(11, kMainObject);
+  ASSERT_TRUE(meta) << meta.error().message;
+  const MetaMethod* set = meta->resolve(
+      "setAngles", {Value::strings({"HeadYaw"}), Value::reals({0.5}), Value::real(0.2)});
+  ASSERT_NE(set, nullptr);
+  EXPECT_EQ(set->uid, 100u);
+  EXPECT_EQ(set->parameters_signature, "(mmf)");
+  // Overloads are told apart by their arguments.
+  EXPECT_EQ(meta->resolve("moveToward", {Value::real(1), Value::real(0), Value::real(0)})->uid,
+            101u);
+
+  auto ok = client_.callSync(
+      "ALMotion", "setAngles",
+      {Value::strings({"HeadYaw", "HeadPitch"}), Value::reals({0.5, -0.25}), Value::real(0.2)},
+      2000);
+  ASSERT_TRUE(ok) << ok.error().message;
+  auto reached = client_.callSync("ALRobotPosture", "goToPosture",
+                                  {Value::string("Stand"), Value::real(0.5)}, 2000);
+  ASSERT_TRUE(reached);
+  EXPECT_TRUE(reached->asBool());
+  auto posture = client_.callSync("ALRobotPosture", "getPosture", {}, 2000);
+  ASSERT_TRUE(posture);
+  EXPECT_EQ(posture->asString(), "Stand");
+  auto angles = client_.callSync(
+      "ALMotion", "getAngles", {Value::strings({"HeadYaw", "LHand"}), Value::boolean(true)}, 2000);
+  ASSERT_TRUE(angles);
+  ASSERT_EQ(angles->items().size(), 2u);
+  EXPECT_FLOAT_EQ(static_cast<float>(angles->items()[1].asDouble()), 0.25f);
+
+  const auto calls = server_.calls();
+  ASSERT_EQ(calls.size(), 4u);
+  EXPECT_EQ(calls[0].service, "ALMotion");
+  EXPECT_EQ(calls[0].method, "setAngles");
+  EXPECT_EQ(calls[0].args.items()[0], Value::strings({"HeadYaw", "HeadPitch"}));
+  EXPECT_FLOAT_EQ(static_cast<float>(calls[0].args.items()[1].items()[1].asDouble()), -0.25f);
+  EXPECT_FLOAT_EQ(static_cast<float>(calls[0].args.items()[2].asDouble()), 0.2f);
+  EXPECT_EQ(calls[1].method, "goToPosture");
+  EXPECT_EQ(calls[1].args.items()[0].asString(), "Stand");
+}
+
+TEST_F(QiSession, ErrorRepliesAndUnknownNamesAreErrors) {
+  ASSERT_TRUE(client_.connect(options()));
+  auto said = client_.callSync("ALTextToSpeech", "say", {Value::string("fail")}, 2000);
+  ASSERT_FALSE(said);
+  EXPECT_EQ(said.error().code, Errc::remote);
+  EXPECT_EQ(said.error().message, "ALTextToSpeech::say: speech engine failure");
+  auto missing = client_.callSync("ALNoSuchService", "x", {}, 2000);
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().code, Errc::not_found);
+  EXPECT_NE(missing.error().message.find("Cannot find service"), std::string::npos);
+  auto wrong = client_.callSync("ALTextToSpeech", "say", {Value::integer(3)}, 2000);
+  ASSERT_FALSE(wrong);
+  EXPECT_EQ(wrong.error().code, Errc::not_found);
+  // The connection survives all three.
+  EXPECT_TRUE(client_.callSync("ALTextToSpeech", "say", {Value::string("hi")}, 2000));
+}
+
+TEST_F(QiSession, DynamicPayloadRepliesAreDecoded) {
+  ASSERT_TRUE(client_.connect(options()));
+  ASSERT_TRUE(client_.resolve("ALMemory"));
+  server_.setDynamicReplies(true);
+  auto v = client_.callSync("ALMemory", "getListData", {Value::strings({"a", "b"})}, 2000);
+  ASSERT_TRUE(v) << v.error().message;
+  ASSERT_EQ(v->items().size(), 2u);
+  EXPECT_FLOAT_EQ(static_cast<float>(v->items()[0].asDouble()), 0.75f);
+}
+
+TEST_F(QiSession, DroppedConnectionFailsPendingCallsAndLaterOnes) {
+  ASSERT_TRUE(client_.connect(options()));
+  ASSERT_TRUE(client_.resolve("ALTextToSpeech"));
+  server_.setAccepting(false);
+  server_.dropConnection();
+  std::optional<Result<Value>> answer;
+  // The call may be written before the server notices; either way it must end with an error.
+  auto sent = client_.call("ALTextToSpeech", "say", {Value::string("hello")}, 2000,
+                           [&](Result<Value> v) { answer.emplace(std::move(v)); });
+  for (int i = 0; i < 100 && client_.connected(); ++i) (void)client_.pump(20);
+  EXPECT_FALSE(client_.connected());
+  if (sent) {
+    ASSERT_TRUE(answer);
+    ASSERT_FALSE(*answer);
+    EXPECT_EQ(answer->error().code, Errc::closed);
+  }
+  auto later = client_.callSync("ALTextToSpeech", "say", {Value::string("x")}, 500);
+  ASSERT_FALSE(later);
+  EXPECT_EQ(later.error().code, Errc::closed);
+  // Reconnecting is refused while the robot is away, then works again.
+  EXPECT_FALSE(client_.connect(options()));
+  server_.setAccepting(true);
+  ASSERT_TRUE(client_.connect(options()));
+  EXPECT_TRUE(client_.callSync("ALTextToSpeech", "say", {Value::string("back")}, 2000));
+}
+
+TEST_F(QiSession, OversizedAndMalformedRepliesCloseTheConnection) {
+  ClientOptions o = options();
+  o.max_payload = 4096;
+  ASSERT_TRUE(client_.connect(o));
+  ASSERT_TRUE(client_.resolve("ALTextToSpeech"));
+  Header h;
+  h.type = MsgType::reply;
+  h.id = 1000;
+  std::string huge = encodeMessage(h, "");
+  huge[8] = 0;
+  huge[9] = 0;
+  huge[10] = 0;
+  huge[11] = 0x10;  // announces 256 MiB
+  server_.sendRawNext(huge);
+  auto r = client_.callSync("ALTextToSpeech", "say", {Value::string("x")}, 2000);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, Errc::closed);
+  EXPECT_NE(r.error().message.find("exceeds the limit"), std::string::npos);
+  EXPECT_FALSE(client_.connected());
+
+  // A reply whose payload does not match the method's signature also closes it.
+  ASSERT_TRUE(client_.connect(o));
+  ASSERT_TRUE(client_.resolve("ALRobotPosture"));
+  server_.corruptNextReply();
+  r = client_.callSync("ALRobotPosture", "getPosture", {}, 2000);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, Errc::protocol);
+  EXPECT_NE(r.error().message.find("QI-PROTOCOL"), std::string::npos);
+  EXPECT_FALSE(client_.connected());
+
+  ASSERT_TRUE(client_.connect(o));
+  ASSERT_TRUE(client_.resolve("ALTextToSpeech"));
+  server_.sendRawNext("GET / HTTP/1.1\r\nHost: nao.local\r\n\r\n");
+  r = client_.callSync("ALTextToSpeech", "say", {Value::string("x")}, 2000);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("bad magic"), std::string::npos);
+}
+
+TEST(QiClientConnect, ReportsARefusedConnection) {
+  std::uint16_t port = 0;
+  { port = test::QiTestServer().port(); }  // a port nobody listens on now
+  QiClient c;
+  ClientOptions o;
+  o.port = port;
+  o.connect_timeout_ms = 500;
+  auto r = c.connect(o);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, Errc::io);
+}
+
+}  // namespace
+}  // namespace nao::qi

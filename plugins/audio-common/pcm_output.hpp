@@ -1,0 +1,57 @@
+// Producing PCM media frames on an audio channel: a running sample counter (seq) and the
+// channel properties of docs/channels.md.
+#pragma once
+
+#include "pcm_input.hpp"
+
+#include <skrobot/media_frame.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace skr::audio {
+
+inline constexpr std::uint32_t kDefaultRate = 22050;
+
+// {"sample_rate":R,"channels":C,"format":"s16le"}: the database of an audio channel.
+inline std::string audioProps(std::uint32_t sample_rate, std::uint16_t channels) {
+  return R"({"sample_rate":)" + std::to_string(sample_rate) + R"(,"channels":)" +
+         std::to_string(channels) + R"(,"format":"s16le"})";
+}
+
+// Builds consecutive frames of one stream; seq counts samples (per channel) since the start.
+class PcmWriter {
+ public:
+  PcmWriter(std::uint32_t sample_rate, std::uint16_t channels) noexcept
+      : rate_(sample_rate), channels_(channels) {}
+
+  // One frame holding `count` interleaved samples; advances the counter by count / channels.
+  std::string frame(const std::int16_t* samples, std::size_t count, std::int64_t capture_ns = 0) {
+    media::FrameHeader h;
+    h.format = media::Format::pcm_s16le;
+    h.seq = next_seq_;
+    h.capture_ns = capture_ns;
+    h.channels = channels_;
+    h.sample_rate = rate_;
+    encodeS16le(samples, count, payload_);
+    next_seq_ += count / channels_;
+    return media::makeFrame(h, payload_);
+  }
+
+  [[nodiscard]] std::uint64_t nextSeq() const noexcept { return next_seq_; }
+  [[nodiscard]] std::uint32_t sampleRate() const noexcept { return rate_; }
+  [[nodiscard]] std::uint16_t channels() const noexcept { return channels_; }
+  // A new format keeps the counter running (consumers see a format change, not a gap).
+  void setFormat(std::uint32_t sample_rate, std::uint16_t channels) noexcept {
+    rate_ = sample_rate;
+    channels_ = channels;
+  }
+
+ private:
+  std::uint32_t rate_;
+  std::uint16_t channels_;
+  std::uint64_t next_seq_ = 0;
+  std::string payload_;
+};
+
+}  // namespace skr::audio

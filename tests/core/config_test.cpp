@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 namespace skr {
 namespace {
@@ -41,15 +42,23 @@ TEST(ConfigTest, DefaultConfigLoads) {
   EXPECT_EQ(r->loop.mode, TimingMode::coarse);
   EXPECT_EQ(r->loop.fast_interval_ns, 10 * kNsPerMs);
   EXPECT_EQ(r->loop.slow_interval_ns, 100 * kNsPerMs);
-  ASSERT_EQ(r->modules.size(), 1u);
-  const ModuleEntry& m = r->modules[0];
-  EXPECT_EQ(m.name, "example");
-  EXPECT_TRUE(m.enabled);
-  EXPECT_FALSE(m.own_thread);
-  EXPECT_TRUE(m.path.empty());
-  EXPECT_EQ(m.json_path, "$.modules[0]");
-  EXPECT_EQ(m.config["greeting"].asString(), "hello from the example module");
-  EXPECT_EQ(m.config["period_ms"].asInt(), 1000);
+  // The avatar demo: the browser page, vision on the browser's camera, audio, speech, a Nao.
+  std::vector<std::string> names;
+  for (const ModuleEntry& m : r->modules) names.push_back(m.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"websocket-ui", "video-source", "video-mono",
+                                             "face-detect", "motion", "qrcode", "fft-audio",
+                                             "speech", "audio-io", "vorbis", "nao-bridge",
+                                             "example"}));
+  const ModuleEntry& ui = r->modules[0];
+  EXPECT_TRUE(ui.enabled);
+  EXPECT_FALSE(ui.own_thread);
+  EXPECT_TRUE(ui.path.empty());
+  EXPECT_EQ(ui.json_path, "$.modules[0]");
+  EXPECT_EQ(ui.config["address"].asString(), "127.0.0.1");
+  EXPECT_EQ(r->modules[3].config["input"].asString(), "video-mono.mono");
+  EXPECT_FALSE(r->modules[1].enabled);  // video-source: needs a camera or a file
+  EXPECT_FALSE(r->modules.back().enabled);
+  EXPECT_EQ(r->modules.back().config["period_ms"].asInt(), 1000);
   EXPECT_TRUE(r->config_file.is_absolute());
   EXPECT_EQ(r->config_file.filename(), "default.json");
 }

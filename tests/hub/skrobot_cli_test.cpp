@@ -89,7 +89,7 @@ TEST(SkrobotCli, VersionAndHelp) {
 TEST(SkrobotCli, DefaultConfigChecksOut) {
   auto r = run({"--config", kDefaultConfig, "--check-config"});
   EXPECT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("example"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("websocket-ui"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("is valid"), std::string::npos) << r.output;
 }
 

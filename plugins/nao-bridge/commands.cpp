@@ -195,7 +195,13 @@ Parsed parseCommand(const std::string& json, const std::string& default_cmd) {
   std::unique_ptr<Json::CharReader> reader(b.newCharReader());
   Json::Value o;
   std::string errors;
-  if (!reader->parse(json.data(), json.data() + json.size(), &o, &errors)) {
+  bool parsed = false;
+  try {
+    parsed = reader->parse(json.data(), json.data() + json.size(), &o, &errors);
+  } catch (const std::exception& e) {  // jsoncpp throws past its nesting limit
+    errors = e.what();
+  }
+  if (!parsed) {
     return {Stop{}, CommandResult::failure(CommandError::bad_request, "not JSON: " + errors)};
   }
   if (o.isNull() && !default_cmd.empty()) o = Json::Value(Json::objectValue);

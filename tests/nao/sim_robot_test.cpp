@@ -41,6 +41,8 @@ TEST(Commands, RefusesWhatANaoCannotDo) {
   EXPECT_EQ(refusal("{\"cmd\":\"dance\"}"), CommandError::unknown_command);
   EXPECT_EQ(refusal("not json"), CommandError::bad_request);
   EXPECT_EQ(refusal("[1]"), CommandError::bad_request);
+  EXPECT_EQ(refusal(std::string(5000, '[')),
+            CommandError::bad_request);  // past jsoncpp's depth limit
   EXPECT_EQ(refusal("{}"), CommandError::bad_request);
   EXPECT_EQ(refusal(R"({"cmd":"head","yaw":2.2})"), CommandError::out_of_range);
   EXPECT_EQ(refusal(R"({"cmd":"head","pitch":0.6})"), CommandError::out_of_range);

@@ -31,7 +31,10 @@ void FrameReader::open() {
     if (p_.file.find('%') == std::string::npos && !std::filesystem::exists(p_.file)) {
       throw std::runtime_error("no such file '" + p_.file + "'");
     }
-    opened = capture_.open(p_.file, cv::CAP_ANY);
+    // FFmpeg for video files, OpenCV's image-sequence reader for patterns such as img_%03d.jpg.
+    // Not CAP_ANY: it also probes camera back ends (FireWire through libusb) for a file.
+    opened = capture_.open(p_.file, cv::CAP_FFMPEG) ||
+             (p_.file.find('%') != std::string::npos && capture_.open(p_.file, cv::CAP_IMAGES));
   } else if (allDigits(p_.device)) {
     opened = capture_.open(std::stoi(p_.device), cv::CAP_V4L2);
   } else {

@@ -99,6 +99,8 @@ test('face-detect finds the face, the page draws its box, the eyes turn toward i
     return st.gaze.source === 'face' && st.eyes.yaw > 0.1 ? st : null;
   }, 30000);
   assert.ok(s.gaze.x < -0.3, `gaze ${JSON.stringify(s.gaze)}`);
+  // A face after none: the avatar smiles.
+  assert.ok(s.expressions.includes('happy'), `expressions ${s.expressions}`);
   assert.equal(await hub.dbGet('websocket-ui', 'gaze_source'), 'face');
 });
 
@@ -117,6 +119,7 @@ test('a say request plays speech in the page and moves the mouth', async () => {
     return st.speaking && st.maxMouthOpen > 0.3 ? st : null;
   }, 20000);
   assert.ok(speaking.audioState === 'running');
+  assert.equal(await page.textContent('#caption'), 'Hello! I can see you. Nice to meet you.');
   await page.screenshot({ path: path.join(out, 'avatar-speaking.png') });
   // Back at rest once the utterance has played.
   await waitFor('mouth at rest', async () => {

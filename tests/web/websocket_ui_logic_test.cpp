@@ -125,6 +125,32 @@ TEST(AvatarBehaviour, BlinksAtRandomIntervalsWithinBoundsClosingFasterThanOpenin
   EXPECT_NEAR(sum / static_cast<double>(starts.size() - 1), 2225, 200);
 }
 
+TEST(AvatarBehaviour, SmilesAtANewFaceAndIsSurprisedByACode) {
+  AvatarBehaviour a(AvatarOptions{}, 1);
+  EXPECT_FALSE(a.expressionDue());
+  a.onFaces({{10, 10, 50, 50}}, 640, 360, 1000);
+  auto e = a.expressionDue();
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->name, "happy");
+  EXPECT_FALSE(a.expressionDue());  // once
+  // The same person in view: no new greeting.
+  for (std::int64_t t = 1066; t < 5000; t += 66) a.onFaces({{10, 10, 50, 50}}, 640, 360, t);
+  EXPECT_FALSE(a.expressionDue());
+  // Back after more than greet_after_ms without a face.
+  a.onFaces({}, 640, 360, 6000);
+  EXPECT_FALSE(a.expressionDue());
+  a.onFaces({{10, 10, 50, 50}}, 640, 360, 9000);
+  e = a.expressionDue();
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->name, "happy");
+  a.onCodes(false, 9100);
+  EXPECT_FALSE(a.expressionDue());
+  a.onCodes(true, 9200);
+  e = a.expressionDue();
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->name, "surprised");
+}
+
 TEST(Visemes, TimelineFollowsPhonemesAndEndsAtRest) {
   // espeak-ng's phonemes of "hello" with stress marks and a pause.
   auto tl =

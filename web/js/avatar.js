@@ -11,6 +11,7 @@ export class Avatar {
     this.state = {
       gaze: { x: 0, y: 0, source: 'idle' }, eyes: { yaw: 0, pitch: 0 }, eyelid: 0, blinks: 0,
       mouth: { open: 0, wide: 0, round: 0 }, maxMouthOpen: 0, speaking: false, expression: 'neutral',
+      expressions: [],
     };
     this.blink = null; // { start, close, hold, open } in ms
     this.expression = { name: 'neutral', weight: 0, until: 0 };
@@ -47,6 +48,7 @@ export class Avatar {
         break;
       case 'expression':
         this.expression = { name: msg.name, weight: msg.weight ?? 1, until: now + (msg.duration_ms ?? 2000) };
+        this.state.expressions.push(msg.name);
         break;
       default:
     }
@@ -100,6 +102,8 @@ export class Avatar {
       i[0] = s.mouth.open; i[1] = s.mouth.wide; i[2] = s.mouth.round;
     }
     const happy = this.expression.name === 'happy' ? this.expression.weight : 0;
+    // A smile widens the mouth a little unless speech shapes it.
+    if (!s.speaking) f[1] = Math.max(f[1], 0.6 * happy);
     const surprised = this.expression.name === 'surprised' ? this.expression.weight : 0;
     parts.brows.forEach((b, i) => {
       b.position.y = 0.36 + 0.05 * surprised + 0.02 * happy;

@@ -79,7 +79,10 @@ let statusAt = 0;
 function frame(now) {
   const dt = Math.min(0.1, (now - last) / 1000);
   last = now;
-  avatar.update(now, dt, voice.mouth());
+  const mouth = voice.mouth();
+  avatar.update(now, dt, mouth);
+  const caption = mouth.speaking ? mouth.text : '';
+  if ($('caption').textContent !== caption) $('caption').textContent = caption;
   overlay.draw();
   if (now - statusAt > 500) {
     statusAt = now;

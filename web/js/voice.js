@@ -19,7 +19,7 @@ export class Voice {
   onSpeech(msg) {
     this.utterances.set(msg.utterance, {
       id: msg.utterance, startSeq: msg.start_seq, rate: msg.sample_rate, visemes: msg.visemes,
-      durationMs: msg.duration_ms, startTime: null,
+      durationMs: msg.duration_ms, startTime: null, text: msg.text || '',
     });
   }
 
@@ -68,7 +68,7 @@ export class Voice {
       if (v.t_ms > ms) break;
       shape = v;
     }
-    if (!shape) return { ...rest, speaking: true };
-    return { open: shape.open, wide: shape.wide, round: shape.round, speaking: true, viseme: shape.v };
+    if (!shape) return { ...rest, speaking: true, text: u.text };
+    return { open: shape.open, wide: shape.wide, round: shape.round, speaking: true, viseme: shape.v, text: u.text };
   }
 }

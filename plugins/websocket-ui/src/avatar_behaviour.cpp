@@ -23,6 +23,10 @@ void AvatarBehaviour::onFaces(const std::vector<Box>& faces, double width, doubl
     if (largest == nullptr || b.w * b.h > largest->w * largest->h) largest = &b;
   }
   if (largest == nullptr) return;  // no face now: the last one holds for face_hold_ms
+  if (!seen_face_ || now_ms - face_at_ > opt_.greet_after_ms) {
+    expression_ = ExpressionCommand{"happy", 1.0, 2500};  // someone (new) to greet
+  }
+  seen_face_ = true;
   face_ = std::make_pair(norm(largest->x + largest->w / 2, width),
                          norm(largest->y + largest->h / 2, height));
   face_at_ = now_ms;
@@ -53,6 +57,16 @@ std::optional<GazeCommand> AvatarBehaviour::gazeDue(std::int64_t now_ms) {
   sent_ = t;
   sent_at_ = now_ms;
   return t;
+}
+
+void AvatarBehaviour::onCodes(bool any, std::int64_t /*now_ms*/) {
+  if (any) expression_ = ExpressionCommand{"surprised", 1.0, 1800};
+}
+
+std::optional<ExpressionCommand> AvatarBehaviour::expressionDue() {
+  auto e = std::move(expression_);
+  expression_.reset();
+  return e;
 }
 
 std::int64_t AvatarBehaviour::blinkInterval() {

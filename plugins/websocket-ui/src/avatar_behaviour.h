@@ -24,6 +24,7 @@ struct AvatarOptions {
   std::int64_t blink_open_ms = 160;  // ... and open slower
   double gaze_min_change = 0.03;     // smaller moves are not sent
   std::int64_t gaze_min_interval_ms = 66;
+  std::int64_t greet_after_ms = 3000;  // a face after this long without one makes it smile
 };
 
 struct Box {
@@ -37,6 +38,11 @@ struct GazeCommand {
 struct BlinkCommand {
   std::int64_t close_ms, hold_ms, open_ms;
 };
+struct ExpressionCommand {
+  std::string name;  // "happy", "surprised"
+  double weight;
+  std::int64_t duration_ms;
+};
 
 class AvatarBehaviour {
  public:
@@ -48,9 +54,13 @@ class AvatarBehaviour {
   void onMotion(double amount, std::optional<std::pair<double, double>> centre, double width,
                 double height, std::int64_t now_ms);
 
+  // A QR code or barcode was announced (a new set of codes).
+  void onCodes(bool any, std::int64_t now_ms);
+
   // Commands due at now_ms (call it often, e.g. every fast tick).
   std::optional<GazeCommand> gazeDue(std::int64_t now_ms);
   std::optional<BlinkCommand> blinkDue(std::int64_t now_ms);
+  std::optional<ExpressionCommand> expressionDue();
 
   [[nodiscard]] std::int64_t nextBlinkAt() const noexcept { return next_blink_ms_; }
   [[nodiscard]] const GazeCommand& lastGaze() const noexcept { return sent_; }
@@ -63,6 +73,8 @@ class AvatarBehaviour {
   std::mt19937_64 rng_;
   std::optional<std::pair<double, double>> face_;  // normalised centre of the largest face
   std::int64_t face_at_ = 0;
+  bool seen_face_ = false;
+  std::optional<ExpressionCommand> expression_;
   std::optional<std::pair<double, double>> motion_;
   std::int64_t motion_at_ = 0;
   GazeCommand sent_{0, 0, "idle"};

@@ -85,7 +85,7 @@ class WebsocketUi final : public skr::plugin::Module {
     requester_.emplace(host_);
     subscribe(faces_, [this](std::string_view p) { onFaces(p); });
     subscribe(motion_, [this](std::string_view p) { onMotion(p); });
-    subscribe(codes_, [this](std::string_view p) { forward("codes", p); });
+    subscribe(codes_, [this](std::string_view p) { onCodes(p); });
     subscribe(bands_, [this](std::string_view p) { forward("bands", p); });
     subscribe(phonemes_, [this](std::string_view p) { onPhonemes(p); });
     subscribe(voice_, [this](std::string_view p) {
@@ -258,6 +258,13 @@ class WebsocketUi final : public skr::plugin::Module {
     sendWrapped("motion", v);
   }
 
+  void onCodes(std::string_view payload) {
+    Json::Value v;
+    if (!parseJson(payload, v)) return;
+    avatar_.onCodes(v["codes"].isArray() && !v["codes"].empty(), nowMs());
+    sendWrapped("codes", v);
+  }
+
   void forward(const char* type, std::string_view payload) {
     Json::Value v;
     if (parseJson(payload, v)) sendWrapped(type, v);
@@ -332,6 +339,14 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["x"] = g->x;
       msg["y"] = g->y;
       msg["source"] = g->source;
+      server_.send(0, false, compact(msg));
+    }
+    if (auto e = avatar_.expressionDue()) {
+      Json::Value msg(Json::objectValue);
+      msg["type"] = "expression";
+      msg["name"] = e->name;
+      msg["weight"] = e->weight;
+      msg["duration_ms"] = static_cast<Json::Int64>(e->duration_ms);
       server_.send(0, false, compact(msg));
     }
     if (auto b = avatar_.blinkDue(now)) {

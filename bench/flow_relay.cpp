@@ -85,7 +85,7 @@ struct Options {
   bool tcp_rows = true;
   size_t queue_bytes = 8 * kMiB;  // ServerOptions::subscriber_queue_bytes
   std::string only;               // empty, "round-trip", "1:1" or "fan-out"
-  long busy_poll_us = 0;          // the hub loop's busy_poll_us (0: the default, off)
+  long busy_poll_us = 50;         // the hub loop's busy_poll_us (50: the config default)
 };
 
 void usage() {

@@ -55,7 +55,7 @@ s::Schema loopSchema(bool with_defaults) {
       s::optional("fast_tick_ms", s::number().range(0.1, 1000), d(10)),
       s::optional("slow_tick_ms", s::number(), d(100)),  // >= fast_tick_ms, see readLoop()
       s::optional("load_warning_ratio", s::number().range(0.05, 1), d(0.8)),
-      s::optional("busy_poll_us", s::integer().range(0, 100000), d(0)),
+      s::optional("busy_poll_us", s::integer().range(0, 100000), d(50)),
   });
 }
 

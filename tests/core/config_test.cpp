@@ -42,6 +42,7 @@ TEST(ConfigTest, DefaultConfigLoads) {
   EXPECT_EQ(r->loop.mode, TimingMode::coarse);
   EXPECT_EQ(r->loop.fast_interval_ns, 10 * kNsPerMs);
   EXPECT_EQ(r->loop.slow_interval_ns, 100 * kNsPerMs);
+  EXPECT_EQ(r->loop.busy_poll_ns, Nanos{50000});
   // The avatar demo: the browser page, vision on the browser's camera, audio, speech, a Nao.
   std::vector<std::string> names;
   for (const ModuleEntry& m : r->modules) names.push_back(m.name);
@@ -89,6 +90,7 @@ TEST(ConfigTest, DefaultsFillIn) {
   EXPECT_EQ(r->loop.mode, TimingMode::coarse);
   EXPECT_EQ(r->loop.fast_interval_ns, 10 * kNsPerMs);
   EXPECT_EQ(r->loop.slow_interval_ns, 100 * kNsPerMs);
+  EXPECT_EQ(r->loop.busy_poll_ns, Nanos{50000});
   EXPECT_DOUBLE_EQ(r->loop.load_warning_ratio, 0.8);
   EXPECT_TRUE(r->module_paths.empty());
   ASSERT_EQ(r->modules.size(), 1u);

@@ -2,6 +2,7 @@
 // driven clock, and the viseme timeline.
 #include "avatar_behaviour.h"
 #include "browser_protocol.h"
+#include "source_owner.h"
 #include "visemes.h"
 
 #include <gtest/gtest.h>
@@ -149,6 +150,21 @@ TEST(AvatarBehaviour, SmilesAtANewFaceAndIsSurprisedByACode) {
   e = a.expressionDue();
   ASSERT_TRUE(e);
   EXPECT_EQ(e->name, "surprised");
+}
+
+TEST(SourceOwner, OneBrowserFeedsTheChannelUntilItGoesQuietOrLeaves) {
+  SourceOwner s(1000);
+  EXPECT_TRUE(s.accept(1, 0));
+  EXPECT_FALSE(s.accept(2, 500));  // browser 1 is still sending
+  EXPECT_TRUE(s.accept(1, 900));
+  EXPECT_FALSE(s.accept(2, 1800));
+  EXPECT_TRUE(s.accept(2, 1901));  // browser 1 silent for more than a second: handed over
+  EXPECT_FALSE(s.accept(1, 1950));
+  s.leave(2);
+  EXPECT_TRUE(s.accept(1, 1960));  // the owner left: at once
+  EXPECT_EQ(s.owner(), 1u);
+  EXPECT_EQ(s.ignored(), 3u);
+  EXPECT_EQ(s.takeovers(), 3u);
 }
 
 TEST(Visemes, TimelineFollowsPhonemesAndEndsAtRest) {

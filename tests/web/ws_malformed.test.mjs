@@ -52,7 +52,7 @@ before(async () => {
   root = mkdtempSync(path.join(os.tmpdir(), 'skrobot-webroot-'));
   writeFileSync(path.join(root, 'index.html'), readFileSync(path.join(env.source, 'web/index.html')));
   for (const ext of ['js', 'mjs', 'css', 'json', 'glb', 'wasm']) writeFileSync(path.join(root, `a.${ext}`), 'x');
-  hub = await startHub([{ name: 'websocket-ui', config: { port, web_root: root, max_message_bytes: MAX } }]);
+  hub = await startHub([{ name: 'websocket-ui', config: { port, web_root: root, max_message_bytes: MAX, handover_ms: 30000 } }]);
 });
 after(async () => { if (hub) await hub.stop(); });
 
@@ -109,6 +109,12 @@ test('bad messages close only their own connection', async () => {
   const before = good.messages.length;
   for (let i = 0; i < 5; i++) good.ws.send(jpegFrame(i));
   await waitFor('camera_frames', async () => (await hub.dbGet('websocket-ui', 'camera_frames')) >= 5, 15000);
+  // A second page's camera waits while the first one is sending: no interleaved cameras.
+  const second = await open();
+  for (let i = 0; i < 3; i++) second.ws.send(jpegFrame(i));
+  for (let i = 5; i < 8; i++) good.ws.send(jpegFrame(i));
+  await waitFor('camera_ignored', async () => (await hub.dbGet('websocket-ui', 'camera_ignored')) === 3, 15000);
+  await waitFor('camera_frames', async () => (await hub.dbGet('websocket-ui', 'camera_frames')) === 8, 15000);
   await waitFor('more commands', () => good.messages.length > before, 10000);
   assert.equal(good.ws.readyState, WebSocket.OPEN);
   const refused = await waitFor('refused count', async () => {
@@ -120,5 +126,12 @@ test('bad messages close only their own connection', async () => {
   assert.ok(hub.alive());
   assert.match(hub.log, /WSUI-REFUSED browser \d+: message over 65536 bytes/);
   assert.match(hub.log, /WSUI-REFUSED connection: WebSocket on path '\/other'/);
+  // When the first page leaves, the second one's camera takes over at once.
   good.ws.close();
+  await good.closed;
+  await waitFor('browser gone', async () => (await hub.dbGet('websocket-ui', 'browsers')) === 1, 15000);
+  for (let i = 0; i < 2; i++) second.ws.send(jpegFrame(10 + i));
+  await waitFor('second camera', async () => (await hub.dbGet('websocket-ui', 'camera_frames')) === 10, 15000);
+  assert.equal(await hub.dbGet('websocket-ui', 'camera_ignored'), 3);
+  second.ws.close();
 });

@@ -6,6 +6,7 @@
 #include "avatar_behaviour.h"
 #include "browser_protocol.h"
 #include "json_text.h"
+#include "source_owner.h"
 #include "visemes.h"
 #include "ws_server.h"
 
@@ -38,7 +39,11 @@ struct Counters {
 
 class WebsocketUi final : public skr::plugin::Module {
  public:
-  explicit WebsocketUi(skr::plugin::Host& host) : host_(host), avatar_(readAvatar(host)) {
+  explicit WebsocketUi(skr::plugin::Host& host)
+      : host_(host),
+        avatar_(readAvatar(host)),
+        camera_owner_(host.configInt("handover_ms", 1000)),
+        mic_owner_(host.configInt("handover_ms", 1000)) {
     readServer();
     limits_.mic_sample_rate = static_cast<std::uint32_t>(host.configInt("mic_sample_rate", 22050));
     camera_width_ = static_cast<int>(host.configInt("camera_width", 640));
@@ -109,6 +114,8 @@ class WebsocketUi final : public skr::plugin::Module {
       host_.post([this, conn, why] {
         --browsers_;
         mic_expected_.erase(conn);
+        camera_owner_.leave(conn);
+        mic_owner_.leave(conn);
         host_.log.info("WSUI-BROWSER", "browser ", conn, " left: ", why);
       });
     };
@@ -207,13 +214,14 @@ class WebsocketUi final : public skr::plugin::Module {
     const skr::media::FrameHeader h =
         camera ? std::get<CameraFrame>(in).header : std::get<MicFrame>(in).header;
     host_.post([this, conn, camera, h, msg = std::move(data)]() mutable {
-      camera ? publishCamera(h, msg) : publishMic(conn, h, msg);
+      camera ? publishCamera(conn, h, msg) : publishMic(conn, h, msg);
     });
     return std::nullopt;
   }
 
   // The channel's own frame numbers: browsers come and go, the channel's sequence goes on.
-  void publishCamera(skr::media::FrameHeader h, std::string& msg) {
+  void publishCamera(std::uint64_t conn, skr::media::FrameHeader h, std::string& msg) {
+    if (!camera_owner_.accept(conn, nowMs())) return;
     h.seq = camera_seq_++;
     skr::media::writeHeader(h, msg.data());
     camera_.publish(msg);
@@ -222,6 +230,7 @@ class WebsocketUi final : public skr::plugin::Module {
 
   // Sample counter of the channel; a gap in a browser's own counter becomes a gap here too.
   void publishMic(std::uint64_t conn, skr::media::FrameHeader h, std::string& msg) {
+    if (!mic_owner_.accept(conn, nowMs())) return;
     const std::uint64_t samples = (msg.size() - skr::media::kHeaderBytes) / 2;
     auto it = mic_expected_.find(conn);
     if (it != mic_expected_.end() && h.seq > it->second) {
@@ -371,6 +380,8 @@ class WebsocketUi final : public skr::plugin::Module {
     dbSet(host_, db, "camera_frames", std::to_string(counters_.camera_frames));
     dbSet(host_, db, "mic_frames", std::to_string(counters_.mic_frames));
     dbSet(host_, db, "mic_gaps", std::to_string(counters_.mic_gaps));
+    dbSet(host_, db, "camera_ignored", std::to_string(camera_owner_.ignored()));
+    dbSet(host_, db, "mic_ignored", std::to_string(mic_owner_.ignored()));
     dbSet(host_, db, "say_requests", std::to_string(counters_.say_requests));
     dbSet(host_, db, "gaze_source", quote(avatar_.lastGaze().source));
     dbSet(host_, db, "port", std::to_string(server_.port()));
@@ -386,6 +397,7 @@ class WebsocketUi final : public skr::plugin::Module {
   std::string faces_, motion_, codes_, bands_, speech_, voice_, phonemes_;
 
   AvatarBehaviour avatar_;
+  SourceOwner camera_owner_, mic_owner_;  // loop thread
   WsServer server_;
   skr::plugin::StreamChannel camera_, mic_;
   skr::plugin::ServiceChannel say_;

@@ -26,6 +26,8 @@
 #include <skrobot/flow/codec.h>
 #include <skrobot/flow/server.h>
 
+#include "temp_dir.h"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -379,27 +381,6 @@ M decodeOrFail(const FrameView& f) {
 
 // --- the hub -------------------------------------------------------------------------------
 
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (std::filesystem::temp_directory_path() / "skrobot-bench-XXXXXX").string();
-    if (::mkdtemp(tmpl.data()) == nullptr) fail(errnoText("mkdtemp"));
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  TempDir(TempDir&&) = delete;
-  TempDir& operator=(TempDir&&) = delete;
-  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
-
 // A FlowServer on its own loop thread, as the tests run it. TCP gets a real account.
 class Hub {
  public:
@@ -458,7 +439,7 @@ class Hub {
     if (auto r = users->save(); !r) fail("save users: " + r.error().describe());
   }
 
-  TempDir dir_;
+  skr::test::TempDir dir_{"skrobot-bench"};
   std::string unix_path_;
   uint16_t tcp_port_ = 0;
   std::unique_ptr<skr::LoopThread> thread_;

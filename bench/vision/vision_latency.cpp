@@ -15,6 +15,7 @@
 //
 // Exits 1 on a real error (a module that fails to start or answers nothing); a missed target is
 // reported, not an error.
+#include "temp_dir.h"
 #include "test_client.h"
 
 #include <skrobot/core/clock.h>
@@ -361,9 +362,8 @@ int main(int argc, char** argv) {
   const Options o = parseOptions(argc, argv);
   std::signal(SIGPIPE, SIG_IGN);
   skr::log::setLevel(skr::log::Level::error);
-  char tmpl[] = "/tmp/skrobot-bench-vision-XXXXXX";
-  if (mkdtemp(tmpl) == nullptr) return 1;
-  const fs::path tmp = tmpl;
+  const skr::test::TempDir dir("skrobot-bench-vision");
+  const fs::path& tmp = dir.path();
   int status = 0;
   try {
     const auto jpegs = makeJpegs(tmp, o.quick ? 30 : 150);
@@ -421,7 +421,5 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "vision_latency: error: %s\n", e.what());
     status = 1;
   }
-  std::error_code ec;
-  fs::remove_all(tmp, ec);
   return status;
 }

@@ -34,7 +34,6 @@ struct Counters {
   std::uint64_t mic_frames = 0;
   std::uint64_t mic_gaps = 0;
   std::uint64_t say_requests = 0;
-  std::uint64_t detections_sent = 0;
 };
 
 class WebsocketUi final : public skr::plugin::Module {
@@ -106,13 +105,11 @@ class WebsocketUi final : public skr::plugin::Module {
     events.opened = [this](std::uint64_t conn, const std::string& peer) {
       server_.send(conn, false, welcome());
       host_.post([this, conn, peer] {
-        ++browsers_;
         host_.log.info("WSUI-BROWSER", "browser ", conn, " connected from ", peer);
       });
     };
     events.closed = [this](std::uint64_t conn, const std::string& why) {
       host_.post([this, conn, why] {
-        --browsers_;
         mic_expected_.erase(conn);
         camera_owner_.leave(conn);
         mic_owner_.leave(conn);
@@ -254,7 +251,7 @@ class WebsocketUi final : public skr::plugin::Module {
           Box{f["x"].asDouble(), f["y"].asDouble(), f["w"].asDouble(), f["h"].asDouble()});
     }
     avatar_.onFaces(boxes, v["width"].asDouble(), v["height"].asDouble(), nowMs());
-    sendWrapped("faces", v);
+    sendWrapped("faces", payload);
   }
 
   void onMotion(std::string_view payload) {
@@ -264,28 +261,29 @@ class WebsocketUi final : public skr::plugin::Module {
     if (v["center"].isObject()) centre = {v["center"]["x"].asDouble(), v["center"]["y"].asDouble()};
     avatar_.onMotion(v["amount"].asDouble(), centre, v["width"].asDouble(), v["height"].asDouble(),
                      nowMs());
-    sendWrapped("motion", v);
+    sendWrapped("motion", payload);
   }
 
   void onCodes(std::string_view payload) {
     Json::Value v;
     if (!parseJson(payload, v)) return;
     avatar_.onCodes(v["codes"].isArray() && !v["codes"].empty(), nowMs());
-    sendWrapped("codes", v);
+    sendWrapped("codes", payload);
   }
 
   void forward(const char* type, std::string_view payload) {
     Json::Value v;
-    if (parseJson(payload, v)) sendWrapped(type, v);
+    if (parseJson(payload, v)) sendWrapped(type, payload);
   }
 
-  void sendWrapped(const char* type, const Json::Value& data) {
-    if (browsers_ <= 0) return;
-    Json::Value msg(Json::objectValue);
-    msg["type"] = type;
-    msg["data"] = data;
-    server_.send(0, false, compact(msg));
-    ++counters_.detections_sent;
+  // A channel's JSON message (parsed already, so valid) to the browsers as {"type", "data"},
+  // without writing it out again.
+  void sendWrapped(const char* type, std::string_view json) {
+    if (server_.stats().connections == 0) return;
+    std::string msg;
+    msg.reserve(json.size() + 32);
+    msg.append(R"({"type":")").append(type).append(R"(","data":)").append(json).append("}");
+    server_.send(0, false, std::move(msg));
   }
 
   // The phoneme timeline of an utterance becomes a viseme timeline, sent before its audio.
@@ -406,7 +404,6 @@ class WebsocketUi final : public skr::plugin::Module {
   skr::plugin::TickHandle fast_, second_;
 
   // Loop thread only.
-  int browsers_ = 0;
   std::uint64_t camera_seq_ = 0;
   std::uint64_t mic_seq_ = 0;
   std::map<std::uint64_t, std::uint64_t> mic_expected_;  // browser -> its next sample index

@@ -1,4 +1,6 @@
 // flowctl ls, call and db: requests on the synchronous connection.
+#include <skrobot/flow/name_pattern.h>
+
 #include <algorithm>
 
 #include "cli.h"
@@ -36,9 +38,9 @@ std::optional<Variant> jsonArg(const std::string& text, const char* what) {
 int cmdLs(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
-  if (!args.error().empty() || rest.size() > 1) {
-    return fail(kUsage, args.error().empty() ? "ls takes at most one FILTER" : args.error());
-  }
+  if (!args.error().empty()) return fail(kUsage, args.error());
+  auto filter = skr::flow::NameFilter::parse(rest.empty() ? std::vector<std::string>{"**"} : rest);
+  if (!filter) return fail(kUsage, filter.error().message);
   int code = kOk;
   auto sync = connectSync(cli, code);
   if (!sync) return code;
@@ -46,7 +48,7 @@ int cmdLs(const Cli& cli) {
   if (!list) return fail(exitFor(list.error()), list.error().message);
   std::vector<skr::sat::ChannelInfo> shown;
   for (auto& c : *list) {
-    if (rest.empty() || c.name.find(rest[0]) != std::string::npos) shown.push_back(std::move(c));
+    if (filter->selects(c.name)) shown.push_back(std::move(c));
   }
   if (cli.json) {
     Variant::List out;

@@ -38,8 +38,13 @@ Accounts are managed on the hub's machine with `skrobot user add|del|passwd|list
 
 std::string_view commandHelp(std::string_view command) {
   if (command == "ls") {
-    return R"(usage: flowctl ls [FILTER]
-  Lists the channels whose name contains FILTER (all without it).
+    return R"(usage: flowctl ls [PATTERN...]
+  Lists the channels whose names match a PATTERN (all without one). In a pattern '*' is any run
+  within one part of the name (parts are separated by '.'), '**' any run across parts, '?' one
+  character; a PATTERN starting with '!' excludes what it matches. Examples:
+    flowctl ls 'guest.*'            guest's channels
+    flowctl ls '*.faces'            every user's "faces" channel
+    flowctl ls '**' '!**.debug'     everything but debug channels
 )";
   }
   if (command == "echo") {

@@ -96,7 +96,7 @@ TEST_F(Flowctl, ListsChannels) {
                            "{\"unit\":\"ticks\"}", "SUBS"}) {
     EXPECT_TRUE(has(ls, text)) << text << "\n" << ls.out;
   }
-  auto json = flowctl({"--json", "ls", "counter"});
+  auto json = flowctl({"--json", "ls", "*.counter"});
   ASSERT_EQ(json.code, 0);
   auto v = flow::variantFromJsonText(json.out.substr(0, json.out.find('\n')));
   ASSERT_TRUE(v) << json.out;
@@ -106,6 +106,15 @@ TEST_F(Flowctl, ListsChannels) {
   EXPECT_EQ(*c.find("kind"), Variant("streaming"));
   EXPECT_EQ(*c.find("owner"), Variant("guest"));
   EXPECT_EQ(*c.find("props")->find("unit"), Variant("ticks"));
+
+  // Patterns (docs/flow-protocol.md): '**' with an exclusion, and a bad pattern is a usage error.
+  auto some = flowctl({"ls", "guest.**", "!*.adder"});
+  EXPECT_TRUE(has(some, "guest.counter")) << some.out;
+  EXPECT_FALSE(has(some, "guest.adder")) << some.out;
+  EXPECT_TRUE(has(flowctl({"ls", "nobody.*"}), "no channels"));
+  auto bad = flowctl({"ls", "guest.***"});
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_TRUE(has(bad, "pattern 1 'guest.***'")) << bad.out;
 }
 
 TEST_F(Flowctl, EchoWhatPubPublishes) {

@@ -1,0 +1,46 @@
+// The binary layout of the seam: a module built against an older header must find every host
+// function where it was. Slots are spent from `reserved` without moving what follows
+// (docs/plugins.md, "Plan for the ABI changes"). A change that fails here breaks modules built
+// before it: spend a reserved slot instead, or raise the major version.
+#include <skrobot/plugin.h>
+
+#include <gtest/gtest.h>
+
+#include <cstddef>
+
+namespace {
+
+constexpr size_t kHeader = 8;  // struct_size, abi_major, abi_minor
+constexpr size_t kPtr = sizeof(void (*)(void));
+// 1.0 and 1.1 named functions, then the reserved slots: 49 function pointers in all.
+constexpr size_t kFunctionSlots = 49;
+
+TEST(PluginAbi, HostTableKeepsItsSizeWhileReservedSlotsLast) {
+  EXPECT_EQ(sizeof(skr_host_api), kHeader + kFunctionSlots * kPtr);
+  const size_t named = offsetof(skr_host_api, reserved) - kHeader;
+  const size_t reserved = sizeof(skr_host_api::reserved) / kPtr;
+  EXPECT_EQ(named / kPtr + reserved, kFunctionSlots);
+}
+
+TEST(PluginAbi, FunctionsOfReleasedMinorsStayWhereTheyWere) {
+  // 1.0
+  EXPECT_EQ(offsetof(skr_host_api, log), kHeader + 0 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, config_string), kHeader + 2 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, tick_add), kHeader + 9 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, post), kHeader + 11 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, module_name), kHeader + 16 * kPtr);
+  // 1.1: channels and databases, in the first reserved slots of 1.0.
+  EXPECT_EQ(offsetof(skr_host_api, channel_create), kHeader + 17 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, publish), kHeader + 20 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, db_set), kHeader + 26 * kPtr);
+}
+
+TEST(PluginAbi, DescriptorStartsWithItsVersionedHeader) {
+  EXPECT_EQ(offsetof(skr_module_descriptor, struct_size), 0u);
+  EXPECT_EQ(offsetof(skr_module_descriptor, abi_major), 4u);
+  EXPECT_EQ(offsetof(skr_module_descriptor, abi_minor), 6u);
+  EXPECT_EQ(offsetof(skr_module_descriptor, name), 8u);
+  EXPECT_EQ(offsetof(skr_module_descriptor, init), 8u + 3 * kPtr + 8u);  // after flags (u64)
+}
+
+}  // namespace

@@ -6,7 +6,7 @@
 // analysed while neither output has a subscriber.
 #include "bounded_queue.hpp"
 #include "input_stats.hpp"
-#include "spectrum_analyzer.hpp"
+#include "spectrum_analyser.hpp"
 
 #include <skrobot/plugin_channels.hpp>
 
@@ -20,8 +20,8 @@ namespace {
 using skr::plugin::Failure;
 using skr::plugin::Host;
 
-skr::audio::AnalyzerOptions readOptions(Host& host) {
-  skr::audio::AnalyzerOptions o;
+skr::audio::AnalyserOptions readOptions(Host& host) {
+  skr::audio::AnalyserOptions o;
   const std::int64_t size = host.configInt("size", 1024);
   if (size < 32 || size > 65536) {
     host.configError("size", "must be 32..65536 samples, got " + std::to_string(size));
@@ -60,7 +60,7 @@ class FftAudio final : public skr::plugin::Module {
   explicit FftAudio(Host& host)
       : host_(host),
         input_(host.configString("input", "websocket-ui.mic")),
-        analyzer_(std::make_unique<skr::audio::SpectrumAnalyzer>(readOptions(host))),
+        analyser_(std::make_unique<skr::audio::SpectrumAnalyser>(readOptions(host))),
         queue_(
             static_cast<std::size_t>(std::max<std::int64_t>(1, host.configInt("queue_max", 64)))) {
     if (input_.empty()) {
@@ -71,7 +71,7 @@ class FftAudio final : public skr::plugin::Module {
 
   void start() override {
     using namespace skr::plugin;
-    const auto& o = analyzer_->options();
+    const auto& o = analyser_->options();
     const std::string props = R"({"size":)" + std::to_string(o.size) + R"(,"hop":)" +
                               std::to_string(o.hop) + R"(,"input":")" + input_ + R"("})";
     spectrum_ = StreamChannel(host_, "spectrum", "application/json", props);
@@ -111,9 +111,9 @@ class FftAudio final : public skr::plugin::Module {
 
   // Worker thread: FFT, JSON, then post to the loop thread.
   void work() {
-    const std::size_t size = analyzer_->options().size;
+    const std::size_t size = analyser_->options().size;
     while (auto chunk = queue_.pop()) {
-      analyzer_->feed(*chunk, [&](const skr::audio::Analysis& a) {
+      analyser_->feed(*chunk, [&](const skr::audio::Analysis& a) {
         auto spectrum = std::make_shared<std::string>(skr::audio::spectrumJson(a, size));
         auto bands = a.bands ? std::make_shared<std::string>(skr::audio::bandsJson(a)) : nullptr;
         host_.post([this, spectrum, bands] {
@@ -133,7 +133,7 @@ class FftAudio final : public skr::plugin::Module {
 
   Host& host_;
   std::string input_;
-  std::unique_ptr<skr::audio::SpectrumAnalyzer> analyzer_;  // the worker's, once started
+  std::unique_ptr<skr::audio::SpectrumAnalyser> analyser_;  // the worker's, once started
   skr::audio::BoundedQueue<skr::audio::PcmChunk> queue_;
   skr::audio::PcmInput input_reader_;
   skr::audio::InputStats stats_;

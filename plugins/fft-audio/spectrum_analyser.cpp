@@ -1,4 +1,4 @@
-#include "spectrum_analyzer.hpp"
+#include "spectrum_analyser.hpp"
 
 #include "json_util.hpp"
 
@@ -49,7 +49,7 @@ std::optional<Window> windowFromName(const std::string& name) {
   return std::nullopt;
 }
 
-SpectrumAnalyzer::SpectrumAnalyzer(const AnalyzerOptions& options)
+SpectrumAnalyser::SpectrumAnalyser(const AnalyserOptions& options)
     : options_(options),
       plan_(options.size),
       window_(makeWindow(options.window, options.size)),
@@ -58,13 +58,13 @@ SpectrumAnalyzer::SpectrumAnalyzer(const AnalyzerOptions& options)
   pending_.reserve(options.size * 2);
 }
 
-void SpectrumAnalyzer::reset() noexcept {
+void SpectrumAnalyser::reset() noexcept {
   pending_.clear();
   streaming_ = false;
   last_bands_seq_.reset();
 }
 
-void SpectrumAnalyzer::feed(const PcmChunk& chunk,
+void SpectrumAnalyser::feed(const PcmChunk& chunk,
                             const std::function<void(const Analysis&)>& emit) {
   const std::size_t frames = chunk.frames();
   if (frames == 0) return;
@@ -95,7 +95,7 @@ void SpectrumAnalyzer::feed(const PcmChunk& chunk,
   }
 }
 
-void SpectrumAnalyzer::analyse(std::uint32_t rate,
+void SpectrumAnalyser::analyse(std::uint32_t rate,
                                const std::function<void(const Analysis&)>& emit) {
   const std::size_t n = options_.size;
   double* in = plan_.input();
@@ -137,7 +137,7 @@ void SpectrumAnalyzer::analyse(std::uint32_t rate,
   emit(r);
 }
 
-void SpectrumAnalyzer::computeBands(std::uint32_t rate, std::array<double, kBands>& out) const {
+void SpectrumAnalyser::computeBands(std::uint32_t rate, std::array<double, kBands>& out) const {
   const double nyquist = rate / 2.0;
   const double hz_per_bin = static_cast<double>(rate) / static_cast<double>(options_.size);
   const double ratio = nyquist / kLowestBandHz;

@@ -1,5 +1,5 @@
 // fft-audio: the spectrum of an audio channel (docs/audio.md).
-//   input:  config "input" (default "websocket-ui.mic"), PCM media frames
+//   input:  the channel named by config "input" (required), PCM media frames
 //   output: <name>.spectrum (JSON per window), <name>.bands (JSON, 16 bands, <= bands_rate_hz/s)
 // The loop thread parses frames and counts gaps; a worker thread runs the FFT (one FFTW plan,
 // made at init) and posts the JSON back to the loop thread, which publishes it. Nothing is
@@ -9,6 +9,7 @@
 #include "spectrum_analyser.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/json.hpp>
 
 #include <atomic>
 #include <memory>
@@ -59,12 +60,13 @@ class FftAudio final : public skr::plugin::Module {
  public:
   explicit FftAudio(Host& host)
       : host_(host),
-        input_(host.configString("input", "websocket-ui.mic")),
+        input_(host.configString("input", "")),
         analyser_(std::make_unique<skr::audio::SpectrumAnalyser>(readOptions(host))),
         queue_(
             static_cast<std::size_t>(std::max<std::int64_t>(1, host.configInt("queue_max", 64)))) {
     if (input_.empty()) {
-      host.configError("input", "must name an audio channel");
+      host.configError("input",
+                       "must name the audio channel to analyse, e.g. \"websocket-ui.mic\"");
       throw Failure(SKR_ERR_CONFIG, "invalid input");
     }
   }
@@ -72,9 +74,12 @@ class FftAudio final : public skr::plugin::Module {
   void start() override {
     using namespace skr::plugin;
     const auto& o = analyser_->options();
-    const std::string props = R"({"size":)" + std::to_string(o.size) + R"(,"hop":)" +
-                              std::to_string(o.hop) + R"(,"input":")" + input_ + R"("})";
-    spectrum_ = StreamChannel(host_, "spectrum", "application/json", props);
+    Json::Value props(Json::objectValue);
+    props["size"] = Json::UInt64(o.size);
+    props["hop"] = Json::UInt64(o.hop);
+    props["input"] = input_;
+    spectrum_ =
+        StreamChannel(host_, "spectrum", "application/json", skr::support::writeJson(props));
     bands_ = StreamChannel(host_, "bands", "application/json", R"({"bands":16})");
     worker_ = std::thread([this] { work(); });
     in_ = Subscription(host_, input_, [this](std::string_view msg) { onFrame(msg); });

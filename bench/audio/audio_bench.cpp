@@ -7,7 +7,7 @@
 // change the wall figures more than the CPU ones.
 //
 //   audio_bench [--quick]
-#include "spectrum_analyzer.hpp"
+#include "spectrum_analyser.hpp"
 #include "synthesizer.hpp"
 
 #include <cmath>
@@ -64,15 +64,15 @@ int benchFft(bool quick) {
     double cpu[2] = {0, 0};
     std::size_t windows = 0, bytes = 0;
     for (int with_json = 0; with_json < 2; ++with_json) {
-      skr::audio::AnalyzerOptions o;
+      skr::audio::AnalyserOptions o;
       o.size = size;
       o.hop = size / 2;
-      skr::audio::SpectrumAnalyzer analyzer(o);
+      skr::audio::SpectrumAnalyser analyser(o);
       windows = 0;
       bytes = 0;
       const double t0 = cpuSeconds();
       for (const auto& c : chunks) {
-        analyzer.feed(c, [&](const skr::audio::Analysis& a) {
+        analyser.feed(c, [&](const skr::audio::Analysis& a) {
           ++windows;
           if (with_json != 0) {
             bytes += skr::audio::spectrumJson(a, size).size();

@@ -5,6 +5,7 @@
 #include "pcm_input.hpp"
 
 #include <skrobot/media_frame.hpp>
+#include <skrobot/support/json.hpp>
 
 #include <cstdint>
 #include <string>
@@ -15,8 +16,11 @@ inline constexpr std::uint32_t kDefaultRate = 22050;
 
 // {"sample_rate":R,"channels":C,"format":"s16le"}: the database of an audio channel.
 inline std::string audioProps(std::uint32_t sample_rate, std::uint16_t channels) {
-  return R"({"sample_rate":)" + std::to_string(sample_rate) + R"(,"channels":)" +
-         std::to_string(channels) + R"(,"format":"s16le"})";
+  Json::Value v(Json::objectValue);
+  v["sample_rate"] = sample_rate;
+  v["channels"] = channels;
+  v["format"] = "s16le";
+  return support::writeJson(v);
 }
 
 // Builds consecutive frames of one stream; seq counts samples (per channel) since the start.

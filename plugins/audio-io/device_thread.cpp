@@ -1,6 +1,7 @@
 #include "device_thread.hpp"
 
 #include <portaudio.h>
+#include <skrobot/support/json.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -51,15 +52,6 @@ struct Stream {
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
-}
-
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) >= 0x20) out += c;
-  }
-  return out + "\"";
 }
 
 // The device to use, or paNoDevice; `names` lists the devices of that direction for the log.
@@ -152,7 +144,7 @@ void DeviceThread::work() {
       } else {
         log.info("AUDIO-CAPTURE", "capturing from '", info->name, "' at ", options_.sample_rate,
                  " Hz");
-        events_.status("input_device", jsonString(info->name));
+        events_.status("input_device", support::jsonQuote(info->name));
       }
     }
   }
@@ -165,7 +157,7 @@ void DeviceThread::work() {
                 options_.output_device.empty() ? "" : " matching '" + options_.output_device + "'",
                 " (output devices: ", names, "); playback is off");
     } else {
-      events_.status("output_device", jsonString(Pa_GetDeviceInfo(out_dev)->name));
+      events_.status("output_device", support::jsonQuote(Pa_GetDeviceInfo(out_dev)->name));
     }
   }
   if (in.s == nullptr && out_dev == paNoDevice) {

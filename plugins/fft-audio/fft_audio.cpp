@@ -1,14 +1,15 @@
 // fft-audio: the spectrum of an audio channel (docs/audio.md).
-//   input:  config "input" (default "websocket-ui.mic"), PCM media frames
+//   input:  the channel named by config "input" (required), PCM media frames
 //   output: <name>.spectrum (JSON per window), <name>.bands (JSON, 16 bands, <= bands_rate_hz/s)
 // The loop thread parses frames and counts gaps; a worker thread runs the FFT (one FFTW plan,
 // made at init) and posts the JSON back to the loop thread, which publishes it. Nothing is
 // analysed while neither output has a subscriber.
 #include "bounded_queue.hpp"
 #include "input_stats.hpp"
-#include "spectrum_analyzer.hpp"
+#include "spectrum_analyser.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/json.hpp>
 
 #include <atomic>
 #include <memory>
@@ -20,8 +21,8 @@ namespace {
 using skr::plugin::Failure;
 using skr::plugin::Host;
 
-skr::audio::AnalyzerOptions readOptions(Host& host) {
-  skr::audio::AnalyzerOptions o;
+skr::audio::AnalyserOptions readOptions(Host& host) {
+  skr::audio::AnalyserOptions o;
   const std::int64_t size = host.configInt("size", 1024);
   if (size < 32 || size > 65536) {
     host.configError("size", "must be 32..65536 samples, got " + std::to_string(size));
@@ -59,22 +60,26 @@ class FftAudio final : public skr::plugin::Module {
  public:
   explicit FftAudio(Host& host)
       : host_(host),
-        input_(host.configString("input", "websocket-ui.mic")),
-        analyzer_(std::make_unique<skr::audio::SpectrumAnalyzer>(readOptions(host))),
+        input_(host.configString("input", "")),
+        analyser_(std::make_unique<skr::audio::SpectrumAnalyser>(readOptions(host))),
         queue_(
             static_cast<std::size_t>(std::max<std::int64_t>(1, host.configInt("queue_max", 64)))) {
     if (input_.empty()) {
-      host.configError("input", "must name an audio channel");
+      host.configError("input",
+                       "must name the audio channel to analyse, e.g. \"websocket-ui.mic\"");
       throw Failure(SKR_ERR_CONFIG, "invalid input");
     }
   }
 
   void start() override {
     using namespace skr::plugin;
-    const auto& o = analyzer_->options();
-    const std::string props = R"({"size":)" + std::to_string(o.size) + R"(,"hop":)" +
-                              std::to_string(o.hop) + R"(,"input":")" + input_ + R"("})";
-    spectrum_ = StreamChannel(host_, "spectrum", "application/json", props);
+    const auto& o = analyser_->options();
+    Json::Value props(Json::objectValue);
+    props["size"] = Json::UInt64(o.size);
+    props["hop"] = Json::UInt64(o.hop);
+    props["input"] = input_;
+    spectrum_ =
+        StreamChannel(host_, "spectrum", "application/json", skr::support::writeJson(props));
     bands_ = StreamChannel(host_, "bands", "application/json", R"({"bands":16})");
     worker_ = std::thread([this] { work(); });
     in_ = Subscription(host_, input_, [this](std::string_view msg) { onFrame(msg); });
@@ -111,9 +116,9 @@ class FftAudio final : public skr::plugin::Module {
 
   // Worker thread: FFT, JSON, then post to the loop thread.
   void work() {
-    const std::size_t size = analyzer_->options().size;
+    const std::size_t size = analyser_->options().size;
     while (auto chunk = queue_.pop()) {
-      analyzer_->feed(*chunk, [&](const skr::audio::Analysis& a) {
+      analyser_->feed(*chunk, [&](const skr::audio::Analysis& a) {
         auto spectrum = std::make_shared<std::string>(skr::audio::spectrumJson(a, size));
         auto bands = a.bands ? std::make_shared<std::string>(skr::audio::bandsJson(a)) : nullptr;
         host_.post([this, spectrum, bands] {
@@ -133,7 +138,7 @@ class FftAudio final : public skr::plugin::Module {
 
   Host& host_;
   std::string input_;
-  std::unique_ptr<skr::audio::SpectrumAnalyzer> analyzer_;  // the worker's, once started
+  std::unique_ptr<skr::audio::SpectrumAnalyser> analyser_;  // the worker's, once started
   skr::audio::BoundedQueue<skr::audio::PcmChunk> queue_;
   skr::audio::PcmInput input_reader_;
   skr::audio::InputStats stats_;

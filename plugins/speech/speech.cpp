@@ -8,12 +8,12 @@
 // which publishes the timeline, then all the audio at once (faster than real time; consumers
 // play by the sample counter), then answers the request.
 #include "bounded_queue.hpp"
-#include "json_util.hpp"
 #include "pcm_output.hpp"
 #include "synthesizer.hpp"
 #include "utterance_json.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/json.hpp>
 
 #include <espeak-ng/speak_lib.h>
 
@@ -26,6 +26,9 @@ namespace {
 
 using skr::plugin::Failure;
 using skr::plugin::Host;
+
+// A say request is one flat object: shallow, and bounded by the hub's message size anyway.
+constexpr skr::support::JsonLimits kRequestLimits{8, 1u << 20};
 
 struct Job {
   std::uint64_t request = 0;  // the service request to answer
@@ -82,10 +85,10 @@ class Speech final : public skr::plugin::Module {
 
  private:
   void onSay(const skr::plugin::ServiceRequest& r) {
-    auto fail = [&](const std::string& why) { say_.respond(r.id, skr::audio::errorJson(why)); };
+    auto fail = [&](const std::string& why) { say_.respond(r.id, skr::speech::errorJson(why)); };
     if (r.command != "say") return fail("unknown command '" + r.command + "' (use \"say\")");
-    const auto value = skr::audio::parseJson(r.value_json);
-    if (!value) return fail("the value is not JSON");
+    const auto value = skr::support::parseJson(r.value_json, kRequestLimits);
+    if (!value) return fail("the value is not JSON: " + value.error().message);
     Job job;
     job.voice = {voice_, rate_, pitch_};
     if (value->isString()) {
@@ -154,7 +157,7 @@ class Speech final : public skr::plugin::Module {
               std::int64_t synth_ns) {
     if (const auto* error = std::get_if<std::string>(&result)) {
       host_.log.warn("SPEECH-FAILED", "utterance ", job.utterance, ": ", *error);
-      say_.respond(job.request, skr::audio::errorJson(*error));
+      say_.respond(job.request, skr::speech::errorJson(*error));
       return;
     }
     const auto& u = std::get<skr::speech::Utterance>(result);

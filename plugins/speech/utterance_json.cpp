@@ -1,6 +1,6 @@
 #include "utterance_json.hpp"
 
-#include "json_util.hpp"
+#include <skrobot/support/json.hpp>
 
 namespace skr::speech {
 
@@ -29,7 +29,7 @@ std::string phonemesJson(std::uint64_t id, std::uint64_t start_seq, const Uttera
     words.append(std::move(e));
   }
   v["words"] = std::move(words);
-  return audio::toJsonText(v);
+  return support::writeJson(v);
 }
 
 std::string responseJson(std::uint64_t id, const Utterance& u) {
@@ -38,7 +38,13 @@ std::string responseJson(std::uint64_t id, const Utterance& u) {
   v["duration_ms"] = u.durationMs();
   v["samples"] = Json::UInt64(u.samples.size());
   v["phonemes"] = Json::UInt64(u.phonemes.size());
-  return audio::toJsonText(v);
+  return support::writeJson(v);
+}
+
+std::string errorJson(const std::string& message) {
+  Json::Value v(Json::objectValue);
+  v["error"] = message;
+  return support::writeJson(v);
 }
 
 }  // namespace skr::speech

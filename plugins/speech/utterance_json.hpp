@@ -15,5 +15,7 @@ std::string phonemesJson(std::uint64_t id, std::uint64_t start_seq, const Uttera
                          const std::string& text, const std::string& voice);
 // The service response: {"utterance","duration_ms","samples","phonemes"}
 std::string responseJson(std::uint64_t id, const Utterance& u);
+// The answer to a request that failed: {"error": message}
+std::string errorJson(const std::string& message);
 
 }  // namespace skr::speech

@@ -1,6 +1,6 @@
 #include "recorder.hpp"
 
-#include "json_util.hpp"
+#include <skrobot/support/json.hpp>
 
 #include <ctime>
 #include <system_error>
@@ -95,7 +95,7 @@ void Recorder::work() {
 void Recorder::writeStats() {
   const std::string db(host_.name());
   stats_.publish(host_, input_.counters());
-  plugin::dbSet(host_, db, "file", toJsonText(Json::Value(file_)));
+  plugin::dbSet(host_, db, "file", support::jsonQuote(file_));
   plugin::dbSet(host_, db, "files", std::to_string(files_));
   plugin::dbSet(host_, db, "recorded_samples", std::to_string(recorded_));
   plugin::dbSet(host_, db, "dropped", std::to_string(dropped_));

@@ -142,5 +142,27 @@ TEST_F(FftAudioConfig, BadValuesFailInitAndTheHubGoesOn) {
   EXPECT_TRUE(as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"fft3.bands"})));
 }
 
+// The input is another module's channel: the config must name it (no built-in default).
+TEST_F(FftAudioConfig, TheInputIsRequired) {
+  startHub();
+  const auto failures = startModule("fft", "{}", false, "fft-audio");
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_NE(failures[0].find("input"), std::string::npos) << failures[0];
+}
+
+// The input's name goes into the spectrum channel's properties. Built by concatenation, a quote
+// in it made the properties invalid JSON and the module failed to start.
+TEST_F(FftAudioConfig, AQuoteInTheInputNameRoundTrips) {
+  startHub();
+  const std::string name = R"(guest.in"x\y)";
+  ASSERT_TRUE(startModule("fft", R"({"input":"guest.in\"x\\y"})", false, "fft-audio").empty());
+  TestClient sync = syncClient();
+  auto info = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"fft.spectrum"}));
+  ASSERT_TRUE(info);
+  const Json::Value props = info->info.props.toJson();
+  EXPECT_EQ(props["input"].asString(), name) << props.toStyledString();
+  EXPECT_EQ(props["size"].asInt(), 1024);
+}
+
 }  // namespace
 }  // namespace skr::test

@@ -32,7 +32,8 @@ before(async () => {
     '--frames', '15', '--place', 'left']);
   port = await freePort();
   hub = await startHub([
-    { name: 'websocket-ui', config: { port } },
+    { name: 'websocket-ui', config: { port, faces: 'face-detect.faces', speech: 'speech.say',
+      voice: 'speech.voice', phonemes: 'speech.phonemes' } },
     { name: 'face-detect', config: { input: 'websocket-ui.camera' } },
     { name: 'speech', config: {} },
   ]);

@@ -1,8 +1,6 @@
 #include "browser_protocol.h"
 
-#include <json/json.h>
-
-#include <memory>
+#include <skrobot/support/json.hpp>
 
 namespace skr::wsui {
 namespace {
@@ -43,19 +41,12 @@ Inbound parseText(std::string_view message, const InboundLimits& limits) {
     return Refusal{kClosePolicy,
                    "text message over " + std::to_string(limits.max_text_bytes) + " bytes"};
   }
-  Json::CharReaderBuilder builder;
-  builder["stackLimit"] = 16;
-  builder["rejectDupKeys"] = true;
-  builder["failIfExtra"] = true;
-  Json::Value v;
-  std::string errors;
-  const std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
-  bool parsed = false;
-  try {
-    parsed = reader->parse(message.data(), message.data() + message.size(), &v, &errors);
-  } catch (const std::exception&) {  // jsoncpp throws past its nesting limit
+  // Browsers send flat objects: a shallow nesting limit keeps the parser cheap.
+  auto parsed = skr::support::parseJson(message, {16, limits.max_text_bytes});
+  if (!parsed) {
+    return Refusal{kCloseBadPayload, "text message is not JSON: " + parsed.error().message};
   }
-  if (!parsed) return Refusal{kCloseBadPayload, "text message is not JSON"};
+  const Json::Value& v = *parsed;
   if (!v.isObject() || !v["type"].isString()) {
     return Refusal{kCloseBadPayload, "text message is not an object with a \"type\""};
   }

@@ -5,15 +5,13 @@
 // handed to the hub's loop thread with host.post; everything touching channels runs on the loop.
 #include "avatar_behaviour.h"
 #include "browser_protocol.h"
-#include "json_text.h"
 #include "source_owner.h"
 #include "visemes.h"
 #include "ws_server.h"
 
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
-
-#include <json/json.h>
+#include <skrobot/support/json.hpp>
 
 #include <atomic>
 #include <map>
@@ -28,6 +26,17 @@ namespace skr::wsui {
 namespace {
 
 using skr::plugin::Failure;
+using skr::support::writeJson;
+
+// Detections and timelines from other modules: objects of a few levels.
+constexpr skr::support::JsonLimits kChannelLimits{32, 16u << 20};
+
+// The object in a channel's message; nullopt (the message is skipped) for anything else.
+std::optional<Json::Value> channelObject(std::string_view payload) {
+  auto v = skr::support::parseJsonObject(payload, kChannelLimits);
+  if (!v) return std::nullopt;
+  return std::move(*v);
+}
 
 struct Counters {
   std::uint64_t camera_frames = 0;
@@ -49,13 +58,15 @@ class WebsocketUi final : public skr::plugin::Module {
     camera_height_ = static_cast<int>(host.configInt("camera_height", 360));
     camera_fps_ = static_cast<int>(host.configInt("camera_fps", 15));
     jpeg_quality_ = host.configDouble("jpeg_quality", 0.7);
-    faces_ = host.configString("faces", "face-detect.faces");
-    motion_ = host.configString("motion", "motion.motion");
-    codes_ = host.configString("codes", "qrcode.codes");
-    bands_ = host.configString("bands", "fft-audio.bands");
-    speech_ = host.configString("speech", "speech.say");
-    voice_ = host.configString("voice", "speech.voice");
-    phonemes_ = host.configString("phonemes", "speech.phonemes");
+    // Other modules' channels: named by the config (config/default.json wires the demo), none
+    // by default.
+    faces_ = host.configString("faces", "");
+    motion_ = host.configString("motion", "");
+    codes_ = host.configString("codes", "");
+    bands_ = host.configString("bands", "");
+    speech_ = host.configString("speech", "");
+    voice_ = host.configString("voice", "");
+    phonemes_ = host.configString("phonemes", "");
     if (camera_width_ < 16 || camera_width_ > limits_.max_width || camera_height_ < 16 ||
         camera_height_ > limits_.max_height) {
       host.configError("camera_width", "camera size must be 16x16 to 1920x1080");
@@ -73,19 +84,23 @@ class WebsocketUi final : public skr::plugin::Module {
 
   void start() override {
     using namespace skr::plugin;
-    camera_ = StreamChannel(host_, "camera", "image/jpeg",
-                            object({{"width", camera_width_},
-                                    {"height", camera_height_},
-                                    {"fps", camera_fps_},
-                                    {"pixel_format", "yuvj420p"},
-                                    {"codec", "jpeg"}}));
-    mic_ = StreamChannel(host_, "mic", "audio/L16",
-                         object({{"sample_rate", static_cast<int>(limits_.mic_sample_rate)},
-                                 {"channels", 1},
-                                 {"format", "s16le"}}));
+    Json::Value camera(Json::objectValue);
+    camera["width"] = camera_width_;
+    camera["height"] = camera_height_;
+    camera["fps"] = camera_fps_;
+    camera["pixel_format"] = "yuvj420p";
+    camera["codec"] = "jpeg";
+    camera_ = StreamChannel(host_, "camera", "image/jpeg", writeJson(camera));
+    Json::Value mic(Json::objectValue);
+    mic["sample_rate"] = limits_.mic_sample_rate;
+    mic["channels"] = 1;
+    mic["format"] = "s16le";
+    mic_ = StreamChannel(host_, "mic", "audio/L16", writeJson(mic));
+    Json::Value say(Json::objectValue);
+    say["commands"] = "say";
+    say["value"] = "{\"text\": string, \"voice\": string}";
     say_ = ServiceChannel(
-        host_, "say", [this](const ServiceRequest& r) { onSayRequest(r); },
-        object({{"commands", "say"}, {"value", "{\"text\": string, \"voice\": string}"}}));
+        host_, "say", [this](const ServiceRequest& r) { onSayRequest(r); }, writeJson(say));
     requester_.emplace(host_);
     subscribe(faces_, [this](std::string_view p) { onFaces(p); });
     subscribe(motion_, [this](std::string_view p) { onMotion(p); });
@@ -182,16 +197,15 @@ class WebsocketUi final : public skr::plugin::Module {
   }
 
   std::string welcome() const {
-    return object({{"type", "welcome"},
-                   {"version", 1},
-                   {"camera", Json::Value(Json::objectValue)},
-                   {"mic_sample_rate", static_cast<int>(limits_.mic_sample_rate)}},
-                  [this](Json::Value& v) {
-                    v["camera"]["width"] = camera_width_;
-                    v["camera"]["height"] = camera_height_;
-                    v["camera"]["fps"] = camera_fps_;
-                    v["camera"]["jpeg_quality"] = jpeg_quality_;
-                  });
+    Json::Value v(Json::objectValue);
+    v["type"] = "welcome";
+    v["version"] = 1;
+    v["camera"]["width"] = camera_width_;
+    v["camera"]["height"] = camera_height_;
+    v["camera"]["fps"] = camera_fps_;
+    v["camera"]["jpeg_quality"] = jpeg_quality_;
+    v["mic_sample_rate"] = limits_.mic_sample_rate;
+    return writeJson(v);
   }
 
   // Server thread: check, then hand to the loop.
@@ -243,8 +257,9 @@ class WebsocketUi final : public skr::plugin::Module {
   }
 
   void onFaces(std::string_view payload) {
-    Json::Value v;
-    if (!parseJson(payload, v)) return;
+    const auto parsed = channelObject(payload);
+    if (!parsed) return;
+    const Json::Value& v = *parsed;
     std::vector<Box> boxes;
     for (const auto& f : v["faces"]) {
       boxes.push_back(
@@ -255,8 +270,9 @@ class WebsocketUi final : public skr::plugin::Module {
   }
 
   void onMotion(std::string_view payload) {
-    Json::Value v;
-    if (!parseJson(payload, v)) return;
+    const auto parsed = channelObject(payload);
+    if (!parsed) return;
+    const Json::Value& v = *parsed;
     std::optional<std::pair<double, double>> centre;
     if (v["center"].isObject()) centre = {v["center"]["x"].asDouble(), v["center"]["y"].asDouble()};
     avatar_.onMotion(v["amount"].asDouble(), centre, v["width"].asDouble(), v["height"].asDouble(),
@@ -265,15 +281,15 @@ class WebsocketUi final : public skr::plugin::Module {
   }
 
   void onCodes(std::string_view payload) {
-    Json::Value v;
-    if (!parseJson(payload, v)) return;
+    const auto parsed = channelObject(payload);
+    if (!parsed) return;
+    const Json::Value& v = *parsed;
     avatar_.onCodes(v["codes"].isArray() && !v["codes"].empty(), nowMs());
     sendWrapped("codes", payload);
   }
 
   void forward(const char* type, std::string_view payload) {
-    Json::Value v;
-    if (parseJson(payload, v)) sendWrapped(type, payload);
+    if (channelObject(payload)) sendWrapped(type, payload);
   }
 
   // A channel's JSON message (parsed already, so valid) to the browsers as {"type", "data"},
@@ -282,14 +298,16 @@ class WebsocketUi final : public skr::plugin::Module {
     if (server_.stats().connections == 0) return;
     std::string msg;
     msg.reserve(json.size() + 32);
-    msg.append(R"({"type":")").append(type).append(R"(","data":)").append(json).append("}");
+    msg.append(R"({"type":)").append(skr::support::jsonQuote(type)).append(R"(,"data":)");
+    msg.append(json).append("}");
     server_.send(0, false, std::move(msg));
   }
 
   // The phoneme timeline of an utterance becomes a viseme timeline, sent before its audio.
   void onPhonemes(std::string_view payload) {
-    Json::Value v;
-    if (!parseJson(payload, v)) return;
+    const auto parsed = channelObject(payload);
+    if (!parsed) return;
+    const Json::Value& v = *parsed;
     std::vector<TimedPhoneme> phonemes;
     for (const auto& p : v["phonemes"])
       phonemes.push_back({p["ph"].asString(), p["start_ms"].asDouble()});
@@ -311,31 +329,56 @@ class WebsocketUi final : public skr::plugin::Module {
       e["round"] = tv.viseme.round;
       list.append(e);
     }
-    server_.send(0, false, compact(msg), false);
+    server_.send(0, false, writeJson(msg), false);
   }
 
+  // {"error": why}; `why` is a message, or JSON text (a string) from the Requester.
+  static std::string errorJson(Json::Value why) {
+    Json::Value v(Json::objectValue);
+    v["error"] = std::move(why);
+    return writeJson(v);
+  }
+  // JSON text from the hub (a service's answer, or the Requester's reason) as a value.
+  static Json::Value answerValue(const std::string& json) {
+    auto v = skr::support::parseJson(json, kChannelLimits);
+    return v ? std::move(*v) : Json::Value(json);
+  }
+
+  // Forwards the request to the speech service; its answer, or {"error"}, goes back.
   void onSayRequest(const skr::plugin::ServiceRequest& r) {
     ++counters_.say_requests;
     const std::uint64_t id = r.id;
+    if (speech_.empty()) {
+      say_.respond(id, errorJson("no speech service is configured (config key \"speech\")"));
+      return;
+    }
     const bool sent = requester_->request(
         speech_, "say", r.value_json, [this, id](bool ok, const std::string& value) {
-          say_.respond(id, ok ? value : R"({"error":)" + value + "}");
+          say_.respond(id, ok ? value : errorJson(answerValue(value)));
         });
-    if (!sent)
-      say_.respond(id, R"({"error":"the speech service )" + speech_ + R"( is not running"})");
+    if (!sent) say_.respond(id, errorJson("the speech service " + speech_ + " is not running"));
   }
 
   void sayFromBrowser(std::uint64_t conn, const Say& s) {
     ++counters_.say_requests;
+    auto said = [this, conn](bool ok, Json::Value result) {
+      Json::Value msg(Json::objectValue);
+      msg["type"] = "said";
+      msg["ok"] = ok;
+      msg["result"] = std::move(result);
+      server_.send(conn, false, writeJson(msg));
+    };
+    if (speech_.empty()) {
+      said(false, "no speech service is configured");
+      return;
+    }
     Json::Value value(Json::objectValue);
     value["text"] = s.text;
     if (!s.voice.empty()) value["voice"] = s.voice;
-    requester_->request(speech_, "say", compact(value),
-                        [this, conn](bool ok, const std::string& v) {
-                          server_.send(conn, false,
-                                       std::string(R"({"type":"said","ok":)") +
-                                           (ok ? "true" : "false") + R"(,"result":)" + v + "}");
-                        });
+    const bool sent =
+        requester_->request(speech_, "say", writeJson(value),
+                            [said](bool ok, const std::string& v) { said(ok, answerValue(v)); });
+    if (!sent) said(false, "the speech service " + speech_ + " is not running");
   }
 
   void behave() {
@@ -346,7 +389,7 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["x"] = g->x;
       msg["y"] = g->y;
       msg["source"] = g->source;
-      server_.send(0, false, compact(msg));
+      server_.send(0, false, writeJson(msg));
     }
     if (auto e = avatar_.expressionDue()) {
       Json::Value msg(Json::objectValue);
@@ -354,7 +397,7 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["name"] = e->name;
       msg["weight"] = e->weight;
       msg["duration_ms"] = static_cast<Json::Int64>(e->duration_ms);
-      server_.send(0, false, compact(msg));
+      server_.send(0, false, writeJson(msg));
     }
     if (auto b = avatar_.blinkDue(now)) {
       Json::Value msg(Json::objectValue);
@@ -362,7 +405,7 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["close_ms"] = static_cast<Json::Int64>(b->close_ms);
       msg["hold_ms"] = static_cast<Json::Int64>(b->hold_ms);
       msg["open_ms"] = static_cast<Json::Int64>(b->open_ms);
-      server_.send(0, false, compact(msg));
+      server_.send(0, false, writeJson(msg));
     }
   }
 
@@ -381,7 +424,7 @@ class WebsocketUi final : public skr::plugin::Module {
     dbSet(host_, db, "camera_ignored", std::to_string(camera_owner_.ignored()));
     dbSet(host_, db, "mic_ignored", std::to_string(mic_owner_.ignored()));
     dbSet(host_, db, "say_requests", std::to_string(counters_.say_requests));
-    dbSet(host_, db, "gaze_source", quote(avatar_.lastGaze().source));
+    dbSet(host_, db, "gaze_source", skr::support::jsonQuote(avatar_.lastGaze().source));
     dbSet(host_, db, "port", std::to_string(server_.port()));
   }
 

@@ -1,6 +1,6 @@
-#include "spectrum_analyzer.hpp"
+#include "spectrum_analyser.hpp"
 
-#include "json_util.hpp"
+#include <skrobot/support/json.hpp>
 
 #include <algorithm>
 #include <charconv>
@@ -12,6 +12,12 @@ namespace {
 
 constexpr double kFloorDb = -120;
 constexpr double kLowestBandHz = 60;
+
+// A number rounded to `decimals` places, for compact published values.
+double rounded(double value, int decimals) {
+  const double scale = std::pow(10.0, decimals);
+  return std::round(value * scale) / scale;
+}
 
 double toDb(double amplitude) {
   return amplitude > 0 ? std::max(kFloorDb, 20 * std::log10(amplitude)) : kFloorDb;
@@ -49,7 +55,7 @@ std::optional<Window> windowFromName(const std::string& name) {
   return std::nullopt;
 }
 
-SpectrumAnalyzer::SpectrumAnalyzer(const AnalyzerOptions& options)
+SpectrumAnalyser::SpectrumAnalyser(const AnalyserOptions& options)
     : options_(options),
       plan_(options.size),
       window_(makeWindow(options.window, options.size)),
@@ -58,13 +64,13 @@ SpectrumAnalyzer::SpectrumAnalyzer(const AnalyzerOptions& options)
   pending_.reserve(options.size * 2);
 }
 
-void SpectrumAnalyzer::reset() noexcept {
+void SpectrumAnalyser::reset() noexcept {
   pending_.clear();
   streaming_ = false;
   last_bands_seq_.reset();
 }
 
-void SpectrumAnalyzer::feed(const PcmChunk& chunk,
+void SpectrumAnalyser::feed(const PcmChunk& chunk,
                             const std::function<void(const Analysis&)>& emit) {
   const std::size_t frames = chunk.frames();
   if (frames == 0) return;
@@ -95,7 +101,7 @@ void SpectrumAnalyzer::feed(const PcmChunk& chunk,
   }
 }
 
-void SpectrumAnalyzer::analyse(std::uint32_t rate,
+void SpectrumAnalyser::analyse(std::uint32_t rate,
                                const std::function<void(const Analysis&)>& emit) {
   const std::size_t n = options_.size;
   double* in = plan_.input();
@@ -137,7 +143,7 @@ void SpectrumAnalyzer::analyse(std::uint32_t rate,
   emit(r);
 }
 
-void SpectrumAnalyzer::computeBands(std::uint32_t rate, std::array<double, kBands>& out) const {
+void SpectrumAnalyser::computeBands(std::uint32_t rate, std::array<double, kBands>& out) const {
   const double nyquist = rate / 2.0;
   const double hz_per_bin = static_cast<double>(rate) / static_cast<double>(options_.size);
   const double ratio = nyquist / kLowestBandHz;
@@ -154,7 +160,8 @@ void SpectrumAnalyzer::computeBands(std::uint32_t rate, std::array<double, kBand
   }
 }
 
-// Written by hand: jsoncpp spent ~20 times the FFT's time on the 513 bins of a 1024 window.
+// Written by hand, numbers only (no strings to escape): building a Json::Value cost ~20 times the
+// FFT's time on the 513 bins of a 1024 window.
 std::string spectrumJson(const Analysis& a, std::size_t size) {
   std::string out;
   out.reserve(64 + a.bins->size() * 10);
@@ -192,7 +199,7 @@ std::string bandsJson(const Analysis& a) {
     for (double b : *a.bands) bands.append(rounded(b, 3));
   }
   v["bands"] = std::move(bands);
-  return toJsonText(v);
+  return support::writeJson(v);
 }
 
 }  // namespace skr::audio

@@ -19,7 +19,7 @@ enum class Window { hann, hamming, blackman, rectangular };
 // "hann", "hamming", "blackman", "rectangular"; nullopt for anything else.
 std::optional<Window> windowFromName(const std::string& name);
 
-struct AnalyzerOptions {
+struct AnalyserOptions {
   std::size_t size = 1024;  // samples per window (>= 32)
   std::size_t hop = 512;    // samples between windows (1..size)
   Window window = Window::hann;
@@ -40,9 +40,9 @@ struct Analysis {
   std::optional<std::array<double, kBands>> bands;  // only when a band view is due
 };
 
-class SpectrumAnalyzer {
+class SpectrumAnalyser {
  public:
-  explicit SpectrumAnalyzer(const AnalyzerOptions& options);  // makes the FFTW plan
+  explicit SpectrumAnalyser(const AnalyserOptions& options);  // makes the FFTW plan
 
   // Feeds one chunk (any channel count: mixed to mono). A discontinuity, or a change of rate,
   // restarts the window at the chunk. Calls `emit` once per complete window.
@@ -50,13 +50,13 @@ class SpectrumAnalyzer {
   // Forgets buffered samples (the next chunk starts a new window).
   void reset() noexcept;
 
-  [[nodiscard]] const AnalyzerOptions& options() const noexcept { return options_; }
+  [[nodiscard]] const AnalyserOptions& options() const noexcept { return options_; }
 
  private:
   void analyse(std::uint32_t rate, const std::function<void(const Analysis&)>& emit);
   void computeBands(std::uint32_t rate, std::array<double, kBands>& out) const;
 
-  AnalyzerOptions options_;
+  AnalyserOptions options_;
   FftPlan plan_;
   std::vector<double> window_;
   double window_sum_ = 0;

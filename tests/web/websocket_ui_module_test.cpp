@@ -1,0 +1,87 @@
+// websocket-ui in a hub, without a browser: its say service goes to the speech service that the
+// config names (none by default), and a channel name with a quote in it still gives a valid
+// JSON answer that carries the name.
+#include "module_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <optional>
+#include <string>
+#include <thread>
+
+namespace skr::test {
+namespace {
+
+using flow::Code;
+using flow::Variant;
+namespace msg = flow::msg;
+
+constexpr std::uint32_t kCallMs = 10000;
+
+class WebsocketUiModule : public ModuleFixture {
+ protected:
+  // Starts the hub and websocket-ui as "ui" on a free port, with more config members `extra`.
+  void start(const std::string& extra = "") {
+    startHub();
+    ASSERT_TRUE(startModule("ui", R"({"port":0)" + extra + "}", false, "websocket-ui").empty());
+    sync_.emplace(syncClient());
+    auto info = as<msg::ChannelInfoReply>(sync_->call(msg::ChanInfoByName{"ui.say"}));
+    ASSERT_TRUE(info);
+    say_ = info->info.id;
+  }
+  // A blocking call of ui.say; the answer as JSON (null when no answer came).
+  Json::Value say(const std::string& value_json) {
+    auto value = flow::variantFromJsonText(value_json);
+    EXPECT_TRUE(value) << value_json;
+    if (!value) return {};
+    auto reply =
+        as<msg::ReplyValue>(sync_->call(msg::ServiceCall{say_, kCallMs, "say", value.value()}));
+    EXPECT_TRUE(reply) << "no answer from ui.say";
+    return reply ? reply->value.toJson() : Json::Value();
+  }
+
+  std::optional<TestClient> sync_;
+  std::uint16_t say_ = 0;
+};
+
+TEST_F(WebsocketUiModule, NoSpeechServiceUnlessConfigured) {
+  start();
+  const Json::Value answer = say(R"({"text":"hello"})");
+  ASSERT_TRUE(answer["error"].isString()) << answer.toStyledString();
+  EXPECT_NE(answer["error"].asString().find("no speech service"), std::string::npos)
+      << answer["error"].asString();
+}
+
+TEST_F(WebsocketUiModule, ForwardsToTheConfiguredSpeechService) {
+  start(R"(,"speech":"guest.talk")");
+  TestClient owner = flowClient();
+  const std::uint16_t talk = addChannel(owner, "talk", flow::ChannelKind::service);
+  std::optional<msg::EvServiceRequest> seen;
+  std::thread answer([&] {
+    seen = as<msg::EvServiceRequest>(owner.waitFor(Code::ev_service_request, kCallMs));
+    if (seen) {
+      auto v = flow::variantFromJsonText(R"({"utterance":7,"duration_ms":500})");
+      (void)owner.send(msg::ServiceResponse{talk, seen->request, v.value()});
+    }
+  });
+  const Json::Value got = say(R"({"text":"ciao","voice":"it"})");
+  answer.join();
+  ASSERT_TRUE(seen) << "guest.talk got no request";
+  EXPECT_EQ(seen->command, "say");
+  EXPECT_EQ(seen->value.toJson()["text"].asString(), "ciao");
+  EXPECT_EQ(seen->value.toJson()["voice"].asString(), "it");
+  EXPECT_EQ(got["utterance"].asInt(), 7) << got.toStyledString();
+}
+
+// Before the module-support library the answer was built by concatenation: the quote ended the
+// JSON string early, the hub refused the broken answer and the caller got none.
+TEST_F(WebsocketUiModule, AQuoteInTheSpeechChannelNameRoundTrips) {
+  const std::string name = R"(no"such\.say)";
+  start(R"(,"speech":"no\"such\\.say")");
+  const Json::Value answer = say(R"({"text":"hello"})");
+  ASSERT_TRUE(answer["error"].isString()) << answer.toStyledString();
+  EXPECT_NE(answer["error"].asString().find(name), std::string::npos) << answer["error"].asString();
+}
+
+}  // namespace
+}  // namespace skr::test

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 namespace {
 
 TEST(QiSignature, ParsesNestedTypesAndAnnotations) {
@@ -256,7 +256,7 @@ TEST_F(QiSession, OversizedAndMalformedRepliesCloseTheConnection) {
   server_.corruptNextReply();
   r = client_.callSync("ALRobotPosture", "getPosture", {}, 2000);
   ASSERT_FALSE(r);
-  EXPECT_EQ(r.error().code, Errc::protocol);
+  EXPECT_EQ(r.error().code, Errc::protocol_error);
   EXPECT_NE(r.error().message.find("QI-PROTOCOL"), std::string::npos);
   EXPECT_FALSE(client_.connected());
 
@@ -277,8 +277,8 @@ TEST(QiClientConnect, ReportsARefusedConnection) {
   o.connect_timeout_ms = 500;
   auto r = c.connect(o);
   ASSERT_FALSE(r);
-  EXPECT_EQ(r.error().code, Errc::io);
+  EXPECT_EQ(r.error().code, Errc::io_error);
 }
 
 }  // namespace
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-namespace nao {
+namespace skr::nao {
 
 class SimBackend final : public RobotBackend {
  public:
@@ -36,6 +36,10 @@ struct NaoqiOptions {
 
 class NaoqiBackend final : public RobotBackend {
  public:
+  // Every service the bridge calls; connect() looks each one up.
+  static constexpr const char* kServices[] = {"ALMotion", "ALRobotPosture", "ALTextToSpeech",
+                                              "ALMemory", "ALLeds"};
+
   explicit NaoqiBackend(NaoqiOptions o) : opt_(std::move(o)) {}
   Result<void> connect() override;
   bool connected() const override { return client_.connected(); }
@@ -57,4 +61,4 @@ class NaoqiBackend final : public RobotBackend {
   bool read_failed_ = false;       // a state read timed out: drop the link at the next pump
 };
 
-}  // namespace nao
+}  // namespace skr::nao

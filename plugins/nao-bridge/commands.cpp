@@ -9,7 +9,7 @@
 #include <memory>
 #include <sstream>
 
-namespace nao {
+namespace skr::nao {
 
 const char* commandErrorCode(CommandError e) noexcept {
   switch (e) {
@@ -229,4 +229,4 @@ Parsed parseCommand(const std::string& json, const std::string& default_cmd) {
   }
 }
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -14,7 +14,7 @@
 #include <variant>
 #include <vector>
 
-namespace nao {
+namespace skr::nao {
 
 enum class CommandError {
   none,
@@ -76,4 +76,4 @@ struct Parsed {
 
 constexpr std::size_t kMaxSayBytes = 2000;
 
-}  // namespace nao
+}  // namespace skr::nao

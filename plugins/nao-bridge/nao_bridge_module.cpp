@@ -20,8 +20,9 @@
 
 namespace {
 
-using nao::StateKind;
+namespace nao = skr::nao;
 namespace plugin = skr::plugin;
+using nao::StateKind;
 
 std::string compact(const Json::Value& v) {
   Json::StreamWriterBuilder w;
@@ -179,6 +180,12 @@ class NaoBridge final : public plugin::Module {
     o.client.max_payload = static_cast<std::uint32_t>(
         host_.configInt("max_message_bytes", nao::qi::kDefaultMaxPayload));
     o.client.authenticate = host_.configBool("authenticate", true);
+    if (!o.client.authenticate) {
+      host_.log.warn("NAO-CONFIG",
+                     "\"authenticate\": false: NAOqi 2.5 and later refuse every call until the "
+                     "capability map is sent, even without a password; use it only with older "
+                     "robots");
+    }
     o.client.user = host_.configString("user", "");
     o.client.token = host_.configString("token", "");
     o.call_timeout_ms = o.client.lookup_timeout_ms;

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-namespace nao {
+namespace skr::nao {
 
 // Limits in radians from the NAO V5 joint documentation; speeds are the motors' no-load speeds
 // after reduction (type 1 legs/head-pitch class, type 2 arms), rounded.
@@ -95,4 +95,4 @@ std::string postureFamily(const std::string& posture) {
   return "Unknown";
 }
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-namespace nao {
+namespace skr::nao {
 
 struct Joint {
   const char* name;
@@ -43,4 +43,4 @@ extern const std::array<const char*, 9> kLedGroups;
 constexpr double kSonarMin_m = 0.25;
 constexpr double kSonarMax_m = 2.55;
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-namespace nao {
+namespace skr::nao {
 namespace {
 
 using qi::Value;
@@ -16,7 +16,7 @@ std::string compact(const Json::Value& v) {
 }
 
 CommandResult fromError(const Error& e) {
-  if (e.code == Errc::closed || e.code == Errc::io) {
+  if (e.code == Errc::closed || e.code == Errc::io_error) {
     return CommandResult::failure(CommandError::not_connected,
                                   "connection to the robot lost: " + e.message);
   }
@@ -33,12 +33,15 @@ Result<void> NaoqiBackend::connect() {
   read_failed_ = false;
   auto r = client_.connect(opt_.client);
   if (!r) return r;
-  // Look the services up now, so that a robot without them is reported at once.
-  for (const char* s : {"ALMotion", "ALRobotPosture", "ALTextToSpeech", "ALMemory"}) {
+  // Look up every service the bridge uses now, so that a robot without one (or with one that
+  // cannot be reached) is reported at once, not at the first command.
+  for (const char* s : kServices) {
     auto found = client_.resolve(s);
     if (!found) {
-      client_.close(found.error().message);
-      return found;
+      const std::string why =
+          std::string("NAOqi service ") + s + " unavailable: " + found.error().message;
+      client_.close(why);
+      return makeError(found.error().code, why);
     }
   }
   return {};
@@ -179,9 +182,9 @@ void NaoqiBackend::read(StateKind k, StateDone done) {
 Result<void> NaoqiBackend::pump(int timeout_ms, int wake_fd) {
   if (read_failed_) {
     client_.close("the robot stopped answering");
-    return fail(Errc::timeout, "the robot stopped answering");
+    return makeError(Errc::timeout, "the robot stopped answering");
   }
   return client_.pump(timeout_ms, wake_fd);
 }
 
-}  // namespace nao
+}  // namespace skr::nao

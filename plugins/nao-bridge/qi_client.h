@@ -1,22 +1,29 @@
 // A client of a qi (NAOqi 2.x) endpoint over TCP: authenticate, find services through the
 // ServiceDirectory, learn their methods from metaObject, call them and read the replies.
 //
+// A service that lives in another process than the ServiceDirectory is reached, as libqi does,
+// over a connection of its own to an endpoint its look-up lists (each such connection makes the
+// capability exchange too). Losing any of the connections closes them all.
+//
 // Not thread-safe: one thread (the bridge's robot worker) owns a QiClient and calls everything,
 // including pump(). Calls are asynchronous (replies are matched by message id when pump() reads
 // them) except the look-ups, which wait for their answer with a deadline. Nothing blocks without
 // a deadline.
 #pragma once
 
+#include "qi_connection.h"
 #include "qi_message.h"
 #include "qi_meta.h"
 
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 struct ClientOptions {
   std::string host = "127.0.0.1";
@@ -24,6 +31,8 @@ struct ClientOptions {
   int connect_timeout_ms = 2000;
   int lookup_timeout_ms = 3000;  // authenticate, service, metaObject
   std::uint32_t max_payload = kDefaultMaxPayload;
+  // The capability map first (NAOqi >= 2.5 refuses every other call before it, even without a
+  // password). Off only for robots older than that.
   bool authenticate = true;
   std::string user;  // only sent when not empty (NAOqi 2.9 robots with a password)
   std::string token;
@@ -38,10 +47,11 @@ class QiClient {
   QiClient(const QiClient&) = delete;
   QiClient& operator=(const QiClient&) = delete;
 
-  // TCP connect, then the capability/authentication exchange. Blocks up to the timeouts.
+  // TCP connect, then the capability/authentication exchange, then the ServiceDirectory's own
+  // look-up (to know which services share its process). Blocks up to the timeouts.
   [[nodiscard]] Result<void> connect(const ClientOptions& options);
-  [[nodiscard]] bool connected() const noexcept { return fd_ >= 0; }
-  // Closes the socket; every pending call gets Errc::closed with `why`.
+  [[nodiscard]] bool connected() const noexcept { return !links_.empty() && links_[0]->open(); }
+  // Closes every connection; every pending call gets Errc::closed with `why`.
   void close(const std::string& why);
 
   // Sends a call of `service`.`method` (the main object); `fn` runs from a later pump() with the
@@ -53,48 +63,58 @@ class QiClient {
   [[nodiscard]] Result<Value> callSync(const std::string& service, const std::string& method,
                                        std::vector<Value> args, int timeout_ms);
 
-  // Waits up to timeout_ms for bytes (or for `wake_fd` to become readable, when >= 0), reads
-  // them, dispatches replies and expires late calls. An error means the connection is gone
-  // (oversized or malformed message, EOF, socket error): it is closed already.
+  // Waits up to timeout_ms for bytes on any connection (or for `wake_fd` to become readable,
+  // when >= 0), reads them, dispatches replies and expires late calls. An error means the
+  // connection is gone (oversized or malformed message, EOF, socket error): all are closed.
   [[nodiscard]] Result<void> pump(int timeout_ms, int wake_fd = -1);
 
-  // Looks `service` up (ServiceDirectory, then its metaObject) unless it is cached. Blocking.
+  // Looks `service` up (ServiceDirectory, a connection to its endpoint if it lives elsewhere,
+  // then its metaObject) unless it is cached. Blocking.
   [[nodiscard]] Result<void> resolve(const std::string& service);
+  // ServiceDirectory.service(name), over the main connection.
   [[nodiscard]] Result<ServiceInfo> serviceInfo(const std::string& name);
-  [[nodiscard]] Result<MetaObject> metaObject(std::uint32_t service, std::uint32_t object);
+  // metaObject(object) of `service`, over connection `link` (0: the main one).
+  [[nodiscard]] Result<MetaObject> metaObject(std::uint32_t service, std::uint32_t object,
+                                              std::size_t link = 0);
   [[nodiscard]] std::size_t pending() const noexcept { return pending_.size(); }
+  // Open connections: 1 (the ServiceDirectory's) plus one per other endpoint in use.
+  [[nodiscard]] std::size_t connections() const noexcept { return links_.size(); }
+  // The endpoint calls of a resolved `service` go to ("host:port"), or "" when not resolved.
+  [[nodiscard]] std::string endpointOf(const std::string& service) const;
 
-  // Low level: one call message with an encoded payload; the reply is decoded as `return_sig`.
-  [[nodiscard]] Result<void> send(std::uint32_t service, std::uint32_t object, std::uint32_t action,
-                                  const std::string& payload, std::string return_sig,
-                                  int timeout_ms, ReplyFn fn);
+  // Low level: one call message with an encoded payload over connection `link` (0: the main
+  // one); the reply is decoded as the first of `return_sigs` that it fills exactly.
+  [[nodiscard]] Result<void> send(std::size_t link, std::uint32_t service, std::uint32_t object,
+                                  std::uint32_t action, const std::string& payload,
+                                  std::vector<std::string> return_sigs, int timeout_ms, ReplyFn fn);
 
  private:
   struct Pending {
-    std::string return_sig;
+    std::size_t link;
+    std::vector<std::string> return_sigs;
     std::int64_t deadline_ns;
     ReplyFn fn;
   };
   struct Service {
     ServiceInfo info;
     MetaObject meta;
+    std::size_t link = 0;
   };
-  Result<Value> wait(std::uint32_t service, std::uint32_t object, std::uint32_t action,
-                     const std::string& payload, const std::string& return_sig, int timeout_ms);
-  Result<void> authenticate();
+  Result<Value> wait(std::size_t link, std::uint32_t service, std::uint32_t object,
+                     std::uint32_t action, const std::string& payload,
+                     std::vector<std::string> return_sigs, int timeout_ms);
+  Result<void> authenticate(std::size_t link);
   Result<const Service*> lookup(const std::string& name);
-  Result<void> writeAll(const std::string& bytes);
-  void dispatch(Message&& m);
+  Result<std::size_t> linkFor(const ServiceInfo& info);
+  void dispatch(std::size_t link, Message&& m);
   void expire();
 
   ClientOptions options_;
-  int fd_ = -1;
+  std::vector<std::unique_ptr<QiConnection>> links_;  // [0]: the ServiceDirectory's
+  std::optional<ServiceInfo> directory_;              // its own look-up, when it answered one
   std::uint32_t next_id_ = 1;
-  MessageFramer framer_;
   std::map<std::uint32_t, Pending> pending_;
   std::map<std::string, Service> services_;
 };
 
-[[nodiscard]] std::int64_t monotonicNs();
-
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

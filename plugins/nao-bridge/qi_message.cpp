@@ -2,7 +2,7 @@
 
 #include <cstring>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 namespace {
 
 template <class T>
@@ -40,11 +40,11 @@ std::string encodeMessage(Header h, std::string_view payload) {
 }
 
 Result<Header> parseHeader(std::string_view b, std::uint32_t max_payload) {
-  if (b.size() < kHeaderSize) return fail(Errc::protocol, "short header");
+  if (b.size() < kHeaderSize) return makeError(Errc::protocol_error, "short header");
   const auto* u = reinterpret_cast<const unsigned char*>(b.data());
   const std::uint32_t magic = (std::uint32_t{u[0]} << 24) | (std::uint32_t{u[1]} << 16) |
                               (std::uint32_t{u[2]} << 8) | std::uint32_t{u[3]};
-  if (magic != kMagic) return fail(Errc::protocol, "bad magic (not a qi stream)");
+  if (magic != kMagic) return makeError(Errc::protocol_error, "bad magic (not a qi stream)");
   Header h;
   h.id = get<std::uint32_t>(b, 4);
   h.size = get<std::uint32_t>(b, 8);
@@ -55,15 +55,17 @@ Result<Header> parseHeader(std::string_view b, std::uint32_t max_payload) {
   h.object = get<std::uint32_t>(b, 20);
   h.action = get<std::uint32_t>(b, 24);
   if (h.version != 0) {
-    return fail(Errc::protocol, "unsupported header version " + std::to_string(h.version));
+    return makeError(Errc::protocol_error,
+                     "unsupported header version " + std::to_string(h.version));
   }
   if (type == 0 || type > static_cast<std::uint8_t>(MsgType::cancelled)) {
-    return fail(Errc::protocol, "unknown message type " + std::to_string(type));
+    return makeError(Errc::protocol_error, "unknown message type " + std::to_string(type));
   }
   h.type = static_cast<MsgType>(type);
   if (h.size > max_payload) {
-    return fail(Errc::protocol, "message of " + std::to_string(h.size) +
-                                    " bytes exceeds the limit of " + std::to_string(max_payload));
+    return makeError(Errc::protocol_error, "message of " + std::to_string(h.size) +
+                                               " bytes exceeds the limit of " +
+                                               std::to_string(max_payload));
   }
   return h;
 }
@@ -78,4 +80,4 @@ Result<std::optional<Message>> MessageFramer::next() {
   return std::optional<Message>(std::move(m));
 }
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

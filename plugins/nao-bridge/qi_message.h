@@ -3,7 +3,7 @@
 //   service u32 | object u32 | action u32       (all but the magic little-endian)
 #pragma once
 
-#include "nao_result.h"
+#include <skrobot/result.hpp>
 
 #include <cstddef>
 #include <cstdint>
@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 constexpr std::uint32_t kMagic = 0x42dead42;
 constexpr std::size_t kHeaderSize = 28;
@@ -79,4 +79,4 @@ class MessageFramer {
   std::string buf_;
 };
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

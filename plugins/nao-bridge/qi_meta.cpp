@@ -1,6 +1,6 @@
 #include "qi_meta.h"
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 const char kMetaObjectSignature[] =
     "({I(Issss[(ss)<MetaMethodParameter,name,description>]s)<MetaMethod,uid,returnSignature,"
@@ -9,12 +9,14 @@ const char kMetaObjectSignature[] =
     "<MetaObject,methods,signals,properties,description>";
 
 const char kServiceInfoSignature[] =
+    "(sIsI[s]ss)<ServiceInfo,name,serviceId,machineId,processId,endpoints,sessionId,objectUid>";
+const char kServiceInfoSignature6[] =
     "(sIsI[s]s)<ServiceInfo,name,serviceId,machineId,processId,endpoints,sessionId>";
 
 namespace {
 
 Error shape(const char* what) {
-  return fail(Errc::protocol, std::string("malformed ") + what);
+  return makeError(Errc::protocol_error, std::string("malformed ") + what);
 }
 
 bool isTuple(const Value& v, std::size_t n) {
@@ -77,7 +79,7 @@ Value fromMetaObject(const MetaObject& m) {
 }
 
 Result<ServiceInfo> toServiceInfo(const Value& v) {
-  if (!isTuple(v, 6)) return shape("ServiceInfo");
+  if (!isTuple(v, 6) && !isTuple(v, 7)) return shape("ServiceInfo");
   const auto& f = v.items();
   ServiceInfo s;
   s.name = f[0].asString();
@@ -86,13 +88,16 @@ Result<ServiceInfo> toServiceInfo(const Value& v) {
   s.process_id = static_cast<std::uint32_t>(f[3].asInt());
   for (const Value& e : f[4].items()) s.endpoints.push_back(e.asString());
   s.session_id = f[5].asString();
+  if (f.size() == 7) s.object_uid = f[6].asString();
   return s;
 }
 
-Value fromServiceInfo(const ServiceInfo& s) {
-  return Value::tuple({Value::string(s.name), Value::integer(s.service_id, 'I'),
-                       Value::string(s.machine_id), Value::integer(s.process_id, 'I'),
-                       Value::strings(s.endpoints), Value::string(s.session_id)});
+Value fromServiceInfo(const ServiceInfo& s, bool with_object_uid) {
+  std::vector<Value> f = {Value::string(s.name),       Value::integer(s.service_id, 'I'),
+                          Value::string(s.machine_id), Value::integer(s.process_id, 'I'),
+                          Value::strings(s.endpoints), Value::string(s.session_id)};
+  if (with_object_uid) f.push_back(Value::string(s.object_uid));
+  return Value::tuple(std::move(f));
 }
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

@@ -8,10 +8,12 @@
 #include <string>
 #include <vector>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 extern const char kMetaObjectSignature[];
+// ServiceDirectory.service's answer: seven fields since libqi 4 (the object uid), six before.
 extern const char kServiceInfoSignature[];
+extern const char kServiceInfoSignature6[];
 
 struct MetaMethod {
   std::uint32_t uid = 0;
@@ -38,11 +40,14 @@ struct ServiceInfo {
   std::uint32_t process_id = 0;
   std::vector<std::string> endpoints;
   std::string session_id;
+  std::string object_uid;  // raw bytes (20 with libqi 4); empty from a six-field answer
 };
 
 [[nodiscard]] Result<MetaObject> toMetaObject(const Value& v);
 [[nodiscard]] Value fromMetaObject(const MetaObject& m);
+// Accepts the six- and the seven-field tuple.
 [[nodiscard]] Result<ServiceInfo> toServiceInfo(const Value& v);
-[[nodiscard]] Value fromServiceInfo(const ServiceInfo& s);
+// The seven-field tuple, or the six-field one without the object uid.
+[[nodiscard]] Value fromServiceInfo(const ServiceInfo& s, bool with_object_uid = true);
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

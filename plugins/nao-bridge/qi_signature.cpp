@@ -3,7 +3,7 @@
 #include <cctype>
 #include <cstring>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 namespace {
 
 constexpr const char* kBasic = "bcCwWiIlLfdsrmovX";
@@ -13,8 +13,9 @@ class Parser {
   explicit Parser(std::string_view s) : s_(s) {}
 
   Result<Type> type(int depth) {
-    if (depth > kMaxSignatureDepth) return fail(Errc::protocol, "signature nested too deeply");
-    if (pos_ >= s_.size()) return fail(Errc::protocol, "signature ends early");
+    if (depth > kMaxSignatureDepth)
+      return makeError(Errc::protocol_error, "signature nested too deeply");
+    if (pos_ >= s_.size()) return makeError(Errc::protocol_error, "signature ends early");
     const char c = s_[pos_++];
     Type t;
     t.kind = c;
@@ -28,7 +29,7 @@ class Parser {
         t.items.push_back(std::move(item.value()));
       }
       if (pos_ >= s_.size() || s_[pos_] != close) {
-        return fail(Errc::protocol, std::string("signature: expected '") + close + "'");
+        return makeError(Errc::protocol_error, std::string("signature: expected '") + close + "'");
       }
       ++pos_;
       return t;
@@ -39,7 +40,7 @@ class Parser {
         if (!item) return item.error();
         t.items.push_back(std::move(item.value()));
       }
-      if (pos_ >= s_.size()) return fail(Errc::protocol, "signature: expected ')'");
+      if (pos_ >= s_.size()) return makeError(Errc::protocol_error, "signature: expected ')'");
       ++pos_;
       if (pos_ < s_.size() && s_[pos_] == '<') {
         auto r = annotation(t);
@@ -47,8 +48,9 @@ class Parser {
       }
       return t;
     }
-    return fail(Errc::protocol, std::string("signature: unknown type '") +
-                                    (std::isprint(static_cast<unsigned char>(c)) ? c : '?') + "'");
+    return makeError(Errc::protocol_error,
+                     std::string("signature: unknown type '") +
+                         (std::isprint(static_cast<unsigned char>(c)) ? c : '?') + "'");
   }
 
   [[nodiscard]] bool done() const { return pos_ == s_.size(); }
@@ -65,10 +67,10 @@ class Parser {
       } else if (std::isalnum(static_cast<unsigned char>(c)) || c == '_') {
         names.back() += c;
       } else {
-        return fail(Errc::protocol, "signature: bad character in annotation");
+        return makeError(Errc::protocol_error, "signature: bad character in annotation");
       }
     }
-    if (pos_ >= s_.size()) return fail(Errc::protocol, "signature: expected '>'");
+    if (pos_ >= s_.size()) return makeError(Errc::protocol_error, "signature: expected '>'");
     ++pos_;
     t.name = names.front();
     t.fields.assign(names.begin() + 1, names.end());
@@ -82,11 +84,11 @@ class Parser {
 }  // namespace
 
 Result<Type> parseSignature(std::string_view sig) {
-  if (sig.size() > kMaxSignatureBytes) return fail(Errc::protocol, "signature too long");
+  if (sig.size() > kMaxSignatureBytes) return makeError(Errc::protocol_error, "signature too long");
   Parser p(sig);
   auto t = p.type(0);
   if (!t) return t;
-  if (!p.done()) return fail(Errc::protocol, "signature: trailing characters");
+  if (!p.done()) return makeError(Errc::protocol_error, "signature: trailing characters");
   return t;
 }
 
@@ -144,4 +146,4 @@ std::size_t minWireSize(const Type& t) {
   }
 }
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

@@ -3,14 +3,14 @@
 // tuple "(T...)" with an optional annotation "<Name,field,...>".
 #pragma once
 
-#include "nao_result.h"
+#include <skrobot/result.hpp>
 
 #include <cstddef>
 #include <string>
 #include <string_view>
 #include <vector>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 constexpr std::size_t kMaxSignatureBytes = 4096;
 constexpr int kMaxSignatureDepth = 16;
@@ -33,4 +33,4 @@ struct Type {
 // The fewest bytes a value of this type takes on the wire (0 for void and empty tuples).
 [[nodiscard]] std::size_t minWireSize(const Type& t);
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

@@ -6,7 +6,7 @@
 #include <limits>
 #include <sstream>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 Value Value::boolean(bool b) {
   Value v;
@@ -208,7 +208,7 @@ bool readLe(Reader& r, T& out) {
 }
 
 Error shortPayload() {
-  return fail(Errc::protocol, "payload ends early");
+  return makeError(Errc::protocol_error, "payload ends early");
 }
 
 Result<Value> decodeAt(const Type& t, Reader& r, int depth);
@@ -216,18 +216,19 @@ Result<Value> decodeAt(const Type& t, Reader& r, int depth);
 Result<std::uint32_t> readCount(Reader& r, const Type& elem, std::size_t per) {
   std::uint32_t n = 0;
   if (!readLe(r, n)) return shortPayload();
-  if (n > 0 && per == 0) return fail(Errc::protocol, "container of zero-size elements");
+  if (n > 0 && per == 0) return makeError(Errc::protocol_error, "container of zero-size elements");
   if (per != 0 && n > r.left() / per) {
-    return fail(Errc::protocol,
-                "count " + std::to_string(n) + " exceeds the payload (" + toString(elem) + ")");
+    return makeError(Errc::protocol_error, "count " + std::to_string(n) + " exceeds the payload (" +
+                                               toString(elem) + ")");
   }
   return n;
 }
 
 Result<Value> decodeAt(const Type& t, Reader& r, int depth) {
-  if (depth > kMaxValueDepth) return fail(Errc::protocol, "value nested too deeply");
+  if (depth > kMaxValueDepth) return makeError(Errc::protocol_error, "value nested too deeply");
   if (!r.spend()) {
-    return fail(Errc::protocol, "more than " + std::to_string(kMaxDecodedValues) + " values");
+    return makeError(Errc::protocol_error,
+                     "more than " + std::to_string(kMaxDecodedValues) + " values");
   }
   switch (t.kind) {
     case 'v':
@@ -334,7 +335,7 @@ Result<Value> decodeAt(const Type& t, Reader& r, int depth) {
       return Value::tuple(std::move(items), t.name, t.fields);
     }
     default:
-      return fail(Errc::unsupported, std::string("cannot decode type '") + t.kind + "'");
+      return makeError(Errc::unsupported, std::string("cannot decode type '") + t.kind + "'");
   }
 }
 
@@ -346,7 +347,7 @@ void writeLe(std::string& out, T v) {
 }
 
 Error mismatch(const Type& t, const Value& v) {
-  return fail(Errc::protocol, "cannot send " + v.text() + " as '" + toString(t) + "'");
+  return makeError(Errc::protocol_error, "cannot send " + v.text() + " as '" + toString(t) + "'");
 }
 
 Result<void> writeInt(const Type& t, const Value& v, std::string& out) {
@@ -385,7 +386,7 @@ Result<void> writeInt(const Type& t, const Value& v, std::string& out) {
 }
 
 Result<void> encodeAt(const Type& t, const Value& v, std::string& out, int depth) {
-  if (depth > kMaxValueDepth) return fail(Errc::protocol, "value nested too deeply");
+  if (depth > kMaxValueDepth) return makeError(Errc::protocol_error, "value nested too deeply");
   switch (t.kind) {
     case 'v':
       return {};
@@ -455,7 +456,7 @@ Result<void> encodeAt(const Type& t, const Value& v, std::string& out, int depth
       }
       return {};
     default:
-      return fail(Errc::unsupported, std::string("cannot encode type '") + t.kind + "'");
+      return makeError(Errc::unsupported, std::string("cannot encode type '") + t.kind + "'");
   }
 }
 
@@ -464,7 +465,14 @@ Result<void> encodeAt(const Type& t, const Value& v, std::string& out, int depth
 Result<Value> decode(const Type& t, std::string_view bytes, std::size_t* used) {
   Reader r(bytes);
   auto v = decodeAt(t, r, 0);
-  if (v && used != nullptr) *used = r.pos();
+  if (!v) return v;
+  if (used != nullptr) {
+    *used = r.pos();
+  } else if (r.pos() != bytes.size()) {
+    // A message read only in part was not understood: its type is not the one assumed.
+    return makeError(Errc::protocol_error, std::to_string(bytes.size() - r.pos()) +
+                                               " bytes left after the value (" + toString(t) + ")");
+  }
   return v;
 }
 
@@ -487,4 +495,4 @@ Result<std::string> encode(std::string_view sig, const Value& v) {
   return out;
 }
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 
 class Value {
  public:
@@ -67,7 +67,8 @@ class Value {
 
 // Reads values of a known type from a byte buffer. Counts are checked against the bytes left
 // before anything is allocated; dynamic values nest at most kMaxValueDepth deep, and a payload
-// yields at most kMaxDecodedValues values.
+// yields at most kMaxDecodedValues values. Without `used`, the value must fill `bytes` exactly
+// (bytes left over are an error); with it, *used receives how many bytes the value took.
 constexpr int kMaxValueDepth = 32;
 constexpr std::size_t kMaxDecodedValues = 1u << 18;  // per payload; bounds memory to ~50 MiB
 
@@ -80,4 +81,4 @@ constexpr std::size_t kMaxDecodedValues = 1u << 18;  // per payload; bounds memo
 [[nodiscard]] Result<void> encode(const Type& t, const Value& v, std::string& out);
 [[nodiscard]] Result<std::string> encode(std::string_view sig, const Value& v);
 
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

@@ -1,6 +1,6 @@
 #include "robot_backend.h"
 
-namespace nao {
+namespace skr::nao {
 
 const char* stateName(StateKind k) noexcept {
   switch (k) {
@@ -18,4 +18,4 @@ const char* stateName(StateKind k) noexcept {
   return "?";
 }
 
-}  // namespace nao
+}  // namespace skr::nao

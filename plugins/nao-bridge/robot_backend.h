@@ -3,14 +3,14 @@
 // later pump).
 #pragma once
 
+#include <skrobot/result.hpp>
 #include "commands.h"
-#include "nao_result.h"
 
 #include <array>
 #include <functional>
 #include <string>
 
-namespace nao {
+namespace skr::nao {
 
 enum class StateKind { joints, sonar, battery, posture, fall };
 constexpr std::array<StateKind, 5> kStateKinds = {
@@ -37,4 +37,4 @@ class RobotBackend {
   [[nodiscard]] virtual std::string describe() const = 0;
 };
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -8,7 +8,7 @@
 
 #include <algorithm>
 
-namespace nao {
+namespace skr::nao {
 
 RobotWorker::RobotWorker(std::unique_ptr<RobotBackend> backend, WorkerOptions o, WorkerCallbacks cb)
     : backend_(std::move(backend)), opt_(o), cb_(std::move(cb)) {
@@ -141,4 +141,4 @@ void RobotWorker::run() {
   backend_->disconnect("the bridge is stopping");
 }
 
-}  // namespace nao
+}  // namespace skr::nao

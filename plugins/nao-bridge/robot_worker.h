@@ -16,7 +16,7 @@
 #include <string>
 #include <thread>
 
-namespace nao {
+namespace skr::nao {
 
 struct WorkerOptions {
   std::array<double, 5> rate_hz = {10, 5, 1, 2, 5};  // by StateKind
@@ -68,4 +68,4 @@ class RobotWorker {
   std::thread thread_;
 };
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -3,7 +3,7 @@
 #include <json/json.h>
 #include <poll.h>
 
-namespace nao {
+namespace skr::nao {
 
 namespace {
 std::string compact(const Json::Value& v) {
@@ -63,4 +63,4 @@ Result<void> SimBackend::pump(int timeout_ms, int wake_fd) {
   return {};
 }
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-namespace nao {
+namespace skr::nao {
 namespace {
 
 // Drain per second at drain_scale 1: about 3 h resting, 90 min awake, 60 min walking.
@@ -165,4 +165,4 @@ double SimRobot::sonarRight() const {
   return wallDistance(pose_.theta_rad - kSonarHalfAngle);
 }
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -11,7 +11,7 @@
 #include <map>
 #include <string>
 
-namespace nao {
+namespace skr::nao {
 
 struct SimOptions {
   double room_size_m = 4.0;  // square room centred on the start position
@@ -66,4 +66,4 @@ class SimRobot {
   std::map<std::string, std::uint32_t> leds_;
 };
 
-}  // namespace nao
+}  // namespace skr::nao

@@ -1,5 +1,6 @@
 // The nao-bridge module in a hub: its service channel with the simulated Nao, its state streams,
 // command queues, and the naoqi backend against QiTestServer (calls, connection loss, retry).
+#include "log_capture.h"
 #include "module_fixture.h"
 #include "qi_test_server.h"
 
@@ -195,6 +196,9 @@ TEST_F(NaoBridge, NaoqiBackendCallsTheRobotAndSurvivesConnectionLoss) {
   EXPECT_FLOAT_EQ(static_cast<float>(calls[2].args.items()[2].asDouble()), -0.25f);
   EXPECT_EQ(calls[3].method, "fadeRGB");
   EXPECT_EQ(calls[3].args.items()[1].asInt(), 0xff0000);
+  EXPECT_EQ(calls[3].endpoint, 1);  // ALLeds and ALTextToSpeech live "in another process"
+  EXPECT_EQ(calls[0].endpoint, 1);
+  EXPECT_EQ(calls[1].endpoint, 0);
   EXPECT_EQ(calls[4].method, "goToPosture");
   EXPECT_EQ(calls[4].args.items()[0].asString(), "Sit");
 
@@ -228,6 +232,58 @@ TEST_F(NaoBridge, NaoqiBackendCallsTheRobotAndSurvivesConnectionLoss) {
   waitData(sat, status, [](const Json::Value& v) { return v["connected"].asBool(); });
   EXPECT_TRUE(command(sync, "say", R"({"text":"back"})")["ok"].asBool());
   EXPECT_GE(robot.authentications(), 2);
+}
+
+// What a robot lacking a service looks like: the connection fails at once, naming it.
+TEST_F(NaoBridge, AMissingServiceFailsTheConnectionWithAClearLogLine) {
+  LogCapture log;
+  nao::test::QiTestServer robot;
+  robot.removeService("ALLeds");
+  const std::string config = R"({"backend":"naoqi","host":"127.0.0.1","port":)" +
+                             std::to_string(robot.port()) +
+                             R"(,"reconnect_min_ms":100,"reconnect_max_ms":1000})";
+  ASSERT_TRUE(startModule("nao", config, false, "nao-bridge").empty());
+  TestClient sync = syncClient();
+  TestClient sat = flowClient();
+  const uint16_t status = channel(sync, "nao.status");
+  ASSERT_TRUE(sat.send(msg::Subscribe{1, status}));
+  Json::Value down = waitData(sat, status, [](const Json::Value& v) {
+    return v["error"].asString().find("ALLeds") != std::string::npos;
+  });
+  EXPECT_FALSE(down["connected"].asBool());
+  EXPECT_NE(down["error"].asString().find("NAOqi service ALLeds unavailable"), std::string::npos)
+      << down["error"].asString();
+  EXPECT_NE(down["error"].asString().find("Cannot find service 'ALLeds'"), std::string::npos);
+  bool logged = false;
+  for (const auto& line : log.lines()) {
+    logged = logged || (line.rfind("NAO-DISCONNECTED ", 0) == 0 &&
+                        line.find("NAOqi service ALLeds unavailable") != std::string::npos);
+  }
+  EXPECT_TRUE(logged);
+  EXPECT_TRUE(robot.calls().empty());  // nothing was called before every service was found
+}
+
+TEST_F(NaoBridge, AuthenticateFalseIsWarnedAbout) {
+  LogCapture log;
+  nao::test::QiTestServer robot;
+  const std::string config = R"({"backend":"naoqi","host":"127.0.0.1","port":)" +
+                             std::to_string(robot.port()) + R"(,"authenticate":false})";
+  ASSERT_TRUE(startModule("nao", config, false, "nao-bridge").empty());
+  bool warned = false;
+  for (const auto& line : log.lines()) {
+    warned = warned || (line.rfind("NAO-CONFIG ", 0) == 0 &&
+                        line.find("NAOqi 2.5 and later") != std::string::npos);
+  }
+  EXPECT_TRUE(warned);
+  // And the test server, like NAOqi 2.5+, indeed refuses such a client.
+  TestClient sync = syncClient();
+  TestClient sat = flowClient();
+  const uint16_t status = channel(sync, "nao.status");
+  ASSERT_TRUE(sat.send(msg::Subscribe{1, status}));
+  Json::Value down = waitData(sat, status, [](const Json::Value& v) {
+    return v["error"].asString().find("could not be handled") != std::string::npos;
+  });
+  EXPECT_FALSE(down["connected"].asBool());
 }
 
 TEST_F(NaoBridge, RefusesABadConfig) {

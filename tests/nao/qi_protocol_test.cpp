@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-namespace nao::qi {
+namespace skr::nao::qi {
 namespace {
 
 TEST(QiSignature, ParsesNestedTypesAndAnnotations) {
@@ -256,7 +256,7 @@ TEST_F(QiSession, OversizedAndMalformedRepliesCloseTheConnection) {
   server_.corruptNextReply();
   r = client_.callSync("ALRobotPosture", "getPosture", {}, 2000);
   ASSERT_FALSE(r);
-  EXPECT_EQ(r.error().code, Errc::protocol);
+  EXPECT_EQ(r.error().code, Errc::protocol_error);
   EXPECT_NE(r.error().message.find("QI-PROTOCOL"), std::string::npos);
   EXPECT_FALSE(client_.connected());
 
@@ -268,6 +268,111 @@ TEST_F(QiSession, OversizedAndMalformedRepliesCloseTheConnection) {
   EXPECT_NE(r.error().message.find("bad magic"), std::string::npos);
 }
 
+TEST_F(QiSession, LooksUpWithSevenFieldsAndWithSix) {
+  ASSERT_TRUE(client_.connect(options()));
+  auto info = client_.serviceInfo("ALMotion");
+  ASSERT_TRUE(info) << info.error().message;
+  EXPECT_EQ(info->object_uid, test::QiTestServer::kObjectUid);  // libqi 4's seventh field
+  EXPECT_EQ(info->process_id, 42u);
+  EXPECT_EQ(info->session_id, "session");
+  server_.setSixFieldLookups(true);  // libqi before 4
+  info = client_.serviceInfo("ALMemory");
+  ASSERT_TRUE(info) << info.error().message;
+  EXPECT_EQ(info->service_id, 13u);
+  EXPECT_EQ(info->object_uid, "");
+  EXPECT_TRUE(client_.callSync("ALMemory", "getData", {Value::string("k")}, 2000));
+}
+
+TEST_F(QiSession, RepliesNotReadToTheEndAreRefused) {
+  ASSERT_TRUE(client_.connect(options()));
+  ASSERT_TRUE(client_.resolve("ALRobotPosture"));
+  server_.appendToNextReply(std::string("\x01\0\0\0", 4));
+  auto r = client_.callSync("ALRobotPosture", "getPosture", {}, 2000);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, Errc::protocol_error);
+  EXPECT_NE(r.error().message.find("4 bytes left"), std::string::npos) << r.error().message;
+  EXPECT_FALSE(client_.connected());
+
+  // A look-up answer with more than the seven fields is refused too.
+  ASSERT_TRUE(client_.connect(options()));
+  server_.appendToNextReply("xyz");
+  auto info = client_.serviceInfo("ALMotion");
+  ASSERT_FALSE(info);
+  EXPECT_EQ(info.error().code, Errc::protocol_error);
+  EXPECT_FALSE(client_.connected());
+  EXPECT_FALSE(decode("s", std::string("\x01\0\0\0ab", 6)));
+  std::size_t used = 0;
+  EXPECT_TRUE(decode("s", std::string("\x01\0\0\0ab", 6), &used));
+  EXPECT_EQ(used, 5u);
+}
+
+TEST_F(QiSession, ServicesInAnotherProcessAreCalledAtTheirOwnEndpoint) {
+  ASSERT_TRUE(client_.connect(options()));
+  auto info = client_.serviceInfo("ALLeds");
+  ASSERT_TRUE(info) << info.error().message;
+  ASSERT_EQ(info->endpoints.size(), 1u);
+  EXPECT_EQ(info->endpoints[0], "tcp://127.0.0.1:" + std::to_string(server_.sidePort()));
+
+  auto ok =
+      client_.callSync("ALLeds", "fadeRGB",
+                       {Value::string("FaceLeds"), Value::integer(0xff0000), Value::real(0)}, 2000);
+  ASSERT_TRUE(ok) << ok.error().message;
+  ASSERT_TRUE(client_.callSync("ALTextToSpeech", "say", {Value::string("hi")}, 2000));
+  ASSERT_TRUE(client_.callSync("ALMotion", "stopMove", {}, 2000));
+  const auto calls = server_.calls();
+  ASSERT_EQ(calls.size(), 3u);
+  EXPECT_EQ(calls[0].method, "fadeRGB");
+  EXPECT_EQ(calls[0].endpoint, 1);
+  EXPECT_EQ(calls[1].endpoint, 1);
+  EXPECT_EQ(calls[2].endpoint, 0);
+  // One connection to the other process, shared by its two services, authenticated too.
+  EXPECT_EQ(client_.connections(), 2u);
+  EXPECT_EQ(server_.sideConnections(), 1);
+  EXPECT_EQ(server_.authentications(), 2);
+  EXPECT_EQ(client_.endpointOf("ALLeds"), "127.0.0.1:" + std::to_string(server_.sidePort()));
+  EXPECT_EQ(client_.endpointOf("ALMotion"), "127.0.0.1:" + std::to_string(server_.port()));
+
+  // Losing the other endpoint closes everything, like losing the robot.
+  server_.dropConnection();
+  for (int i = 0; i < 100 && client_.connected(); ++i) (void)client_.pump(20);
+  EXPECT_FALSE(client_.connected());
+  EXPECT_EQ(client_.connections(), 0u);
+}
+
+TEST_F(QiSession, WithoutTheCapabilityMapNaoqi25RefusesEveryCall) {
+  ClientOptions o = options();
+  o.authenticate = false;
+  ASSERT_TRUE(client_.connect(o));  // TCP only; the directory's own look-up is refused
+  auto r = client_.resolve("ALMotion");
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("The call request could not be handled"), std::string::npos);
+  EXPECT_NE(r.error().message.find("\"authenticate\" is off"), std::string::npos)
+      << r.error().message;
+  EXPECT_GE(server_.refusedUnauthenticated(), 2);
+  EXPECT_EQ(server_.authentications(), 0);
+}
+
+TEST(QiEndpoint, ParsesTcpUrlsAndRefusesTheRest) {
+  auto e = parseEndpoint("tcp://192.168.1.12:9559");
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->host, "192.168.1.12");
+  EXPECT_EQ(e->port, 9559);
+  e = parseEndpoint("tcp://[fe80::1]:40000");
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->host, "fe80::1");
+  EXPECT_EQ(e->text(), "[fe80::1]:40000");
+  auto tls = parseEndpoint("tcps://10.0.0.2:9503");
+  ASSERT_FALSE(tls);
+  EXPECT_EQ(tls.error().code, Errc::unsupported);
+  for (const char* bad : {"", "192.168.1.12:9559", "tcp://host", "tcp://host:0", "tcp://h:70000",
+                          "tcp://h:12x", "tcp://[::1]9559"}) {
+    EXPECT_FALSE(parseEndpoint(bad)) << bad;
+  }
+  EXPECT_TRUE(isLoopback("127.0.0.1"));
+  EXPECT_TRUE(isLoopback("::1"));
+  EXPECT_FALSE(isLoopback("192.168.1.12"));
+}
+
 TEST(QiClientConnect, ReportsARefusedConnection) {
   std::uint16_t port = 0;
   { port = test::QiTestServer().port(); }  // a port nobody listens on now
@@ -277,8 +382,8 @@ TEST(QiClientConnect, ReportsARefusedConnection) {
   o.connect_timeout_ms = 500;
   auto r = c.connect(o);
   ASSERT_FALSE(r);
-  EXPECT_EQ(r.error().code, Errc::io);
+  EXPECT_EQ(r.error().code, Errc::io_error);
 }
 
 }  // namespace
-}  // namespace nao::qi
+}  // namespace skr::nao::qi

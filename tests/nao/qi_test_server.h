@@ -1,7 +1,13 @@
-// A qi endpoint for tests, written from the same protocol description as the client: it answers
-// authenticate, ServiceDirectory.service and metaObject, and fakes ALTextToSpeech, ALMotion,
-// ALRobotPosture, ALMemory and ALLeds. It records every call (service, method, arguments) so
-// tests can assert on them. One thread, one client at a time, 127.0.0.1 on a free port.
+// A qi endpoint for tests, written from the same protocol description as the client and from
+// what a server built on libqi 4.0.5 did (NAOqi 2.5 and later):
+// - every call before the capability/authenticate exchange is refused with an error reply;
+// - ServiceDirectory.service answers with seven fields (libqi 4 adds the object uid), or six
+//   (setSixFieldLookups, as older NAOqi);
+// - ALTextToSpeech and ALLeds live "in another process": on a second listening socket, which
+//   their look-up names as their only endpoint, and which alone answers their calls.
+// It fakes ALTextToSpeech, ALMotion, ALRobotPosture, ALMemory and ALLeds and records every call
+// (service, method, arguments, endpoint) so tests can assert on them. One thread, any number of
+// clients, 127.0.0.1 on free ports.
 #pragma once
 
 #include "qi_message.h"
@@ -12,57 +18,59 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <map>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
-namespace nao::test {
+namespace skr::nao::test {
 
 struct RecordedCall {
   std::string service;
   std::string method;
-  qi::Value args;  // the decoded argument tuple
+  qi::Value args;    // the decoded argument tuple
+  int endpoint = 0;  // 0: the main endpoint (port()), 1: the other one (sidePort())
 };
 
 class QiTestServer {
  public:
   QiTestServer() {
-    listen_fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    const int one = 1;
-    ::setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&a), sizeof(a));
-    ::listen(listen_fd_, 4);
-    socklen_t len = sizeof(a);
-    ::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
+    for (auto& l : listeners_) l = listenLoopback();
     defineServices();
     thread_ = std::thread([this] { run(); });
   }
   ~QiTestServer() {
     stop_ = true;
     thread_.join();
-    if (client_fd_ >= 0) ::close(client_fd_);
-    ::close(listen_fd_);
+    for (auto& c : clients_) ::close(c.fd);
+    for (auto& l : listeners_) ::close(l.fd);
   }
   QiTestServer(const QiTestServer&) = delete;
   QiTestServer& operator=(const QiTestServer&) = delete;
 
-  [[nodiscard]] std::uint16_t port() const { return port_; }
+  // The endpoint of the ServiceDirectory and of ALMotion, ALRobotPosture, ALMemory.
+  [[nodiscard]] std::uint16_t port() const { return listeners_[0].port; }
+  // The endpoint of ALTextToSpeech and ALLeds ("another process").
+  [[nodiscard]] std::uint16_t sidePort() const { return listeners_[1].port; }
   [[nodiscard]] std::vector<RecordedCall> calls() {
     std::lock_guard<std::mutex> l(mu_);
     return calls_;
   }
+  // Successful capability exchanges, on either endpoint.
   [[nodiscard]] int authentications() const { return auths_; }
-  // TCP connections accepted, including those closed at once while not accepting.
+  // Calls refused because they came before the capability exchange.
+  [[nodiscard]] int refusedUnauthenticated() const { return refused_; }
+  // TCP connections accepted on the main endpoint, including those closed at once while not
+  // accepting.
   [[nodiscard]] int connections() const { return connections_; }
-  // Closes the current connection (the robot "goes away") and returns once it is closed.
+  // Connections accepted on the side endpoint.
+  [[nodiscard]] int sideConnections() const { return side_connections_; }
+  // Closes every connection (the robot "goes away") and returns once they are closed.
   void dropConnection() {
     drop_ = true;
     while (drop_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -71,10 +79,22 @@ class QiTestServer {
   void setAccepting(bool on) { accepting_ = on; }
   // Replies carry the dynamic-payload flag and an 'm' payload (MessageFlags capability).
   void setDynamicReplies(bool on) { dynamic_ = on; }
+  // Look-ups answer with the six fields of libqi before the object uid.
+  void setSixFieldLookups(bool on) { six_fields_ = on; }
+  // Call before the client connects: the directory no longer knows `name`.
+  void removeService(const std::string& name) {
+    std::lock_guard<std::mutex> l(mu_);
+    removed_.insert(name);
+  }
   // The next message sent is this raw byte string instead of a reply.
   void sendRawNext(std::string bytes) {
     std::lock_guard<std::mutex> l(mu_);
     raw_next_ = std::move(bytes);
+  }
+  // The next reply carries these bytes after its value (a reply not read to its end).
+  void appendToNextReply(std::string bytes) {
+    std::lock_guard<std::mutex> l(mu_);
+    trailing_next_ = std::move(bytes);
   }
   // The next reply keeps its header but carries a payload that cannot be a string.
   void corruptNextReply() { corrupt_ = true; }
@@ -88,23 +108,53 @@ class QiTestServer {
     return false;
   }
 
+  static constexpr char kObjectUid[] = "0123456789abcdefghij";  // 20 bytes, as libqi's PtrUid
+
  private:
+  struct Listener {
+    int fd = -1;
+    std::uint16_t port = 0;
+  };
+  struct Client {
+    int fd;
+    int endpoint;
+    bool authenticated = false;
+    qi::MessageFramer framer;
+  };
   struct Service {
     std::uint32_t id;
+    int endpoint;
     qi::MetaObject meta;
   };
 
+  static Listener listenLoopback() {
+    Listener l;
+    l.fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    const int one = 1;
+    ::setsockopt(l.fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ::bind(l.fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+    ::listen(l.fd, 8);
+    socklen_t len = sizeof(a);
+    ::getsockname(l.fd, reinterpret_cast<sockaddr*>(&a), &len);
+    l.port = ntohs(a.sin_port);
+    return l;
+  }
+
   void defineServices() {
-    auto svc = [&](const char* name, std::uint32_t id, std::vector<qi::MetaMethod> methods) {
+    auto svc = [&](const char* name, std::uint32_t id, int endpoint,
+                   std::vector<qi::MetaMethod> methods) {
       qi::MetaObject m;
       // Every object has metaObject as action 2; methods of the service start at 100.
       m.methods.push_back({2, qi::kMetaObjectSignature, "metaObject", "(I)"});
       for (auto& x : methods) m.methods.push_back(x);
       m.description = name;
-      services_[name] = Service{id, m};
+      services_[name] = Service{id, endpoint, m};
     };
-    svc("ALTextToSpeech", 10, {{100, "v", "say", "(s)"}, {101, "v", "say", "(ss)"}});
-    svc("ALMotion", 11,
+    svc("ALTextToSpeech", 10, 1, {{100, "v", "say", "(s)"}, {101, "v", "say", "(ss)"}});
+    svc("ALMotion", 11, 0,
         {{100, "v", "setAngles", "(mmf)"},
          {101, "v", "moveToward", "(fff)"},
          {102, "v", "moveToward", "(fffm)"},
@@ -112,167 +162,208 @@ class QiTestServer {
          {104, "v", "rest", "()"},
          {105, "v", "wakeUp", "()"},
          {106, "[f]", "getAngles", "(mb)"}});
-    svc("ALRobotPosture", 12, {{100, "b", "goToPosture", "(sf)"}, {101, "s", "getPosture", "()"}});
-    svc("ALMemory", 13, {{100, "m", "getData", "(s)"}, {101, "m", "getListData", "(m)"}});
-    svc("ALLeds", 14, {{100, "v", "fadeRGB", "(sif)"}, {101, "v", "fadeRGB", "(sfff)"}});
+    svc("ALRobotPosture", 12, 0,
+        {{100, "b", "goToPosture", "(sf)"}, {101, "s", "getPosture", "()"}});
+    svc("ALMemory", 13, 0, {{100, "m", "getData", "(s)"}, {101, "m", "getListData", "(m)"}});
+    svc("ALLeds", 14, 1, {{100, "v", "fadeRGB", "(sif)"}, {101, "v", "fadeRGB", "(sfff)"}});
   }
 
   void run() {
     while (!stop_) {
-      if (client_fd_ < 0) {
-        pollfd p{listen_fd_, POLLIN, 0};
-        if (::poll(&p, 1, 20) > 0) {
-          const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-          if (fd >= 0) ++connections_;
-          if (fd >= 0 && !accepting_) {
-            ::close(fd);
-          } else if (fd >= 0) {
-            client_fd_ = fd;
-            framer_ = qi::MessageFramer();
-          }
-        }
-        drop_ = false;
-        continue;
-      }
       if (drop_) {
-        closeClient();
+        for (auto& c : clients_) ::close(c.fd);
+        clients_.clear();
         drop_ = false;
-        continue;
       }
-      pollfd p{client_fd_, POLLIN, 0};
-      if (::poll(&p, 1, 20) <= 0) continue;
-      char buf[8192];
-      const ssize_t n = ::recv(client_fd_, buf, sizeof(buf), 0);
-      if (n <= 0) {
-        closeClient();
-        continue;
+      std::vector<pollfd> p;
+      for (const auto& l : listeners_) p.push_back({l.fd, POLLIN, 0});
+      for (const auto& c : clients_) p.push_back({c.fd, POLLIN, 0});
+      if (::poll(p.data(), p.size(), 20) <= 0) continue;
+      for (std::size_t i = 0; i < listeners_.size(); ++i) {
+        if ((p[i].revents & POLLIN) != 0) accept(static_cast<int>(i));
       }
-      framer_.append(std::string_view(buf, static_cast<std::size_t>(n)));
-      for (;;) {
-        auto m = framer_.next();
-        if (!m || !m.value()) break;
-        handle(*m.value());
+      // Clients accepted above are polled next time; those polled now keep their index.
+      std::vector<int> gone;
+      for (std::size_t i = listeners_.size(); i < p.size(); ++i) {
+        if (p[i].revents == 0) continue;
+        Client& c = clients_[i - listeners_.size()];
+        char buf[8192];
+        const ssize_t n = ::recv(c.fd, buf, sizeof(buf), 0);
+        if (n <= 0) {
+          gone.push_back(c.fd);
+          continue;
+        }
+        c.framer.append(std::string_view(buf, static_cast<std::size_t>(n)));
+        for (;;) {
+          auto m = c.framer.next();
+          if (!m || !m.value()) break;
+          handle(c, *m.value());
+        }
+      }
+      for (int fd : gone) {
+        ::close(fd);
+        std::erase_if(clients_, [fd](const Client& c) { return c.fd == fd; });
       }
     }
   }
 
-  void closeClient() {
-    ::close(client_fd_);
-    client_fd_ = -1;
+  void accept(int endpoint) {
+    const int fd = ::accept4(listeners_[endpoint].fd, nullptr, nullptr, SOCK_CLOEXEC);
+    if (fd < 0) return;
+    ++(endpoint == 0 ? connections_ : side_connections_);
+    if (!accepting_) {
+      ::close(fd);
+      return;
+    }
+    clients_.push_back(Client{fd, endpoint, false, qi::MessageFramer()});
   }
 
-  void send(const qi::Message& to, qi::MsgType type, const std::string& payload,
+  void send(const Client& c, const qi::Message& to, qi::MsgType type, const std::string& payload,
             std::uint8_t flags = 0) {
     std::string raw;
+    std::string trailing;
     {
       std::lock_guard<std::mutex> l(mu_);
       raw.swap(raw_next_);
+      if (type == qi::MsgType::reply) trailing.swap(trailing_next_);
     }
     qi::Header h = to.header;
     h.type = type;
     h.flags = flags;
-    const std::string body = corrupt_.exchange(false) ? std::string("\xff\xff\xff\xff") : payload;
+    const std::string body =
+        corrupt_.exchange(false) ? std::string("\xff\xff\xff\xff") : payload + trailing;
     const std::string bytes = raw.empty() ? qi::encodeMessage(h, body) : raw;
-    (void)!::send(client_fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    (void)!::send(c.fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
   }
-  void reply(const qi::Message& to, const std::string& sig, const qi::Value& v) {
+  void reply(const Client& c, const qi::Message& to, const std::string& sig, const qi::Value& v) {
     if (dynamic_) {
-      send(to, qi::MsgType::reply, qi::encode("m", v).value(), qi::kFlagDynamicPayload);
+      send(c, to, qi::MsgType::reply, qi::encode("m", v).value(), qi::kFlagDynamicPayload);
     } else {
-      send(to, qi::MsgType::reply, qi::encode(sig, v).value());
+      send(c, to, qi::MsgType::reply, qi::encode(sig, v).value());
     }
   }
-  void error(const qi::Message& to, const std::string& text) {
-    send(to, qi::MsgType::error, qi::encode("m", qi::Value::string(text)).value());
+  void error(const Client& c, const qi::Message& to, const std::string& text) {
+    send(c, to, qi::MsgType::error, qi::encode("m", qi::Value::string(text)).value());
   }
 
-  void handle(const qi::Message& m) {
+  void handle(Client& c, const qi::Message& m) {
     const qi::Header& h = m.header;
     if (h.type != qi::MsgType::call) return;
     if (h.service == qi::kServiceServer && h.action == qi::kActionAuthenticate) {
       auto caps = qi::decode("{sm}", m.payload);
       if (!caps || caps->find("ClientServerSocket") == nullptr) {
-        return error(m, "authenticate: no capability map");
+        return error(c, m, "authenticate: no capability map");
       }
       ++auths_;
-      return reply(m, "{sm}",
+      c.authenticated = true;
+      return reply(c, m, "{sm}",
                    qi::Value::map({{qi::Value::string("__qi_auth_state"), qi::Value::integer(3)}}));
     }
-    if (h.service == qi::kServiceDirectory && h.action == qi::kActionService) {
-      auto name = qi::decode("s", m.payload);
-      if (!name) return error(m, "service: bad argument");
-      auto it = services_.find(name->asString());
-      if (it == services_.end()) return error(m, "Cannot find service '" + name->asString() + "'");
-      qi::ServiceInfo info{it->first,
-                           it->second.id,
-                           "test-machine",
-                           42,
-                           {"tcp://127.0.0.1:" + std::to_string(port_)},
-                           "session"};
-      return reply(m, qi::kServiceInfoSignature, qi::fromServiceInfo(info));
+    if (!c.authenticated) {  // libqi >= 2.5, even without a password
+      ++refused_;
+      return error(c, m, "The call request could not be handled");
+    }
+    if (h.service == qi::kServiceDirectory && h.action == qi::kActionService && c.endpoint == 0) {
+      return lookup(c, m);
     }
     for (const auto& [name, svc] : services_) {
-      if (svc.id != h.service) continue;
+      if (svc.id != h.service || svc.endpoint != c.endpoint) continue;
       for (const qi::MetaMethod& mm : svc.meta.methods) {
         if (mm.uid != h.action) continue;
         auto args = qi::decode(mm.parameters_signature, m.payload);
-        if (!args) return error(m, "bad arguments: " + args.error().message);
+        if (!args) return error(c, m, "bad arguments: " + args.error().message);
         if (mm.name == "metaObject") {
-          return reply(m, qi::kMetaObjectSignature, qi::fromMetaObject(svc.meta));
+          return reply(c, m, qi::kMetaObjectSignature, qi::fromMetaObject(svc.meta));
         }
         {
           std::lock_guard<std::mutex> l(mu_);
-          calls_.push_back({name, mm.name, args.value()});
+          calls_.push_back({name, mm.name, args.value(), c.endpoint});
         }
-        return answer(m, name, mm, args.value());
+        return answer(c, m, mm, args.value());
       }
-      return error(m, "no action " + std::to_string(h.action));
+      return error(c, m, "no action " + std::to_string(h.action));
     }
-    error(m, "no service " + std::to_string(h.service));
+    // What libqi's server answers for a service it does not host on this socket.
+    error(c, m, "can't find service, address: " + std::to_string(h.service));
   }
 
-  void answer(const qi::Message& m, const std::string& service, const qi::MetaMethod& mm,
+  void lookup(const Client& c, const qi::Message& m) {
+    auto name = qi::decode("s", m.payload);
+    if (!name) return error(c, m, "service: bad argument");
+    qi::ServiceInfo info;
+    info.name = name->asString();
+    info.machine_id = "test-machine";
+    info.session_id = "session";
+    info.object_uid = six_fields_ ? "" : kObjectUid;
+    std::uint16_t port = listeners_[0].port;
+    if (info.name == "ServiceDirectory") {
+      info.service_id = qi::kServiceDirectory;
+      info.process_id = 42;
+    } else {
+      auto it = services_.find(info.name);
+      bool removed = false;
+      {
+        std::lock_guard<std::mutex> l(mu_);
+        removed = removed_.count(info.name) != 0;
+      }
+      if (it == services_.end() || removed) {
+        return error(c, m, "Cannot find service '" + info.name + "'");
+      }
+      info.service_id = it->second.id;
+      info.process_id = it->second.endpoint == 0 ? 42 : 43;
+      port = listeners_[it->second.endpoint].port;
+    }
+    info.endpoints = {"tcp://127.0.0.1:" + std::to_string(port)};
+    if (six_fields_) {
+      return reply(c, m, qi::kServiceInfoSignature6, qi::fromServiceInfo(info, false));
+    }
+    reply(c, m, qi::kServiceInfoSignature, qi::fromServiceInfo(info, true));
+  }
+
+  void answer(const Client& c, const qi::Message& m, const qi::MetaMethod& mm,
               const qi::Value& args) {
     const auto& a = args.items();
     if (mm.name == "say" && a[0].asString() == "fail") {
-      return error(m, "ALTextToSpeech::say: speech engine failure");
+      return error(c, m, "ALTextToSpeech::say: speech engine failure");
     }
     if (mm.name == "goToPosture") {
       posture_ = a[0].asString();
-      return reply(m, "b", qi::Value::boolean(posture_ != "Unreachable"));
+      return reply(c, m, "b", qi::Value::boolean(posture_ != "Unreachable"));
     }
-    if (mm.name == "getPosture") return reply(m, "s", qi::Value::string(posture_));
+    if (mm.name == "getPosture") return reply(c, m, "s", qi::Value::string(posture_));
     if (mm.name == "getAngles") {
       std::vector<double> angles(a[0].items().size(), 0.25);
-      return reply(m, "[f]", qi::Value::reals(angles));
+      return reply(c, m, "[f]", qi::Value::reals(angles));
     }
-    if (mm.name == "getData") return reply(m, "m", qi::Value::real(0.5));
+    if (mm.name == "getData") return reply(c, m, "m", qi::Value::real(0.5));
     if (mm.name == "getListData") {
       std::vector<qi::Value> v;
       for (std::size_t i = 0; i < a[0].items().size(); ++i) v.push_back(qi::Value::real(0.75));
-      return reply(m, "m", qi::Value::list(std::move(v)));
+      return reply(c, m, "m", qi::Value::list(std::move(v)));
     }
-    (void)service;
-    reply(m, mm.return_signature, qi::Value());
+    reply(c, m, mm.return_signature, qi::Value());
   }
 
-  int listen_fd_ = -1;
-  int client_fd_ = -1;
-  std::uint16_t port_ = 0;
+  std::array<Listener, 2> listeners_;
+  std::vector<Client> clients_;  // the server thread's own
   std::thread thread_;
   std::atomic<bool> stop_{false};
   std::atomic<bool> drop_{false};
   std::atomic<bool> accepting_{true};
   std::atomic<bool> dynamic_{false};
+  std::atomic<bool> six_fields_{false};
   std::atomic<bool> corrupt_{false};
   std::atomic<int> auths_{0};
+  std::atomic<int> refused_{0};
   std::atomic<int> connections_{0};
-  qi::MessageFramer framer_;
+  std::atomic<int> side_connections_{0};
   std::map<std::string, Service> services_;
   std::mutex mu_;
   std::vector<RecordedCall> calls_;
+  std::set<std::string> removed_;
   std::string raw_next_;
+  std::string trailing_next_;
   std::string posture_ = "Crouch";
 };
 
-}  // namespace nao::test
+}  // namespace skr::nao::test

@@ -8,7 +8,7 @@
 
 #include <cmath>
 
-namespace nao {
+namespace skr::nao {
 namespace {
 
 Command ok(const std::string& json) {
@@ -188,4 +188,4 @@ TEST(SimRobot, SayAndLedsAreRecorded) {
 }
 
 }  // namespace
-}  // namespace nao
+}  // namespace skr::nao

@@ -9,21 +9,21 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
-  const nao::Parsed p = nao::parseCommand(text, size % 2 == 0 ? "head" : "");
+  const skr::nao::Parsed p = skr::nao::parseCommand(text, size % 2 == 0 ? "head" : "");
   if (!p.result.ok()) {
     if (p.result.message.empty()) std::abort();
     return 0;
   }
-  if (const auto* s = std::get_if<nao::Say>(&p.command)) {
-    if (s->text.size() > nao::kMaxSayBytes) std::abort();
+  if (const auto* s = std::get_if<skr::nao::Say>(&p.command)) {
+    if (s->text.size() > skr::nao::kMaxSayBytes) std::abort();
   }
-  if (const auto* j = std::get_if<nao::Joints>(&p.command)) {
+  if (const auto* j = std::get_if<skr::nao::Joints>(&p.command)) {
     if (j->names.size() != j->angles.size() || !(j->speed > 0 && j->speed <= 1)) std::abort();
     for (double a : j->angles) {
       if (!std::isfinite(a)) std::abort();
     }
   }
-  if (const auto* w = std::get_if<nao::Walk>(&p.command)) {
+  if (const auto* w = std::get_if<skr::nao::Walk>(&p.command)) {
     if (std::fabs(w->x) > 1 || std::fabs(w->y) > 1 || std::fabs(w->theta) > 1) std::abort();
   }
   (void)p.result.json();

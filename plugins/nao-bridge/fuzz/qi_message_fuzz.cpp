@@ -11,7 +11,7 @@
 
 namespace {
 
-using namespace nao::qi;
+using namespace skr::nao::qi;
 
 void roundTrip(const Type& t, const Value& v) {
   std::string again;

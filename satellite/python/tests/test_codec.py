@@ -6,7 +6,8 @@ import struct
 import sys
 import time
 import unittest
-from contextlib import redirect_stdout, redirect_stderr
+
+from tests.compat import TextIO, redirect_stderr, redirect_stdout
 
 from PySketch import flowproto
 from PySketch.abstractflow import FlowChannel, parseAddress, robotAddress, validShortName
@@ -224,7 +225,7 @@ class SmallModules(unittest.TestCase):
             self.assertFalse(validShortName(bad), bad)
 
     def test_log(self):
-        out, errs = io.StringIO(), io.StringIO()
+        out, errs = TextIO(), TextIO()
         with redirect_stdout(out), redirect_stderr(errs):
             log.msg("hello", [1, 2])
             log.dbg("debugging")
@@ -239,7 +240,7 @@ class SmallModules(unittest.TestCase):
             self.assertIn(text, errs.getvalue())
         log.setLevel("wrn")
         try:
-            out = io.StringIO()
+            out = TextIO()
             with redirect_stdout(out):
                 log.msg("hidden")
             self.assertEqual(out.getvalue(), "")

@@ -7,6 +7,7 @@ import unittest
 
 from PySketch.flowproto import Flow_T, Variant_T
 
+from tests.compat import monotonic
 from tests.hubtest import EXAMPLES, HubTestCase, Sketch, TIMEOUT, pump, tickFor
 
 CREDENTIALS = ["--user", "guest", "--password", "password"]
@@ -30,7 +31,7 @@ class HubRestart(HubTestCase):
         self.assertTrue(pub.alive() and sub.alive(), pub.output() + sub.output())
 
         self.hub.start()
-        restarted = time.monotonic()
+        restarted = monotonic()
         pub.waitFor(r"reconnected to", since=restarted)
         sub.waitFor(r"reconnected to", since=restarted)
         pub.waitFor(r"channel ready: guest\.sine \(id \d+\)", since=restarted)

@@ -38,6 +38,7 @@ else:
         _f.write('#!/bin/sh\nexec "%s" "%s" "$@"\n'
                  % (PYTHON, os.path.join(PYROOT, "scripts", "pysketch-executor")))
     os.chmod(os.path.join(SCRIPTS, "pysketch-executor"), 0o755)
+EXECUTOR = os.path.join(SCRIPTS, "pysketch-executor")
 TIMEOUT = 10.0       # the longest anything is expected to take, on a loaded machine
 HUB_START_TIMEOUT = 30.0
 
@@ -149,7 +150,8 @@ class Sketch(object):
         self.reader.start()
 
     def _read(self):
-        for line in self.proc.stdout:
+        # readline(): Python 2's file iterator reads ahead 8 KiB before yielding a line.
+        for line in iter(self.proc.stdout.readline, ""):
             with self.lock:
                 self.lines.append((monotonic(), line.rstrip("\n")))
 

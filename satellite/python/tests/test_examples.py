@@ -9,9 +9,8 @@ import tempfile
 import textwrap
 import unittest
 
-from tests.hubtest import EXAMPLES, PYROOT, PYTHON, SCRIPTS, HubTestCase, Sketch
+from tests.hubtest import EXAMPLES, EXECUTOR, PYROOT, PYTHON, SCRIPTS, HubTestCase, Sketch
 
-EXECUTOR = os.path.join(SCRIPTS, "pysketch-executor")
 CREDENTIALS = ["--user", "guest", "--password", "password"]
 
 

@@ -94,7 +94,8 @@ struct Satellite::Impl final : detail::Link::Handler {
   uint64_t generation = 0;  // bumped on every connection attempt; slots may change it
   detail::Link* link = nullptr;
   uv_timer_t* timer = nullptr;
-  Nanos backoff_ns = 0;
+  Nanos backoff_ns = 0;      // the delay before the next connection attempt
+  Nanos flow_opened_ns = 0;  // steadyNowNs() when the current flow opened
   bool failure_logged = false;
   bool stopping = false;  // stop() is closing: no retry
   Nanos last_drop_log_ns = 0;

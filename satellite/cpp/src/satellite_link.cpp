@@ -1,12 +1,22 @@
 // The satellite's connection: connect, LOGIN, CHAN_LIST, GO_ASYNC, and reconnection with backoff.
 #include <skrobot/core/log.h>
 
+#include <chrono>
+
 #include "satellite_impl.h"
 
 namespace skr::sat {
 
 namespace msg = flow::msg;
 using flow::Code;
+
+namespace {
+Nanos steadyNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+}  // namespace
 
 Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std::move(options)) {
   if (opt.reconnect_min_ns <= 0) opt.reconnect_min_ns = kNsPerMs;
@@ -133,6 +143,9 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
   orphan_tags.clear();
   auto failed = std::move(pending);
   pending.clear();
+  if (was_flow && steadyNowNs() - flow_opened_ns >= opt.reconnect_reset_after_ns) {
+    backoff_ns = opt.reconnect_min_ns;  // that flow was sound: the hub went away since
+  }
   if (opt.reconnect && !stopping) {
     state = State::waiting;
     armTimer(backoff_ns);
@@ -204,7 +217,7 @@ void Satellite::Impl::handshake(uint8_t code, std::string_view body) {
 
 void Satellite::Impl::onFlowOpen() {
   ++stats.connections;
-  backoff_ns = opt.reconnect_min_ns;
+  flow_opened_ns = steadyNowNs();  // backoff_ns is reset by lost() if this flow stays up
   failure_logged = false;
   log::info(kLogSource, "SAT-CONNECTED",
             "connected to " + login.app_name + " at " + opt.connection.address.toString() + " as " +

@@ -53,10 +53,11 @@ TEST_F(Reconnect, HubRestartUnderRunningPublisherAndSubscriber) {
   ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.counter:after") == 1; }));
 }
 
-// A Unix socket server that answers each connection with the next script of bad bytes.
+// A Unix socket server that answers each connection with the next script of bad bytes, from
+// script `first` (3: every connection logs in, then gets a bad frame on its flow).
 class GarbageHub {
  public:
-  explicit GarbageHub(const fs::path& path) : path_(path) {
+  explicit GarbageHub(const fs::path& path, int first = 0) : path_(path), first_(first) {
     fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
     sockaddr_un addr{};
     addr.sun_family = AF_UNIX;
@@ -98,7 +99,7 @@ class GarbageHub {
       if (::poll(&p, 1, 50) <= 0) continue;
       const int c = ::accept4(fd_, nullptr, nullptr, SOCK_CLOEXEC);
       if (c < 0) continue;
-      const int script = accepted_++ % 5;
+      const int script = first_ + accepted_++ % (5 - first_);
       if (readSome(c)) {  // the LOGIN
         switch (script) {
           case 0:
@@ -134,6 +135,7 @@ class GarbageHub {
   }
 
   fs::path path_;
+  int first_ = 0;
   int fd_ = -1;
   std::atomic<bool> stop_{false};
   std::atomic<int> accepted_{0};
@@ -157,6 +159,19 @@ TEST_F(Reconnect, GarbageFromTheHubDropsTheConnectionAndRetries) {
   ASSERT_TRUE(eventually([&] { return s->events.count("ready:guest.survivor") == 1; }))
       << s->events.dump() << hubLog();
   EXPECT_TRUE(s->connected());
+}
+
+// The delays between attempts grow (100 ms doubling to 2 s) even when every attempt logs in:
+// only a flow that stayed open resets them. Attempts start at 0, 0.1, 0.3, 0.7, 1.5 and 3.1 s.
+TEST_F(Reconnect, AHubThatKeepsDroppingTheFlowSeesGrowingDelays) {
+  const fs::path socket = dir_.path() / "hub.sock";
+  GarbageHub garbage(socket, 3);
+  auto s = satellite("victim", false);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  const int logins = garbage.accepted();
+  EXPECT_GE(s->events.count("connected"), 3u) << s->events.dump();
+  EXPECT_GE(logins, 3);
+  EXPECT_LE(logins, 7) << "a reconnection storm: " << logins << " logins in 3 s";
 }
 
 TEST_F(Reconnect, SatelliteStartedBeforeTheHubConnectsWhenItComes) {

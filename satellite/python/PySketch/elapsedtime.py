@@ -5,10 +5,37 @@ from __future__ import print_function, division, absolute_import
 
 import time
 
+
+
+def _libcMonotonic():
+    """clock_gettime(CLOCK_MONOTONIC) through ctypes, for Python 2.7 (None if unavailable)."""
+    try:
+        import ctypes
+        import ctypes.util
+
+        class _Timespec(ctypes.Structure):
+            _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
+
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        gettime = libc.clock_gettime
+        gettime.argtypes = [ctypes.c_int, ctypes.POINTER(_Timespec)]
+        ts = _Timespec()
+
+        def monotonic():
+            if gettime(1, ctypes.byref(ts)) != 0:  # 1: CLOCK_MONOTONIC on Linux
+                raise OSError(ctypes.get_errno(), "clock_gettime(CLOCK_MONOTONIC) failed")
+            return ts.tv_sec + ts.tv_nsec * 1e-9
+
+        monotonic()
+        return monotonic
+    except (ImportError, OSError, AttributeError):  # pragma: no cover
+        return None
+
+
 try:
     _now = time.monotonic  # Python 3
-except AttributeError:  # pragma: no cover - Python 2.7 has no monotonic clock in time
-    _now = time.time
+except AttributeError:  # Python 2.7: no monotonic clock in time; wall time only as a last resort
+    _now = _libcMonotonic() or time.time
 
 
 def now():

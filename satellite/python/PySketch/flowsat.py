@@ -35,10 +35,20 @@ Callbacks (all run inside tick() or connect()):
                                          answer with sendServiceResponse(chanID, hash, value)
     setResponseCallBack(f(chanID, value)) the answer to sendServiceRequest (f(value) works too)
 
-Reconnection: when the hub goes away (it stopped or restarted), the flow notices at once (end
-of file), calls the del-channel callback for every channel it knew, and tick() keeps trying to
-reconnect (backoff from 50 ms up to 1 s; an attempt never blocks: connecting and logging in
-are driven by the following ticks). isConnected() stays True meanwhile (use isOnline() for
+Errors in callbacks: an exception raised by a callback is the sketch's, not the hub's. It is
+logged with its traceback ("FlowSat: the sketch's <kind> callback <name> raised ...") and then
+raised unchanged out of tick() (or whichever call ran the callback); the flow stays connected,
+the frame that carried the event is consumed, and the next tick() goes on with the next one.
+Under the executor the sketch thus ends with that traceback and exit status 1.
+
+Reconnection: when the hub goes away (it stopped or restarted, closed this connection, or sent
+a frame that cannot be decoded), the flow notices at once, calls the del-channel callback for
+every channel it knew, and tick() keeps trying to reconnect. An attempt never blocks:
+connecting and logging in are driven by the following ticks. Delays between attempts grow
+whatever the cause: 50 ms, 100 ms, 200 ms, ... doubling up to 2 s, then every 2 s. They go
+back to 50 ms only after a connection that logged in and stayed up for 5 s, so a hub that
+accepts the login and then closes the connection sees at most a few logins a second, then one
+every 2 s. isConnected() stays True meanwhile (use isOnline() for
 the state of the socket), so a sketch whose loop() returns sat.isConnected() keeps running.
 Once logged in again, the flow re-selects the current database it had selected, re-creates
 the channels this satellite had created (same short names, mime and properties, including
@@ -59,6 +69,7 @@ import select
 import socket
 import struct
 import time
+import traceback
 from collections import OrderedDict
 
 from PySketch import log
@@ -74,8 +85,14 @@ from PySketch.flowsync import FlowSync
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
-_BACKOFF_MIN = 0.05
-_BACKOFF_MAX = 1.0
+_BACKOFF_MIN = 0.05            # first delay before reconnecting, seconds; doubles ...
+_BACKOFF_MAX = 2.0             # ... up to this
+_STABLE_ONLINE = 5.0           # a connection online this long resets the delay to the minimum
+
+
+def _callableName(f):
+    name = getattr(f, "__qualname__", None) or getattr(f, "__name__", None)
+    return name or repr(f)
 
 
 def _arity(f):
@@ -143,6 +160,8 @@ class FlowSat(AbstractFlow):
         self._attemptStarted = 0.0
         self._nextAttempt = 0.0
         self._backoff = _BACKOFF_MIN
+        self._onlineSince = None
+        self._userError = None     # the exception a sketch's callback is raising
         self._listed = None
         self._failure = None
         self._deferred = []        # channels listed at login, announced at the next tick
@@ -336,8 +355,14 @@ class FlowSat(AbstractFlow):
         if was_online:
             log.wrn("FlowSat: lost the hub at %s (%s)%s" % (
                 self.address(), why, ", reconnecting" if self._reconnect else ""))
-            self._backoff = _BACKOFF_MIN
+            if self._onlineSince is not None and now() - self._onlineSince >= _STABLE_ONLINE:
+                self._backoff = _BACKOFF_MIN
+            self._onlineSince = None
+            if self._reconnect:
+                self._scheduleRetry()   # before the callbacks: one may raise
             self._forgetChannels(callbacks=True)
+            if self._reconnect:
+                return
         if self._reconnect:
             self._scheduleRetry()
         else:
@@ -352,7 +377,7 @@ class FlowSat(AbstractFlow):
             ch.isPublishingEnabled = False
             ch.isSubscribed = False
             if callbacks and self._onDelChan is not None:
-                self._onDelChan(ch)
+                self._call("del-channel", self._onDelChan, ch)
 
     def _maintain(self, t):
         """Reconnection attempts and handshake time-outs, from tick()."""
@@ -437,7 +462,14 @@ class FlowSat(AbstractFlow):
                 if f is None:
                     break
                 self._handle(f[0], f[1])
-        except (ProtocolError, struct.error) as e:
+        except Exception as e:
+            if e is self._userError:
+                self._userError = None
+                if gen == self._gen:
+                    self._compactInput()
+                raise
+            if not isinstance(e, (ProtocolError, struct.error)):
+                raise
             if gen == self._gen:
                 log.err("FlowSat: broken frame from the hub: %s" % e)
                 self._lost("protocol error")
@@ -452,7 +484,7 @@ class FlowSat(AbstractFlow):
             if gen != self._gen:
                 return
             if self._channels.get(ch.chanID) is ch and self._onNewChan is not None:
-                self._onNewChan(ch)
+                self._call("new-channel", self._onNewChan, ch)
 
     def _flush(self):
         while self._outbuf and self._sock is not None:
@@ -541,7 +573,7 @@ class FlowSat(AbstractFlow):
         again = self._everOnline
         self._state = "online"
         self._everOnline = True
-        self._backoff = _BACKOFF_MIN
+        self._onlineSince = now()
         self._failure = None
         if again:
             log.msg("FlowSat: reconnected to %s (connection %s)" % (self.address(),
@@ -580,7 +612,7 @@ class FlowSat(AbstractFlow):
         if code == Code.EV_DATA:
             chan = r.u16()
             if self._onGrab is not None:
-                self._onGrab(chan, r.rest())
+                self._call("grab-data", self._onGrab, chan, r.rest())
         elif code == Code.EV_CHAN_ADDED:
             tag = r.u32()
             info = ChannelInfo.read(r)
@@ -589,7 +621,7 @@ class FlowSat(AbstractFlow):
             ch = self._addChannel(info)
             self._autoSubscribe(ch)
             if self._onNewChan is not None:
-                self._onNewChan(ch)
+                self._call("new-channel", self._onNewChan, ch)
         elif code == Code.EV_CHAN_REMOVED:
             chan = r.u16()
             r.u64()
@@ -603,7 +635,7 @@ class FlowSat(AbstractFlow):
             ch.isPublishingEnabled = False
             ch.isSubscribed = False
             if self._onDelChan is not None:
-                self._onDelChan(ch)
+                self._call("del-channel", self._onDelChan, ch)
         elif code == Code.EV_CHAN_HEADER:
             info = ChannelInfo.read(r)
             ch = self._channels.get(info.chanID)
@@ -612,7 +644,7 @@ class FlowSat(AbstractFlow):
             else:
                 ch.update(info)
             if self._onChanHeader is not None:
-                self._onChanHeader(ch)
+                self._call("channel-header", self._onChanHeader, ch)
         elif code in (Code.EV_START_PUBLISH, Code.EV_STOP_PUBLISH):
             chan = r.u16()
             start = code == Code.EV_START_PUBLISH
@@ -622,7 +654,7 @@ class FlowSat(AbstractFlow):
             ch.isPublishingEnabled = start
             f = self._onStartPub if start else self._onStopPub
             if f is not None:
-                f(ch)
+                self._call("start-publishing" if start else "stop-publishing", f, ch)
         elif code == Code.EV_SERVICE_REQUEST:
             chan = r.u16()
             request = r.u64()
@@ -630,7 +662,7 @@ class FlowSat(AbstractFlow):
             self.lastRequester = r.str16()
             value = r.value()
             if self._onRequest is not None:
-                self._onRequest(chan, request, cmd, value)
+                self._call("request", self._onRequest, chan, request, cmd, value)
             else:
                 self.sendServiceResponse(chan, request, None)
         elif code == Code.EV_SERVICE_RESPONSE:
@@ -643,16 +675,16 @@ class FlowSat(AbstractFlow):
                 log.wrn("FlowSat: service request on channel %d failed: %s: %s"
                         % (chan, errorName(error), value))
                 if self._onError is not None:
-                    self._onError(FlowError(error, str(value)))
+                    self._call("error", self._onError, FlowError(error, str(value)))
             if self._onResponse is not None:
                 if self._responseArity == 1:
-                    self._onResponse(value)
+                    self._call("response", self._onResponse, value)
                 else:
-                    self._onResponse(chan, value)
+                    self._call("response", self._onResponse, chan, value)
         elif code == Code.EV_DB_CHANGED:
             self.currentDbName = r.str16()
             if self._onDbChanged is not None:
-                self._onDbChanged(self.currentDbName)
+                self._call("db-changed", self._onDbChanged, self.currentDbName)
         elif code == Code.EV_ERROR:
             command = r.u8()
             tag = r.u32()
@@ -677,7 +709,20 @@ class FlowSat(AbstractFlow):
         self._logOnce((command, chan, error), "FlowSat: %s failed: %s: %s"
                       % (codeName(command), errorName(error), message))
         if self._onError is not None:
-            self._onError(FlowError(error, message))
+            self._call("error", self._onError, FlowError(error, message))
+
+    def _call(self, kind, f, *args):
+        """Runs a sketch's callback. Its exception is logged as the sketch's, with its
+        traceback, and raised unchanged to whoever called tick(); _processBuffered lets it
+        through instead of taking it for a decoding error."""
+        try:
+            return f(*args)
+        except Exception as e:
+            self._userError = e
+            log.err("FlowSat: the sketch's %s callback %s raised an exception (not a hub "
+                    "error; the connection stays up):\n%s"
+                    % (kind, _callableName(f), traceback.format_exc().rstrip()))
+            raise
 
     def _logOnce(self, key, text):
         """Logs a line at most once a second per key (publishing errors come in floods)."""
@@ -797,8 +842,33 @@ class FlowSat(AbstractFlow):
         """Creates the service channel "<user>.<name>". Returns bool."""
         return self._addSpec(ChanKind_T.CK_SERVICE.value, name, mime, props)
 
+    def _chanID(self, chan):
+        """The chanID of `chan`: a chanID (int), a FlowChannel, or the name of a channel this
+        flow knows (None when it knows none of that name). Anything else: TypeError."""
+        if isinstance(chan, FlowChannel):
+            return chan.chanID
+        if isinstance(chan, integer_types) and not isinstance(chan, bool):
+            if not 0 <= chan <= 0xFFFF:
+                raise ValueError("FlowSat: chanID %d is out of range (0..65535)" % chan)
+            return chan
+        if isinstance(chan, (str, text_type)):
+            return self.channelID(chan)
+        raise TypeError("FlowSat: a channel is given by its chanID (int), its name (str) or a "
+                        "FlowChannel, not %s %r" % (type(chan).__name__, chan))
+
+    def _chanKey(self, chan):
+        """subscribe/unsubscribe: a name (kept across reconnections) or a chanID."""
+        if isinstance(chan, FlowChannel):
+            return chan.name or chan.chanID
+        if isinstance(chan, (str, text_type)):
+            return chan
+        return self._chanID(chan)
+
     def removeChannel(self, chanID):
-        """Removes a channel this satellite created."""
+        """Removes a channel this satellite created (chanID, name or FlowChannel)."""
+        chanID = self._chanID(chanID)
+        if chanID is None:
+            return False
         ch = self._channels.get(chanID)
         if ch is not None and ch.isOwned:
             self._specs.pop(ch.shortName, None)
@@ -806,6 +876,9 @@ class FlowSat(AbstractFlow):
 
     def setChannelProperties(self, chanID, props):
         """Sets (a None value removes) keys of an owned channel's database."""
+        chanID = self._chanID(chanID)
+        if chanID is None:
+            return False
         ch = self._channels.get(chanID)
         if ch is not None and ch.shortName in self._specs:
             sp = self._specs[ch.shortName]["props"]
@@ -826,8 +899,10 @@ class FlowSat(AbstractFlow):
         return False
 
     def subscribeChannel(self, chan):
-        """Subscribes to a streaming channel, given its chanID or its name. The subscription
-        is kept by name: it comes back after a reconnection or when the channel reappears."""
+        """Subscribes to a streaming channel, given its chanID, its name or its FlowChannel.
+        The subscription is kept by name: it comes back after a reconnection or when the
+        channel reappears."""
+        chan = self._chanKey(chan)
         if isinstance(chan, (str, text_type)):
             self._wantedSubs.add(chan)
             ch = self._byName.get(chan)
@@ -841,6 +916,7 @@ class FlowSat(AbstractFlow):
         return self._subscribe(chan)
 
     def unsubscribeChannel(self, chan):
+        chan = self._chanKey(chan)
         if isinstance(chan, (str, text_type)):
             self._wantedSubs.discard(chan)
             ch = self._byName.get(chan)
@@ -855,12 +931,18 @@ class FlowSat(AbstractFlow):
         return self._send(frame(Code.UNSUBSCRIBE, u32(self._nextTag()) + u16(chan)))
 
     def channelByID(self, chanID):
-        return self._channels.get(chanID)
+        """The FlowChannel this flow knows by that chanID (a name or FlowChannel works too)."""
+        chanID = self._chanID(chanID)
+        return self._channels.get(chanID) if chanID is not None else None
 
     def channelByName(self, name):
+        if isinstance(name, FlowChannel):
+            name = name.name
         return self._byName.get(name)
 
     def channelID(self, name):
+        if isinstance(name, FlowChannel):
+            name = name.name
         ch = self._byName.get(name)
         return ch.chanID if ch is not None else None
 
@@ -875,7 +957,11 @@ class FlowSat(AbstractFlow):
 
     def publish(self, chanID, data):
         """Publishes bytes (or a DataBuffer, bytearray, memoryview) on an owned streaming
-        channel. Returns False when offline."""
+        channel (chanID, name or FlowChannel, like every publish* method). Returns False when
+        offline."""
+        chanID = self._chanID(chanID)
+        if chanID is None:
+            return False
         return self._send(frame(Code.PUBLISH, u16(chanID) + toBytes(data)))
 
     def _publishPacked(self, chanID, fmt, values):
@@ -923,7 +1009,11 @@ class FlowSat(AbstractFlow):
 
     def sendServiceRequest(self, chanID, cmdName, value=None):
         """Sends a request to a service channel (non-blocking); the answer arrives at the
-        response callback. Returns the request's tag (true) or 0 when offline."""
+        response callback. The channel: chanID, name or FlowChannel. Returns the request's tag
+        (true) or 0 when offline or when no channel has that name."""
+        chanID = self._chanID(chanID)
+        if chanID is None:
+            return 0
         tag = self._nextTag()
         body = u32(tag) + u16(chanID) + str16(cmdName) + encodeValue(value)
         if not self._send(frame(Code.SERVICE_REQUEST, body)):
@@ -933,7 +1023,10 @@ class FlowSat(AbstractFlow):
 
     def sendServiceResponse(self, chanID, hash, value):
         """Answers the request `hash` (as given to the request callback) on an owned service
-        channel."""
+        channel (chanID, name or FlowChannel)."""
+        chanID = self._chanID(chanID)
+        if chanID is None:
+            return False
         return self._send(frame(Code.SERVICE_RESPONSE,
                                 u16(chanID) + u64(int(hash)) + encodeValue(value)))
 
@@ -941,7 +1034,10 @@ class FlowSat(AbstractFlow):
     # Pair databases (asynchronous: failures are logged)
 
     def setCurrentDbName(self, name):
-        """Selects the flow's current database (a channel's name selects its properties)."""
+        """Selects the flow's current database (a channel's name, or its FlowChannel, selects
+        its properties)."""
+        if isinstance(name, FlowChannel):
+            name = name.name
         self._selectedDb = name
         return self._send(frame(Code.DB_SET_CURRENT, u32(self._nextTag()) + str16(name)))
 

@@ -128,7 +128,10 @@ class FlowSync(AbstractFlow):
 
     # -- databases
     def setCurrentDbName(self, name):
-        """Selects the database the variable calls use. Returns bool."""
+        """Selects the database the variable calls use (a FlowChannel selects its own).
+        Returns bool."""
+        if isinstance(name, FlowChannel):
+            name = name.name
         ok = self._call(False, Code.DB_SELECT, str16(name))
         if ok:
             self.currentDbName = name
@@ -186,12 +189,16 @@ class FlowSync(AbstractFlow):
         return self._call([], Code.CHAN_LIST, b"", parse)
 
     def channelByName(self, name):
+        if isinstance(name, FlowChannel):
+            name = name.name
         return self._call(None, Code.CHAN_INFO, str16(name),
                           lambda r: FlowChannel.fromInfo(ChannelInfo.read(r)))
 
     def serviceCall(self, chan, cmdName, value=None, timeout=10.0):
-        """A blocking service request; `chan` is a chanID or a channel name. Returns the
-        owner's answer; raises FlowError (timeout, owner_gone, not_found, ...)."""
+        """A blocking service request; `chan` is a chanID, a channel name or a FlowChannel.
+        Returns the owner's answer; raises FlowError (timeout, owner_gone, not_found, ...)."""
+        if isinstance(chan, FlowChannel):
+            chan = chan.chanID
         if not isinstance(chan, integer_types):
             ch = self.channelByName(chan)
             if ch is None:
@@ -208,10 +215,14 @@ class FlowSync(AbstractFlow):
 
     def pollRegister(self, chanID):
         """Asks the hub to keep the latest payload of a streaming channel."""
+        if isinstance(chanID, FlowChannel):
+            chanID = chanID.chanID
         return self._call(False, Code.POLL_REGISTER, u16(chanID))
 
     def pollFetch(self, chanID):
         """(seq, payload) of the latest payload (seq 0: nothing yet), or None."""
+        if isinstance(chanID, FlowChannel):
+            chanID = chanID.chanID
         return self._call(None, Code.POLL_FETCH, u16(chanID),
                           lambda r: (r.u64(), r.rest()))
 

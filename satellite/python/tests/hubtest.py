@@ -4,6 +4,9 @@ as subprocesses, and a loop that ticks in-process satellites until something hap
 Environment (set by CTest, see ../CMakeLists.txt):
     SKROBOT_BIN              the hub binary
     SKROBOT_TEST_MODULE_DIR  where test_channel_echo.so is
+
+Sketches run under the interpreter that runs the tests (sys.executable): Debian's python3, or
+Python 2.7 (test_python27.py runs this whole suite under it).
 """
 import itertools
 import json
@@ -12,17 +15,30 @@ import re
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import time
 import unittest
 
+from tests.compat import PY2, monotonic
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 PYROOT = os.path.dirname(HERE)                                  # satellite/python
 REPO = os.path.dirname(os.path.dirname(PYROOT))
 EXAMPLES = os.path.join(REPO, "satellite", "examples", "python")
-SCRIPTS = os.path.join(PYROOT, "scripts")
-PYTHON = "/usr/bin/python3"
+PYTHON = sys.executable
+if PYTHON == "/usr/bin/python3":
+    SCRIPTS = os.path.join(PYROOT, "scripts")
+else:
+    # The source tree's pysketch-executor names python3 in its first line: put a twin that
+    # runs it under this interpreter first on the sketches' PATH.
+    SCRIPTS = tempfile.mkdtemp(prefix="pysketch-bin-")
+    with open(os.path.join(SCRIPTS, "pysketch-executor"), "w") as _f:
+        _f.write('#!/bin/sh\nexec "%s" "%s" "$@"\n'
+                 % (PYTHON, os.path.join(PYROOT, "scripts", "pysketch-executor")))
+    os.chmod(os.path.join(SCRIPTS, "pysketch-executor"), 0o755)
+EXECUTOR = os.path.join(SCRIPTS, "pysketch-executor")
 TIMEOUT = 10.0       # the longest anything is expected to take, on a loaded machine
 HUB_START_TIMEOUT = 30.0
 
@@ -44,8 +60,8 @@ def moduleDir():
 
 
 def waitUntil(cond, timeout=TIMEOUT, step=0.01):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    deadline = monotonic() + timeout
+    while monotonic() < deadline:
         if cond():
             return True
         time.sleep(step)
@@ -98,9 +114,7 @@ class Hub(object):
     def stop(self):
         if self.proc is not None and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(TIMEOUT)
-            except subprocess.TimeoutExpired:
+            if not waitUntil(lambda: self.proc.poll() is not None, TIMEOUT):
                 self.proc.kill()
                 self.proc.wait()
         self.proc = None
@@ -128,17 +142,18 @@ class Sketch(object):
         self.argv = argv
         self.lines = []          # (monotonic time, text)
         self.lock = threading.Lock()
+        text = {} if PY2 else {"encoding": "utf-8", "errors": "replace"}
         self.proc = subprocess.Popen(argv, env=env, cwd=cwd, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, encoding="utf-8",
-                                     errors="replace")
+                                     stderr=subprocess.STDOUT, **text)
         self.reader = threading.Thread(target=self._read)
         self.reader.daemon = True
         self.reader.start()
 
     def _read(self):
-        for line in self.proc.stdout:
+        # readline(): Python 2's file iterator reads ahead 8 KiB before yielding a line.
+        for line in iter(self.proc.stdout.readline, ""):
             with self.lock:
-                self.lines.append((time.monotonic(), line.rstrip("\n")))
+                self.lines.append((monotonic(), line.rstrip("\n")))
 
     def output(self):
         with self.lock:
@@ -157,16 +172,14 @@ class Sketch(object):
         return self.matching(pattern, since)
 
     def wait(self, timeout=TIMEOUT):
-        try:
-            rc = self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
+        if not waitUntil(lambda: self.proc.poll() is not None, timeout):
             self.proc.kill()
             self.proc.wait()
             raise AssertionError("%s did not end in %.0f s; output:\n%s"
                                  % (" ".join(self.argv), timeout, self.output()))
         self.reader.join(TIMEOUT)
         self.proc.stdout.close()
-        return rc
+        return self.proc.returncode
 
     def stop(self, sig=signal.SIGTERM):
         if self.proc.poll() is None:
@@ -179,8 +192,8 @@ class Sketch(object):
 
 def pump(sats, cond, timeout=TIMEOUT):
     """Ticks every satellite in turn until cond() is true; returns cond()."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
+    deadline = monotonic() + timeout
+    while monotonic() < deadline:
         for s in sats:
             s.tick()
         if cond():
@@ -189,8 +202,8 @@ def pump(sats, cond, timeout=TIMEOUT):
 
 
 def tickFor(sats, seconds):
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
+    deadline = monotonic() + seconds
+    while monotonic() < deadline:
         for s in sats:
             s.tick()
 

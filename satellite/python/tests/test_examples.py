@@ -9,9 +9,8 @@ import tempfile
 import textwrap
 import unittest
 
-from tests.hubtest import EXAMPLES, PYROOT, PYTHON, SCRIPTS, HubTestCase, Sketch
+from tests.hubtest import EXAMPLES, EXECUTOR, PYROOT, PYTHON, SCRIPTS, HubTestCase, Sketch
 
-EXECUTOR = os.path.join(SCRIPTS, "pysketch-executor")
 CREDENTIALS = ["--user", "guest", "--password", "password"]
 
 
@@ -114,6 +113,7 @@ class Examples(HubTestCase):
         sketch = os.path.join(work, "contract.py")
         with open(sketch, "w") as f:
             f.write(textwrap.dedent("""\
+                from __future__ import print_function, division
                 import argparse, os, sys, time
                 import helper_next_to_sketch
                 from PySketch.flowsat import FlowSat

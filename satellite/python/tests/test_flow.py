@@ -10,6 +10,7 @@ from PySketch.flowsat import FlowSat
 from PySketch.flowsync import FlowSync
 from PySketch.robotmod import RobotModule
 
+from tests.compat import TextIO, monotonic, redirect_stdout
 from tests.hubtest import HubTestCase, pump, tickFor
 
 
@@ -210,20 +211,18 @@ class Connections(HubTestCase):
                 time.sleep(2.5 * tick)                # an overrun: missed deadlines skipped
             expected = s._deadline
             s.tick()
-            self.assertGreaterEqual(time.monotonic(), expected, "never returns early")
+            self.assertGreaterEqual(monotonic(), expected, "never returns early")
             steps = (s._deadline - grid) / tick
             self.assertAlmostEqual(steps, round(steps), places=6, msg="deadlines stay on the grid")
-            self.assertGreater(s._deadline, time.monotonic())
+            self.assertGreater(s._deadline, monotonic())
         self.assertEqual(s.getTickTimer(), tick)
         self.assertGreaterEqual(s._timer.stop(), 12 * tick)
 
     def test_speed_monitor_prints_the_cadence(self):
-        import io
-        from contextlib import redirect_stdout
         s = self.connected()
         s.setTickTimer(0.01, 0.1)
         s.setSpeedMonitorEnabled(True, "test")
-        out = io.StringIO()
+        out = TextIO()
         with redirect_stdout(out):
             tickFor([s], 0.35)
         line = out.getvalue().splitlines()[0]

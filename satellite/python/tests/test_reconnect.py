@@ -7,6 +7,7 @@ import unittest
 
 from PySketch.flowproto import Flow_T, Variant_T
 
+from tests.compat import monotonic
 from tests.hubtest import EXAMPLES, HubTestCase, Sketch, TIMEOUT, pump, tickFor
 
 CREDENTIALS = ["--user", "guest", "--password", "password"]
@@ -29,8 +30,8 @@ class HubRestart(HubTestCase):
         time.sleep(0.3)                       # a few failed attempts while the hub is away
         self.assertTrue(pub.alive() and sub.alive(), pub.output() + sub.output())
 
+        restarted = monotonic()   # before start(): a sketch may be back before it returns
         self.hub.start()
-        restarted = time.monotonic()
         pub.waitFor(r"reconnected to", since=restarted)
         sub.waitFor(r"reconnected to", since=restarted)
         pub.waitFor(r"channel ready: guest\.sine \(id \d+\)", since=restarted)

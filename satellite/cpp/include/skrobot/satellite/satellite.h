@@ -40,9 +40,14 @@ namespace skr::sat {
 
 struct SatelliteOptions {
   ConnectOptions connection;
-  bool reconnect = true;                        // false: stay disconnected after the first loss
-  Nanos reconnect_min_ns = 100 * kNsPerMs;      // first retry delay, doubled on each failure
-  Nanos reconnect_max_ns = 2 * kNsPerSec;       // ... up to this
+  bool reconnect = true;  // false: stay disconnected after the first loss
+  // Delays between connection attempts, whatever ended the last one (refused, closed by the
+  // hub, a frame that breaks the protocol): reconnect_min_ns, doubled after each attempt up to
+  // reconnect_max_ns. Back to reconnect_min_ns only after a flow that stayed open for
+  // reconnect_reset_after_ns, so a hub that accepts the login and then drops us is not stormed.
+  Nanos reconnect_min_ns = 100 * kNsPerMs;
+  Nanos reconnect_max_ns = 2 * kNsPerSec;
+  Nanos reconnect_reset_after_ns = 5 * kNsPerSec;
   Nanos handshake_timeout_ns = 10 * kNsPerSec;  // connect + login + GO_ASYNC
   size_t max_queued_bytes = 8u << 20;  // outgoing bytes waiting; publish() fails beyond this
 

@@ -1,5 +1,5 @@
-// Channels: creation, removal, subscriptions and publishing.
-#include "server_impl.h"
+// The channel table and the router (see channel_table.h).
+#include "channel_table.h"
 
 #include <skrobot/core/log.h>
 
@@ -16,69 +16,34 @@ bool validShortName(const std::string& s) {
   });
 }
 
-template <class F>
-void forEachEventReceiver(FlowServer::Impl& s, F&& f) {
-  // Copy the ids: a local handler may add or remove endpoints.
-  std::vector<uint32_t> ids;
-  ids.reserve(s.endpoints.size());
-  for (const auto& [id, e] : s.endpoints) {
-    if (e->receivesEvents()) ids.push_back(id);
-  }
-  for (uint32_t id : ids) {
-    auto it = s.endpoints.find(id);
-    if (it != s.endpoints.end()) f(*it->second);
-  }
-}
-
 }  // namespace
 
-Channel* FlowServer::Impl::channel(uint16_t id) noexcept {
-  return id < channels.size() ? channels[id].get() : nullptr;
+ChannelTable::ChannelTable() : rng_(std::random_device{}()) {
+  channels_.resize(kMaxChannels);
 }
 
-Channel* FlowServer::Impl::channelByName(const std::string& name) noexcept {
-  auto it = channel_by_name.find(name);
-  return it == channel_by_name.end() ? nullptr : channel(it->second);
+Channel* ChannelTable::findByName(const std::string& name) noexcept {
+  auto it = by_name_.find(name);
+  return it == by_name_.end() ? nullptr : find(it->second);
 }
 
-Channel* FlowServer::Impl::existing(uint16_t id, ErrorCode& err, std::string& why) {
-  Channel* ch = channel(id);
-  if (ch == nullptr) {
-    why = "no channel with id " + std::to_string(id);
-    err = ErrorCode::not_found;
+Result<Channel*> ChannelTable::existing(uint16_t id) {
+  Channel* ch = find(id);
+  if (ch == nullptr) return makeError(Errc::not_found, "no channel with id " + std::to_string(id));
+  return ch;
+}
+
+Result<Channel*> ChannelTable::owned(const Endpoint& e, uint16_t id, const char* action) {
+  auto ch = existing(id);
+  if (ch && (*ch)->owner != &e) {
+    return makeError(Errc::permission_denied,
+                     std::string("only the owner ") + action + " " + (*ch)->name);
   }
   return ch;
 }
 
-Channel* FlowServer::Impl::owned(const Endpoint& e, uint16_t id, const char* action, ErrorCode& err,
-                                 std::string& why) {
-  Channel* ch = existing(id, err, why);
-  if (ch != nullptr && ch->owner != &e) {
-    why = std::string("only the owner ") + action + " " + ch->name;
-    err = ErrorCode::permission_denied;
-    return nullptr;
-  }
-  return ch;
-}
-
-msg::ChannelInfo FlowServer::Impl::info(const Channel& ch) {
-  msg::ChannelInfo i;
-  i.id = ch.id;
-  i.hash = ch.hash;
-  i.kind = static_cast<uint8_t>(ch.kind);
-  i.name = ch.name;
-  i.owner = ch.owner != nullptr ? ch.owner->user : std::string();
-  i.owner_connection = ch.owner != nullptr ? ch.owner->id : 0;
-  i.mime = ch.mime;
-  i.subscribers = static_cast<uint32_t>(ch.subscriber_count);
-  const PairDatabase* db = dbs.find(ch.name);
-  i.props = db != nullptr ? db->all() : Variant(Variant::Map{});
-  return i;
-}
-
-Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::string& short_name,
-                                                 ChannelKind kind, const std::string& mime,
-                                                 const Variant& props, uint32_t tag) {
+Result<Channel*> ChannelTable::add(Endpoint& owner, const std::string& short_name, ChannelKind kind,
+                                   const std::string& mime) {
   if (!validShortName(short_name)) {
     return makeError(Errc::invalid_argument,
                      "channel name \"" + short_name +
@@ -90,106 +55,69 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
   if (kind != ChannelKind::streaming && kind != ChannelKind::service) {
     return makeError(Errc::invalid_argument, "unknown channel kind");
   }
-  if (!props.isNull() && !props.isMap()) {
-    return makeError(Errc::invalid_argument, "channel properties must be a map");
-  }
-  const std::string name = owner.user + "." + short_name;
-  if (channel_by_name.count(name) != 0) {
+  std::string name = owner.user + "." + short_name;
+  if (by_name_.count(name) != 0) {
     return makeError(Errc::already_exists, "channel " + name + " exists");
   }
-  if (channel_count >= kMaxChannels - 1) {
+  if (count_ >= kMaxChannels - 1) {
     return makeError(Errc::limit_exceeded, "the hub holds its maximum of channels");
   }
-  // Ids rotate so that a removed channel's id is not reused at once.
-  if (channels.size() < kMaxChannels) channels.resize(kMaxChannels);
-  uint16_t id = next_channel_hint;
-  while (channels[id] != nullptr || id == 0) id = static_cast<uint16_t>((id + 1) % kMaxChannels);
-  next_channel_hint = static_cast<uint16_t>((id + 1) % kMaxChannels);
-
-  auto db = dbs.getOrCreate(name, DatabaseKind::transient);
-  if (!db) return db.error();
-  (*db)->clear();
-  if (const auto* map = props.asMap()) {
-    for (const auto& [k, v] : *map) {
-      if (auto r = (*db)->set(k, v); !r) return r.error();
-    }
-  }
-  db_owners[name] = DbOwner{DbOwner::Kind::channel, owner.user, owner.id};
+  uint16_t id = next_hint_;
+  while (channels_[id] != nullptr || id == 0) id = static_cast<uint16_t>((id + 1) % kMaxChannels);
+  next_hint_ = static_cast<uint16_t>((id + 1) % kMaxChannels);
 
   auto ch = std::make_unique<Channel>();
   ch->id = id;
-  ch->hash = rng() | 1;  // never 0
+  ch->hash = rng_() | 1;  // never 0
   ch->kind = kind;
-  ch->name = name;
+  ch->name = std::move(name);
   ch->mime = mime;
   ch->owner = &owner;
   Channel* raw = ch.get();
-  channels[id] = std::move(ch);
-  channel_by_name[name] = id;
-  ++channel_count;
+  channels_[id] = std::move(ch);
+  by_name_[raw->name] = id;
+  ++count_;
   owner.owned.push_back(id);
-  log::info(kLogSource, "FLOW-CHANNEL-ADDED",
-            name + " id " + std::to_string(id) + " (" + std::string(channelKindName(kind)) +
-                ") by " + owner.describe());
-  forEachEventReceiver(*this, [&](Endpoint& e) { e.onChannelAdded(*raw, &e == &owner ? tag : 0); });
-  // In-process subscriptions waiting for this name.
-  auto [lo, hi] = local_wanted.equal_range(name);
-  std::vector<uint32_t> waiting;
-  for (auto it = lo; it != hi; ++it) waiting.push_back(it->second);
-  for (uint32_t eid : waiting) {
-    auto it = endpoints.find(eid);
-    std::string why;
-    if (it != endpoints.end() && channel(id) == raw) (void)subscribe(*it->second, id, why);
-  }
-  return channel(id) == raw ? Result<Channel*>(raw)
-                            : Result<Channel*>(makeError(Errc::not_found, "channel removed"));
+  return raw;
 }
 
-ErrorCode FlowServer::Impl::removeChannel(Endpoint& by, uint16_t id, std::string& why) {
-  ErrorCode err = ErrorCode::ok;
-  Channel* ch = owned(by, id, "removes", err, why);
-  if (ch == nullptr) return err;
-  failRequests(id, ErrorCode::owner_gone, "channel " + ch->name + " was removed");
-  for (Endpoint* s : ch->subscribers) {
+std::unique_ptr<Channel> ChannelTable::erase(Channel& ch) {
+  const uint16_t id = ch.id;
+  for (Endpoint* s : ch.subscribers) {
     if (s != nullptr) std::erase(s->subscribed, id);
   }
-  std::erase(by.owned, id);
-  std::unique_ptr<Channel> gone = std::move(channels[id]);
-  channel_by_name.erase(gone->name);
-  --channel_count;
-  db_owners.erase(gone->name);
-  (void)dbs.remove(gone->name);
-  log::info(kLogSource, "FLOW-CHANNEL-REMOVED", gone->name + " id " + std::to_string(id));
-  forEachEventReceiver(*this, [&](Endpoint& e) { e.onChannelRemoved(*gone); });
-  return ErrorCode::ok;
+  if (ch.owner != nullptr) std::erase(ch.owner->owned, id);
+  std::unique_ptr<Channel> gone = std::move(channels_[id]);
+  by_name_.erase(gone->name);
+  --count_;
+  return gone;
 }
 
-ErrorCode FlowServer::Impl::subscribe(Endpoint& e, uint16_t id, std::string& why) {
-  ErrorCode err = ErrorCode::ok;
-  Channel* ch = existing(id, err, why);
-  if (ch == nullptr) return err;
+Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
+  auto found = existing(id);
+  if (!found) return found.error();
+  Channel* ch = *found;
   if (ch->kind != ChannelKind::streaming) {
-    why = ch->name + " is not a streaming channel";
-    return ErrorCode::invalid_argument;
+    return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
   }
   if (std::find(ch->subscribers.begin(), ch->subscribers.end(), &e) != ch->subscribers.end()) {
-    return ErrorCode::ok;  // already subscribed
+    return {};  // already subscribed
   }
   ch->subscribers.push_back(&e);
   e.subscribed.push_back(id);
   if (++ch->subscriber_count == 1 && ch->owner != nullptr) ch->owner->onSubscribers(*ch, true);
-  return ErrorCode::ok;
+  return {};
 }
 
-ErrorCode FlowServer::Impl::unsubscribe(Endpoint& e, uint16_t id, std::string& why) {
-  ErrorCode err = ErrorCode::ok;
-  Channel* ch = existing(id, err, why);
-  if (ch == nullptr) return err;
+Result<void> ChannelTable::unsubscribe(Endpoint& e, uint16_t id) {
+  auto found = existing(id);
+  if (!found) return found.error();
+  Channel* ch = *found;
   auto it = std::find(ch->subscribers.begin(), ch->subscribers.end(), &e);
-  if (it == ch->subscribers.end()) return ErrorCode::ok;
-  if (dispatching > 0) {
+  if (it == ch->subscribers.end()) return {};
+  if (dispatching_ > 0) {
     *it = nullptr;  // tombstone: a publish is iterating this list
-    tombstoned.push_back(id);
+    tombstoned_.push_back(id);
   } else {
     ch->subscribers.erase(it);
   }
@@ -197,60 +125,61 @@ ErrorCode FlowServer::Impl::unsubscribe(Endpoint& e, uint16_t id, std::string& w
   if (--ch->subscriber_count == 0 && ch->owner != nullptr && ch->owner != &e) {
     ch->owner->onSubscribers(*ch, false);
   }
-  return ErrorCode::ok;
+  return {};
 }
 
-void FlowServer::Impl::compact(Channel& ch) {
+void ChannelTable::compact(Channel& ch) {
   std::erase(ch.subscribers, nullptr);
 }
 
-ErrorCode FlowServer::Impl::publish(Endpoint& e, uint16_t id, std::string_view payload,
-                                    std::string& why) {
-  ErrorCode err = ErrorCode::ok;
-  Channel* ch = owned(e, id, "publishes to", err, why);
-  if (ch == nullptr) return err;
+Result<void> ChannelTable::publish(Endpoint& e, uint16_t id, std::string_view payload) {
+  auto found = owned(e, id, "publishes to");
+  if (!found) return found.error();
+  Channel* ch = *found;
   if (ch->kind != ChannelKind::streaming) {
-    why = ch->name + " is not a streaming channel";
-    return ErrorCode::invalid_argument;
+    return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
   }
   ++ch->seq;
   if (ch->polled) ch->last.assign(payload);
-  ++dispatching;
+  ++dispatching_;
   // Index loop: a local handler may subscribe (appends) or unsubscribe (tombstones).
   for (size_t i = 0; i < ch->subscribers.size(); ++i) {
     if (Endpoint* s = ch->subscribers[i]) s->onData(*ch, payload);
-    if (channel(id) != ch) break;  // removed by a handler
+    if (find(id) != ch) break;  // removed by a handler
   }
-  if (--dispatching == 0 && !tombstoned.empty()) {
-    for (uint16_t t : tombstoned) {
-      if (Channel* c = channel(t)) compact(*c);
+  if (--dispatching_ == 0 && !tombstoned_.empty()) {
+    for (uint16_t t : tombstoned_) {
+      if (Channel* c = find(t)) compact(*c);
     }
-    tombstoned.clear();
+    tombstoned_.clear();
   }
-  return ErrorCode::ok;
+  return {};
 }
 
-ErrorCode FlowServer::Impl::setProps(Endpoint& e, uint16_t id, const Variant& props,
-                                     std::string& why) {
-  ErrorCode err = ErrorCode::ok;
-  Channel* ch = owned(e, id, "changes the properties of", err, why);
-  if (ch == nullptr) return err;
-  const auto* map = props.asMap();
-  if (map == nullptr) {
-    why = "channel properties must be a map";
-    return ErrorCode::invalid_argument;
+void ChannelTable::want(const std::string& name, uint32_t endpoint) {
+  auto [lo, hi] = wanted_.equal_range(name);
+  for (auto it = lo; it != hi; ++it) {
+    if (it->second == endpoint) return;
   }
-  PairDatabase* db = dbs.find(ch->name);
-  for (const auto& [k, v] : *map) {
-    if (v.isNull()) {
-      db->remove(k);
-    } else if (auto r = db->set(k, v); !r) {
-      why = r.error().message;
-      return ErrorCode::invalid_argument;
-    }
+  wanted_.emplace(name, endpoint);
+}
+
+void ChannelTable::unwant(const std::string& name, uint32_t endpoint) {
+  auto [lo, hi] = wanted_.equal_range(name);
+  for (auto it = lo; it != hi;) it = it->second == endpoint ? wanted_.erase(it) : std::next(it);
+}
+
+void ChannelTable::unwantAll(uint32_t endpoint) {
+  for (auto it = wanted_.begin(); it != wanted_.end();) {
+    it = it->second == endpoint ? wanted_.erase(it) : std::next(it);
   }
-  forEachEventReceiver(*this, [&](Endpoint& r) { r.onChannelHeader(*ch); });
-  return ErrorCode::ok;
+}
+
+std::vector<uint32_t> ChannelTable::wanting(const std::string& name) const {
+  std::vector<uint32_t> ids;
+  auto [lo, hi] = wanted_.equal_range(name);
+  for (auto it = lo; it != hi; ++it) ids.push_back(it->second);
+  return ids;
 }
 
 }  // namespace skr::flow

@@ -1,155 +1,155 @@
-// PairDatabases as the protocol sees them: one per flow ("_flow.<id>", transient), per user
-// (named after the user, persistent), per channel (named after the channel, transient: its
-// properties), plus named ones anybody may create. Anyone logged in reads any database; writes
-// go to named databases, one's own user and flow databases, and (through CHAN_SET_PROPS or as
-// the owner) one's own channels' databases.
-#include "server_impl.h"
+// Database access (see database_access.h).
+#include "database_access.h"
 
 #include <skrobot/core/log.h>
 
 namespace skr::flow {
+namespace {
 
-ErrorCode toErrorCode(Errc code) noexcept {
-  switch (code) {
-    case Errc::ok:
-      return ErrorCode::ok;
-    case Errc::invalid_argument:
-    case Errc::config_error:
-    case Errc::parse_error:
-      return ErrorCode::invalid_argument;
-    case Errc::not_found:
-      return ErrorCode::not_found;
-    case Errc::already_exists:
-      return ErrorCode::already_exists;
-    case Errc::permission_denied:
-      return ErrorCode::permission_denied;
-    case Errc::timeout:
-      return ErrorCode::timeout;
-    case Errc::limit_exceeded:
-      return ErrorCode::limit_exceeded;
-    case Errc::protocol_error:
-      return ErrorCode::protocol_error;
-    case Errc::io_error:
-      return ErrorCode::io_error;
-    default:
-      return ErrorCode::internal;
-  }
+Error noDatabase(const std::string& name) {
+  return makeError(Errc::not_found, "no database \"" + name + "\"");
 }
 
-PairDatabase* FlowServer::Impl::currentDb(Endpoint& e) {
-  PairDatabase* db = dbs.find(e.current_db);
+}  // namespace
+
+void DatabaseAccess::attach(Endpoint& e) {
+  const std::string flow_db = "_flow." + std::to_string(e.id);
+  (void)store_.getOrCreate(flow_db, DatabaseKind::transient);
+  owners_[flow_db] = Owner{Owner::Kind::flow, e.user, e.id};
+  if (store_.find(e.user) == nullptr) (void)store_.create(e.user, DatabaseKind::persistent);
+  owners_[e.user] = Owner{Owner::Kind::user, e.user, 0};
+  e.current_db = e.user;
+}
+
+void DatabaseAccess::detach(const Endpoint& e) {
+  const std::string flow_db = "_flow." + std::to_string(e.id);
+  owners_.erase(flow_db);
+  (void)store_.remove(flow_db);
+}
+
+Result<void> DatabaseAccess::createChannelDb(const std::string& name, const Endpoint& owner,
+                                             const Variant& props) {
+  auto db = store_.getOrCreate(name, DatabaseKind::transient);
+  if (!db) return db.error();
+  (*db)->clear();
+  if (const auto* map = props.asMap()) {
+    for (const auto& [k, v] : *map) {
+      if (auto r = (*db)->set(k, v); !r) return r.error();
+    }
+  }
+  owners_[name] = Owner{Owner::Kind::channel, owner.user, owner.id};
+  return {};
+}
+
+void DatabaseAccess::removeChannelDb(const std::string& name) {
+  owners_.erase(name);
+  (void)store_.remove(name);
+}
+
+Result<void> DatabaseAccess::setChannelProps(const std::string& name, const Variant::Map& props) {
+  PairDatabase* db = store_.find(name);
+  if (db == nullptr) return noDatabase(name);
+  for (const auto& [k, v] : props) {
+    if (v.isNull()) {
+      db->remove(k);
+    } else if (auto r = db->set(k, v); !r) {
+      return makeError(Errc::invalid_argument, r.error().message);
+    }
+  }
+  return {};
+}
+
+Variant DatabaseAccess::channelProps(const std::string& name) const {
+  const PairDatabase* db = store_.find(name);
+  return db != nullptr ? db->all() : Variant(Variant::Map{});
+}
+
+PairDatabase* DatabaseAccess::current(Endpoint& e) {
+  PairDatabase* db = store_.find(e.current_db);
   if (db == nullptr) {
     // Its current database was removed: fall back to the flow's own.
     e.current_db = "_flow." + std::to_string(e.id);
-    db = dbs.find(e.current_db);
+    db = store_.find(e.current_db);
   }
   return db;
 }
 
-bool FlowServer::Impl::canWrite(const Endpoint& e, const std::string& db) const {
-  auto it = db_owners.find(db);
-  if (it == db_owners.end()) return true;  // a named database
+bool DatabaseAccess::canWrite(const Endpoint& e, const std::string& db) const {
+  auto it = owners_.find(db);
+  if (it == owners_.end()) return true;  // a named database
   switch (it->second.kind) {
-    case DbOwner::Kind::user:
+    case Owner::Kind::user:
       return it->second.user_name == e.user;
-    case DbOwner::Kind::flow:
-    case DbOwner::Kind::channel:
+    case Owner::Kind::flow:
+    case Owner::Kind::channel:
       return it->second.endpoint == e.id;
   }
   return false;
 }
 
-ErrorCode FlowServer::Impl::selectDb(Endpoint& e, const std::string& name, std::string& why) {
-  if (dbs.find(name) == nullptr) {
-    why = "no database \"" + name + "\"";
-    return ErrorCode::not_found;
-  }
+Result<void> DatabaseAccess::select(Endpoint& e, const std::string& name) {
+  if (store_.find(name) == nullptr) return noDatabase(name);
   e.current_db = name;
-  return ErrorCode::ok;
+  return {};
 }
 
-ErrorCode FlowServer::Impl::createDb(Endpoint&, const std::string& name, std::string& why) {
+Result<void> DatabaseAccess::create(const std::string& name) {
   if (name.starts_with("_")) {
-    why = "database names starting with '_' are the hub's";
-    return ErrorCode::invalid_argument;
+    return makeError(Errc::invalid_argument, "database names starting with '_' are the hub's");
   }
-  auto r = dbs.create(name, DatabaseKind::persistent);
-  if (!r) {
-    why = r.error().message;
-    return toErrorCode(r.error().code);
-  }
-  return ErrorCode::ok;
+  auto r = store_.create(name, DatabaseKind::persistent);
+  if (!r) return r.error();
+  return {};
 }
 
-ErrorCode FlowServer::Impl::saveDb(Endpoint& e, const std::string& name, std::string& why) {
+Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name) {
   const std::string& target = name.empty() ? e.current_db : name;
-  const auto kind = dbs.kind(target);
-  if (!kind) {
-    why = "no database \"" + target + "\"";
-    return ErrorCode::not_found;
-  }
+  const auto kind = store_.kind(target);
+  if (!kind) return noDatabase(target);
   if (*kind != DatabaseKind::persistent) {
-    why = "\"" + target + "\" is transient (a flow or channel database) and is never saved";
-    return ErrorCode::invalid_argument;
+    return makeError(
+        Errc::invalid_argument,
+        "\"" + target + "\" is transient (a flow or channel database) and is never saved");
   }
-  if (opt.data_dir.empty()) {
-    why = "the hub has no data directory";
-    return ErrorCode::unsupported;
+  if (store_.dbDir().empty()) return makeError(Errc::unsupported, "the hub has no data directory");
+  if (auto r = store_.save(target); !r) {
+    log::error(kLogSource, "FLOW-DB-SAVE", "database " + target + ": " + r.error().message);
+    return r.error();
   }
-  if (auto r = dbs.save(target); !r) {
-    why = r.error().message;
-    log::error(kLogSource, "FLOW-DB-SAVE", "database " + target + ": " + why);
-    return toErrorCode(r.error().code);
-  }
-  return ErrorCode::ok;
+  return {};
 }
 
-ErrorCode FlowServer::Impl::removeDb(Endpoint&, const std::string& name, std::string& why) {
-  if (db_owners.count(name) != 0) {
-    why = "\"" + name + "\" belongs to a user, flow or channel and cannot be removed";
-    return ErrorCode::permission_denied;
+Result<void> DatabaseAccess::remove(const std::string& name) {
+  if (owners_.count(name) != 0) {
+    return makeError(Errc::permission_denied,
+                     "\"" + name + "\" belongs to a user, flow or channel and cannot be removed");
   }
-  if (auto r = dbs.remove(name); !r) {
-    why = r.error().message;
-    return toErrorCode(r.error().code);
-  }
-  return ErrorCode::ok;
+  return store_.remove(name);
 }
 
-ErrorCode FlowServer::Impl::setVar(Endpoint& e, const std::string& db_name, const std::string& key,
-                                   const Variant& value, std::string& why) {
-  PairDatabase* db = db_name.empty() ? currentDb(e) : dbs.find(db_name);
-  if (db == nullptr) {
-    why = "no database \"" + db_name + "\"";
-    return ErrorCode::not_found;
-  }
+Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, const std::string& key,
+                                    const Variant& value) {
+  PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
+  if (db == nullptr) return noDatabase(db_name);
   if (!canWrite(e, db->name())) {
-    why = "database \"" + db->name() + "\" is not yours to write";
-    return ErrorCode::permission_denied;
+    return makeError(Errc::permission_denied,
+                     "database \"" + db->name() + "\" is not yours to write");
   }
-  if (auto r = db->set(key, value); !r) {
-    why = r.error().message;
-    return toErrorCode(r.error().code);
-  }
-  return ErrorCode::ok;
+  return db->set(key, value);
 }
 
-ErrorCode FlowServer::Impl::delVar(Endpoint& e, const std::string& db_name, const std::string& key,
-                                   std::string& why) {
-  PairDatabase* db = db_name.empty() ? currentDb(e) : dbs.find(db_name);
-  if (db == nullptr) {
-    why = "no database \"" + db_name + "\"";
-    return ErrorCode::not_found;
-  }
+Result<void> DatabaseAccess::delVar(Endpoint& e, const std::string& db_name,
+                                    const std::string& key) {
+  PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
+  if (db == nullptr) return noDatabase(db_name);
   if (!canWrite(e, db->name())) {
-    why = "database \"" + db->name() + "\" is not yours to write";
-    return ErrorCode::permission_denied;
+    return makeError(Errc::permission_denied,
+                     "database \"" + db->name() + "\" is not yours to write");
   }
   if (!db->remove(key)) {
-    why = "no variable \"" + key + "\" in \"" + db->name() + "\"";
-    return ErrorCode::not_found;
+    return makeError(Errc::not_found, "no variable \"" + key + "\" in \"" + db->name() + "\"");
   }
-  return ErrorCode::ok;
+  return {};
 }
 
 }  // namespace skr::flow

@@ -93,6 +93,23 @@ const char* statusText(skr_status status) noexcept {
   }
 }
 
+skr_status toStatus(Errc code) noexcept {
+  switch (code) {
+    case Errc::ok:
+      return SKR_OK;
+    case Errc::not_found:
+    case Errc::owner_gone:
+      return SKR_ERR_NOT_FOUND;
+    case Errc::invalid_argument:
+    case Errc::parse_error:
+    case Errc::already_exists:
+    case Errc::permission_denied:
+      return SKR_ERR_INVALID_ARGUMENT;
+    default:
+      return SKR_ERR_FAILED;
+  }
+}
+
 namespace {
 
 std::atomic<skr_tick_handle> g_next_tick_handle{1};

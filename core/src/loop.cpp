@@ -112,6 +112,13 @@ bool Loop::isLoopThread() const noexcept {
   return thread_.load() == std::this_thread::get_id();
 }
 
+void Loop::requireLoopThread(const char* what) const noexcept {
+  const std::thread::id bound = thread_.load();
+  if (bound == std::thread::id{} || bound == std::this_thread::get_id()) return;
+  std::fprintf(stderr, "skrobot: %s called off loop '%s''s thread\n", what, options_.name.c_str());
+  std::abort();  // a contract violation: the handler lists are not thread-safe
+}
+
 void Loop::bindThread() {
   const auto self = std::this_thread::get_id();
   std::thread::id expected{};
@@ -180,6 +187,7 @@ void Loop::invoke(const std::function<void()>& fn) {
 }
 
 TickId Loop::addTickHandler(Tick which, std::function<void()> handler) {
+  requireLoopThread("Loop::addTickHandler");
   const TickId id = next_tick_id_++;
   auto& list = dispatching_ ? added_during_dispatch_[static_cast<int>(which)]
                             : handlers_[static_cast<int>(which)];
@@ -258,7 +266,6 @@ void Loop::armFastTimer(Nanos now) {
   if (options_.mode == TimingMode::pseudo_realtime) {
     const Nanos wake = fast_deadline_ - options_.spin_margin_ns;
     if (wake <= now) {
-      spinning_ = true;
       uv_idle_start(idle_, &Loop::onIdle);
       return;
     }
@@ -281,7 +288,6 @@ void Loop::onTimer(uv_timer_t* handle) {
       self->fireTicks(now);
       break;
     case TimingMode::pseudo_realtime:
-      self->spinning_ = true;
       uv_idle_start(self->idle_, &Loop::onIdle);
       break;
     case TimingMode::socket_driven:
@@ -303,7 +309,6 @@ void Loop::onIdle(uv_idle_t* handle) {
   }
   // pseudo-realtime: poll without sleeping (I/O still runs) until the deadline.
   if (now < self->fast_deadline_) return;
-  self->spinning_ = false;
   uv_idle_stop(self->idle_);
   self->fireTicks(now);
 }

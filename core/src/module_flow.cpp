@@ -1,5 +1,7 @@
 #include "module_flow.h"
 
+#include "module_record.h"
+
 #include <skrobot/core/log.h>
 #include <skrobot/flow/variant.h>
 
@@ -8,37 +10,6 @@
 
 namespace skr {
 namespace {
-
-skr_status toStatus(Errc code) {
-  switch (code) {
-    case Errc::ok:
-      return SKR_OK;
-    case Errc::not_found:
-      return SKR_ERR_NOT_FOUND;
-    case Errc::invalid_argument:
-    case Errc::parse_error:
-    case Errc::already_exists:
-    case Errc::permission_denied:
-      return SKR_ERR_INVALID_ARGUMENT;
-    default:
-      return SKR_ERR_FAILED;
-  }
-}
-
-skr_status toStatus(flow::ErrorCode code) {
-  switch (code) {
-    case flow::ErrorCode::ok:
-      return SKR_OK;
-    case flow::ErrorCode::not_found:
-    case flow::ErrorCode::owner_gone:
-      return SKR_ERR_NOT_FOUND;
-    case flow::ErrorCode::invalid_argument:
-    case flow::ErrorCode::permission_denied:
-      return SKR_ERR_INVALID_ARGUMENT;
-    default:
-      return SKR_ERR_FAILED;
-  }
-}
 
 Result<flow::Variant> fromJson(const char* json) {
   if (json == nullptr || *json == '\0') return flow::Variant();
@@ -75,8 +46,7 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name)
     it->second.on_request(it->second.user, chan_id, request, command.c_str(), requester.c_str(),
                           json.c_str());
   };
-  h.on_response = [this](uint16_t chan_id, uint32_t tag, flow::ErrorCode error,
-                         const flow::Variant& value) {
+  h.on_response = [this](uint16_t chan_id, uint32_t tag, Errc error, const flow::Variant& value) {
     auto it = pending_.find(tag);
     if (it == pending_.end()) return;
     const Pending p = it->second;

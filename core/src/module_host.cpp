@@ -6,14 +6,26 @@
 
 #include <json/writer.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <string>
+#include <thread>
 #include <utility>
 
 namespace skr {
 namespace {
 
 constexpr std::string_view kSource = "core.modules";
+
+// The host's contract: every method on the main loop's thread, which is also the thread that
+// constructed the host. A call from elsewhere aborts with a line naming it, in every build.
+void requireHostThread(const Loop& main_loop, std::thread::id control, const char* what) noexcept {
+  main_loop.requireLoopThread(what);
+  if (std::this_thread::get_id() == control || main_loop.isLoopThread()) return;
+  std::fprintf(stderr, "skrobot: %s called off the thread that created the module host\n", what);
+  std::abort();
+}
 
 // Runs `fn` on the module's loop thread and waits for it.
 template <typename F>
@@ -73,6 +85,7 @@ void ModuleHost::fail(skr_module_ctx& m, std::string_view tag, const std::string
 }
 
 void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::load");
   for (std::size_t i = 0; i < entries.size(); ++i) {
     auto m = std::make_unique<skr_module_ctx>();
     m->entry = entries[i];
@@ -112,6 +125,7 @@ void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
 }
 
 void ModuleHost::initAll() {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::initAll");
   for (auto it = modules_.begin(); it != modules_.end();) {
     skr_module_ctx& m = **it;
     if (m.state != ModuleState::loaded) {
@@ -164,6 +178,7 @@ void ModuleHost::initAll() {
 }
 
 void ModuleHost::startAll() {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::startAll");
   for (auto it = modules_.begin(); it != modules_.end();) {
     skr_module_ctx& m = **it;
     if (m.state != ModuleState::inited) {
@@ -196,6 +211,7 @@ void ModuleHost::startAll() {
 }
 
 void ModuleHost::stopAll() noexcept {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::stopAll");
   while (!running_.empty()) {
     skr_module_ctx& m = *running_.back();
     running_.pop_back();
@@ -231,6 +247,7 @@ void ModuleHost::release(skr_module_ctx& m, bool call_fini) noexcept {
 }
 
 void ModuleHost::unloadAll() noexcept {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::unloadAll");
   stopAll();
   for (auto it = modules_.rbegin(); it != modules_.rend(); ++it) {
     skr_module_ctx& m = **it;

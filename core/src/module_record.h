@@ -45,6 +45,10 @@ class PostQueue {
 // The host's table of services (host_api.cpp).
 [[nodiscard]] const skr_host_api* hostApi() noexcept;
 [[nodiscard]] const char* statusText(skr_status status) noexcept;
+// The one mapping from an Errc (a flow or local failure) to the C seam's status: not_found and
+// owner_gone -> SKR_ERR_NOT_FOUND; invalid_argument, parse_error, already_exists and
+// permission_denied -> SKR_ERR_INVALID_ARGUMENT; every other failure -> SKR_ERR_FAILED.
+[[nodiscard]] skr_status toStatus(Errc code) noexcept;
 
 // Checks a descriptor the way the host loads it (module_files.cpp). The library stays open.
 struct OpenedModule {

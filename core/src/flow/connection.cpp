@@ -286,7 +286,7 @@ void Connection::dropOldestData(size_t needed) {
   out_.swap(kept);
   dropped_total_ += dropped;
   server_.stats.data_frames_dropped += dropped;
-  if (auto* db = server_.dbs.find("_flow." + std::to_string(id))) {
+  if (auto* db = server_.databases.store().find("_flow." + std::to_string(id))) {
     (void)db->set("dropped_frames", Variant(static_cast<int64_t>(dropped_total_)));
   }
   const Nanos now = monotonicNs();

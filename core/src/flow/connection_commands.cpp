@@ -77,38 +77,38 @@ void Connection::handleLogin(std::string_view body) {
 
 void Connection::handleSync(Code code, std::string_view body) {
   const DecodeLimits limits = valueLimits(server_.opt);
-  std::string why;
-  const auto answer = [&](ErrorCode e) {
-    if (e == ErrorCode::ok) {
+  const auto answer = [&](const Result<void>& r) {
+    if (r) {
       replyOk();
     } else {
-      replyError(e, why);
+      replyError(toErrorCode(r.error().code), r.error().message);
     }
   };
+  DatabaseAccess& dbs = server_.databases;
   switch (code) {
     case Code::db_select: {
       SKR_DECODE(msg::DbSelect, m);
-      answer(server_.selectDb(*this, m.name, why));
+      answer(dbs.select(*this, m.name));
       return;
     }
     case Code::db_create: {
       SKR_DECODE(msg::DbCreate, m);
-      answer(server_.createDb(*this, m.name, why));
+      answer(dbs.create(m.name));
       return;
     }
     case Code::db_save: {
       SKR_DECODE(msg::DbSave, m);
-      answer(server_.saveDb(*this, m.name, why));
+      answer(dbs.save(*this, m.name));
       return;
     }
     case Code::db_remove: {
       SKR_DECODE(msg::DbRemove, m);
-      answer(server_.removeDb(*this, m.name, why));
+      answer(dbs.remove(m.name));
       return;
     }
     case Code::var_get: {
       SKR_DECODE(msg::VarGet, m);
-      const PairDatabase* db = server_.currentDb(*this);
+      const PairDatabase* db = dbs.current(*this);
       const Variant* v = db != nullptr ? db->get(m.key) : nullptr;
       if (v == nullptr) {
         replyError(ErrorCode::not_found,
@@ -120,18 +120,18 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::var_set: {
       SKR_DECODE(msg::VarSet, m);
-      answer(server_.setVar(*this, {}, m.key, m.value, why));
+      answer(dbs.setVar(*this, {}, m.key, m.value));
       return;
     }
     case Code::var_del: {
       SKR_DECODE(msg::VarDel, m);
-      answer(server_.delVar(*this, {}, m.key, why));
+      answer(dbs.delVar(*this, {}, m.key));
       return;
     }
     case Code::var_get_all:
     case Code::var_keys: {
       if (!body.empty()) return protocolError(std::string(codeName(uint8_t(code))) + " has a body");
-      const PairDatabase* db = server_.currentDb(*this);
+      const PairDatabase* db = dbs.current(*this);
       if (code == Code::var_get_all) {
         send(msg::ReplyValue{db->all()});
       } else {
@@ -144,22 +144,21 @@ void Connection::handleSync(Code code, std::string_view body) {
     case Code::db_list: {
       if (!body.empty()) return protocolError("DB_LIST has a body");
       Variant::List names;
-      for (auto& n : server_.dbs.names()) names.emplace_back(n);
+      for (auto& n : dbs.store().names()) names.emplace_back(n);
       send(msg::ReplyValue{Variant(std::move(names))});
       return;
     }
     case Code::chan_list: {
       if (!body.empty()) return protocolError("CHAN_LIST has a body");
       msg::ChannelList list;
-      for (const auto& ch : server_.channels) {
-        if (ch != nullptr) list.channels.push_back(server_.info(*ch));
-      }
+      server_.channels.forEach(
+          [&](const Channel& ch) { list.channels.push_back(server_.info(ch)); });
       send(list);
       return;
     }
     case Code::chan_info: {
       SKR_DECODE(msg::ChanInfoByName, m);
-      const Channel* ch = server_.channelByName(m.name);
+      const Channel* ch = server_.channels.findByName(m.name);
       if (ch == nullptr) {
         replyError(ErrorCode::not_found, "no channel \"" + m.name + "\"");
       } else {
@@ -170,7 +169,7 @@ void Connection::handleSync(Code code, std::string_view body) {
     case Code::poll_register:
     case Code::poll_fetch: {
       SKR_DECODE(msg::PollFetch, m);  // both are a u16 channel id
-      Channel* ch = server_.channel(m.chan_id);
+      Channel* ch = server_.channels.find(m.chan_id);
       if (ch == nullptr || ch->kind != ChannelKind::streaming) {
         replyError(ErrorCode::not_found,
                    "no streaming channel with id " + std::to_string(m.chan_id));
@@ -187,10 +186,10 @@ void Connection::handleSync(Code code, std::string_view body) {
       // Block first: the reply is the owner's response (an in-hub module may answer inside
       // request()), or a timeout.
       block();
-      const ErrorCode e =
-          server_.request(*this, m.chan_id, 0, true, m.timeout_ms, m.command, m.value, why);
-      if (e != ErrorCode::ok) {
-        replyError(e, why);
+      auto r =
+          server_.requests.request(*this, m.chan_id, 0, true, m.timeout_ms, m.command, m.value);
+      if (!r) {
+        replyError(toErrorCode(r.error().code), r.error().message);
         unblock();
       }
       return;
@@ -217,93 +216,92 @@ void Connection::handleSync(Code code, std::string_view body) {
 
 void Connection::handleAsync(Code code, std::string_view body) {
   const DecodeLimits limits = valueLimits(server_.opt);
-  std::string why;
-  const auto check = [&](ErrorCode e, uint32_t tag, uint16_t chan) {
-    if (e != ErrorCode::ok) onError(code, tag, chan, e, why);
+  // A failed command comes back as EV_ERROR with its tag.
+  const auto check = [&](const Result<void>& r, uint32_t tag, uint16_t chan) {
+    if (!r) onError(code, tag, chan, toErrorCode(r.error().code), r.error().message);
   };
+  DatabaseAccess& dbs = server_.databases;
   switch (code) {
     case Code::publish: {
       // The hot path: no decoding beyond the channel id, the payload stays in the read buffer.
       ByteReader r(body);
       uint16_t chan = 0;
       if (!r.u16(chan)) return protocolError("PUBLISH: truncated channel id");
-      check(server_.publish(*this, chan, r.rest(), why), 0, chan);
+      check(server_.channels.publish(*this, chan, r.rest()), 0, chan);
       return;
     }
     case Code::chan_add: {
       SKR_DECODE(msg::ChanAdd, m);
       auto r = server_.createChannel(*this, m.short_name, static_cast<ChannelKind>(m.kind), m.mime,
                                      m.props, m.tag);
-      if (!r) {
-        why = r.error().message;
-        check(toErrorCode(r.error().code), m.tag, 0);
-      }
+      if (!r) onError(code, m.tag, 0, toErrorCode(r.error().code), r.error().message);
       return;
     }
     case Code::chan_remove: {
       SKR_DECODE(msg::ChanRemove, m);
-      check(server_.removeChannel(*this, m.chan_id, why), m.tag, m.chan_id);
+      check(server_.removeChannel(*this, m.chan_id), m.tag, m.chan_id);
       return;
     }
     case Code::subscribe: {
       SKR_DECODE(msg::Subscribe, m);
-      check(server_.subscribe(*this, m.chan_id, why), m.tag, m.chan_id);
+      check(server_.channels.subscribe(*this, m.chan_id), m.tag, m.chan_id);
       return;
     }
     case Code::unsubscribe: {
       SKR_DECODE(msg::Unsubscribe, m);
-      check(server_.unsubscribe(*this, m.chan_id, why), m.tag, m.chan_id);
+      check(server_.channels.unsubscribe(*this, m.chan_id), m.tag, m.chan_id);
       return;
     }
     case Code::service_request: {
       SKR_DECODE(msg::ServiceRequest, m);
-      const ErrorCode e =
-          server_.request(*this, m.chan_id, m.tag, false, 0, m.command, m.value, why);
+      auto r = server_.requests.request(*this, m.chan_id, m.tag, false, 0, m.command, m.value);
       // Failures of a request come back as its response, where the caller waits for them.
-      if (e != ErrorCode::ok)
-        send(msg::EvServiceResponse{m.chan_id, m.tag, uint16_t(e), Variant(why)});
+      if (!r) {
+        send(msg::EvServiceResponse{m.chan_id, m.tag, uint16_t(toErrorCode(r.error().code)),
+                                    Variant(r.error().message)});
+      }
       return;
     }
     case Code::service_response: {
       SKR_DECODE(msg::ServiceResponse, m);
-      check(server_.respond(*this, m.chan_id, m.request, m.value, why), 0, m.chan_id);
+      check(server_.requests.respond(*this, m.chan_id, m.request, m.value), 0, m.chan_id);
       return;
     }
     case Code::db_set_current: {
       SKR_DECODE(msg::DbSetCurrent, m);
-      const ErrorCode e = server_.selectDb(*this, m.name, why);
-      check(e, m.tag, 0);
-      if (e == ErrorCode::ok) onDbChanged(m.name);
+      auto r = dbs.select(*this, m.name);
+      check(r, m.tag, 0);
+      if (r) onDbChanged(m.name);
       return;
     }
     case Code::db_create_async: {
       SKR_DECODE(msg::DbCreateAsync, m);
-      check(server_.createDb(*this, m.name, why), m.tag, 0);
+      check(dbs.create(m.name), m.tag, 0);
       return;
     }
     case Code::db_remove_async: {
       SKR_DECODE(msg::DbRemoveAsync, m);
-      check(server_.removeDb(*this, m.name, why), m.tag, 0);
+      check(dbs.remove(m.name), m.tag, 0);
       return;
     }
     case Code::db_save_async: {
       SKR_DECODE(msg::DbSaveAsync, m);
-      check(server_.saveDb(*this, m.name, why), m.tag, 0);
+      check(dbs.save(*this, m.name), m.tag, 0);
       return;
     }
     case Code::var_set_async: {
       SKR_DECODE(msg::VarSetAsync, m);
-      check(server_.setVar(*this, {}, m.key, m.value, why), m.tag, 0);
+      check(dbs.setVar(*this, {}, m.key, m.value), m.tag, 0);
       return;
     }
     case Code::var_del_async: {
       SKR_DECODE(msg::VarDelAsync, m);
-      check(server_.delVar(*this, {}, m.name, why), m.tag, 0);
+      check(dbs.delVar(*this, {}, m.name), m.tag, 0);
       return;
     }
     case Code::chan_set_props: {
       SKR_DECODE(msg::ChanSetProps, m);
-      check(server_.setProps(*this, m.chan_id, m.props, why), m.tag, m.chan_id);
+      check(server_.setProps(*this, m.chan_id, m.props), m.tag, m.chan_id);
       return;
     }
     default:

@@ -1,4 +1,5 @@
-// LocalClient: a module's satellite inside the hub. Same channels, no socket, no copies.
+// LocalClient: a module's satellite inside the hub. Same channels, no socket, no copies; its
+// failures are the Results of the server's parts, so a module gets the Errc a satellite gets.
 #include "server_impl.h"
 
 #include <skrobot/core/log.h>
@@ -32,13 +33,13 @@ struct LocalClient::Impl final : Endpoint {
     if (handlers.on_request) {
       handlers.on_request(ch.id, request, command, requester, value);
     } else {
-      std::string why;
-      (void)server.respond(*this, ch.id, request, Variant("this module answers no requests"), why);
+      (void)server.requests.respond(*this, ch.id, request,
+                                    Variant("this module answers no requests"));
     }
   }
   void onResponse(uint16_t chan_id, uint32_t tag, bool, ErrorCode error,
                   const Variant& value) override {
-    if (handlers.on_response) handlers.on_response(chan_id, tag, error, value);
+    if (handlers.on_response) handlers.on_response(chan_id, tag, toErrc(error), value);
   }
   void onChannelAdded(const Channel& ch, uint32_t) override {
     if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, true);
@@ -63,7 +64,7 @@ std::unique_ptr<LocalClient> FlowServer::attachLocal(const std::string& user,
   auto impl = std::make_unique<LocalClient::Impl>(*impl_, std::move(handlers));
   impl->user = user;
   impl->client_name = name;
-  impl_->addEndpoint(impl.get());
+  impl_->endpoints.add(*impl);
   impl_->loggedIn(*impl);
   return std::make_unique<LocalClient>(std::move(impl));
 }
@@ -81,17 +82,6 @@ uint32_t LocalClient::id() const noexcept {
   return impl_->id;
 }
 
-namespace {
-Result<void> asResult(ErrorCode e, const std::string& why) {
-  if (e == ErrorCode::ok) return {};
-  return makeError(e == ErrorCode::not_found           ? Errc::not_found
-                   : e == ErrorCode::permission_denied ? Errc::permission_denied
-                   : e == ErrorCode::overflow          ? Errc::limit_exceeded
-                                                       : Errc::invalid_argument,
-                   why);
-}
-}  // namespace
-
 Result<uint16_t> LocalClient::createChannel(const std::string& short_name, ChannelKind kind,
                                             const std::string& mime, const Variant& props) {
   auto r = impl_->server.createChannel(*impl_, short_name, kind, mime, props, 0);
@@ -100,58 +90,42 @@ Result<uint16_t> LocalClient::createChannel(const std::string& short_name, Chann
 }
 
 Result<void> LocalClient::removeChannel(uint16_t chan_id) {
-  std::string why;
-  return asResult(impl_->server.removeChannel(*impl_, chan_id, why), why);
+  return impl_->server.removeChannel(*impl_, chan_id);
 }
 
 std::optional<uint16_t> LocalClient::findChannel(const std::string& name) const {
-  if (const Channel* ch = impl_->server.channelByName(name)) return ch->id;
+  if (const Channel* ch = impl_->server.channels.findByName(name)) return ch->id;
   return std::nullopt;
 }
 
 Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
-  std::string why;
-  return asResult(impl_->server.publish(*impl_, chan_id, payload, why), why);
+  return impl_->server.channels.publish(*impl_, chan_id, payload);
 }
 
 Result<void> LocalClient::subscribe(const std::string& name) {
-  auto& s = impl_->server;
-  bool known = false;
-  auto [lo, hi] = s.local_wanted.equal_range(name);
-  for (auto it = lo; it != hi; ++it) known = known || it->second == impl_->id;
-  if (!known) s.local_wanted.emplace(name, impl_->id);
-  if (const Channel* ch = s.channelByName(name)) {
-    std::string why;
-    return asResult(s.subscribe(*impl_, ch->id, why), why);
-  }
+  ChannelTable& channels = impl_->server.channels;
+  channels.want(name, impl_->id);
+  if (const Channel* ch = channels.findByName(name)) return channels.subscribe(*impl_, ch->id);
   return {};  // waits for the channel
 }
 
 void LocalClient::unsubscribe(const std::string& name) {
-  auto& s = impl_->server;
-  auto [lo, hi] = s.local_wanted.equal_range(name);
-  for (auto it = lo; it != hi;) {
-    it = it->second == impl_->id ? s.local_wanted.erase(it) : std::next(it);
-  }
-  if (const Channel* ch = s.channelByName(name)) {
-    std::string why;
-    (void)s.unsubscribe(*impl_, ch->id, why);
-  }
+  ChannelTable& channels = impl_->server.channels;
+  channels.unwant(name, impl_->id);
+  if (const Channel* ch = channels.findByName(name)) (void)channels.unsubscribe(*impl_, ch->id);
 }
 
 Result<void> LocalClient::request(uint16_t chan_id, uint32_t tag, const std::string& command,
                                   const Variant& value) {
-  std::string why;
-  return asResult(impl_->server.request(*impl_, chan_id, tag, false, 0, command, value, why), why);
+  return impl_->server.requests.request(*impl_, chan_id, tag, false, 0, command, value);
 }
 
 Result<void> LocalClient::respond(uint16_t chan_id, uint64_t request, const Variant& value) {
-  std::string why;
-  return asResult(impl_->server.respond(*impl_, chan_id, request, value, why), why);
+  return impl_->server.requests.respond(*impl_, chan_id, request, value);
 }
 
 std::optional<Variant> LocalClient::getVariable(const std::string& db, const std::string& key) {
-  const PairDatabase* d = impl_->server.dbs.find(db);
+  const PairDatabase* d = impl_->server.databases.store().find(db);
   if (d == nullptr) return std::nullopt;
   if (const Variant* v = d->get(key)) return *v;
   return std::nullopt;
@@ -159,8 +133,7 @@ std::optional<Variant> LocalClient::getVariable(const std::string& db, const std
 
 Result<void> LocalClient::setVariable(const std::string& db, const std::string& key,
                                       const Variant& value) {
-  std::string why;
-  return asResult(impl_->server.setVar(*impl_, db, key, value, why), why);
+  return impl_->server.databases.setVar(*impl_, db, key, value);
 }
 
 }  // namespace skr::flow

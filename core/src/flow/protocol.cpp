@@ -167,6 +167,93 @@ std::string_view errorCodeName(ErrorCode code) noexcept {
   return "unknown";
 }
 
+Errc toErrc(ErrorCode code) noexcept {
+  switch (code) {
+    case ErrorCode::ok:
+      return Errc::ok;
+    case ErrorCode::protocol_error:
+      return Errc::protocol_error;
+    case ErrorCode::version_mismatch:
+      return Errc::version_mismatch;
+    case ErrorCode::auth_failed:
+      return Errc::auth_failed;
+    case ErrorCode::not_logged_in:
+      return Errc::not_logged_in;
+    case ErrorCode::not_found:
+      return Errc::not_found;
+    case ErrorCode::already_exists:
+      return Errc::already_exists;
+    case ErrorCode::permission_denied:
+      return Errc::permission_denied;
+    case ErrorCode::invalid_argument:
+      return Errc::invalid_argument;
+    case ErrorCode::timeout:
+      return Errc::timeout;
+    case ErrorCode::owner_gone:
+      return Errc::owner_gone;
+    case ErrorCode::overflow:
+      return Errc::overflow;
+    case ErrorCode::unsupported:
+      return Errc::unsupported;
+    case ErrorCode::limit_exceeded:
+      return Errc::limit_exceeded;
+    case ErrorCode::io_error:
+      return Errc::io_error;
+    case ErrorCode::internal:
+      return Errc::internal;
+  }
+  return Errc::internal;  // a code this build does not know (a newer peer)
+}
+
+ErrorCode toErrorCode(Errc code) noexcept {
+  switch (code) {
+    case Errc::ok:
+      return ErrorCode::ok;
+    case Errc::protocol_error:
+      return ErrorCode::protocol_error;
+    case Errc::version_mismatch:
+      return ErrorCode::version_mismatch;
+    case Errc::auth_failed:
+      return ErrorCode::auth_failed;
+    case Errc::not_logged_in:
+      return ErrorCode::not_logged_in;
+    case Errc::not_found:
+      return ErrorCode::not_found;
+    case Errc::already_exists:
+      return ErrorCode::already_exists;
+    case Errc::permission_denied:
+      return ErrorCode::permission_denied;
+    case Errc::invalid_argument:
+    case Errc::config_error:
+    case Errc::parse_error:
+      return ErrorCode::invalid_argument;
+    case Errc::timeout:
+      return ErrorCode::timeout;
+    case Errc::owner_gone:
+      return ErrorCode::owner_gone;
+    case Errc::overflow:
+      return ErrorCode::overflow;
+    case Errc::unsupported:
+      return ErrorCode::unsupported;
+    case Errc::limit_exceeded:
+      return ErrorCode::limit_exceeded;
+    case Errc::io_error:
+    case Errc::closed:
+      return ErrorCode::io_error;
+    case Errc::internal:
+    case Errc::abi_mismatch:
+    case Errc::module_failed:
+    case Errc::exception:
+    case Errc::remote:
+      return ErrorCode::internal;
+  }
+  return ErrorCode::internal;
+}
+
+Error wireError(ErrorCode code, std::string message) {
+  return Error{toErrc(code), std::move(message)};
+}
+
 std::string_view channelKindName(ChannelKind kind) noexcept {
   switch (kind) {
     case ChannelKind::streaming:

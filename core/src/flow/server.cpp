@@ -1,4 +1,4 @@
-// FlowServer: transports, connection lifecycle, output flushing and timeouts.
+// FlowServer: transports, connection lifecycle, output flushing and timeouts (server_impl.h).
 #include "connection.h"
 #include "server_impl.h"
 #include "uv_handle.h"
@@ -13,13 +13,14 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
-#include <random>
 
 namespace skr::flow {
 FlowServer::Impl::Impl(Loop& l, ServerOptions options)
-    : loop(l), opt(std::move(options)), dbs(opt.data_dir), rng(std::random_device{}()) {
+    : loop(l),
+      opt(std::move(options)),
+      databases(opt.data_dir),
+      requests(endpoints, channels, opt.max_pending_requests) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
-  channels.resize(kMaxChannels);
 }
 
 Result<void> FlowServer::Impl::start() {
@@ -28,6 +29,7 @@ Result<void> FlowServer::Impl::start() {
   // SIGPIPE and kill the whole hub. Ignored, the write fails with EPIPE and only that
   // connection closes.
   std::signal(SIGPIPE, SIG_IGN);
+  DatabaseStore& dbs = databases.store();
   if (auto loaded = dbs.loadAll(); !loaded) {
     return loaded.error();
   } else {
@@ -170,7 +172,7 @@ void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
     return;
   }
   if (transport == Transport::tcp) uv_tcp_nodelay(reinterpret_cast<uv_tcp_t*>(c->stream()), 1);
-  addEndpoint(c);
+  endpoints.add(*c);
   connections[c->id] = c;
   ++stats.connections_accepted;
   ++stats.connections_open;
@@ -213,60 +215,7 @@ void FlowServer::Impl::sweep() {
     log::warn(kLogSource, "FLOW-LOGIN-TIMEOUT", c->describe() + ": no login in time");
     c->close("login timeout");
   }
-  std::vector<std::pair<uint64_t, PendingRequest>> expired;
-  for (const auto& [id, p] : requests) {
-    if (p.sync && now > p.deadline) expired.emplace_back(id, p);
-  }
-  for (const auto& [id, p] : expired) {
-    requests.erase(id);
-    if (Channel* ch = channel(p.chan_id)) --ch->pending_requests;
-    if (auto e = endpoints.find(p.requester); e != endpoints.end()) {
-      e->second->onResponse(p.chan_id, p.tag, true, ErrorCode::timeout,
-                            Variant("the service did not answer in time"));
-    }
-  }
-}
-
-uint32_t FlowServer::Impl::addEndpoint(Endpoint* e) {
-  e->id = next_endpoint_id++;
-  if (next_endpoint_id == 0) next_endpoint_id = 1;
-  endpoints[e->id] = e;
-  return e->id;
-}
-
-void FlowServer::Impl::loggedIn(Endpoint& e) {
-  const std::string flow_db = "_flow." + std::to_string(e.id);
-  (void)dbs.getOrCreate(flow_db, DatabaseKind::transient);
-  db_owners[flow_db] = DbOwner{DbOwner::Kind::flow, e.user, e.id};
-  if (dbs.find(e.user) == nullptr) (void)dbs.create(e.user, DatabaseKind::persistent);
-  db_owners[e.user] = DbOwner{DbOwner::Kind::user, e.user, 0};
-  e.current_db = e.user;
-}
-
-void FlowServer::Impl::removeEndpoint(Endpoint& e) {
-  if (endpoints.erase(e.id) == 0) return;
-  connections.erase(e.id);
-  if (stats.connections_open > 0 && dynamic_cast<Connection*>(&e) != nullptr) {
-    --stats.connections_open;
-  }
-  std::string why;
-  for (uint16_t id : std::vector<uint16_t>(e.subscribed)) (void)unsubscribe(e, id, why);
-  for (uint16_t id : std::vector<uint16_t>(e.owned)) (void)removeChannel(e, id, why);
-  // Its own requests: nobody will read the answers.
-  for (auto it = requests.begin(); it != requests.end();) {
-    if (it->second.requester == e.id) {
-      if (Channel* ch = channel(it->second.chan_id)) --ch->pending_requests;
-      it = requests.erase(it);
-    } else {
-      ++it;
-    }
-  }
-  const std::string flow_db = "_flow." + std::to_string(e.id);
-  db_owners.erase(flow_db);
-  (void)dbs.remove(flow_db);
-  for (auto it = local_wanted.begin(); it != local_wanted.end();) {
-    it = it->second == e.id ? local_wanted.erase(it) : std::next(it);
-  }
+  requests.expire(now);
 }
 
 void FlowServer::Impl::stop() noexcept {
@@ -280,7 +229,7 @@ void FlowServer::Impl::stop() noexcept {
   closeUvHandle(sweep_timer);
   if (started) {
     if (!opt.data_dir.empty()) {
-      if (auto r = dbs.saveAll(); !r) {
+      if (auto r = databases.store().saveAll(); !r) {
         log::error(kLogSource, "FLOW-DB-SAVE", r.error().message);
       }
     }
@@ -320,7 +269,7 @@ const ServerStats& FlowServer::stats() const noexcept {
   return impl_->stats;
 }
 size_t FlowServer::channelCount() const noexcept {
-  return impl_->channel_count;
+  return impl_->channels.count();
 }
 
 }  // namespace skr::flow

@@ -12,39 +12,6 @@ using flow::Code;
 using flow::ErrorCode;
 using flow::Variant;
 
-Errc toErrc(ErrorCode error) noexcept {
-  switch (error) {
-    case ErrorCode::ok:
-      return Errc::ok;
-    case ErrorCode::not_found:
-      return Errc::not_found;
-    case ErrorCode::already_exists:
-      return Errc::already_exists;
-    case ErrorCode::auth_failed:
-    case ErrorCode::permission_denied:
-    case ErrorCode::not_logged_in:
-      return Errc::permission_denied;
-    case ErrorCode::invalid_argument:
-    case ErrorCode::unsupported:
-      return Errc::invalid_argument;
-    case ErrorCode::timeout:
-      return Errc::timeout;
-    case ErrorCode::owner_gone:
-      return Errc::closed;
-    case ErrorCode::overflow:
-    case ErrorCode::limit_exceeded:
-      return Errc::limit_exceeded;
-    case ErrorCode::io_error:
-      return Errc::io_error;
-    case ErrorCode::protocol_error:
-    case ErrorCode::version_mismatch:
-      return Errc::protocol_error;
-    case ErrorCode::internal:
-      return Errc::exception;
-  }
-  return Errc::exception;
-}
-
 SyncClient::SyncClient(int fd, ConnectOptions options) : fd_(fd), options_(std::move(options)) {}
 
 SyncClient::~SyncClient() {

@@ -107,8 +107,9 @@ class Loop {
   // the loop thread. The loop must be running (or about to run) on another thread otherwise.
   void invoke(const std::function<void()>& fn);
 
-  // Loop thread only (or before the loop runs). Handlers run in the order they were added.
-  // A handler added during a tick runs from the next one; a removed one never runs again.
+  // Loop thread only (or before the loop runs): a call from another thread once the loop is bound
+  // aborts (requireLoopThread). Handlers run in the order they were added. A handler added
+  // during a tick runs from the next one; a removed one never runs again.
   TickId addTickHandler(Tick which, std::function<void()> handler);
   void removeTickHandler(TickId id) noexcept;
 
@@ -119,6 +120,10 @@ class Loop {
   // The loop bound to the calling thread (set by run*), or nullptr.
   [[nodiscard]] static Loop* current() noexcept;
   [[nodiscard]] bool isLoopThread() const noexcept;
+  // Enforces a "loop thread only" contract in every build: once the loop is bound to a thread,
+  // a call from any other thread writes "skrobot: <what> called off loop '<name>''s thread" to
+  // stderr and aborts, as a second run* thread does. Before the loop is bound, any thread passes.
+  void requireLoopThread(const char* what) const noexcept;
   [[nodiscard]] const LoopOptions& options() const noexcept { return options_; }
   [[nodiscard]] const std::string& name() const noexcept { return options_.name; }
   [[nodiscard]] const LoopStats& stats() const noexcept { return stats_; }
@@ -136,7 +141,6 @@ class Loop {
   void bindThread();
   void startTicks();
   void armFastTimer(Nanos now);
-  void onFastDeadline();  // timer/idle/check callbacks end here
   void fireTicks(Nanos now);
   void dispatch(Tick which);
   void armTimerAt(Nanos target_ns);
@@ -164,7 +168,6 @@ class Loop {
   std::atomic<std::thread::id> thread_{};
   std::atomic<bool> stop_requested_{false};
   bool ticks_started_ = false;
-  bool spinning_ = false;
 
   std::mutex post_mutex_;
   std::vector<std::function<void()>> posted_;

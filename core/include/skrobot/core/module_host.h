@@ -88,7 +88,8 @@ struct ModuleListing {
     const std::vector<std::filesystem::path>& search_path);
 
 // Owns the loaded modules. Not thread-safe: construct it and call every method on the main
-// loop's thread (the thread that runs `main_loop`, before, while or after it runs). Modules on
+// loop's thread (the thread that runs `main_loop`, before, while or after it runs); a call from
+// another thread aborts with a line naming the method (Loop::requireLoopThread). Modules on
 // their own thread are driven synchronously through Loop::invoke.
 class ModuleHost {
  public:

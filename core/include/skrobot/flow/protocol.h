@@ -5,6 +5,8 @@
 // A frame: u32 length (bytes after this field, >= 1), u8 code, body. Little-endian throughout.
 #pragma once
 
+#include <skrobot/result.hpp>
+
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -111,6 +113,16 @@ enum class ErrorCode : uint16_t {
 };
 
 [[nodiscard]] std::string_view errorCodeName(ErrorCode code) noexcept;
+
+// The one mapping between wire errors and skr::Errc, used by the hub, its modules (LocalClient)
+// and the satellite libraries, so that a failure reaches every client as the same code.
+// Every ErrorCode has the Errc of the same name, and toErrorCode(toErrc(e)) == e. Codes that never
+// travel map onto the nearest wire error: config_error and parse_error -> invalid_argument,
+// closed -> io_error, abi_mismatch, module_failed, exception and remote -> internal.
+[[nodiscard]] Errc toErrc(ErrorCode code) noexcept;
+[[nodiscard]] ErrorCode toErrorCode(Errc code) noexcept;
+// A wire error as an Error (toErrc(code) and the peer's message).
+[[nodiscard]] Error wireError(ErrorCode code, std::string message);
 
 enum class ChannelKind : uint8_t { streaming = 1, service = 2, blob = 3 };
 [[nodiscard]] std::string_view channelKindName(ChannelKind kind) noexcept;

@@ -66,9 +66,9 @@ struct LocalHandlers {
   std::function<void(uint16_t chan_id, uint64_t request, const std::string& command,
                      const std::string& requester, const Variant& value)>
       on_request;
-  // The answer to LocalClient::request() (error != ok: value holds the message).
-  std::function<void(uint16_t chan_id, uint32_t tag, ErrorCode error, const Variant& value)>
-      on_response;
+  // The answer to LocalClient::request(). error != ok: the request failed (owner_gone, overflow,
+  // ...: the Errc of the wire error a satellite gets, see toErrc) and value holds the message.
+  std::function<void(uint16_t chan_id, uint32_t tag, Errc error, const Variant& value)> on_response;
   std::function<void(uint16_t chan_id, const std::string& name, bool added)> on_channel;
 };
 

@@ -72,6 +72,8 @@ struct Response {  // NOLINT(bugprone-exception-escape): Variant moves do not th
   flow::ErrorCode error = flow::ErrorCode::ok;
   flow::Variant value;
   [[nodiscard]] bool ok() const noexcept { return error == flow::ErrorCode::ok; }
+  // The error as the Errc a module would get for the same failure (flow::toErrc).
+  [[nodiscard]] Errc errc() const noexcept { return flow::toErrc(error); }
 };
 // A command the hub refused (EV_ERROR: `command` and `tag` name it), a refused login (command
 // LOGIN), or a local failure (command 0): protocol_error when the hub broke the protocol,

@@ -5,9 +5,10 @@
 // flow never blocks. Every method blocks the calling thread until the reply arrives or
 // ConnectOptions::timeout_ms passes. Not thread-safe: use one SyncClient from one thread at a time.
 //
-// Errors: a refusal by the hub keeps its FlowProtocol error in lastError() and maps onto Errc
-// (not_found, already_exists, permission_denied, invalid_argument, timeout, ...); the connection
-// stays usable. A lost or broken connection gives Errc::closed or Errc::protocol_error and closes.
+// Errors: a refusal by the hub keeps its FlowProtocol error in lastError() and maps onto the Errc
+// of the same name by toErrc() (not_found, already_exists, owner_gone, timeout, ...); the
+// connection stays usable. A lost or broken connection gives Errc::closed or Errc::protocol_error
+// and closes.
 #pragma once
 
 #include <skrobot/core/result.h>
@@ -24,8 +25,9 @@ namespace skr::sat {
 using ChannelInfo = flow::msg::ChannelInfo;
 using LoginInfo = flow::msg::LoginOk;
 
-// The Errc that a hub's FlowProtocol error maps onto.
-[[nodiscard]] Errc toErrc(flow::ErrorCode error) noexcept;
+// The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/flow/protocol.h,
+// shared with the hub's modules (same name, one for one).
+using flow::toErrc;
 
 class SyncClient {
  public:
@@ -67,7 +69,7 @@ class SyncClient {
   [[nodiscard]] Result<ChannelInfo> channel(const std::string& name);
 
   // A blocking service call (SERVICE_CALL): waits for the owner's answer for up to timeout_ms
-  // (Errc::timeout), or fails when the owner goes away (Errc::closed, lastError() owner_gone).
+  // (Errc::timeout), or fails when the owner goes away (Errc::owner_gone).
   [[nodiscard]] Result<flow::Variant> call(uint16_t chan_id, const std::string& command,
                                            const flow::Variant& value, uint32_t timeout_ms = 5000);
   // The same by channel name (one CHAN_INFO first).

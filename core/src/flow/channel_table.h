@@ -1,0 +1,100 @@
+// The channel table and the router: channels by id and name, their subscriber lists, and the
+// routing of published data to each subscriber (ChannelTable::publish, the relay's hot path).
+// Knows nothing of databases or service requests: FlowServer::Impl wires those around it.
+// Main loop thread only.
+#pragma once
+
+#include "endpoint.h"
+
+#include <skrobot/core/result.h>
+#include <skrobot/flow/protocol.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+namespace skr::flow {
+
+class Channel {
+ public:
+  uint16_t id = 0;
+  uint64_t hash = 0;
+  ChannelKind kind = ChannelKind::streaming;
+  std::string name;  // <user>.<short>
+  std::string mime;
+  Endpoint* owner = nullptr;
+  // May hold nullptr tombstones while a publish is being dispatched (see ChannelTable::publish).
+  std::vector<Endpoint*> subscribers;
+  size_t subscriber_count = 0;
+  bool polled = false;  // keep the latest payload for POLL_FETCH
+  std::string last;
+  uint64_t seq = 0;
+  size_t pending_requests = 0;  // kept by the RequestTable
+};
+
+class ChannelTable {
+ public:
+  ChannelTable();
+
+  [[nodiscard]] Channel* find(uint16_t id) noexcept {
+    return id < channels_.size() ? channels_[id].get() : nullptr;
+  }
+  [[nodiscard]] Channel* findByName(const std::string& name) noexcept;
+  [[nodiscard]] size_t count() const noexcept { return count_; }
+  // Every channel, by id.
+  template <class F>
+  void forEach(F&& f) const {
+    for (const auto& ch : channels_) {
+      if (ch != nullptr) f(*ch);
+    }
+  }
+
+  // The channel `id`, or not_found ("no channel with id N").
+  [[nodiscard]] Result<Channel*> existing(uint16_t id);
+  // The channel `id` when `e` owns it, or permission_denied ("only the owner <action> <name>").
+  [[nodiscard]] Result<Channel*> owned(const Endpoint& e, uint16_t id, const char* action);
+
+  // Adds "<owner.user>.<short_name>" owned by `owner`, with a fresh id (ids rotate, so a removed
+  // channel's id is not reused at once). Tells nobody. invalid_argument (name, kind),
+  // already_exists, limit_exceeded.
+  [[nodiscard]] Result<Channel*> add(Endpoint& owner, const std::string& short_name,
+                                     ChannelKind kind, const std::string& mime);
+  // Takes `ch` out of the table, its subscribers' and its owner's lists. Tells nobody.
+  std::unique_ptr<Channel> erase(Channel& ch);
+
+  // Subscribes `e` to the streaming channel `id` (ok when it is already); the owner hears of the
+  // first subscriber. not_found, invalid_argument (not streaming).
+  [[nodiscard]] Result<void> subscribe(Endpoint& e, uint16_t id);
+  // ok when `e` was not subscribed; the owner (unless it is `e`) hears of the last one leaving.
+  [[nodiscard]] Result<void> unsubscribe(Endpoint& e, uint16_t id);
+  // Routes `payload` from the owner `e` to every subscriber of `id` (Endpoint::onData: a frame
+  // queued per socket subscriber, a view for in-process ones; no copy here). Subscribers may
+  // subscribe, unsubscribe or remove the channel from inside onData. not_found,
+  // permission_denied (not the owner), invalid_argument (not streaming).
+  [[nodiscard]] Result<void> publish(Endpoint& e, uint16_t id, std::string_view payload);
+
+  // In-process subscriptions by name that wait for (or follow) their channel.
+  void want(const std::string& name, uint32_t endpoint);
+  void unwant(const std::string& name, uint32_t endpoint);
+  void unwantAll(uint32_t endpoint);
+  [[nodiscard]] std::vector<uint32_t> wanting(const std::string& name) const;
+
+ private:
+  void compact(Channel& ch);
+
+  std::vector<std::unique_ptr<Channel>> channels_;  // by id; [0] unused
+  std::unordered_map<std::string, uint16_t> by_name_;
+  uint16_t next_hint_ = 1;
+  size_t count_ = 0;
+  std::mt19937_64 rng_;
+  std::multimap<std::string, uint32_t> wanted_;
+  int dispatching_ = 0;  // > 0 while publish iterates subscribers: removals leave tombstones
+  std::vector<uint16_t> tombstoned_;  // channels whose subscriber lists hold tombstones
+};
+
+}  // namespace skr::flow

@@ -1,0 +1,155 @@
+// Database access (see database_access.h).
+#include "database_access.h"
+
+#include <skrobot/core/log.h>
+
+namespace skr::flow {
+namespace {
+
+Error noDatabase(const std::string& name) {
+  return makeError(Errc::not_found, "no database \"" + name + "\"");
+}
+
+}  // namespace
+
+void DatabaseAccess::attach(Endpoint& e) {
+  const std::string flow_db = "_flow." + std::to_string(e.id);
+  (void)store_.getOrCreate(flow_db, DatabaseKind::transient);
+  owners_[flow_db] = Owner{Owner::Kind::flow, e.user, e.id};
+  if (store_.find(e.user) == nullptr) (void)store_.create(e.user, DatabaseKind::persistent);
+  owners_[e.user] = Owner{Owner::Kind::user, e.user, 0};
+  e.current_db = e.user;
+}
+
+void DatabaseAccess::detach(const Endpoint& e) {
+  const std::string flow_db = "_flow." + std::to_string(e.id);
+  owners_.erase(flow_db);
+  (void)store_.remove(flow_db);
+}
+
+Result<void> DatabaseAccess::createChannelDb(const std::string& name, const Endpoint& owner,
+                                             const Variant& props) {
+  auto db = store_.getOrCreate(name, DatabaseKind::transient);
+  if (!db) return db.error();
+  (*db)->clear();
+  if (const auto* map = props.asMap()) {
+    for (const auto& [k, v] : *map) {
+      if (auto r = (*db)->set(k, v); !r) return r.error();
+    }
+  }
+  owners_[name] = Owner{Owner::Kind::channel, owner.user, owner.id};
+  return {};
+}
+
+void DatabaseAccess::removeChannelDb(const std::string& name) {
+  owners_.erase(name);
+  (void)store_.remove(name);
+}
+
+Result<void> DatabaseAccess::setChannelProps(const std::string& name, const Variant::Map& props) {
+  PairDatabase* db = store_.find(name);
+  if (db == nullptr) return noDatabase(name);
+  for (const auto& [k, v] : props) {
+    if (v.isNull()) {
+      db->remove(k);
+    } else if (auto r = db->set(k, v); !r) {
+      return makeError(Errc::invalid_argument, r.error().message);
+    }
+  }
+  return {};
+}
+
+Variant DatabaseAccess::channelProps(const std::string& name) const {
+  const PairDatabase* db = store_.find(name);
+  return db != nullptr ? db->all() : Variant(Variant::Map{});
+}
+
+PairDatabase* DatabaseAccess::current(Endpoint& e) {
+  PairDatabase* db = store_.find(e.current_db);
+  if (db == nullptr) {
+    // Its current database was removed: fall back to the flow's own.
+    e.current_db = "_flow." + std::to_string(e.id);
+    db = store_.find(e.current_db);
+  }
+  return db;
+}
+
+bool DatabaseAccess::canWrite(const Endpoint& e, const std::string& db) const {
+  auto it = owners_.find(db);
+  if (it == owners_.end()) return true;  // a named database
+  switch (it->second.kind) {
+    case Owner::Kind::user:
+      return it->second.user_name == e.user;
+    case Owner::Kind::flow:
+    case Owner::Kind::channel:
+      return it->second.endpoint == e.id;
+  }
+  return false;
+}
+
+Result<void> DatabaseAccess::select(Endpoint& e, const std::string& name) {
+  if (store_.find(name) == nullptr) return noDatabase(name);
+  e.current_db = name;
+  return {};
+}
+
+Result<void> DatabaseAccess::create(const std::string& name) {
+  if (name.starts_with("_")) {
+    return makeError(Errc::invalid_argument, "database names starting with '_' are the hub's");
+  }
+  auto r = store_.create(name, DatabaseKind::persistent);
+  if (!r) return r.error();
+  return {};
+}
+
+Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name) {
+  const std::string& target = name.empty() ? e.current_db : name;
+  const auto kind = store_.kind(target);
+  if (!kind) return noDatabase(target);
+  if (*kind != DatabaseKind::persistent) {
+    return makeError(
+        Errc::invalid_argument,
+        "\"" + target + "\" is transient (a flow or channel database) and is never saved");
+  }
+  if (store_.dbDir().empty()) return makeError(Errc::unsupported, "the hub has no data directory");
+  if (auto r = store_.save(target); !r) {
+    log::error(kLogSource, "FLOW-DB-SAVE", "database " + target + ": " + r.error().message);
+    return r.error();
+  }
+  return {};
+}
+
+Result<void> DatabaseAccess::remove(const std::string& name) {
+  if (owners_.count(name) != 0) {
+    return makeError(Errc::permission_denied,
+                     "\"" + name + "\" belongs to a user, flow or channel and cannot be removed");
+  }
+  return store_.remove(name);
+}
+
+Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, const std::string& key,
+                                    const Variant& value) {
+  PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
+  if (db == nullptr) return noDatabase(db_name);
+  if (!canWrite(e, db->name())) {
+    return makeError(Errc::permission_denied,
+                     "database \"" + db->name() + "\" is not yours to write");
+  }
+  return db->set(key, value);
+}
+
+Result<void> DatabaseAccess::delVar(Endpoint& e, const std::string& db_name,
+                                    const std::string& key) {
+  PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
+  if (db == nullptr) return noDatabase(db_name);
+  if (!canWrite(e, db->name())) {
+    return makeError(Errc::permission_denied,
+                     "database \"" + db->name() + "\" is not yours to write");
+  }
+  if (!db->remove(key)) {
+    return makeError(Errc::not_found, "no variable \"" + key + "\" in \"" + db->name() + "\"");
+  }
+  return {};
+}
+
+}  // namespace skr::flow

@@ -1,0 +1,68 @@
+// Database access: the PairDatabases as the protocol sees them, and who may write which. One per
+// flow ("_flow.<id>", transient), per user (named after the user, persistent), per channel
+// (named after the channel, transient: its properties), plus named ones anybody may create.
+// Anyone logged in reads any database; writes go to named databases, one's own user and flow
+// databases, and (as the channel's owner) one's own channels' databases. Main loop thread only.
+#pragma once
+
+#include "endpoint.h"
+
+#include <skrobot/core/result.h>
+#include <skrobot/flow/pair_database.h>
+
+#include <filesystem>
+#include <string>
+#include <unordered_map>
+
+namespace skr::flow {
+
+class DatabaseAccess {
+ public:
+  // Persistent databases live in `data_dir` (empty: nothing is saved).
+  explicit DatabaseAccess(std::filesystem::path data_dir) : store_(std::move(data_dir)) {}
+
+  [[nodiscard]] DatabaseStore& store() noexcept { return store_; }
+  [[nodiscard]] const DatabaseStore& store() const noexcept { return store_; }
+
+  // A logged-in endpoint's databases: its flow database (created) and its user's (created if
+  // new, persistent); its current database becomes the user's.
+  void attach(Endpoint& e);
+  // Removes the flow database of a leaving endpoint.
+  void detach(const Endpoint& e);
+  // The channel `name`'s database, owned by `owner`, holding `props` (a map or null).
+  [[nodiscard]] Result<void> createChannelDb(const std::string& name, const Endpoint& owner,
+                                             const Variant& props);
+  void removeChannelDb(const std::string& name);
+  // Sets (or, for null values, removes) the keys of `props` in channel `name`'s database.
+  [[nodiscard]] Result<void> setChannelProps(const std::string& name, const Variant::Map& props);
+  // The channel `name`'s properties (an empty map when it has none).
+  [[nodiscard]] Variant channelProps(const std::string& name) const;
+
+  // `e`'s current database; falls back to its flow database when the current one was removed.
+  PairDatabase* current(Endpoint& e);
+  [[nodiscard]] bool canWrite(const Endpoint& e, const std::string& db) const;
+
+  // The protocol's database commands. Errors: not_found, permission_denied, invalid_argument,
+  // already_exists, unsupported (save without a data directory), io_error.
+  [[nodiscard]] Result<void> select(Endpoint& e, const std::string& name);
+  [[nodiscard]] Result<void> create(const std::string& name);
+  [[nodiscard]] Result<void> save(const Endpoint& e, const std::string& name);  // empty: current
+  [[nodiscard]] Result<void> remove(const std::string& name);
+  // In `db` (empty: e's current database).
+  [[nodiscard]] Result<void> setVar(Endpoint& e, const std::string& db, const std::string& key,
+                                    const Variant& value);
+  [[nodiscard]] Result<void> delVar(Endpoint& e, const std::string& db, const std::string& key);
+
+ private:
+  // Database name -> who may write it. Named databases (absent here) are writable by anyone.
+  struct Owner {
+    enum class Kind { user, flow, channel } kind;
+    std::string user_name;
+    uint32_t endpoint = 0;
+  };
+
+  DatabaseStore store_;
+  std::unordered_map<std::string, Owner> owners_;
+};
+
+}  // namespace skr::flow

@@ -1,0 +1,97 @@
+// Endpoints: the satellites of one hub as its parts see them, a socket Connection or an
+// in-process LocalClient, and the table of those connected now. Main loop thread only.
+#pragma once
+
+#include <skrobot/flow/protocol.h>
+#include <skrobot/flow/variant.h>
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+namespace skr::flow {
+
+inline constexpr const char* kLogSource = "flow";
+
+class Channel;
+
+// A satellite: events reach it through these calls, on the main loop thread. Whoever owns it
+// (the server for a Connection, the module for a LocalClient) removes it from the hub
+// (FlowServer::Impl::removeEndpoint) before destroying it.
+class Endpoint {
+ public:
+  Endpoint() = default;
+  virtual ~Endpoint() = default;
+  Endpoint(const Endpoint&) = delete;
+  Endpoint& operator=(const Endpoint&) = delete;
+  Endpoint(Endpoint&&) = delete;
+  Endpoint& operator=(Endpoint&&) = delete;
+
+  uint32_t id = 0;
+  std::string user;
+  std::string client_name;
+  std::string current_db;
+  std::vector<uint16_t> owned;       // channels it owns
+  std::vector<uint16_t> subscribed;  // channels it is subscribed to
+
+  // True when it takes events (a flow, or a local client); sync connections do not.
+  [[nodiscard]] virtual bool receivesEvents() const = 0;
+  // Its output is backed up: service requests to it fail with `overflow` instead of queueing.
+  [[nodiscard]] virtual bool congested() const = 0;
+  [[nodiscard]] virtual std::string describe() const = 0;
+
+  // Data published on a channel it subscribes to; `payload` is valid during the call only.
+  virtual void onData(const Channel& ch, std::string_view payload) = 0;
+  virtual void onSubscribers(const Channel& ch, bool first) = 0;
+  virtual void onRequest(const Channel& ch, uint64_t request, const std::string& command,
+                         const std::string& requester, const Variant& value) = 0;
+  // The answer to a request it made: `sync` ones were SERVICE_CALLs waiting for a reply.
+  virtual void onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode error,
+                          const Variant& value) = 0;
+  virtual void onChannelAdded(const Channel& ch, uint32_t tag) = 0;
+  virtual void onChannelRemoved(const Channel& ch) = 0;
+  virtual void onChannelHeader(const Channel& ch) = 0;
+  virtual void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
+                       const std::string& message) = 0;
+  virtual void onDbChanged(const std::string& name) = 0;
+};
+
+// The endpoints connected now, by id. Does not own them.
+class EndpointTable {
+ public:
+  // Gives `e` a fresh id (never 0) and registers it.
+  uint32_t add(Endpoint& e) {
+    e.id = next_id_++;
+    if (next_id_ == 0) next_id_ = 1;
+    by_id_[e.id] = &e;
+    return e.id;
+  }
+  // False when `id` was not registered (removed already).
+  bool remove(uint32_t id) { return by_id_.erase(id) != 0; }
+  [[nodiscard]] Endpoint* find(uint32_t id) const noexcept {
+    auto it = by_id_.find(id);
+    return it == by_id_.end() ? nullptr : it->second;
+  }
+
+  // Calls f(Endpoint&) for every endpoint that takes events. f may add or remove endpoints:
+  // the ids are copied first, and one removed meanwhile is skipped.
+  template <class F>
+  void forEachEventReceiver(F&& f) const {
+    std::vector<uint32_t> ids;
+    ids.reserve(by_id_.size());
+    for (const auto& [id, e] : by_id_) {
+      if (e->receivesEvents()) ids.push_back(id);
+    }
+    for (uint32_t id : ids) {
+      if (Endpoint* e = find(id)) f(*e);
+    }
+  }
+
+ private:
+  uint32_t next_id_ = 1;
+  std::unordered_map<uint32_t, Endpoint*> by_id_;
+};
+
+}  // namespace skr::flow

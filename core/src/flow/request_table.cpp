@@ -1,0 +1,102 @@
+// The request table (see request_table.h). Nothing is dropped silently: a request that cannot
+// be queued, whose owner vanishes, or (for synchronous calls) that times out, fails with an
+// error to the caller.
+#include "request_table.h"
+
+#include <vector>
+
+namespace skr::flow {
+
+Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t tag, bool sync,
+                                   uint32_t timeout_ms, const std::string& command,
+                                   const Variant& value) {
+  auto found = channels_.existing(chan_id);
+  if (!found) return found.error();
+  Channel* ch = *found;
+  if (ch->kind != ChannelKind::service) {
+    return makeError(Errc::invalid_argument, ch->name + " is not a service channel");
+  }
+  if (ch->pending_requests >= max_per_channel_) {
+    return makeError(Errc::overflow, ch->name + " has " + std::to_string(ch->pending_requests) +
+                                         " unanswered requests, its limit");
+  }
+  if (ch->owner->congested()) {
+    return makeError(Errc::overflow, "the owner of " + ch->name + " is not reading its requests");
+  }
+  const uint64_t id = next_request_++;
+  PendingRequest p;
+  p.chan_id = chan_id;
+  p.requester = from.id;
+  p.tag = tag;
+  p.sync = sync;
+  if (sync) {
+    const Nanos timeout = timeout_ms == 0 ? 10 * kNsPerSec : timeout_ms * kNsPerMs;
+    p.deadline = monotonicNs() + timeout;
+  }
+  requests_.emplace(id, p);
+  ++ch->pending_requests;
+  ch->owner->onRequest(*ch, id, command, from.user, value);
+  return {};
+}
+
+Result<void> RequestTable::respond(Endpoint& from, uint16_t chan_id, uint64_t request,
+                                   const Variant& value) {
+  auto it = requests_.find(request);
+  if (it == requests_.end()) {
+    return makeError(Errc::not_found, "no pending request " + std::to_string(request) +
+                                          " (answered, timed out or cancelled)");
+  }
+  Channel* ch = channels_.find(it->second.chan_id);
+  if (ch == nullptr || ch->owner != &from || it->second.chan_id != chan_id) {
+    return makeError(Errc::permission_denied,
+                     "request " + std::to_string(request) + " was not made to a channel you own");
+  }
+  const PendingRequest p = it->second;
+  requests_.erase(it);
+  --ch->pending_requests;
+  answer(p, ErrorCode::ok, value);
+  return {};
+}
+
+void RequestTable::answer(const PendingRequest& p, ErrorCode error, const Variant& value) {
+  if (Endpoint* e = endpoints_.find(p.requester)) {
+    e->onResponse(p.chan_id, p.tag, p.sync, error, value);
+  }
+}
+
+void RequestTable::failChannel(uint16_t chan_id, ErrorCode error, const std::string& why) {
+  std::vector<std::pair<uint64_t, PendingRequest>> failed;
+  for (const auto& [id, p] : requests_) {
+    if (p.chan_id == chan_id) failed.emplace_back(id, p);
+  }
+  for (const auto& [id, p] : failed) {
+    requests_.erase(id);
+    if (Channel* ch = channels_.find(chan_id)) --ch->pending_requests;
+    answer(p, error, Variant(why));
+  }
+}
+
+void RequestTable::expire(Nanos now) {
+  std::vector<std::pair<uint64_t, PendingRequest>> expired;
+  for (const auto& [id, p] : requests_) {
+    if (p.sync && now > p.deadline) expired.emplace_back(id, p);
+  }
+  for (const auto& [id, p] : expired) {
+    requests_.erase(id);
+    if (Channel* ch = channels_.find(p.chan_id)) --ch->pending_requests;
+    answer(p, ErrorCode::timeout, Variant("the service did not answer in time"));
+  }
+}
+
+void RequestTable::dropRequester(uint32_t endpoint) {
+  for (auto it = requests_.begin(); it != requests_.end();) {
+    if (it->second.requester == endpoint) {
+      if (Channel* ch = channels_.find(it->second.chan_id)) --ch->pending_requests;
+      it = requests_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+}  // namespace skr::flow

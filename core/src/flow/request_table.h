@@ -1,0 +1,60 @@
+// The request table: service requests waiting for their owner's answer. Routes a request to the
+// owner and its response back to the requester only, and fails what cannot be answered: a full
+// queue (overflow), an owner that goes away (owner_gone), a SERVICE_CALL past its deadline
+// (timeout). Main loop thread only.
+#pragma once
+
+#include "channel_table.h"
+#include "endpoint.h"
+
+#include <skrobot/core/clock.h>
+#include <skrobot/core/result.h>
+
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+
+namespace skr::flow {
+
+struct PendingRequest {
+  uint16_t chan_id = 0;
+  uint32_t requester = 0;  // endpoint id
+  uint32_t tag = 0;
+  bool sync = false;
+  Nanos deadline = 0;  // sync calls only
+};
+
+class RequestTable {
+ public:
+  // `max_per_channel`: unanswered requests a channel may hold (ServerOptions).
+  RequestTable(EndpointTable& endpoints, ChannelTable& channels, size_t max_per_channel)
+      : endpoints_(endpoints), channels_(channels), max_per_channel_(max_per_channel) {}
+
+  // Queues a request from `from` to the owner of service channel `chan_id` and hands it over
+  // (the owner may answer inside this call). `sync` calls time out after timeout_ms (0: 10 s).
+  // not_found, invalid_argument (not a service), overflow (queue full or owner congested).
+  [[nodiscard]] Result<void> request(Endpoint& from, uint16_t chan_id, uint32_t tag, bool sync,
+                                     uint32_t timeout_ms, const std::string& command,
+                                     const Variant& value);
+  // The owner's answer to `request`, routed to the requester (if still there). not_found (no
+  // such request pending), permission_denied (not made to a channel `from` owns).
+  [[nodiscard]] Result<void> respond(Endpoint& from, uint16_t chan_id, uint64_t request,
+                                     const Variant& value);
+  // Fails every request to `chan_id` with `error` (owner_gone when the channel goes).
+  void failChannel(uint16_t chan_id, ErrorCode error, const std::string& why);
+  // Fails the SERVICE_CALLs whose deadline passed with `timeout`.
+  void expire(Nanos now);
+  // Forgets the requests `endpoint` made: nobody will read the answers.
+  void dropRequester(uint32_t endpoint);
+
+ private:
+  void answer(const PendingRequest& p, ErrorCode error, const Variant& value);
+
+  EndpointTable& endpoints_;
+  ChannelTable& channels_;
+  size_t max_per_channel_;
+  std::unordered_map<uint64_t, PendingRequest> requests_;
+  uint64_t next_request_ = 1;
+};
+
+}  // namespace skr::flow

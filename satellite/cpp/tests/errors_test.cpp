@@ -15,8 +15,10 @@ class SatErrors : public SatTest {
 
 TEST_F(SatErrors, TimeoutOwnerGoneAndAlreadyExistsKeepTheirNames) {
   auto provider = satellite("provider");
-  provider->on([](Satellite& s) {
+  auto requests = std::make_shared<Events>();
+  provider->on([&](Satellite& s) {
     ASSERT_TRUE(s.addChannel({.name = "quiet", .kind = flow::ChannelKind::service}));
+    s.serviceRequest.connect(&s, [requests](const Request& r) { requests->add(r.command); });
   });  // never answers
   ASSERT_TRUE(eventually([&] { return provider->events.count("ready:guest.quiet") == 1; }));
   auto caller = satellite("caller");
@@ -32,11 +34,13 @@ TEST_F(SatErrors, TimeoutOwnerGoneAndAlreadyExistsKeepTheirNames) {
   // An asynchronous request whose owner removes the channel before answering.
   auto answers = std::make_shared<Events>();
   auto tag = caller->on([&](Satellite& s) {
-    return s.request("guest.quiet", "x", 1, [answers](const Response& r) {
+    return s.request("guest.quiet", "async", 1, [answers](const Response& r) {
       answers->add(std::string(errcName(r.errc())));
     });
   });
   ASSERT_TRUE(tag) << tag.error().message;
+  // The request reached the owner (else the removal could overtake it: not_found).
+  ASSERT_TRUE(eventually([&] { return requests->count("async") == 1; }));
   ASSERT_TRUE(provider->on([](Satellite& s) { return s.removeChannel("quiet"); }));
   ASSERT_TRUE(eventually([&] { return answers->count("") == 1; })) << answers->dump();
   EXPECT_EQ(answers->with(""), std::vector<std::string>{"owner_gone"});

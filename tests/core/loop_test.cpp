@@ -22,6 +22,23 @@ LoopOptions options(TimingMode mode, Nanos fast_ms, Nanos slow_ms) {
   return o;
 }
 
+// addTickHandler is loop-thread only: once the loop runs on its thread, a call from another
+// thread aborts with a line naming the call, in every build.
+TEST(LoopDeathTest, AddTickHandlerFromAnotherThreadAborts) {
+  ::testing::GTEST_FLAG(death_test_style) = "threadsafe";
+  EXPECT_DEATH(
+      {
+        LoopThread t(LoopOptions{.name = "bound"});
+        t.start();
+        (void)t.loop().addTickHandler(Tick::fast, [] {});
+      },
+      "Loop::addTickHandler called off loop 'bound''s thread");
+  // Before the loop is bound to a thread, any thread may add handlers.
+  Loop loop;
+  std::thread other([&] { (void)loop.addTickHandler(Tick::fast, [] {}); });
+  other.join();
+}
+
 TEST(TimingMode, NamesRoundTrip) {
   for (auto m : {TimingMode::coarse, TimingMode::pseudo_realtime, TimingMode::socket_driven,
                  TimingMode::none}) {

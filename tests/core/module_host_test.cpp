@@ -17,6 +17,7 @@
 #include <mutex>
 #include <ostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace skr {
@@ -446,6 +447,20 @@ TEST(ModuleFiles, ListsEverySharedObjectInTheSearchPath) {
   EXPECT_EQ(by_file["test_abi_major.so"]->info.error().code, Errc::abi_mismatch);
   EXPECT_EQ(by_file["test_abi_minor.so"]->info.error().code, Errc::abi_mismatch);
   EXPECT_EQ(by_file["test_short_descriptor.so"]->info.error().code, Errc::parse_error);
+}
+
+// The host's contract names the main loop's thread: a call from another thread aborts.
+TEST(ModuleHostDeathTest, CallsFromAnotherThreadAbort) {
+  ::testing::GTEST_FLAG(death_test_style) = "threadsafe";
+  Loop loop;
+  ModuleHost host(loop, {});
+  EXPECT_DEATH(
+      {
+        std::thread other([&] { host.load({}); });
+        other.join();
+      },
+      "ModuleHost::load called off the thread that created the module host");
+  host.load({});  // its own thread is fine
 }
 
 }  // namespace

@@ -84,7 +84,8 @@ std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code) {
     case skr::Errc::timeout:
       code = kNoHub;
       break;
-    case skr::Errc::permission_denied:
+    case skr::Errc::auth_failed:
+    case skr::Errc::version_mismatch:
       code = kLoginRefused;
       break;
     default:

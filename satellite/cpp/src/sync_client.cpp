@@ -62,8 +62,7 @@ Result<SyncClient> SyncClient::connect(const ConnectOptions& options) {
   auto r = c.request(m, options.timeout_ms);
   if (!r) return r.error();
   if (r->code != static_cast<uint8_t>(Code::reply_ok)) {
-    const Errc e = c.last_error_ == ErrorCode::version_mismatch ? Errc::protocol_error
-                                                                : Errc::permission_denied;
+    const Errc e = flow::toErrc(c.last_error_);  // auth_failed, version_mismatch, ...
     auto err = flow::decode<msg::ReplyError>(r->body);
     return makeError(e, "login to " + options.address.toString() + " as \"" + options.user +
                             "\" refused: " + (err ? err->message : "?"));

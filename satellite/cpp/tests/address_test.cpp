@@ -73,7 +73,7 @@ TEST_F(SyncClientTest, NoHubWrongPasswordAndRequests) {
   o.password = "wrong";
   auto refused = SyncClient::connect(o);
   ASSERT_FALSE(refused);
-  EXPECT_EQ(refused.error().code, Errc::permission_denied);
+  EXPECT_EQ(refused.error().code, Errc::auth_failed);
   o.password = "password";
   auto c = SyncClient::connect(o);
   ASSERT_TRUE(c) << c.error().message;

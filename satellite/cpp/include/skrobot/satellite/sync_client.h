@@ -40,8 +40,9 @@ class SyncClient {
 
   // Connects and logs in. Errors:
   //   Errc::io_error           nobody listens: "no hub at local:/tmp/Robot: is skrobot running?"
-  //   Errc::permission_denied  the login was refused (lastError() is auth_failed)
-  //   Errc::protocol_error     another protocol major, or a reply that breaks the protocol
+  //   Errc::auth_failed        the login was refused (wrong user name or password)
+  //   Errc::version_mismatch   the hub speaks another protocol major
+  //   Errc::protocol_error     a reply that breaks the protocol
   //   Errc::timeout            no answer within options.timeout_ms
   [[nodiscard]] static Result<SyncClient> connect(const ConnectOptions& options);
 

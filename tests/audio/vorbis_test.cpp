@@ -5,6 +5,7 @@
 #include "audio_test_util.h"
 
 #include <cstdio>
+#include <cstring>
 
 namespace skr::test {
 namespace {
@@ -37,6 +38,7 @@ long soxiSamples(const std::filesystem::path& file) {
   if (std::fscanf(p, "%ld", &n) != 1) {
     n = -1;
     (void)!std::fgets(text, sizeof text, p);
+    text[std::strcspn(text, "\n")] = '\0';
   }
   const int status = ::pclose(p);
   if (n < 0 || status != 0) {

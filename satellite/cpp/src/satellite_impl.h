@@ -48,6 +48,9 @@ struct Satellite::Impl final : detail::Link::Handler {
   void drop(const std::string& why, bool protocol = false);
   void lost(const std::string& why, bool protocol);
   void handshake(uint8_t code, std::string_view body);
+  // Runs fn; an exception from an application's slot is logged (SAT-SLOT-EXCEPTION), not thrown.
+  template <class F>
+  void guarded(std::string_view handling, F&& fn);
   void onFlowOpen();
   void armTimer(Nanos delay_ns);
   static void onTimer(uv_timer_t* timer);

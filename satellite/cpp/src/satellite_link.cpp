@@ -18,6 +18,26 @@ Nanos steadyNowNs() {
 }
 }  // namespace
 
+// Decoding reports errors as values, so whatever throws in `fn` is a slot of the application,
+// connected to one of our signals. It must not unwind through libuv, nor pass for the hub's
+// fault: it is logged as the application's and the satellite goes on (the connection stays up).
+template <class F>
+void Satellite::Impl::guarded(std::string_view handling, F&& fn) {
+  const auto threw = [&](const std::string& what) {
+    ++stats.slot_exceptions;
+    log::error(kLogSource, "SAT-SLOT-EXCEPTION",
+               "a slot connected to this satellite threw while handling " + std::string(handling) +
+                   ": " + what + " (an error of the application, not of the hub)");
+  };
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    threw(e.what());
+  } catch (...) {
+    threw("an exception that is not a std::exception");
+  }
+}
+
 Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std::move(options)) {
   if (opt.reconnect_min_ns <= 0) opt.reconnect_min_ns = kNsPerMs;
   opt.reconnect_max_ns = std::max(opt.reconnect_max_ns, opt.reconnect_min_ns);
@@ -78,8 +98,10 @@ void Satellite::Impl::onTimer(uv_timer_t* t) {
     case State::login:
     case State::listing:
     case State::going_async:
-      impl->drop("no answer from the hub within " +
-                 std::to_string(impl->opt.handshake_timeout_ns / kNsPerMs) + " ms");
+      impl->guarded("a handshake time-out", [impl] {
+        impl->drop("no answer from the hub within " +
+                   std::to_string(impl->opt.handshake_timeout_ns / kNsPerMs) + " ms");
+      });
       return;
     case State::stopped:
     case State::flow:
@@ -98,16 +120,18 @@ void Satellite::Impl::onLinkConnected() {
 
 void Satellite::Impl::onLinkFrame(uint8_t code, std::string_view body) {
   ++stats.frames_in;
-  if (state == State::flow) {
-    event(code, body);
-  } else {
-    handshake(code, body);
-  }
+  guarded(flow::codeName(code), [&] {
+    if (state == State::flow) {
+      event(code, body);
+    } else {
+      handshake(code, body);
+    }
+  });
 }
 
 void Satellite::Impl::onLinkClosed(const std::string& why, bool protocol) {
   link = nullptr;  // it deletes itself
-  lost(why, protocol);
+  guarded("the loss of the connection", [&] { lost(why, protocol); });
 }
 
 void Satellite::Impl::drop(const std::string& why, bool protocol) {

@@ -1,4 +1,5 @@
 // Satellites recover by themselves: a hub restarted under them, and a "hub" that sends garbage.
+#include <skrobot/core/log.h>
 #include <skrobot/flow/codec.h>
 
 #include <poll.h>
@@ -6,6 +7,8 @@
 #include <sys/un.h>
 
 #include <atomic>
+#include <mutex>
+#include <stdexcept>
 #include <thread>
 
 #include "sat_fixture.h"
@@ -172,6 +175,62 @@ TEST_F(Reconnect, AHubThatKeepsDroppingTheFlowSeesGrowingDelays) {
   EXPECT_GE(s->events.count("connected"), 3u) << s->events.dump();
   EXPECT_GE(logins, 3);
   EXPECT_LE(logins, 7) << "a reconnection storm: " << logins << " logins in 3 s";
+}
+
+// Lines logged with a given tag, from any thread.
+class LogTag {
+ public:
+  explicit LogTag(std::string tag) : tag_(std::move(tag)) { log::setHook(&LogTag::hook, this); }
+  ~LogTag() { log::setHook(nullptr, nullptr); }
+  LogTag(const LogTag&) = delete;
+  LogTag& operator=(const LogTag&) = delete;
+  LogTag(LogTag&&) = delete;
+  LogTag& operator=(LogTag&&) = delete;
+  [[nodiscard]] std::vector<std::string> lines() const {
+    std::lock_guard lock(m_);
+    return lines_;
+  }
+
+ private:
+  static void hook(log::Level, std::string_view, std::string_view tag, std::string_view message,
+                   void* user) {
+    auto* self = static_cast<LogTag*>(user);
+    if (tag != self->tag_) return;
+    std::lock_guard lock(self->m_);
+    self->lines_.emplace_back(message);
+  }
+  std::string tag_;
+  mutable std::mutex m_;
+  std::vector<std::string> lines_;
+};
+
+// A slot of the application that throws is the application's error: logged as such, and the
+// flow stays up (no reconnection), the next frames are handled.
+TEST_F(Reconnect, ASlotThatThrowsDoesNotDropTheFlow) {
+  startHub();
+  const LogTag logged("SAT-SLOT-EXCEPTION");
+  auto pub = satellite("pub");
+  auto sub = satellite("sub");
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "feed"}); }));
+  sub->on([](Satellite& s) {
+    s.data.connect(&s, [](uint16_t, const std::string& payload) {
+      if (payload == "boom") throw std::runtime_error("the application's own bug");
+    });
+    (void)s.subscribe("guest.feed");
+  });
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.feed") == 1; }));
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.publish("feed", "boom"); }));
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.publish("feed", "after"); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.feed:after") == 1; }))
+      << sub->events.dump();
+  EXPECT_EQ(sub->events.count("disconnected"), 0u) << sub->events.dump();
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.stats().connections; }), 1u);
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.stats().slot_exceptions; }), 1u);
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.stats().protocol_errors; }), 0u);
+  const auto lines = logged.lines();
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_NE(lines[0].find("the application's own bug"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[0].find("not of the hub"), std::string::npos) << lines[0];
 }
 
 TEST_F(Reconnect, SatelliteStartedBeforeTheHubConnectsWhenItComes) {

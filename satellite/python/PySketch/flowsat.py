@@ -480,11 +480,15 @@ class FlowSat(AbstractFlow):
     def _announceListed(self):
         todo, self._deferred = self._deferred, []
         gen = self._gen
-        for ch in todo:
+        for i, ch in enumerate(todo):
             if gen != self._gen:
                 return
             if self._channels.get(ch.chanID) is ch and self._onNewChan is not None:
-                self._call("new-channel", self._onNewChan, ch)
+                try:
+                    self._call("new-channel", self._onNewChan, ch)
+                except Exception:
+                    self._deferred = todo[i + 1:] + self._deferred  # announced at the next tick
+                    raise
 
     def _flush(self):
         while self._outbuf and self._sock is not None:

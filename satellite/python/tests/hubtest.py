@@ -8,6 +8,7 @@ Environment (set by CTest, see ../CMakeLists.txt):
 Sketches run under the interpreter that runs the tests (sys.executable): Debian's python3, or
 Python 2.7 (test_python27.py runs this whole suite under it).
 """
+import atexit
 import itertools
 import json
 import os
@@ -34,6 +35,7 @@ else:
     # The source tree's pysketch-executor names python3 in its first line: put a twin that
     # runs it under this interpreter first on the sketches' PATH.
     SCRIPTS = tempfile.mkdtemp(prefix="pysketch-bin-")
+    atexit.register(shutil.rmtree, SCRIPTS, True)
     with open(os.path.join(SCRIPTS, "pysketch-executor"), "w") as _f:
         _f.write('#!/bin/sh\nexec "%s" "%s" "$@"\n'
                  % (PYTHON, os.path.join(PYROOT, "scripts", "pysketch-executor")))

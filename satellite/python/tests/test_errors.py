@@ -145,6 +145,32 @@ class ReconnectDelays(HubTestCase):
         self.assertRegex(self.check_bounded("decode"), r"broken frame from the hub: .*frame length 0")
 
 
+class _CountsAttempts(FlowSat):
+    def __init__(self):
+        FlowSat.__init__(self)
+        self.attempts = 0
+
+    def _beginAttempt(self, quiet):
+        self.attempts += 1
+        return FlowSat._beginAttempt(self, quiet)
+
+
+class RefusedConnections(HubTestCase):
+    def test_a_hub_that_is_away_sees_growing_delays(self):
+        s = self.sat(cls=_CountsAttempts)
+        self.assertTrue(s.connect())
+        self.hub.stop()
+        errs = TextIO()
+        with redirect_stderr(errs):
+            self.assertTrue(pump([s], lambda: not s.isOnline()))
+            s.attempts = 0
+            tickFor([s], 3.0)
+        # Refused at 0.05, 0.15, 0.35, 0.75, 1.55 s after the loss, then every 2 s.
+        self.assertGreaterEqual(s.attempts, 3)
+        self.assertLessEqual(s.attempts, 7, "%d attempts in 3 s" % s.attempts)
+        self.assertTrue(s.isConnected(), "still trying")
+
+
 class FlowChannelArguments(HubTestCase):
     def test_a_flow_channel_goes_wherever_a_chan_id_or_a_name_does(self):
         owner = self.connected()

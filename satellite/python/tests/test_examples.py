@@ -65,6 +65,22 @@ class Examples(HubTestCase):
         provider.waitFor(r"request \d+ 'add': \[1, 2, 3\.5\]")
         self.assertEqual(provider.stop(signal.SIGINT), 0, provider.output())
 
+    def test_nao_sketch_off_the_robot(self):
+        # Without the naoqi SDK every valid command answers not_connected; bad ones are refused
+        # before that. The sketch is meant for Python 2.7 on the Nao: python27_* runs it there.
+        nao = self.run_sketch([example("nao_sketch.py")] + CREDENTIALS)
+        nao.waitFor(r"nao service ready: guest\.command")
+        for value, code in (('{"cmd": "say", "text": "hello"}', "not_connected"),
+                            ('{"cmd": "head", "yaw": 9}', "out_of_range"),
+                            ('{"cmd": "dance"}', "unknown_command")):
+            caller = self.run_sketch([example("service_caller.py")] + CREDENTIALS +
+                                     ["--service", "guest.command", "--cmd", "x",
+                                      "--value", value])
+            self.assertEqual(caller.wait(), 0, caller.output())
+            self.assertRegex(caller.output(), r'answer: \{.*"code": "%s"' % code)
+            self.assertIn('"ok": false', caller.output())
+        self.assertEqual(nao.stop(signal.SIGTERM), 0, nao.output())
+
     def test_caller_and_the_in_hub_module(self):
         caller = self.run_sketch([example("service_caller.py")] + CREDENTIALS +
                                  ["--service", "test_channel_echo.svc", "--cmd", "ping",

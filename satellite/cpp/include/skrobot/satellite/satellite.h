@@ -87,6 +87,7 @@ struct SatelliteStats {
   uint64_t writes = 0;        // write calls: frames_out / writes is the batching
   uint64_t data_dropped = 0;  // data frames the hub dropped for us (EV_DROPPED)
   uint64_t protocol_errors = 0;
+  uint64_t slot_exceptions = 0;  // exceptions thrown by slots connected to our signals (logged)
 };
 
 class Satellite : public Object {

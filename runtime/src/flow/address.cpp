@@ -1,10 +1,8 @@
-#include <skrobot/satellite/address.h>
+#include <skrobot/flow/address.h>
 
-#include <cerrno>
 #include <charconv>
-#include <cstdlib>
 
-namespace skr::sat {
+namespace skr::flow {
 
 std::string Address::toString() const {
   if (kind == Kind::local) return "local:" + path;
@@ -55,22 +53,4 @@ Result<Address> Address::parse(std::string_view text) {
   return a;
 }
 
-Result<ConnectOptions> ConnectOptions::fromEnvironment(std::string client_name) {
-  ConnectOptions o;
-  o.client_name = std::move(client_name);
-  if (o.client_name.empty()) o.client_name = program_invocation_short_name;  // GNU: argv[0]
-  const auto env = [](const char* name) -> std::string {
-    const char* v = std::getenv(name);
-    return v != nullptr ? std::string(v) : std::string();
-  };
-  if (const std::string addr = env("ROBOT_ADDRESS"); !addr.empty()) {
-    auto a = Address::parse(addr);
-    if (!a) return makeError(a.error().code, "ROBOT_ADDRESS: " + a.error().message);
-    o.address = std::move(a).value();
-  }
-  if (std::string u = env("ROBOT_USER"); !u.empty()) o.user = std::move(u);
-  if (std::string p = env("ROBOT_PASSWORD"); !p.empty()) o.password = std::move(p);
-  return o;
-}
-
-}  // namespace skr::sat
+}  // namespace skr::flow

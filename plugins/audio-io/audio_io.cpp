@@ -11,31 +11,29 @@
 #include "play_buffer.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
 
 #include <memory>
 #include <optional>
 
 namespace {
 
-using skr::plugin::Failure;
 using skr::plugin::Host;
 
 class AudioIo final : public skr::plugin::Module {
  public:
+  // The host has checked the config against kConfig and filled in the defaults.
   explicit AudioIo(Host& host)
       : host_(host),
-        play_channel_(host.configString("play", "")),
-        rate_(host.configInt("sample_rate", skr::audio::kDefaultRate)),
-        frame_(host.configInt("frame_samples", 1024)),
-        buffer_ms_(host.configInt("max_buffer_ms", 2000)),
-        writer_(static_cast<std::uint32_t>(rate_ > 0 ? rate_ : 1), 1) {
-    if (rate_ < 8000 || rate_ > 192000) bad("sample_rate", "must be 8000..192000 Hz");
-    if (frame_ < 32 || frame_ > 65536) bad("frame_samples", "must be 32..65536");
-    if (buffer_ms_ < 100 || buffer_ms_ > 60000) bad("max_buffer_ms", "must be 100..60000");
-    options_.capture = host.configBool("capture", true);
-    options_.input_device = host.configString("input_device", "");
+        play_channel_(host.configString("play")),
+        rate_(host.configInt("sample_rate")),
+        frame_(host.configInt("frame_samples")),
+        buffer_ms_(host.configInt("max_buffer_ms")),
+        writer_(static_cast<std::uint32_t>(rate_), 1) {
+    options_.capture = host.configBool("capture");
+    options_.input_device = host.configString("input_device");
     options_.play = !play_channel_.empty();
-    options_.output_device = host.configString("output_device", "");
+    options_.output_device = host.configString("output_device");
     options_.sample_rate = static_cast<std::uint32_t>(rate_);
     options_.frame_samples = static_cast<std::size_t>(frame_);
     // Room for max_buffer_ms of stereo at 48 kHz, whatever the played channel's format.
@@ -81,10 +79,6 @@ class AudioIo final : public skr::plugin::Module {
   }
 
  private:
-  [[noreturn]] void bad(const char* key, const std::string& why) {
-    host_.configError(key, why);
-    throw Failure(SKR_ERR_CONFIG, std::string("invalid ") + key);
-  }
   void writeStats() {
     stats_.publish(host_, input_.counters(), "play_");
     skr::plugin::dbSet(host_, std::string(host_.name()), "play_dropped",
@@ -109,4 +103,17 @@ class AudioIo final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(AudioIo, "audio-io", "1.0.0", "sound card capture and playback (PortAudio)", 0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    cfg::boolean("capture", "true", "capture from the input device to <name>.capture"),
+    cfg::string("input_device", "", "\"\": the default input; else a part of a device name"),
+    cfg::integer("sample_rate", "22050", "capture rate in Hz").range(8000, 192000),
+    cfg::integer("frame_samples", "1024", "samples per captured frame").range(32, 65536),
+    cfg::string("play", "", "an audio channel to play on the output device; \"\": no playback"),
+    cfg::string("output_device", "", "\"\": the default output; else a part of a device name"),
+    cfg::integer("max_buffer_ms", "2000", "playback buffer; when full the oldest samples go")
+        .range(100, 60000),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(AudioIo, "audio-io", "1.0.0",
+                           "sound card capture and playback (PortAudio)", 0, kConfig)

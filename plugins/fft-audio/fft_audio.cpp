@@ -9,6 +9,7 @@
 #include "spectrum_analyser.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 
 #include <atomic>
@@ -21,38 +22,24 @@ namespace {
 using skr::plugin::Failure;
 using skr::plugin::Host;
 
+// The host has checked the config against kConfig (types, ranges, choices) and filled in the
+// defaults; what is left here is what the declaration cannot say.
 skr::audio::AnalyserOptions readOptions(Host& host) {
   skr::audio::AnalyserOptions o;
-  const std::int64_t size = host.configInt("size", 1024);
-  if (size < 32 || size > 65536) {
-    host.configError("size", "must be 32..65536 samples, got " + std::to_string(size));
-    throw Failure(SKR_ERR_CONFIG, "invalid size");
-  }
+  const std::int64_t size = host.configInt("size");
   o.size = static_cast<std::size_t>(size);
   const std::int64_t hop = host.configInt("hop", size / 2);
-  if (hop < 1 || hop > size) {
-    host.configError("hop", "must be 1..size, got " + std::to_string(hop));
+  if (hop > size) {
+    host.configError("hop",
+                     "must be 1..size (" + std::to_string(size) + "), got " + std::to_string(hop));
     throw Failure(SKR_ERR_CONFIG, "invalid hop");
   }
   o.hop = static_cast<std::size_t>(hop);
-  const std::string window = host.configString("window", "hann");
-  const auto w = skr::audio::windowFromName(window);
-  if (!w) {
-    host.configError("window",
-                     "must be hann, hamming, blackman or rectangular, got '" + window + "'");
-    throw Failure(SKR_ERR_CONFIG, "invalid window");
-  }
+  const auto w = skr::audio::windowFromName(host.configString("window"));
+  if (!w) throw Failure(SKR_ERR_CONFIG, "invalid window");  // the host checked the choices
   o.window = *w;
-  o.bands_rate_hz = host.configDouble("bands_rate_hz", 30);
-  if (!(o.bands_rate_hz > 0 && o.bands_rate_hz <= 1000)) {
-    host.configError("bands_rate_hz", "must be > 0 and <= 1000");
-    throw Failure(SKR_ERR_CONFIG, "invalid bands_rate_hz");
-  }
-  o.min_db = host.configDouble("min_db", -90);
-  if (!(o.min_db < -1 && o.min_db >= -120)) {
-    host.configError("min_db", "must be -120..-1 dBFS");
-    throw Failure(SKR_ERR_CONFIG, "invalid min_db");
-  }
+  o.bands_rate_hz = host.configDouble("bands_rate_hz");
+  o.min_db = host.configDouble("min_db");
   return o;
 }
 
@@ -60,16 +47,9 @@ class FftAudio final : public skr::plugin::Module {
  public:
   explicit FftAudio(Host& host)
       : host_(host),
-        input_(host.configString("input", "")),
+        input_(host.configString("input")),
         analyser_(std::make_unique<skr::audio::SpectrumAnalyser>(readOptions(host))),
-        queue_(
-            static_cast<std::size_t>(std::max<std::int64_t>(1, host.configInt("queue_max", 64)))) {
-    if (input_.empty()) {
-      host.configError("input",
-                       "must name the audio channel to analyse, e.g. \"websocket-ui.mic\"");
-      throw Failure(SKR_ERR_CONFIG, "invalid input");
-    }
-  }
+        queue_(static_cast<std::size_t>(host.configInt("queue_max"))) {}
 
   void start() override {
     using namespace skr::plugin;
@@ -154,5 +134,21 @@ class FftAudio final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(FftAudio, "fft-audio", "1.0.0", "FFTW spectrum and band levels of an audio channel",
-               0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    cfg::string("input", nullptr, "the audio channel to analyse, e.g. \"websocket-ui.mic\"")
+        .required()
+        .nonEmpty(),
+    cfg::integer("size", "1024", "samples per window").range(32, 65536),
+    cfg::integer("hop", nullptr, "samples between windows, 1..size (default size/2)")
+        .range(1, 65536),
+    cfg::string("window", "hann", "the window function").oneOf("hann|hamming|blackman|rectangular"),
+    cfg::number("bands_rate_hz", "30", "at most this many band messages per second of audio")
+        .range(0.01, 1000),
+    cfg::number("min_db", "-90", "the dBFS level shown as 0 in the band view").range(-120, -1),
+    cfg::integer("queue_max", "64", "frames waiting for the worker; beyond it they are dropped")
+        .min(1),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(FftAudio, "fft-audio", "1.0.0",
+                           "FFTW spectrum and band levels of an audio channel", 0, kConfig)

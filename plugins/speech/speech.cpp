@@ -13,6 +13,7 @@
 #include "utterance_json.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 
 #include <espeak-ng/speak_lib.h>
@@ -24,7 +25,6 @@
 
 namespace {
 
-using skr::plugin::Failure;
 using skr::plugin::Host;
 
 // A say request is one flat object: shallow, and bounded by the hub's message size anyway.
@@ -37,34 +37,17 @@ struct Job {
   skr::speech::Voice voice;
 };
 
-std::int64_t checkedInt(Host& host, const char* key, std::int64_t def, std::int64_t lo,
-                        std::int64_t hi) {
-  const std::int64_t v = host.configInt(key, def);
-  if (v < lo || v > hi) {
-    host.configError(key, "must be " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " +
-                              std::to_string(v));
-    throw Failure(SKR_ERR_CONFIG, std::string("invalid ") + key);
-  }
-  return v;
-}
-
 class Speech final : public skr::plugin::Module {
  public:
+  // The host has checked the config against kConfig and filled in the defaults.
   explicit Speech(Host& host)
       : host_(host),
-        voice_(host.configString("voice", "en")),
-        rate_(static_cast<int>(
-            checkedInt(host, "rate", espeakRATE_NORMAL, espeakRATE_MINIMUM, espeakRATE_MAXIMUM))),
-        pitch_(static_cast<int>(checkedInt(host, "pitch", 50, 0, 100))),
-        max_text_(static_cast<std::size_t>(checkedInt(host, "max_text", 2000, 1, 100000))),
-        frame_samples_(
-            static_cast<std::size_t>(checkedInt(host, "frame_samples", 1024, 64, 65536))),
-        queue_(static_cast<std::size_t>(checkedInt(host, "queue_max", 8, 1, 1000))) {
-    if (voice_.empty()) {
-      host.configError("voice", "must name an espeak-ng voice, e.g. \"en\" or \"it\"");
-      throw Failure(SKR_ERR_CONFIG, "invalid voice");
-    }
-  }
+        voice_(host.configString("voice")),
+        rate_(static_cast<int>(host.configInt("rate"))),
+        pitch_(static_cast<int>(host.configInt("pitch"))),
+        max_text_(static_cast<std::size_t>(host.configInt("max_text"))),
+        frame_samples_(static_cast<std::size_t>(host.configInt("frame_samples"))),
+        queue_(static_cast<std::size_t>(host.configInt("queue_max"))) {}
 
   void start() override {
     using namespace skr::plugin;
@@ -193,4 +176,20 @@ class Speech final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(Speech, "speech", "1.0.0", "espeak-ng speech with a phoneme timeline", 0)
+// rate's range is espeak-ng's (espeakRATE_MINIMUM..espeakRATE_MAXIMUM, espeakRATE_NORMAL).
+static_assert(espeakRATE_MINIMUM == 80 && espeakRATE_MAXIMUM == 450 && espeakRATE_NORMAL == 175);
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    cfg::string("voice", "en", "default espeak-ng voice: a name, file or language (en, it)")
+        .nonEmpty(),
+    cfg::integer("rate", "175", "default words per minute").range(80, 450),
+    cfg::integer("pitch", "50", "default pitch").range(0, 100),
+    cfg::integer("max_text", "2000", "longest text accepted, in bytes").range(1, 100000),
+    cfg::integer("queue_max", "8",
+                 "requests waiting for the synthesizer; beyond it they are refused")
+        .range(1, 1000),
+    cfg::integer("frame_samples", "1024", "samples per frame on <name>.voice").range(64, 65536),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(Speech, "speech", "1.0.0", "espeak-ng speech with a phoneme timeline", 0,
+                           kConfig)

@@ -4,6 +4,7 @@
 #include "recorder.hpp"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
 
 #include <memory>
 #include <optional>
@@ -20,39 +21,29 @@ using skr::plugin::Host;
 
 class Vorbis final : public skr::plugin::Module {
  public:
+  // The host has checked the config against kConfig and filled in the defaults; a prefix with
+  // a '/' is what the declaration cannot refuse.
   explicit Vorbis(Host& host) : host_(host) {
-    if (const std::string channel = host.configString("record", ""); !channel.empty()) {
+    if (const std::string channel = host.configString("record"); !channel.empty()) {
       skr::audio::RecorderOptions o;
       o.channel = channel;
-      o.dir = host.configString("dir", "recordings");
+      o.dir = host.configString("dir");
       o.prefix = host.configString("prefix", std::string(host.name()));
-      const std::int64_t kb = host.configInt("rotate_kb", 10240);
-      const std::int64_t s = host.configInt("rotate_s", 600);
-      const double q = host.configDouble("quality", 0.4);
-      const std::int64_t queue = host.configInt("queue_max", 256);
-      if (o.dir.empty()) bad(host, "dir", "must be a directory");
       if (o.prefix.empty() || o.prefix.find('/') != std::string::npos) {
         bad(host, "prefix", "must be a file name prefix without '/'");
       }
-      if (kb < 0) bad(host, "rotate_kb", "must be >= 0 (0: no rotation by size)");
-      if (s < 0) bad(host, "rotate_s", "must be >= 0 (0: no rotation by duration)");
-      if (!(q >= -0.1 && q <= 1.0)) bad(host, "quality", "must be -0.1..1.0");
-      if (queue < 1) bad(host, "queue_max", "must be >= 1");
-      o.rotate_bytes = static_cast<std::uint64_t>(kb) * 1024;
-      o.rotate_seconds = static_cast<std::uint64_t>(s);
-      o.quality = static_cast<float>(q);
-      o.queue_max = static_cast<std::size_t>(queue);
+      o.rotate_bytes = static_cast<std::uint64_t>(host.configInt("rotate_kb")) * 1024;
+      o.rotate_seconds = static_cast<std::uint64_t>(host.configInt("rotate_s"));
+      o.quality = static_cast<float>(host.configDouble("quality"));
+      o.queue_max = static_cast<std::size_t>(host.configInt("queue_max"));
       recorder_.emplace(host, std::move(o));
     }
-    if (const std::string file = host.configString("play", ""); !file.empty()) {
+    if (const std::string file = host.configString("play"); !file.empty()) {
       skr::audio::PlayerOptions o;
       o.file = file;
-      o.loop = host.configBool("loop", false);
-      o.lead_ms = host.configInt("lead_ms", 300);
-      const std::int64_t frame = host.configInt("frame_samples", 1024);
-      if (o.lead_ms < 0 || o.lead_ms > 60000) bad(host, "lead_ms", "must be 0..60000");
-      if (frame < 64 || frame > 65536) bad(host, "frame_samples", "must be 64..65536");
-      o.frame_samples = static_cast<std::size_t>(frame);
+      o.loop = host.configBool("loop");
+      o.lead_ms = host.configInt("lead_ms");
+      o.frame_samples = static_cast<std::size_t>(host.configInt("frame_samples"));
       player_.emplace(host, std::move(o));
     }
     if (!recorder_ && !player_) {
@@ -83,5 +74,26 @@ class Vorbis final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(Vorbis, "vorbis", "1.0.0",
-               "records audio channels to Ogg Vorbis and plays .ogg files", 0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    // Recording (on when "record" is set).
+    cfg::string("record", "", "the audio channel to record; \"\": no recording"),
+    cfg::string("dir", "recordings", "directory of the recordings (created)").nonEmpty(),
+    cfg::string("prefix", nullptr, "file name prefix, without '/' (default: the module's name)"),
+    cfg::integer("rotate_kb", "10240", "start a new file once a file reaches this size; 0: never")
+        .min(0),
+    cfg::integer("rotate_s", "600", "seconds of audio per file at most; 0: no limit").min(0),
+    cfg::number("quality", "0.4", "libvorbis VBR quality").range(-0.1, 1.0),
+    cfg::integer("queue_max", "256", "frames waiting for the writer; beyond it they are dropped")
+        .min(1),
+    // Playing (on when "play" is set).
+    cfg::string("play", "", "an .ogg file to play onto <name>.playback; \"\": none"),
+    cfg::boolean("loop", "false", "start again at the end of the file"),
+    cfg::integer("lead_ms", "300", "how far ahead of real time frames are published")
+        .range(0, 60000),
+    cfg::integer("frame_samples", "1024", "samples (per channel) per played frame")
+        .range(64, 65536),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(Vorbis, "vorbis", "1.0.0",
+                           "records audio channels to Ogg Vorbis and plays .ogg files", 0, kConfig)

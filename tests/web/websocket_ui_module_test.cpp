@@ -8,6 +8,8 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 namespace skr::test {
 namespace {
@@ -81,6 +83,28 @@ TEST_F(WebsocketUiModule, AQuoteInTheSpeechChannelNameRoundTrips) {
   const Json::Value answer = say(R"({"text":"hello"})");
   ASSERT_TRUE(answer["error"].isString()) << answer.toStyledString();
   EXPECT_NE(answer["error"].asString().find(name), std::string::npos) << answer["error"].asString();
+}
+
+// The declared config keys: the host refuses out-of-range values and unknown keys, naming them;
+// the blink interval's order is the module's own check.
+TEST_F(WebsocketUiModule, BadConfigFailsNamingTheKey) {
+  startHub();
+  int n = 0;
+  auto failure = [&](const std::string& config) {
+    const auto f = startModule("ui" + std::to_string(n++), config, false, "websocket-ui");
+    EXPECT_EQ(f.size(), 1u) << config;
+    return f.empty() ? std::string() : f[0];
+  };
+  for (const auto& [config, key] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"port":70000})", "port"},
+           {R"({"port":0,"spech":"speech.say"})", "spech"},
+           {R"({"port":0,"camera_fps":0})", "camera_fps"},
+           {R"({"port":0,"faces":7})", "faces"}}) {
+    const std::string f = failure(config);
+    EXPECT_NE(f.find("config." + key), std::string::npos) << config << ": " << f;
+  }
+  const std::string f = failure(R"({"port":0,"blink_min_ms":500,"blink_max_ms":400})");
+  EXPECT_NE(f.find("invalid blink_max_ms"), std::string::npos) << f;
 }
 
 }  // namespace

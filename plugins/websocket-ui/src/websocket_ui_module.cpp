@@ -11,6 +11,7 @@
 
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 
 #include <atomic>
@@ -47,39 +48,27 @@ struct Counters {
 
 class WebsocketUi final : public skr::plugin::Module {
  public:
+  // The host has checked the config against kConfig (types, ranges) and filled in the defaults.
   explicit WebsocketUi(skr::plugin::Host& host)
       : host_(host),
         avatar_(readAvatar(host)),
-        camera_owner_(host.configInt("handover_ms", 1000)),
-        mic_owner_(host.configInt("handover_ms", 1000)) {
+        camera_owner_(host.configInt("handover_ms")),
+        mic_owner_(host.configInt("handover_ms")) {
     readServer();
-    limits_.mic_sample_rate = static_cast<std::uint32_t>(host.configInt("mic_sample_rate", 22050));
-    camera_width_ = static_cast<int>(host.configInt("camera_width", 640));
-    camera_height_ = static_cast<int>(host.configInt("camera_height", 360));
-    camera_fps_ = static_cast<int>(host.configInt("camera_fps", 15));
-    jpeg_quality_ = host.configDouble("jpeg_quality", 0.7);
+    limits_.mic_sample_rate = static_cast<std::uint32_t>(host.configInt("mic_sample_rate"));
+    camera_width_ = static_cast<int>(host.configInt("camera_width"));
+    camera_height_ = static_cast<int>(host.configInt("camera_height"));
+    camera_fps_ = static_cast<int>(host.configInt("camera_fps"));
+    jpeg_quality_ = host.configDouble("jpeg_quality");
     // Other modules' channels: named by the config (config/default.json wires the demo), none
     // by default.
-    faces_ = host.configString("faces", "");
-    motion_ = host.configString("motion", "");
-    codes_ = host.configString("codes", "");
-    bands_ = host.configString("bands", "");
-    speech_ = host.configString("speech", "");
-    voice_ = host.configString("voice", "");
-    phonemes_ = host.configString("phonemes", "");
-    if (camera_width_ < 16 || camera_width_ > limits_.max_width || camera_height_ < 16 ||
-        camera_height_ > limits_.max_height) {
-      host.configError("camera_width", "camera size must be 16x16 to 1920x1080");
-      throw Failure(SKR_ERR_CONFIG, "bad camera size");
-    }
-    if (camera_fps_ < 1 || camera_fps_ > 60) {
-      host.configError("camera_fps", "must be 1 to 60");
-      throw Failure(SKR_ERR_CONFIG, "bad camera_fps");
-    }
-    if (limits_.mic_sample_rate < 8000 || limits_.mic_sample_rate > 48000) {
-      host.configError("mic_sample_rate", "must be 8000 to 48000");
-      throw Failure(SKR_ERR_CONFIG, "bad mic_sample_rate");
-    }
+    faces_ = host.configString("faces");
+    motion_ = host.configString("motion");
+    codes_ = host.configString("codes");
+    bands_ = host.configString("bands");
+    speech_ = host.configString("speech");
+    voice_ = host.configString("voice");
+    phonemes_ = host.configString("phonemes");
   }
 
   void start() override {
@@ -159,36 +148,28 @@ class WebsocketUi final : public skr::plugin::Module {
  private:
   static AvatarOptions readAvatar(skr::plugin::Host& host) {
     AvatarOptions o;
-    o.blink_min_ms = host.configInt("blink_min_ms", o.blink_min_ms);
-    o.blink_max_ms = host.configInt("blink_max_ms", o.blink_max_ms);
-    o.blink_close_ms = host.configInt("blink_close_ms", o.blink_close_ms);
-    o.blink_open_ms = host.configInt("blink_open_ms", o.blink_open_ms);
-    o.min_motion = host.configDouble("min_motion", o.min_motion);
-    o.face_hold_ms = host.configInt("face_hold_ms", o.face_hold_ms);
-    if (o.blink_min_ms < 100 || o.blink_max_ms < o.blink_min_ms) {
-      host.configError("blink_max_ms", "need 100 <= blink_min_ms <= blink_max_ms");
-      throw Failure(SKR_ERR_CONFIG, "bad blink interval");
+    o.blink_min_ms = host.configInt("blink_min_ms");
+    o.blink_max_ms = host.configInt("blink_max_ms");
+    o.blink_close_ms = host.configInt("blink_close_ms");
+    o.blink_open_ms = host.configInt("blink_open_ms");
+    o.min_motion = host.configDouble("min_motion");
+    o.face_hold_ms = host.configInt("face_hold_ms");
+    if (o.blink_max_ms < o.blink_min_ms) {
+      host.configError("blink_max_ms", "need blink_min_ms <= blink_max_ms");
+      throw Failure(SKR_ERR_CONFIG, "invalid blink_max_ms");
     }
     return o;
   }
 
   void readServer() {
     WsServerOptions& o = server_opts_;
-    o.address = host_.configString("address", o.address);
-    o.port = static_cast<int>(host_.configInt("port", o.port));
-    o.web_root = host_.configString("web_root", SKROBOT_WEB_ROOT);
-    o.tls_cert = host_.configString("tls_cert", "");
-    o.tls_key = host_.configString("tls_key", "");
-    o.max_message_bytes = static_cast<std::size_t>(host_.configInt("max_message_bytes", 1 << 20));
-    o.max_queued_bytes = static_cast<std::size_t>(host_.configInt("max_queued_bytes", 8 << 20));
-    if (o.port < 0 || o.port > 65535) {
-      host_.configError("port", "must be 0 to 65535");
-      throw Failure(SKR_ERR_CONFIG, "bad port");
-    }
-    if (o.max_message_bytes < 64 * 1024 || o.max_message_bytes > (64u << 20)) {
-      host_.configError("max_message_bytes", "must be 64 KiB to 64 MiB");
-      throw Failure(SKR_ERR_CONFIG, "bad max_message_bytes");
-    }
+    o.address = host_.configString("address");
+    o.port = static_cast<int>(host_.configInt("port"));
+    o.web_root = host_.configString("web_root");
+    o.tls_cert = host_.configString("tls_cert");
+    o.tls_key = host_.configString("tls_key");
+    o.max_message_bytes = static_cast<std::size_t>(host_.configInt("max_message_bytes"));
+    o.max_queued_bytes = static_cast<std::size_t>(host_.configInt("max_queued_bytes"));
   }
 
   void subscribe(const std::string& channel, skr::plugin::Subscription::DataFn fn) {
@@ -456,6 +437,50 @@ class WebsocketUi final : public skr::plugin::Module {
 }  // namespace
 }  // namespace skr::wsui
 
-SKROBOT_MODULE(
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    // The server.
+    cfg::string("address", "127.0.0.1", "interface to listen on; \"0.0.0.0\" for every one")
+        .nonEmpty(),
+    cfg::integer("port", "8080", "HTTP and WebSocket port (0: any free port)").range(0, 65535),
+    cfg::string("web_root", SKROBOT_WEB_ROOT, "directory served (the build's copy of web/)"),
+    cfg::string("tls_cert", "", "PEM certificate; with tls_key: HTTPS and WSS only"),
+    cfg::string("tls_key", "", "PEM private key of tls_cert"),
+    cfg::integer("max_message_bytes", "1048576", "largest browser message")
+        .range(64 * 1024, 64 * 1024 * 1024),
+    cfg::integer("max_queued_bytes", "8388608",
+                 "per-browser output queue; beyond it the oldest "
+                 "droppable messages go")
+        .min(0),
+    // What the page sends.
+    cfg::integer("camera_width", "640", "camera frame width asked of the page").range(16, 1920),
+    cfg::integer("camera_height", "360", "camera frame height asked of the page").range(16, 1080),
+    cfg::integer("camera_fps", "15", "camera frames per second asked of the page").range(1, 60),
+    cfg::number("jpeg_quality", "0.7", "JPEG quality of the page's camera frames").range(0, 1),
+    cfg::integer("mic_sample_rate", "22050", "the page resamples the microphone to this rate")
+        .range(8000, 48000),
+    cfg::integer("handover_ms", "1000", "quiet time before another page may feed camera or mic")
+        .min(0),
+    // Other modules' channels ("": none).
+    cfg::string("faces", "", "face detections shown and looked at, e.g. face-detect.faces"),
+    cfg::string("motion", "", "motion results looked at, e.g. motion.motion"),
+    cfg::string("codes", "", "QR/barcode results shown, e.g. qrcode.codes"),
+    cfg::string("bands", "", "audio band levels shown, e.g. fft-audio.bands"),
+    cfg::string("speech", "", "the speech service that say goes to, e.g. speech.say"),
+    cfg::string("voice", "", "speech audio played in the page, e.g. speech.voice"),
+    cfg::string("phonemes", "", "speech timelines that move the lips, e.g. speech.phonemes"),
+    // The avatar's behaviour.
+    cfg::integer("blink_min_ms", "450", "shortest interval between blinks").min(100),
+    cfg::integer("blink_max_ms", "4000", "longest interval between blinks (>= blink_min_ms)")
+        .min(100),
+    cfg::integer("blink_close_ms", "70", "time the eyelids take to close").min(1),
+    cfg::integer("blink_open_ms", "160", "time the eyelids take to open").min(1),
+    cfg::number("min_motion", "0.004", "fraction of moving pixels that draws the gaze").range(0, 1),
+    cfg::integer("face_hold_ms", "1000", "how long a face keeps the gaze after it was last seen")
+        .min(0),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(
     skr::wsui::WebsocketUi, "websocket-ui", "1.0.0",
-    "serves the avatar page; browsers' camera and microphone to channels, avatar behaviour", 0)
+    "serves the avatar page; browsers' camera and microphone to channels, avatar behaviour", 0,
+    kConfig)

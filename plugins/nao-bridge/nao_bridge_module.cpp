@@ -10,11 +10,12 @@
 
 #include <skrobot/plugin_channels.hpp>
 
-#include <json/json.h>
+#include <skrobot/support/json.hpp>
+
+#include <json/value.h>
 
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -24,29 +25,16 @@ namespace nao = skr::nao;
 namespace plugin = skr::plugin;
 using nao::StateKind;
 
-std::string compact(const Json::Value& v) {
-  Json::StreamWriterBuilder w;
-  w["indentation"] = "";
-  return Json::writeString(w, v);
-}
-
-Json::Value parse(const std::string& text) {
-  Json::CharReaderBuilder b;
-  Json::Value v;
-  std::string errors;
-  std::istringstream in(text);
-  try {
-    if (!Json::parseFromStream(b, in, &v, &errors)) return Json::Value();
-  } catch (const std::exception&) {  // jsoncpp throws past its nesting limit
-    return Json::Value();
-  }
-  return v;
-}
+using skr::support::writeJson;
 
 class NaoBridge final : public plugin::Module {
  public:
   explicit NaoBridge(plugin::Host& host) : host_(host) {
-    const Json::Value config = parse(host.configJson());
+    auto parsed = skr::support::parseJsonObject(host.configJson());
+    if (!parsed) {  // the host hands over the module's config object; this would be a host bug
+      throw plugin::Failure(SKR_ERR_CONFIG, "config: " + parsed.error().message);
+    }
+    const Json::Value config = std::move(parsed.value());
     backend_name_ = host.configString("backend", "simulated");
     if (backend_name_ != "simulated" && backend_name_ != "naoqi") {
       host.configError("backend", "must be \"simulated\" or \"naoqi\"");
@@ -99,7 +87,7 @@ class NaoBridge final : public plugin::Module {
       Json::Value p = props[i];
       p["rate_hz"] = worker_opt_.rate_hz[i];
       p["backend"] = backend_name_;
-      state_[i] = plugin::StreamChannel(host_, nao::stateName(k), "application/json", compact(p),
+      state_[i] = plugin::StreamChannel(host_, nao::stateName(k), "application/json", writeJson(p),
                                         [this, k](bool first) {
                                           if (worker_) worker_->setStreaming(k, first);
                                         });
@@ -208,7 +196,7 @@ class NaoBridge final : public plugin::Module {
     v["backend"] = backend_name_;
     v["error"] = connected ? "" : detail;
     v["retry_in_ms"] = retry_in_ms;
-    status_json_ = compact(v);
+    status_json_ = writeJson(v);
     status_.publish(status_json_);
     plugin::dbSet(host_, std::string(host_.name()), "status", status_json_);
   }
@@ -243,10 +231,10 @@ class NaoBridge final : public plugin::Module {
     const std::uint64_t seq = ++queue_seq_;
     run(payload, "", true, [this, queue, seq](const nao::CommandResult& res) {
       if (!res.ok()) host_.log.warn("NAO-QUEUE", queue, " #", seq, ": ", res.message);
-      Json::Value v = parse(res.json());
+      Json::Value v = res.toJson();
       v["queue"] = queue;
       v["seq"] = static_cast<Json::UInt64>(seq);
-      results_.publish(compact(v));
+      results_.publish(writeJson(v));
     });
   }
 

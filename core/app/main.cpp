@@ -6,6 +6,7 @@
 #include <skrobot/core/module_host.h>
 #include <skrobot/flow/server.h>
 #include <skrobot/plugin.h>
+#include <skrobot/support/json.hpp>
 
 #include <uv.h>
 
@@ -30,15 +31,20 @@ constexpr int kExitConfig = 3;
 constexpr int kExitServer = 4;
 
 constexpr const char* kUsage =
-    "usage: skrobot [--config FILE] [--check-config | --list-modules] [--log-level LEVEL]\n"
+    "usage: skrobot [--config FILE] [--check-config | --list-modules | --describe-module NAME]\n"
+    "               [--log-level LEVEL]\n"
     "       skrobot user add|del|passwd|list [NAME] [--users FILE] [--password-stdin]\n"
     "       skrobot --version | --help\n"
     "\n"
     "  --config FILE      the hub's JSON config (default: config/default.json, or\n"
     "                     $SKROBOT_CONFIG when set)\n"
-    "  --check-config     validate the config and that every enabled module can be loaded;\n"
-    "                     exit 0 when all is well, 1 when a module would fail, 3 on config errors\n"
+    "  --check-config     validate the config, that every enabled module can be loaded and\n"
+    "                     that its config object fits the keys the module declares (without\n"
+    "                     starting it); exit 0 when all is well, 1 when a module would fail\n"
+    "                     (MODULE-CONFIG lines name each bad key), 3 on hub config errors\n"
     "  --list-modules     list the module files found on the search path\n"
+    "  --describe-module NAME\n"
+    "                     print the config keys a module declares (NAME or a path to a .so)\n"
     "  --log-level LEVEL  debug, info, warn or error (overrides the config)\n"
     "  --version          print the version\n"
     "  --help             print this help\n"
@@ -52,6 +58,7 @@ struct Options {
   fs::path config;
   bool check = false;
   bool list = false;
+  std::string describe;  // --describe-module NAME
   std::string log_level;
 };
 
@@ -60,40 +67,33 @@ fs::path defaultConfig() {
   return "config/default.json";
 }
 
+// Every enabled module through the module host's own checks (file, descriptor, declared config
+// keys), without initialising any.
 int checkConfig(const skr::HubConfig& cfg) {
   int problems = 0;
   const auto search = skr::moduleSearchPath(cfg.module_paths);
   size_t enabled = 0;
-  for (const auto& m : cfg.modules) {
-    if (!m.enabled) {
-      std::printf("  %-20s disabled\n", m.name.c_str());
+  for (const skr::ModuleCheck& c : skr::checkModules(cfg.modules, search)) {
+    if (!c.enabled) {
+      std::printf("  %-20s disabled\n", c.name.c_str());
       continue;
     }
     ++enabled;
-    fs::path file = m.path;
-    if (file.empty()) {
-      for (const auto& dir : search) {
-        if (fs::exists(dir / (m.name + ".so"))) {
-          file = dir / (m.name + ".so");
-          break;
-        }
+    if (c.ok()) {
+      std::printf("  %-20s ok  %s %s (ABI %u.%u)\n", c.name.c_str(), c.file.c_str(),
+                  c.info.version.c_str(), c.info.abi_major, c.info.abi_minor);
+      continue;
+    }
+    ++problems;
+    if (!c.config_problems.empty()) {
+      std::printf("  %-20s BAD CONFIG %s\n", c.name.c_str(), c.file.c_str());
+      for (const auto& p : c.config_problems) {
+        std::printf("    MODULE-CONFIG %s: %s\n", p.path.c_str(), p.reason.c_str());
       }
+    } else {
+      std::printf("  %-20s %s %s%s%s\n", c.name.c_str(), c.tag.c_str(), c.file.c_str(),
+                  c.file.empty() ? "" : ": ", c.reason.c_str());
     }
-    if (file.empty() || !fs::exists(file)) {
-      std::printf("  %-20s NOT FOUND (%s)\n", m.name.c_str(),
-                  m.path.empty() ? "not on the module search path" : m.path.c_str());
-      ++problems;
-      continue;
-    }
-    auto info = skr::readModuleDescriptor(file);
-    if (!info) {
-      std::printf("  %-20s BAD %s: %s\n", m.name.c_str(), file.c_str(),
-                  info.error().message.c_str());
-      ++problems;
-      continue;
-    }
-    std::printf("  %-20s ok  %s %s (ABI %u.%u)\n", m.name.c_str(), file.c_str(),
-                info->version.c_str(), info->abi_major, info->abi_minor);
   }
   if (problems > 0) {
     std::printf("config %s is valid, but %d of %zu enabled modules would fail to load\n",
@@ -103,6 +103,46 @@ int checkConfig(const skr::HubConfig& cfg) {
   }
   std::printf("config %s is valid; %zu enabled modules can be loaded\n", cfg.config_file.c_str(),
               enabled);
+  return kExitOk;
+}
+
+// The config reference of one module: its declared keys, from its descriptor.
+int describeModule(const std::string& name, const std::vector<fs::path>& config_paths) {
+  skr::ModuleEntry entry;
+  if (name.find('/') != std::string::npos) {
+    entry.path = fs::absolute(name);
+  } else {
+    entry.name = name;
+  }
+  const auto search = skr::moduleSearchPath(config_paths);
+  const auto checks = skr::checkModules({entry}, search);
+  const skr::ModuleCheck& c = checks.front();
+  if (!c.ok() && c.tag != "MODULE-CONFIG") {
+    std::fprintf(stderr, "skrobot: %s %s: %s\n", name.c_str(), c.tag.c_str(), c.reason.c_str());
+    return kExitCheckFailed;
+  }
+  const skr::ModuleFileInfo& info = c.info;
+  std::printf("%s %s (ABI %u.%u) %s\n  %s\n", info.name.c_str(), info.version.c_str(),
+              info.abi_major, info.abi_minor, c.file.c_str(), info.description.c_str());
+  if (!info.declares_config) {
+    std::printf("config: not declared (the module reads its config itself)\n");
+    return kExitOk;
+  }
+  if (info.config_keys.empty()) std::printf("config: none (every key is an error)\n");
+  for (const skr::ModuleConfigKey& k : info.config_keys) {
+    std::string rules(skr::configTypeName(k.type));
+    if (k.required) rules += ", required";
+    if (!k.default_value.isNull()) rules += ", default " + skr::support::writeJson(k.default_value);
+    const char* unit = k.type == skr::ConfigType::array ? " items" : "";
+    if (k.min) rules += ", >= " + skr::schema::formatNumber(*k.min) + unit;
+    if (k.max) rules += ", <= " + skr::schema::formatNumber(*k.max) + unit;
+    if (k.non_empty) rules += ", not empty";
+    for (size_t i = 0; i < k.choices.size(); ++i) {
+      rules += (i == 0 ? ", one of " : "|") + k.choices[i];
+    }
+    std::printf("  %-18s %s\n  %-18s   %s\n", k.key.c_str(), rules.c_str(), "",
+                k.description.c_str());
+  }
   return kExitOk;
 }
 
@@ -225,6 +265,8 @@ int main(int argc, char** argv) {
       opt.check = true;
     } else if (arg == "--list-modules") {
       opt.list = true;
+    } else if (arg == "--describe-module") {
+      opt.describe = value();
     } else if (arg == "--log-level") {
       opt.log_level = value();
     } else {
@@ -232,13 +274,18 @@ int main(int argc, char** argv) {
       return kExitUsage;
     }
   }
-  if (opt.check && opt.list) {
-    std::fprintf(stderr, "skrobot: --check-config and --list-modules exclude each other\n");
+  if (int(opt.check) + int(opt.list) + int(!opt.describe.empty()) > 1) {
+    std::fprintf(stderr,
+                 "skrobot: --check-config, --list-modules and --describe-module exclude each "
+                 "other\n");
     return kExitUsage;
   }
   if (!config_given) opt.config = defaultConfig();
 
   if (opt.list && !config_given && !fs::exists(opt.config)) return listModules({});
+  if (!opt.describe.empty() && !config_given && !fs::exists(opt.config)) {
+    return describeModule(opt.describe, {});
+  }
   auto cfg = skr::loadHubConfig(opt.config);
   if (!cfg) {
     std::fprintf(stderr, "skrobot: config error\n%s\n", cfg.error().message.c_str());
@@ -255,5 +302,6 @@ int main(int argc, char** argv) {
   }
   if (opt.check) return checkConfig(*cfg);
   if (opt.list) return listModules(cfg->module_paths);
+  if (!opt.describe.empty()) return describeModule(opt.describe, cfg->module_paths);
   return runHub(*cfg);
 }

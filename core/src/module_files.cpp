@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdlib>
 #include <string>
 #include <string_view>
@@ -14,9 +15,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The 1.0 descriptor: what every module of major 1 provides at least.
+// The 1.0 descriptor: what every module of major 1 provides at least (1.1 added nothing to it).
 constexpr uint32_t kDescriptorHeader = 8;  // struct_size, abi_major, abi_minor
-constexpr uint32_t kDescriptorSize10 = sizeof(skr_module_descriptor);
+constexpr uint32_t kDescriptorSize10 = offsetof(skr_module_descriptor, config_keys);
+// 1.2 appended the declared config keys.
+constexpr uint32_t kDescriptorSize12 =
+    offsetof(skr_module_descriptor, config_key_count) + sizeof(size_t);
 
 std::string abiText(unsigned major, unsigned minor) {
   return std::to_string(major) + "." + std::to_string(minor);
@@ -132,8 +136,76 @@ Result<OpenedModule> openModule(const fs::path& file) {
                      "'" + m.info.name + "' " + versions + " (a newer minor); upgrade the hub");
   }
   if (d->init == nullptr) return makeError(Errc::parse_error, "the descriptor has no init");
+  if (d->struct_size >= kDescriptorSize12 && d->config_keys != nullptr) {
+    auto keys = readConfigKeys(d->config_keys, d->config_key_count);
+    if (!keys) return keys.error();
+    m.info.declares_config = true;
+    m.info.config_keys = std::move(keys).value();
+  }
   m.descriptor = d;
   return m;
+}
+
+ModuleCheck prepareModule(const ModuleEntry& entry, const std::string& json_path,
+                          const std::vector<fs::path>& search_path, OpenedModule* opened_out,
+                          Json::Value* config_out) {
+  ModuleCheck c;
+  c.name = !entry.name.empty() ? entry.name : entry.path.stem().string();
+  c.json_path = json_path;
+  c.enabled = entry.enabled;
+  if (!entry.enabled) return c;
+  auto file = resolveModule(entry, search_path);
+  if (!file) {
+    c.tag = "MODULE-NOT-FOUND";
+    c.reason = file.error().message;
+    return c;
+  }
+  c.file = file.value();
+  auto opened = openModule(c.file);
+  if (!opened) {
+    switch (opened.error().code) {
+      case Errc::io_error:
+        c.tag = "MODULE-LOAD";
+        break;
+      case Errc::not_found:
+        c.tag = "MODULE-NO-ENTRY";
+        break;
+      case Errc::abi_mismatch:
+        c.tag = "MODULE-ABI";
+        break;
+      default:
+        c.tag = "MODULE-DESCRIPTOR";
+        break;
+    }
+    c.reason = opened.error().message;
+    return c;
+  }
+  c.info = opened->info;
+  Json::Value filled;
+  c.config_problems = checkModuleConfig(c.info, entry.config, json_path + ".config", filled);
+  if (!c.config_problems.empty()) {
+    c.tag = "MODULE-CONFIG";
+    for (const auto& p : c.config_problems) {
+      c.reason += (c.reason.empty() ? "" : "; ") + p.path + ": " + p.reason;
+    }
+    return c;
+  }
+  if (opened_out != nullptr) *opened_out = std::move(opened).value();
+  if (config_out != nullptr) *config_out = std::move(filled);
+  return c;
+}
+
+std::vector<ModuleCheck> checkModules(const std::vector<ModuleEntry>& entries,
+                                      const std::vector<fs::path>& search_path) {
+  std::vector<ModuleCheck> out;
+  out.reserve(entries.size());
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const ModuleEntry& e = entries[i];
+    const std::string path =
+        !e.json_path.empty() ? e.json_path : "$.modules[" + std::to_string(i) + "]";
+    out.push_back(prepareModule(e, path, search_path, nullptr, nullptr));
+  }
+  return out;
 }
 
 Result<ModuleFileInfo> readModuleDescriptor(const fs::path& file) {

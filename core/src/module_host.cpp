@@ -4,7 +4,10 @@
 
 #include <skrobot/core/log.h>
 
-#include <json/writer.h>
+#include <skrobot/support/json.hpp>
+
+#include <cstddef>
+#include <cstring>
 
 #include <functional>
 #include <string>
@@ -41,19 +44,6 @@ std::string stepFailure(skr_module_ctx& m, skr_status status) {
   return why.empty() ? "returned " + code : why + " [" + code + "]";
 }
 
-std::string_view openTag(Errc code) {
-  switch (code) {
-    case Errc::io_error:
-      return "MODULE-LOAD";
-    case Errc::not_found:
-      return "MODULE-NO-ENTRY";
-    case Errc::abi_mismatch:
-      return "MODULE-ABI";
-    default:
-      return "MODULE-DESCRIPTOR";
-  }
-}
-
 }  // namespace
 
 ModuleHost::ModuleHost(Loop& main_loop, const std::vector<std::filesystem::path>& module_paths,
@@ -86,24 +76,27 @@ void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
       log::info(kSource, "MODULE-DISABLED", describe(*m) + " is disabled in the config");
       continue;
     }
-    auto file = resolveModule(m->entry, search_path_);
-    if (!file) {
-      fail(*m, "MODULE-NOT-FOUND", file.error().message);
+    OpenedModule opened;
+    Json::Value config;
+    const ModuleCheck check = prepareModule(m->entry, m->json_path, search_path_, &opened, &config);
+    m->file = check.file;
+    if (!check.ok()) {
+      // Each config problem on its own line, where the module's own MODULE-CONFIG lines go.
+      for (const auto& p : check.config_problems) {
+        log::error(m->log_source, "MODULE-CONFIG", p.path + ": " + p.reason);
+      }
+      fail(*m, check.tag, check.reason);
       continue;
     }
-    m->file = file.value();
-    auto opened = openModule(m->file);
-    if (!opened) {
-      fail(*m, openTag(opened.error().code), opened.error().message);
-      continue;
-    }
-    m->library = std::move(opened->library);
-    m->descriptor = *opened->descriptor;  // the 1.0 fields; a newer struct only appends
+    m->library = std::move(opened.library);
+    // Only the 1.0 fields: a 1.1 module's descriptor ends there (the rest stays zero).
+    std::memcpy(&m->descriptor, opened.descriptor, offsetof(skr_module_descriptor, config_keys));
     m->descriptor.struct_size = sizeof(skr_module_descriptor);
-    m->info = std::move(opened->info);
+    m->info = std::move(opened.info);
+    m->entry.config = std::move(config);  // with the declared defaults
     m->own_thread = m->entry.own_thread || (m->info.flags & SKR_MODULE_WANTS_OWN_THREAD) != 0;
     m->control_thread = control_thread_;
-    m->config_json = Json::writeString(Json::StreamWriterBuilder(), m->entry.config);
+    m->config_json = support::writeJson(m->entry.config);
     log::info(kSource, "MODULE-LOADED",
               describe(*m) + ": " + m->info.name + " " + m->info.version +
                   (m->own_thread ? " on its own thread" : ""));

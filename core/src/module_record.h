@@ -53,6 +53,17 @@ struct OpenedModule {
   ModuleFileInfo info;
 };
 [[nodiscard]] Result<OpenedModule> openModule(const std::filesystem::path& file);
+// Copies and checks a module's declared config keys (module_config.cpp): a bad declaration (no
+// name, twice the same key, unknown type, a default that is not JSON or breaks its own rules)
+// is Errc::parse_error, which refuses the module like any other descriptor defect.
+[[nodiscard]] Result<std::vector<ModuleConfigKey>> readConfigKeys(const skr_config_key* keys,
+                                                                  std::size_t count);
+// One entry through every check of ModuleHost::load (checkModules runs it for each entry). When
+// it passes, `opened_out` gets the open library and `config_out` the config with the declared
+// defaults (either may be null).
+[[nodiscard]] ModuleCheck prepareModule(const ModuleEntry& entry, const std::string& json_path,
+                                        const std::vector<std::filesystem::path>& search_path,
+                                        OpenedModule* opened_out, Json::Value* config_out);
 // The file for an entry: its `path`, or <dir>/<name>.so in `search_path`. Errc::not_found says
 // where it looked.
 [[nodiscard]] Result<std::filesystem::path> resolveModule(
@@ -69,7 +80,7 @@ struct skr_module_ctx {
   std::filesystem::path file;
 
   skr::SharedLibrary library;
-  skr_module_descriptor descriptor{};  // copy of the 1.0 fields; pointers into `library`
+  skr_module_descriptor descriptor{};  // copy of the 1.0 fields (the rest zero); into `library`
   skr::ModuleFileInfo info;            // strings copied out of the library
   skr::ModuleState state = skr::ModuleState::loaded;
   void* instance = nullptr;

@@ -1,11 +1,11 @@
 // The tutorial module: every part of the module API in one small file (docs/plugins.md).
 //
-// Config (the "config" object of its entry in the hub's JSON):
-//   "greeting":  string, logged with every EXAMPLE-TICK line (default "hello")
-//   "period_ms": integer >= 1, the EXAMPLE-TICK period (default 1000)
+// Config (the "config" object of its entry in the hub's JSON): declared in kConfig below, so the
+// host checks it before init and `skrobot --describe-module example` prints it.
 // Log tags: EXAMPLE-START, EXAMPLE-TICK (every period_ms), EXAMPLE-WORK (a result computed on a
 // worker thread and posted back to the loop), EXAMPLE-SECOND (debug), EXAMPLE-STOP.
 #include <skrobot/plugin.hpp>
+#include <skrobot/support/config.hpp>
 
 #include <condition_variable>
 #include <cstdint>
@@ -20,17 +20,15 @@ using skr::plugin::Tick;
 
 class Example final : public skr::plugin::Module {
  public:
-  // init: read and check the config. Throwing here fails init; the host logs the message and
-  // unloads the module. Nothing runs yet: ticks registered now would only start after start().
+  // init: read the config. The host has already checked it against kConfig (types, range,
+  // unknown keys) and filled in the defaults. A rule the declaration cannot express would be
+  // checked here: host.configError(key, reason), then throw Failure(SKR_ERR_CONFIG, ...).
+  // Throwing fails init; the host logs the message and unloads the module. Nothing runs yet:
+  // ticks registered now would only start after start().
   explicit Example(Host& host)
       : host_(host),
-        greeting_(host.configString("greeting", "hello")),
-        period_ms_(host.configInt("period_ms", 1000)) {
-    if (period_ms_ < 1) {
-      host_.configError("period_ms", "must be >= 1, got " + std::to_string(period_ms_));
-      throw skr::plugin::Failure(SKR_ERR_CONFIG, "invalid period_ms");
-    }
-  }
+        greeting_(host.configString("greeting")),
+        period_ms_(host.configInt("period_ms")) {}
 
   // start: register tick handlers and start the worker. Runs on the module's loop thread.
   void start() override {
@@ -113,4 +111,12 @@ class Example final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(Example, "example", "1.0.0", "Tutorial: config, log, ticks, a worker thread", 0)
+// The config keys: type, default, range and a line of description each.
+constexpr skr_config_key kConfig[] = {
+    skr::config::string("greeting", "hello", "logged with every EXAMPLE-TICK line"),
+    skr::config::integer("period_ms", "1000", "the EXAMPLE-TICK period, in milliseconds")
+        .range(1, 3'600'000),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(Example, "example", "1.0.0",
+                           "Tutorial: config, log, ticks, a worker thread", 0, kConfig)

@@ -267,8 +267,11 @@ INSTANTIATE_TEST_SUITE_P(
     Cases, BadModule,
     ::testing::Values(
         BadCase{"test_no_entry", "MODULE-NO-ENTRY", {"skrobot_module_entry"}},
-        BadCase{"test_abi_major", "MODULE-ABI", {"ABI 2.0", "ABI 1.1"}},
-        BadCase{"test_abi_minor", "MODULE-ABI", {"ABI 1.2", "ABI 1.1", "newer minor"}},
+        BadCase{"test_abi_major", "MODULE-ABI", {"ABI 2.0", "ABI 1.2"}},
+        BadCase{"test_abi_minor", "MODULE-ABI", {"ABI 1.3", "ABI 1.2", "newer minor"}},
+        BadCase{"test_bad_config_default",
+                "MODULE-DESCRIPTOR",
+                {"config key 'count': default 30 must be <= 10, got 30"}},
         BadCase{"test_short_descriptor", "MODULE-DESCRIPTOR", {"16 bytes"}},
         BadCase{"test_null_descriptor", "MODULE-DESCRIPTOR", {"no descriptor"}},
         BadCase{"garbage", "MODULE-LOAD", {"garbage.so"}},
@@ -290,17 +293,20 @@ TEST_F(ModuleHostTest, FailedStartRemovesRegistrationsAndCallsFiniNotStop) {
   EXPECT_EQ(capture.count("STARTFAIL-STOP"), 0u);
 }
 
-TEST_F(ModuleHostTest, ConfigErrorNamesTheKeyAndFailsInit) {
+TEST_F(ModuleHostTest, ConfigErrorNamesTheKeyAndFailsBeforeInit) {
   ModuleHost host(loop, {});
   host.start({entry(exampleModule(), exampleConfig("hi", 0)), entry(testModule("test_plain_c"))});
   const auto* f = failureOf(host, "example");
   ASSERT_NE(f, nullptr);
-  EXPECT_EQ(f->tag, "MODULE-INIT");
-  EXPECT_NE(f->reason.find("invalid period_ms"), std::string::npos) << f->reason;
+  EXPECT_EQ(f->tag, "MODULE-CONFIG");  // the example declares period_ms >= 1: never inited
+  EXPECT_NE(f->reason.find("$.modules[0].config.period_ms"), std::string::npos) << f->reason;
+  // One line for the problem (the module's source) and the module's failure line (the host's).
   const auto config = capture.withTag("MODULE-CONFIG");
-  ASSERT_EQ(config.size(), 1u);
+  ASSERT_EQ(config.size(), 2u);
   EXPECT_EQ(config[0].source, "mod.example");
   EXPECT_EQ(config[0].message, "$.modules[0].config.period_ms: must be >= 1, got 0");
+  EXPECT_EQ(config[1].source, "core.modules");
+  EXPECT_EQ(capture.count("EXAMPLE-START"), 0u);
   ASSERT_EQ(host.modules().size(), 1u);
   EXPECT_EQ(host.modules()[0].state, ModuleState::started);
 }

@@ -113,6 +113,42 @@ TEST(SkrobotCli, CheckConfigReportsModulesThatWouldFail) {
   EXPECT_NE(r.output.find("test_abi_major"), std::string::npos) << r.output;
 }
 
+TEST(SkrobotCli, CheckConfigReportsModuleConfigErrorsWithTheirPaths) {
+  TempDir dir;
+  auto cfg = dir.write("cfg.json", R"({"modules": [
+      {"name": "example", "config": {"period_ms": 0, "greting": "hi"}},
+      {"path": ")" SKROBOT_TEST_MODULE_DIR R"(/test_config_keys.so", "config": {"count": "3"}}]})");
+  auto r = run({"--config", cfg.string(), "--check-config"});
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("MODULE-CONFIG $.modules[0].config.period_ms: must be >= 1, got 0"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("MODULE-CONFIG $.modules[0].config.greting: unknown key (did you mean "
+                          "\"greeting\"?)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("MODULE-CONFIG $.modules[1].config.count: expected integer, got string"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("MODULE-CONFIG $.modules[1].config.input: required key missing"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("2 enabled modules would fail"), std::string::npos) << r.output;
+  // Checked without starting anything: no module log line.
+  EXPECT_EQ(r.output.find("CONFIG-KEYS-INIT"), std::string::npos) << r.output;
+}
+
+TEST(SkrobotCli, DescribeModulePrintsItsDeclaredKeys) {
+  auto r = run({"--config", kDefaultConfig, "--describe-module", "example"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("period_ms"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("integer, default 1000, >= 1, <= 3600000"), std::string::npos)
+      << r.output;
+  auto missing = run({"--config", kDefaultConfig, "--describe-module", "no_such_module"});
+  EXPECT_EQ(missing.exit_code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("MODULE-NOT-FOUND"), std::string::npos) << missing.output;
+}
+
 TEST(SkrobotCli, ListModulesShowsDescriptors) {
   auto r = run({"--config", kDefaultConfig, "--list-modules"});
   EXPECT_EQ(r.exit_code, 0) << r.output;

@@ -28,6 +28,8 @@ static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor)
                                                    failing_init,
                                                    0,
                                                    0,
+                                                   0,
+                                                   NULL,
                                                    0};
 
 SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {

@@ -87,7 +87,9 @@ static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor)
                                                    echo_init,
                                                    echo_start,
                                                    NULL,
-                                                   echo_fini};
+                                                   echo_fini,
+                                                   NULL,
+                                                   0};
 
 SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {
   return &k_descriptor;

@@ -56,6 +56,8 @@ static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor)
                                                    forget_init,
                                                    forget_start,
                                                    forget_stop,
+                                                   0,
+                                                   NULL,
                                                    0};
 
 SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {

@@ -74,7 +74,9 @@ static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor)
                                                    plain_init,
                                                    plain_start,
                                                    plain_stop,
-                                                   plain_fini};
+                                                   plain_fini,
+                                                   NULL,
+                                                   0};
 
 SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {
   return &k_descriptor;

@@ -44,7 +44,7 @@ extern "C" {
 /* Major: incompatible changes; the host refuses another major. Minor: additions at the end of
  * the structs or in reserved slots; the host refuses a module built for a newer minor. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 1
+#define SKR_PLUGIN_ABI_MINOR 2
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -136,8 +136,9 @@ typedef struct skr_host_api {
 
   /* --- the module's config object (any; read-only) --- */
   /* `key` is a member of the module's "config" object. A missing key gives the default; a key of
-   * the wrong type gives the default and logs MODULE-CONFIG. Strings are host-owned, valid until
-   * fini. */
+   * the wrong type gives the default and logs MODULE-CONFIG (a warning). With declared keys
+   * (ABI 1.2) the declared defaults are present, config_has is true for them, and a wrong type
+   * never reaches init. Strings are host-owned, valid until fini. */
   const char* (*config_string)(skr_module_ctx* ctx, const char* key, const char* default_value);
   int64_t (*config_int)(skr_module_ctx* ctx, const char* key, int64_t default_value);
   double (*config_double)(skr_module_ctx* ctx, const char* key, double default_value);
@@ -217,6 +218,44 @@ typedef struct skr_host_api {
   void (*reserved[22])(void);
 } skr_host_api;
 
+/* --- Declared config keys (ABI 1.2) ---
+ * A module may declare every key of its "config" object in a static array (see config_keys in
+ * skr_module_descriptor). The host then checks the config BEFORE init, and also for
+ * `skrobot --check-config` without running the module: a key of the wrong type, out of range,
+ * not among the choices, a required key missing, or a key the module does not declare is an
+ * error, logged as "MODULE-CONFIG $.modules[N].config.<key>: <reason>", and the module is not
+ * inited. The declared defaults are filled in: config_* and config_json see them as if the user
+ * had written them. */
+typedef enum skr_config_type {
+  SKR_CONFIG_STRING = 1,
+  SKR_CONFIG_INT = 2,    /* an integral number (10 and 10.0 both pass) */
+  SKR_CONFIG_DOUBLE = 3, /* any number */
+  SKR_CONFIG_BOOL = 4,
+  SKR_CONFIG_ARRAY = 5,  /* any array; min/max bound its number of items; elements unchecked */
+  SKR_CONFIG_OBJECT = 6, /* any object; its members are the module's to check */
+  SKR_CONFIG_TYPE_FORCE_32BIT = 0x7fffffff
+} skr_config_type;
+
+/* Flags of skr_config_key. */
+#define SKR_CONFIG_REQUIRED ((uint32_t)1 << 0)  /* the key must be present (no default) */
+#define SKR_CONFIG_MIN ((uint32_t)1 << 1)       /* `min` applies */
+#define SKR_CONFIG_MAX ((uint32_t)1 << 2)       /* `max` applies */
+#define SKR_CONFIG_NON_EMPTY ((uint32_t)1 << 3) /* a string must not be "" */
+
+/* One key of a module's config. Static data of the module; all strings UTF-8. */
+typedef struct skr_config_key {
+  const char* key; /* a member name of the module's "config" object; required */
+  skr_config_type type;
+  uint32_t flags;           /* SKR_CONFIG_* */
+  const char* default_text; /* the default, or NULL: none, the key stays absent when not given.
+                               A string key's default is the plain string ("hello"); any other
+                               type's is JSON text ("1000", "true", "[1, 2]") */
+  double min;               /* inclusive bounds with SKR_CONFIG_MIN / SKR_CONFIG_MAX: of the */
+  double max;               /* value (int, double), of the number of items (array) */
+  const char* choices;      /* string: the allowed values separated by '|', or NULL: any */
+  const char* description;  /* one line, for the module's config reference; may be NULL */
+} skr_config_key;
+
 /* Flags of skr_module_descriptor. Unknown flags are ignored. */
 #define SKR_MODULE_WANTS_OWN_THREAD ((uint64_t)1 << 0) /* run on a loop thread of its own */
 
@@ -241,6 +280,14 @@ typedef struct skr_module_descriptor {
   skr_status (*stop)(void* instance);
   /* Optional. Frees the instance. Last call into the module before dlclose. */
   void (*fini)(void* instance);
+
+  /* --- ABI 1.2 (the host reads them only when struct_size covers them) --- */
+  /* The keys of the module's config object, or NULL: the module declares nothing, the host
+   * passes its config unchecked (ABI 1.1 behaviour). A non-NULL array with count 0 declares a
+   * module that takes no config: any key is an error. Static data, read before init and by
+   * `skrobot --check-config` without init. */
+  const skr_config_key* config_keys;
+  size_t config_key_count;
 } skr_module_descriptor;
 
 typedef const skr_module_descriptor* (*skr_module_entry_fn)(void);

@@ -311,19 +311,27 @@ struct Adapter {
 
 // Defines the entry symbol and the descriptor of a module implemented by `Class`.
 // `flags` is 0 or SKR_MODULE_* flags, e.g. SKR_MODULE_WANTS_OWN_THREAD. Use once per module.
-#define SKROBOT_MODULE(Class, name, version, description, flags)                  \
-  extern "C" SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) { \
-    static constexpr skr_module_descriptor kDescriptor = {                        \
-        sizeof(skr_module_descriptor),                                            \
-        SKR_PLUGIN_ABI_MAJOR,                                                     \
-        SKR_PLUGIN_ABI_MINOR,                                                     \
-        (name),                                                                   \
-        (version),                                                                \
-        (description),                                                            \
-        static_cast<std::uint64_t>(flags),                                        \
-        &::skr::plugin::detail::Adapter<Class>::init,                             \
-        &::skr::plugin::detail::Adapter<Class>::start,                            \
-        &::skr::plugin::detail::Adapter<Class>::stop,                             \
-        &::skr::plugin::detail::Adapter<Class>::fini};                            \
-    return &kDescriptor;                                                          \
+// The module declares no config keys: its config object reaches it unchecked. To declare them,
+// use SKROBOT_MODULE_WITH_CONFIG of <skrobot/support/config.hpp> instead.
+#define SKROBOT_MODULE(Class, name, version, description, flags) \
+  SKROBOT_MODULE_DESCRIPTOR(Class, name, version, description, flags, nullptr, 0)
+
+// The descriptor itself; `keys` (a static array of skr_config_key, or nullptr) and `key_count`.
+#define SKROBOT_MODULE_DESCRIPTOR(Class, name, version, description, flags, keys, key_count) \
+  extern "C" SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {            \
+    static constexpr skr_module_descriptor kDescriptor = {                                   \
+        sizeof(skr_module_descriptor),                                                       \
+        SKR_PLUGIN_ABI_MAJOR,                                                                \
+        SKR_PLUGIN_ABI_MINOR,                                                                \
+        (name),                                                                              \
+        (version),                                                                           \
+        (description),                                                                       \
+        static_cast<std::uint64_t>(flags),                                                   \
+        &::skr::plugin::detail::Adapter<Class>::init,                                        \
+        &::skr::plugin::detail::Adapter<Class>::start,                                       \
+        &::skr::plugin::detail::Adapter<Class>::stop,                                        \
+        &::skr::plugin::detail::Adapter<Class>::fini,                                        \
+        (keys),                                                                              \
+        static_cast<std::size_t>(key_count)};                                                \
+    return &kDescriptor;                                                                     \
   }

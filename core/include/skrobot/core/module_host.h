@@ -8,6 +8,9 @@
 //   MODULE-NO-ENTRY    no skrobot_module_entry symbol
 //   MODULE-DESCRIPTOR  null or short descriptor, or no name / init
 //   MODULE-ABI         built for another major ABI or a newer minor (both versions named)
+//   MODULE-CONFIG      the config object breaks the module's declared keys (ABI 1.2): one line
+//                      "<json path>: <reason>" per problem (source "mod.<name>"), then the
+//                      failure; the module is never inited
 //   MODULE-INIT        init failed (the module's set_error message, or its status)
 //   MODULE-START       start failed
 //   MODULE-STOP        stop failed (the cleanup goes on)
@@ -16,6 +19,7 @@
 #pragma once
 
 #include <skrobot/core/hub_config.h>
+#include <skrobot/core/json_schema.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
 
@@ -23,6 +27,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -57,6 +62,22 @@ struct ModuleFailure {
   std::string reason;
 };
 
+// One key a module declares for its config object (skr_config_key, copied out of the library).
+enum class ConfigType { string, integer, number, boolean, array, object };
+[[nodiscard]] std::string_view configTypeName(ConfigType type) noexcept;
+
+struct ModuleConfigKey {
+  std::string key;
+  ConfigType type = ConfigType::string;
+  bool required = false;
+  bool non_empty = false;
+  Json::Value default_value;  // null: none
+  std::optional<double> min;  // of the value, or of the number of items for arrays
+  std::optional<double> max;
+  std::vector<std::string> choices;  // strings only; empty: any
+  std::string description;
+};
+
 // What a module file says about itself.
 struct ModuleFileInfo {
   std::filesystem::path file;
@@ -66,7 +87,21 @@ struct ModuleFileInfo {
   std::uint16_t abi_major = 0;
   std::uint16_t abi_minor = 0;
   std::uint64_t flags = 0;
+  // ABI 1.2: the keys of its config object. False: it declares none and gets its config unchecked.
+  bool declares_config = false;
+  std::vector<ModuleConfigKey> config_keys;
 };
+
+// The schema of a module's config object from its declared keys (unknown keys are errors).
+[[nodiscard]] schema::Schema moduleConfigSchema(const std::vector<ModuleConfigKey>& keys);
+
+// Checks a config object against a module's declared keys. Problems name the key's path under
+// `path` (e.g. "$.modules[2].config.period_ms"); an unknown key is reported at its own path.
+// On success `filled` is the config with the declared defaults added. A module that declares
+// nothing passes with its config unchanged.
+[[nodiscard]] schema::Problems checkModuleConfig(const ModuleFileInfo& info,
+                                                 const Json::Value& config, const std::string& path,
+                                                 Json::Value& filled);
 
 // The directories searched for <name>.so, in order: `config_paths`, then $SKROBOT_MODULE_PATH
 // (colon separated), then <dir of the executable>/../modules and ../lib/skrobot/modules.
@@ -78,6 +113,24 @@ struct ModuleFileInfo {
 // constructors and calls its entry symbol, nothing else). Fails like the host would load it:
 // io_error (dlopen), not_found (no entry symbol), parse_error (bad descriptor), abi_mismatch.
 [[nodiscard]] Result<ModuleFileInfo> readModuleDescriptor(const std::filesystem::path& file);
+
+// What loading one config entry would give, found without initialising the module: the same
+// steps as ModuleHost::load (resolve the file, dlopen, check the descriptor and the config).
+struct ModuleCheck {
+  std::string name;            // as in the config (or the file's stem)
+  std::string json_path;       // "$.modules[N]"
+  bool enabled = true;         // false: nothing else was checked
+  std::filesystem::path file;  // empty when not found
+  std::string tag;             // empty: it would load; else MODULE-NOT-FOUND, -LOAD, -NO-ENTRY,
+                               // -DESCRIPTOR, -ABI or -CONFIG
+  std::string reason;          // why, one line (for MODULE-CONFIG: the problems joined by "; ")
+  schema::Problems config_problems;  // MODULE-CONFIG only
+  ModuleFileInfo info;               // when the descriptor could be read
+  [[nodiscard]] bool ok() const noexcept { return tag.empty(); }
+};
+// Checks every entry in config order. Each enabled module is dlopened and closed again.
+[[nodiscard]] std::vector<ModuleCheck> checkModules(
+    const std::vector<ModuleEntry>& entries, const std::vector<std::filesystem::path>& search_path);
 
 struct ModuleListing {
   std::filesystem::path file;

@@ -2,11 +2,11 @@
 
 #include "nao_model.h"
 
-#include <json/json.h>
+#include <skrobot/support/json.hpp>
 
 #include <cmath>
 #include <cstdio>
-#include <memory>
+#include <optional>
 #include <sstream>
 
 namespace skr::nao {
@@ -29,16 +29,18 @@ const char* commandErrorCode(CommandError e) noexcept {
   return "?";
 }
 
-std::string CommandResult::json() const {
+Json::Value CommandResult::toJson() const {
   Json::Value v(Json::objectValue);
   v["ok"] = ok();
   if (!ok()) {
     v["code"] = commandErrorCode(error);
     v["error"] = message;
   }
-  Json::StreamWriterBuilder w;
-  w["indentation"] = "";
-  return Json::writeString(w, v);
+  return v;
+}
+
+std::string CommandResult::json() const {
+  return support::writeJson(toJson());
 }
 
 const char* commandName(const Command& c) noexcept {
@@ -190,19 +192,15 @@ Command build(const std::string& cmd, const Json::Value& o) {
 }  // namespace
 
 Parsed parseCommand(const std::string& json, const std::string& default_cmd) {
-  Json::CharReaderBuilder b;
-  b["collectComments"] = false;
-  std::unique_ptr<Json::CharReader> reader(b.newCharReader());
+  const bool blank = json.find_first_not_of(" \t\r\n") == std::string::npos;
   Json::Value o;
-  std::string errors;
-  bool parsed = false;
-  try {
-    parsed = reader->parse(json.data(), json.data() + json.size(), &o, &errors);
-  } catch (const std::exception& e) {  // jsoncpp throws past its nesting limit
-    errors = e.what();
-  }
-  if (!parsed) {
-    return {Stop{}, CommandResult::failure(CommandError::bad_request, "not JSON: " + errors)};
+  if (!blank || default_cmd.empty()) {
+    auto parsed = support::parseJson(json, {kMaxCommandDepth, kMaxCommandBytes});
+    if (!parsed) {
+      return {Stop{}, CommandResult::failure(CommandError::bad_request,
+                                             "not JSON: " + parsed.error().message)};
+    }
+    o = std::move(parsed.value());
   }
   if (o.isNull() && !default_cmd.empty()) o = Json::Value(Json::objectValue);
   if (!o.isObject()) {

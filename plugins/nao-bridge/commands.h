@@ -9,6 +9,8 @@
 // Answers are {"ok":true} or {"ok":false,"code":"<code>","error":"<text>"}.
 #pragma once
 
+#include <json/value.h>
+
 #include <cstdint>
 #include <string>
 #include <variant>
@@ -57,6 +59,8 @@ struct CommandResult {
   CommandError error = CommandError::none;
   std::string message;
   [[nodiscard]] bool ok() const noexcept { return error == CommandError::none; }
+  // {"ok":true} or {"ok":false,"code":..,"error":..}, as a value and as compact text.
+  [[nodiscard]] Json::Value toJson() const;
   [[nodiscard]] std::string json() const;
   static CommandResult success() { return {}; }
   static CommandResult failure(CommandError e, std::string message) {
@@ -69,11 +73,14 @@ struct Parsed {
   CommandResult result;  // failure: why it was refused
 };
 
-// Parses `json` (an object with "cmd"). When the object has no "cmd", `default_cmd` (a service
-// request's command name) is used.
+// Parses `json` (an object with "cmd"; strict JSON, at most kMaxCommandBytes and nested at most
+// kMaxCommandDepth deep). When the object has no "cmd", `default_cmd` (a service request's
+// command name) is used; then empty text or null stands for {}.
 [[nodiscard]] Parsed parseCommand(const std::string& json, const std::string& default_cmd = {});
 [[nodiscard]] const char* commandName(const Command& c) noexcept;
 
 constexpr std::size_t kMaxSayBytes = 2000;
+constexpr std::size_t kMaxCommandBytes = 64u << 10;
+constexpr std::size_t kMaxCommandDepth = 8;
 
 }  // namespace skr::nao

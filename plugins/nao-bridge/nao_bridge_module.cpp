@@ -9,12 +9,14 @@
 #include "robot_worker.h"
 
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
 
-#include <json/json.h>
+#include <skrobot/support/json.hpp>
+
+#include <json/value.h>
 
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -24,34 +26,19 @@ namespace nao = skr::nao;
 namespace plugin = skr::plugin;
 using nao::StateKind;
 
-std::string compact(const Json::Value& v) {
-  Json::StreamWriterBuilder w;
-  w["indentation"] = "";
-  return Json::writeString(w, v);
-}
-
-Json::Value parse(const std::string& text) {
-  Json::CharReaderBuilder b;
-  Json::Value v;
-  std::string errors;
-  std::istringstream in(text);
-  try {
-    if (!Json::parseFromStream(b, in, &v, &errors)) return Json::Value();
-  } catch (const std::exception&) {  // jsoncpp throws past its nesting limit
-    return Json::Value();
-  }
-  return v;
-}
+using skr::support::writeJson;
 
 class NaoBridge final : public plugin::Module {
  public:
   explicit NaoBridge(plugin::Host& host) : host_(host) {
-    const Json::Value config = parse(host.configJson());
-    backend_name_ = host.configString("backend", "simulated");
-    if (backend_name_ != "simulated" && backend_name_ != "naoqi") {
-      host.configError("backend", "must be \"simulated\" or \"naoqi\"");
-      throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
+    auto parsed = skr::support::parseJsonObject(host.configJson());
+    if (!parsed) {  // the host hands over the module's config object; this would be a host bug
+      throw plugin::Failure(SKR_ERR_CONFIG, "config: " + parsed.error().message);
     }
+    const Json::Value config = std::move(parsed.value());
+    // The host checked the keys against kConfig and filled in the defaults; what a declaration
+    // cannot say (the members of rates_hz and queues, min <= max) is checked here.
+    backend_name_ = host.configString("backend");
     const Json::Value& rates = config["rates_hz"];
     for (StateKind k : nao::kStateKinds) {
       const char* n = nao::stateName(k);
@@ -75,11 +62,10 @@ class NaoBridge final : public plugin::Module {
       }
       queues_.push_back(q.asString());
     }
-    worker_opt_.reconnect_min_ms = static_cast<int>(host.configInt("reconnect_min_ms", 500));
-    worker_opt_.reconnect_max_ms = static_cast<int>(host.configInt("reconnect_max_ms", 10000));
-    if (worker_opt_.reconnect_min_ms < 10 ||
-        worker_opt_.reconnect_max_ms < worker_opt_.reconnect_min_ms) {
-      host.configError("reconnect_min_ms", "must be >= 10 and <= reconnect_max_ms");
+    worker_opt_.reconnect_min_ms = static_cast<int>(host.configInt("reconnect_min_ms"));
+    worker_opt_.reconnect_max_ms = static_cast<int>(host.configInt("reconnect_max_ms"));
+    if (worker_opt_.reconnect_max_ms < worker_opt_.reconnect_min_ms) {
+      host.configError("reconnect_min_ms", "must be <= reconnect_max_ms");
       throw plugin::Failure(SKR_ERR_CONFIG, "invalid config");
     }
   }
@@ -99,7 +85,7 @@ class NaoBridge final : public plugin::Module {
       Json::Value p = props[i];
       p["rate_hz"] = worker_opt_.rate_hz[i];
       p["backend"] = backend_name_;
-      state_[i] = plugin::StreamChannel(host_, nao::stateName(k), "application/json", compact(p),
+      state_[i] = plugin::StreamChannel(host_, nao::stateName(k), "application/json", writeJson(p),
                                         [this, k](bool first) {
                                           if (worker_) worker_->setStreaming(k, first);
                                         });
@@ -167,29 +153,28 @@ class NaoBridge final : public plugin::Module {
   std::unique_ptr<nao::RobotBackend> makeBackend() {
     if (backend_name_ == "simulated") {
       nao::SimOptions o;
-      o.room_size_m = host_.configDouble("sim_room_m", 4.0);
-      o.battery = host_.configDouble("sim_battery", 1.0);
-      o.drain_scale = host_.configDouble("sim_drain_scale", 1.0);
+      o.room_size_m = host_.configDouble("sim_room_m");
+      o.battery = host_.configDouble("sim_battery");
+      o.drain_scale = host_.configDouble("sim_drain_scale");
       return std::make_unique<nao::SimBackend>(o);
     }
     nao::NaoqiOptions o;
-    o.client.host = host_.configString("host", "nao.local");
-    o.client.port = static_cast<std::uint16_t>(host_.configInt("port", 9559));
-    o.client.connect_timeout_ms = static_cast<int>(host_.configInt("connect_timeout_ms", 2000));
-    o.client.lookup_timeout_ms = static_cast<int>(host_.configInt("call_timeout_ms", 2000));
-    o.client.max_payload = static_cast<std::uint32_t>(
-        host_.configInt("max_message_bytes", nao::qi::kDefaultMaxPayload));
-    o.client.authenticate = host_.configBool("authenticate", true);
+    o.client.host = host_.configString("host");
+    o.client.port = static_cast<std::uint16_t>(host_.configInt("port"));
+    o.client.connect_timeout_ms = static_cast<int>(host_.configInt("connect_timeout_ms"));
+    o.client.lookup_timeout_ms = static_cast<int>(host_.configInt("call_timeout_ms"));
+    o.client.max_payload = static_cast<std::uint32_t>(host_.configInt("max_message_bytes"));
+    o.client.authenticate = host_.configBool("authenticate");
     if (!o.client.authenticate) {
       host_.log.warn("NAO-CONFIG",
                      "\"authenticate\": false: NAOqi 2.5 and later refuse every call until the "
                      "capability map is sent, even without a password; use it only with older "
                      "robots");
     }
-    o.client.user = host_.configString("user", "");
-    o.client.token = host_.configString("token", "");
+    o.client.user = host_.configString("user");
+    o.client.token = host_.configString("token");
     o.call_timeout_ms = o.client.lookup_timeout_ms;
-    o.motion_timeout_ms = static_cast<int>(host_.configInt("motion_timeout_ms", 30000));
+    o.motion_timeout_ms = static_cast<int>(host_.configInt("motion_timeout_ms"));
     return std::make_unique<nao::NaoqiBackend>(o);
   }
 
@@ -208,7 +193,7 @@ class NaoBridge final : public plugin::Module {
     v["backend"] = backend_name_;
     v["error"] = connected ? "" : detail;
     v["retry_in_ms"] = retry_in_ms;
-    status_json_ = compact(v);
+    status_json_ = writeJson(v);
     status_.publish(status_json_);
     plugin::dbSet(host_, std::string(host_.name()), "status", status_json_);
   }
@@ -243,10 +228,10 @@ class NaoBridge final : public plugin::Module {
     const std::uint64_t seq = ++queue_seq_;
     run(payload, "", true, [this, queue, seq](const nao::CommandResult& res) {
       if (!res.ok()) host_.log.warn("NAO-QUEUE", queue, " #", seq, ": ", res.message);
-      Json::Value v = parse(res.json());
+      Json::Value v = res.toJson();
       v["queue"] = queue;
       v["seq"] = static_cast<Json::UInt64>(seq);
-      results_.publish(compact(v));
+      results_.publish(writeJson(v));
     });
   }
 
@@ -266,7 +251,45 @@ class NaoBridge final : public plugin::Module {
   std::uint64_t queue_seq_ = 0;
 };
 
+namespace config = skr::config;
+// The config keys (docs/nao.md): checked by the host before init, defaults filled in.
+constexpr skr_config_key kConfig[] = {
+    config::string("backend", "simulated",
+                   "\"naoqi\": a real robot; \"simulated\": a kinematic Nao")
+        .oneOf("simulated|naoqi"),
+    config::string("host", "nao.local", "the robot's NAOqi host (naoqi)").nonEmpty(),
+    config::integer("port", "9559", "the robot's NAOqi port (naoqi)").range(1, 65535),
+    config::array("queues", "[]", "streaming channels (\"user.name\") whose messages are commands"),
+    config::object(
+        "rates_hz", "{}",
+        "how often each state is read while subscribed: joints, sonar, battery, posture, "
+        "fall (0..100 Hz; defaults 10, 5, 1, 2, 5)"),
+    config::integer("reconnect_min_ms", "500",
+                    "first retry delay after a failed or lost connection")
+        .range(10, 3'600'000),
+    config::integer("reconnect_max_ms", "10000", "longest retry delay (the delay doubles)")
+        .range(10, 3'600'000),
+    config::integer("connect_timeout_ms", "2000", "TCP connect timeout").range(1, 600'000),
+    config::integer("call_timeout_ms", "2000",
+                    "look-ups and state reads; a state read that times out drops the connection")
+        .range(1, 600'000),
+    config::integer("motion_timeout_ms", "30000", "commands (NAOqi answers when a motion is done)")
+        .range(1, 3'600'000),
+    config::integer("max_message_bytes", "16777216", "larger qi messages close the connection")
+        .range(4096, 1 << 30),
+    config::boolean("authenticate", "true",
+                    "send the capability map first; NAOqi 2.5 and later refuse every call without "
+                    "it (off only for older robots)"),
+    config::string("user", "", "login for robots with a password (NAOqi 2.9)"),
+    config::string("token", "", "password for robots with a password (NAOqi 2.9)"),
+    config::number("sim_room_m", "4", "simulator: side of the square room, in metres")
+        .range(1, 100),
+    config::number("sim_battery", "1", "simulator: initial charge, fraction").range(0, 1),
+    config::number("sim_drain_scale", "1", "simulator: battery drain speed-up").range(0, 1e6),
+};
+
 }  // namespace
 
-SKROBOT_MODULE(NaoBridge, "nao-bridge", "1.0.0",
-               "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0)
+SKROBOT_MODULE_WITH_CONFIG(NaoBridge, "nao-bridge", "1.0.0",
+                           "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0,
+                           kConfig)

@@ -1,6 +1,8 @@
 #include "backends.h"
 
-#include <json/json.h>
+#include <skrobot/support/json.hpp>
+
+#include <json/value.h>
 
 #include <cstdio>
 
@@ -8,12 +10,6 @@ namespace skr::nao {
 namespace {
 
 using qi::Value;
-
-std::string compact(const Json::Value& v) {
-  Json::StreamWriterBuilder w;
-  w["indentation"] = "";
-  return Json::writeString(w, v);
-}
 
 CommandResult fromError(const Error& e) {
   if (e.code == Errc::closed || e.code == Errc::io_error) {
@@ -134,7 +130,7 @@ void NaoqiBackend::read(StateKind k, StateDone done) {
                          Json::Value o(Json::objectValue);
                          o["angles"] = Json::Value(Json::arrayValue);
                          for (const Value& a : v.items()) o["angles"].append(a.asDouble());
-                         return compact(o);
+                         return support::writeJson(o);
                        }));
       break;
     case StateKind::sonar:
@@ -145,7 +141,7 @@ void NaoqiBackend::read(StateKind k, StateDone done) {
             Json::Value o(Json::objectValue);
             o["left"] = d.size() > 0 ? d[0] : 0.0;
             o["right"] = d.size() > 1 ? d[1] : 0.0;
-            return compact(o);
+            return support::writeJson(o);
           },
           [shared](Result<std::string> s) { (*shared)(std::move(s)); });
     case StateKind::battery:
@@ -154,7 +150,7 @@ void NaoqiBackend::read(StateKind k, StateDone done) {
           [](std::vector<double> d) {
             Json::Value o(Json::objectValue);
             o["charge"] = d.empty() ? 0.0 : d[0];
-            return compact(o);
+            return support::writeJson(o);
           },
           [shared](Result<std::string> s) { (*shared)(std::move(s)); });
     case StateKind::posture:
@@ -172,7 +168,7 @@ void NaoqiBackend::read(StateKind k, StateDone done) {
                            o["fallen"] = family.rfind("Lying", 0) == 0 &&
                                          requested_posture_.rfind("Lying", 0) != 0;
                          }
-                         return compact(o);
+                         return support::writeJson(o);
                        }));
       break;
   }

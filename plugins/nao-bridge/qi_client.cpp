@@ -206,12 +206,10 @@ Result<const QiClient::Service*> QiClient::lookup(const std::string& name) {
   if (!info) return info.error();
   auto link = linkFor(info.value());
   if (!link) {
-    return makeError(
-        link.error().code, name + " lives in another process, at" + [&] {
-          std::string s;
-          for (const auto& e : info->endpoints) s += " " + e;
-          return s;
-        }() + ": " + link.error().message);
+    std::string at;
+    for (const std::string& e : info->endpoints) at += " " + e;
+    return makeError(link.error().code,
+                     name + " lives in another process, at" + at + ": " + link.error().message);
   }
   auto meta = metaObject(info->service_id, kMainObject, link.value());
   if (!meta) return makeError(meta.error().code, name + ".metaObject: " + meta.error().message);

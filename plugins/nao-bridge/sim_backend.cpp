@@ -1,17 +1,11 @@
 #include "backends.h"
 
-#include <json/json.h>
+#include <skrobot/support/json.hpp>
+
+#include <json/value.h>
 #include <poll.h>
 
 namespace skr::nao {
-
-namespace {
-std::string compact(const Json::Value& v) {
-  Json::StreamWriterBuilder w;
-  w["indentation"] = "";
-  return Json::writeString(w, v);
-}
-}  // namespace
 
 SimBackend::SimBackend(SimOptions o) : robot_(o), last_ns_(qi::monotonicNs()) {}
 
@@ -53,7 +47,7 @@ void SimBackend::read(StateKind k, StateDone done) {
       v["fallen"] = robot_.fallen();
       break;
   }
-  done(compact(v));
+  done(support::writeJson(v));
 }
 
 Result<void> SimBackend::pump(int timeout_ms, int wake_fd) {

@@ -287,9 +287,28 @@ TEST_F(NaoBridge, AuthenticateFalseIsWarnedAbout) {
 }
 
 TEST_F(NaoBridge, RefusesABadConfig) {
-  auto failures = startModule("nao", R"({"backend":"python2"})", false, "nao-bridge");
-  ASSERT_EQ(failures.size(), 1u);
-  EXPECT_NE(failures[0].find("MODULE-INIT"), std::string::npos) << failures[0];
+  LogCapture log;
+  // Declared keys: the host refuses them before init.
+  for (const char* bad : {R"({"backend":"python2"})", R"({"backend":"naoqi","port":70000})",
+                          R"({"authenticate":"yes"})", R"({"sim_battery":2})"}) {
+    auto failures = startModule("nao", bad, false, "nao-bridge");
+    ASSERT_EQ(failures.size(), 1u) << bad;
+    EXPECT_NE(failures[0].find("MODULE-CONFIG"), std::string::npos) << failures[0];
+  }
+  // What a declaration cannot say, the module checks in init.
+  for (const char* bad : {R"({"rates_hz":{"joints":500}})", R"({"queues":["nodot"]})",
+                          R"({"reconnect_min_ms":5000,"reconnect_max_ms":1000})"}) {
+    auto failures = startModule("nao", bad, false, "nao-bridge");
+    ASSERT_EQ(failures.size(), 1u) << bad;
+    EXPECT_NE(failures[0].find("MODULE-INIT"), std::string::npos) << failures[0];
+  }
+  std::string lines;
+  for (const auto& l : log.lines()) lines += l + "\n";
+  for (const char* key :
+       {"config.backend", "config.port", "config.authenticate", "config.sim_battery",
+        "config.rates_hz", "config.queues", "config.reconnect_min_ms"}) {
+    EXPECT_NE(lines.find(key), std::string::npos) << key << "\n" << lines;
+  }
 }
 
 }  // namespace

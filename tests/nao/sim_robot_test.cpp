@@ -41,8 +41,13 @@ TEST(Commands, RefusesWhatANaoCannotDo) {
   EXPECT_EQ(refusal("{\"cmd\":\"dance\"}"), CommandError::unknown_command);
   EXPECT_EQ(refusal("not json"), CommandError::bad_request);
   EXPECT_EQ(refusal("[1]"), CommandError::bad_request);
-  EXPECT_EQ(refusal(std::string(5000, '[')),
-            CommandError::bad_request);  // past jsoncpp's depth limit
+  EXPECT_EQ(refusal(std::string(5000, '[')), CommandError::bad_request);
+  // The module-support parser's limits: nesting past kMaxCommandDepth, duplicate keys.
+  const Parsed deep = parseCommand(R"({"cmd":"say","text":"x","n":[[[[[[[[1]]]]]]]]})");
+  EXPECT_EQ(deep.result.error, CommandError::bad_request);
+  EXPECT_NE(deep.result.message.find("not JSON"), std::string::npos) << deep.result.message;
+  EXPECT_EQ(refusal(R"({"cmd":"say","text":"a","text":"b"})"), CommandError::bad_request);
+  EXPECT_TRUE(parseCommand(R"({"cmd":"say","text":"x","n":[[[[[[1]]]]]]})").result.ok());
   EXPECT_EQ(refusal("{}"), CommandError::bad_request);
   EXPECT_EQ(refusal(R"({"cmd":"head","yaw":2.2})"), CommandError::out_of_range);
   EXPECT_EQ(refusal(R"({"cmd":"head","pitch":0.6})"), CommandError::out_of_range);
@@ -69,6 +74,8 @@ TEST(Commands, RefusesWhatANaoCannotDo) {
   EXPECT_EQ(refusal(R"({"yaw":9})", "head"), CommandError::out_of_range);
   EXPECT_TRUE(parseCommand("{}", "stop").result.ok());
   EXPECT_TRUE(parseCommand("null", "wake").result.ok());
+  EXPECT_TRUE(parseCommand("", "wake").result.ok());  // a request without a value
+  EXPECT_EQ(refusal(""), CommandError::bad_request);
   const Leds l = std::get<Leds>(ok(R"({"cmd":"leds","group":"FaceLeds","rgb":[0,128,255]})"));
   EXPECT_EQ(l.rgb, 0x0080ffu);
   EXPECT_EQ(parseCommand(R"({"cmd":"dance"})").result.json(),

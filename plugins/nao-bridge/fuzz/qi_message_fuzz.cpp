@@ -1,7 +1,7 @@
 // Fuzz target: what a robot (or anything on port 9559) can send the qi client. The input is cut
 // into messages by MessageFramer (with a small size limit); each payload is decoded as a dynamic
-// value, as the MetaObject and ServiceInfo structures, and as a signature taken from the input.
-// Whatever decodes must re-encode and decode to the same value.
+// value, as the MetaObject and the ServiceInfo (seven and six fields) structures, and as a
+// signature taken from the input. Whatever decodes must re-encode and decode to the same value.
 #include "qi_message.h"
 #include "qi_meta.h"
 
@@ -36,6 +36,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const Type kDynamic = parseSignature("m").value();
   static const Type kMeta = parseSignature(kMetaObjectSignature).value();
   static const Type kInfo = parseSignature(kServiceInfoSignature).value();
+  static const Type kInfo6 = parseSignature(kServiceInfoSignature6).value();
 
   // First byte: how long a signature to take from the input's tail.
   if (!in.empty()) {
@@ -60,6 +61,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (meta) (void)toMetaObject(meta.value());
     auto info = decode(kInfo, msg.payload);
     if (info) (void)toServiceInfo(info.value());
+    auto info6 = decode(kInfo6, msg.payload);
+    if (info6) (void)toServiceInfo(info6.value());
+    if (info && info6) std::abort();  // one payload cannot fill both exactly
     const std::string again = encodeMessage(msg.header, msg.payload);
     if (!parseHeader(again, 4096)) std::abort();
   }

@@ -34,6 +34,8 @@ std::string_view kindName(Kind kind) noexcept {
       return "number";
     case Kind::boolean:
       return "boolean";
+    case Kind::any:
+      return "a value";
   }
   return "?";
 }
@@ -53,6 +55,8 @@ bool hasKind(const Json::Value& v, Kind kind) {
       return v.isNumeric();
     case Kind::boolean:
       return v.isBool();
+    case Kind::any:
+      return !v.isNull();
   }
   return false;
 }
@@ -213,6 +217,9 @@ Schema boolean() {
 Schema anyObject() {
   return ofKind(Kind::any_object);
 }
+Schema any() {
+  return ofKind(Kind::any);
+}
 
 Field required(std::string key, Schema schema) {
   return Field{std::move(key), std::move(schema), true, Json::Value()};
@@ -247,6 +254,7 @@ Problems validate(const Json::Value& value, const Schema& schema, const std::str
       break;
     case Kind::boolean:
     case Kind::any_object:
+    case Kind::any:
       break;
   }
   if (out.empty() && !schema.checks.empty()) {

@@ -26,6 +26,8 @@ Result<ConfigType> configType(skr_config_type type) {
       return ConfigType::array;
     case SKR_CONFIG_OBJECT:
       return ConfigType::object;
+    case SKR_CONFIG_ANY:
+      return ConfigType::any;
     default:
       break;
   }
@@ -56,6 +58,9 @@ schema::Schema keySchema(const ModuleConfigKey& k) {
       break;
     case ConfigType::boolean:
       s = schema::boolean();
+      break;
+    case ConfigType::any:
+      s = schema::any();
       break;
     case ConfigType::object:
       s = schema::anyObject();
@@ -91,6 +96,8 @@ std::string_view configTypeName(ConfigType type) noexcept {
       return "array";
     case ConfigType::object:
       return "object";
+    case ConfigType::any:
+      return "any";
   }
   return "?";
 }

@@ -199,13 +199,24 @@ std::string oneLine(std::string_view errors) {
   return out.empty() ? std::string("invalid JSON") : out;
 }
 
-// The first place where nesting goes deeper than max_depth, as "line L, column C", or empty.
-// Runs before jsoncpp so that its recursion never reaches its own (throwing) limit.
-std::string tooDeepAt(std::string_view text, std::size_t max_depth) {
+// Checks what jsoncpp lets through or cannot survive, before it runs: nesting deeper than
+// max_depth (its recursion would reach its own, throwing, limit) and raw control characters
+// (JSON allows only tab, line feed and carriage return, as whitespace; jsoncpp copies them into
+// strings and takes a NUL for the end of the text).
+Result<void> prescan(std::string_view text, std::size_t max_depth) {
   std::size_t depth = 0, line = 1, column = 0;
   bool in_string = false, escaped = false;
-  for (const char c : text) {
+  const auto where = [&] {
+    return "line " + std::to_string(line) + ", column " + std::to_string(column);
+  };
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
     ++column;
+    if (c < 0x20 && (in_string || (c != '\t' && c != '\n' && c != '\r'))) {
+      static constexpr char kHex[] = "0123456789abcdef";
+      return makeError(Errc::parse_error, std::string("control character 0x") + kHex[c >> 4] +
+                                              kHex[c & 0xf] + " at " + where());
+    }
     if (c == '\n') {
       ++line;
       column = 0;
@@ -224,7 +235,8 @@ std::string tooDeepAt(std::string_view text, std::size_t max_depth) {
       in_string = true;
     } else if (c == '[' || c == '{') {
       if (++depth > max_depth) {
-        return "line " + std::to_string(line) + ", column " + std::to_string(column);
+        return makeError(Errc::limit_exceeded, "JSON nesting deeper than " +
+                                                   std::to_string(max_depth) + " at " + where());
       }
     } else if ((c == ']' || c == '}') && depth > 0) {
       --depth;
@@ -241,10 +253,7 @@ Result<Json::Value> parseJson(std::string_view text, JsonLimits limits) {
                                                " bytes exceeds the limit of " +
                                                std::to_string(limits.max_bytes) + " bytes");
   }
-  if (const std::string where = tooDeepAt(text, limits.max_depth); !where.empty()) {
-    return makeError(Errc::limit_exceeded, "JSON nesting deeper than " +
-                                               std::to_string(limits.max_depth) + " at " + where);
-  }
+  if (auto checked = prescan(text, limits.max_depth); !checked) return checked.error();
   try {
     Json::CharReaderBuilder builder;
     Json::CharReaderBuilder::strictMode(&builder.settings_);

@@ -34,7 +34,7 @@ class FaceDetect final : public skr::plugin::Module {
 
   void start() override {
     out_ = skr::plugin::StreamChannel(host_, "faces", "application/json",
-                                      R"({"source":)" + skr::vision::jsonString(input()) + "}");
+                                      R"({"source":)" + skr::support::jsonQuote(input()) + "}");
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
           std::shared_ptr<skr::vision::FaceDetector> detector =
@@ -49,57 +49,40 @@ class FaceDetect final : public skr::plugin::Module {
   }
 
  private:
+  // Types and ranges are declared in kConfig (checked by the host); only the rules a declaration
+  // cannot express are checked here.
   static skr::vision::FaceParams readParams(skr::plugin::Host& host) {
     skr::vision::FaceParams p;
-    p.cascade = host.configString("cascade", kDefaultCascade);
-    p.model = host.configString("model", "");
-    p.scale_factor = host.configDouble("scale_factor", p.scale_factor);
-    if (!(p.scale_factor > 1.0 && p.scale_factor <= 2.0)) {
-      configFailure(host, "scale_factor", "must be > 1 and <= 2");
-    }
-    p.min_neighbors = static_cast<int>(host.configInt("min_neighbors", p.min_neighbors));
-    if (p.min_neighbors < 0 || p.min_neighbors > 50) {
-      configFailure(host, "min_neighbors", "must be 0..50");
-    }
-    p.min_size = static_cast<int>(host.configInt("min_size", p.min_size));
-    if (p.min_size < 8 || p.min_size > 4096) configFailure(host, "min_size", "must be 8..4096 px");
-    p.detect_width = static_cast<int>(host.configInt("detect_width", p.detect_width));
-    if (p.detect_width != 0 && (p.detect_width < 64 || p.detect_width > 4096)) {
+    p.cascade = host.configString("cascade");
+    p.model = host.configString("model");
+    p.scale_factor = host.configDouble("scale_factor");
+    if (!(p.scale_factor > 1.0)) configFailure(host, "scale_factor", "must be > 1 and <= 2");
+    p.min_neighbors = static_cast<int>(host.configInt("min_neighbors"));
+    p.min_size = static_cast<int>(host.configInt("min_size"));
+    p.detect_width = static_cast<int>(host.configInt("detect_width"));
+    if (p.detect_width != 0 && p.detect_width < 64) {
       configFailure(host, "detect_width", "must be 0 (full size) or 64..4096 px");
     }
-    p.score_threshold = host.configDouble("score_threshold", p.score_threshold);
-    if (!(p.score_threshold >= 0 && p.score_threshold <= 1)) {
-      configFailure(host, "score_threshold", "must be 0..1");
-    }
-    p.nms_threshold = host.configDouble("nms_threshold", p.nms_threshold);
-    if (!(p.nms_threshold >= 0 && p.nms_threshold <= 1)) {
-      configFailure(host, "nms_threshold", "must be 0..1");
-    }
-    p.top_k = static_cast<int>(host.configInt("top_k", p.top_k));
-    if (p.top_k < 1 || p.top_k > 5000) configFailure(host, "top_k", "must be 1..5000");
+    p.score_threshold = host.configDouble("score_threshold");
+    p.nms_threshold = host.configDouble("nms_threshold");
+    p.top_k = static_cast<int>(host.configInt("top_k"));
     return p;
   }
 
   static skr::vision::Outcome analyse(skr::vision::FaceDetector& detector,
                                       const skr::vision::FrameIn& in) {
-    skr::vision::JsonWriter j;
-    skr::vision::beginResult(j, in).key("faces").beginArray();
+    Json::Value result = skr::vision::resultObject(in);
+    Json::Value& faces = result["faces"] = Json::Value(Json::arrayValue);
     for (const auto& f : detector.detect(in.image)) {
-      j.beginObject()
-          .key("x")
-          .value(f.box.x)
-          .key("y")
-          .value(f.box.y)
-          .key("w")
-          .value(f.box.width)
-          .key("h")
-          .value(f.box.height)
-          .key("score")
-          .value(f.score)
-          .endObject();
+      Json::Value face(Json::objectValue);
+      face["x"] = f.box.x;
+      face["y"] = f.box.y;
+      face["w"] = f.box.width;
+      face["h"] = f.box.height;
+      face["score"] = f.score;
+      faces.append(std::move(face));
     }
-    j.endArray().endObject();
-    return {in.header.seq, j.str(), {}};
+    return {in.header.seq, skr::support::writeJson(result), {}};
   }
 
   [[nodiscard]] const std::string& input() const { return pipeline_->options().input; }
@@ -112,5 +95,22 @@ class FaceDetect final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(FaceDetect, "face-detect", "1.0.0",
-               "faces on a video channel (OpenCV cascade or YuNet)", 0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    skr::vision::kInputKey,
+    skr::vision::workersKey(8),
+    skr::vision::kMaxFpsKey,
+    cfg::string("cascade", kDefaultCascade, "OpenCV cascade file (used when model is empty)"),
+    cfg::string("model", "", "YuNet ONNX model file; empty: use the cascade"),
+    cfg::number("scale_factor", "1.2", "cascade: scale step between passes, > 1").range(1, 2),
+    cfg::integer("min_neighbors", "3", "cascade: neighbours a face needs").range(0, 50),
+    cfg::integer("min_size", "40", "smallest face, pixels of the frame").range(8, 4096),
+    cfg::integer("detect_width", "320", "frames wider are scaled down first; 0: never, else >= 64")
+        .range(0, 4096),
+    cfg::number("score_threshold", "0.6", "YuNet: lowest face score").range(0, 1),
+    cfg::number("nms_threshold", "0.3", "YuNet: non-maximum suppression overlap").range(0, 1),
+    cfg::integer("top_k", "50", "YuNet: candidates kept before suppression").range(1, 5000),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(FaceDetect, "face-detect", "1.0.0",
+                           "faces on a video channel (OpenCV cascade or YuNet)", 0, kConfig)

@@ -17,13 +17,13 @@ class Motion final : public skr::plugin::Module {
  public:
   explicit Motion(skr::plugin::Host& host) : host_(host), params_(readParams(host)) {
     // Motion compares each frame with the ones before: one worker sees them in order.
-    pipeline_.emplace(host, skr::vision::readPipelineOptions(host, 1));
+    pipeline_.emplace(host, skr::vision::readPipelineOptions(host));  // workers: 1 (kConfig)
   }
 
   void start() override {
     out_ = skr::plugin::StreamChannel(
         host_, "motion", "application/json",
-        R"({"source":)" + skr::vision::jsonString(pipeline_->options().input) + "}");
+        R"({"source":)" + skr::support::jsonQuote(pipeline_->options().input) + "}");
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
           auto analyser = std::make_shared<skr::vision::MotionAnalyser>(params_);
@@ -37,53 +37,41 @@ class Motion final : public skr::plugin::Module {
   }
 
  private:
+  // Types, ranges and choices are declared in kConfig (checked by the host).
   static skr::vision::MotionParams readParams(skr::plugin::Host& host) {
     skr::vision::MotionParams p;
-    p.method = host.configString("method", p.method);
-    if (p.method != "diff" && p.method != "mog2") {
-      configFailure(host, "method", "must be \"diff\" or \"mog2\", not \"" + p.method + "\"");
-    }
-    p.process_width = static_cast<int>(host.configInt("process_width", p.process_width));
-    if (p.process_width != 0 && (p.process_width < 32 || p.process_width > 4096)) {
+    p.method = host.configString("method");
+    p.process_width = static_cast<int>(host.configInt("process_width"));
+    if (p.process_width != 0 && p.process_width < 32) {
       configFailure(host, "process_width", "must be 0 (full size) or 32..4096 px");
     }
-    p.threshold = static_cast<int>(host.configInt("threshold", p.threshold));
-    if (p.threshold < 1 || p.threshold > 254) configFailure(host, "threshold", "must be 1..254");
-    p.min_area = static_cast<int>(host.configInt("min_area", p.min_area));
-    if (p.min_area < 0) configFailure(host, "min_area", "must be >= 0 px");
-    p.min_amount = host.configDouble("min_amount", p.min_amount);
-    if (!(p.min_amount >= 0 && p.min_amount <= 1))
-      configFailure(host, "min_amount", "must be 0..1");
-    p.history = static_cast<int>(host.configInt("history", p.history));
-    if (p.history < 1) configFailure(host, "history", "must be >= 1 frame");
+    p.threshold = static_cast<int>(host.configInt("threshold"));
+    p.min_area = static_cast<int>(host.configInt("min_area"));
+    p.min_amount = host.configDouble("min_amount");
+    p.history = static_cast<int>(host.configInt("history"));
     return p;
   }
 
   static skr::vision::Outcome analyse(skr::vision::MotionAnalyser& analyser,
                                       const skr::vision::FrameIn& in) {
     const skr::vision::MotionResult r = analyser.analyse(in.image);
-    skr::vision::JsonWriter j;
-    skr::vision::beginResult(j, in).key("amount").value(r.amount).key("center");
+    Json::Value result = skr::vision::resultObject(in);
+    result["amount"] = r.amount;
+    Json::Value& center = result["center"];  // null when nothing moves enough
     if (r.center) {
-      j.beginObject().key("x").value(r.center->x).key("y").value(r.center->y).endObject();
-    } else {
-      j.null();
+      center["x"] = r.center->x;
+      center["y"] = r.center->y;
     }
-    j.key("regions").beginArray();
+    Json::Value& regions = result["regions"] = Json::Value(Json::arrayValue);
     for (const auto& b : r.regions) {
-      j.beginObject()
-          .key("x")
-          .value(b.x)
-          .key("y")
-          .value(b.y)
-          .key("w")
-          .value(b.width)
-          .key("h")
-          .value(b.height)
-          .endObject();
+      Json::Value box(Json::objectValue);
+      box["x"] = b.x;
+      box["y"] = b.y;
+      box["w"] = b.width;
+      box["h"] = b.height;
+      regions.append(std::move(box));
     }
-    j.endArray().endObject();
-    return {in.header.seq, j.str(), {}};
+    return {in.header.seq, skr::support::writeJson(result), {}};
   }
 
   skr::plugin::Host& host_;
@@ -94,5 +82,24 @@ class Motion final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(Motion, "motion", "1.0.0", "moving regions and centre of motion on a video channel",
-               0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    skr::vision::kInputKey,
+    // Motion compares each frame with the ones before: one worker sees them in order.
+    skr::vision::workersKey(1),
+    skr::vision::kMaxFpsKey,
+    cfg::string("method", "diff", "frame difference or a MOG2 background model").oneOf("diff|mog2"),
+    cfg::integer("process_width", "320",
+                 "frames are scaled to this width first; 0: full size, "
+                 "else >= 32")
+        .range(0, 4096),
+    cfg::integer("threshold", "25", "grey-level change that counts as motion (MOG2: varThreshold)")
+        .range(1, 254),
+    cfg::integer("min_area", "100", "smallest region, pixels of the frame").min(0),
+    cfg::number("min_amount", "0.002", "below this fraction of moving pixels, no centre")
+        .range(0, 1),
+    cfg::integer("history", "100", "MOG2: frames of history").min(1),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(Motion, "motion", "1.0.0",
+                           "moving regions and centre of motion on a video channel", 0, kConfig)

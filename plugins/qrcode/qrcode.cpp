@@ -17,17 +17,15 @@ using skr::vision::configFailure;
 class QrCode final : public skr::plugin::Module {
  public:
   explicit QrCode(skr::plugin::Host& host) : host_(host) {
-    repeat_ms_ = host.configInt("repeat_ms", 1000);
-    if (repeat_ms_ < 0) configFailure(host, "repeat_ms", "must be >= 0 ms (0: every frame)");
-    density_ = static_cast<int>(host.configInt("density", 2));
-    if (density_ < 1 || density_ > 4) configFailure(host, "density", "must be 1..4");
+    repeat_ms_ = host.configInt("repeat_ms");  // declared in kConfig, checked by the host
+    density_ = static_cast<int>(host.configInt("density"));
     pipeline_.emplace(host, skr::vision::readPipelineOptions(host));
   }
 
   void start() override {
     out_ = skr::plugin::StreamChannel(
         host_, "codes", "application/json",
-        R"({"source":)" + skr::vision::jsonString(pipeline_->options().input) + "}");
+        R"({"source":)" + skr::support::jsonQuote(pipeline_->options().input) + "}");
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
           auto scanner = std::make_shared<skr::vision::CodeScanner>(density_);
@@ -56,16 +54,22 @@ class QrCode final : public skr::plugin::Module {
   static skr::vision::Outcome analyse(skr::vision::CodeScanner& scanner,
                                       const skr::vision::FrameIn& in) {
     const auto codes = scanner.scan(in.image);
-    skr::vision::JsonWriter j;
-    skr::vision::beginResult(j, in).key("codes").beginArray();
+    Json::Value result = skr::vision::resultObject(in);
+    Json::Value& list = result["codes"] = Json::Value(Json::arrayValue);
     for (const auto& c : codes) {
-      j.beginObject().key("type").value(c.type).key("text").value(c.text).key("corners");
-      j.beginArray();
-      for (const auto& p : c.corners) j.beginArray().value(p.x).value(p.y).endArray();
-      j.endArray().endObject();
+      Json::Value code(Json::objectValue);
+      code["type"] = c.type;
+      code["text"] = c.text;
+      Json::Value& corners = code["corners"] = Json::Value(Json::arrayValue);
+      for (const auto& p : c.corners) {
+        Json::Value point(Json::arrayValue);
+        point.append(p.x);
+        point.append(p.y);
+        corners.append(std::move(point));
+      }
+      list.append(std::move(code));
     }
-    j.endArray().endObject();
-    return {in.header.seq, j.str(), skr::vision::codeSetKey(codes)};
+    return {in.header.seq, skr::support::writeJson(result), skr::vision::codeSetKey(codes)};
   }
 
   skr::plugin::Host& host_;
@@ -79,4 +83,17 @@ class QrCode final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(QrCode, "qrcode", "1.0.0", "QR codes and barcodes on a video channel (zbar)", 0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    skr::vision::kInputKey,
+    skr::vision::workersKey(8),
+    skr::vision::kMaxFpsKey,
+    cfg::integer("repeat_ms", "1000",
+                 "announce codes still in view again after this; 0: every "
+                 "frame")
+        .min(0),
+    cfg::integer("density", "2", "zbar scans every density-th row and column (1: all)").range(1, 4),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(QrCode, "qrcode", "1.0.0",
+                           "QR codes and barcodes on a video channel (zbar)", 0, kConfig)

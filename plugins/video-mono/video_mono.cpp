@@ -1,5 +1,5 @@
 // video-mono: publishes <name>.mono, the Y8 (grey) variant of a JPEG video channel (config
-// "input", default video-source.video), decoded once for every module that wants grey pixels.
+// "input", required), decoded once for every module that wants grey pixels.
 // It subscribes to the input only while <name>.mono has subscribers. Same counters as the
 // detectors in its database "<name>" (frames, processed, skipped, malformed, ...).
 #include <skrobot/vision/pipeline.h>
@@ -15,18 +15,13 @@ class VideoMono final : public skr::plugin::Module {
       : host_(host), options_(skr::vision::readPipelineOptions(host)) {}
 
   void start() override {
-    skr::vision::JsonWriter props;
-    props.beginObject()
-        .key("pixel_format")
-        .value("gray")
-        .key("codec")
-        .value("raw")
-        .key("source")
-        .value(options_.input)
-        .endObject();
+    Json::Value props(Json::objectValue);
+    props["pixel_format"] = "gray";
+    props["codec"] = "raw";
+    props["source"] = options_.input;
     // Start and stop at a later pulse, not inside the hub's subscribe call.
     out_ = skr::plugin::StreamChannel(
-        host_, "mono", "application/octet-stream", props.str(),
+        host_, "mono", "application/octet-stream", skr::support::writeJson(props),
         [this](bool first) { host_.post([this, first] { setActive(first); }); });
   }
   void stop() override {
@@ -82,4 +77,8 @@ class VideoMono final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(VideoMono, "video-mono", "1.0.0", "the grey (Y8) variant of a JPEG video channel", 0)
+constexpr skr_config_key kConfig[] = {skr::vision::kInputKey, skr::vision::workersKey(8),
+                                      skr::vision::kMaxFpsKey};
+
+SKROBOT_MODULE_WITH_CONFIG(VideoMono, "video-mono", "1.0.0",
+                           "the grey (Y8) variant of a JPEG video channel", 0, kConfig)

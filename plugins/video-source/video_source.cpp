@@ -7,15 +7,14 @@
 #include <skrobot/vision/pipeline.h>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
-
-#include <json/json.h>
+#include <skrobot/support/config.hpp>
+#include <skrobot/support/json.hpp>
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
-#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -40,29 +39,21 @@ class VideoSource final : public skr::plugin::Module {
   }
 
   void start() override {
-    skr::vision::JsonWriter props;
-    props.beginObject()
-        .key("width")
-        .value(params_.width)
-        .key("height")
-        .value(params_.height)
-        .key("fps")
-        .value(params_.fps)
-        .key("pixel_format")
-        .value("yuvj420p")
-        .key("codec")
-        .value("jpeg")
-        .key("source")
-        .value(params_.file.empty() ? params_.device : params_.file)
-        .endObject();
-    out_ =
-        skr::plugin::StreamChannel(host_, "video", "image/jpeg", props.str(), [this](bool first) {
-          {
-            std::lock_guard lock(mutex_);
-            active_ = first;
-          }
-          wake_.notify_all();
-        });
+    Json::Value props(Json::objectValue);
+    props["width"] = params_.width;
+    props["height"] = params_.height;
+    props["fps"] = params_.fps;
+    props["pixel_format"] = "yuvj420p";
+    props["codec"] = "jpeg";
+    props["source"] = params_.file.empty() ? params_.device : params_.file;
+    out_ = skr::plugin::StreamChannel(host_, "video", "image/jpeg", skr::support::writeJson(props),
+                                      [this](bool first) {
+                                        {
+                                          std::lock_guard lock(mutex_);
+                                          active_ = first;
+                                        }
+                                        wake_.notify_all();
+                                      });
     db_ = std::string(host_.name());
     skr::plugin::dbSet(host_, db_, "frames", "0");
     skr::plugin::dbSet(host_, db_, "loops", "0");
@@ -80,41 +71,34 @@ class VideoSource final : public skr::plugin::Module {
   }
 
  private:
+  // Types and ranges are declared in kConfig (checked by the host); the rules a declaration
+  // cannot express are checked here.
   static skr::vision::SourceParams readParams(skr::plugin::Host& host) {
     skr::vision::SourceParams p;
-    p.file = host.configString("file", "");
+    p.file = host.configString("file");
     p.device = deviceName(host);
     if (p.file.empty() == p.device.empty()) {
       configFailure(host, p.file.empty() ? "file" : "device",
                     "give exactly one of \"file\" and \"device\"");
     }
-    p.width = static_cast<int>(host.configInt("width", p.width));
-    if (p.width < 16 || p.width > 7680 || p.width % 2 != 0) {
-      configFailure(host, "width", "must be an even number of pixels, 16..7680");
-    }
-    p.height = static_cast<int>(host.configInt("height", p.height));
-    if (p.height < 16 || p.height > 4320 || p.height % 2 != 0) {
-      configFailure(host, "height", "must be an even number of pixels, 16..4320");
-    }
-    p.fps = host.configDouble("fps", p.fps);
-    if (!(p.fps > 0 && p.fps <= 240)) configFailure(host, "fps", "must be > 0 and <= 240");
-    p.loop = host.configBool("loop", p.loop);
-    p.jpeg_quality = static_cast<int>(host.configInt("jpeg_quality", p.jpeg_quality));
-    if (p.jpeg_quality < 1 || p.jpeg_quality > 100) {
-      configFailure(host, "jpeg_quality", "must be 1..100");
-    }
+    p.width = static_cast<int>(host.configInt("width"));
+    if (p.width % 2 != 0) configFailure(host, "width", "must be an even number of pixels");
+    p.height = static_cast<int>(host.configInt("height"));
+    if (p.height % 2 != 0) configFailure(host, "height", "must be an even number of pixels");
+    p.fps = host.configDouble("fps");
+    if (!(p.fps > 0)) configFailure(host, "fps", "must be > 0 and <= 240");
+    p.loop = host.configBool("loop");
+    p.jpeg_quality = static_cast<int>(host.configInt("jpeg_quality"));
     return p;
   }
 
-  // "device" may be a path ("/dev/video0") or an index (0 or "0").
+  // "device" may be a path ("/dev/video0") or an index (0 or "0"): declared as any value, so it
+  // is read from the whole config object.
   static std::string deviceName(skr::plugin::Host& host) {
     if (!host.configHas("device")) return {};
-    Json::Value config;
-    std::istringstream in(host.configJson());
-    Json::CharReaderBuilder builder;
-    std::string errors;
-    if (!Json::parseFromStream(builder, in, &config, &errors)) return {};
-    const Json::Value& d = config["device"];
+    auto config = skr::support::parseJsonObject(host.configJson());
+    if (!config) configFailure(host, "device", config.error().message);
+    const Json::Value& d = (*config)["device"];
     if (d.isIntegral() && d.asInt64() >= 0) return std::to_string(d.asInt64());
     if (d.isString() && !d.asString().empty()) return d.asString();
     configFailure(host, "device", "must be a device path or a camera index >= 0");
@@ -183,5 +167,18 @@ class VideoSource final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(VideoSource, "video-source", "1.0.0",
-               "JPEG frames from a video file or a V4L2 camera", 0)
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    cfg::string("file", "",
+                "a video file (or an image sequence such as img_%03d.png); "
+                "give file or device"),
+    cfg::any("device", nullptr, "a V4L2 camera: a device path or an index >= 0"),
+    cfg::integer("width", "640", "frame width, even pixels").range(16, 7680),
+    cfg::integer("height", "360", "frame height, even pixels").range(16, 4320),
+    cfg::number("fps", "15", "frames per second, > 0").range(0, 240),
+    cfg::boolean("loop", "true", "play the file again from the start when it ends"),
+    cfg::integer("jpeg_quality", "80", "JPEG quality of the frames published").range(1, 100),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(VideoSource, "video-source", "1.0.0",
+                           "JPEG frames from a video file or a V4L2 camera", 0, kConfig)

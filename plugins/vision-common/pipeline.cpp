@@ -12,33 +12,24 @@ void configFailure(plugin::Host& host, const char* key, const std::string& reaso
   throw plugin::Failure(SKR_ERR_CONFIG, std::string("invalid config: ") + key + ": " + reason);
 }
 
-PipelineOptions readPipelineOptions(plugin::Host& host, int max_workers) {
+PipelineOptions readPipelineOptions(plugin::Host& host) {
   PipelineOptions o;
-  o.input = host.configString("input", o.input);
+  o.input = host.configString("input");
   if (o.input.find('.') == std::string::npos) {
     configFailure(host, "input", "'" + o.input + "' is not a channel name (<owner>.<name>)");
   }
-  const std::int64_t workers = host.configInt("workers", 1);
-  if (workers < 1 || workers > max_workers) {
-    configFailure(host, "workers",
-                  "must be 1.." + std::to_string(max_workers) + ", not " + std::to_string(workers));
-  }
-  o.workers = static_cast<int>(workers);
-  o.max_fps = host.configDouble("max_fps", 0);
-  if (!(o.max_fps >= 0)) configFailure(host, "max_fps", "must be >= 0 (0: no limit)");
+  o.workers = static_cast<int>(host.configInt("workers"));
+  o.max_fps = host.configDouble("max_fps");
   return o;
 }
 
-JsonWriter& beginResult(JsonWriter& json, const FrameIn& frame) {
-  return json.beginObject()
-      .key("seq")
-      .value(frame.header.seq)
-      .key("capture_ns")
-      .value(static_cast<std::int64_t>(frame.header.capture_ns))
-      .key("width")
-      .value(frame.image.cols)
-      .key("height")
-      .value(frame.image.rows);
+Json::Value resultObject(const FrameIn& frame) {
+  Json::Value v(Json::objectValue);
+  v["seq"] = Json::UInt64(frame.header.seq);
+  v["capture_ns"] = Json::Int64(frame.header.capture_ns);
+  v["width"] = frame.image.cols;
+  v["height"] = frame.image.rows;
+  return v;
 }
 
 Pipeline::Pipeline(plugin::Host& host, PipelineOptions options)

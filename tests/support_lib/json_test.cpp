@@ -47,6 +47,25 @@ TEST(SupportJson, StrictModeRejectsExtensionsAndTrailingText) {
   }
 }
 
+TEST(SupportJson, RawControlCharactersAreRefused) {
+  // jsoncpp alone takes a NUL for the end of the text and copies raw controls into strings.
+  for (const std::string text : {std::string("{\"a\":1}\0garbage", 15), std::string("\"a\x01b\""),
+                                 std::string("[1,\x1f"
+                                             "2]"),
+                                 std::string("\"tab\there\"")}) {
+    auto r = parseJson(text);
+    ASSERT_FALSE(r.ok()) << text;
+    EXPECT_EQ(r.error().code, Errc::parse_error);
+    EXPECT_NE(r.error().message.find("control character 0x"), std::string::npos)
+        << r.error().message;
+  }
+  auto nul = parseJson(std::string("{\"a\":1}\0", 8));
+  ASSERT_FALSE(nul.ok());
+  EXPECT_NE(nul.error().message.find("0x00 at line 1, column 8"), std::string::npos)
+      << nul.error().message;
+  EXPECT_TRUE(parseJson("{\r\n\t\"a\": \"\\t\"\n}").ok());  // whitespace and escapes are fine
+}
+
 TEST(SupportJson, NestingLimitIsExactAndNeverThrows) {
   EXPECT_TRUE(parseJson(nested(64)).ok());
   auto deep = parseJson(nested(65));

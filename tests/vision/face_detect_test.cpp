@@ -114,35 +114,45 @@ TEST_F(FaceDetect, LbpCascadeFindsTheAstronautToo) {
 
 TEST_F(FaceDetect, BadConfigFailsInitWithTheKeyAndReason) {
   startHub();
-  std::string why = startFailure("f1", R"({"cascade":"/nonexistent/face.xml"})", "face-detect");
+  std::string why = startFailure(
+      "f1", R"({"input":"guest.camera","cascade":"/nonexistent/face.xml"})", "face-detect");
   EXPECT_NE(why.find("cascade"), std::string::npos) << why;
   EXPECT_NE(why.find("/nonexistent/face.xml"), std::string::npos) << why;
 
   // A file that exists but is no cascade.
   const std::string junk = (dir_.path() / "junk.xml").string();
   std::ofstream(junk) << "<opencv_storage><x>1</x></opencv_storage>\n";
-  why = startFailure("f2", R"({"cascade":")" + junk + R"("})", "face-detect");
+  why =
+      startFailure("f2", R"({"input":"guest.camera","cascade":")" + junk + R"("})", "face-detect");
   EXPECT_NE(why.find("not an OpenCV cascade"), std::string::npos) << why;
 
-  why = startFailure("f3", R"({"scale_factor":0.9})", "face-detect");
+  why = startFailure("f3", R"({"input":"guest.camera","scale_factor":0.9})", "face-detect");
   EXPECT_NE(why.find("scale_factor"), std::string::npos) << why;
-  why = startFailure("f4", R"({"min_size":2})", "face-detect");
+  why = startFailure("f4", R"({"input":"guest.camera","min_size":2})", "face-detect");
   EXPECT_NE(why.find("min_size"), std::string::npos) << why;
-  why = startFailure("f5", R"({"workers":0})", "face-detect");
+  why = startFailure("f5", R"({"input":"guest.camera","workers":0})", "face-detect");
   EXPECT_NE(why.find("workers"), std::string::npos) << why;
   why = startFailure("f6", R"({"input":"nodot"})", "face-detect");
   EXPECT_NE(why.find("input"), std::string::npos) << why;
+  // No default input naming another module's channel: the config must say.
+  why = startFailure("f7", "{}", "face-detect");
+  EXPECT_NE(why.find("config.input: required key missing"), std::string::npos) << why;
+  why = startFailure("f8", R"({"input":"guest.camera","scale_factr":1.1})", "face-detect");
+  EXPECT_NE(why.find("config.scale_factr: unknown key (did you mean \"scale_factor\"?)"),
+            std::string::npos)
+      << why;
 }
 
 // The YuNet path: no model file ships with Debian, so only its refusals are tested here.
 TEST_F(FaceDetect, YuNetModelThatIsMissingOrNotOnnxFailsInit) {
   startHub();
-  std::string why = startFailure("y1", R"({"model":"/nonexistent/yunet.onnx"})", "face-detect");
+  std::string why = startFailure(
+      "y1", R"({"input":"guest.camera","model":"/nonexistent/yunet.onnx"})", "face-detect");
   EXPECT_NE(why.find("model"), std::string::npos) << why;
   EXPECT_NE(why.find("cannot read model file '/nonexistent/yunet.onnx'"), std::string::npos) << why;
   const std::string junk = (dir_.path() / "junk.onnx").string();
   std::ofstream(junk) << "this is not a protobuf";
-  why = startFailure("y2", R"({"model":")" + junk + R"("})", "face-detect");
+  why = startFailure("y2", R"({"input":"guest.camera","model":")" + junk + R"("})", "face-detect");
   EXPECT_NE(why.find("not a YuNet ONNX model"), std::string::npos) << why;
 }
 

@@ -143,13 +143,14 @@ TEST_F(Motion, MalformedFramesAreCountedAndSkipped) {
 
 TEST_F(Motion, BadConfigFailsInit) {
   startHub();
-  std::string why = startFailure("m1", R"({"method":"optical-flow"})", "motion");
+  std::string why =
+      startFailure("m1", R"({"input":"guest.camera","method":"optical-flow"})", "motion");
   EXPECT_NE(why.find("method"), std::string::npos) << why;
-  why = startFailure("m2", R"({"workers":2})", "motion");
-  EXPECT_NE(why.find("workers: must be 1..1"), std::string::npos) << why;
-  why = startFailure("m3", R"({"threshold":0})", "motion");
+  why = startFailure("m2", R"({"input":"guest.camera","workers":2})", "motion");
+  EXPECT_NE(why.find("config.workers: must be <= 1, got 2"), std::string::npos) << why;
+  why = startFailure("m3", R"({"input":"guest.camera","threshold":0})", "motion");
   EXPECT_NE(why.find("threshold"), std::string::npos) << why;
-  why = startFailure("m4", R"({"max_fps":-1})", "motion");
+  why = startFailure("m4", R"({"input":"guest.camera","max_fps":-1})", "motion");
   EXPECT_NE(why.find("max_fps"), std::string::npos) << why;
 }
 

@@ -185,11 +185,11 @@ TEST_F(QrCode, MalformedFramesAreCountedAndSkipped) {
 
 TEST_F(QrCode, BadConfigFailsInit) {
   startHub();
-  std::string why = startFailure("q1", R"({"repeat_ms":-5})", "qrcode");
+  std::string why = startFailure("q1", R"({"input":"guest.camera","repeat_ms":-5})", "qrcode");
   EXPECT_NE(why.find("repeat_ms"), std::string::npos) << why;
-  why = startFailure("q2", R"({"workers":9})", "qrcode");
+  why = startFailure("q2", R"({"input":"guest.camera","workers":9})", "qrcode");
   EXPECT_NE(why.find("workers"), std::string::npos) << why;
-  why = startFailure("q3", R"({"density":0})", "qrcode");
+  why = startFailure("q3", R"({"input":"guest.camera","density":0})", "qrcode");
   EXPECT_NE(why.find("density"), std::string::npos) << why;
 }
 

@@ -1,9 +1,11 @@
-// The helpers shared by the vision modules (plugins/vision-common): JSON output and decoding.
+// The helpers shared by the vision modules (plugins/vision-common): decoding. (Their JSON output
+// is the module-support library's, tested in tests/support_lib.)
 #include <skrobot/vision/decode.h>
-#include <skrobot/vision/json_writer.h>
+#include <skrobot/vision/pipeline.h>
+#include <skrobot/support/json.hpp>
 
 #include <gtest/gtest.h>
-#include <json/json.h>
+#include <json/value.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include <memory>
@@ -11,33 +13,15 @@
 namespace skr::vision {
 namespace {
 
-Json::Value parse(const std::string& text) {
-  Json::CharReaderBuilder builder;
-  std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
-  Json::Value v;
-  std::string errors;
-  EXPECT_TRUE(reader->parse(text.data(), text.data() + text.size(), &v, &errors))
-      << errors << " in " << text;
-  return v;
-}
-
-TEST(JsonWriter, NestedValuesParseBack) {
-  JsonWriter j;
-  j.beginObject().key("seq").value(std::uint64_t{18446744073709551615u}).key("n").value(-3);
-  j.key("list").beginArray().value(1.5).value(true).null().beginArray().value(2).endArray();
-  j.endArray().key("empty").beginObject().endObject().key("nan").value(0.0 / 0.0).endObject();
-  EXPECT_EQ(j.str(), R"({"seq":18446744073709551615,"n":-3,"list":[1.5,true,null,[2]],"empty":{},)"
-                     R"("nan":null})");
-  const Json::Value v = parse(j.str());
-  EXPECT_EQ(v["list"][0].asDouble(), 1.5);
-}
-
-TEST(JsonWriter, StringsAreEscapedAndMadeValidUtf8) {
-  EXPECT_EQ(jsonString("a\"b\\c\n\t\x01"), R"("a\"b\\c\n\t\u0001")");
-  EXPECT_EQ(jsonString("caf\xc3\xa9"), "\"caf\xc3\xa9\"");                  // valid UTF-8 kept
-  EXPECT_EQ(jsonString("bad\xff\xc3"), "\"bad\xef\xbf\xbd\xef\xbf\xbd\"");  // each bad byte
-  EXPECT_EQ(jsonString("\xed\xa0\x80"), "\"\xef\xbf\xbd\xef\xbf\xbd\xef\xbf\xbd\"");  // surrogate
-  EXPECT_EQ(parse(jsonString("x\"y")).asString(), "x\"y");
+TEST(ResultObject, CarriesTheFieldsOfEveryDetection) {
+  FrameIn in;
+  in.header.seq = 18446744073709551615u;
+  in.header.capture_ns = -5;
+  in.image = cv::Mat(20, 30, CV_8UC1);
+  Json::Value v = resultObject(in);
+  v["faces"] = Json::Value(Json::arrayValue);
+  EXPECT_EQ(support::writeJson(v),
+            R"({"capture_ns":-5,"faces":[],"height":20,"seq":18446744073709551615,"width":30})");
 }
 
 TEST(DecodeFrame, JpegGreyColourY8AndFailures) {

@@ -233,6 +233,7 @@ typedef enum skr_config_type {
   SKR_CONFIG_BOOL = 4,
   SKR_CONFIG_ARRAY = 5,  /* any array; min/max bound its number of items; elements unchecked */
   SKR_CONFIG_OBJECT = 6, /* any object; its members are the module's to check */
+  SKR_CONFIG_ANY = 7,    /* any value but null (e.g. a path or an index); the module checks it */
   SKR_CONFIG_TYPE_FORCE_32BIT = 0x7fffffff
 } skr_config_type;
 

@@ -31,7 +31,7 @@ struct Problem {
 };
 using Problems = std::vector<Problem>;
 
-enum class Kind { object, array, string, integer, number, boolean, any_object };
+enum class Kind { object, array, string, integer, number, boolean, any_object, any };
 
 struct Field;
 struct Schema;
@@ -80,6 +80,7 @@ struct Field {
 [[nodiscard]] Schema number();
 [[nodiscard]] Schema boolean();
 [[nodiscard]] Schema anyObject();  // any JSON object, its contents unchecked
+[[nodiscard]] Schema any();        // any JSON value except null, unchecked
 
 [[nodiscard]] Field required(std::string key, Schema schema);
 // `default_value` may be a scalar, or Json::objectValue for a section whose own fields have

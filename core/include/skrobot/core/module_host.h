@@ -63,7 +63,7 @@ struct ModuleFailure {
 };
 
 // One key a module declares for its config object (skr_config_key, copied out of the library).
-enum class ConfigType { string, integer, number, boolean, array, object };
+enum class ConfigType { string, integer, number, boolean, array, object, any };
 [[nodiscard]] std::string_view configTypeName(ConfigType type) noexcept;
 
 struct ModuleConfigKey {

@@ -91,6 +91,10 @@ constexpr Key array(const char* key, const char* default_json, const char* descr
 constexpr Key object(const char* key, const char* default_json, const char* description) {
   return {key, SKR_CONFIG_OBJECT, default_json, description};
 }
+// Any value but null; the module checks it (e.g. a device path or a camera index).
+constexpr Key any(const char* key, const char* default_json, const char* description) {
+  return {key, SKR_CONFIG_ANY, default_json, description};
+}
 
 }  // namespace skr::config
 

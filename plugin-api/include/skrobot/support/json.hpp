@@ -33,7 +33,9 @@ struct JsonLimits {
 };
 
 // Parses one JSON value (any type at the root) in strict mode: no comments, no trailing commas,
-// no single quotes, no NaN/Infinity, no duplicate keys, nothing but whitespace after the value.
+// no single quotes, no NaN/Infinity, no duplicate keys, no raw control characters (escape them
+// in strings), nothing but whitespace after the value. Strings are not checked for UTF-8:
+// writeJson replaces what is not.
 // Errors: Errc::limit_exceeded for text larger than max_bytes or nesting deeper than max_depth;
 // Errc::parse_error otherwise, with a one-line message naming the line and column.
 [[nodiscard]] Result<Json::Value> parseJson(std::string_view text, JsonLimits limits = {});

@@ -14,9 +14,12 @@
 // analyser threw; logged as VISION-ANALYSE).
 #pragma once
 
-#include <skrobot/vision/json_writer.h>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
+#include <skrobot/support/json.hpp>
+
+#include <json/value.h>
 
 #include <opencv2/core.hpp>
 
@@ -49,23 +52,39 @@ struct Outcome {
   std::string key;      // module-defined summary (qrcode: the set of codes), may be empty
 };
 
-// Opens a result object with the fields every detection carries:
-// {"seq":..,"capture_ns":..,"width":..,"height":.. (the caller adds its own and closes it).
-JsonWriter& beginResult(JsonWriter& json, const FrameIn& frame);
+// A result object with the fields every detection carries: {"seq":..,"capture_ns":..,
+// "width":..,"height":..}; the caller adds its own and writes it with support::writeJson.
+Json::Value resultObject(const FrameIn& frame);
 
 // Per-worker analysis; not shared between threads. Called on its worker thread only.
 using Analyser = std::function<Outcome(const FrameIn&)>;
 
 struct PipelineOptions {
-  std::string input = "video-source.video";  // full channel name
+  std::string input;  // full channel name, <owner>.<name>
   int workers = 1;
   double max_fps = 0;  // 0: analyse every frame a worker can take
   Pixels pixels = Pixels::grey;
 };
 
-// Reads "input", "workers" (1..8) and "max_fps" (>= 0) from the config; reports a bad value with
-// configError and throws Failure(SKR_ERR_CONFIG).
-PipelineOptions readPipelineOptions(plugin::Host& host, int max_workers = 8);
+// The config keys of the pipeline, for a module's declaration (skrobot/support/config.hpp):
+//   constexpr skr_config_key kConfig[] = {skr::vision::kInputKey, skr::vision::workersKey(8),
+//                                         skr::vision::kMaxFpsKey, ...the module's own...};
+// "input" is required: which channel feeds a module is the config's choice (config/default.json
+// wires them), never a default naming another module.
+inline constexpr skr_config_key kInputKey =
+    config::string("input", nullptr, "the video channel to read, <owner>.<name>")
+        .required()
+        .nonEmpty();
+constexpr skr_config_key workersKey(int max_workers) {
+  return config::integer("workers", "1", "worker threads analysing frames").range(1, max_workers);
+}
+inline constexpr skr_config_key kMaxFpsKey =
+    config::number("max_fps", "0", "frames analysed per second at most; 0: no limit").min(0);
+
+// Reads "input", "workers" and "max_fps" (declared with the keys above, so the host has checked
+// their types and ranges); refuses an input that is not a channel name with configError and
+// Failure(SKR_ERR_CONFIG).
+PipelineOptions readPipelineOptions(plugin::Host& host);
 
 // Throws Failure(SKR_ERR_CONFIG) after host.configError(key, reason).
 [[noreturn]] void configFailure(plugin::Host& host, const char* key, const std::string& reason);

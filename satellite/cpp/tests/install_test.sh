@@ -88,9 +88,10 @@ rt_out=$("$tmp/rt/runtime_only")
 echo "runtime_only: $rt_out"
 [[ $rt_out == '{"name":"cam","rate_hz":30} tcp:[::1]:9100 ticks 3' ]] ||
   { echo "runtime_only printed the wrong thing"; exit 1; }
-ldd "$tmp/rt/runtime_only" | grep -q "$libdir/libskrobot-runtime" ||
-  { echo "runtime_only does not use the installed runtime"; ldd "$tmp/rt/runtime_only"; exit 1; }
-if ldd "$tmp/rt/runtime_only" | grep -q libskrobot-satellite; then
+deps=$(ldd "$tmp/rt/runtime_only")  # captured: `ldd | grep -q` fails on SIGPIPE with pipefail
+grep -q "$libdir/libskrobot-runtime" <<<"$deps" ||
+  { echo "runtime_only does not use the installed runtime"; echo "$deps"; exit 1; }
+if grep -q libskrobot-satellite <<<"$deps"; then
   echo "runtime_only needs the satellite library"; exit 1
 fi
 
@@ -129,14 +130,16 @@ timeout 60 "$tmp/oot/subscriber" guest.hello 3 > "$tmp/sub.log" 2>&1 || { cat "$
 
 step "the installed flowctl finds its libraries in the prefix and lists guest.hello"
 "$cmake" --install "$build" --prefix "$tmp/prefix" --component flowctl > /dev/null
-ldd "$tmp/prefix/bin/flowctl" | grep libskrobot-runtime | grep -q "=> $tmp/prefix/" ||
-  { echo "the installed flowctl does not use the installed runtime"; ldd "$tmp/prefix/bin/flowctl"; exit 1; }
+deps=$(ldd "$tmp/prefix/bin/flowctl")
+grep -q "libskrobot-runtime.so.0 => $tmp/prefix/" <<<"$deps" ||
+  { echo "the installed flowctl does not use the installed runtime"; echo "$deps"; exit 1; }
 "$tmp/prefix/bin/flowctl" ls > "$tmp/ls.log" 2>&1 || { cat "$tmp/ls.log"; exit 1; }
 grep -q "guest.hello" "$tmp/ls.log" || { echo "flowctl ls does not list guest.hello"; cat "$tmp/ls.log"; exit 1; }
 
 kill "$hello"
 wait "$hello" || { echo "hello exited with $?"; cat "$tmp/hello.log"; exit 1; }
 grep -q "hello 2" "$tmp/sub.log" || { cat "$tmp/sub.log"; exit 1; }
-ldd "$tmp/oot/subscriber" | grep -q "$libdir/libskrobot-satellite" ||
-  { echo "the out-of-tree build does not use the installed library"; ldd "$tmp/oot/subscriber"; exit 1; }
+deps=$(ldd "$tmp/oot/subscriber")
+grep -q "$libdir/libskrobot-satellite" <<<"$deps" ||
+  { echo "the out-of-tree build does not use the installed library"; echo "$deps"; exit 1; }
 step "ok"

@@ -22,6 +22,8 @@
  *   fini        T       only to free             no (once)   cannot fail
  *
  * - The entry symbol is called once after dlopen; it must only return a pointer to static data.
+ * - Between entry and init, a module that declares its config keys (ABI 1.2) has its config
+ *   checked: on any problem it is never inited (MODULE-CONFIG), its library is closed.
  * - init runs in config order, after every module was loaded; start runs after every module was
  *   inited, in config order; stop runs in the reverse order of start; fini in reverse load order,
  *   then the library is closed. A module that failed a step never sees a later one.

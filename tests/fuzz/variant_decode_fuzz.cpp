@@ -3,9 +3,7 @@
 // non-finite float64, which JSON writes as null). The same bytes are also read as the JSON text
 // of the protocol's JSON twin commands; whatever parses must encode and round-trip.
 //
-//   clang++ -std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -Icore/include \
-//     tests/fuzz/variant_decode_fuzz.cpp core/src/flow/variant*.cpp core/src/result.cpp \
-//     $(pkg-config --cflags --libs jsoncpp) -o /tmp/variant_fuzz && /tmp/variant_fuzz
+//   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/variant_decode_fuzz
 #include <skrobot/flow/variant.h>
 
 #include <cmath>

@@ -7,8 +7,8 @@
 // change the wall figures more than the CPU ones.
 //
 //   audio_bench [--quick]
-#include "spectrum_analyser.hpp"
-#include "synthesizer.hpp"
+#include "spectrum_analyser.h"
+#include "synthesizer.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,6 +1,6 @@
-#include "player.hpp"
+#include "player.h"
 
-#include "pcm_output.hpp"
+#include <skrobot/audio/pcm_output.h>
 
 #include <chrono>
 #include <memory>

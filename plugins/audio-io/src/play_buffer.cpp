@@ -1,4 +1,4 @@
-#include "play_buffer.hpp"
+#include "play_buffer.h"
 
 namespace skr::audio {
 

@@ -4,9 +4,9 @@
 // The loop thread parses frames and counts gaps; a worker thread runs the FFT (one FFTW plan,
 // made at init) and posts the JSON back to the loop thread, which publishes it. Nothing is
 // analysed while neither output has a subscriber.
-#include "bounded_queue.hpp"
-#include "input_stats.hpp"
-#include "spectrum_analyser.hpp"
+#include <skrobot/audio/bounded_queue.h>
+#include <skrobot/audio/input_stats.h>
+#include "spectrum_analyser.h"
 
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>

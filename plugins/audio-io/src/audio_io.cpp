@@ -4,11 +4,11 @@
 // A device thread owns PortAudio (device I/O blocks; the loop thread never does). With no sound
 // device the module logs AUDIO-NO-DEVICE, sets "state" to "no-device" in its database and stays
 // idle; the hub goes on.
-#include "device_thread.hpp"
-#include "input_stats.hpp"
-#include "pcm_input.hpp"
-#include "pcm_output.hpp"
-#include "play_buffer.hpp"
+#include <skrobot/audio/input_stats.h>
+#include <skrobot/audio/pcm_input.h>
+#include <skrobot/audio/pcm_output.h>
+#include "device_thread.h"
+#include "play_buffer.h"
 
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>

@@ -1,4 +1,4 @@
-#include "synthesizer.hpp"
+#include "synthesizer.h"
 
 #include <espeak-ng/speak_lib.h>
 

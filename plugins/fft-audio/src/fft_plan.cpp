@@ -1,4 +1,4 @@
-#include "fft_plan.hpp"
+#include "fft_plan.h"
 
 #include <fftw3.h>
 

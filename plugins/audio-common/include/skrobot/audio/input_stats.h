@@ -2,7 +2,7 @@
 // gaps, gap_samples, format_changes) when they changed. Loop thread, from start() until stop().
 #pragma once
 
-#include "pcm_input.hpp"
+#include <skrobot/audio/pcm_input.h>
 
 #include <skrobot/plugin_channels.hpp>
 

@@ -1,4 +1,4 @@
-#include "spectrum_analyser.hpp"
+#include "spectrum_analyser.h"
 
 #include <skrobot/support/json.hpp>
 

@@ -7,10 +7,10 @@
 // called from the loop thread). The worker posts each finished utterance to the loop thread,
 // which publishes the timeline, then all the audio at once (faster than real time; consumers
 // play by the sample counter), then answers the request.
-#include "bounded_queue.hpp"
-#include "pcm_output.hpp"
-#include "synthesizer.hpp"
-#include "utterance_json.hpp"
+#include <skrobot/audio/bounded_queue.h>
+#include <skrobot/audio/pcm_output.h>
+#include "synthesizer.h"
+#include "utterance_json.h"
 
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>

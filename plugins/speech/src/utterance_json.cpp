@@ -1,4 +1,4 @@
-#include "utterance_json.hpp"
+#include "utterance_json.h"
 
 #include <skrobot/support/json.hpp>
 

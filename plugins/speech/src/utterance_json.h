@@ -1,7 +1,7 @@
 // The JSON messages of the speech module (docs/audio.md).
 #pragma once
 
-#include "synthesizer.hpp"
+#include "synthesizer.h"
 
 #include <cstdint>
 #include <string>

@@ -5,10 +5,10 @@
 // "write_errors", and the input counters (frames, malformed, gaps, gap_samples, ...).
 #pragma once
 
-#include "bounded_queue.hpp"
-#include "input_stats.hpp"
-#include "ogg_writer.hpp"
-#include "pcm_input.hpp"
+#include <skrobot/audio/bounded_queue.h>
+#include <skrobot/audio/input_stats.h>
+#include <skrobot/audio/pcm_input.h>
+#include "ogg_writer.h"
 
 #include <skrobot/plugin_channels.hpp>
 

@@ -5,7 +5,7 @@
 // module's database, with "played_samples").
 #pragma once
 
-#include "ogg_reader.hpp"
+#include "ogg_reader.h"
 
 #include <skrobot/plugin_channels.hpp>
 

@@ -4,7 +4,7 @@
 // accept faster than their sample rate (ALSA's null device) are paced to the wall clock.
 #pragma once
 
-#include "play_buffer.hpp"
+#include "play_buffer.h"
 
 #include <skrobot/plugin.hpp>
 

@@ -3,8 +3,8 @@
 // fft-audio module runs it on its worker, the benchmark directly.
 #pragma once
 
-#include "fft_plan.hpp"
-#include "pcm_input.hpp"
+#include <skrobot/audio/pcm_input.h>
+#include "fft_plan.h"
 
 #include <array>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "ogg_writer.hpp"
+#include "ogg_writer.h"
 
 #include <vorbis/vorbisenc.h>
 

@@ -2,7 +2,7 @@
 // channel properties of docs/channels.md.
 #pragma once
 
-#include "pcm_input.hpp"
+#include <skrobot/audio/pcm_input.h>
 
 #include <skrobot/media_frame.hpp>
 #include <skrobot/support/json.hpp>

@@ -1,4 +1,4 @@
-#include "pcm_input.hpp"
+#include <skrobot/audio/pcm_input.h>
 
 #include <skrobot/media_frame.hpp>
 

@@ -1,4 +1,4 @@
-#include "ogg_reader.hpp"
+#include "ogg_reader.h"
 
 #include <vorbis/vorbisfile.h>
 

@@ -1,7 +1,7 @@
 // vorbis: record an audio channel to Ogg Vorbis files, and play an .ogg file onto
 // <name>.playback (docs/audio.md). Either part is off when its config key is empty.
-#include "player.hpp"
-#include "recorder.hpp"
+#include "player.h"
+#include "recorder.h"
 
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>

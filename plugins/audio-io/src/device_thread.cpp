@@ -1,4 +1,4 @@
-#include "device_thread.hpp"
+#include "device_thread.h"
 
 #include <portaudio.h>
 #include <skrobot/support/json.hpp>

@@ -1,4 +1,5 @@
 #include <skrobot/core/json_schema.h>
+#include <skrobot/support/json.hpp>
 
 #include <algorithm>
 #include <charconv>
@@ -233,8 +234,9 @@ Problems validate(const Json::Value& value, const Schema& schema, const std::str
   if (!hasKind(value, schema.kind)) {
     std::string reason = "expected " + std::string(kindName(schema.kind)) + ", got ";
     // "got number" would be confusing for 1.5 where an integer is expected.
-    reason += (schema.kind == Kind::integer && value.isNumeric()) ? "non-integral number"
-                                                                  : std::string(typeName(value));
+    reason += (schema.kind == Kind::integer && value.isNumeric())
+                  ? "non-integral number"
+                  : std::string(support::jsonTypeName(value));
     out.push_back({path, std::move(reason)});
     return out;
   }
@@ -294,27 +296,6 @@ std::string childPath(const std::string& path, std::string_view key) {
 
 std::string indexPath(const std::string& path, std::size_t index) {
   return path + "[" + std::to_string(index) + "]";
-}
-
-std::string_view typeName(const Json::Value& value) noexcept {
-  switch (value.type()) {
-    case Json::nullValue:
-      return "null";
-    case Json::intValue:
-    case Json::uintValue:
-      return "integer";
-    case Json::realValue:
-      return "number";
-    case Json::stringValue:
-      return "string";
-    case Json::booleanValue:
-      return "boolean";
-    case Json::arrayValue:
-      return "array";
-    case Json::objectValue:
-      return "object";
-  }
-  return "?";
 }
 
 std::string formatNumber(double value) {

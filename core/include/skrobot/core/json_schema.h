@@ -100,8 +100,6 @@ struct Field {
 [[nodiscard]] std::string childPath(const std::string& path, std::string_view key);
 [[nodiscard]] std::string indexPath(const std::string& path, std::size_t index);
 
-// "boolean", "integer", "number", "string", "array", "object" or "null".
-[[nodiscard]] std::string_view typeName(const Json::Value& value) noexcept;
 // A number as a person writes it: 0.1, 10, 1e+20.
 [[nodiscard]] std::string formatNumber(double value);
 

@@ -138,6 +138,25 @@ TEST(SkrobotCli, CheckConfigReportsModuleConfigErrorsWithTheirPaths) {
   EXPECT_EQ(r.output.find("CONFIG-KEYS-INIT"), std::string::npos) << r.output;
 }
 
+// audio-io in a process of its own: refused before init, it is unloaded, and libjack (under
+// PortAudio) leaves its static allocations behind, which LeakSanitizer would blame on a test
+// process that loads it in-process (tests/audio/audio_config_test.cpp).
+TEST(SkrobotCli, CheckConfigReportsEveryProblemOfOneModule) {
+  TempDir dir;
+  auto cfg = dir.write("cfg.json", R"({"modules": [
+      {"name": "audio-io", "config": {"sample_rate": 1000, "capture": "yes"}}]})");
+  auto r = run({"--config", cfg.string(), "--check-config"});
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("MODULE-CONFIG $.modules[0].config.sample_rate: must be >= 8000, got "
+                          "1000"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("MODULE-CONFIG $.modules[0].config.capture: expected boolean, got "
+                          "string"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(SkrobotCli, DescribeModulePrintsItsDeclaredKeys) {
   auto r = run({"--config", kDefaultConfig, "--describe-module", "example"});
   EXPECT_EQ(r.exit_code, 0) << r.output;

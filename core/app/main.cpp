@@ -1,6 +1,7 @@
 // skrobot: the hub executable. Loads the config, starts the modules on the main loop, runs until
 // SIGINT/SIGTERM, then stops the modules in reverse order and exits 0.
 #include <skrobot/core/hub_config.h>
+#include <skrobot/core/install_layout.h>
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/core/module_host.h>
@@ -36,8 +37,9 @@ constexpr const char* kUsage =
     "       skrobot user add|del|passwd|list [NAME] [--users FILE] [--password-stdin]\n"
     "       skrobot --version | --help\n"
     "\n"
-    "  --config FILE      the hub's JSON config (default: config/default.json, or\n"
-    "                     $SKROBOT_CONFIG when set)\n"
+    "  --config FILE      the hub's JSON config (default: $SKROBOT_CONFIG when set, else\n"
+    "                     the installed <prefix>/share/skrobot/default.json, else\n"
+    "                     config/default.json of the current directory)\n"
     "  --check-config     validate the config, that every enabled module can be loaded and\n"
     "                     that its config object fits the keys the module declares (without\n"
     "                     starting it); exit 0 when all is well, 1 when a module would fail\n"
@@ -61,11 +63,6 @@ struct Options {
   std::string describe;  // --describe-module NAME
   std::string log_level;
 };
-
-fs::path defaultConfig() {
-  if (const char* env = std::getenv("SKROBOT_CONFIG"); env != nullptr && *env != '\0') return env;
-  return "config/default.json";
-}
 
 // Every enabled module through the module host's own checks (file, descriptor, declared config
 // keys), without initialising any.
@@ -280,7 +277,7 @@ int main(int argc, char** argv) {
                  "other\n");
     return kExitUsage;
   }
-  if (!config_given) opt.config = defaultConfig();
+  if (!config_given) opt.config = skr::defaultConfigFile();
 
   if (opt.list && !config_given && !fs::exists(opt.config)) return listModules({});
   if (!opt.describe.empty() && !config_given && !fs::exists(opt.config)) {

@@ -1,6 +1,8 @@
 // `skrobot user ...`: add, remove, re-password and list the accounts of the users file.
 #include "user_command.h"
 
+#include <skrobot/core/hub_config.h>
+#include <skrobot/core/install_layout.h>
 #include <skrobot/flow/accounts.h>
 
 #include <sodium.h>
@@ -26,14 +28,14 @@ constexpr int kExitFailed = 1;
 constexpr int kExitUsage = 2;
 
 constexpr const char* kUsage =
-    "usage: skrobot user add NAME    [--users FILE] [--password-stdin]\n"
-    "       skrobot user del NAME    [--users FILE]\n"
-    "       skrobot user passwd NAME [--users FILE] [--password-stdin]\n"
-    "       skrobot user list        [--users FILE]\n"
+    "usage: skrobot user add NAME    [--users FILE | --config FILE] [--password-stdin]\n"
+    "       skrobot user del NAME    [--users FILE | --config FILE]\n"
+    "       skrobot user passwd NAME [--users FILE | --config FILE] [--password-stdin]\n"
+    "       skrobot user list        [--users FILE | --config FILE]\n"
     "\n"
-    "  --users FILE      the users file (default: $SKROBOT_USERS, else\n"
-    "                    $XDG_DATA_HOME/skrobot/users.json, else "
-    "~/.local/share/skrobot/users.json)\n"
+    "  --users FILE      the users file (default: $SKROBOT_USERS, else the one the hub's\n"
+    "                    config names: accounts.users_file, else <data_dir>/users.json)\n"
+    "  --config FILE     the hub's config (default: as the hub's own, see skrobot --help)\n"
     "  --password-stdin  read the password as one line from stdin (also when stdin is not a\n"
     "                    terminal); otherwise it is asked twice, without echo\n"
     "\n"
@@ -44,6 +46,7 @@ struct Args {
   std::string verb;
   std::string name;
   std::optional<fs::path> users;
+  std::optional<fs::path> config;
   bool password_stdin = false;
 };
 
@@ -57,17 +60,20 @@ int failed(const std::string& problem) {
   return kExitFailed;
 }
 
-std::optional<fs::path> defaultUsersFile() {
-  const auto env = [](const char* name) -> std::string {
-    const char* v = std::getenv(name);
-    return v != nullptr ? v : "";
-  };
-  if (auto v = env("SKROBOT_USERS"); !v.empty()) return fs::path(v);
-  if (auto v = env("XDG_DATA_HOME"); !v.empty() && fs::path(v).is_absolute()) {
-    return fs::path(v) / "skrobot" / "users.json";
+// The file the hub itself reads: $SKROBOT_USERS, else the users file of its config.
+skr::Result<fs::path> defaultUsersFile(const std::optional<fs::path>& config) {
+  if (const char* v = std::getenv("SKROBOT_USERS"); v != nullptr && *v != '\0' && !config) {
+    return fs::path(v);
   }
-  if (auto v = env("HOME"); !v.empty()) return fs::path(v) / ".local/share/skrobot/users.json";
-  return std::nullopt;
+  const fs::path file = config ? *config : skr::defaultConfigFile();
+  auto cfg = skr::loadHubConfig(file);
+  if (!cfg) {
+    return skr::makeError(cfg.error().code, "no users file: the config " + file.string() +
+                                                " cannot be read (use --users FILE or --config "
+                                                "FILE)\n" +
+                                                cfg.error().message);
+  }
+  return cfg->server.users_file;
 }
 
 void wipe(std::string& secret) {
@@ -157,6 +163,9 @@ std::string parse(int argc, char** argv, Args& out) {
       out.users = fs::path(argv[++i]);
     } else if (a.rfind("--users=", 0) == 0) {
       out.users = fs::path(std::string(a.substr(8)));
+    } else if (a == "--config") {
+      if (i + 1 >= argc) return "--config needs a FILE";
+      out.config = fs::path(argv[++i]);
     } else if (a == "--password-stdin") {
       out.password_stdin = true;
     } else if (a.size() > 1 && a[0] == '-') {
@@ -175,6 +184,7 @@ std::string parse(int argc, char** argv, Args& out) {
   }
   if (out.verb != "list" && out.name.empty()) return out.verb + " needs a user NAME";
   if (out.users && out.users->empty()) return "--users needs a FILE";
+  if (out.users && out.config) return "--users and --config exclude each other";
   return {};
 }
 
@@ -243,8 +253,8 @@ int runUserCommand(int argc, char** argv) {
       return usage(valid.error().message);
     }
   }
-  const auto path = args.users ? args.users : defaultUsersFile();
-  if (!path) return failed("no users file: set $SKROBOT_USERS or $HOME, or use --users FILE");
+  const auto path = args.users ? skr::Result<fs::path>(*args.users) : defaultUsersFile(args.config);
+  if (!path) return failed(path.error().message);
   std::fprintf(stderr, "users file: %s\n", path->c_str());
   const int rc = run(args, *path);
   std::fflush(stdout);

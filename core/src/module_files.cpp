@@ -1,6 +1,8 @@
 // Finding module files and reading their descriptors.
 #include "module_record.h"
 
+#include <skrobot/core/install_layout.h>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,12 +26,6 @@ constexpr uint32_t kDescriptorSize12 =
 
 std::string abiText(unsigned major, unsigned minor) {
   return std::to_string(major) + "." + std::to_string(minor);
-}
-
-fs::path executableDir() {
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path() : exe.parent_path();
 }
 
 }  // namespace
@@ -62,8 +58,8 @@ std::vector<fs::path> moduleSearchPath(const std::vector<fs::path>& config_paths
     }
   }
   if (const fs::path exe_dir = executableDir(); !exe_dir.empty()) {
+    dirs.push_back(installedModuleDir());
     dirs.push_back((exe_dir / ".." / "modules").lexically_normal());
-    dirs.push_back((exe_dir / ".." / "lib" / "skrobot" / "modules").lexically_normal());
   }
   std::vector<fs::path> unique;
   for (auto& d : dirs) {

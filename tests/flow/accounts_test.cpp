@@ -1,5 +1,6 @@
 // Users file, Authenticator and `skrobot user`. argon2id costs ~0.1 s per hash: each test notes
 // how many it spends (about 25 in all).
+#include <skrobot/core/hub_config.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/flow/accounts.h>
 #include "temp_dir.h"
@@ -424,12 +425,28 @@ TEST(UserCommand, DefaultFileFromEnvironment) {  // 0 argon2id
   EXPECT_NE(env.err.find("users file: " + from_env), std::string::npos) << env.err;
 
   ::unsetenv("SKROBOT_USERS");
+  // Without --users: the file the hub reads, from its config (here: <data_dir>/users.json with
+  // the default data_dir under $XDG_DATA_HOME, and an explicit accounts.users_file).
   ::setenv("XDG_DATA_HOME", dir.path().c_str(), 1);
-  auto xdg = runCli({"list"});
-  EXPECT_EQ(xdg.rc, 0);
-  EXPECT_NE(xdg.err.find("users file: " + (dir.path() / "skrobot/users.json").string()),
-            std::string::npos)
-      << xdg.err;
+  const std::string config = (dir.path() / "hub.json").string();
+  writeFile(config, R"({"app_name": "UsersT", "modules": []})");
+  auto xdg = runCli({"list", "--config", config});
+  EXPECT_EQ(xdg.rc, 0) << xdg.err;
+  const std::string expected = (dir.path() / "skrobot/UsersT/users.json").string();
+  EXPECT_NE(xdg.err.find("users file: " + expected), std::string::npos) << xdg.err;
+  auto hub = loadHubConfig(config);
+  ASSERT_TRUE(hub);
+  EXPECT_EQ(hub->server.users_file.string(), expected);
+
+  const std::string named = (dir.path() / "named.json").string();
+  writeFile(config, R"({"app_name": "UsersT", "accounts": {"users_file": ")" + named + R"("}})");
+  auto explicit_file = runCli({"list", "--config", config});
+  EXPECT_EQ(explicit_file.rc, 0) << explicit_file.err;
+  EXPECT_NE(explicit_file.err.find("users file: " + named), std::string::npos) << explicit_file.err;
+
+  auto missing = runCli({"list", "--config", (dir.path() / "nope.json").string()});
+  EXPECT_EQ(missing.rc, 1);
+  EXPECT_NE(missing.err.find("nope.json"), std::string::npos) << missing.err;
   ::unsetenv("XDG_DATA_HOME");
 }
 

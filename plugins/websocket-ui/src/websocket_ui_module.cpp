@@ -7,6 +7,7 @@
 #include "browser_protocol.h"
 #include "source_owner.h"
 #include "visemes.h"
+#include "web_root.h"
 #include "ws_server.h"
 
 #include <skrobot/media_frame.hpp>
@@ -18,10 +19,6 @@
 #include <map>
 #include <memory>
 #include <string>
-
-#ifndef SKROBOT_WEB_ROOT
-#define SKROBOT_WEB_ROOT ""
-#endif
 
 namespace skr::wsui {
 namespace {
@@ -166,6 +163,7 @@ class WebsocketUi final : public skr::plugin::Module {
     o.address = host_.configString("address");
     o.port = static_cast<int>(host_.configInt("port"));
     o.web_root = host_.configString("web_root");
+    if (o.web_root.empty()) o.web_root = defaultWebRoot();
     o.tls_cert = host_.configString("tls_cert");
     o.tls_key = host_.configString("tls_key");
     o.max_message_bytes = static_cast<std::size_t>(host_.configInt("max_message_bytes"));
@@ -443,7 +441,9 @@ constexpr skr_config_key kConfig[] = {
     cfg::string("address", "127.0.0.1", "interface to listen on; \"0.0.0.0\" for every one")
         .nonEmpty(),
     cfg::integer("port", "8080", "HTTP and WebSocket port (0: any free port)").range(0, 65535),
-    cfg::string("web_root", SKROBOT_WEB_ROOT, "directory served (the build's copy of web/)"),
+    cfg::string("web_root", "",
+                "directory served; empty: the page installed with the hub (share/skrobot/web) "
+                "or a build tree's copy"),
     cfg::string("tls_cert", "", "PEM certificate; with tls_key: HTTPS and WSS only"),
     cfg::string("tls_key", "", "PEM private key of tls_cert"),
     cfg::integer("max_message_bytes", "1048576", "largest browser message")

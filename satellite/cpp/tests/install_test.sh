@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Installs the satellite component (libskrobot-satellite, libskrobot-runtime, their headers, the
-# CMake package and the .pc) into a temp prefix, builds a satellite out of tree against it twice
+# Installs the runtime and dev components (libskrobot-satellite, libskrobot-runtime, their
+# headers, the CMake package and the .pc) into a temp prefix, builds a satellite out of tree against it twice
 # (CMake package: satellite/examples/cpp/out-of-tree; pkg-config: a one-file program), and runs
 # both against a hub: the pkg-config one publishes, the CMake one subscribes. A third program
 # links skrobot::runtime alone (a Loop, a Variant, an address) and must not need the satellite
@@ -19,7 +19,8 @@ trap cleanup EXIT
 step() { echo "== $*"; }
 
 step "install into $tmp/prefix"
-"$cmake" --install "$build" --prefix "$tmp/prefix" --component satellite
+"$cmake" --install "$build" --prefix "$tmp/prefix" --component runtime
+"$cmake" --install "$build" --prefix "$tmp/prefix" --component dev
 pc=$(find "$tmp/prefix" -name skrobot-satellite.pc)
 libdir=$(dirname "$(dirname "$pc")")
 for f in include/skrobot/satellite.h include/skrobot/satellite/satellite.h \

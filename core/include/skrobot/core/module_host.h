@@ -104,7 +104,8 @@ struct ModuleFileInfo {
                                                  Json::Value& filled);
 
 // The directories searched for <name>.so, in order: `config_paths`, then $SKROBOT_MODULE_PATH
-// (colon separated), then <dir of the executable>/../modules and ../lib/skrobot/modules.
+// (colon separated), then the installed modules directory (<prefix>/<libdir>/skrobot/modules,
+// found from the executable's own directory) and <dir of the executable>/../modules (a build tree).
 // Duplicates are dropped; directories need not exist.
 [[nodiscard]] std::vector<std::filesystem::path> moduleSearchPath(
     const std::vector<std::filesystem::path>& config_paths);

@@ -3,6 +3,8 @@
 #
 #   tools/bootstrap.sh run    install what is missing, build, start the hub with config/default.json
 #   tools/bootstrap.sh test   install what is missing, build, run every test
+#   tools/bootstrap.sh package  install what is missing, build, make the Debian packages
+#                               (build/packages/skrobot_*.deb, skrobot-dev_*.deb; docs/install.md)
 #
 # Idempotent: packages already installed and an up-to-date build are left alone.
 set -euo pipefail
@@ -11,8 +13,8 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 MODE=${1:-}
 case "$MODE" in
-  run|test|build) ;;
-  *) echo "usage: tools/bootstrap.sh run|test|build" >&2; exit 2 ;;
+  run|test|build|package) ;;
+  *) echo "usage: tools/bootstrap.sh run|test|build|package" >&2; exit 2 ;;
 esac
 shift || true
 
@@ -34,6 +36,8 @@ PACKAGES=(
   libvorbis-dev libogg-dev sox
   # websocket-ui and its browser tests
   libwebsockets-dev chromium
+  # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)
+  dpkg-dev iproute2 curl systemd
 )
 
 # Node.js and npm for the web page's packages and its browser tests: Debian's, unless the machine
@@ -87,6 +91,14 @@ rm -rf "$ROOT/satellite/python/build" "$ROOT"/satellite/python/*.egg-info
 case "$MODE" in
   build)
     echo "built: build/release/bin/skrobot"
+    ;;
+  package)
+    step "making the Debian packages (cpack, build/packages)"
+    cpack --config build/release/CPackConfig.cmake -B build/packages > build/packages.log 2>&1 ||
+      { cat build/packages.log; exit 1; }
+    rm -rf build/packages/_CPack_Packages
+    ls -1 build/packages/*.deb
+    echo "install them with: sudo apt install ./build/packages/skrobot_*.deb [./build/packages/skrobot-dev_*.deb]"
     ;;
   run)
     step "starting the hub: build/release/bin/skrobot --config config/default.json (Ctrl-C stops it)"

@@ -9,6 +9,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace {
 
@@ -32,6 +34,9 @@ constexpr const char* kUsage =
     "       skrobot user del NAME    [--users FILE | --config FILE]\n"
     "       skrobot user passwd NAME [--users FILE | --config FILE] [--password-stdin]\n"
     "       skrobot user list        [--users FILE | --config FILE]\n"
+    "       skrobot user show NAME   [--users FILE | --config FILE]\n"
+    "       skrobot user role NAME admin|user             [--users FILE | --config FILE]\n"
+    "       skrobot user rule NAME ACTION [PATTERN...]    [--users FILE | --config FILE]\n"
     "\n"
     "  --users FILE      the users file (default: $SKROBOT_USERS, else the one the hub's\n"
     "                    config names: accounts.users_file, else <data_dir>/users.json)\n"
@@ -40,11 +45,15 @@ constexpr const char* kUsage =
     "                    terminal); otherwise it is asked twice, without echo\n"
     "\n"
     "NAME: 1..64 characters of [A-Za-z0-9_-]. Passwords are stored as argon2id hashes.\n"
+    "ACTION: publish, subscribe, call, db_read or db_write; PATTERNs in the channel-name\n"
+    "pattern syntax ('**', 'bob.*', '!bob.secret'); none: back to '**' (docs/security.md).\n"
+    "The hub reads roles and rules at login: restart it, or reconnect, to apply a change.\n"
     "Exit codes: 0 done, 1 the operation failed, 2 usage. See docs/accounts.md.\n";
 
 struct Args {
   std::string verb;
   std::string name;
+  std::vector<std::string> values;  // role: the role; rule: the action, then the patterns
   std::optional<fs::path> users;
   std::optional<fs::path> config;
   bool password_stdin = false;
@@ -168,20 +177,29 @@ std::string parse(int argc, char** argv, Args& out) {
       out.config = fs::path(argv[++i]);
     } else if (a == "--password-stdin") {
       out.password_stdin = true;
-    } else if (a.size() > 1 && a[0] == '-') {
+    } else if (a.size() > 1 && a[0] == '-' && !(out.verb == "rule" && out.values.size() >= 1)) {
       return "unknown option " + std::string(a);
     } else if (out.verb.empty()) {
       out.verb = a;
     } else if (out.name.empty() && out.verb != "list") {
       out.name = a;
+    } else if (out.verb == "role" || out.verb == "rule") {
+      out.values.emplace_back(a);
     } else {
       return "unexpected argument " + std::string(a);
     }
   }
   if (out.verb.empty()) return "missing command";
-  if (out.verb != "add" && out.verb != "del" && out.verb != "passwd" && out.verb != "list") {
+  const std::vector<std::string_view> verbs = {"add",  "del",  "passwd", "list",
+                                               "show", "role", "rule"};
+  if (std::find(verbs.begin(), verbs.end(), out.verb) == verbs.end()) {
     return "unknown command " + out.verb;
   }
+  if (out.verb == "role" &&
+      (out.values.size() != 1 || (out.values[0] != "admin" && out.values[0] != "user"))) {
+    return "role needs NAME and admin or user";
+  }
+  if (out.verb == "rule" && out.values.empty()) return "rule needs NAME and an ACTION";
   if (out.verb != "list" && out.name.empty()) return out.verb + " needs a user NAME";
   if (out.users && out.users->empty()) return "--users needs a FILE";
   if (out.users && out.config) return "--users and --config exclude each other";
@@ -201,6 +219,40 @@ int run(const Args& args, const fs::path& path) {
   if (args.verb == "list") {
     for (const auto& name : file.names()) std::printf("%s\n", name.c_str());
     if (file.empty()) std::fprintf(stderr, "no users in %s\n", path.c_str());
+    return kExitOk;
+  }
+  if (args.verb == "show" || args.verb == "role" || args.verb == "rule") {
+    if (!file.contains(args.name)) return failed("no user " + args.name + " in " + path.string());
+    skr::flow::AccessRules access = *file.accessOf(args.name);
+    if (args.verb == "role") {
+      access.setRole(args.values[0] == "admin" ? skr::flow::Role::admin : skr::flow::Role::user);
+    } else if (args.verb == "rule") {
+      std::optional<skr::flow::Action> action;
+      for (auto a :
+           {skr::flow::Action::publish, skr::flow::Action::subscribe, skr::flow::Action::call,
+            skr::flow::Action::db_read, skr::flow::Action::db_write}) {
+        if (skr::flow::actionName(a) == args.values[0]) action = a;
+      }
+      if (!action) {
+        return failed("unknown ACTION " + args.values[0] +
+                      " (publish, subscribe, call, db_read, db_write)");
+      }
+      std::vector<std::string> patterns(args.values.begin() + 1, args.values.end());
+      if (patterns.empty()) patterns.emplace_back("**");
+      if (auto set = access.setRule(*action, patterns); !set) return failed(set.error().message);
+    }
+    if (args.verb != "show") {
+      if (auto set = file.setAccess(args.name, access); !set) return failed(set.error().message);
+      if (const int rc = save(file); rc != kExitOk) return rc;
+    }
+    std::printf("%s: role %s\n", args.name.c_str(), access.admin() ? "admin" : "user");
+    for (auto a :
+         {skr::flow::Action::publish, skr::flow::Action::subscribe, skr::flow::Action::call,
+          skr::flow::Action::db_read, skr::flow::Action::db_write}) {
+      std::string line;
+      for (const auto& p : access.patterns(a)) line += (line.empty() ? "" : " ") + p;
+      std::printf("  %-9s %s\n", std::string(skr::flow::actionName(a)).c_str(), line.c_str());
+    }
     return kExitOk;
   }
   if (args.verb == "del") {

@@ -58,8 +58,8 @@ std::vector<fs::path> moduleSearchPath(const std::vector<fs::path>& config_paths
     }
   }
   if (const fs::path exe_dir = executableDir(); !exe_dir.empty()) {
-    dirs.push_back(installedModuleDir());
     dirs.push_back((exe_dir / ".." / "modules").lexically_normal());
+    dirs.push_back(installedModuleDir());
   }
   std::vector<fs::path> unique;
   for (auto& d : dirs) {

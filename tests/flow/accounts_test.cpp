@@ -452,3 +452,32 @@ TEST(UserCommand, DefaultFileFromEnvironment) {  // 0 argon2id
 
 }  // namespace
 }  // namespace skr::flow
+
+namespace skr::flow {
+namespace {
+
+TEST(UserCommand, RolesAndRules) {  // 1 argon2id
+  TempDir dir;
+  const std::string file = (dir.path() / "users.json").string();
+  ASSERT_EQ(runCli({"add", "alice", "--users", file, "--password-stdin"}, "pw\n").rc, 0);
+  EXPECT_EQ(runCli({"role", "alice", "admin", "--users", file}).rc, 0);
+  EXPECT_EQ(runCli({"rule", "alice", "subscribe", "**", "!bob.secret", "--users", file}).rc, 0);
+  EXPECT_EQ(runCli({"rule", "alice", "call", "speech.*", "--users", file}).rc, 0);
+  EXPECT_EQ(runCli({"rule", "alice", "call", "--users", file}).rc, 0);  // back to "**"
+  EXPECT_EQ(runCli({"role", "alice", "root", "--users", file}).rc, 2);
+  EXPECT_EQ(runCli({"rule", "alice", "sing", "x", "--users", file}).rc, 1);
+  EXPECT_EQ(runCli({"rule", "alice", "call", "a b", "--users", file}).rc, 1);
+  EXPECT_EQ(runCli({"rule", "bob", "call", "x", "--users", file}).rc, 1);
+  auto shown = runCli({"show", "alice", "--users", file});
+  EXPECT_EQ(shown.rc, 0);
+  EXPECT_NE(shown.out.find("role admin"), std::string::npos) << shown.out;
+  auto users = UsersFile::load(file);
+  ASSERT_TRUE(users);
+  const auto access = users->accessOf("alice");
+  EXPECT_TRUE(access->admin());
+  EXPECT_EQ(access->patterns(Action::subscribe), (std::vector<std::string>{"**", "!bob.secret"}));
+  EXPECT_EQ(access->patterns(Action::call), std::vector<std::string>{"**"});
+}
+
+}  // namespace
+}  // namespace skr::flow

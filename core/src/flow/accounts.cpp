@@ -192,7 +192,10 @@ Result<UsersFile> UsersFile::load(const fs::path& path) {
     if (!u["created"].isNull() && !u["created"].isString()) {
       return corrupt(at + ".created is not a string");
     }
-    file.users_[name] = Entry{u["hash"].asString(), u["created"].asString()};
+    auto access = AccessRules::fromJson(u, at);
+    if (!access) return corrupt(access.error().message);
+    file.users_[name] = Entry{u["hash"].asString(), u["created"].asString(),
+                              std::make_shared<const AccessRules>(std::move(access.value()))};
   }
   return file;
 }
@@ -205,6 +208,7 @@ Result<void> UsersFile::save() const {
   for (const auto& [name, e] : users_) {
     users[name]["hash"] = e.hash;
     users[name]["created"] = e.created;
+    if (e.access) e.access->toJson(users[name]);
   }
   Json::StreamWriterBuilder writer;
   writer["indentation"] = "  ";
@@ -250,7 +254,7 @@ Result<void> UsersFile::add(std::string_view user, std::string_view password) {
   }
   auto hash = hashPassword(password);
   if (!hash) return hash.error();
-  users_.emplace(std::string(user), Entry{std::move(hash.value()), nowUtc()});
+  users_.emplace(std::string(user), Entry{std::move(hash.value()), nowUtc(), nullptr});
   return {};
 }
 
@@ -302,6 +306,19 @@ std::optional<std::string> UsersFile::createdOf(std::string_view user) const {
   const auto it = users_.find(user);
   if (it == users_.end()) return std::nullopt;
   return it->second.created;
+}
+
+std::shared_ptr<const AccessRules> UsersFile::accessOf(std::string_view user) const {
+  const auto it = users_.find(user);
+  if (it == users_.end() || !it->second.access) return AccessRules::defaults();
+  return it->second.access;
+}
+
+Result<void> UsersFile::setAccess(std::string_view user, AccessRules access) {
+  const auto it = users_.find(user);
+  if (it == users_.end()) return makeError(Errc::not_found, "no user " + std::string(user));
+  it->second.access = std::make_shared<const AccessRules>(std::move(access));
+  return {};
 }
 
 std::string_view dummyPasswordHash() noexcept {

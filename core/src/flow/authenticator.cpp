@@ -153,6 +153,11 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
   queue_cv_.notify_one();
 }
 
+std::shared_ptr<const AccessRules> Authenticator::accessOf(std::string_view user) const {
+  std::lock_guard lock(users_mutex_);
+  return users_.accessOf(user);
+}
+
 Result<void> Authenticator::reload() {
   std::filesystem::path path;
   {

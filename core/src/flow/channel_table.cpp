@@ -100,6 +100,9 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   if (ch->kind != ChannelKind::streaming) {
     return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
   }
+  if (!e.access->allows(Action::subscribe, ch->name)) {
+    return accessDenied(e.user, Action::subscribe, ch->name);
+  }
   if (std::find(ch->subscribers.begin(), ch->subscribers.end(), &e) != ch->subscribers.end()) {
     return {};  // already subscribed
   }

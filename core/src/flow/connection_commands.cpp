@@ -66,6 +66,7 @@ void Connection::handleLogin(std::string_view body) {
           return;
         }
         c.user = user;
+        c.access = server.auth->accessOf(user);
         server.loggedIn(c);
         c.state_ = State::sync;
         c.send(msg::LoginOk{kProtocolMajor, kProtocolMinor, c.id, server.opt.app_name, c.user,
@@ -93,7 +94,7 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::db_create: {
       SKR_DECODE(msg::DbCreate, m);
-      answer(dbs.create(m.name));
+      answer(dbs.create(*this, m.name));
       return;
     }
     case Code::db_save: {
@@ -103,7 +104,7 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::db_remove: {
       SKR_DECODE(msg::DbRemove, m);
-      answer(dbs.remove(m.name));
+      answer(dbs.remove(*this, m.name));
       return;
     }
     case Code::var_get: {
@@ -144,7 +145,9 @@ void Connection::handleSync(Code code, std::string_view body) {
     case Code::db_list: {
       if (!body.empty()) return protocolError("DB_LIST has a body");
       Variant::List names;
-      for (auto& n : dbs.store().names()) names.emplace_back(n);
+      for (auto& n : dbs.store().names()) {
+        if (dbs.canRead(*this, n)) names.emplace_back(n);
+      }
       send(msg::ReplyValue{Variant(std::move(names))});
       return;
     }
@@ -276,12 +279,12 @@ void Connection::handleAsync(Code code, std::string_view body) {
     }
     case Code::db_create_async: {
       SKR_DECODE(msg::DbCreateAsync, m);
-      check(dbs.create(m.name), m.tag, 0);
+      check(dbs.create(*this, m.name), m.tag, 0);
       return;
     }
     case Code::db_remove_async: {
       SKR_DECODE(msg::DbRemoveAsync, m);
-      check(dbs.remove(m.name), m.tag, 0);
+      check(dbs.remove(*this, m.name), m.tag, 0);
       return;
     }
     case Code::db_save_async: {

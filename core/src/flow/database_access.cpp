@@ -75,6 +75,8 @@ PairDatabase* DatabaseAccess::current(Endpoint& e) {
 }
 
 bool DatabaseAccess::canWrite(const Endpoint& e, const std::string& db) const {
+  if (e.access->admin()) return true;
+  if (!e.access->allows(Action::db_write, db)) return false;
   auto it = owners_.find(db);
   if (it == owners_.end()) return true;  // a named database
   switch (it->second.kind) {
@@ -87,15 +89,23 @@ bool DatabaseAccess::canWrite(const Endpoint& e, const std::string& db) const {
   return false;
 }
 
+bool DatabaseAccess::canRead(const Endpoint& e, const std::string& db) const {
+  return e.access->allows(Action::db_read, db);
+}
+
 Result<void> DatabaseAccess::select(Endpoint& e, const std::string& name) {
   if (store_.find(name) == nullptr) return noDatabase(name);
+  if (!canRead(e, name)) return accessDenied(e.user, Action::db_read, name);
   e.current_db = name;
   return {};
 }
 
-Result<void> DatabaseAccess::create(const std::string& name) {
+Result<void> DatabaseAccess::create(const Endpoint& e, const std::string& name) {
   if (name.starts_with("_")) {
     return makeError(Errc::invalid_argument, "database names starting with '_' are the hub's");
+  }
+  if (!e.access->allows(Action::db_write, name)) {
+    return accessDenied(e.user, Action::db_write, name);
   }
   auto r = store_.create(name, DatabaseKind::persistent);
   if (!r) return r.error();
@@ -119,7 +129,11 @@ Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name) {
   return {};
 }
 
-Result<void> DatabaseAccess::remove(const std::string& name) {
+Result<void> DatabaseAccess::remove(const Endpoint& e, const std::string& name) {
+  if (store_.find(name) == nullptr) return noDatabase(name);
+  if (!e.access->allows(Action::db_write, name)) {
+    return accessDenied(e.user, Action::db_write, name);
+  }
   if (owners_.count(name) != 0) {
     return makeError(Errc::permission_denied,
                      "\"" + name + "\" belongs to a user, flow or channel and cannot be removed");

@@ -1,8 +1,9 @@
 // Database access: the PairDatabases as the protocol sees them, and who may write which. One per
 // flow ("_flow.<id>", transient), per user (named after the user, persistent), per channel
 // (named after the channel, transient: its properties), plus named ones anybody may create.
-// Anyone logged in reads any database; writes go to named databases, one's own user and flow
-// databases, and (as the channel's owner) one's own channels' databases. Main loop thread only.
+// A user reads the databases its db_read rule selects; writes go, within its db_write rule, to
+// named databases, its own user and flow databases, and (as the channel's owner) its own
+// channels' databases; an administrator writes any (flow/access.h). Main loop thread only.
 #pragma once
 
 #include "endpoint.h"
@@ -40,14 +41,17 @@ class DatabaseAccess {
 
   // `e`'s current database; falls back to its flow database when the current one was removed.
   PairDatabase* current(Endpoint& e);
+  // Reading needs the user's db_read rule; writing its db_write rule and ownership (named
+  // databases are anybody's), or the administrator role (flow/access.h).
+  [[nodiscard]] bool canRead(const Endpoint& e, const std::string& db) const;
   [[nodiscard]] bool canWrite(const Endpoint& e, const std::string& db) const;
 
   // The protocol's database commands. Errors: not_found, permission_denied, invalid_argument,
   // already_exists, unsupported (save without a data directory), io_error.
   [[nodiscard]] Result<void> select(Endpoint& e, const std::string& name);
-  [[nodiscard]] Result<void> create(const std::string& name);
+  [[nodiscard]] Result<void> create(const Endpoint& e, const std::string& name);
   [[nodiscard]] Result<void> save(const Endpoint& e, const std::string& name);  // empty: current
-  [[nodiscard]] Result<void> remove(const std::string& name);
+  [[nodiscard]] Result<void> remove(const Endpoint& e, const std::string& name);
   // In `db` (empty: e's current database).
   [[nodiscard]] Result<void> setVar(Endpoint& e, const std::string& db, const std::string& key,
                                     const Variant& value);

@@ -2,10 +2,12 @@
 // in-process LocalClient, and the table of those connected now. Main loop thread only.
 #pragma once
 
+#include <skrobot/flow/access.h>
 #include <skrobot/flow/protocol.h>
 #include <skrobot/flow/variant.h>
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -33,6 +35,9 @@ class Endpoint {
   std::string user;
   std::string client_name;
   std::string current_db;
+  // What it may do (flow/access.h): a connection's is its user's, set at login; the development
+  // account's and a module's are the defaults (every rule "**", no administrator role).
+  std::shared_ptr<const AccessRules> access = AccessRules::defaults();
   std::vector<uint16_t> owned;       // channels it owns
   std::vector<uint16_t> subscribed;  // channels it is subscribed to
 

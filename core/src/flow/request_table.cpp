@@ -16,6 +16,9 @@ Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t ta
   if (ch->kind != ChannelKind::service) {
     return makeError(Errc::invalid_argument, ch->name + " is not a service channel");
   }
+  if (!from.access->allows(Action::call, ch->name)) {
+    return accessDenied(from.user, Action::call, ch->name);
+  }
   if (ch->pending_requests >= max_per_channel_) {
     return makeError(Errc::overflow, ch->name + " has " + std::to_string(ch->pending_requests) +
                                          " unanswered requests, its limit");

@@ -32,6 +32,10 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
   if (!props.isNull() && !props.isMap()) {
     return makeError(Errc::invalid_argument, "channel properties must be a map");
   }
+  if (const std::string name = owner.user + "." + short_name;
+      !owner.access->allows(Action::publish, name)) {
+    return accessDenied(owner.user, Action::publish, name);
+  }
   auto added = channels.add(owner, short_name, kind, mime);
   if (!added) return added;
   Channel* raw = *added;
@@ -55,7 +59,8 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
 }
 
 Result<void> FlowServer::Impl::removeChannel(Endpoint& by, uint16_t id) {
-  auto found = channels.owned(by, id, "removes");
+  // An administrator removes any channel; anyone else only its own.
+  auto found = by.access->admin() ? channels.existing(id) : channels.owned(by, id, "removes");
   if (!found) return found.error();
   Channel& ch = **found;
   requests.failChannel(id, ErrorCode::owner_gone, "channel " + ch.name + " was removed");

@@ -1,7 +1,7 @@
 // primes: a complete small module, built out of tree (docs/plugins.md, "Your first module in ten
-// minutes"). Every period_ms a tick hands the worker thread a limit; the worker counts the primes
-// below it (the "heavy" work, never on the loop) and posts the result back to the loop, which
-// publishes it as JSON on the streaming channel primes.count:
+// minutes"). While someone subscribes to its streaming channel primes.count, a tick hands the
+// worker thread a growing limit every period_ms; the worker counts the primes below it (the
+// "heavy" work, never on the loop) and posts the result back to the loop, which publishes it:
 //   {"label": "...", "below": 2000, "primes": 303}
 // Log tags: PRIMES-START, PRIMES-STOP.
 #include <skrobot/plugin.hpp>
@@ -45,7 +45,7 @@ class Primes final : public skr::plugin::Module {
     next_ns_ = host_.nowNs() + period_ns_;
     tick_ = host_.onTick(skr::plugin::Tick::fast, [this] {
       const std::int64_t now = host_.nowNs();
-      if (now < next_ns_) return;
+      if (now < next_ns_ || !out_.hasSubscribers()) return;  // no work while nobody listens
       next_ns_ = now + period_ns_;
       std::lock_guard lock(mutex_);
       job_ = limit_ += step_;

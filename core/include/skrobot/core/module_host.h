@@ -104,8 +104,8 @@ struct ModuleFileInfo {
                                                  Json::Value& filled);
 
 // The directories searched for <name>.so, in order: `config_paths`, then $SKROBOT_MODULE_PATH
-// (colon separated), then the installed modules directory (<prefix>/<libdir>/skrobot/modules,
-// found from the executable's own directory) and <dir of the executable>/../modules (a build tree).
+// (colon separated), then <dir of the executable>/../modules (a build tree) and the installed
+// modules directory (<prefix>/<libdir>/skrobot/modules, found from the executable's own place).
 // Duplicates are dropped; directories need not exist.
 [[nodiscard]] std::vector<std::filesystem::path> moduleSearchPath(
     const std::vector<std::filesystem::path>& config_paths);

@@ -4,7 +4,8 @@
 // The users file, JSON, mode 0600:
 //   {"format": 1,
 //    "users": {"alice": {"hash": "$argon2id$v=19$m=65536,t=2,p=1$...",
-//                        "created": "2026-01-02T03:04:05Z"}}}
+//                        "created": "2026-01-02T03:04:05Z",
+//                        "role": "admin", "rules": {...}}}}   (role and rules: flow/access.h)
 //
 // User names are 1..64 characters of [A-Za-z0-9_-] (no '.': channel names are "<user>.<short>").
 // Passwords are 1..1024 bytes, any content. A password is never logged or stored; the buffers
@@ -12,6 +13,7 @@
 #pragma once
 
 #include <skrobot/core/result.h>
+#include <skrobot/flow/access.h>
 
 #include <array>
 #include <atomic>
@@ -85,6 +87,11 @@ class UsersFile {
   [[nodiscard]] std::optional<std::string> hashOf(std::string_view user) const;
   // The creation time of `user` ("YYYY-MM-DDTHH:MM:SSZ"); nullopt when unknown.
   [[nodiscard]] std::optional<std::string> createdOf(std::string_view user) const;
+  // The role and rules of `user` (flow/access.h); the defaults for a user without rules or an
+  // unknown one.
+  [[nodiscard]] std::shared_ptr<const AccessRules> accessOf(std::string_view user) const;
+  // not_found when absent.
+  [[nodiscard]] Result<void> setAccess(std::string_view user, AccessRules access);
 
   [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
 
@@ -92,6 +99,7 @@ class UsersFile {
   struct Entry {
     std::string hash;     // crypto_pwhash_str format, "$argon2id$..."
     std::string created;  // ISO-8601 UTC
+    std::shared_ptr<const AccessRules> access;  // null: the defaults
   };
   std::filesystem::path path_;
   std::map<std::string, Entry, std::less<>> users_;
@@ -165,6 +173,8 @@ class Authenticator {
   // memory are kept. Drops cache entries of changed or removed users. Blocking (file I/O); waits
   // for no argon2id.
   [[nodiscard]] Result<void> reload();
+  // The role and rules of `user` in the users file as last loaded (the defaults when unknown).
+  [[nodiscard]] std::shared_ptr<const AccessRules> accessOf(std::string_view user) const;
 
   // The users file has at least one user. The server refuses TCP without real accounts.
   [[nodiscard]] bool hasRealAccounts() const;

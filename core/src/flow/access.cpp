@@ -1,0 +1,112 @@
+#include <skrobot/flow/access.h>
+
+#include <array>
+
+namespace skr::flow {
+
+namespace {
+
+constexpr std::array<std::string_view, 5> kActionNames = {"publish", "subscribe", "call", "db_read",
+                                                          "db_write"};
+constexpr std::array<std::string_view, 5> kActionVerbs = {"publish on", "subscribe to", "call",
+                                                          "read database", "write database"};
+
+int index(Action a) {
+  return static_cast<int>(a);
+}
+
+}  // namespace
+
+std::string_view actionName(Action action) noexcept {
+  return kActionNames[index(action)];
+}
+
+AccessRules::AccessRules() {
+  for (int i = 0; i < kActions; ++i) {
+    (void)setRule(static_cast<Action>(i), {"**"});
+  }
+}
+
+std::shared_ptr<const AccessRules> AccessRules::defaults() {
+  static const auto d = std::shared_ptr<const AccessRules>(std::make_shared<AccessRules>());
+  return d;
+}
+
+Result<void> AccessRules::setRule(Action action, std::vector<std::string> patterns) {
+  auto filter = NameFilter::parse(patterns);
+  if (!filter) {
+    return makeError(Errc::invalid_argument,
+                     std::string(actionName(action)) + ": " + filter.error().message);
+  }
+  filter_[index(action)] = std::move(filter.value());
+  text_[index(action)] = std::move(patterns);
+  return {};
+}
+
+Result<AccessRules> AccessRules::fromJson(const Json::Value& entry, const std::string& at) {
+  AccessRules rules;
+  const Json::Value& role = entry["role"];
+  if (!role.isNull()) {
+    if (role == "admin") {
+      rules.role_ = Role::admin;
+    } else if (role != "user") {
+      return makeError(Errc::invalid_argument, at + ".role must be \"user\" or \"admin\"");
+    }
+  }
+  const Json::Value& r = entry["rules"];
+  if (r.isNull()) return rules;
+  if (!r.isObject()) return makeError(Errc::invalid_argument, at + ".rules is not an object");
+  for (const auto& key : r.getMemberNames()) {
+    int found = -1;
+    for (int i = 0; i < kActions; ++i) {
+      if (key == kActionNames[i]) found = i;
+    }
+    const std::string path = at + ".rules." + key;
+    if (found < 0) {
+      return makeError(Errc::invalid_argument,
+                       path + ": unknown rule (publish, subscribe, call, db_read, db_write)");
+    }
+    const Json::Value& list = r[key];
+    if (!list.isArray()) return makeError(Errc::invalid_argument, path + " is not a list");
+    std::vector<std::string> patterns;
+    for (const auto& p : list) {
+      if (!p.isString()) return makeError(Errc::invalid_argument, path + " holds a non-string");
+      patterns.push_back(p.asString());
+    }
+    if (auto ok = rules.setRule(static_cast<Action>(found), std::move(patterns)); !ok) {
+      return makeError(Errc::invalid_argument, path + ": " + ok.error().message);
+    }
+  }
+  return rules;
+}
+
+void AccessRules::toJson(Json::Value& entry) const {
+  entry.removeMember("role");
+  entry.removeMember("rules");
+  if (role_ == Role::admin) entry["role"] = "admin";
+  Json::Value rules(Json::objectValue);
+  for (int i = 0; i < kActions; ++i) {
+    if (text_[i] == std::vector<std::string>{"**"}) continue;
+    Json::Value list(Json::arrayValue);
+    for (const auto& p : text_[i]) list.append(p);
+    rules[std::string(kActionNames[i])] = list;
+  }
+  if (!rules.empty()) entry["rules"] = rules;
+}
+
+bool AccessRules::allows(Action action, std::string_view name) const {
+  return role_ == Role::admin || filter_[index(action)].selects(name);
+}
+
+const std::vector<std::string>& AccessRules::patterns(Action action) const {
+  return text_[index(action)];
+}
+
+Error accessDenied(std::string_view user, Action action, std::string_view name) {
+  return makeError(Errc::permission_denied,
+                   "user " + std::string(user) + " may not " +
+                       std::string(kActionVerbs[index(action)]) + " " + std::string(name) +
+                       " (its rules: " + std::string(actionName(action)) + ")");
+}
+
+}  // namespace skr::flow

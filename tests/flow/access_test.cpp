@@ -1,0 +1,210 @@
+// Roles and rules (flow/access.h): parsed from the users file, and obeyed by every way in.
+#include <skrobot/flow/access.h>
+#include <skrobot/flow/accounts.h>
+
+#include "flow_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <json/json.h>
+
+namespace skr::flow {
+namespace {
+
+using test::as;
+using test::Frame;
+using test::TestClient;
+
+// The error code of a REPLY_ERROR; 0 for anything else.
+uint16_t errorOf(const std::optional<Frame>& f) {
+  auto e = as<msg::ReplyError>(f);
+  return e ? e->error : 0;
+}
+
+Json::Value parse(const std::string& text) {
+  Json::Value v;
+  std::string errs;
+  Json::CharReaderBuilder b;
+  std::unique_ptr<Json::CharReader> r(b.newCharReader());
+  EXPECT_TRUE(r->parse(text.data(), text.data() + text.size(), &v, &errs)) << errs;
+  return v;
+}
+
+TEST(AccessRules, DefaultsAllowEverythingButAdministration) {
+  const auto d = AccessRules::defaults();
+  EXPECT_FALSE(d->admin());
+  for (auto a :
+       {Action::publish, Action::subscribe, Action::call, Action::db_read, Action::db_write}) {
+    EXPECT_TRUE(d->allows(a, "bob.camera"));
+    EXPECT_EQ(d->patterns(a), std::vector<std::string>{"**"});
+  }
+}
+
+TEST(AccessRules, ReadWriteAndRefuse) {
+  auto r =
+      AccessRules::fromJson(parse(R"({"role": "user", "rules": {"subscribe": ["**", "!bob.secret"],
+                                          "call": ["speech.*"]}})"),
+                            "users.alice");
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_TRUE(r->allows(Action::subscribe, "bob.camera"));
+  EXPECT_FALSE(r->allows(Action::subscribe, "bob.secret"));
+  EXPECT_TRUE(r->allows(Action::call, "speech.say"));
+  EXPECT_FALSE(r->allows(Action::call, "nao-bridge.command"));
+  EXPECT_TRUE(r->allows(Action::db_write, "anything"));  // left out: "**"
+  Json::Value back;
+  r->toJson(back);
+  EXPECT_FALSE(back.isMember("role"));
+  EXPECT_EQ(back["rules"]["call"][0].asString(), "speech.*");
+  EXPECT_FALSE(back["rules"].isMember("publish"));
+
+  auto admin = AccessRules::fromJson(parse(R"({"role": "admin", "rules": {"call": []}})"), "u");
+  ASSERT_TRUE(admin);
+  EXPECT_TRUE(admin->admin());
+  EXPECT_TRUE(admin->allows(Action::call, "x.y"));  // the role wins over an empty rule
+
+  auto bad_role = AccessRules::fromJson(parse(R"({"role": "root"})"), "users.eve");
+  ASSERT_FALSE(bad_role);
+  EXPECT_NE(bad_role.error().message.find("users.eve.role"), std::string::npos);
+  auto bad_rule = AccessRules::fromJson(parse(R"({"rules": {"sing": ["**"]}})"), "users.eve");
+  ASSERT_FALSE(bad_rule);
+  EXPECT_NE(bad_rule.error().message.find("users.eve.rules.sing"), std::string::npos);
+  auto bad_pattern = AccessRules::fromJson(parse(R"({"rules": {"call": ["a b"]}})"), "users.eve");
+  ASSERT_FALSE(bad_pattern);
+  EXPECT_NE(bad_pattern.error().message.find("users.eve.rules.call"), std::string::npos);
+}
+
+TEST(AccessRules, SurviveTheUsersFile) {
+  test::TempDir dir;
+  const auto path = dir.path() / "users.json";
+  {
+    auto users = UsersFile::load(path);
+    ASSERT_TRUE(users);
+    ASSERT_TRUE(users->add("alice", "pw-alice"));
+    AccessRules rules;
+    rules.setRole(Role::admin);
+    ASSERT_TRUE(rules.setRule(Action::db_read, {"alice*", "robot"}));
+    ASSERT_TRUE(users->setAccess("alice", rules));
+    EXPECT_FALSE(users->setAccess("nobody", rules));
+    ASSERT_TRUE(users->save());
+  }
+  auto again = UsersFile::load(path);
+  ASSERT_TRUE(again);
+  const auto a = again->accessOf("alice");
+  EXPECT_TRUE(a->admin());
+  EXPECT_EQ(a->patterns(Action::db_read), (std::vector<std::string>{"alice*", "robot"}));
+  EXPECT_FALSE(again->accessOf("nobody")->admin());
+}
+
+// A hub whose users file has a restricted user, an unrestricted one and an administrator.
+class Access : public test::FlowFixture {
+ protected:
+  void SetUp() override {
+    auto o = defaults();
+    o.users_file = dir_.path() / "users.json";
+    auto users = UsersFile::load(o.users_file);
+    ASSERT_TRUE(users);
+    for (const char* u : {"alice", "bob", "root"}) ASSERT_TRUE(users->add(u, "pw"));
+    auto alice = AccessRules::fromJson(parse(R"({"rules": {
+        "publish": ["alice.cam*"], "subscribe": ["**", "!bob.secret"], "call": ["bob.open*"],
+        "db_read": ["alice", "_flow.*", "shared"], "db_write": ["alice", "_flow.*"]}})"),
+                                       "users.alice");
+    ASSERT_TRUE(alice) << alice.error().message;
+    ASSERT_TRUE(users->setAccess("alice", *alice));
+    AccessRules root;
+    root.setRole(Role::admin);
+    ASSERT_TRUE(users->setAccess("root", root));
+    ASSERT_TRUE(users->save());
+    ASSERT_TRUE(startHub(o));
+  }
+
+  // The error code of the EV_ERROR that answers an asynchronous command of `c`.
+  uint16_t asyncError(TestClient& c) {
+    auto e = as<msg::EvError>(c.waitFor(Code::ev_error));
+    return e ? e->error : 0;
+  }
+};
+
+TEST_F(Access, RulesDecideWhatAUserMayDo) {
+  TestClient bob = flowClient("bob", "pw");
+  const uint16_t secret = addChannel(bob, "secret");
+  const uint16_t open = addChannel(bob, "open", ChannelKind::service);
+  const uint16_t closed = addChannel(bob, "closed", ChannelKind::service);
+  TestClient alice = flowClient("alice", "pw");
+
+  // subscribe: everything but bob.secret
+  ASSERT_TRUE(alice.send(msg::Subscribe{3, secret}));
+  EXPECT_EQ(asyncError(alice), uint16_t(ErrorCode::permission_denied));
+  // publish: only her own alice.cam*
+  EXPECT_NE(addChannel(alice, "camera"), 0);
+  msg::ChanAdd other;
+  other.tag = 8;
+  other.kind = uint8_t(ChannelKind::streaming);
+  other.short_name = "mic";
+  ASSERT_TRUE(alice.send(other));
+  auto e = as<msg::EvError>(alice.waitFor(Code::ev_error));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->error, uint16_t(ErrorCode::permission_denied));
+  EXPECT_NE(e->message.find("alice.mic"), std::string::npos) << e->message;
+  // call: bob.open* only; a refused request comes back as its response
+  ASSERT_TRUE(alice.send(msg::ServiceRequest{4, closed, "go", Variant()}));
+  auto refused = as<msg::EvServiceResponse>(alice.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->error, uint16_t(ErrorCode::permission_denied));
+  ASSERT_TRUE(alice.send(msg::ServiceRequest{5, open, "go", Variant()}));
+  EXPECT_TRUE(bob.waitFor(Code::ev_service_request));
+
+  // databases: she reads and writes her own, reads "shared", neither reads nor lists bob's
+  TestClient sync = syncClient("alice", "pw");
+  TestClient bob_sync = syncClient("bob", "pw");
+  EXPECT_EQ(bob_sync.call(msg::DbCreate{"shared"})->kind(), Code::reply_ok);
+  EXPECT_EQ(bob_sync.call(msg::DbCreate{"other"})->kind(), Code::reply_ok);
+  EXPECT_EQ(errorOf(sync.call(msg::DbSelect{"bob"})), uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(errorOf(sync.call(msg::DbSelect{"other"})), uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(sync.call(msg::DbSelect{"shared"})->kind(), Code::reply_ok);
+  EXPECT_EQ(errorOf(sync.call(msg::VarSet{"k", Variant(1)})),
+            uint16_t(ErrorCode::permission_denied));  // shared: not in her db_write
+  EXPECT_EQ(errorOf(sync.call(msg::DbCreate{"mine"})), uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(sync.call(msg::DbSelect{"alice"})->kind(), Code::reply_ok);
+  EXPECT_EQ(sync.call(msg::VarSet{"k", Variant(1)})->kind(), Code::reply_ok);
+  auto list = as<msg::ReplyValue>(sync.call(msg::Empty<Code::db_list>{}));
+  ASSERT_TRUE(list && list->value.isList());
+  for (const auto& name : *list->value.asList()) {
+    EXPECT_NE(*name.asString(), "bob");
+    EXPECT_NE(*name.asString(), "other");
+  }
+
+  // bob, without rules, does all he did before rules existed, and no more
+  TestClient bob2 = flowClient("bob", "pw");
+  const uint16_t cam = addChannel(alice, "cam2");
+  ASSERT_TRUE(bob2.send(msg::Subscribe{6, cam}));
+  ASSERT_TRUE(bob2.send(msg::ChanRemove{7, cam}));  // not his
+  EXPECT_EQ(asyncError(bob2), uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(errorOf(bob_sync.call(msg::DbSelect{"alice"})), 0);
+  EXPECT_EQ(errorOf(bob_sync.call(msg::VarSet{"x", Variant(2)})),
+            uint16_t(ErrorCode::permission_denied));  // alice's user database
+}
+
+TEST_F(Access, TheAdministratorRemovesAnyChannelAndWritesAnyDatabase) {
+  TestClient bob = flowClient("bob", "pw");
+  const uint16_t cam = addChannel(bob, "camera");
+  TestClient root = flowClient("root", "pw");
+  ASSERT_TRUE(root.send(msg::ChanRemove{1, cam}));
+  auto gone = as<msg::EvChanRemoved>(bob.waitFor(Code::ev_chan_removed));
+  ASSERT_TRUE(gone);
+  EXPECT_EQ(gone->chan_id, cam);
+  TestClient sync = syncClient("root", "pw");
+  EXPECT_EQ(sync.call(msg::DbSelect{"bob"})->kind(), Code::reply_ok);
+  EXPECT_EQ(sync.call(msg::VarSet{"k", Variant(1)})->kind(), Code::reply_ok);
+}
+
+TEST_F(Access, TheDevelopmentAccountKeepsTheDefaults) {
+  TestClient bob = flowClient("bob", "pw");
+  const uint16_t cam = addChannel(bob, "camera");
+  TestClient guest = flowClient("guest", "password");
+  ASSERT_TRUE(guest.send(msg::Subscribe{1, cam}));
+  ASSERT_TRUE(guest.send(msg::ChanRemove{2, cam}));  // not an administrator
+  EXPECT_EQ(asyncError(guest), uint16_t(ErrorCode::permission_denied));
+}
+
+}  // namespace
+}  // namespace skr::flow

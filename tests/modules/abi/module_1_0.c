@@ -26,9 +26,8 @@ static skr_status old_init(const skr_host_api* host, skr_module_ctx* ctx, void**
   m->host = host;
   m->ctx = ctx;
   snprintf(line, sizeof line, "count=%lld label=%s host=%u.%u",
-           (long long)host->config_int(ctx, "count", 7),
-           host->config_string(ctx, "label", "none"), (unsigned)host->abi_major,
-           (unsigned)host->abi_minor);
+           (long long)host->config_int(ctx, "count", 7), host->config_string(ctx, "label", "none"),
+           (unsigned)host->abi_major, (unsigned)host->abi_minor);
   host->log(ctx, SKR_LOG_INFO, "ABI10-INIT", line);
   *out = m;
   return SKR_OK;

@@ -30,8 +30,8 @@ static const skr_config_key k_keys[] = {
 static skr_status current_init(const skr_host_api* host, skr_module_ctx* ctx, void** out) {
   char line[256];
   snprintf(line, sizeof line, "count=%lld label=%s has_count=%d",
-           (long long)host->config_int(ctx, "count", -1),
-           host->config_string(ctx, "label", "none"), host->config_has(ctx, "count"));
+           (long long)host->config_int(ctx, "count", -1), host->config_string(ctx, "label", "none"),
+           host->config_has(ctx, "count"));
   host->log(ctx, SKR_LOG_INFO, ABI_TAG, line);
   *out = NULL;
   return SKR_OK;

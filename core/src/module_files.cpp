@@ -111,9 +111,14 @@ Result<OpenedModule> openModule(const fs::path& file) {
   const std::string versions = "built for ABI " + abiText(d->abi_major, d->abi_minor) +
                                ", this hub has ABI " +
                                abiText(SKR_PLUGIN_ABI_MAJOR, SKR_PLUGIN_ABI_MINOR);
-  // Another major may lay the rest of the struct out differently: read nothing more.
+  // Another major may lay the rest of the struct out differently, and a newer minor may give
+  // its fields a meaning this hub does not know: refuse both on the header alone, reading nothing
+  // more (tests/modules/abi/abi_compat_test.sh gives them nothing readable after it).
   if (d->abi_major != SKR_PLUGIN_ABI_MAJOR) {
     return makeError(Errc::abi_mismatch, versions + " (another major)");
+  }
+  if (d->abi_minor > SKR_PLUGIN_ABI_MINOR) {
+    return makeError(Errc::abi_mismatch, versions + " (a newer minor); upgrade the hub");
   }
   if (d->struct_size < kDescriptorSize10) {
     return makeError(Errc::parse_error, "descriptor of " + std::to_string(d->struct_size) +
@@ -127,10 +132,6 @@ Result<OpenedModule> openModule(const fs::path& file) {
   m.info.version = d->version != nullptr ? d->version : "";
   m.info.description = d->description != nullptr ? d->description : "";
   m.info.flags = d->flags;
-  if (d->abi_minor > SKR_PLUGIN_ABI_MINOR) {
-    return makeError(Errc::abi_mismatch,
-                     "'" + m.info.name + "' " + versions + " (a newer minor); upgrade the hub");
-  }
   if (d->init == nullptr) return makeError(Errc::parse_error, "the descriptor has no init");
   if (d->struct_size >= kDescriptorSize12 && d->config_keys != nullptr) {
     auto keys = readConfigKeys(d->config_keys, d->config_key_count);

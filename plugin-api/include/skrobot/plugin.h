@@ -44,7 +44,9 @@ extern "C" {
 #endif
 
 /* Major: incompatible changes; the host refuses another major. Minor: additions at the end of
- * the structs or in reserved slots; the host refuses a module built for a newer minor. */
+ * the structs or in reserved slots; the host refuses a module built for a newer minor. Either is
+ * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
+ * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
 #define SKR_PLUGIN_ABI_MINOR 2
 

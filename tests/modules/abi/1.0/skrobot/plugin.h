@@ -1,0 +1,196 @@
+/* The skrobot module ABI: the only seam between the hub and a module (an internal satellite
+ * loaded with dlopen). Plain C, usable from C and C++. No C++ type, exception or class crosses it.
+ *
+ * A module exports one symbol, skrobot_module_entry, returning a size-prefixed, versioned
+ * descriptor with its lifecycle functions. The hub passes its services in at init as a
+ * size-prefixed table of function pointers (skr_host_api); a module links nothing from the hub
+ * (modules are built with -Wl,--no-undefined).
+ *
+ * Lifecycle, in order (T = the module's loop thread: the hub's main loop thread, or the module's
+ * own loop thread when it asked for one with SKR_MODULE_WANTS_OWN_THREAD or "own_thread" in the
+ * config):
+ *
+ *   step        thread  may block                idempotent  on failure
+ *   entry       main    no                       yes         null/short descriptor or other ABI:
+ *                                                            MODULE-DESCRIPTOR / MODULE-ABI
+ *   init        T       briefly (read config)    no (once)   MODULE-INIT; registrations removed;
+ *                                                            fini NOT called; library closed
+ *   start       T       briefly                  no (once)   MODULE-START; registrations removed;
+ *                                                            stop NOT called; fini called
+ *   tick, post  T       never (use a worker)     -           -
+ *   stop        T       only to join its workers yes         MODULE-STOP; the cleanup goes on
+ *   fini        T       only to free             no (once)   cannot fail
+ *
+ * - The entry symbol is called once after dlopen; it must only return a pointer to static data.
+ * - init runs in config order, after every module was loaded; start runs after every module was
+ *   inited, in config order; stop runs in the reverse order of start; fini in reverse load order,
+ *   then the library is closed. A module that failed a step never sees a later one.
+ * - Ticks only run between a successful start and stop, even if registered during init.
+ * - Every registration (tick handlers, posted work that has not run yet) is owned by the host:
+ *   after stop returns (or after init/start failed) the host removes what is left. Posted work
+ *   that is discarded has its `cancel` called instead of `fn`, so the module can free it.
+ * - fini must accept an instance that was never started (start failed, or the hub quit early).
+ */
+#ifndef SKROBOT_PLUGIN_H
+#define SKROBOT_PLUGIN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Major: incompatible changes; the host refuses another major. Minor: additions at the end of
+ * the structs or in reserved slots; the host refuses a module built for a newer minor. */
+#define SKR_PLUGIN_ABI_MAJOR 1
+#define SKR_PLUGIN_ABI_MINOR 0
+
+#define SKR_EXPORT __attribute__((visibility("default")))
+#define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
+
+/* Status of every call that can fail. 0 is success; a module may return any of these. */
+typedef enum skr_status {
+  SKR_OK = 0,
+  SKR_ERR_INVALID_ARGUMENT = 1,   /* a null pointer, an unknown enum value */
+  SKR_ERR_NOT_FOUND = 2,          /* unknown handle or key */
+  SKR_ERR_FAILED = 3,             /* the operation failed; see the message set with set_error */
+  SKR_ERR_EXCEPTION = 4,          /* a C++ exception was caught at the seam */
+  SKR_ERR_NOT_ON_LOOP_THREAD = 5, /* a loop-thread-only call came from another thread */
+  SKR_ERR_BAD_STATE = 6,          /* not allowed in this lifecycle step (e.g. post after stop) */
+  SKR_ERR_NO_MEMORY = 7,
+  SKR_ERR_UNSUPPORTED = 8, /* not provided by this host's ABI version */
+  SKR_ERR_CONFIG = 9,      /* the module's config is invalid */
+  SKR_STATUS_FORCE_32BIT = 0x7fffffff
+} skr_status;
+
+typedef enum skr_log_level {
+  SKR_LOG_DEBUG = 0,
+  SKR_LOG_INFO = 1,
+  SKR_LOG_WARN = 2,
+  SKR_LOG_ERROR = 3
+} skr_log_level;
+
+typedef enum skr_tick {
+  SKR_TICK_FAST = 0,   /* every fast interval: the loop's resolution */
+  SKR_TICK_SLOW = 1,   /* every slow interval (>= fast) */
+  SKR_TICK_ONE_SEC = 2 /* every second */
+} skr_tick;
+
+/* Handle of a tick registration; 0 is never a valid handle. */
+typedef uint64_t skr_tick_handle;
+
+/* Opaque per-module context owned by the host, valid from init until fini returns. */
+typedef struct skr_module_ctx skr_module_ctx;
+
+/* Timing of the module's loop. Host-owned, valid until fini. */
+typedef struct skr_loop_info {
+  uint32_t struct_size;     /* sizeof(skr_loop_info) of the host; fields are only appended */
+  uint32_t own_thread;      /* 1 when the module runs on a loop thread of its own */
+  int64_t fast_interval_ns; /* FastTick period */
+  int64_t slow_interval_ns; /* SlowTick period */
+  int32_t timing_mode;      /* 0 coarse, 1 pseudo-realtime, 2 socket-driven, 3 none */
+  uint32_t reserved0;
+  const char* loop_name;
+} skr_loop_info;
+
+typedef void (*skr_callback)(void* user);
+
+/* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
+ * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
+ * on the module's loop thread (returns SKR_ERR_NOT_ON_LOOP_THREAD otherwise). */
+typedef struct skr_host_api {
+  uint32_t struct_size; /* sizeof(skr_host_api) of the host */
+  uint16_t abi_major;   /* the host's ABI */
+  uint16_t abi_minor;
+
+  /* --- logging (any) --- */
+  /* One line, source "mod.<name>", with a stable `tag` (may be NULL or ""). */
+  void (*log)(skr_module_ctx* ctx, skr_log_level level, const char* tag, const char* message);
+  /* Non-zero when lines of `level` are written; skip formatting otherwise. */
+  int (*log_enabled)(skr_module_ctx* ctx, skr_log_level level);
+
+  /* --- the module's config object (any; read-only) --- */
+  /* `key` is a member of the module's "config" object. A missing key gives the default; a key of
+   * the wrong type gives the default and logs MODULE-CONFIG. Strings are host-owned, valid until
+   * fini. */
+  const char* (*config_string)(skr_module_ctx* ctx, const char* key, const char* default_value);
+  int64_t (*config_int)(skr_module_ctx* ctx, const char* key, int64_t default_value);
+  double (*config_double)(skr_module_ctx* ctx, const char* key, double default_value);
+  int (*config_bool)(skr_module_ctx* ctx, const char* key, int default_value);
+  int (*config_has)(skr_module_ctx* ctx, const char* key);
+  /* The whole config object as JSON text, for complex values. Host-owned, valid until fini. */
+  const char* (*config_json)(skr_module_ctx* ctx);
+  /* Reports a config problem: logs "MODULE-CONFIG $.modules[N].config.<key>: <reason>". Init
+   * should then fail with SKR_ERR_CONFIG; the host quotes the problem if no error was set. */
+  void (*config_error)(skr_module_ctx* ctx, const char* key, const char* reason);
+
+  /* --- ticks (loop) --- */
+  /* Calls fn(user) on every tick of `which` while the module is started (from start until stop),
+   * in registration order. `user` stays the module's. Allowed from init until stop returns. */
+  skr_status (*tick_add)(skr_module_ctx* ctx, skr_tick which, skr_callback fn, void* user,
+                         skr_tick_handle* handle_out);
+  /* After it returns, fn is never called again. SKR_ERR_NOT_FOUND for an unknown handle or one
+   * the host already removed at stop. */
+  skr_status (*tick_remove)(skr_module_ctx* ctx, skr_tick_handle handle);
+
+  /* --- work from other threads (any) --- */
+  /* Thread-safe; wakes the loop. Exactly one of fn(user) (on the loop thread, at a later pulse,
+   * in post order) or cancel(user) (when the module stops before it ran; cancel may be NULL) is
+   * called. Allowed from init until stop returns; otherwise SKR_ERR_BAD_STATE and neither is
+   * called (the caller still owns `user`). */
+  skr_status (*post)(skr_module_ctx* ctx, skr_callback fn, skr_callback cancel, void* user);
+
+  /* --- time and loop (any) --- */
+  int64_t (*now_ns)(void); /* monotonic clock, nanoseconds */
+  const skr_loop_info* (*loop_info)(skr_module_ctx* ctx);
+
+  /* --- errors --- */
+  /* Explains why init/start/stop fails; the host logs it. Call on the loop thread during that
+   * step. The text is copied. */
+  void (*set_error)(skr_module_ctx* ctx, const char* message);
+  /* Static text for a status; never NULL. */
+  const char* (*strerror)(skr_status status);
+  /* The module's name in the config (its log source is "mod.<name>"). */
+  const char* (*module_name)(skr_module_ctx* ctx);
+
+  /* Later minors fill these (channels, databases); NULL in 1.0. */
+  void (*reserved[32])(void);
+} skr_host_api;
+
+/* Flags of skr_module_descriptor. Unknown flags are ignored. */
+#define SKR_MODULE_WANTS_OWN_THREAD ((uint64_t)1 << 0) /* run on a loop thread of its own */
+
+/* What skrobot_module_entry returns: static data, never freed. */
+typedef struct skr_module_descriptor {
+  uint32_t struct_size;    /* sizeof(skr_module_descriptor) the module was built with */
+  uint16_t abi_major;      /* SKR_PLUGIN_ABI_MAJOR the module was built against */
+  uint16_t abi_minor;      /* SKR_PLUGIN_ABI_MINOR the module was built against */
+  const char* name;        /* required, e.g. "example" */
+  const char* version;     /* the module's own version, e.g. "1.2.0"; may be NULL */
+  const char* description; /* one line; may be NULL */
+  uint64_t flags;          /* SKR_MODULE_* */
+
+  /* Required. Reads config, creates the instance, may register ticks and post work. `host` and
+   * `ctx` stay valid until fini returns; keep them. *instance_out (may stay NULL) is passed to
+   * the other steps. On failure: call host->set_error, free everything, return non-OK. */
+  skr_status (*init)(const skr_host_api* host, skr_module_ctx* ctx, void** instance_out);
+  /* Optional. Starts producing (workers, ticks). On failure: undo what start did. */
+  skr_status (*start)(void* instance);
+  /* Optional. Stops producing and joins the module's own threads; must not post afterwards.
+   * Idempotent: a second call is a no-op. */
+  skr_status (*stop)(void* instance);
+  /* Optional. Frees the instance. Last call into the module before dlclose. */
+  void (*fini)(void* instance);
+} skr_module_descriptor;
+
+typedef const skr_module_descriptor* (*skr_module_entry_fn)(void);
+
+/* The one symbol a module exports (C linkage, default visibility). */
+SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+
+#endif /* SKROBOT_PLUGIN_H */

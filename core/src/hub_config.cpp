@@ -223,7 +223,7 @@ s::Schema serverSchema() {
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
-      s::optional("login_timeout_ms", s::integer().range(100, 600000), 10000),
+      s::optional("login_timeout_ms", s::integer().range(100, 600000), 5000),
       s::optional("max_pending_requests", s::integer().range(1, 1000000), 1024),
   });
 }

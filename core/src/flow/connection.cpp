@@ -18,7 +18,9 @@ bool inRange(uint8_t code, uint8_t lo, uint8_t hi) {
 }  // namespace
 
 Connection::Connection(FlowServer::Impl& server, Transport transport)
-    : server_(server), transport_(transport), splitter_(server.opt.max_frame_bytes) {
+    : server_(server),
+      transport_(transport),
+      splitter_(std::min(kPreLoginMaxFrameBytes, server.opt.max_frame_bytes)) {
   handle_.pipe.data = this;  // both members start with the uv_handle_t fields
 }
 
@@ -91,7 +93,8 @@ void Connection::processInput() {
     }
     if (n.status == FrameSplitter::Status::too_large) {
       protocolError("frame length " + std::to_string(n.announced) + " exceeds the limit of " +
-                    std::to_string(splitter_.maxFrameBytes()) + " bytes");
+                    std::to_string(splitter_.maxFrameBytes()) + " bytes" +
+                    (state_ == State::login ? " before login" : ""));
       return;
     }
     if (n.status == FrameSplitter::Status::empty_frame) {

@@ -37,6 +37,10 @@ class Connection final : public Endpoint {
   [[nodiscard]] Transport transport() const noexcept { return transport_; }
   Nanos login_deadline = 0;
   bool flush_queued = false;
+  // Where it comes from, for the login throttle: "tcp:<address>" or "uid:<n>" (set at accept).
+  std::string source;
+  // Verifies a LOGIN (after the throttle's delay, if any).
+  void verifyLogin(msg::Login m);
 
   // Endpoint
   [[nodiscard]] bool receivesEvents() const override { return state_ == State::flow; }

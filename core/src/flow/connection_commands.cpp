@@ -49,6 +49,18 @@ void Connection::handleLogin(std::string_view body) {
   client_name = m.client_name;
   state_ = State::authenticating;
   block();
+  const Nanos now = monotonicNs();
+  if (const Nanos wait = server_.throttle.wait(m.user, source, now); wait > 0) {
+    log::warn(kLogSource, "FLOW-LOGIN-THROTTLED",
+              describe() + ": login as \"" + m.user + "\" held back " +
+                  std::to_string(wait / kNsPerMs) + " ms after failed logins");
+    server_.delayed_logins.push_back({id, now + wait, std::move(m)});
+    return;
+  }
+  verifyLogin(std::move(m));
+}
+
+void Connection::verifyLogin(msg::Login m) {
   const uint32_t my_id = id;
   FlowServer::Impl& server = server_;
   server_.auth->verify(
@@ -59,6 +71,7 @@ void Connection::handleLogin(std::string_view body) {
         Connection& c = *it->second;
         if (!r.ok) {
           ++server.stats.logins_failed;
+          server.throttle.failed(user, c.source, monotonicNs());
           log::warn(kLogSource, "FLOW-AUTH-FAILED",
                     c.describe() + ": login as \"" + user + "\" refused (" + r.reason + ")");
           c.replyError(ErrorCode::auth_failed, "wrong user name or password");
@@ -67,6 +80,8 @@ void Connection::handleLogin(std::string_view body) {
         }
         c.user = user;
         c.access = server.auth->accessOf(user);
+        server.throttle.succeeded(user, c.source);
+        c.splitter_.setMaxFrameBytes(server.opt.max_frame_bytes);
         server.loggedIn(c);
         c.state_ = State::sync;
         c.send(msg::LoginOk{kProtocolMajor, kProtocolMinor, c.id, server.opt.app_name, c.user,

@@ -5,6 +5,7 @@
 
 #include <skrobot/core/log.h>
 
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -13,6 +14,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <vector>
 
 namespace skr::flow {
 FlowServer::Impl::Impl(Loop& l, ServerOptions options)
@@ -158,6 +160,37 @@ Result<void> FlowServer::Impl::listenTcp() {
   return {};
 }
 
+namespace {
+
+// "tcp:<address>" of a TCP peer, "uid:<n>" of a Unix one: what the login throttle counts by.
+std::string peerOf(uv_stream_t* stream, Transport transport) {
+  if (transport == Transport::tcp) {
+    sockaddr_storage peer{};
+    int len = sizeof peer;
+    char name[INET6_ADDRSTRLEN] = {};
+    if (uv_tcp_getpeername(reinterpret_cast<uv_tcp_t*>(stream), reinterpret_cast<sockaddr*>(&peer),
+                           &len) != 0) {
+      return "tcp:?";
+    }
+    if (peer.ss_family == AF_INET6) {
+      uv_ip6_name(reinterpret_cast<sockaddr_in6*>(&peer), name, sizeof name);
+    } else {
+      uv_ip4_name(reinterpret_cast<sockaddr_in*>(&peer), name, sizeof name);
+    }
+    return std::string("tcp:") + name;
+  }
+  uv_os_fd_t fd = -1;
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  if (uv_fileno(reinterpret_cast<uv_handle_t*>(stream), &fd) != 0 ||
+      ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) {
+    return "unix:?";
+  }
+  return "uid:" + std::to_string(cred.uid);
+}
+
+}  // namespace
+
 void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
   auto* c = new Connection(*this, transport);
   if (transport == Transport::tcp) {
@@ -172,6 +205,7 @@ void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
     return;
   }
   if (transport == Transport::tcp) uv_tcp_nodelay(reinterpret_cast<uv_tcp_t*>(c->stream()), 1);
+  c->source = peerOf(c->stream(), transport);
   endpoints.add(*c);
   connections[c->id] = c;
   ++stats.connections_accepted;
@@ -214,6 +248,18 @@ void FlowServer::Impl::sweep() {
   for (Connection* c : late) {
     log::warn(kLogSource, "FLOW-LOGIN-TIMEOUT", c->describe() + ": no login in time");
     c->close("login timeout");
+  }
+  if (!delayed_logins.empty()) {
+    std::vector<DelayedLogin> due;
+    std::erase_if(delayed_logins, [&](DelayedLogin& d) {
+      if (d.at > now) return false;
+      due.push_back(std::move(d));
+      return true;
+    });
+    for (DelayedLogin& d : due) {
+      auto it = connections.find(d.connection);
+      if (it != connections.end()) it->second->verifyLogin(std::move(d.login));
+    }
   }
   requests.expire(now);
 }

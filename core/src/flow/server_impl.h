@@ -22,6 +22,9 @@
 #include <skrobot/core/loop.h>
 #include <skrobot/flow/accounts.h>
 #include <skrobot/flow/messages.h>
+#include "login_throttle.h"
+
+#include <skrobot/flow/messages.h>
 #include <skrobot/flow/server.h>
 
 #include <uv.h>
@@ -55,6 +58,14 @@ struct FlowServer::Impl {
 
   std::unordered_map<uint32_t, Connection*> connections;
   std::vector<Connection*> dirty;  // connections with output to flush
+  LoginThrottle throttle;
+  // Logins held back by the throttle: verified by sweep() once `at` has passed.
+  struct DelayedLogin {
+    uint32_t connection = 0;
+    Nanos at = 0;
+    msg::Login login;
+  };
+  std::vector<DelayedLogin> delayed_logins;
 
   // The parts. Declaration order is construction order: requests refer to the others.
   EndpointTable endpoints;

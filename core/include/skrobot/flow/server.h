@@ -34,7 +34,7 @@ struct ServerOptions {
   // Streaming data queued for one subscriber beyond this is dropped, oldest first.
   size_t subscriber_queue_bytes = 8u << 20;
   size_t max_connections = 1024;
-  uint32_t login_timeout_ms = 10000;
+  uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;  // unanswered service requests per channel
   std::filesystem::path data_dir;      // persistent databases; empty: nothing is saved
   std::filesystem::path users_file;    // empty: <data_dir>/users.json

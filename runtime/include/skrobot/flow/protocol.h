@@ -19,6 +19,9 @@ constexpr uint16_t kProtocolMinor = 0;
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
 constexpr uint32_t kMaxChannels = 32768;
+// The largest frame a hub reads before LOGIN succeeded: a LOGIN with the longest user name and
+// password and a long client name fits.
+constexpr uint32_t kPreLoginMaxFrameBytes = 4096;
 
 enum class Code : uint8_t {
   // Synchronous requests, client -> hub; each gets exactly one REPLY_OK or REPLY_ERROR, in order.
@@ -152,6 +155,7 @@ class FrameSplitter {
   };
   [[nodiscard]] Next next(const uint8_t* data, size_t size) const noexcept;
   [[nodiscard]] uint32_t maxFrameBytes() const noexcept { return max_; }
+  void setMaxFrameBytes(uint32_t max_frame_bytes) noexcept { max_ = max_frame_bytes; }
 
  private:
   uint32_t max_;

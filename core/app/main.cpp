@@ -187,6 +187,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.max_connections = s.max_connections;
   o.login_timeout_ms = s.login_timeout_ms;
   o.max_pending_requests = s.max_pending_requests;
+  o.user_limits = s.user_limits;
   o.data_dir = s.data_dir;
   o.users_file = s.users_file;
   o.dev_account = s.dev_account;

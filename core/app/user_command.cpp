@@ -37,6 +37,7 @@ constexpr const char* kUsage =
     "       skrobot user show NAME   [--users FILE | --config FILE]\n"
     "       skrobot user role NAME admin|user             [--users FILE | --config FILE]\n"
     "       skrobot user rule NAME ACTION [PATTERN...]    [--users FILE | --config FILE]\n"
+    "       skrobot user limit NAME WHAT N                [--users FILE | --config FILE]\n"
     "\n"
     "  --users FILE      the users file (default: $SKROBOT_USERS, else the one the hub's\n"
     "                    config names: accounts.users_file, else <data_dir>/users.json)\n"
@@ -47,6 +48,7 @@ constexpr const char* kUsage =
     "NAME: 1..64 characters of [A-Za-z0-9_-]. Passwords are stored as argon2id hashes.\n"
     "ACTION: publish, subscribe, call, db_read or db_write; PATTERNs in the channel-name\n"
     "pattern syntax ('**', 'bob.*', '!bob.secret'); none: back to '**' (docs/security.md).\n"
+    "WHAT: connections, channels, databases or pending_requests; N 0: the hub's limit.\n"
     "The hub reads roles and rules at login: restart it, or reconnect, to apply a change.\n"
     "Exit codes: 0 done, 1 the operation failed, 2 usage. See docs/accounts.md.\n";
 
@@ -183,7 +185,7 @@ std::string parse(int argc, char** argv, Args& out) {
       out.verb = a;
     } else if (out.name.empty() && out.verb != "list") {
       out.name = a;
-    } else if (out.verb == "role" || out.verb == "rule") {
+    } else if (out.verb == "role" || out.verb == "rule" || out.verb == "limit") {
       out.values.emplace_back(a);
     } else {
       return "unexpected argument " + std::string(a);
@@ -191,7 +193,7 @@ std::string parse(int argc, char** argv, Args& out) {
   }
   if (out.verb.empty()) return "missing command";
   const std::vector<std::string_view> verbs = {"add",  "del",  "passwd", "list",
-                                               "show", "role", "rule"};
+                                               "show", "role", "rule",   "limit"};
   if (std::find(verbs.begin(), verbs.end(), out.verb) == verbs.end()) {
     return "unknown command " + out.verb;
   }
@@ -200,6 +202,7 @@ std::string parse(int argc, char** argv, Args& out) {
     return "role needs NAME and admin or user";
   }
   if (out.verb == "rule" && out.values.empty()) return "rule needs NAME and an ACTION";
+  if (out.verb == "limit" && out.values.size() != 2) return "limit needs NAME, WHAT and N";
   if (out.verb != "list" && out.name.empty()) return out.verb + " needs a user NAME";
   if (out.users && out.users->empty()) return "--users needs a FILE";
   if (out.users && out.config) return "--users and --config exclude each other";
@@ -221,11 +224,29 @@ int run(const Args& args, const fs::path& path) {
     if (file.empty()) std::fprintf(stderr, "no users in %s\n", path.c_str());
     return kExitOk;
   }
-  if (args.verb == "show" || args.verb == "role" || args.verb == "rule") {
+  if (args.verb == "show" || args.verb == "role" || args.verb == "rule" || args.verb == "limit") {
     if (!file.contains(args.name)) return failed("no user " + args.name + " in " + path.string());
     skr::flow::AccessRules access = *file.accessOf(args.name);
     if (args.verb == "role") {
       access.setRole(args.values[0] == "admin" ? skr::flow::Role::admin : skr::flow::Role::user);
+    } else if (args.verb == "limit") {
+      skr::flow::UserLimits limits = access.limits();
+      uint32_t* field = args.values[0] == "connections"        ? &limits.connections
+                        : args.values[0] == "channels"         ? &limits.channels
+                        : args.values[0] == "databases"        ? &limits.databases
+                        : args.values[0] == "pending_requests" ? &limits.pending_requests
+                                                               : nullptr;
+      if (field == nullptr) {
+        return failed("unknown limit " + args.values[0] +
+                      " (connections, channels, databases, pending_requests)");
+      }
+      char* end = nullptr;
+      const unsigned long n = std::strtoul(args.values[1].c_str(), &end, 10);
+      if (args.values[1].empty() || *end != '\0' || n > 1'000'000) {
+        return failed("N must be an integer from 0 (the hub's limit) to 1000000");
+      }
+      *field = static_cast<uint32_t>(n);
+      access.setLimits(limits);
     } else if (args.verb == "rule") {
       std::optional<skr::flow::Action> action;
       for (auto a :
@@ -253,6 +274,11 @@ int run(const Args& args, const fs::path& path) {
       for (const auto& p : access.patterns(a)) line += (line.empty() ? "" : " ") + p;
       std::printf("  %-9s %s\n", std::string(skr::flow::actionName(a)).c_str(), line.c_str());
     }
+    const skr::flow::UserLimits& l = access.limits();
+    const auto shown = [](uint32_t n) { return n == 0 ? std::string("hub's") : std::to_string(n); };
+    std::printf("  limits    connections %s, channels %s, databases %s, pending_requests %s\n",
+                shown(l.connections).c_str(), shown(l.channels).c_str(), shown(l.databases).c_str(),
+                shown(l.pending_requests).c_str());
     return kExitOk;
   }
   if (args.verb == "del") {

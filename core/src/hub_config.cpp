@@ -225,6 +225,12 @@ s::Schema serverSchema() {
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
       s::optional("login_timeout_ms", s::integer().range(100, 600000), 5000),
       s::optional("max_pending_requests", s::integer().range(1, 1000000), 1024),
+      s::optional(
+          "user_limits",
+          s::object({s::optional("connections", s::integer().range(1, 100000), 64),
+                     s::optional("channels", s::integer().range(1, 32767), 1024),
+                     s::optional("databases", s::integer().range(1, 100000), 64),
+                     s::optional("pending_requests", s::integer().range(1, 1000000), 1024)})),
   });
 }
 
@@ -260,6 +266,12 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
     out.max_connections = s["max_connections"].asUInt();
     out.login_timeout_ms = s["login_timeout_ms"].asUInt();
     out.max_pending_requests = s["max_pending_requests"].asUInt();
+    const Json::Value& l = s["user_limits"];
+    const auto limit = [&l](const char* key, uint32_t def) {
+      return l.isObject() && l[key].isUInt() ? l[key].asUInt() : def;
+    };
+    out.user_limits = {limit("connections", 64), limit("channels", 1024), limit("databases", 64),
+                       limit("pending_requests", 1024)};
   }
   const std::string data_dir = d["data_dir"].isString() ? d["data_dir"].asString() : "";
   out.data_dir = data_dir.empty() ? defaultDataDir(cfg.app_name) : resolve(base_dir, data_dir);

@@ -208,3 +208,88 @@ TEST_F(Access, TheDevelopmentAccountKeepsTheDefaults) {
 
 }  // namespace
 }  // namespace skr::flow
+
+namespace skr::flow {
+namespace {
+
+// A hub whose user "lim" has tight limits of its own, and whose default limits apply to others.
+class Limits : public test::FlowFixture {
+ protected:
+  void SetUp() override {
+    auto o = defaults();
+    o.users_file = dir_.path() / "users.json";
+    o.user_limits = {3, 1024, 64, 1024};
+    auto users = UsersFile::load(o.users_file);
+    ASSERT_TRUE(users);
+    ASSERT_TRUE(users->add("lim", "pw"));
+    ASSERT_TRUE(users->add("other", "pw"));
+    auto lim =
+        AccessRules::fromJson(parse(R"({"limits": {"connections": 2, "channels": 2, "databases": 1,
+                             "pending_requests": 1}})"),
+                              "users.lim");
+    ASSERT_TRUE(lim) << lim.error().message;
+    ASSERT_TRUE(users->setAccess("lim", *lim));
+    ASSERT_TRUE(users->save());
+    ASSERT_TRUE(startHub(o));
+  }
+};
+
+TEST_F(Limits, EachLimitRefusesTheNextOneAndOnlyThat) {
+  // channels: 2
+  TestClient a = flowClient("lim", "pw");
+  EXPECT_NE(addChannel(a, "one"), 0);
+  EXPECT_NE(addChannel(a, "two", ChannelKind::service), 0);
+  msg::ChanAdd third;
+  third.tag = 9;
+  third.kind = uint8_t(ChannelKind::streaming);
+  third.short_name = "three";
+  ASSERT_TRUE(a.send(third));
+  auto e = as<msg::EvError>(a.waitFor(Code::ev_error));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->error, uint16_t(ErrorCode::limit_exceeded));
+  EXPECT_NE(e->message.find("channels"), std::string::npos) << e->message;
+
+  // connections: 2 (a is one); the third is refused and closed, the others go on
+  TestClient b = syncClient("lim", "pw");
+  TestClient c = connect();
+  auto refused = c.login("lim", "pw");
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("connections"), std::string::npos)
+      << refused.error().message;
+  EXPECT_TRUE(c.closedByPeer());
+  EXPECT_EQ(b.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);
+
+  // databases: 1
+  EXPECT_EQ(b.call(msg::DbCreate{"lim-db1"})->kind(), Code::reply_ok);
+  EXPECT_EQ(errorOf(b.call(msg::DbCreate{"lim-db2"})), uint16_t(ErrorCode::limit_exceeded));
+  EXPECT_EQ(b.call(msg::DbRemove{"lim-db1"})->kind(), Code::reply_ok);  // frees its place
+  EXPECT_EQ(b.call(msg::DbCreate{"lim-db2"})->kind(), Code::reply_ok);
+
+  // pending requests: 1, to a service that does not answer yet
+  TestClient svc = flowClient("other", "pw");
+  const uint16_t slow = addChannel(svc, "slow", ChannelKind::service);
+  ASSERT_TRUE(a.send(msg::ServiceRequest{1, slow, "x", Variant()}));
+  auto req = as<msg::EvServiceRequest>(svc.waitFor(Code::ev_service_request));
+  ASSERT_TRUE(req);
+  ASSERT_TRUE(a.send(msg::ServiceRequest{2, slow, "y", Variant()}));
+  auto over = as<msg::EvServiceResponse>(a.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(over);
+  EXPECT_EQ(over->tag, 2u);
+  EXPECT_EQ(over->error, uint16_t(ErrorCode::limit_exceeded));
+  // Answered, the first one frees its place.
+  ASSERT_TRUE(svc.send(msg::ServiceResponse{slow, req->request, Variant("ok")}));
+  auto ok = as<msg::EvServiceResponse>(a.waitFor(Code::ev_service_response));
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->tag, 1u);
+  ASSERT_TRUE(a.send(msg::ServiceRequest{3, slow, "z", Variant()}));
+  EXPECT_TRUE(svc.waitFor(Code::ev_service_request));
+
+  // "other" has the hub's limits (3 connections): a fourth is refused
+  TestClient o2 = syncClient("other", "pw");
+  TestClient o3 = syncClient("other", "pw");
+  TestClient o4 = connect();
+  EXPECT_FALSE(o4.login("other", "pw"));
+}
+
+}  // namespace
+}  // namespace skr::flow

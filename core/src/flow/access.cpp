@@ -21,6 +21,25 @@ std::string_view actionName(Action action) noexcept {
   return kActionNames[index(action)];
 }
 
+UserLimits UserLimits::orElse(const UserLimits& d) const noexcept {
+  const auto pick = [](uint32_t own, uint32_t def) { return own != 0 ? own : def; };
+  return {pick(connections, d.connections), pick(channels, d.channels),
+          pick(databases, d.databases), pick(pending_requests, d.pending_requests)};
+}
+
+namespace {
+
+struct LimitField {
+  const char* name;
+  uint32_t UserLimits::*field;
+};
+constexpr LimitField kLimitFields[] = {{"connections", &UserLimits::connections},
+                                       {"channels", &UserLimits::channels},
+                                       {"databases", &UserLimits::databases},
+                                       {"pending_requests", &UserLimits::pending_requests}};
+
+}  // namespace
+
 AccessRules::AccessRules() {
   for (int i = 0; i < kActions; ++i) {
     (void)setRule(static_cast<Action>(i), {"**"});
@@ -53,6 +72,29 @@ Result<AccessRules> AccessRules::fromJson(const Json::Value& entry, const std::s
       return makeError(Errc::invalid_argument, at + ".role must be \"user\" or \"admin\"");
     }
   }
+  const Json::Value& limits = entry["limits"];
+  if (!limits.isNull()) {
+    if (!limits.isObject())
+      return makeError(Errc::invalid_argument, at + ".limits is not an object");
+    for (const auto& key : limits.getMemberNames()) {
+      const LimitField* f = nullptr;
+      for (const auto& lf : kLimitFields) {
+        if (key == lf.name) f = &lf;
+      }
+      const std::string path = at + ".limits." + key;
+      if (f == nullptr) {
+        return makeError(Errc::invalid_argument,
+                         path +
+                             ": unknown limit (connections, channels, databases, "
+                             "pending_requests)");
+      }
+      const Json::Value& v = limits[key];
+      if (!v.isUInt() || v.asUInt() == 0) {
+        return makeError(Errc::invalid_argument, path + " must be a positive integer");
+      }
+      rules.limits_.*(f->field) = v.asUInt();
+    }
+  }
   const Json::Value& r = entry["rules"];
   if (r.isNull()) return rules;
   if (!r.isObject()) return makeError(Errc::invalid_argument, at + ".rules is not an object");
@@ -83,6 +125,12 @@ Result<AccessRules> AccessRules::fromJson(const Json::Value& entry, const std::s
 void AccessRules::toJson(Json::Value& entry) const {
   entry.removeMember("role");
   entry.removeMember("rules");
+  entry.removeMember("limits");
+  Json::Value limits(Json::objectValue);
+  for (const auto& lf : kLimitFields) {
+    if (limits_.*(lf.field) != 0) limits[lf.name] = limits_.*(lf.field);
+  }
+  if (!limits.empty()) entry["limits"] = limits;
   if (role_ == Role::admin) entry["role"] = "admin";
   Json::Value rules(Json::objectValue);
   for (int i = 0; i < kActions; ++i) {
@@ -107,6 +155,12 @@ Error accessDenied(std::string_view user, Action action, std::string_view name) 
                    "user " + std::string(user) + " may not " +
                        std::string(kActionVerbs[index(action)]) + " " + std::string(name) +
                        " (its rules: " + std::string(actionName(action)) + ")");
+}
+
+Error limitReached(std::string_view user, std::string_view what, uint32_t limit) {
+  return makeError(Errc::limit_exceeded, "user " + std::string(user) + " holds " +
+                                             std::to_string(limit) + " " + std::string(what) +
+                                             ", its limit (docs/security.md)");
 }
 
 }  // namespace skr::flow

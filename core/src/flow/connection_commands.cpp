@@ -81,6 +81,14 @@ void Connection::verifyLogin(msg::Login m) {
         c.user = user;
         c.access = server.auth->accessOf(user);
         server.throttle.succeeded(user, c.source);
+        const uint32_t limit = c.access->limits().orElse(server.opt.user_limits).connections;
+        if (server.endpoints.holdingsOf(user).endpoints > limit) {  // this one included
+          const Error e = limitReached(user, "connections", limit);
+          log::warn(kLogSource, "FLOW-LIMIT", c.describe() + ": " + e.message);
+          c.replyError(ErrorCode::limit_exceeded, e.message);
+          c.closeAfterFlush("connection limit");
+          return;
+        }
         c.splitter_.setMaxFrameBytes(server.opt.max_frame_bytes);
         server.loggedIn(c);
         c.state_ = State::sync;

@@ -3,6 +3,8 @@
 
 #include <skrobot/core/log.h>
 
+#include <algorithm>
+
 namespace skr::flow {
 namespace {
 
@@ -107,8 +109,12 @@ Result<void> DatabaseAccess::create(const Endpoint& e, const std::string& name) 
   if (!e.access->allows(Action::db_write, name)) {
     return accessDenied(e.user, Action::db_write, name);
   }
+  const auto created = static_cast<uint32_t>(std::count_if(
+      creators_.begin(), creators_.end(), [&e](const auto& kv) { return kv.second == e.user; }));
+  if (created >= e.limits.databases) return limitReached(e.user, "databases", e.limits.databases);
   auto r = store_.create(name, DatabaseKind::persistent);
   if (!r) return r.error();
+  creators_[name] = e.user;
   return {};
 }
 
@@ -138,7 +144,9 @@ Result<void> DatabaseAccess::remove(const Endpoint& e, const std::string& name) 
     return makeError(Errc::permission_denied,
                      "\"" + name + "\" belongs to a user, flow or channel and cannot be removed");
   }
-  return store_.remove(name);
+  auto removed = store_.remove(name);
+  if (removed) creators_.erase(name);
+  return removed;
 }
 
 Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, const std::string& key,

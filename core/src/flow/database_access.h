@@ -67,6 +67,8 @@ class DatabaseAccess {
 
   DatabaseStore store_;
   std::unordered_map<std::string, Owner> owners_;
+  // Named database -> the user who created it since the hub started (the databases limit).
+  std::unordered_map<std::string, std::string> creators_;
 };
 
 }  // namespace skr::flow

@@ -38,6 +38,10 @@ class Endpoint {
   // What it may do (flow/access.h): a connection's is its user's, set at login; the development
   // account's and a module's are the defaults (every rule "**", no administrator role).
   std::shared_ptr<const AccessRules> access = AccessRules::defaults();
+  // Its user's limits, the account's own or the hub's (set when it logs in), and its service
+  // requests not answered yet (the request table counts them).
+  UserLimits limits;
+  uint32_t pending_requests = 0;
   std::vector<uint16_t> owned;       // channels it owns
   std::vector<uint16_t> subscribed;  // channels it is subscribed to
 
@@ -82,6 +86,22 @@ class EndpointTable {
 
   // Calls f(Endpoint&) for every endpoint that takes events. f may add or remove endpoints:
   // the ids are copied first, and one removed meanwhile is skipped.
+  // What the endpoints of `user` hold together: connections (or in-process clients), channels,
+  // pending service requests.
+  struct Holdings {
+    uint32_t endpoints = 0, channels = 0, pending_requests = 0;
+  };
+  [[nodiscard]] Holdings holdingsOf(std::string_view user) const {
+    Holdings h;
+    for (const auto& [id, e] : by_id_) {
+      if (e->user != user) continue;
+      ++h.endpoints;
+      h.channels += static_cast<uint32_t>(e->owned.size());
+      h.pending_requests += e->pending_requests;
+    }
+    return h;
+  }
+
   template <class F>
   void forEachEventReceiver(F&& f) const {
     std::vector<uint32_t> ids;

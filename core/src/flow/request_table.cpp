@@ -19,6 +19,9 @@ Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t ta
   if (!from.access->allows(Action::call, ch->name)) {
     return accessDenied(from.user, Action::call, ch->name);
   }
+  if (endpoints_.holdingsOf(from.user).pending_requests >= from.limits.pending_requests) {
+    return limitReached(from.user, "pending requests", from.limits.pending_requests);
+  }
   if (ch->pending_requests >= max_per_channel_) {
     return makeError(Errc::overflow, ch->name + " has " + std::to_string(ch->pending_requests) +
                                          " unanswered requests, its limit");
@@ -38,6 +41,7 @@ Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t ta
   }
   requests_.emplace(id, p);
   ++ch->pending_requests;
+  ++from.pending_requests;
   ch->owner->onRequest(*ch, id, command, from.user, value);
   return {};
 }
@@ -54,11 +58,19 @@ Result<void> RequestTable::respond(Endpoint& from, uint16_t chan_id, uint64_t re
     return makeError(Errc::permission_denied,
                      "request " + std::to_string(request) + " was not made to a channel you own");
   }
-  const PendingRequest p = it->second;
-  requests_.erase(it);
-  --ch->pending_requests;
+  const PendingRequest p = take(it);
   answer(p, ErrorCode::ok, value);
   return {};
+}
+
+PendingRequest RequestTable::take(Requests::iterator it) {
+  const PendingRequest p = it->second;
+  requests_.erase(it);
+  if (Channel* ch = channels_.find(p.chan_id)) --ch->pending_requests;
+  if (Endpoint* e = endpoints_.find(p.requester); e != nullptr && e->pending_requests > 0) {
+    --e->pending_requests;
+  }
+  return p;
 }
 
 void RequestTable::answer(const PendingRequest& p, ErrorCode error, const Variant& value) {
@@ -73,8 +85,7 @@ void RequestTable::failChannel(uint16_t chan_id, ErrorCode error, const std::str
     if (p.chan_id == chan_id) failed.emplace_back(id, p);
   }
   for (const auto& [id, p] : failed) {
-    requests_.erase(id);
-    if (Channel* ch = channels_.find(chan_id)) --ch->pending_requests;
+    take(requests_.find(id));
     answer(p, error, Variant(why));
   }
 }
@@ -85,8 +96,7 @@ void RequestTable::expire(Nanos now) {
     if (p.sync && now > p.deadline) expired.emplace_back(id, p);
   }
   for (const auto& [id, p] : expired) {
-    requests_.erase(id);
-    if (Channel* ch = channels_.find(p.chan_id)) --ch->pending_requests;
+    take(requests_.find(id));
     answer(p, ErrorCode::timeout, Variant("the service did not answer in time"));
   }
 }
@@ -94,8 +104,9 @@ void RequestTable::expire(Nanos now) {
 void RequestTable::dropRequester(uint32_t endpoint) {
   for (auto it = requests_.begin(); it != requests_.end();) {
     if (it->second.requester == endpoint) {
-      if (Channel* ch = channels_.find(it->second.chan_id)) --ch->pending_requests;
-      it = requests_.erase(it);
+      const auto next = std::next(it);
+      take(it);
+      it = next;
     } else {
       ++it;
     }

@@ -48,12 +48,15 @@ class RequestTable {
   void dropRequester(uint32_t endpoint);
 
  private:
+  using Requests = std::unordered_map<uint64_t, PendingRequest>;
+  // Removes a request and takes it off its channel's and its requester's counts.
+  PendingRequest take(Requests::iterator it);
   void answer(const PendingRequest& p, ErrorCode error, const Variant& value);
 
   EndpointTable& endpoints_;
   ChannelTable& channels_;
   size_t max_per_channel_;
-  std::unordered_map<uint64_t, PendingRequest> requests_;
+  Requests requests_;
   uint64_t next_request_ = 1;
 };
 

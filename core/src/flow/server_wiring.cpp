@@ -10,6 +10,7 @@
 namespace skr::flow {
 
 void FlowServer::Impl::loggedIn(Endpoint& e) {
+  e.limits = e.access->limits().orElse(opt.user_limits);
   databases.attach(e);
 }
 
@@ -35,6 +36,9 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
   if (const std::string name = owner.user + "." + short_name;
       !owner.access->allows(Action::publish, name)) {
     return accessDenied(owner.user, Action::publish, name);
+  }
+  if (endpoints.holdingsOf(owner.user).channels >= owner.limits.channels) {
+    return limitReached(owner.user, "channels", owner.limits.channels);
   }
   auto added = channels.add(owner, short_name, kind, mime);
   if (!added) return added;

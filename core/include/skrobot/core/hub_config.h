@@ -5,6 +5,7 @@
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
+#include <skrobot/flow/access.h>
 
 #include <json/value.h>
 
@@ -40,6 +41,7 @@ struct ServerConfig {
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 10000;
   size_t max_pending_requests = 1024;
+  flow::UserLimits user_limits{64, 1024, 64, 1024};  // per user, unless its account says otherwise
   std::filesystem::path data_dir;    // resolved; default $XDG_DATA_HOME/skrobot/<app_name>
   std::filesystem::path users_file;  // resolved; default <data_dir>/users.json
   std::optional<std::pair<std::string, std::string>> dev_account;  // user, password

@@ -19,6 +19,7 @@
 
 #include <json/value.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -26,6 +27,18 @@
 namespace skr::flow {
 
 enum class Role { user, admin };
+
+// What one user may hold at once, across all its connections. In the users file an account may
+// set its own ("limits": {"connections": 8}); a limit it leaves out (0 here) is the hub's
+// (server.user_limits in the config). The blob issue adds its byte and file quotas here.
+struct UserLimits {
+  uint32_t connections = 0;       // logged-in connections
+  uint32_t channels = 0;          // channels it owns
+  uint32_t databases = 0;         // named databases it created (since the hub started)
+  uint32_t pending_requests = 0;  // its service requests not answered yet
+  // Each limit of `this`, or of `defaults` where this one is 0.
+  [[nodiscard]] UserLimits orElse(const UserLimits& defaults) const noexcept;
+};
 
 // What one action needs; the rule of the same name decides.
 enum class Action { publish, subscribe, call, db_read, db_write };
@@ -40,10 +53,11 @@ class AccessRules {
   // hub's modules.
   [[nodiscard]] static std::shared_ptr<const AccessRules> defaults();
 
-  // From a users file entry ("role", "rules"); errors name `at` (e.g. "users.alice.rules.call").
+  // From a users file entry ("role", "rules", "limits"); errors name `at` (e.g.
+  // "users.alice.rules.call").
   [[nodiscard]] static Result<AccessRules> fromJson(const Json::Value& entry,
                                                     const std::string& at);
-  // Writes "role" and "rules" into a users file entry, leaving out what is the default.
+  // Writes "role", "rules" and "limits" into a users file entry, leaving out the defaults.
   void toJson(Json::Value& entry) const;
 
   [[nodiscard]] bool admin() const noexcept { return role_ == Role::admin; }
@@ -55,17 +69,23 @@ class AccessRules {
   [[nodiscard]] const std::vector<std::string>& patterns(Action action) const;
 
   void setRole(Role role) noexcept { role_ = role; }
+  // The account's own limits (0: the hub's).
+  [[nodiscard]] const UserLimits& limits() const noexcept { return limits_; }
+  void setLimits(const UserLimits& limits) noexcept { limits_ = limits; }
   // Errc::invalid_argument naming the bad pattern.
   [[nodiscard]] Result<void> setRule(Action action, std::vector<std::string> patterns);
 
  private:
   static constexpr int kActions = 5;
   Role role_ = Role::user;
+  UserLimits limits_;
   std::vector<std::string> text_[kActions];
   NameFilter filter_[kActions];
 };
 
 // Errc::permission_denied: "user alice may not subscribe to bob.secret (rules: ...)".
 [[nodiscard]] Error accessDenied(std::string_view user, Action action, std::string_view name);
+// Errc::limit_exceeded: "user alice holds 8 channels, its limit".
+[[nodiscard]] Error limitReached(std::string_view user, std::string_view what, uint32_t limit);
 
 }  // namespace skr::flow

@@ -97,8 +97,8 @@ class UsersFile {
 
  private:
   struct Entry {
-    std::string hash;     // crypto_pwhash_str format, "$argon2id$..."
-    std::string created;  // ISO-8601 UTC
+    std::string hash;                           // crypto_pwhash_str format, "$argon2id$..."
+    std::string created;                        // ISO-8601 UTC
     std::shared_ptr<const AccessRules> access;  // null: the defaults
   };
   std::filesystem::path path_;

@@ -9,6 +9,7 @@
 
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
+#include <skrobot/flow/access.h>
 #include <skrobot/flow/protocol.h>
 #include <skrobot/flow/variant.h>
 
@@ -36,8 +37,10 @@ struct ServerOptions {
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;  // unanswered service requests per channel
-  std::filesystem::path data_dir;      // persistent databases; empty: nothing is saved
-  std::filesystem::path users_file;    // empty: <data_dir>/users.json
+  // What one user may hold at once unless its account says otherwise (flow/access.h).
+  UserLimits user_limits{64, 1024, 64, 1024};
+  std::filesystem::path data_dir;    // persistent databases; empty: nothing is saved
+  std::filesystem::path users_file;  // empty: <data_dir>/users.json
   // A development account accepted on the Unix socket only (guest/password in the default
   // config). TCP never starts without real accounts in the users file.
   std::optional<std::pair<std::string, std::string>> dev_account;

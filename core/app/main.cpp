@@ -182,6 +182,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.tcp_enabled = s.tcp_enabled;
   o.tcp_address = s.tcp_address;
   o.tcp_port = s.tcp_port;
+  o.tls = s.tls;
   o.max_frame_bytes = s.max_frame_bytes;
   o.subscriber_queue_bytes = s.subscriber_queue_bytes;
   o.max_connections = s.max_connections;

@@ -85,6 +85,10 @@ void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf) {
   auto* c = static_cast<Connection*>(s->data);
   if (nread == 0) return;
   if (nread < 0) {
+    if (c->tls_ && !c->tls_->established() && !c->first_input_) {
+      c->refuse("the client closed the connection during the TLS handshake", {});
+      return;
+    }
     c->close(nread == UV_EOF ? "peer closed the connection" : uv_strerror(static_cast<int>(nread)));
     return;
   }

@@ -282,6 +282,11 @@ void Link::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf) {
 
 void Link::receiveTls(const char* data, size_t n) {
   if (auto r = tls_->receive(std::string_view(data, n)); !r) {
+    // Tell the hub why (an alert: unknown CA, bad certificate...), so that its log says it too.
+    std::string alert;
+    tls_->takeOutput(alert);
+    uv_buf_t b = uv_buf_init(alert.data(), static_cast<unsigned>(alert.size()));
+    if (!alert.empty() && !writing_) (void)uv_try_write(stream(), &b, 1);
     fail("TLS with " + address_.toString() + ": " + r.error().message);
     return;
   }

@@ -195,13 +195,51 @@ class TlsSettings(object):
         return ctx
 
 
+def _isIpAddress(host):
+    for family in (socket.AF_INET, socket.AF_INET6):
+        try:
+            socket.inet_pton(family, host)
+            return True
+        except (socket.error, OSError, ValueError):
+            pass
+    return False
+
+
+# Python 2.7's hostname check knows DNS names only: numeric hosts are checked by tlsCheckHost.
+_CHECK_IP_OURSELVES = sys.version_info[0] == 2
+
+
 def wrapTls(sock, address, settings, handshake):
     """`sock` (connected, or connecting when handshake is False) wrapped in TLS for the host of
     the tls: `address`. With handshake=True the handshake is done now (blocking, within the
-    socket's timeout); else the caller drives do_handshake() on a non-blocking socket."""
+    socket's timeout); else the caller drives do_handshake(), then calls tlsCheckHost()."""
     _, where = parseAddress(address)
     ctx = (settings or TlsSettings()).context()
-    return ctx.wrap_socket(sock, server_hostname=where[0], do_handshake_on_connect=handshake)
+    if _CHECK_IP_OURSELVES and _isIpAddress(where[0]):
+        ctx.check_hostname = False
+    tls = ctx.wrap_socket(sock, server_hostname=where[0], do_handshake_on_connect=handshake)
+    if handshake:
+        tlsCheckHost(tls, address)
+    return tls
+
+
+def tlsCheckHost(sock, address):
+    """After the handshake: on Python 2.7, a numeric host must be one of the certificate's IP
+    addresses (ssl.CertificateError otherwise). Python 3 checked it during the handshake."""
+    _, where = parseAddress(address)
+    if not (_CHECK_IP_OURSELVES and _isIpAddress(where[0])):
+        return
+    want = socket.inet_pton(socket.AF_INET6 if ":" in where[0] else socket.AF_INET, where[0])
+    for kind, value in (sock.getpeercert() or {}).get("subjectAltName", ()):
+        if kind == "IP Address":
+            family = socket.AF_INET6 if ":" in value else socket.AF_INET
+            try:
+                if socket.inet_pton(family, value.strip()) == want:
+                    return
+            except (socket.error, ValueError):
+                pass
+    raise ssl.CertificateError("IP address mismatch: the certificate does not name %s"
+                               % where[0])
 
 
 def tlsFailure(e, address):

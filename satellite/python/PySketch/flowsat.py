@@ -75,7 +75,8 @@ from collections import OrderedDict
 
 from PySketch import log
 from PySketch.abstractflow import (
-    AbstractFlow, FlowChannel, enumLookup, openSocket, tlsFailure, validShortName, wrapTls)
+    AbstractFlow, FlowChannel, enumLookup, openSocket, tlsCheckHost, tlsFailure, validShortName,
+    wrapTls)
 from PySketch.elapsedtime import ElapsedTime, now
 from PySketch.flowproto import (
     ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T, FlowError, ProtocolError, Reader,
@@ -343,6 +344,7 @@ class FlowSat(AbstractFlow):
         """Advances the TLS handshake of a non-blocking socket; LOGIN once it is done."""
         try:
             self._sock.do_handshake()
+            tlsCheckHost(self._sock, self.address())
         except ssl.SSLWantReadError:
             self._tlsWants = "read"
             return

@@ -71,7 +71,14 @@ Result<SyncClient> SyncClient::connect(const ConnectOptions& options) {
   m.password = options.password;
   m.client_name = options.client_name.empty() ? "sync" : options.client_name;
   auto r = c.request(m, options.timeout_ms);
-  if (!r) return r.error();
+  if (!r) {
+    // With TLS 1.3 a hub that refuses our certificate says so after the handshake: here.
+    if (c.tls_ || options.address.kind == Address::Kind::tls) {
+      return makeError(Errc::io_error,
+                       "TLS with " + options.address.toString() + ": " + r.error().message);
+    }
+    return r.error();
+  }
   if (r->code != static_cast<uint8_t>(Code::reply_ok)) {
     const Errc e = flow::toErrc(c.last_error_);  // auth_failed, version_mismatch, ...
     auto err = flow::decode<msg::ReplyError>(r->body);

@@ -245,6 +245,8 @@ def tlsCheckHost(sock, address):
 def tlsFailure(e, address):
     """A TLS error in words: the reason and, when the certificate was refused, why."""
     why = getattr(e, "verify_message", None) or str(e)
+    if "eof" in why.lower():
+        why += " (the hub closed the connection: is its TCP port plain? then use a tcp: address)"
     return "TLS with %s: %s" % (address, why)
 
 

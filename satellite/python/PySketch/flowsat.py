@@ -352,12 +352,7 @@ class FlowSat(AbstractFlow):
             self._tlsWants = "write"
             return
         except (ssl.SSLError, ssl.CertificateError, socket.error, OSError) as e:
-            why = tlsFailure(e, self.address())
-            if isinstance(e, (socket.error, OSError)) and not isinstance(e, ssl.SSLError):
-                why += " (the hub closed the connection: is its TCP port plain? then use tcp:)"
-            elif "EOF" in str(e) or "UNEXPECTED_EOF" in str(e):
-                why += " (is the hub's TCP port plain? then use a tcp: address)"
-            self._attemptFailed(why)
+            self._attemptFailed(tlsFailure(e, self.address()))
             return
         self._tlsWants = None
         self._connected()

@@ -26,9 +26,10 @@ USER, PASSWORD = "alice", "s3cret-pass"
 
 
 class TlsHub(Hub):
-    """A hub with the account alice and TLS on TCP (any free port), certificates from `certs`."""
+    """A hub with the account alice and TCP (any free port): TLS with the certificates from
+    `certs` unless tls=False."""
 
-    def __init__(self, name, certs, client_ca=False):
+    def __init__(self, name, certs, client_ca=False, tls=True):
         Hub.__init__(self, name)
         users = os.path.join(self.dir, "users.json")
         add = subprocess.Popen([skrobotBin(), "user", "add", USER, "--users", users,
@@ -37,16 +38,18 @@ class TlsHub(Hub):
         add.communicate((PASSWORD + "\n").encode())
         with open(self.config) as f:
             cfg = json.load(f)
-        tls = {"cert": os.path.join(certs, "hub.pem"), "key": os.path.join(certs, "hub.key")}
-        if client_ca:
-            tls["client_ca"] = os.path.join(certs, "ca.pem")
-        cfg["server"] = {"tcp": True, "tcp_port": 0, "tls": tls}
+        cfg["server"] = {"tcp": True, "tcp_port": 0}
+        if tls:
+            cfg["server"]["tls"] = {"cert": os.path.join(certs, "hub.pem"),
+                                    "key": os.path.join(certs, "hub.key")}
+            if client_ca:
+                cfg["server"]["tls"]["client_ca"] = os.path.join(certs, "ca.pem")
         cfg["accounts"]["users_file"] = users
         with open(self.config, "w") as f:
             json.dump(cfg, f)
 
     def port(self):
-        m = re.search(r"FLOW-LISTEN TLS 127\.0\.0\.1:(\d+)", self.log())
+        m = re.search(r"FLOW-LISTEN (?:TLS|TCP) 127\.0\.0\.1:(\d+)", self.log())
         return int(m.group(1))
 
     def refusals(self):
@@ -153,6 +156,27 @@ class OverTls(TlsTestCase):
         self.assertTrue(waitUntil(lambda: self.hub.refusals() >= before + 3), self.hub.log())
         good = self.sync()
         self.assertTrue(good.connect(self.address()), good.lastError)
+
+
+class PlainPort(TlsTestCase):
+    """A tls: address to a hub whose TCP port is plain."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.certs = tempfile.mkdtemp(prefix="pysat-certs-")
+        subprocess.check_call(["sh", MAKE_CERTS, cls.certs])
+        cls.hub = TlsHub("plain", cls.certs, tls=False).start()
+
+    def test_tls_to_a_plain_port_is_refused_clearly(self):
+        s = self.sync()
+        self.assertRefused(lambda: s.connect(self.address()), "is its TCP port plain?")
+        f = self.flowSat()
+        self.assertRefused(lambda: f.connect(self.address()), "is its TCP port plain?")
+        self.assertTrue(waitUntil(lambda: "a TLS client on the plain TCP port" in self.hub.log()),
+                        self.hub.log())
+        plain = FlowSync(user=USER, password=PASSWORD)
+        self._closers.append(plain.close)
+        self.assertTrue(plain.connect(self.address("tcp")), plain.lastError)
 
 
 class ClientCertificates(TlsTestCase):

@@ -1,10 +1,13 @@
 // FlowNetwork relay benchmark: what the hub costs compared with a direct socket between two
-// clients. For the Unix socket and TCP (loopback), in the same run:
+// clients. For the Unix socket, TCP and TLS over TCP (loopback), in the same run:
 //   round trip   ping-pong A -> hub -> B -> hub -> A, one message in flight: p50/p99
 //   1:1          delivered messages/s and MB/s from one publisher to one subscriber
 //   fan-out 1:N  delivered messages/s in all and per subscriber, N = 4 and 16
 // Every hub figure is printed next to its raw floor: the same framing and batching over a
-// socketpair(AF_UNIX) or a loopback TCP connection, with no hub, and as a ratio to it.
+// socketpair(AF_UNIX) or a loopback TCP connection, with no hub, and as a ratio to it. TLS rows
+// run through a second hub whose TCP listener speaks TLS (certificates made at start by
+// tests/support/make_test_certs.sh); their raw floor is a TLS session over a loopback TCP
+// connection, and a last table puts each TLS figure next to plain TCP's through the hub.
 //
 // The hub runs in this process on its own LoopThread; clients are plain blocking sockets on
 // their own threads. Publishers encode many PUBLISH frames into one buffer and send it with one
@@ -14,7 +17,7 @@
 //
 // Round trips alternate between raw and hub in blocks, so that load changes touch both alike.
 //
-//   flow_relay [--quick] [--seconds S] [--unix-only | --tcp-only] [--queue-mb M]
+//   flow_relay [--quick] [--seconds S] [--unix-only | --tcp-only | --no-tls] [--queue-mb M]
 //              [--only round-trip|1:1|fan-out] [--busy-poll-us N]
 //
 // Exits 1 on a real error (lost connection, frames missing beyond the reported drops, a hub
@@ -25,6 +28,7 @@
 #include <skrobot/flow/accounts.h>
 #include <skrobot/flow/codec.h>
 #include <skrobot/flow/server.h>
+#include <skrobot/flow/tls.h>
 
 #include "temp_dir.h"
 
@@ -50,6 +54,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -85,6 +90,7 @@ struct Options {
   double seconds = 1.5;  // per throughput measurement (hub and raw each)
   bool unix_rows = true;
   bool tcp_rows = true;
+  bool tls_rows = true;
   size_t queue_bytes = 8 * kMiB;  // ServerOptions::subscriber_queue_bytes
   std::string only;               // empty, "round-trip", "1:1" or "fan-out"
   long busy_poll_us = 50;         // the hub loop's busy_poll_us (50: the config default)
@@ -92,10 +98,12 @@ struct Options {
 
 void usage() {
   std::printf(
-      "usage: flow_relay [--quick] [--seconds S] [--unix-only | --tcp-only] [--queue-mb M]\n"
+      "usage: flow_relay [--quick] [--seconds S] [--unix-only | --tcp-only | --no-tls]\n"
+      "                  [--queue-mb M]\n"
       "                  [--only round-trip|1:1|fan-out] [--busy-poll-us N]\n"
       "  --quick       a short run (a few seconds), used by the test suite as a smoke test\n"
       "  --seconds S   seconds per throughput measurement (default 1.5)\n"
+      "  --unix-only   the Unix socket rows only; --tcp-only: TCP and TLS rows; --no-tls: no TLS\n"
       "  --queue-mb M  the hub's subscriber queue in MiB (default 8, the hub's default)\n"
       "  --only TEST   run one kind of test (for profiling)\n"
       "  --busy-poll-us N  the hub loop keeps polling N us after I/O (config loop.busy_poll_us)\n");
@@ -120,6 +128,9 @@ Options parseOptions(int argc, char** argv) {
       o.only = argv[++i];
     } else if (a == "--unix-only") {
       o.tcp_rows = false;
+      o.tls_rows = false;
+    } else if (a == "--no-tls") {
+      o.tls_rows = false;
     } else if (a == "--tcp-only") {
       o.unix_rows = false;
     } else {
@@ -139,10 +150,10 @@ Options parseOptions(int argc, char** argv) {
 
 // --- sockets -------------------------------------------------------------------------------
 
-enum class Transport { unix_socket, tcp };
+enum class Transport { unix_socket, tcp, tls };
 
 const char* transportName(Transport t) {
-  return t == Transport::tcp ? "tcp" : "unix";
+  return t == Transport::tls ? "tls" : t == Transport::tcp ? "tcp" : "unix";
 }
 
 class Socket {
@@ -177,7 +188,7 @@ void prepare(int fd, Transport t) {
   timeval tv{kIoTimeoutMs / 1000, 0};
   setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-  if (t == Transport::tcp) {
+  if (t != Transport::unix_socket) {
     int one = 1;
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
   }
@@ -213,7 +224,7 @@ Socket connectTcp(uint16_t port) {
   return s;
 }
 
-// Two connected ends with no hub between them: the raw floor.
+// Two connected ends with no hub between them: the raw floor (TLS: see rawTlsPair).
 std::pair<Socket, Socket> rawPair(Transport t) {
   if (t == Transport::unix_socket) {
     int fds[2];
@@ -259,10 +270,11 @@ struct FrameView {
 };
 
 // Reads frames from a blocking socket into one buffer and hands them out in place: a view stays
-// valid until the next fill().
+// valid until the next fill(). With TLS, fill() decrypts into the same buffer.
 class FrameReader {
  public:
   explicit FrameReader(int fd, size_t capacity = kRecvBytes) : fd_(fd), buf_(capacity) {}
+  void setTls(flow::TlsSession* tls) { tls_ = tls; }
 
   // The next complete buffered frame, without I/O.
   bool tryNext(FrameView& f) {
@@ -296,6 +308,10 @@ class FrameReader {
       begin_ = 0;
     }
     if (buf_.size() < want_) buf_.resize(want_ + 64 * kKiB);
+    if (tls_ != nullptr) {
+      fillTls();
+      return;
+    }
     for (;;) {
       const ssize_t n = ::recv(fd_, buf_.data() + end_, buf_.size() - end_, 0);
       if (n > 0) {
@@ -316,15 +332,57 @@ class FrameReader {
   }
 
  private:
+  // Decrypts what is buffered in the session; receives more ciphertext when that is nothing.
+  void fillTls() {
+    for (;;) {
+      size_t got = 0;
+      while (end_ < buf_.size()) {
+        auto n = tls_->read(buf_.data() + end_, buf_.size() - end_);
+        if (!n) fail("TLS: " + n.error().message);
+        if (*n == 0) break;
+        end_ += *n;
+        got += *n;
+      }
+      if (got > 0) return;
+      cipher_.resize(kRecvBytes);
+      const ssize_t n = ::recv(fd_, cipher_.data(), cipher_.size(), 0);
+      if (n == 0) fail("connection closed by the peer");
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        fail(errno == EAGAIN ? std::string("no data for 10 s (frames missing or peer stuck)")
+                             : errnoText("recv"));
+      }
+      if (auto r = tls_->receive(std::string_view(cipher_.data(), static_cast<size_t>(n))); !r) {
+        fail("TLS: " + r.error().message);
+      }
+    }
+  }
+
   int fd_;
+  flow::TlsSession* tls_ = nullptr;
+  std::vector<char> cipher_;
   std::vector<char> buf_;
   size_t begin_ = 0, end_ = 0, want_ = flow::kFrameHeaderBytes;
 };
 
-// One end of a connection: to the hub (a logged-in flow) or to the other raw end.
+// One end of a connection: to the hub (a logged-in flow) or to the other raw end; encrypted when
+// it has a TLS session (established already).
 struct Peer {
   explicit Peer(Socket s) : sock(std::move(s)), in(sock.fd()) {}
-  void send(std::string_view bytes) const { sendAll(sock.fd(), bytes); }
+  Peer(Socket s, flow::TlsSession session) : sock(std::move(s)), in(sock.fd()) {
+    tls.emplace(std::move(session));
+    in.setTls(&*tls);
+  }
+  void send(std::string_view bytes) const {
+    if (!tls) {
+      sendAll(sock.fd(), bytes);
+      return;
+    }
+    if (auto w = tls->write(bytes); !w) fail("TLS: " + w.error().message);
+    cipher_out.clear();
+    tls->takeOutput(cipher_out);
+    sendAll(sock.fd(), cipher_out);
+  }
   template <class M>
   void sendMsg(const M& m) const {
     std::string out;
@@ -332,9 +390,86 @@ struct Peer {
     send(out);
   }
   Socket sock;
+  mutable std::optional<flow::TlsSession> tls;
+  mutable std::string cipher_out;
   FrameReader in;
 };
 using PeerPtr = std::unique_ptr<Peer>;
+
+// --- TLS -----------------------------------------------------------------------------------
+
+// The test CA and the hub's certificate (localhost), made once per run.
+class Certificates {
+ public:
+  Certificates() {
+    const std::string cmd =
+        std::string("sh ") + MAKE_TEST_CERTS + " " + dir_.path().string() + " >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) != 0) fail("make_test_certs.sh failed (is openssl installed?)");
+    flow::TlsSettings server;
+    server.cert_file = file("hub.pem");
+    server.key_file = file("hub.key");
+    flow::TlsSettings client;
+    client.ca_file = file("ca.pem");
+    auto s = flow::TlsContext::create(flow::TlsRole::server, server);
+    auto c = flow::TlsContext::create(flow::TlsRole::client, client);
+    if (!s || !c) fail("TLS contexts: " + (s ? c.error().message : s.error().message));
+    server_.emplace(std::move(s).value());
+    client_.emplace(std::move(c).value());
+  }
+  [[nodiscard]] std::string file(const char* name) const { return (dir_.path() / name).string(); }
+  [[nodiscard]] const flow::TlsContext& server() const { return *server_; }
+  [[nodiscard]] const flow::TlsContext& client() const { return *client_; }
+
+ private:
+  skr::test::TempDir dir_{"skrobot-bench-certs"};
+  std::optional<flow::TlsContext> server_, client_;
+};
+
+const Certificates* g_certs = nullptr;  // set by main when TLS rows run
+
+flow::TlsSession openSession(const flow::TlsContext& ctx) {
+  auto s = flow::TlsSession::open(ctx, "localhost");
+  if (!s) fail("TLS session: " + s.error().message);
+  return std::move(s).value();
+}
+
+// The client's handshake with a hub on a blocking socket.
+flow::TlsSession clientHandshake(int fd) {
+  flow::TlsSession tls = openSession(g_certs->client());
+  std::string out, in(64 * kKiB, '\0');
+  for (;;) {
+    out.clear();
+    tls.takeOutput(out);
+    sendAll(fd, out);
+    if (tls.established()) return tls;
+    const ssize_t n = ::recv(fd, in.data(), in.size(), 0);
+    if (n <= 0) fail(errnoText("TLS handshake recv"));
+    if (auto r = tls.receive(std::string_view(in.data(), static_cast<size_t>(n))); !r) {
+      fail("TLS handshake: " + r.error().message);
+    }
+  }
+}
+
+// The raw TLS floor: a loopback TCP pair, one end client and one server, the handshake done in
+// memory between the two sessions.
+std::pair<PeerPtr, PeerPtr> rawTlsPair() {
+  auto [x, y] = rawPair(Transport::tcp);
+  flow::TlsSession a = openSession(g_certs->client());
+  flow::TlsSession b = openSession(g_certs->server());
+  std::string bytes;
+  for (int i = 0; i < 10 && !(a.established() && b.established()); ++i) {
+    bytes.clear();
+    a.takeOutput(bytes);
+    if (auto r = b.receive(bytes); !r) fail("raw TLS handshake: " + r.error().message);
+    bytes.clear();
+    b.takeOutput(bytes);
+    if (auto r = a.receive(bytes); !r) fail("raw TLS handshake: " + r.error().message);
+  }
+  if (!a.established() || !b.established()) fail("raw TLS handshake did not finish");
+  // Session tickets and the like that the server sent last reach the client with the data.
+  return {std::make_unique<Peer>(std::move(x), std::move(a)),
+          std::make_unique<Peer>(std::move(y), std::move(b))};
+}
 
 // Data arrives as EV_DATA through the hub and as PUBLISH over a raw socket: same layout.
 bool isData(uint8_t code) {
@@ -384,7 +519,8 @@ M decodeOrFail(const FrameView& f) {
 // A FlowServer on its own loop thread, as the tests run it. TCP gets a real account.
 class Hub {
  public:
-  Hub(const Options& o, bool tcp) {
+  // tls: the TCP listener speaks TLS (g_certs), and dial(Transport::tls) reaches it.
+  Hub(const Options& o, bool tcp, bool tls = false) {
     flow::ServerOptions so;
     so.app_name = "skrobot-bench-" + std::to_string(::getpid());
     so.unix_path = (dir_.path() / "hub.sock").string();
@@ -395,6 +531,11 @@ class Hub {
       so.tcp_enabled = true;
       so.tcp_port = 0;
       createAccount(so.users_file);
+    }
+    if (tls) {
+      so.tls.emplace();
+      so.tls->cert_file = g_certs->file("hub.pem");
+      so.tls->key_file = g_certs->file("hub.key");
     }
     unix_path_ = so.unix_path;
     skr::LoopOptions lo;
@@ -422,8 +563,12 @@ class Hub {
   Hub(Hub&&) = delete;
   Hub& operator=(Hub&&) = delete;
 
-  [[nodiscard]] Socket dial(Transport t) const {
-    return t == Transport::tcp ? connectTcp(tcp_port_) : connectUnix(unix_path_);
+  [[nodiscard]] PeerPtr dial(Transport t) const {
+    if (t == Transport::unix_socket) return std::make_unique<Peer>(connectUnix(unix_path_));
+    Socket s = connectTcp(tcp_port_);
+    if (t == Transport::tcp) return std::make_unique<Peer>(std::move(s));
+    flow::TlsSession session = clientHandshake(s.fd());
+    return std::make_unique<Peer>(std::move(s), std::move(session));
   }
   [[nodiscard]] flow::ServerStats stats() {
     flow::ServerStats s;
@@ -469,10 +614,10 @@ void expectReplyOk(Peer& p, const char* what) {
 }
 
 PeerPtr loginFlow(const Hub& hub, Transport t) {
-  auto p = std::make_unique<Peer>(hub.dial(t));
+  PeerPtr p = hub.dial(t);
   msg::Login m;
-  m.user = t == Transport::tcp ? kTcpUser : "guest";
-  m.password = t == Transport::tcp ? kTcpPassword : "password";
+  m.user = t != Transport::unix_socket ? kTcpUser : "guest";
+  m.password = t != Transport::unix_socket ? kTcpPassword : "password";
   m.client_name = "flow_relay";
   p->sendMsg(m);
   expectReplyOk(*p, "LOGIN");
@@ -842,8 +987,12 @@ int roundsFor(size_t payload, bool quick) {
 }
 
 PingPair rawPingPair(Transport t) {
-  auto [x, y] = rawPair(t);
   PingPair p;
+  if (t == Transport::tls) {
+    std::tie(p.a, p.b) = rawTlsPair();
+    return p;
+  }
+  auto [x, y] = rawPair(t);
   p.a = std::make_unique<Peer>(std::move(x));
   p.b = std::make_unique<Peer>(std::move(y));
   return p;
@@ -885,6 +1034,14 @@ Throughput rawStream(Transport t, size_t subscribers, size_t payload, double sec
   std::vector<PeerPtr> ends;
   Stream s;
   for (size_t i = 0; i < subscribers; ++i) {
+    if (t == Transport::tls) {
+      auto [x, y] = rawTlsPair();
+      ends.push_back(std::move(x));
+      s.writers.push_back(ends.back().get());
+      ends.push_back(std::move(y));
+      s.readers.push_back(ends.back().get());
+      continue;
+    }
     auto [x, y] = rawPair(t);
     ends.push_back(std::make_unique<Peer>(std::move(x)));
     s.writers.push_back(ends.back().get());
@@ -973,6 +1130,34 @@ void printTargets(const std::vector<Row>& rows) {
   }
 }
 
+// Each TLS row next to the plain TCP row of the same test through the hub: what encryption costs.
+void printTlsAgainstTcp(const std::vector<Row>& rows) {
+  bool header = false;
+  for (const Row& tls : rows) {
+    if (tls.transport != Transport::tls) continue;
+    const Row* tcp = nullptr;
+    for (const Row& r : rows) {
+      if (r.transport == Transport::tcp && r.kind == tls.kind && r.subscribers == tls.subscribers &&
+          r.payload == tls.payload) {
+        tcp = &r;
+      }
+    }
+    if (tcp == nullptr) continue;
+    if (!header) {
+      std::printf("\nTLS against plain TCP, both through the hub:\n");
+      std::printf("%-12s %-6s %-31s %-31s %s\n", "test", "size", "tls", "tcp", "tls/tcp");
+      header = true;
+    }
+    const std::string ratio =
+        tls.kind == Kind::round_trip
+            ? fmt("%.2fx (p99 %.2fx)", tls.hub_rtt.p50_us / tcp->hub_rtt.p50_us,
+                  tls.hub_rtt.p99_us / tcp->hub_rtt.p99_us)
+            : fmt("%.2fx", tls.hub_tp.total_rate / tcp->hub_tp.total_rate);
+    std::printf("%-12s %-6s %-31s %-31s %s\n", testText(tls).c_str(), sizeText(tls.payload).c_str(),
+                figureText(tls, true).c_str(), figureText(*tcp, true).c_str(), ratio.c_str());
+  }
+}
+
 void printPreamble(const Options& o) {
   double load[3] = {0, 0, 0};
   if (::getloadavg(load, 3) < 0) load[0] = -1;
@@ -997,18 +1182,34 @@ int main(int argc, char** argv) {
   std::signal(SIGPIPE, SIG_IGN);
   skr::log::setLevel(skr::log::Level::error);  // drops are reported in the table
   try {
+    std::optional<Certificates> certs;
+    if (o.tls_rows && o.tcp_rows) {
+      certs.emplace();
+      g_certs = &*certs;
+    }
     Hub hub(o, o.tcp_rows);
+    std::optional<Hub> tls_hub;
+    if (g_certs != nullptr) tls_hub.emplace(o, true, true);
     printPreamble(o);
     printHeader();
     std::vector<Row> rows;
     if (o.unix_rows) runTransport(hub, Transport::unix_socket, o, rows);
     if (o.tcp_rows) runTransport(hub, Transport::tcp, o, rows);
-    const flow::ServerStats st = hub.stats();
+    if (tls_hub) runTransport(*tls_hub, Transport::tls, o, rows);
+    flow::ServerStats st = hub.stats();
+    if (tls_hub) {
+      const flow::ServerStats t = tls_hub->stats();
+      st.frames_in += t.frames_in;
+      st.data_frames_out += t.data_frames_out;
+      st.data_frames_dropped += t.data_frames_dropped;
+      st.protocol_errors += t.protocol_errors + t.tls_refused;
+    }
     std::printf("\nhub: %llu frames in, %llu data frames out, %llu dropped, %llu protocol errors\n",
                 static_cast<unsigned long long>(st.frames_in),
                 static_cast<unsigned long long>(st.data_frames_out),
                 static_cast<unsigned long long>(st.data_frames_dropped),
                 static_cast<unsigned long long>(st.protocol_errors));
+    printTlsAgainstTcp(rows);
     printTargets(rows);
     if (st.protocol_errors != 0) fail("the hub saw protocol errors");
   } catch (const std::exception& e) {

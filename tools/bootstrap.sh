@@ -26,6 +26,8 @@ step() { STEP=$((STEP + 1)); echo "==> [$STEP] $*"; }
 PACKAGES=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   libuv1-dev libjsoncpp-dev libsodium-dev
+  # TLS on the TCP transport (libssl-dev), and the test certificates (openssl)
+  libssl-dev openssl
   googletest libgtest-dev
   clang libclang-rt-14-dev
   python3 python3-pip python3-setuptools python3-lib2to3

@@ -42,8 +42,9 @@ constexpr const char* kUsage =
     "                     config/default.json of the current directory)\n"
     "  --check-config     validate the config, that every enabled module can be loaded and\n"
     "                     that its config object fits the keys the module declares (without\n"
-    "                     starting it); exit 0 when all is well, 1 when a module would fail\n"
-    "                     (MODULE-CONFIG lines name each bad key), 3 on hub config errors\n"
+    "                     starting it), and that the TLS files can be loaded; exit 0 when all\n"
+    "                     is well, 1 when a module would fail (MODULE-CONFIG lines name each\n"
+    "                     bad key), 3 on hub config errors (a bad TLS file included)\n"
     "  --list-modules     list the module files found on the search path\n"
     "  --describe-module NAME\n"
     "                     print the config keys a module declares (NAME or a path to a .so)\n"
@@ -67,6 +68,18 @@ struct Options {
 // Every enabled module through the module host's own checks (file, descriptor, declared config
 // keys), without initialising any.
 int checkConfig(const skr::HubConfig& cfg) {
+  if (cfg.server.tls) {
+    // The files the hub would load at start: certificate, key (and that they match), client CA.
+    auto tls = skr::flow::TlsContext::create(skr::flow::TlsRole::server, *cfg.server.tls);
+    if (!tls) {
+      std::fprintf(stderr, "skrobot: %s: server.tls: %s\n", cfg.config_file.c_str(),
+                   tls.error().message.c_str());
+      return kExitConfig;
+    }
+    std::printf("  %-20s ok  %s (client certificates %s)\n", "TLS",
+                cfg.server.tls->cert_file.c_str(),
+                tls->requiresPeerCertificate() ? "required" : "not asked for");
+  }
   int problems = 0;
   const auto search = skr::moduleSearchPath(cfg.module_paths);
   size_t enabled = 0;
@@ -182,6 +195,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.tcp_enabled = s.tcp_enabled;
   o.tcp_address = s.tcp_address;
   o.tcp_port = s.tcp_port;
+  o.tls = s.tls;
   o.max_frame_bytes = s.max_frame_bytes;
   o.subscriber_queue_bytes = s.subscriber_queue_bytes;
   o.max_connections = s.max_connections;

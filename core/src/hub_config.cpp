@@ -220,6 +220,12 @@ s::Schema serverSchema() {
       s::optional("tcp", s::boolean(), false),
       s::optional("tcp_address", s::string().nonEmpty(), "127.0.0.1"),
       s::optional("tcp_port", s::integer().range(0, 65535), 9000),
+      s::optional("tls", s::object({
+                             s::required("cert", s::string().nonEmpty()),
+                             s::required("key", s::string().nonEmpty()),
+                             s::optional("client_ca", s::string(), ""),
+                             s::optional("min_version", s::string().oneOf({"1.2", "1.3"}), "1.2"),
+                         })),
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
@@ -261,6 +267,16 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
     out.tcp_enabled = s["tcp"].asBool();
     out.tcp_address = s["tcp_address"].asString();
     out.tcp_port = static_cast<uint16_t>(s["tcp_port"].asInt());
+    if (const Json::Value& t = s["tls"]; t.isObject()) {
+      flow::TlsSettings tls;
+      tls.cert_file = resolve(base_dir, t["cert"].asString()).string();
+      tls.key_file = resolve(base_dir, t["key"].asString()).string();
+      if (!t["client_ca"].asString().empty()) {
+        tls.ca_file = resolve(base_dir, t["client_ca"].asString()).string();
+      }
+      tls.min_version = t["min_version"].asString();
+      out.tls = std::move(tls);
+    }
     out.max_frame_bytes = s["max_frame_bytes"].asUInt();
     out.subscriber_queue_bytes = s["subscriber_queue_bytes"].asUInt();
     out.max_connections = s["max_connections"].asUInt();
@@ -306,6 +322,9 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
     }
     readModules(d["modules"], base_dir, cfg, problems);
     readServer(d, base_dir, cfg);
+    if (cfg.server.tls && !cfg.server.tcp_enabled) {
+      problems.push_back({"$.server.tls", "TLS is served on the TCP listener: set \"tcp\": true"});
+    }
   }
   if (!problems.empty()) return makeError(Errc::config_error, s::formatProblems(problems, origin));
   return cfg;

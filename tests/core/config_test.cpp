@@ -135,6 +135,32 @@ TEST(ConfigTest, ValuesAreRead) {
   EXPECT_FALSE(r->modules[1].enabled);
 }
 
+TEST(ConfigTest, TlsSettingsAreReadAndResolved) {
+  Result<HubConfig> r = parse(R"({"server": {"tcp": true, "tcp_address": "0.0.0.0",
+    "tls": {"cert": "tls/hub.pem", "key": "/keys/hub.key", "client_ca": "ca.pem"}}})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_TRUE(r->server.tls.has_value());
+  EXPECT_EQ(r->server.tls->cert_file, "/etc/robot/tls/hub.pem");
+  EXPECT_EQ(r->server.tls->key_file, "/keys/hub.key");
+  EXPECT_EQ(r->server.tls->ca_file, "/etc/robot/ca.pem");
+  EXPECT_EQ(r->server.tls->min_version, "1.2");
+  auto plain = parse(R"({"server": {"tcp": true}})");
+  ASSERT_TRUE(plain.ok());
+  EXPECT_FALSE(plain->server.tls.has_value());
+  auto no_ca = parse(R"({"server": {"tcp": true, "tls": {"cert": "a", "key": "b",
+                          "min_version": "1.3"}}})");
+  ASSERT_TRUE(no_ca.ok()) << no_ca.error().message;
+  EXPECT_EQ(no_ca->server.tls->ca_file, "");
+  EXPECT_EQ(no_ca->server.tls->min_version, "1.3");
+
+  EXPECT_HAS(errorOf(R"({"server": {"tls": {"cert": "a", "key": "b"}}})"),
+             "$.server.tls: TLS is served on the TCP listener: set \"tcp\": true");
+  EXPECT_HAS(errorOf(R"({"server": {"tcp": true, "tls": {"cert": "a"}}})"), "key");
+  EXPECT_HAS(errorOf(R"({"server": {"tcp": true, "tls": {"cert": "a", "key": "b",
+                          "min_version": "1.1"}}})"),
+             "min_version");
+}
+
 TEST(ConfigTest, SyntaxErrorHasLineAndColumn) {
   std::string msg = errorOf("{\n  \"app_name\": \"x\",\n  \"log\" {}\n}");
   EXPECT_HAS(msg, "test.json:3:9: Missing ':'");

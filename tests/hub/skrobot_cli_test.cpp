@@ -113,6 +113,31 @@ TEST(SkrobotCli, CheckConfigReportsModulesThatWouldFail) {
   EXPECT_NE(r.output.find("test_abi_major"), std::string::npos) << r.output;
 }
 
+TEST(SkrobotCli, CheckConfigLoadsTheTlsFiles) {
+  TempDir dir;
+  const std::string certs = (dir.path() / "certs").string();
+  ASSERT_EQ(std::system(("sh " + std::string(SKROBOT_SOURCE_DIR) +
+                         "/tests/support/make_test_certs.sh " + certs + " >/dev/null 2>&1")
+                            .c_str()),
+            0);
+  const auto config = [&](const std::string& cert, const std::string& key) {
+    return dir.write("cfg.json", R"({"modules": [], "server": {"tcp": true, "tls": {"cert": ")" +
+                                     certs + "/" + cert + R"(", "key": ")" + certs + "/" + key +
+                                     R"(", "client_ca": ")" + certs + R"(/ca.pem"}}})");
+  };
+  auto good = run({"--config", config("hub.pem", "hub.key").string(), "--check-config"});
+  EXPECT_EQ(good.exit_code, 0) << good.output;
+  EXPECT_NE(good.output.find("(client certificates required)"), std::string::npos) << good.output;
+  auto missing = run({"--config", config("nope.pem", "hub.key").string(), "--check-config"});
+  EXPECT_EQ(missing.exit_code, 3) << missing.output;
+  EXPECT_NE(missing.output.find("server.tls: TLS: certificate " + certs + "/nope.pem"),
+            std::string::npos)
+      << missing.output;
+  auto mismatch = run({"--config", config("hub.pem", "client.key").string(), "--check-config"});
+  EXPECT_EQ(mismatch.exit_code, 3) << mismatch.output;
+  EXPECT_NE(mismatch.output.find("client.key"), std::string::npos) << mismatch.output;
+}
+
 TEST(SkrobotCli, CheckConfigReportsModuleConfigErrorsWithTheirPaths) {
   TempDir dir;
   auto cfg = dir.write("cfg.json", R"({"modules": [

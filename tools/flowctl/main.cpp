@@ -10,7 +10,7 @@
 namespace flowctl {
 
 std::string_view usage() {
-  return R"(usage: flowctl [--address ADDR] [--user NAME] [--password PW] [--json] COMMAND ...
+  return R"(usage: flowctl [--address ADDR] [--user NAME] [--password PW] [--ca FILE] [--json] COMMAND ...
 
 Commands:
   ls                          list the hub's channels: id, kind, name, owner, subscribers, mime,
@@ -23,9 +23,15 @@ Commands:
   help [COMMAND]              this text, or a command's options
 
 Global options:
-  --address ADDR    local:/path or tcp:host[:port] (default: $ROBOT_ADDRESS, else local:/tmp/Robot)
+  --address ADDR    local:/path, tcp:host[:port] or tls:host[:port]
+                    (default: $ROBOT_ADDRESS, else local:/tmp/Robot)
   --user NAME       (default: $ROBOT_USER, else guest)
   --password PW     (default: $ROBOT_PASSWORD, else password)
+  --ca FILE         tls: the CA certificate that signed the hub's (default: $ROBOT_TLS_CA, else
+                    the system's CA store); the hub's certificate must name the address's host
+  --cert FILE, --key FILE
+                    tls: a client certificate and its key, for a hub that asks for one
+                    (default: $ROBOT_TLS_CERT, $ROBOT_TLS_KEY)
   --json            machine-readable output (one JSON document, or one JSON line per message)
 
 Exit codes: 0 ok, 1 refused or failed, 2 usage, 3 no hub (or hub lost), 4 login refused,
@@ -106,6 +112,9 @@ int main(int argc, char** argv) {
     if (const char* p = std::getenv("ROBOT_PASSWORD"); p != nullptr && *p != '\0') {
       cli.connect.password = p;
     }
+    if (const char* v = std::getenv("ROBOT_TLS_CA"); v != nullptr) cli.connect.tls.ca_file = v;
+    if (const char* v = std::getenv("ROBOT_TLS_CERT"); v != nullptr) cli.connect.tls.cert_file = v;
+    if (const char* v = std::getenv("ROBOT_TLS_KEY"); v != nullptr) cli.connect.tls.key_file = v;
   }
   bool help = false;
   bool positional_only = false;
@@ -119,6 +128,9 @@ int main(int argc, char** argv) {
       if (name == "--address") target = &address;
       if (name == "--user") target = &cli.connect.user;
       if (name == "--password") target = &cli.connect.password;
+      if (name == "--ca") target = &cli.connect.tls.ca_file;
+      if (name == "--cert") target = &cli.connect.tls.cert_file;
+      if (name == "--key") target = &cli.connect.tls.key_file;
       if (target != nullptr) {
         if (name.size() < a.size()) {
           *target = a.substr(name.size() + 1);

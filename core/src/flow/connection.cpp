@@ -31,7 +31,7 @@ Connection::~Connection() = default;
 std::string Connection::describe() const {
   std::string s = "connection " + std::to_string(id);
   if (!user.empty()) s += " (" + user + (client_name.empty() ? "" : "/" + client_name) + ")";
-  s += transport_ == Transport::tcp ? " tcp" : " unix";
+  s += transport_ != Transport::tcp ? " unix" : tls_ ? " tls" : " tcp";
   return s;
 }
 
@@ -48,39 +48,126 @@ void Connection::startReading() {
   reading_ = true;
 }
 
+void Connection::useTls(TlsSession session) {
+  tls_.emplace(std::move(session));
+  tls_in_ = std::make_unique_for_overwrite<char[]>(kReadChunk);
+}
+
+void Connection::reserveRead(size_t want) {
+  if (rcap_ - rend_ >= want) return;
+  const size_t have = rend_ - rstart_;
+  if (rstart_ > 0) {
+    if (have > 0) std::memmove(rbuf_.get(), rbuf_.get() + rstart_, have);
+    rstart_ = 0;
+    rend_ = have;
+  }
+  if (rcap_ - rend_ < want) {
+    const size_t cap = rend_ + want;
+    auto bigger = std::make_unique_for_overwrite<char[]>(cap);  // no zero-fill
+    if (have > 0) std::memcpy(bigger.get(), rbuf_.get(), have);
+    rbuf_ = std::move(bigger);
+    rcap_ = cap;
+  }
+}
+
 void Connection::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
   auto* c = static_cast<Connection*>(h->data);
+  if (c->tls_) {  // ciphertext: decrypted into rbuf_ by receiveTls
+    *buf = uv_buf_init(c->tls_in_.get(), static_cast<unsigned>(kReadChunk));
+    return;
+  }
   const size_t have = c->rend_ - c->rstart_;
   // Room for the rest of the frame being received (its length was checked against the limit by
   // the splitter before rneed_ was set), and at least one chunk.
-  const size_t want = std::max(kReadChunk, c->rneed_ > have ? c->rneed_ - have : 0);
-  if (c->rcap_ - c->rend_ < want) {
-    if (c->rstart_ > 0) {
-      std::memmove(c->rbuf_.get(), c->rbuf_.get() + c->rstart_, have);
-      c->rstart_ = 0;
-      c->rend_ = have;
-    }
-    if (c->rcap_ - c->rend_ < want) {
-      const size_t cap = c->rend_ + want;
-      auto bigger = std::make_unique_for_overwrite<char[]>(cap);  // no zero-fill
-      if (have > 0) std::memcpy(bigger.get(), c->rbuf_.get(), have);
-      c->rbuf_ = std::move(bigger);
-      c->rcap_ = cap;
-    }
-  }
+  c->reserveRead(std::max(kReadChunk, c->rneed_ > have ? c->rneed_ - have : 0));
   *buf = uv_buf_init(c->rbuf_.get() + c->rend_, static_cast<unsigned>(c->rcap_ - c->rend_));
 }
 
-void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t*) {
+void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf) {
   auto* c = static_cast<Connection*>(s->data);
   if (nread == 0) return;
   if (nread < 0) {
+    if (c->tls_ && !c->tls_->established() && !c->first_input_) {
+      c->refuse("the client closed the connection during the TLS handshake", {});
+      return;
+    }
     c->close(nread == UV_EOF ? "peer closed the connection" : uv_strerror(static_cast<int>(nread)));
     return;
   }
-  c->rend_ += static_cast<size_t>(nread);
   c->server_.loop.noteActivity();
+  if (c->tls_) {
+    c->receiveTls(buf->base, static_cast<size_t>(nread));
+    return;
+  }
+  c->rend_ += static_cast<size_t>(nread);
+  if (c->first_input_) {
+    c->first_input_ = false;
+    if (c->transport_ == Transport::tcp &&
+        looksLikeTls(std::string_view(c->rbuf_.get() + c->rstart_, c->rend_ - c->rstart_))) {
+      c->refuse(
+          "a TLS client on the plain TCP port (the hub has no server.tls; the client "
+          "should use a tcp: address)",
+          {});
+      return;
+    }
+  }
   c->processInput();
+}
+
+void Connection::receiveTls(const char* data, size_t n) {
+  if (first_input_) {
+    first_input_ = false;
+    if (!looksLikeTls(std::string_view(data, n))) {
+      // A plain FlowProtocol client: it waits for the reply to its LOGIN, so tell it in its own
+      // language before closing.
+      std::string reply;
+      (void)encode(reply, msg::ReplyError{static_cast<uint16_t>(ErrorCode::protocol_error),
+                                          "this hub's TCP port speaks TLS: connect with a tls: "
+                                          "address (docs/security.md)"});
+      refuse("a plain TCP client on the TLS port", std::move(reply));
+      return;
+    }
+  }
+  const bool was_established = tls_->established();
+  if (auto r = tls_->receive(std::string_view(data, n)); !r) {
+    std::string alert;
+    tls_->takeOutput(alert);
+    refuse(r.error().message, std::move(alert));
+    return;
+  }
+  if (!was_established && tls_->established()) {
+    log::debug(kLogSource, "FLOW-TLS", describe() + ": " + tls_->describe());
+  }
+  // Everything decrypted now goes into rbuf_: the splitter then sees exactly what a plain
+  // connection would have read.
+  for (;;) {
+    reserveRead(kReadChunk);
+    auto got = tls_->read(rbuf_.get() + rend_, rcap_ - rend_);
+    if (!got) {
+      if (got.error().code == Errc::closed) {
+        close("peer closed TLS");
+      } else {
+        refuse(got.error().message, {});
+      }
+      return;
+    }
+    if (*got == 0) break;
+    rend_ += *got;
+  }
+  if (tls_->hasOutput()) server_.markDirty(this);  // handshake records
+  processInput();
+}
+
+void Connection::refuse(const std::string& why, std::string reply) {
+  ++server_.stats.tls_refused;
+  log::warn(kLogSource, "FLOW-TLS", "refusing " + describe() + ": " + why);
+  if (!reply.empty()) {
+    // Best effort, on a fresh connection whose socket buffer is empty: one try, no queueing.
+    uv_buf_t b = uv_buf_init(reply.data(), static_cast<unsigned>(reply.size()));
+    (void)uv_try_write(stream(), &b, 1);
+  }
+  tls_.reset();  // nothing more to encrypt
+  close("refused");
 }
 
 void Connection::processInput() {
@@ -197,6 +284,14 @@ void Connection::replyOk() {
 
 void Connection::close(const char* why) noexcept {
   if (state_ == State::closing) return;
+  if (tls_ && tls_->established() && !writing_) {
+    // close_notify, so that the peer can tell our close from a cut connection.
+    tls_->shutdown();
+    std::string bye;
+    tls_->takeOutput(bye);
+    uv_buf_t b = uv_buf_init(bye.data(), static_cast<unsigned>(bye.size()));
+    if (!bye.empty()) (void)uv_try_write(stream(), &b, 1);
+  }
   state_ = State::closing;
   log::debug(kLogSource, "FLOW-CLOSE", describe() + ": " + why);
   server_.removeEndpoint(*this);
@@ -309,6 +404,18 @@ void Connection::flush() {
       (void)encode(out_, msg::EvDropped{chan, count}, enc_);
     }
     dropped_.clear();
+  }
+  if (tls_) {
+    // The queue holds whole frames up to here (dropOldestData reads it); it leaves encrypted.
+    if (!out_.empty()) {
+      auto w = tls_->write(out_);
+      out_.clear();
+      if (!w) {
+        refuse(w.error().message, {});
+        return;
+      }
+    }
+    tls_->takeOutput(out_);
   }
   if (out_.empty()) {
     if (close_after_flush_) close("replies sent");

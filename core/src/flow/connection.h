@@ -1,14 +1,19 @@
 // One satellite connected over a socket (Unix or TCP). Owns its libuv stream, a read buffer that
 // frames are parsed from in place, and an output queue flushed once per loop iteration (many
 // frames per write system call). Main loop thread only.
+//
+// With TLS (useTls), received bytes are decrypted into the same read buffer and the same frame
+// splitter parses them; the output queue holds frames until flush() encrypts it as a whole.
 #pragma once
 
 #include "server_impl.h"
 
 #include <skrobot/flow/codec.h>
+#include <skrobot/flow/tls.h>
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace skr::flow {
@@ -27,6 +32,8 @@ class Connection final : public Endpoint {
   // The libuv stream this connection reads and writes (initialised by the server's accept).
   [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&handle_); }
   void startReading();
+  // Makes this a TLS connection: call after accept, before startReading().
+  void useTls(TlsSession session);
   // Closes now: the connection leaves every channel at once; memory goes with the close callback.
   void close(const char* why) noexcept;
   // Sends what is queued, then closes.
@@ -65,6 +72,12 @@ class Connection final : public Endpoint {
   static void onWrite(uv_write_t* req, int status);
 
   void processInput();
+  // Room for at least `want` more bytes at rbuf_ + rend_.
+  void reserveRead(size_t want);
+  void receiveTls(const char* data, size_t n);
+  // Refuses a peer that speaks the other language (plain on TLS, TLS on plain) or fails the TLS
+  // handshake: FLOW-TLS log line, `reply` sent as it is (an alert, a plain REPLY_ERROR), close.
+  void refuse(const std::string& why, std::string reply);
   void handleFrame(uint8_t code, std::string_view body);
   void handleLogin(std::string_view body);
   void handleSync(Code code, std::string_view body);
@@ -99,7 +112,10 @@ class Connection final : public Endpoint {
   // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
   std::unique_ptr<char[]> rbuf_;
   size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
-  bool blocked_ = false;  // a sync reply is pending: do not parse further frames
+  bool blocked_ = false;     // a sync reply is pending: do not parse further frames
+  bool first_input_ = true;  // nothing received yet: a plain TCP port checks for a TLS peer
+  std::optional<TlsSession> tls_;
+  std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;
 
   // Output: frames accumulate in out_; inflight_ is being written.

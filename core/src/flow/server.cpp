@@ -17,6 +17,15 @@
 #include <vector>
 
 namespace skr::flow {
+namespace {
+
+// Whether a listening address is reachable from this machine only.
+bool isLoopback(const std::string& address) {
+  return address == "localhost" || address == "::1" || address.starts_with("127.");
+}
+
+}  // namespace
+
 FlowServer::Impl::Impl(Loop& l, ServerOptions options)
     : loop(l),
       opt(std::move(options)),
@@ -76,6 +85,13 @@ Result<void> FlowServer::Impl::start() {
   uv_timer_init(loop.uv(), sweep_timer);
   uv_timer_start(
       sweep_timer, [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(); }, 20, 20);
+
+  if (opt.tcp_enabled && opt.tls) {
+    // The certificate, key and CA files are read here, once, before the loop serves anyone.
+    auto ctx = TlsContext::create(TlsRole::server, *opt.tls);
+    if (!ctx) return ctx.error();
+    tls = std::move(ctx).value();
+  }
 
   if (opt.unix_enabled) {
     if (auto r = listenUnix(); !r) {
@@ -156,7 +172,20 @@ Result<void> FlowServer::Impl::listenTcp() {
   int len = sizeof bound;
   uv_tcp_getsockname(tcp_listener, reinterpret_cast<sockaddr*>(&bound), &len);
   tcp_port = ntohs(reinterpret_cast<sockaddr_in*>(&bound)->sin_port);
-  log::info(kLogSource, "FLOW-LISTEN", "TCP " + opt.tcp_address + ":" + std::to_string(tcp_port));
+  const std::string where = opt.tcp_address + ":" + std::to_string(tcp_port);
+  if (tls) {
+    log::info(kLogSource, "FLOW-LISTEN",
+              "TLS " + where + " (TLS " + opt.tls->min_version + " or later, client certificates " +
+                  (tls->requiresPeerCertificate() ? "required" : "not asked for") + ")");
+  } else {
+    log::info(kLogSource, "FLOW-LISTEN", "TCP " + where);
+    if (!isLoopback(opt.tcp_address)) {
+      log::warn(kLogSource, "FLOW-TCP-PLAIN",
+                "serving plain TCP on " + where +
+                    ", reachable from other machines: passwords and data cross the network "
+                    "unencrypted; configure server.tls (docs/security.md)");
+    }
+  }
   return {};
 }
 
@@ -193,6 +222,16 @@ std::string peerOf(uv_stream_t* stream, Transport transport) {
 
 void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
   auto* c = new Connection(*this, transport);
+  bool tls_failed = false;
+  if (transport == Transport::tcp && tls) {
+    auto session = TlsSession::open(*tls);
+    if (session) {
+      c->useTls(std::move(session).value());
+    } else {
+      log::error(kLogSource, "FLOW-TLS", session.error().message);
+      tls_failed = true;
+    }
+  }
   if (transport == Transport::tcp) {
     uv_tcp_init(loop.uv(), reinterpret_cast<uv_tcp_t*>(c->stream()));
   } else {
@@ -215,6 +254,10 @@ void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
               "refusing " + c->describe() + ": " + std::to_string(opt.max_connections) +
                   " connections already");
     c->close("too many connections");
+    return;
+  }
+  if (tls_failed) {
+    c->close("no TLS session");  // never serve plain bytes on the TLS port
     return;
   }
   c->login_deadline = monotonicNs() + static_cast<Nanos>(opt.login_timeout_ms) * kNsPerMs;

@@ -31,6 +31,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -49,6 +50,8 @@ struct FlowServer::Impl {
   std::string unix_path;
   uint16_t tcp_port = 0;
   bool started = false;
+  // Loaded by start() when opt.tls is set: every TCP connection is then a TLS session on it.
+  std::optional<TlsContext> tls;
 
   uv_pipe_t* unix_listener = nullptr;
   uv_tcp_t* tcp_listener = nullptr;

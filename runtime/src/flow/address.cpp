@@ -7,14 +7,15 @@ namespace skr::flow {
 std::string Address::toString() const {
   if (kind == Kind::local) return "local:" + path;
   const bool v6 = host.find(':') != std::string::npos;
-  return "tcp:" + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+  return std::string(kind == Kind::tls ? "tls:" : "tcp:") + (v6 ? "[" + host + "]" : host) + ":" +
+         std::to_string(port);
 }
 
 Result<Address> Address::parse(std::string_view text) {
   const auto bad = [&](const std::string& why) {
-    return makeError(Errc::invalid_argument, "bad hub address \"" + std::string(text) +
-                                                 "\": " + why +
-                                                 " (expected local:/path or tcp:host[:port])");
+    return makeError(Errc::invalid_argument,
+                     "bad hub address \"" + std::string(text) + "\": " + why +
+                         " (expected local:/path, tcp:host[:port] or tls:host[:port])");
   };
   Address a;
   if (text.starts_with("local:")) {
@@ -23,8 +24,13 @@ Result<Address> Address::parse(std::string_view text) {
     if (a.path.size() >= 108) return bad("socket path longer than 107 bytes");
     return a;
   }
-  if (!text.starts_with("tcp:")) return bad("unknown transport");
-  a.kind = Kind::tcp;
+  if (text.starts_with("tcp:")) {
+    a.kind = Kind::tcp;
+  } else if (text.starts_with("tls:")) {
+    a.kind = Kind::tls;
+  } else {
+    return bad("unknown transport");
+  }
   std::string_view rest = text.substr(4);
   std::string_view port;
   if (rest.starts_with("[")) {  // [v6]:port

@@ -20,6 +20,9 @@ Result<ConnectOptions> ConnectOptions::fromEnvironment(std::string client_name) 
   }
   if (std::string u = env("ROBOT_USER"); !u.empty()) o.user = std::move(u);
   if (std::string p = env("ROBOT_PASSWORD"); !p.empty()) o.password = std::move(p);
+  o.tls.ca_file = env("ROBOT_TLS_CA");
+  o.tls.cert_file = env("ROBOT_TLS_CERT");
+  o.tls.key_file = env("ROBOT_TLS_KEY");
   return o;
 }
 

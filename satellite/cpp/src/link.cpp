@@ -15,12 +15,21 @@ std::string uvError(const char* what, int rc) {
 
 }  // namespace
 
-Link::Link(uv_loop_t* loop, const Address& address, uint32_t max_frame_bytes, Handler& handler)
-    : loop_(loop), address_(address), splitter_(max_frame_bytes), handler_(handler) {}
+Link::Link(uv_loop_t* loop, const Address& address, const Result<flow::TlsContext>* tls,
+           uint32_t max_frame_bytes, Handler& handler)
+    : loop_(loop), address_(address), splitter_(max_frame_bytes), handler_(handler) {
+  if (address.kind == Address::Kind::tls) {
+    if (tls != nullptr) {
+      tls_context_ = *tls;
+    } else {
+      tls_context_ = makeError(Errc::invalid_argument, "TLS: no settings");
+    }
+  }
+}
 
-Link* Link::open(uv_loop_t* loop, const Address& address, uint32_t max_frame_bytes,
-                 Handler& handler) {
-  auto* link = new Link(loop, address, max_frame_bytes, handler);
+Link* Link::open(uv_loop_t* loop, const Address& address, const Result<flow::TlsContext>* tls,
+                 uint32_t max_frame_bytes, Handler& handler) {
+  auto* link = new Link(loop, address, tls, max_frame_bytes, handler);
   link->start();
   return link;
 }
@@ -43,6 +52,10 @@ void Link::start() {
   uv_tcp_init(loop_, &h_.tcp);
   h_.tcp.data = this;
   ++outstanding_;
+  if (tls_context_ && !*tls_context_) {
+    fail(tls_context_->error().message);
+    return;
+  }
   state_ = State::resolving;
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
@@ -85,12 +98,34 @@ void Link::onConnect(uv_connect_t* req, int status) {
     self->fail(uvError("connect", status));
     return;
   }
-  self->state_ = State::open;
+  if (self->tls_context_) {
+    auto session = flow::TlsSession::open(**self->tls_context_, self->address_.host);
+    if (!session) {
+      self->fail(session.error().message);
+      return;
+    }
+    self->tls_.emplace(std::move(session).value());
+    self->tls_in_ = std::make_unique<char[]>(kReadChunk);
+    self->state_ = State::handshaking;
+  } else {
+    self->state_ = State::open;
+  }
   if (int rc = uv_read_start(self->stream(), &Link::onAlloc, &Link::onRead); rc < 0) {
     self->fail(uvError("read", rc));
     return;
   }
+  if (self->tls_) {
+    self->kick();  // the ClientHello
+    return;
+  }
   self->handler_.onLinkConnected();
+}
+
+void Link::kick() {
+  if (!idle_active_ && !writing_) {
+    uv_idle_start(&idle_, &Link::onIdle);
+    idle_active_ = true;
+  }
 }
 
 void Link::fail(std::string why, bool protocol) {
@@ -136,10 +171,7 @@ void Link::queued() {
     out_.clear();
     return;
   }
-  if (!idle_active_ && !writing_) {
-    uv_idle_start(&idle_, &Link::onIdle);
-    idle_active_ = true;
-  }
+  kick();
 }
 
 // Runs once per loop iteration while active, before the loop waits for I/O: the place where
@@ -156,10 +188,23 @@ void Link::onIdle(uv_idle_t* idle) {
     self->handler_.onLinkClosed(why, protocol);  // `self` lives until the close callbacks
     return;
   }
-  if (self->state_ == State::open && !self->writing_) self->flush();
+  if ((self->state_ == State::open || self->state_ == State::handshaking) && !self->writing_) {
+    self->flush();
+  }
 }
 
 void Link::flush() {
+  if (tls_) {
+    if (!out_.empty()) {
+      auto w = tls_->write(out_);
+      out_.clear();
+      if (!w) {
+        fail(w.error().message);
+        return;
+      }
+    }
+    tls_->takeOutput(out_);
+  }
   if (out_.empty()) return;
   inflight_.swap(out_);
   out_.clear();
@@ -175,7 +220,7 @@ void Link::flush() {
 void Link::onWrite(uv_write_t* req, int status) {
   auto* self = static_cast<Link*>(req->data);
   self->writing_ = false;
-  if (self->state_ != State::open) return;
+  if (self->state_ != State::open && self->state_ != State::handshaking) return;
   if (status < 0) {
     self->fail(uvError("write", status));
     return;
@@ -190,6 +235,10 @@ void Link::onWrite(uv_write_t* req, int status) {
 
 void Link::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
   auto* c = static_cast<Link*>(h->data);
+  if (c->tls_) {
+    *buf = uv_buf_init(c->tls_in_.get(), static_cast<unsigned>(kReadChunk));
+    return;
+  }
   const size_t have = c->rend_ - c->rstart_;
   // Room for the rest of the frame being received (its length was checked by the splitter).
   const size_t want = std::max(kReadChunk, c->rneed_ > have ? c->rneed_ - have : 0);
@@ -210,16 +259,70 @@ void Link::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
   *buf = uv_buf_init(c->rbuf_.get() + c->rend_, static_cast<unsigned>(c->rcap_ - c->rend_));
 }
 
-void Link::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t*) {
+void Link::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf) {
   auto* c = static_cast<Link*>(s->data);
-  if (nread == 0 || c->state_ != State::open) return;
+  if (nread == 0 || (c->state_ != State::open && c->state_ != State::handshaking)) return;
   if (nread < 0) {
+    if (c->state_ == State::handshaking) {
+      c->fail("TLS handshake with " + c->address_.toString() +
+              ": the hub closed the connection (is its TCP port plain? then use a tcp: address)");
+      return;
+    }
     c->fail(nread == UV_EOF ? "the hub closed the connection"
                             : uvError("read", static_cast<int>(nread)));
     return;
   }
+  if (c->tls_) {
+    c->receiveTls(buf->base, static_cast<size_t>(nread));
+    return;
+  }
   c->rend_ += static_cast<size_t>(nread);
   c->processInput();
+}
+
+void Link::receiveTls(const char* data, size_t n) {
+  if (auto r = tls_->receive(std::string_view(data, n)); !r) {
+    // Tell the hub why (an alert: unknown CA, bad certificate...), so that its log says it too.
+    std::string alert;
+    tls_->takeOutput(alert);
+    uv_buf_t b = uv_buf_init(alert.data(), static_cast<unsigned>(alert.size()));
+    if (!alert.empty() && !writing_) (void)uv_try_write(stream(), &b, 1);
+    fail("TLS with " + address_.toString() + ": " + r.error().message);
+    return;
+  }
+  if (tls_->hasOutput()) kick();
+  if (state_ == State::handshaking) {
+    if (!tls_->established()) return;
+    state_ = State::open;
+    handler_.onLinkConnected();  // may close() this link
+    if (state_ != State::open) return;
+  }
+  for (;;) {
+    const size_t have = rend_ - rstart_;
+    if (rcap_ - rend_ < kReadChunk) {
+      if (rstart_ > 0) {
+        if (have > 0) std::memmove(rbuf_.get(), rbuf_.get() + rstart_, have);
+        rstart_ = 0;
+        rend_ = have;
+      }
+      if (rcap_ - rend_ < kReadChunk) {
+        auto bigger = std::make_unique<char[]>(rend_ + kReadChunk);
+        if (have > 0) std::memcpy(bigger.get(), rbuf_.get(), have);
+        rbuf_ = std::move(bigger);
+        rcap_ = rend_ + kReadChunk;
+      }
+    }
+    auto got = tls_->read(rbuf_.get() + rend_, rcap_ - rend_);
+    if (!got) {
+      fail(got.error().code == Errc::closed
+               ? std::string("the hub closed the connection")
+               : "TLS with " + address_.toString() + ": " + got.error().message);
+      return;
+    }
+    if (*got == 0) break;
+    rend_ += *got;
+  }
+  processInput();
 }
 
 void Link::processInput() {

@@ -1,18 +1,24 @@
 // One libuv stream to a hub (internal to the satellite library): connects, splits incoming bytes
 // into frames, and writes everything queued during one loop iteration in one write.
 //
+// A tls: address gets a TLS session (skrobot/flow/tls.h) on the TCP stream: onLinkConnected comes
+// once the handshake is done, frames are split from the decrypted bytes, and queued output is
+// encrypted as a whole at flush time.
+//
 // Loop thread only. A Link is heap-allocated by open() and deletes itself once libuv has closed
 // its handles: after close() by the owner (no callback follows), or after reporting a failure
 // through Handler::onLinkClosed (the owner must forget the pointer there, and not call close()).
 #pragma once
 
 #include <skrobot/flow/protocol.h>
+#include <skrobot/flow/tls.h>
 #include <skrobot/satellite/address.h>
 
 #include <uv.h>
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -38,8 +44,10 @@ class Link {
     Handler& operator=(Handler&&) = default;
   };
 
-  // Starts connecting; failures come later through onLinkClosed.
-  [[nodiscard]] static Link* open(uv_loop_t* loop, const Address& address, uint32_t max_frame_bytes,
+  // Starts connecting; failures come later through onLinkClosed. `tls` is required for a tls:
+  // address (its failure is reported as the link's) and ignored otherwise.
+  [[nodiscard]] static Link* open(uv_loop_t* loop, const Address& address,
+                                  const Result<flow::TlsContext>* tls, uint32_t max_frame_bytes,
                                   Handler& handler);
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
@@ -57,8 +65,9 @@ class Link {
   [[nodiscard]] uint64_t writes() const noexcept { return writes_; }
 
  private:
-  enum class State { resolving, connecting, open, failed, closed };
-  Link(uv_loop_t* loop, const Address& address, uint32_t max_frame_bytes, Handler& handler);
+  enum class State { resolving, connecting, handshaking, open, failed, closed };
+  Link(uv_loop_t* loop, const Address& address, const Result<flow::TlsContext>* tls,
+       uint32_t max_frame_bytes, Handler& handler);
   ~Link() = default;
 
   [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&h_); }
@@ -69,6 +78,8 @@ class Link {
   void closeHandles() noexcept;
   void flush();
   void processInput();
+  void receiveTls(const char* data, size_t n);
+  void kick();  // flush at the end of this loop iteration
 
   static void onResolved(uv_getaddrinfo_t* req, int status, addrinfo* res);
   static void onConnect(uv_connect_t* req, int status);
@@ -80,6 +91,9 @@ class Link {
 
   uv_loop_t* loop_;
   Address address_;
+  std::optional<Result<flow::TlsContext>> tls_context_;  // tls: addresses
+  std::optional<flow::TlsSession> tls_;
+  std::unique_ptr<char[]> tls_in_;  // ciphertext as read
   flow::FrameSplitter splitter_;
   Handler& handler_;
   State state_ = State::connecting;

@@ -83,7 +83,9 @@ Result<int> connectSocket(const Address& a, uint32_t timeout_ms) {
   return noHub(a, why);
 }
 
-Result<void> sendAll(int fd, std::string_view bytes) {
+namespace {
+
+Result<void> sendRaw(int fd, std::string_view bytes) {
   while (!bytes.empty()) {
     const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
     if (n < 0) {
@@ -95,7 +97,7 @@ Result<void> sendAll(int fd, std::string_view bytes) {
   return {};
 }
 
-Result<void> readSome(int fd, std::string& buf, uint32_t timeout_ms) {
+Result<void> readRaw(int fd, std::string& buf, uint32_t timeout_ms) {
   for (;;) {
     pollfd p{fd, POLLIN, 0};
     const int n = ::poll(&p, 1, static_cast<int>(timeout_ms));
@@ -111,6 +113,76 @@ Result<void> readSome(int fd, std::string& buf, uint32_t timeout_ms) {
     buf.append(tmp, static_cast<size_t>(got));
     return {};
   }
+}
+
+}  // namespace
+
+Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes) {
+  if (tls == nullptr) return sendRaw(fd, bytes);
+  if (auto w = tls->write(bytes); !w) return makeError(Errc::closed, w.error().message);
+  std::string cipher;
+  tls->takeOutput(cipher);
+  return sendRaw(fd, cipher);
+}
+
+Result<void> readSome(int fd, flow::TlsSession* tls, std::string& buf, uint32_t timeout_ms) {
+  if (tls == nullptr) return readRaw(fd, buf, timeout_ms);
+  for (;;) {
+    char tmp[16 * 1024];
+    auto got = tls->read(tmp, sizeof tmp);
+    if (!got) return makeError(Errc::closed, got.error().message);
+    if (*got > 0) {
+      buf.append(tmp, *got);
+      while ((got = tls->read(tmp, sizeof tmp)) && *got > 0) buf.append(tmp, *got);
+      return {};
+    }
+    std::string cipher;
+    if (auto r = readRaw(fd, cipher, timeout_ms); !r) return r;
+    if (auto r = tls->receive(cipher); !r) return makeError(Errc::closed, r.error().message);
+    if (tls->hasOutput()) {  // a key update or the like
+      std::string out;
+      tls->takeOutput(out);
+      if (auto s = sendRaw(fd, out); !s) return s;
+    }
+  }
+}
+
+Result<flow::TlsSession> tlsHandshake(int fd, const flow::TlsContext& context,
+                                      const Address& address, uint32_t timeout_ms) {
+  const auto failed = [&](const std::string& why) {
+    return makeError(Errc::io_error, "TLS with " + address.toString() + ": " + why);
+  };
+  auto session = flow::TlsSession::open(context, address.host);
+  if (!session) return failed(session.error().message);
+  flow::TlsSession& tls = *session;
+  for (;;) {
+    std::string out;
+    tls.takeOutput(out);
+    if (auto s = sendRaw(fd, out); !s) return failed(s.error().message);
+    if (tls.established()) return std::move(session).value();
+    std::string cipher;
+    if (auto r = readRaw(fd, cipher, timeout_ms); !r) {
+      if (r.error().code == Errc::closed) {
+        return failed(
+            "the hub closed the connection during the handshake (is its TCP port "
+            "plain? then use a tcp: address)");
+      }
+      return failed(r.error().message);
+    }
+    if (auto r = tls.receive(cipher); !r) {
+      std::string alert;
+      tls.takeOutput(alert);
+      (void)sendRaw(fd, alert);
+      return failed(r.error().message);
+    }
+  }
+}
+
+void closeTls(int fd, flow::TlsSession& tls) noexcept {
+  tls.shutdown();
+  std::string out;
+  tls.takeOutput(out);
+  if (!out.empty()) (void)::send(fd, out.data(), out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
 }
 
 }  // namespace skr::sat::detail

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <skrobot/core/result.h>
+#include <skrobot/flow/tls.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>
@@ -13,9 +14,17 @@ namespace skr::sat::detail {
 // Connects within timeout_ms and returns a blocking, close-on-exec fd. Errc::io_error
 // "no hub at <address>: is skrobot running? (<why>)" when nobody listens.
 [[nodiscard]] Result<int> connectSocket(const Address& address, uint32_t timeout_ms);
-// Writes every byte. Errc::closed when the peer went away.
-[[nodiscard]] Result<void> sendAll(int fd, std::string_view bytes);
-// Reads once (waiting up to timeout_ms) and appends to `buf`. Errc::timeout, Errc::closed.
-[[nodiscard]] Result<void> readSome(int fd, std::string& buf, uint32_t timeout_ms);
+// The TLS handshake on a connected socket, within timeout_ms. Errc::io_error naming the address
+// and the reason (certificate verify failed: ..., the hub closed the connection, ...).
+[[nodiscard]] Result<flow::TlsSession> tlsHandshake(int fd, const flow::TlsContext& context,
+                                                    const Address& address, uint32_t timeout_ms);
+// Writes every byte (encrypted first with `tls`). Errc::closed when the peer went away.
+[[nodiscard]] Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes);
+// Reads once (waiting up to timeout_ms) and appends to `buf` (decrypted with `tls`: waits until
+// at least one byte of data is readable). Errc::timeout, Errc::closed.
+[[nodiscard]] Result<void> readSome(int fd, flow::TlsSession* tls, std::string& buf,
+                                    uint32_t timeout_ms);
+// Sends close_notify, best effort.
+void closeTls(int fd, flow::TlsSession& tls) noexcept;
 
 }  // namespace skr::sat::detail

@@ -115,6 +115,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   std::string flow_db;                // the flow's current database, as last asked
   uint32_t next_tag = 1;
   std::optional<SyncClient> sync;
+  std::optional<Result<flow::TlsContext>> tls_context;  // tls: addresses, made once
 };
 
 }  // namespace skr::sat

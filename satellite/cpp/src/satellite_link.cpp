@@ -77,8 +77,13 @@ void Satellite::Impl::stop() {
 void Satellite::Impl::connectNow() {
   ++generation;
   state = State::connecting;
+  if (opt.connection.address.kind == Address::Kind::tls && !tls_context) {
+    // Certificates and keys are read once per satellite, not at every reconnection.
+    tls_context = flow::TlsContext::create(flow::TlsRole::client, opt.connection.tls);
+  }
   link = detail::Link::open(self.loop().uv(), opt.connection.address,
-                            opt.connection.max_frame_bytes, *this);
+                            tls_context ? &*tls_context : nullptr, opt.connection.max_frame_bytes,
+                            *this);
   armTimer(opt.handshake_timeout_ns);
 }
 

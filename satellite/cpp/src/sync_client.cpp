@@ -20,6 +20,7 @@ SyncClient::~SyncClient() {
 
 SyncClient::SyncClient(SyncClient&& o) noexcept
     : fd_(o.fd_),
+      tls_(std::move(o.tls_)),
       options_(std::move(o.options_)),
       login_(std::move(o.login_)),
       last_error_(o.last_error_),
@@ -32,6 +33,7 @@ SyncClient& SyncClient::operator=(SyncClient&& o) noexcept {
     close();
     fd_ = o.fd_;
     o.fd_ = -1;
+    tls_ = std::move(o.tls_);
     options_ = std::move(o.options_);
     login_ = std::move(o.login_);
     last_error_ = o.last_error_;
@@ -41,6 +43,8 @@ SyncClient& SyncClient::operator=(SyncClient&& o) noexcept {
 }
 
 void SyncClient::close() noexcept {
+  if (fd_ >= 0 && tls_) detail::closeTls(fd_, *tls_);
+  tls_.reset();
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   rbuf_.clear();
@@ -55,12 +59,26 @@ Result<SyncClient> SyncClient::connect(const ConnectOptions& options) {
   auto fd = detail::connectSocket(options.address, options.timeout_ms);
   if (!fd) return fd.error();
   SyncClient c(*fd, options);
+  if (options.address.kind == Address::Kind::tls) {
+    auto ctx = flow::TlsContext::create(flow::TlsRole::client, options.tls);
+    if (!ctx) return ctx.error();
+    auto session = detail::tlsHandshake(*fd, *ctx, options.address, options.timeout_ms);
+    if (!session) return session.error();
+    c.tls_.emplace(std::move(session).value());
+  }
   msg::Login m;
   m.user = options.user;
   m.password = options.password;
   m.client_name = options.client_name.empty() ? "sync" : options.client_name;
   auto r = c.request(m, options.timeout_ms);
-  if (!r) return r.error();
+  if (!r) {
+    // With TLS 1.3 a hub that refuses our certificate says so after the handshake: here.
+    if (c.tls_ || options.address.kind == Address::Kind::tls) {
+      return makeError(Errc::io_error,
+                       "TLS with " + options.address.toString() + ": " + r.error().message);
+    }
+    return r.error();
+  }
   if (r->code != static_cast<uint8_t>(Code::reply_ok)) {
     const Errc e = flow::toErrc(c.last_error_);  // auth_failed, version_mismatch, ...
     auto err = flow::decode<msg::ReplyError>(r->body);
@@ -85,7 +103,8 @@ Result<SyncClient::Reply> SyncClient::request(const M& m, uint32_t timeout_ms) {
 Result<SyncClient::Reply> SyncClient::roundTrip(const std::string& frame, uint32_t timeout_ms) {
   if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
   last_error_ = ErrorCode::ok;
-  if (auto s = detail::sendAll(fd_, frame); !s) return fail(s.error().code, s.error().message);
+  if (auto s = detail::sendAll(fd_, tls_ ? &*tls_ : nullptr, frame); !s)
+    return fail(s.error().code, s.error().message);
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {
     const auto n = splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()), rbuf_.size());
@@ -108,7 +127,7 @@ Result<SyncClient::Reply> SyncClient::roundTrip(const std::string& frame, uint32
       return fail(Errc::protocol_error,
                   "bad frame length " + std::to_string(n.announced) + " from the hub");
     }
-    if (auto r = detail::readSome(fd_, rbuf_, timeout_ms); !r) {
+    if (auto r = detail::readSome(fd_, tls_ ? &*tls_ : nullptr, rbuf_, timeout_ms); !r) {
       return fail(r.error().code, r.error().message);
     }
   }

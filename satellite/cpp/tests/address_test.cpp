@@ -24,8 +24,19 @@ TEST(AddressTest, ParsesLocalAndTcp) {
   EXPECT_EQ(v6->port, 9001);
   EXPECT_EQ(v6->toString(), "tcp:[::1]:9001");
   EXPECT_EQ(port->toString(), "tcp:10.0.0.2:9100");
-  for (const char* bad : {"", "local:", "udp:x", "tcp:", "tcp:host:", "tcp:host:0",
-                          "tcp:host:70000", "tcp:host:9x", "tcp:[::1"}) {
+  auto tls = Address::parse("tls:robot.local:9443");
+  ASSERT_TRUE(tls);
+  EXPECT_EQ(tls->kind, Address::Kind::tls);
+  EXPECT_EQ(tls->host, "robot.local");
+  EXPECT_EQ(tls->port, 9443);
+  EXPECT_EQ(tls->toString(), "tls:robot.local:9443");
+  auto tls6 = Address::parse("tls:[::1]");
+  ASSERT_TRUE(tls6);
+  EXPECT_EQ(tls6->port, 9000);
+  EXPECT_EQ(tls6->toString(), "tls:[::1]:9000");
+  for (const char* bad :
+       {"", "local:", "udp:x", "tcp:", "tcp:host:", "tcp:host:0", "tcp:host:70000", "tcp:host:9x",
+        "tcp:[::1", "tls:", "tls:host:0", "ssl:host"}) {
     auto r = Address::parse(bad);
     EXPECT_FALSE(r) << bad;
     if (!r) {

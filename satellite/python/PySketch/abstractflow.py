@@ -1,11 +1,13 @@
 """What FlowSat (the asynchronous flow) and FlowSync (the synchronous connection) share:
-FlowChannel, the hub's address (ROBOT_ADDRESS), credentials, sockets and frame splitting."""
+FlowChannel, the hub's address (ROBOT_ADDRESS), credentials, sockets (TLS for tls: addresses,
+with Python's ssl module) and frame splitting."""
 from __future__ import print_function, division, absolute_import
 
 import errno
 import os
 import re
 import socket
+import ssl
 import struct
 import sys
 
@@ -123,13 +125,15 @@ def robotAddress(address=None):
 
 def parseAddress(address):
     """("local", path) for local:/path, ("tcp", (host, port)) for tcp:host[:port] (default port
-    9000; IPv6 as tcp:[::1]:9000). Raises ValueError."""
+    9000; IPv6 as tcp:[::1]:9000), ("tls", (host, port)) for tls:host[:port]. Raises
+    ValueError."""
     if address.startswith("local:"):
         path = address[len("local:"):]
         if not path:
             raise ValueError("ROBOT_ADDRESS %r: no socket path" % address)
         return "local", path
-    if address.startswith("tcp:"):
+    if address.startswith("tcp:") or address.startswith("tls:"):
+        kind = address[:3]
         rest = address[len("tcp:"):].lstrip("/")
         port = DEFAULT_PORT
         if rest.startswith("["):
@@ -151,8 +155,99 @@ def parseAddress(address):
             raise ValueError("ROBOT_ADDRESS %r: no host" % address)
         if not 0 < port < 65536:
             raise ValueError("ROBOT_ADDRESS %r: bad port" % address)
-        return "tcp", (host, port)
-    raise ValueError("ROBOT_ADDRESS %r: expected local:/path or tcp:host[:port]" % address)
+        return kind, (host, port)
+    raise ValueError("ROBOT_ADDRESS %r: expected local:/path, tcp:host[:port] or tls:host[:port]"
+                     % address)
+
+
+class TlsSettings(object):
+    """TLS for tls: addresses. cafile: the CA certificate that signed the hub's (default
+    $ROBOT_TLS_CA, else the system's CA store); certfile and keyfile: a client certificate, for
+    a hub that asks for one (default $ROBOT_TLS_CERT, $ROBOT_TLS_KEY). The hub's certificate
+    must name the address's host. TLS 1.2 or later."""
+
+    def __init__(self, cafile=None, certfile=None, keyfile=None):
+        env = os.environ.get
+        self.cafile = cafile or env("ROBOT_TLS_CA") or None
+        self.certfile = certfile or env("ROBOT_TLS_CERT") or None
+        self.keyfile = keyfile or env("ROBOT_TLS_KEY") or None
+
+    def context(self):
+        """An ssl.SSLContext that verifies the hub (Python 3 and 2.7.9+). Raises ssl.SSLError or
+        IOError for a bad file."""
+        if hasattr(ssl, "PROTOCOL_TLS_CLIENT"):
+            ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+        else:  # Python 2.7
+            ctx = ssl.SSLContext(ssl.PROTOCOL_SSLv23)
+        if hasattr(ctx, "minimum_version"):
+            ctx.minimum_version = ssl.TLSVersion.TLSv1_2
+        else:
+            ctx.options |= (ssl.OP_NO_SSLv2 | ssl.OP_NO_SSLv3 | ssl.OP_NO_TLSv1 |
+                            ssl.OP_NO_TLSv1_1)
+        ctx.verify_mode = ssl.CERT_REQUIRED
+        ctx.check_hostname = True
+        if self.cafile:
+            ctx.load_verify_locations(cafile=self.cafile)
+        else:
+            ctx.load_default_certs()
+        if self.certfile:
+            ctx.load_cert_chain(self.certfile, self.keyfile)
+        return ctx
+
+
+def _isIpAddress(host):
+    for family in (socket.AF_INET, socket.AF_INET6):
+        try:
+            socket.inet_pton(family, host)
+            return True
+        except (socket.error, OSError, ValueError):
+            pass
+    return False
+
+
+# Python 2.7's hostname check knows DNS names only: numeric hosts are checked by tlsCheckHost.
+_CHECK_IP_OURSELVES = sys.version_info[0] == 2
+
+
+def wrapTls(sock, address, settings, handshake):
+    """`sock` (connected, or connecting when handshake is False) wrapped in TLS for the host of
+    the tls: `address`. With handshake=True the handshake is done now (blocking, within the
+    socket's timeout); else the caller drives do_handshake(), then calls tlsCheckHost()."""
+    _, where = parseAddress(address)
+    ctx = (settings or TlsSettings()).context()
+    if _CHECK_IP_OURSELVES and _isIpAddress(where[0]):
+        ctx.check_hostname = False
+    tls = ctx.wrap_socket(sock, server_hostname=where[0], do_handshake_on_connect=handshake)
+    if handshake:
+        tlsCheckHost(tls, address)
+    return tls
+
+
+def tlsCheckHost(sock, address):
+    """After the handshake: on Python 2.7, a numeric host must be one of the certificate's IP
+    addresses (ssl.CertificateError otherwise). Python 3 checked it during the handshake."""
+    _, where = parseAddress(address)
+    if not (_CHECK_IP_OURSELVES and _isIpAddress(where[0])):
+        return
+    want = socket.inet_pton(socket.AF_INET6 if ":" in where[0] else socket.AF_INET, where[0])
+    for kind, value in (sock.getpeercert() or {}).get("subjectAltName", ()):
+        if kind == "IP Address":
+            family = socket.AF_INET6 if ":" in value else socket.AF_INET
+            try:
+                if socket.inet_pton(family, value.strip()) == want:
+                    return
+            except (socket.error, ValueError):
+                pass
+    raise ssl.CertificateError("IP address mismatch: the certificate does not name %s"
+                               % where[0])
+
+
+def tlsFailure(e, address):
+    """A TLS error in words: the reason and, when the certificate was refused, why."""
+    why = getattr(e, "verify_message", None) or str(e)
+    if "eof" in why.lower():
+        why += " (the hub closed the connection: is its TCP port plain? then use a tcp: address)"
+    return "TLS with %s: %s" % (address, why)
 
 
 def openSocket(address, blocking=True, timeout=10.0):
@@ -176,7 +271,7 @@ def openSocket(address, blocking=True, timeout=10.0):
         rc = sock.connect_ex(target)
         if rc == 0:
             return sock, True
-        if kind == "tcp" and rc in (errno.EINPROGRESS, errno.EWOULDBLOCK, errno.EALREADY):
+        if kind != "local" and rc in (errno.EINPROGRESS, errno.EWOULDBLOCK, errno.EALREADY):
             return sock, False
         raise socket.error(rc, os.strerror(rc))
     except Exception:
@@ -197,6 +292,7 @@ class AbstractFlow(object):
         self._appName = None
         self._nodeName = None
         self._address = None
+        self._tls = None
         self._sock = None
         self._inbuf = bytearray()
         self._inpos = 0
@@ -231,6 +327,16 @@ class AbstractFlow(object):
 
     def address(self):
         return robotAddress(self._address)
+
+    def setTls(self, cafile=None, certfile=None, keyfile=None):
+        """TLS files for tls: addresses (see TlsSettings; unset ones come from ROBOT_TLS_*)."""
+        self._tls = TlsSettings(cafile, certfile, keyfile)
+
+    def _tlsSettings(self):
+        return self._tls or TlsSettings()
+
+    def _isTls(self):
+        return self.address().startswith("tls:")
 
     # -- frames
     def _loginFrame(self):

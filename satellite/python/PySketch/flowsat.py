@@ -67,6 +67,7 @@ import errno
 import inspect
 import select
 import socket
+import ssl
 import struct
 import time
 import traceback
@@ -74,7 +75,8 @@ from collections import OrderedDict
 
 from PySketch import log
 from PySketch.abstractflow import (
-    AbstractFlow, FlowChannel, enumLookup, openSocket, validShortName)
+    AbstractFlow, FlowChannel, enumLookup, openSocket, tlsCheckHost, tlsFailure, validShortName,
+    wrapTls)
 from PySketch.elapsedtime import ElapsedTime, now
 from PySketch.flowproto import (
     ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T, FlowError, ProtocolError, Reader,
@@ -164,6 +166,7 @@ class FlowSat(AbstractFlow):
         self._userError = None     # the exception a sketch's callback is raising
         self._listed = None
         self._failure = None
+        self._tlsWants = None      # the TLS handshake waits for "read" or "write"
         self._deferred = []        # channels listed at login, announced at the next tick
         self._hold = False         # connect(): leave events in the buffer for tick()
 
@@ -324,9 +327,41 @@ class FlowSat(AbstractFlow):
         return True
 
     def _connected(self):
+        if self._isTls() and not isinstance(self._sock, ssl.SSLSocket):
+            try:
+                self._sock = wrapTls(self._sock, self.address(), self._tlsSettings(), False)
+            except (ssl.SSLError, ssl.CertificateError, IOError, OSError) as e:
+                self._attemptFailed(tlsFailure(e, self.address()))
+                return
+            self._state = "tls"
+            self._tlsStep()
+            return
         self._state = "login"
         self._outbuf.extend(self._loginFrame())
         self._flush()
+
+    def _tlsStep(self):
+        """Advances the TLS handshake of a non-blocking socket; LOGIN once it is done."""
+        try:
+            self._sock.do_handshake()
+            tlsCheckHost(self._sock, self.address())
+        except ssl.SSLWantReadError:
+            self._tlsWants = "read"
+            return
+        except ssl.SSLWantWriteError:
+            self._tlsWants = "write"
+            return
+        except (ssl.SSLError, ssl.CertificateError, socket.error, OSError) as e:
+            self._attemptFailed(tlsFailure(e, self.address()))
+            return
+        self._tlsWants = None
+        self._connected()
+
+    def _attemptFailed(self, why):
+        self._failure = why
+        self._closeSocket()
+        self._gen += 1
+        self._scheduleRetry()   # connect() reports it, or tick() retries
 
     def _scheduleRetry(self):
         self._state = "offline"
@@ -385,7 +420,7 @@ class FlowSat(AbstractFlow):
             return
         if self._state == "offline" and t >= self._nextAttempt:
             self._beginAttempt(quiet=True)
-        elif self._state in ("connecting", "login", "listing"):
+        elif self._state in ("connecting", "tls", "login", "listing"):
             if t - self._attemptStarted > _HANDSHAKE_TIMEOUT:
                 self._closeSocket()
                 self._gen += 1
@@ -402,7 +437,8 @@ class FlowSat(AbstractFlow):
             if timeout > 0:
                 time.sleep(timeout)
             return
-        wlist = [sock] if (self._outbuf or self._state == "connecting") else []
+        wlist = [sock] if (self._outbuf or self._state == "connecting" or
+                           (self._state == "tls" and self._tlsWants == "write")) else []
         try:
             r, w, _ = select.select([sock], wlist, [], max(0.0, timeout))
         except (select.error, OSError, ValueError) as e:
@@ -420,6 +456,10 @@ class FlowSat(AbstractFlow):
                 self._scheduleRetry()
                 return
             self._connected()
+        elif self._state == "tls":
+            if r or w:
+                self._tlsStep()
+            return
         elif w:
             self._flush()
         if gen != self._gen or not r:
@@ -433,6 +473,11 @@ class FlowSat(AbstractFlow):
         while True:
             try:
                 data = sock.recv(262144)
+            except (ssl.SSLWantReadError, ssl.SSLWantWriteError):
+                break
+            except ssl.SSLError as e:
+                eof = tlsFailure(e, self.address())
+                break
             except socket.error as e:
                 if e.args and e.args[0] in _WOULD_BLOCK:
                     break
@@ -442,7 +487,9 @@ class FlowSat(AbstractFlow):
                 eof = "the hub closed the connection"
                 break
             self._inbuf.extend(data)
-            if len(data) < 262144:
+            # A TLS socket returns one record per call and may hold more decrypted bytes than
+            # select() can see: read until it would block.
+            if len(data) < 262144 and not isinstance(sock, ssl.SSLSocket):
                 break
         self._processBuffered()
         if gen == self._gen and eof is not None:
@@ -494,6 +541,8 @@ class FlowSat(AbstractFlow):
         while self._outbuf and self._sock is not None:
             try:
                 n = self._sock.send(self._outbuf)
+            except (ssl.SSLWantReadError, ssl.SSLWantWriteError):
+                return
             except socket.error as e:
                 if e.args and e.args[0] in _WOULD_BLOCK:
                     return

@@ -16,7 +16,9 @@ from __future__ import print_function, division, absolute_import
 import socket
 import struct
 
-from PySketch.abstractflow import AbstractFlow, FlowChannel, openSocket
+import ssl
+
+from PySketch.abstractflow import AbstractFlow, FlowChannel, openSocket, tlsFailure, wrapTls
 from PySketch.elapsedtime import now
 from PySketch.flowproto import (
     ChannelInfo, Code, Error_T, FlowError, ProtocolError, Reader, encodeValue, frame, str16,
@@ -45,6 +47,11 @@ class FlowSync(AbstractFlow):
         self.close()
         try:
             self._sock, _ = openSocket(self.address(), True, self._timeout)
+            if self._isTls():
+                try:
+                    self._sock = wrapTls(self._sock, self.address(), self._tlsSettings(), True)
+                except (ssl.SSLError, ssl.CertificateError) as e:
+                    raise FlowError(Error_T.io_error, tlsFailure(e, self.address()))
             code, body = self._roundTrip(self._loginFrame())
             if code != Code.REPLY_OK:
                 raise self._replyError(body)

@@ -6,6 +6,7 @@
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
 #include <skrobot/flow/access.h>
+#include <skrobot/flow/tls.h>
 
 #include <json/value.h>
 
@@ -36,6 +37,7 @@ struct ServerConfig {
   bool tcp_enabled = false;
   std::string tcp_address = "127.0.0.1";
   uint16_t tcp_port = 9000;
+  std::optional<flow::TlsSettings> tls;  // "server.tls": the TCP listener speaks TLS
   uint32_t max_frame_bytes = 16u << 20;
   size_t subscriber_queue_bytes = 8u << 20;
   size_t max_connections = 1024;

@@ -11,6 +11,7 @@
 #include <skrobot/core/result.h>
 #include <skrobot/flow/access.h>
 #include <skrobot/flow/protocol.h>
+#include <skrobot/flow/tls.h>
 #include <skrobot/flow/variant.h>
 
 #include <cstdint>
@@ -31,6 +32,9 @@ struct ServerOptions {
   bool tcp_enabled = false;
   std::string tcp_address = "127.0.0.1";
   uint16_t tcp_port = 9000;  // 0: any free port (see tcpPort())
+  // Set: the TCP listener speaks TLS only (certificate and key required; ca_file set: clients
+  // must present a certificate it signed). The files are loaded by start().
+  std::optional<TlsSettings> tls;
   uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
   // Streaming data queued for one subscriber beyond this is dropped, oldest first.
   size_t subscriber_queue_bytes = 8u << 20;
@@ -55,6 +59,7 @@ struct ServerStats {
   uint64_t frames_in = 0;
   uint64_t data_frames_out = 0;
   uint64_t data_frames_dropped = 0;  // slow subscribers
+  uint64_t tls_refused = 0;          // TLS handshakes failed, or a plain and TLS peer mismatched
 };
 
 class Channel;
@@ -85,8 +90,9 @@ class FlowServer {
   FlowServer(FlowServer&&) = delete;
   FlowServer& operator=(FlowServer&&) = delete;
 
-  // Loads the databases and accounts, then listens. Fails (and listens on nothing) when a
-  // transport cannot be opened, or TCP is enabled without real accounts. Sets SIGPIPE to be
+  // Loads the databases, accounts and TLS files, then listens. Fails (and listens on nothing)
+  // when a transport cannot be opened, a TLS file is bad, or TCP is enabled without real
+  // accounts. Sets SIGPIPE to be
   // ignored for the process: a peer that closes mid-write must not kill the hub.
   [[nodiscard]] Result<void> start();
   // Saves dirty persistent databases, closes all connections and listeners. Idempotent.

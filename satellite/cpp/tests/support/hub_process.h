@@ -123,8 +123,10 @@ class Child {
 class HubProcess {
  public:
   // With `tcp_user`, TCP is on too (any free port) and that account exists (password
-  // "s3cret-pass"), made with `skrobot user add`.
-  HubProcess(std::string binary, const fs::path& dir, const std::string& tcp_user = {})
+  // "s3cret-pass"), made with `skrobot user add`. `server_keys` go into the "server" object
+  // with TCP, e.g. R"(, "tls": {...})".
+  HubProcess(std::string binary, const fs::path& dir, const std::string& tcp_user = {},
+             const std::string& server_keys = {})
       : binary_(std::move(binary)), dir_(dir), socket_(dir / "hub.sock") {
     static int counter = 0;
     app_ = "skrobot-sat-" + std::to_string(getpid()) + "-" + std::to_string(++counter);
@@ -134,8 +136,8 @@ class HubProcess {
       Child add({binary_, "user", "add", tcp_user, "--users", users.string(), "--password-stdin"},
                 {}, dir_ / "user-add.log", "s3cret-pass\n");
       add.wait();
-      tcp = R"(, "tcp": true, "tcp_port": 0}, "accounts": {"users_file": ")" + users.string() +
-            R"(", )";
+      tcp = R"(, "tcp": true, "tcp_port": 0)" + server_keys + R"(}, "accounts": {"users_file": ")" +
+            users.string() + R"(", )";
     } else {
       tcp = R"(}, "accounts": {)";
     }
@@ -175,6 +177,16 @@ class HubProcess {
     if (at == std::string::npos) return {};
     return "tcp:" + text.substr(at + key.size(),
                                 text.find_first_of(" \n", at + key.size()) - at - key.size());
+  }
+  // "tls:<host>:<port>" from the hub's FLOW-LISTEN TLS line, or "" without TLS.
+  [[nodiscard]] std::string tlsAddress(const std::string& host = "localhost") const {
+    const std::string text = log();
+    const std::string key = "FLOW-LISTEN TLS ";
+    const size_t at = text.rfind(key);
+    if (at == std::string::npos) return {};
+    const size_t colon = text.find(':', at + key.size());
+    const size_t end = text.find_first_of(" \n", colon);
+    return "tls:" + host + ":" + text.substr(colon + 1, end - colon - 1);
   }
   [[nodiscard]] const fs::path& socket() const { return socket_; }
   [[nodiscard]] std::string log() const { return logs_ + (child_ ? child_->output() : ""); }

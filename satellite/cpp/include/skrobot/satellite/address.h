@@ -1,10 +1,12 @@
-// Where the hub is and who we are: ROBOT_ADDRESS, ROBOT_USER, ROBOT_PASSWORD.
+// Where the hub is and who we are: ROBOT_ADDRESS, ROBOT_USER, ROBOT_PASSWORD, and for tls:
+// addresses ROBOT_TLS_CA, ROBOT_TLS_CERT, ROBOT_TLS_KEY (docs/security.md).
 // The address forms are skr::flow::Address's (skrobot/flow/address.h, in the runtime library).
 #pragma once
 
 #include <skrobot/core/result.h>
 #include <skrobot/flow/address.h>
 #include <skrobot/flow/protocol.h>
+#include <skrobot/flow/tls.h>
 
 #include <cstdint>
 #include <string>
@@ -23,9 +25,14 @@ struct ConnectOptions {
   std::string client_name;  // shown in the hub's log lines; may be empty
   uint32_t max_frame_bytes = flow::kDefaultMaxFrameBytes;  // a bigger incoming frame is an error
   uint32_t timeout_ms = 5000;  // connect and each synchronous reply (SERVICE_CALL adds its own)
+  // For tls: addresses. ca_file: the CA that signed the hub's certificate (empty: the system's
+  // CA store); cert_file and key_file: our certificate, for a hub that asks for one. The hub's
+  // certificate must name the address's host. Read when the first connection is made.
+  flow::TlsSettings tls;
 
-  // Reads ROBOT_ADDRESS, ROBOT_USER and ROBOT_PASSWORD; unset (or empty) variables keep the
-  // defaults above. Errc::invalid_argument when ROBOT_ADDRESS cannot be parsed.
+  // Reads ROBOT_ADDRESS, ROBOT_USER, ROBOT_PASSWORD, ROBOT_TLS_CA, ROBOT_TLS_CERT and
+  // ROBOT_TLS_KEY; unset (or empty) variables keep the defaults above.
+  // Errc::invalid_argument when ROBOT_ADDRESS cannot be parsed.
   [[nodiscard]] static Result<ConnectOptions> fromEnvironment(std::string client_name = {});
 };
 

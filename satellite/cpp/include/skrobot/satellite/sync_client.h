@@ -16,6 +16,7 @@
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -94,6 +95,7 @@ class SyncClient {
   Error fail(Errc code, std::string message);
 
   int fd_ = -1;
+  std::optional<flow::TlsSession> tls_;  // tls: addresses
   ConnectOptions options_;
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;

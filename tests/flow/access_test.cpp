@@ -293,3 +293,76 @@ TEST_F(Limits, EachLimitRefusesTheNextOneAndOnlyThat) {
 
 }  // namespace
 }  // namespace skr::flow
+
+namespace skr::flow {
+namespace {
+
+Variant::Map mapOf(const Variant& v) {
+  return v.asMap() != nullptr ? *v.asMap() : Variant::Map{};
+}
+
+TEST_F(Access, AdministrationOverTheProtocol) {
+  TestClient bob = flowClient("bob", "pw");
+  addChannel(bob, "camera");
+  TestClient root = syncClient("root", "pw");
+  TestClient bob_sync = syncClient("bob", "pw");
+
+  // Only an administrator: others get permission_denied and keep their connection.
+  EXPECT_EQ(errorOf(bob_sync.call(msg::Admin{"flows", Variant()})),
+            uint16_t(ErrorCode::permission_denied));
+  EXPECT_EQ(bob_sync.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);
+
+  // flows: every logged-in connection, with its id
+  auto flows = as<msg::ReplyValue>(root.call(msg::Admin{"flows", Variant()}));
+  ASSERT_TRUE(flows && flows->value.isList());
+  int64_t bob_flow = 0;
+  for (const auto& f : *flows->value.asList()) {
+    auto m = mapOf(f);
+    if (*m["user"].asString() == "bob" && m["flow"] == Variant(true)) bob_flow = *m["id"].asInt64();
+  }
+  ASSERT_NE(bob_flow, 0);
+
+  // chan_rm: any channel; its owner is told
+  auto removed = as<msg::ReplyValue>(
+      root.call(msg::Admin{"chan_rm", Variant(Variant::Map{{"name", "bob.camera"}})}));
+  ASSERT_TRUE(removed);
+  EXPECT_TRUE(bob.waitFor(Code::ev_chan_removed));
+  EXPECT_EQ(errorOf(root.call(msg::Admin{"chan_rm", Variant(Variant::Map{{"name", "x.y"}})})),
+            uint16_t(ErrorCode::not_found));
+
+  // db_rm: a named database of someone else
+  EXPECT_EQ(bob_sync.call(msg::DbCreate{"bobs"})->kind(), Code::reply_ok);
+  EXPECT_TRUE(
+      as<msg::ReplyValue>(root.call(msg::Admin{"db_rm", Variant(Variant::Map{{"name", "bobs"}})})));
+  EXPECT_EQ(errorOf(bob_sync.call(msg::DbSelect{"bobs"})), uint16_t(ErrorCode::not_found));
+
+  // kick: that connection is closed, nobody else
+  auto kicked = as<msg::ReplyValue>(
+      root.call(msg::Admin{"kick", Variant(Variant::Map{{"connection", bob_flow}})}));
+  ASSERT_TRUE(kicked);
+  EXPECT_TRUE(bob.closedByPeer());
+  EXPECT_EQ(bob_sync.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);
+
+  // bad arguments and unknown commands are invalid_argument
+  EXPECT_EQ(errorOf(root.call(msg::Admin{"kick", Variant("7")})),
+            uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(errorOf(root.call(msg::Admin{"reboot", Variant()})),
+            uint16_t(ErrorCode::invalid_argument));
+}
+
+TEST_F(Access, AProtocol10ClientGetsUnsupportedForNewerRequests) {
+  TestClient old = connect();
+  msg::Login login;
+  login.minor = 0;  // a 1.0 client
+  login.user = "root";
+  login.password = "pw";
+  login.client_name = "old";
+  auto ok = as<msg::LoginOk>(old.call(login));
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->minor, kProtocolMinor);  // the hub says what it speaks
+  EXPECT_EQ(errorOf(old.call(msg::Admin{"flows", Variant()})), uint16_t(ErrorCode::unsupported));
+  EXPECT_EQ(old.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);  // still connected
+}
+
+}  // namespace
+}  // namespace skr::flow

@@ -74,7 +74,7 @@ TEST(Codec, EveryMessageRoundTripsInBothValueEncodings) {
     }
     ++messages;
   });
-  EXPECT_EQ(messages, 45);
+  EXPECT_EQ(messages, 46);
 }
 
 // Tells whether a message ends with a Rest field (whose length is whatever is left).

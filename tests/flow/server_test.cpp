@@ -49,13 +49,16 @@ TEST_F(Server, VersionMismatchIsExplained) {
   TestClient c = connect();
   msg::Login m;
   m.major = 2;
+  m.minor = 0;
   m.user = "guest";
   m.password = "password";
   auto reply = c.call(m);
   auto err = as<msg::ReplyError>(reply);
   ASSERT_TRUE(err);
   EXPECT_EQ(err->error, uint16_t(ErrorCode::version_mismatch));
-  EXPECT_NE(err->message.find("FlowProtocol 1.0"), std::string::npos) << err->message;
+  EXPECT_NE(err->message.find("FlowProtocol 1." + std::to_string(flow::kProtocolMinor)),
+            std::string::npos)
+      << err->message;
   EXPECT_NE(err->message.find("client 2.0"), std::string::npos) << err->message;
   EXPECT_TRUE(c.closedByPeer());
 }

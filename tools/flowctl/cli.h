@@ -62,6 +62,9 @@ int cmdEcho(const Cli& cli);
 int cmdPub(const Cli& cli);
 int cmdCall(const Cli& cli);
 int cmdDb(const Cli& cli);
+int cmdFlows(const Cli& cli);
+int cmdKick(const Cli& cli);
+int cmdChan(const Cli& cli);
 
 // Help texts: the overview, or one command's (empty if unknown).
 std::string_view usage();

@@ -1,5 +1,6 @@
 // flowctl: an operator's tool for a running hub, as handy as redis-cli.
 //   flowctl ls | echo CHANNEL | pub CHANNEL [PAYLOAD] | call SERVICE CMD [VALUE] | db ...
+//           | flows | kick ID | chan rm CHANNEL
 #include <skrobot/core/log.h>
 
 #include <cstdlib>
@@ -20,6 +21,9 @@ Commands:
   call SERVICE CMD [VALUE]    call a service channel; VALUE is JSON; prints the answer
   db get|set|del|ls|save|databases [--db NAME] [KEY [VALUE]]
                               read and write PairDatabases
+  flows                       the hub's connections: id, user, client, source (administrators)
+  kick ID                     disconnect connection ID (administrators)
+  chan rm CHANNEL             remove any channel (administrators)
   help [COMMAND]              this text, or a command's options
 
 Global options:
@@ -181,5 +185,8 @@ int main(int argc, char** argv) {
   if (cli.command == "pub") return cmdPub(cli);
   if (cli.command == "call") return cmdCall(cli);
   if (cli.command == "db") return cmdDb(cli);
+  if (cli.command == "flows") return cmdFlows(cli);
+  if (cli.command == "kick") return cmdKick(cli);
+  if (cli.command == "chan") return cmdChan(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

@@ -242,7 +242,11 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
     case State::closing:
       return;  // not reached: reading is paused
     case State::sync:
-      if (sync_code) {
+      if (sync_code && minorOf(static_cast<Code>(code)) > minor_) {
+        replyError(ErrorCode::unsupported, std::string(codeName(code)) +
+                                               " is newer than this connection's protocol 1." +
+                                               std::to_string(minor_));
+      } else if (sync_code) {
         handleSync(static_cast<Code>(code), body);
       } else if (async_code) {
         replyError(ErrorCode::invalid_argument,
@@ -253,7 +257,11 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
       }
       return;
     case State::flow:
-      if (async_code) {
+      if (async_code && minorOf(static_cast<Code>(code)) > minor_) {
+        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
+                std::string(codeName(code)) + " is newer than this connection's protocol 1." +
+                    std::to_string(minor_));
+      } else if (async_code) {
         handleAsync(static_cast<Code>(code), body);
       } else if (sync_code) {
         onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,

@@ -106,6 +106,7 @@ class Connection final : public Endpoint {
     uv_tcp_t tcp;
   } handle_{};
   State state_ = State::login;
+  uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
   FrameSplitter splitter_;
 

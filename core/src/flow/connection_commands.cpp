@@ -65,7 +65,8 @@ void Connection::verifyLogin(msg::Login m) {
   FlowServer::Impl& server = server_;
   server_.auth->verify(
       m.user, std::move(m.password), transport_,
-      [&server, my_id, user = m.user](const LoginResult& r) {
+      [&server, my_id, user = m.user,
+       minor = std::min(m.minor, kProtocolMinor)](const LoginResult& r) {
         auto it = server.connections.find(my_id);
         if (it == server.connections.end()) return;  // gone meanwhile
         Connection& c = *it->second;
@@ -79,6 +80,7 @@ void Connection::verifyLogin(msg::Login m) {
           return;
         }
         c.user = user;
+        c.minor_ = minor;
         c.access = server.auth->accessOf(user);
         server.throttle.succeeded(user, c.source);
         const uint32_t limit = c.access->limits().orElse(server.opt.user_limits).connections;
@@ -217,6 +219,16 @@ void Connection::handleSync(Code code, std::string_view body) {
       if (!r) {
         replyError(toErrorCode(r.error().code), r.error().message);
         unblock();
+      }
+      return;
+    }
+    case Code::admin: {
+      SKR_DECODE(msg::Admin, m);
+      auto r = server_.admin(*this, m.command, m.args);
+      if (r) {
+        send(msg::ReplyValue{std::move(r).value()});
+      } else {
+        replyError(toErrorCode(r.error().code), r.error().message);
       }
       return;
     }

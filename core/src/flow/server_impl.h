@@ -100,6 +100,9 @@ struct FlowServer::Impl {
   // The owner changes a channel's properties; everyone is told (EV_CHAN_HEADER).
   Result<void> setProps(Endpoint& e, uint16_t id, const Variant& props);
   msg::ChannelInfo info(const Channel& ch) const;
+
+  // --- administration (admin.cpp): ADMIN's commands, for administrators only
+  Result<Variant> admin(Connection& by, const std::string& command, const Variant& args);
 };
 
 }  // namespace skr::flow

@@ -41,6 +41,8 @@ std::string_view codeName(uint8_t code) noexcept {
       return "DB_LIST";
     case Code::chan_info:
       return "CHAN_INFO";
+    case Code::admin:
+      return "ADMIN";
     case Code::chan_add:
       return "CHAN_ADD";
     case Code::chan_remove:
@@ -127,6 +129,15 @@ std::string_view codeName(uint8_t code) noexcept {
       return "HUB_LINK_FORWARD";
   }
   return "UNKNOWN";
+}
+
+uint16_t minorOf(Code code) noexcept {
+  switch (code) {
+    case Code::admin:
+      return 1;
+    default:
+      return 0;
+  }
 }
 
 std::string_view errorCodeName(ErrorCode code) noexcept {

@@ -235,6 +235,10 @@ Result<Variant> SyncClient::call(const std::string& service, const std::string& 
   return call(info->id, command, value, timeout_ms);
 }
 
+Result<flow::Variant> SyncClient::admin(const std::string& command, const flow::Variant& args) {
+  return expectValue(request(msg::Admin{command, args}, options_.timeout_ms));
+}
+
 Result<void> SyncClient::ping() {
   auto r = request(msg::Ping{msg::Rest{"ping"}}, options_.timeout_ms);
   if (!r) return r.error();

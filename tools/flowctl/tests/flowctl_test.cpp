@@ -87,6 +87,19 @@ TEST_F(Flowctl, NoHubAndWrongPassword) {
   EXPECT_TRUE(has(refused, "wrong user name or password")) << refused.out;
 }
 
+TEST_F(Flowctl, AdministrationNeedsAnAdministrator) {
+  // guest (the development account) is no administrator: refused with exit 7, and the usage of
+  // each command is checked before connecting.
+  for (const auto& args :
+       std::vector<std::vector<std::string>>{{"flows"}, {"kick", "1"}, {"chan", "rm", "guest.x"}}) {
+    auto r = flowctl(args);
+    EXPECT_EQ(r.code, 7) << r.out;
+    EXPECT_TRUE(has(r, "not an administrator")) << r.out;
+  }
+  EXPECT_EQ(flowctl({"kick"}).code, 2);
+  EXPECT_EQ(flowctl({"chan", "del", "x"}).code, 2);
+}
+
 TEST_F(Flowctl, ListsChannels) {
   EXPECT_TRUE(has(flowctl({"ls"}), "no channels"));
   auto o = owner();

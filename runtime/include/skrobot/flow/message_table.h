@@ -24,6 +24,7 @@ void forEachMessage(F&& f) {
   f(ServiceCall{});
   f(Ping{});
   f(ChanInfoByName{});
+  f(Admin{});
   f(ReplyError{});
   f(ReplyValue{});
   f(PollData{});

@@ -141,6 +141,18 @@ struct ChanInfoByName {
   }
 };
 
+// ADMIN (1.1): an administrator's command ("flows", "kick", "chan_rm", "db_rm") with its
+// arguments; REPLY_OK carries a value (docs/security.md).
+struct Admin {
+  static constexpr Code code = Code::admin;
+  std::string command;
+  Variant args;
+  template <class IO>
+  bool io(IO& f) {
+    return f(command) && f(args);
+  }
+};
+
 // --- replies -------------------------------------------------------------------------------
 struct ReplyError {
   static constexpr Code code = Code::reply_error;

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 0;
+constexpr uint16_t kProtocolMinor = 1;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -43,6 +43,8 @@ enum class Code : uint8_t {
   ping = 0x10,
   db_list = 0x11,
   chan_info = 0x12,
+  // 1.1
+  admin = 0x14,  // administration: an administrator's command, a value in, a value out
 
   // Asynchronous commands, client -> hub, on a flow. No reply on success; failures come back as
   // EV_ERROR carrying the command's tag.
@@ -116,6 +118,10 @@ enum class ErrorCode : uint16_t {
 };
 
 [[nodiscard]] std::string_view errorCodeName(ErrorCode code) noexcept;
+
+// The protocol minor that introduced `code` (0 for everything of 1.0). A request newer than the
+// connection's minor (the lower of the client's and the hub's) is answered `unsupported`.
+[[nodiscard]] uint16_t minorOf(Code code) noexcept;
 
 // The one mapping between wire errors and skr::Errc, used by the hub, its modules (LocalClient)
 // and the satellite libraries, so that a failure reaches every client as the same code.

@@ -81,6 +81,12 @@ class SyncClient {
   // Round trip with the hub.
   [[nodiscard]] Result<void> ping();
 
+  // An administrator's command (protocol 1.1, docs/security.md): "flows", "kick"
+  // {"connection": N}, "chan_rm" {"name": ...}, "db_rm" {"name": ...}. permission_denied unless
+  // the account is an administrator; unsupported from a 1.0 hub.
+  [[nodiscard]] Result<flow::Variant> admin(const std::string& command,
+                                            const flow::Variant& args = flow::Variant());
+
  private:
   struct Reply {
     uint8_t code = 0;

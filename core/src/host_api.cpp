@@ -299,7 +299,7 @@ skr_status withFlow(skr_module_ctx* ctx,
   if (ctx->server == nullptr) return SKR_ERR_UNSUPPORTED;
   if (!ctx->accepting) return SKR_ERR_BAD_STATE;
   try {
-    if (!ctx->flow) ctx->flow = std::make_unique<ModuleFlow>(*ctx->server, ctx->name);
+    if (!ctx->flow) ctx->flow = std::make_unique<ModuleFlow>(*ctx->server, ctx->name, ctx->access);
     return fn(*ctx->flow);
   } catch (...) {
     return SKR_ERR_NO_MEMORY;

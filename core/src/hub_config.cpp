@@ -78,6 +78,7 @@ s::Schema moduleSchema() {
                        s::optional("path", s::string().nonEmpty()),
                        s::optional("enabled", s::boolean(), true),
                        s::optional("own_thread", s::boolean(), false),
+                       s::optional("account", s::string().nonEmpty()),
                        s::optional("loop", loopSchema(false)),
                        s::optional("config", s::anyObject(), Json::objectValue),
                    })
@@ -194,6 +195,7 @@ void readModules(const Json::Value& list, const fs::path& base_dir, HubConfig& c
     }
     if (m["enabled"].isBool()) e.enabled = m["enabled"].asBool();
     if (m["own_thread"].isBool()) e.own_thread = m["own_thread"].asBool();
+    if (m["account"].isString()) e.account = m["account"].asString();
     if (m["config"].isObject()) e.config = m["config"];
     e.loop = cfg.loop;
     e.loop.name = e.name;

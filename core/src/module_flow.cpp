@@ -18,7 +18,8 @@ Result<flow::Variant> fromJson(const char* json) {
 
 }  // namespace
 
-ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name)
+ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
+                       std::shared_ptr<const flow::AccessRules> access)
     : name_(module_name) {
   flow::LocalHandlers h;
   h.on_data = [this](uint16_t chan_id, std::string_view payload) {
@@ -60,7 +61,7 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name)
       if (s.name == name) s.chan_id = added ? chan_id : 0;
     }
   };
-  client_ = server.attachLocal(module_name, module_name, std::move(h));
+  client_ = server.attachLocal(module_name, module_name, std::move(h), std::move(access));
 }
 
 ModuleFlow::~ModuleFlow() = default;

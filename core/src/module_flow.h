@@ -18,7 +18,8 @@ namespace skr {
 
 class ModuleFlow {
  public:
-  ModuleFlow(flow::FlowServer& server, const std::string& module_name);
+  ModuleFlow(flow::FlowServer& server, const std::string& module_name,
+             std::shared_ptr<const flow::AccessRules> access);
   ~ModuleFlow();
   ModuleFlow(const ModuleFlow&) = delete;
   ModuleFlow& operator=(const ModuleFlow&) = delete;

@@ -125,6 +125,18 @@ void ModuleHost::initAll() {
       ++it;
       continue;
     }
+    if (!m.entry.account.empty()) {
+      m.access = server_ != nullptr ? server_->accountAccess(m.entry.account) : nullptr;
+      if (!m.access) {
+        fail(m, "MODULE-ACCOUNT",
+             "its config names the account \"" + m.entry.account +
+                 "\", which the users file does not have (skrobot user add " + m.entry.account +
+                 ")");
+        release(m, false);
+        it = modules_.erase(it);
+        continue;
+      }
+    }
     if (m.own_thread) {
       LoopOptions options = m.entry.loop;
       if (options.name.empty() || options.name == main_loop_.name()) options.name = m.log_source;

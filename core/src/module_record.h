@@ -103,6 +103,8 @@ struct skr_module_ctx {
   std::shared_ptr<skr::PostQueue> posts = std::make_shared<skr::PostQueue>();
   skr::flow::FlowServer* server = nullptr;  // the hub's, for channel calls (ABI 1.1)
   std::unique_ptr<skr::ModuleFlow> flow;    // created by the first channel call
+  // What it may do: its config entry's account's rules, else the defaults (null).
+  std::shared_ptr<const skr::flow::AccessRules> access;
 
   std::mutex error_mutex;  // set_error / config_error may come from any thread
   std::string error;       // set_error during the current step

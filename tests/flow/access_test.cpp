@@ -3,6 +3,7 @@
 #include <skrobot/flow/accounts.h>
 
 #include "flow_fixture.h"
+#include "log_capture.h"
 
 #include <gtest/gtest.h>
 
@@ -362,6 +363,58 @@ TEST_F(Access, AProtocol10ClientGetsUnsupportedForNewerRequests) {
   EXPECT_EQ(ok->minor, kProtocolMinor);  // the hub says what it speaks
   EXPECT_EQ(errorOf(old.call(msg::Admin{"flows", Variant()})), uint16_t(ErrorCode::unsupported));
   EXPECT_EQ(old.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);  // still connected
+}
+
+}  // namespace
+}  // namespace skr::flow
+
+#include <skrobot/core/module_host.h>
+
+namespace skr::flow {
+namespace {
+
+// A module acts under the account its config entry names: its rules and limits.
+TEST_F(Access, AModuleActsUnderTheAccountItsConfigNames) {
+  std::unique_ptr<ModuleHost> host;
+  std::vector<ModuleFailure> failures;
+  const auto start = [&](const std::string& account) {
+    onHub([&] {
+      host = std::make_unique<ModuleHost>(hub_->loop(), std::vector<std::filesystem::path>{},
+                                          server_.get());
+      ModuleEntry e;
+      e.name = "test_channel_echo";
+      e.path = std::filesystem::path(SKROBOT_TEST_MODULE_DIR) / "test_channel_echo.so";
+      e.account = account;
+      host->start({e});
+      failures = host->failures();
+    });
+  };
+  const auto stop = [&] { onHub([&] { host.reset(); }); };
+
+  start("nobody");  // not in the users file
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].tag, "MODULE-ACCOUNT");
+  EXPECT_NE(failures[0].reason.find("nobody"), std::string::npos) << failures[0].reason;
+  stop();
+
+  {
+    test::LogCapture log;
+    start("alice");  // may publish only alice.cam*: the module cannot create its channels
+    ASSERT_EQ(failures.size(), 1u);
+    EXPECT_EQ(failures[0].tag, "MODULE-START");
+    bool refused = false;
+    for (const auto& l : log.lines()) {
+      refused |= l.find("may not publish on test_channel_echo.out") != std::string::npos;
+    }
+    EXPECT_TRUE(refused);
+    stop();
+  }
+
+  start("bob");  // no rules: as before accounts existed
+  EXPECT_TRUE(failures.empty()) << failures[0].reason;
+  TestClient sync = syncClient();
+  EXPECT_TRUE(as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_channel_echo.out"})));
+  stop();
 }
 
 }  // namespace

@@ -153,6 +153,11 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
   queue_cv_.notify_one();
 }
 
+bool Authenticator::hasUser(std::string_view user) const {
+  std::lock_guard lock(users_mutex_);
+  return users_.contains(user);
+}
+
 std::shared_ptr<const AccessRules> Authenticator::accessOf(std::string_view user) const {
   std::lock_guard lock(users_mutex_);
   return users_.accessOf(user);

@@ -60,13 +60,20 @@ struct LocalClient::Impl final : Endpoint {
 
 std::unique_ptr<LocalClient> FlowServer::attachLocal(const std::string& user,
                                                      const std::string& name,
-                                                     LocalHandlers handlers) {
+                                                     LocalHandlers handlers,
+                                                     std::shared_ptr<const AccessRules> access) {
   auto impl = std::make_unique<LocalClient::Impl>(*impl_, std::move(handlers));
   impl->user = user;
   impl->client_name = name;
+  if (access) impl->access = std::move(access);
   impl_->endpoints.add(*impl);
   impl_->loggedIn(*impl);
   return std::make_unique<LocalClient>(std::move(impl));
+}
+
+std::shared_ptr<const AccessRules> FlowServer::accountAccess(const std::string& account) const {
+  if (!impl_->auth || !impl_->auth->hasUser(account)) return nullptr;
+  return impl_->auth->accessOf(account);
 }
 
 LocalClient::LocalClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}

@@ -25,7 +25,11 @@ struct ModuleEntry {
   std::filesystem::path path;  // resolved absolute path when given in the config, else empty
   bool enabled = true;
   bool own_thread = false;  // run on its own loop thread
-  LoopOptions loop;         // that thread's loop (inherits the hub's unless overridden)
+  // The account whose rules and limits the module acts under (its channels stay
+  // "<module>.<name>"): what it does for an outside party, a browser say, is checked as that
+  // account. Empty: the default rules (docs/security.md).
+  std::string account;
+  LoopOptions loop;  // that thread's loop (inherits the hub's unless overridden)
   Json::Value config = Json::Value(Json::objectValue);  // the module's own object
   std::string json_path;  // where it stands in the config, e.g. "$.modules[2]"
 };
@@ -41,7 +45,7 @@ struct ServerConfig {
   uint32_t max_frame_bytes = 16u << 20;
   size_t subscriber_queue_bytes = 8u << 20;
   size_t max_connections = 1024;
-  uint32_t login_timeout_ms = 10000;
+  uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;
   flow::UserLimits user_limits{64, 1024, 64, 1024};  // per user, unless its account says otherwise
   std::filesystem::path data_dir;    // resolved; default $XDG_DATA_HOME/skrobot/<app_name>

@@ -173,6 +173,8 @@ class Authenticator {
   // memory are kept. Drops cache entries of changed or removed users. Blocking (file I/O); waits
   // for no argon2id.
   [[nodiscard]] Result<void> reload();
+  // True when the users file (as last loaded) has `user`.
+  [[nodiscard]] bool hasUser(std::string_view user) const;
   // The role and rules of `user` in the users file as last loaded (the defaults when unknown).
   [[nodiscard]] std::shared_ptr<const AccessRules> accessOf(std::string_view user) const;
 

@@ -104,11 +104,14 @@ class FlowServer {
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
 
-  // An in-process satellite (a module) logged in as `user`, with its own flow database.
-  // Handlers run on the main loop thread. The client must be destroyed before the server.
-  [[nodiscard]] std::unique_ptr<LocalClient> attachLocal(const std::string& user,
-                                                         const std::string& name,
-                                                         LocalHandlers handlers);
+  // An in-process satellite (a module) logged in as `user`, with its own flow database, acting
+  // under `access` (null: the default rules). Handlers run on the main loop thread. The client
+  // must be destroyed before the server.
+  [[nodiscard]] std::unique_ptr<LocalClient> attachLocal(
+      const std::string& user, const std::string& name, LocalHandlers handlers,
+      std::shared_ptr<const AccessRules> access = nullptr);
+  // The role, rules and limits of an account of the users file; null when there is none.
+  [[nodiscard]] std::shared_ptr<const AccessRules> accountAccess(const std::string& account) const;
 
   struct Impl;
 

@@ -419,3 +419,64 @@ TEST_F(Access, AModuleActsUnderTheAccountItsConfigNames) {
 
 }  // namespace
 }  // namespace skr::flow
+
+namespace skr::flow {
+namespace {
+
+TEST_F(Access, AccountsAreManagedOverTheProtocol) {  // 3 argon2id
+  TestClient root = syncClient("root", "pw");
+  const auto admin = [&root](const std::string& command, Variant::Map args) {
+    return root.call(msg::Admin{command, Variant(std::move(args))});
+  };
+  TestClient bob = syncClient("bob", "pw");
+  EXPECT_EQ(errorOf(bob.call(
+                msg::Admin{"user_add", Variant(Variant::Map{{"user", "x"}, {"password", "y"}})})),
+            uint16_t(ErrorCode::permission_denied));
+
+  ASSERT_TRUE(as<msg::ReplyValue>(admin("user_add", {{"user", "carol"}, {"password", "c1"}})));
+  EXPECT_EQ(errorOf(admin("user_add", {{"user", "carol"}, {"password", "c1"}})),
+            uint16_t(ErrorCode::already_exists));
+  EXPECT_EQ(errorOf(admin("user_add", {{"user", "bad name"}, {"password", "c1"}})),
+            uint16_t(ErrorCode::invalid_argument));
+  EXPECT_TRUE(connect().login("carol", "c1"));
+
+  TestClient owner = flowClient("bob", "pw");
+  const uint16_t cam = addChannel(owner, "cam");
+  ASSERT_TRUE(as<msg::ReplyValue>(
+      admin("user_rule", {{"user", "carol"},
+                          {"action", "subscribe"},
+                          {"patterns", Variant::List{Variant("**"), Variant("!bob.cam")}}})));
+  EXPECT_EQ(errorOf(admin("user_rule", {{"user", "carol"}, {"action", "sing"}})),
+            uint16_t(ErrorCode::invalid_argument));
+  TestClient carol = flowClient("carol", "c1");
+  ASSERT_TRUE(carol.send(msg::Subscribe{1, cam}));
+  auto e = as<msg::EvError>(carol.waitFor(Code::ev_error));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->error, uint16_t(ErrorCode::permission_denied));
+
+  ASSERT_TRUE(as<msg::ReplyValue>(admin("user_passwd", {{"user", "carol"}, {"password", "c2"}})));
+  EXPECT_FALSE(connect().login("carol", "c1"));
+  ASSERT_TRUE(as<msg::ReplyValue>(admin("user_role", {{"user", "carol"}, {"role", "admin"}})));
+  auto users = as<msg::ReplyValue>(admin("users", {}));
+  ASSERT_TRUE(users && users->value.isList());
+  bool carol_admin = false;
+  for (const auto& u : *users->value.asList()) {
+    auto m = mapOf(u);
+    carol_admin |= *m["user"].asString() == "carol" && *m["role"].asString() == "admin";
+  }
+  EXPECT_TRUE(carol_admin);
+
+  // What the hub changed is on disk.
+  auto file = UsersFile::load(opts_.users_file);
+  ASSERT_TRUE(file);
+  EXPECT_TRUE(file->accessOf("carol")->admin());
+  EXPECT_EQ(file->accessOf("carol")->patterns(Action::subscribe),
+            (std::vector<std::string>{"**", "!bob.cam"}));
+
+  ASSERT_TRUE(as<msg::ReplyValue>(admin("user_del", {{"user", "carol"}})));
+  EXPECT_EQ(errorOf(admin("user_del", {{"user", "carol"}})), uint16_t(ErrorCode::not_found));
+  EXPECT_FALSE(connect().login("carol", "c2"));
+}
+
+}  // namespace
+}  // namespace skr::flow

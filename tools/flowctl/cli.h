@@ -65,6 +65,8 @@ int cmdDb(const Cli& cli);
 int cmdFlows(const Cli& cli);
 int cmdKick(const Cli& cli);
 int cmdChan(const Cli& cli);
+int cmdUsers(const Cli& cli);
+int cmdUser(const Cli& cli);
 
 // Help texts: the overview, or one command's (empty if unknown).
 std::string_view usage();

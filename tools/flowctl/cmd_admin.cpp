@@ -1,5 +1,8 @@
-// flowctl flows, kick and chan rm: an administrator's commands (ADMIN, protocol 1.1;
-// docs/security.md). Refused with exit 7 for an account that is not an administrator.
+// flowctl flows, kick, chan rm, users and user: an administrator's commands (ADMIN, protocol
+// 1.1; docs/security.md). Refused with exit 7 for an account that is not an administrator.
+#include <iostream>
+#include <string>
+
 #include "cli.h"
 
 namespace flowctl {
@@ -71,6 +74,55 @@ int cmdChan(const Cli& cli) {
   }
   return runAdmin(cli, "chan_rm", Variant::Map{{"name", rest[1]}}, [](const Variant& a) {
     std::printf("removed %s\n", text(a, "removed").c_str());
+  });
+}
+
+int cmdUsers(const Cli& cli) {
+  Args args(cli.args);
+  if (!args.rest().empty() || !args.error().empty()) return fail(kUsage, "usage: flowctl users");
+  return runAdmin(cli, "users", Variant(), [](const Variant& answer) {
+    if (const auto* list = answer.asList()) {
+      for (const auto& u : *list) {
+        std::printf("%-20s %-6s %s\n", text(u, "user").c_str(), text(u, "role").c_str(),
+                    text(u, "created").c_str());
+      }
+    }
+  });
+}
+
+int cmdUser(const Cli& cli) {
+  static constexpr const char* kUserUsage =
+      "usage: flowctl user add NAME [--admin] | del NAME | passwd NAME | role NAME admin|user |\n"
+      "                    rule NAME ACTION [PATTERN...]   (the password: one line on stdin)";
+  Args args(cli.args);
+  const bool as_admin = args.flag("--admin");
+  const auto rest = args.rest();
+  if (!args.error().empty() || rest.size() < 2) return fail(kUsage, kUserUsage);
+  const std::string& op = rest[0];
+  Variant::Map a{{"user", rest[1]}};
+  const auto password = [&a]() {
+    std::string line;
+    if (!std::getline(std::cin, line) || line.empty()) return false;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    a["password"] = line;
+    return true;
+  };
+  if ((op == "add" || op == "passwd") && rest.size() == 2) {
+    if (op == "add" && as_admin) a["role"] = "admin";
+    if (!password()) return fail(kUsage, "no password on stdin (one line)");
+  } else if (op == "del" && rest.size() == 2) {
+  } else if (op == "role" && rest.size() == 3) {
+    a["role"] = rest[2];
+  } else if (op == "rule" && rest.size() >= 3) {
+    a["action"] = rest[2];
+    Variant::List patterns;
+    for (size_t i = 3; i < rest.size(); ++i) patterns.emplace_back(rest[i]);
+    a["patterns"] = Variant(std::move(patterns));
+  } else {
+    return fail(kUsage, kUserUsage);
+  }
+  return runAdmin(cli, "user_" + op, Variant(std::move(a)), [&](const Variant& answer) {
+    std::printf("%s %s\n", text(answer, "done").c_str(), text(answer, "user").c_str());
   });
 }
 

@@ -24,6 +24,10 @@ Commands:
   flows                       the hub's connections: id, user, client, source (administrators)
   kick ID                     disconnect connection ID (administrators)
   chan rm CHANNEL             remove any channel (administrators)
+  users                       the accounts of the users file (administrators)
+  user add|del|passwd|role|rule NAME ...
+                              change an account; a password is one line on stdin
+                              (administrators; flowctl help user)
   help [COMMAND]              this text, or a command's options
 
 Global options:
@@ -84,6 +88,15 @@ std::string_view commandHelp(std::string_view command) {
     return R"(usage: flowctl call SERVICE CMD [VALUE] [--timeout-ms MS]
   Calls a service channel and prints its answer as JSON. VALUE is JSON (default null); quote
   strings: '"text"'. Exit 6 when no answer came within MS milliseconds (default 5000).
+)";
+  }
+  if (command == "user") {
+    return R"(usage: flowctl user add NAME [--admin] | del NAME | passwd NAME | role NAME admin|user
+                   | rule NAME ACTION [PATTERN...]
+  Changes an account of the hub's users file (administrators only; docs/security.md). add and
+  passwd read the password as one line from stdin. ACTION: publish, subscribe, call, db_read,
+  db_write; no PATTERN: back to '**'. The account's connections keep their old rules until they
+  reconnect.
 )";
   }
   if (command == "db") {
@@ -188,5 +201,7 @@ int main(int argc, char** argv) {
   if (cli.command == "flows") return cmdFlows(cli);
   if (cli.command == "kick") return cmdKick(cli);
   if (cli.command == "chan") return cmdChan(cli);
+  if (cli.command == "users") return cmdUsers(cli);
+  if (cli.command == "user") return cmdUser(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

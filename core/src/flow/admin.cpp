@@ -3,6 +3,11 @@
 //   kick    {"connection": N}    -> {"kicked": "<connection N (...)>"}: closes that connection
 //   chan_rm {"name": "u.c"}      -> {"removed": "u.c"}: removes any channel
 //   db_rm   {"name": "db"}       -> {"removed": "db"}: removes a named database
+// and the accounts of the users file, changed on the authenticator's worker thread (argon2id and
+// the file's save stay off the loop) while the connection waits (Connection::adminUsers):
+//   users                                      -> [{user, role, created}]
+//   user_add    {"user", "password", "role"?}  user_del {"user"}  user_passwd {"user", "password"}
+//   user_role   {"user", "role"}               user_rule {"user", "action", "patterns": [...]}
 #include "connection.h"
 #include "server_impl.h"
 
@@ -34,7 +39,128 @@ Result<int64_t> intArg(const Variant& args, const char* key) {
   return makeError(Errc::invalid_argument, std::string("needs {\"") + key + "\": <integer>}");
 }
 
+// The change a user_* command makes to the users file; invalid_argument for bad arguments.
+Result<Authenticator::Change> userChange(const std::string& command, const Variant& args) {
+  auto user = stringArg(args, "user");
+  if (!user) return user.error();
+  const std::string u = *user;
+  if (command == "user_del") {
+    return Authenticator::Change([u](UsersFile& f) { return f.remove(u); });
+  }
+  if (command == "user_add" || command == "user_passwd") {
+    auto password = stringArg(args, "password");
+    if (!password) return password.error();
+    Role role = Role::user;
+    if (command == "user_add" && args.asMap() != nullptr && args.asMap()->count("role") != 0) {
+      auto r = stringArg(args, "role");
+      if (!r || (*r != "admin" && *r != "user")) {
+        return makeError(Errc::invalid_argument, "role must be \"admin\" or \"user\"");
+      }
+      role = *r == "admin" ? Role::admin : Role::user;
+    }
+    if (command == "user_passwd") {
+      return Authenticator::Change(
+          [u, p = *password](UsersFile& f) { return f.setPassword(u, p); });
+    }
+    return Authenticator::Change([u, p = *password, role](UsersFile& f) -> Result<void> {
+      if (auto added = f.add(u, p); !added) return added;
+      AccessRules access;
+      access.setRole(role);
+      return f.setAccess(u, access);
+    });
+  }
+  if (command == "user_role") {
+    auto r = stringArg(args, "role");
+    if (!r || (*r != "admin" && *r != "user")) {
+      return makeError(Errc::invalid_argument, "needs {\"role\": \"admin\" | \"user\"}");
+    }
+    const Role role = *r == "admin" ? Role::admin : Role::user;
+    return Authenticator::Change([u, role](UsersFile& f) -> Result<void> {
+      if (!f.contains(u)) return makeError(Errc::not_found, "no user " + u);
+      AccessRules access = *f.accessOf(u);
+      access.setRole(role);
+      return f.setAccess(u, access);
+    });
+  }
+  if (command == "user_rule") {
+    auto action_name = stringArg(args, "action");
+    if (!action_name) return action_name.error();
+    std::optional<Action> action;
+    for (auto a :
+         {Action::publish, Action::subscribe, Action::call, Action::db_read, Action::db_write}) {
+      if (actionName(a) == *action_name) action = a;
+    }
+    if (!action) return makeError(Errc::invalid_argument, "unknown action " + *action_name);
+    std::vector<std::string> patterns;
+    const auto* map = args.asMap();
+    const auto it = map->find("patterns");
+    if (it != map->end() && it->second.asList() != nullptr) {
+      for (const auto& p : *it->second.asList()) {
+        if (p.asString() == nullptr) {
+          return makeError(Errc::invalid_argument, "patterns must be strings");
+        }
+        patterns.push_back(*p.asString());
+      }
+    }
+    if (patterns.empty()) patterns.emplace_back("**");
+    AccessRules check;
+    if (auto ok = check.setRule(*action, patterns); !ok) return ok.error();  // refused here
+    return Authenticator::Change([u, a = *action, patterns](UsersFile& f) -> Result<void> {
+      if (!f.contains(u)) return makeError(Errc::not_found, "no user " + u);
+      AccessRules access = *f.accessOf(u);
+      if (auto ok = access.setRule(a, patterns); !ok) return ok;
+      return f.setAccess(u, access);
+    });
+  }
+  return makeError(Errc::invalid_argument, "ADMIN: unknown command \"" + command + "\"");
+}
+
 }  // namespace
+
+bool isUsersCommand(const std::string& command) {
+  return command == "users" || command.rfind("user_", 0) == 0;
+}
+
+void Connection::adminUsers(const std::string& command, const Variant& args) {
+  if (!access->admin()) {
+    replyError(ErrorCode::permission_denied,
+               "ADMIN " + command + ": user " + user + " is not an administrator");
+    return;
+  }
+  Authenticator& auth = *server_.auth;
+  if (command == "users") {
+    const UsersFile file = auth.snapshot();
+    Variant::List out;
+    for (const auto& name : file.names()) {
+      out.push_back(Variant::Map{{"user", name},
+                                 {"role", file.accessOf(name)->admin() ? "admin" : "user"},
+                                 {"created", file.createdOf(name).value_or("")}});
+    }
+    send(msg::ReplyValue{Variant(std::move(out))});
+    return;
+  }
+  auto change = userChange(command, args);
+  if (!change) {
+    replyError(toErrorCode(change.error().code), change.error().message);
+    return;
+  }
+  const std::string target = *stringArg(args, "user");
+  log::info(kLogSource, "FLOW-ADMIN", describe() + ": " + command + " " + target);
+  block();  // answered when the worker is done
+  const uint32_t my_id = id;
+  FlowServer::Impl& server = server_;
+  auth.changeUsers(std::move(change).value(), [&server, my_id, command, target](Result<void> r) {
+    auto it = server.connections.find(my_id);
+    if (it == server.connections.end()) return;  // gone meanwhile
+    Connection& c = *it->second;
+    if (r) {
+      c.send(msg::ReplyValue{Variant(Variant::Map{{"done", command}, {"user", target}})});
+    } else {
+      c.replyError(toErrorCode(r.error().code), r.error().message);
+    }
+    c.unblock();
+  });
+}
 
 Result<Variant> FlowServer::Impl::admin(Connection& by, const std::string& command,
                                         const Variant& args) {
@@ -88,7 +214,9 @@ Result<Variant> FlowServer::Impl::admin(Connection& by, const std::string& comma
     return Variant(Variant::Map{{"removed", *name}});
   }
   return makeError(Errc::invalid_argument,
-                   "ADMIN: unknown command \"" + command + "\" (flows, kick, chan_rm, db_rm)");
+                   "ADMIN: unknown command \"" + command +
+                       "\" (flows, kick, chan_rm, db_rm, users, user_add, user_del, "
+                       "user_passwd, user_role, user_rule)");
 }
 
 }  // namespace skr::flow

@@ -153,6 +153,36 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
   queue_cv_.notify_one();
 }
 
+void Authenticator::changeUsers(Change change, std::function<void(Result<void>)> done) {
+  Job job;
+  job.task = [this, change = std::move(change), done = std::move(done)]() mutable {
+    UsersFile copy = snapshot();
+    Result<void> r = change(copy);
+    if (r) r = copy.save();
+    if (r) {
+      std::lock_guard lock(users_mutex_);
+      users_ = std::move(copy);
+      std::erase_if(cache_, [this](const auto& kv) {
+        return users_.hashOf(kv.second.user) != kv.second.hash;
+      });
+    }
+    loop_.post([live = live_, done = std::move(done), r = std::move(r)]() mutable {
+      std::lock_guard lock(live->mutex);
+      if (live->alive && done) done(std::move(r));
+    });
+  };
+  std::unique_lock lock(queue_mutex_);
+  if (stopping_) return;
+  queue_.push_back(std::move(job));
+  lock.unlock();
+  queue_cv_.notify_one();
+}
+
+UsersFile Authenticator::snapshot() const {
+  std::lock_guard lock(users_mutex_);
+  return users_;
+}
+
 bool Authenticator::hasUser(std::string_view user) const {
   std::lock_guard lock(users_mutex_);
   return users_.contains(user);
@@ -265,6 +295,10 @@ void Authenticator::work() {
       if (stopping_) return;
       job = std::move(queue_.front());
       queue_.pop_front();
+    }
+    if (job.task) {
+      job.task();
+      continue;
     }
     LoginResult result = verifySlow(job);
     wipe(job.password);

@@ -18,6 +18,9 @@
 
 namespace skr::flow {
 
+// True for ADMIN's commands on accounts ("users", "user_*"), which Connection::adminUsers runs.
+[[nodiscard]] bool isUsersCommand(const std::string& command);
+
 class Connection final : public Endpoint {
  public:
   enum class State { login, authenticating, sync, flow, closing };
@@ -80,6 +83,8 @@ class Connection final : public Endpoint {
   void refuse(const std::string& why, std::string reply);
   void handleFrame(uint8_t code, std::string_view body);
   void handleLogin(std::string_view body);
+  // ADMIN's commands on the users file (admin.cpp): answered once the worker changed it.
+  void adminUsers(const std::string& command, const Variant& args);
   void handleSync(Code code, std::string_view body);
   void handleAsync(Code code, std::string_view body);
   void protocolError(const std::string& why);

@@ -224,6 +224,10 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::admin: {
       SKR_DECODE(msg::Admin, m);
+      if (isUsersCommand(m.command)) {
+        adminUsers(m.command, m.args);
+        return;
+      }
       auto r = server_.admin(*this, m.command, m.args);
       if (r) {
         send(msg::ReplyValue{std::move(r).value()});

@@ -173,6 +173,15 @@ class Authenticator {
   // memory are kept. Drops cache entries of changed or removed users. Blocking (file I/O); waits
   // for no argon2id.
   [[nodiscard]] Result<void> reload();
+  // Changes the users file off the loop, on the worker thread (argon2id and disk I/O): `change`
+  // edits a copy of the file as last loaded; the copy is saved, then becomes the current one
+  // (cached logins of changed passwords are forgotten). `done` runs on the loop thread with the
+  // result, never inside this call.
+  using Change = std::function<Result<void>(UsersFile&)>;
+  void changeUsers(Change change, std::function<void(Result<void>)> done);
+  // A copy of the users file as last loaded.
+  [[nodiscard]] UsersFile snapshot() const;
+
   // True when the users file (as last loaded) has `user`.
   [[nodiscard]] bool hasUser(std::string_view user) const;
   // The role and rules of `user` in the users file as last loaded (the defaults when unknown).
@@ -194,6 +203,7 @@ class Authenticator {
     std::string user;
     std::string password;
     Done done;
+    std::function<void()> task;  // set: a change of the users file instead of a login
   };
   struct CacheEntry {
     std::string user;

@@ -1,6 +1,10 @@
 #include <skrobot/flow/access.h>
 
+#include <skrobot/core/clock.h>
+#include <skrobot/core/log.h>
+
 #include <array>
+#include <mutex>
 
 namespace skr::flow {
 
@@ -150,17 +154,48 @@ const std::vector<std::string>& AccessRules::patterns(Action action) const {
   return text_[index(action)];
 }
 
+namespace {
+
+// Refusals are logged, at most 20 lines a second (a client that insists cannot flood the log);
+// the lines left out are counted in the next one.
+void logRefusal(const char* tag, const std::string& message) {
+  static std::mutex mutex;
+  static Nanos window = 0;
+  static int in_window = 0;
+  static uint64_t suppressed = 0;
+  std::lock_guard lock(mutex);
+  const Nanos now = monotonicNs();
+  if (now - window >= kNsPerSec) {
+    window = now;
+    in_window = 0;
+  }
+  if (++in_window > 20) {
+    ++suppressed;
+    return;
+  }
+  std::string line = message;
+  if (suppressed > 0) line += " (" + std::to_string(suppressed) + " refusals not logged before)";
+  suppressed = 0;
+  log::warn("flow", tag, line);
+}
+
+}  // namespace
+
 Error accessDenied(std::string_view user, Action action, std::string_view name) {
-  return makeError(Errc::permission_denied,
-                   "user " + std::string(user) + " may not " +
-                       std::string(kActionVerbs[index(action)]) + " " + std::string(name) +
-                       " (its rules: " + std::string(actionName(action)) + ")");
+  Error e = makeError(Errc::permission_denied,
+                      "user " + std::string(user) + " may not " +
+                          std::string(kActionVerbs[index(action)]) + " " + std::string(name) +
+                          " (its rules: " + std::string(actionName(action)) + ")");
+  logRefusal("FLOW-DENIED", e.message);
+  return e;
 }
 
 Error limitReached(std::string_view user, std::string_view what, uint32_t limit) {
-  return makeError(Errc::limit_exceeded, "user " + std::string(user) + " holds " +
-                                             std::to_string(limit) + " " + std::string(what) +
-                                             ", its limit (docs/security.md)");
+  Error e = makeError(Errc::limit_exceeded, "user " + std::string(user) + " holds " +
+                                                std::to_string(limit) + " " + std::string(what) +
+                                                ", its limit (docs/security.md)");
+  logRefusal("FLOW-LIMIT", e.message);
+  return e;
 }
 
 }  // namespace skr::flow

@@ -84,7 +84,7 @@ void Connection::verifyLogin(msg::Login m) {
         c.access = server.auth->accessOf(user);
         server.throttle.succeeded(user, c.source);
         const uint32_t limit = c.access->limits().orElse(server.opt.user_limits).connections;
-        if (server.endpoints.holdingsOf(user).endpoints > limit) {  // this one included
+        if (server.endpoints.holdingsOf(user).endpoints > limit) {   // this one included
           const Error e = limitReached(user, "connections", limit);  // logged (FLOW-LIMIT)
           c.replyError(ErrorCode::limit_exceeded, e.message);
           c.closeAfterFlush("connection limit");

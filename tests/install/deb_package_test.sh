@@ -100,8 +100,9 @@ fi
 
 # --- inside the namespace: the unpacked packages alone ----------------------------------------
 tmp=$TMP
-for d in /tmp /run /var/lib "$src"; do mount -t tmpfs tmpfs "$d"; done
+# The trees first: they may lie under /tmp, which is hidden next.
 [[ -d $build ]] && mount -t tmpfs tmpfs "$build"
+for d in "$src" /tmp /run /var/lib; do mount -t tmpfs tmpfs "$d"; done
 ip link set lo up
 mkdir -p /run/skrobot /var/lib/skrobot "$tmp/home" "$tmp/cwd"
 cd "$tmp/cwd"

@@ -27,9 +27,10 @@ fi
 # --- inside the namespace ---------------------------------------------------------------------
 tmp=$TMP
 fail() { echo "FAIL: $*" >&2; [[ -f $tmp/hub.log ]] && cat "$tmp/hub.log" >&2; exit 1; }
-mount -t tmpfs tmpfs /tmp
-mount -t tmpfs tmpfs "$src"
+# The trees first: they may lie under /tmp, which is hidden next.
 [[ -d $build ]] && mount -t tmpfs tmpfs "$build"
+mount -t tmpfs tmpfs "$src"
+mount -t tmpfs tmpfs /tmp
 ip link set lo up
 [[ -z $(ls -A "$src") ]] || fail "the source tree is still visible"
 mkdir -p "$tmp/home" "$tmp/cwd"

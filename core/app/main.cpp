@@ -203,6 +203,8 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.max_pending_requests = s.max_pending_requests;
   o.user_limits = s.user_limits;
   o.data_dir = s.data_dir;
+  o.durability = s.durability;
+  o.compact_bytes = s.compact_bytes;
   o.users_file = s.users_file;
   o.dev_account = s.dev_account;
   return o;

@@ -293,6 +293,13 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
   }
   const std::string data_dir = d["data_dir"].isString() ? d["data_dir"].asString() : "";
   out.data_dir = data_dir.empty() ? defaultDataDir(cfg.app_name) : resolve(base_dir, data_dir);
+  if (const Json::Value& db = d["databases"]; db.isObject()) {
+    const std::string durability = db["durability"].asString();
+    out.durability = durability == "always" ? flow::Durability::always
+                     : durability == "no"   ? flow::Durability::no
+                                            : flow::Durability::everysec;
+    out.compact_bytes = db["compact_bytes"].asUInt64();
+  }
   const Json::Value& a = d["accounts"];
   const std::string users =
       a.isObject() && a["users_file"].isString() ? a["users_file"].asString() : "";
@@ -351,6 +358,12 @@ s::Schema hubSchema() {
       s::optional("module_paths", s::arrayOf(s::string().nonEmpty()), Json::arrayValue),
       s::optional("modules", s::arrayOf(moduleSchema()), Json::arrayValue),
       s::optional("data_dir", s::string(), ""),
+      s::optional(
+          "databases",
+          s::object({s::optional("durability", s::string().oneOf({"always", "everysec", "no"}),
+                                 "everysec"),
+                     s::optional("compact_bytes", s::integer().range(4096, 1 << 30), 4 << 20)}),
+          Json::objectValue),
       s::optional("server", serverSchema(), Json::objectValue),
       s::optional("accounts", accountsSchema(), Json::objectValue),
   });

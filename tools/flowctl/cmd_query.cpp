@@ -123,8 +123,8 @@ int cmdDb(const Cli& cli) {
   if (!args.error().empty()) return fail(kUsage, args.error());
   const std::string op = rest.empty() ? "" : rest[0];
   const size_t want = op == "set" ? 3 : (op == "get" || op == "del") ? 2 : 1;
-  const bool known =
-      op == "get" || op == "set" || op == "del" || op == "ls" || op == "save" || op == "databases";
+  const bool known = op == "get" || op == "set" || op == "del" || op == "ls" || op == "save" ||
+                     op == "sync" || op == "databases";
   if (!known || rest.size() != want) return fail(kUsage, std::string(commandHelp("db")));
   std::optional<Variant> value;
   if (op == "set" && !(value = jsonArg(rest[2], "VALUE"))) return kUsage;
@@ -132,7 +132,7 @@ int cmdDb(const Cli& cli) {
   auto sync = connectSync(cli, code);
   if (!sync) return code;
   const std::string name = db ? *db : sync->login().user;
-  if (op != "databases") {
+  if (op != "databases" && op != "sync") {
     if (auto s = sync->selectDatabase(name); !s) {
       return fail(exitFor(s.error()), "database " + name + ": " + s.error().message);
     }
@@ -151,6 +151,7 @@ int cmdDb(const Cli& cli) {
   if (op == "set") return done(sync->set(rest[1], *value));
   if (op == "del") return done(sync->del(rest[1]));
   if (op == "save") return done(sync->saveDatabase(name));
+  if (op == "sync") return done(sync->syncDatabases());
   if (op == "databases") {
     auto names = sync->databases();
     if (!names) return fail(exitFor(names.error()), names.error().message);

@@ -100,12 +100,13 @@ std::string_view commandHelp(std::string_view command) {
 )";
   }
   if (command == "db") {
-    return R"(usage: flowctl db get KEY | set KEY VALUE | del KEY | ls | save | databases [--db NAME]
+    return R"(usage: flowctl db get KEY | set KEY VALUE | del KEY | ls | save | sync | databases [--db NAME]
   get KEY          print a variable as JSON (exit 5 when absent)
   set KEY VALUE    set a variable; VALUE is JSON (quote strings: '"text"')
   del KEY          remove a variable
   ls               every variable of the database
-  save             save the database to disk now
+  save             write the database's snapshot now (compacts its log)
+  sync             wait until every change the hub made so far is on disk (any policy)
   databases        the names of all databases
   --db NAME        the database (default: your user's); a channel's is named after it
 )";

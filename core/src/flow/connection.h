@@ -90,6 +90,14 @@ class Connection final : public Endpoint {
   void protocolError(const std::string& why);
   void replyError(ErrorCode error, const std::string& message);
   void replyOk();
+  // A database command's answer: at once, or, when `persistent` and the policy is `always`,
+  // once the change is on disk (reading stays paused meanwhile).
+  void answerDurably(const Result<void>& r, bool persistent);
+  // Replies to a paused request with `r` and resumes reading.
+  void answerDone(const Result<void>& r);
+  // A callback for the store that finds this connection again, if it is still there.
+  std::function<void(Result<void>)> whenDone(
+      std::function<void(Connection&, const Result<void>&)> then);
   // Pauses reading until the pending reply is sent (sync requests answer in order).
   void block();
   void unblock();

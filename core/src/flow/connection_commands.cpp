@@ -100,6 +100,35 @@ void Connection::verifyLogin(msg::Login m) {
       });
 }
 
+std::function<void(Result<void>)> Connection::whenDone(
+    std::function<void(Connection&, const Result<void>&)> then) {
+  return [&server = server_, my_id = id, then = std::move(then)](Result<void> r) {
+    auto it = server.connections.find(my_id);
+    if (it != server.connections.end()) then(*it->second, r);  // else gone meanwhile
+  };
+}
+
+void Connection::answerDone(const Result<void>& r) {
+  if (r) {
+    replyOk();
+  } else {
+    replyError(toErrorCode(r.error().code), r.error().message);
+  }
+  unblock();
+}
+
+void Connection::answerDurably(const Result<void>& r, bool persistent) {
+  if (!r) {
+    replyError(toErrorCode(r.error().code), r.error().message);
+  } else if (!persistent || !server_.databases.store().writesWaitForDisk()) {
+    replyOk();
+  } else {
+    block();
+    server_.databases.store().barrier(
+        whenDone([](Connection& c, const Result<void>& done) { c.answerDone(done); }));
+  }
+}
+
 void Connection::handleSync(Code code, std::string_view body) {
   const DecodeLimits limits = valueLimits(server_.opt);
   const auto answer = [&](const Result<void>& r) {
@@ -118,17 +147,30 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::db_create: {
       SKR_DECODE(msg::DbCreate, m);
-      answer(dbs.create(*this, m.name));
+      answerDurably(dbs.create(*this, m.name), true);
       return;
     }
     case Code::db_save: {
       SKR_DECODE(msg::DbSave, m);
-      answer(dbs.save(*this, m.name));
+      // Answered once the snapshot is written (by the journal's thread).
+      block();
+      auto r = dbs.save(*this, m.name,
+                        whenDone([](Connection& c, const Result<void>& r) { c.answerDone(r); }));
+      if (!r) {
+        replyError(toErrorCode(r.error().code), r.error().message);
+        unblock();
+      }
       return;
     }
     case Code::db_remove: {
       SKR_DECODE(msg::DbRemove, m);
-      answer(dbs.remove(*this, m.name));
+      answerDurably(dbs.remove(*this, m.name), true);
+      return;
+    }
+    case Code::db_sync: {
+      if (!body.empty()) return protocolError("DB_SYNC has a body");
+      block();
+      dbs.store().barrier(whenDone([](Connection& c, const Result<void>& r) { c.answerDone(r); }));
       return;
     }
     case Code::var_get: {
@@ -145,12 +187,12 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
     case Code::var_set: {
       SKR_DECODE(msg::VarSet, m);
-      answer(dbs.setVar(*this, {}, m.key, m.value));
+      answerDurably(dbs.setVar(*this, {}, m.key, m.value), dbs.persistent(current_db));
       return;
     }
     case Code::var_del: {
       SKR_DECODE(msg::VarDel, m);
-      answer(dbs.delVar(*this, {}, m.key));
+      answerDurably(dbs.delVar(*this, {}, m.key), dbs.persistent(current_db));
       return;
     }
     case Code::var_get_all:
@@ -327,7 +369,25 @@ void Connection::handleAsync(Code code, std::string_view body) {
     }
     case Code::db_save_async: {
       SKR_DECODE(msg::DbSaveAsync, m);
-      check(dbs.save(*this, m.name), m.tag, 0);
+      const uint32_t tag = m.tag;
+      check(dbs.save(*this, m.name, whenDone([tag](Connection& c, const Result<void>& r) {
+        if (!r) {
+          c.onError(Code::db_save_async, tag, 0, toErrorCode(r.error().code), r.error().message);
+        }
+      })),
+            m.tag, 0);
+      return;
+    }
+    case Code::db_sync_async: {
+      SKR_DECODE(msg::DbSyncAsync, m);
+      const uint32_t tag = m.tag;
+      dbs.store().barrier(whenDone([tag](Connection& c, const Result<void>& r) {
+        if (r) {
+          c.send(msg::EvDbSynced{tag});
+        } else {
+          c.onError(Code::db_sync_async, tag, 0, toErrorCode(r.error().code), r.error().message);
+        }
+      }));
       return;
     }
     case Code::var_set_async: {

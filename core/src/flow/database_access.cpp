@@ -118,7 +118,8 @@ Result<void> DatabaseAccess::create(const Endpoint& e, const std::string& name) 
   return {};
 }
 
-Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name) {
+Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name,
+                                  std::function<void(Result<void>)> done) {
   const std::string& target = name.empty() ? e.current_db : name;
   const auto kind = store_.kind(target);
   if (!kind) return noDatabase(target);
@@ -128,11 +129,7 @@ Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name) {
         "\"" + target + "\" is transient (a flow or channel database) and is never saved");
   }
   if (store_.dbDir().empty()) return makeError(Errc::unsupported, "the hub has no data directory");
-  if (auto r = store_.save(target); !r) {
-    log::error(kLogSource, "FLOW-DB-SAVE", "database " + target + ": " + r.error().message);
-    return r.error();
-  }
-  return {};
+  return store_.save(target, std::move(done));
 }
 
 Result<void> DatabaseAccess::remove(const Endpoint& e, const std::string& name) {

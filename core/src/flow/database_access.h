@@ -45,12 +45,17 @@ class DatabaseAccess {
   // databases are anybody's), or the administrator role (flow/access.h).
   [[nodiscard]] bool canRead(const Endpoint& e, const std::string& db) const;
   [[nodiscard]] bool canWrite(const Endpoint& e, const std::string& db) const;
+  [[nodiscard]] bool persistent(const std::string& db) const {
+    return store_.kind(db) == DatabaseKind::persistent;
+  }
 
   // The protocol's database commands. Errors: not_found, permission_denied, invalid_argument,
   // already_exists, unsupported (save without a data directory), io_error.
   [[nodiscard]] Result<void> select(Endpoint& e, const std::string& name);
   [[nodiscard]] Result<void> create(const Endpoint& e, const std::string& name);
-  [[nodiscard]] Result<void> save(const Endpoint& e, const std::string& name);  // empty: current
+  // Empty name: the current database. `done` gets the result of writing the snapshot.
+  [[nodiscard]] Result<void> save(const Endpoint& e, const std::string& name,
+                                  std::function<void(Result<void>)> done);
   [[nodiscard]] Result<void> remove(const Endpoint& e, const std::string& name);
   // In `db` (empty: e's current database).
   [[nodiscard]] Result<void> setVar(Endpoint& e, const std::string& db, const std::string& key,

@@ -43,15 +43,16 @@ Result<void> PairDatabase::set(std::string key, Variant value) {
     return makeError(r.error().code,
                      "database \"" + name_ + "\" key " + shownKey(key) + ": " + r.error().message);
   }
-  const auto it = pairs_.find(key);
+  auto it = pairs_.find(key);
   if (it == pairs_.end()) {
-    pairs_.emplace(std::move(key), std::move(value));
+    it = pairs_.emplace(std::move(key), std::move(value)).first;
   } else if (it->second == value) {
     return {};
   } else {
     it->second = std::move(value);
   }
   changed();
+  if (listener_ != nullptr) listener_->onSet(*this, it->first, it->second);
   return {};
 }
 
@@ -60,6 +61,7 @@ bool PairDatabase::remove(std::string_view key) {
   if (it == pairs_.end()) return false;
   pairs_.erase(it);
   changed();
+  if (listener_ != nullptr) listener_->onRemove(*this, key);
   return true;
 }
 
@@ -67,6 +69,7 @@ void PairDatabase::clear() {
   if (pairs_.empty()) return;
   pairs_.clear();
   changed();
+  if (listener_ != nullptr) listener_->onClear(*this);
 }
 
 std::vector<std::string> PairDatabase::keys() const {

@@ -50,9 +50,12 @@ Result<void> FlowServer::Impl::start() {
                 std::to_string(loaded->loaded.size()) + " databases from " + dbs.dbDir().string() +
                     (loaded->problems.empty()
                          ? std::string()
-                         : ", " + std::to_string(loaded->problems.size()) + " corrupt set aside"));
+                         : ", " + std::to_string(loaded->problems.size()) + " corrupt set aside") +
+                    ", durability " + durabilityName(opt.durability));
     }
   }
+  dbs.startJournal(opt.durability, opt.compact_bytes,
+                   [&l = loop](std::function<void()> fn) { l.post(std::move(fn)); });
   std::optional<DevAccount> dev;
   if (opt.dev_account) dev = DevAccount{opt.dev_account->first, opt.dev_account->second};
   std::filesystem::path users = opt.users_file;
@@ -317,10 +320,8 @@ void FlowServer::Impl::stop() noexcept {
   closeUvHandle(flush_check);
   closeUvHandle(sweep_timer);
   if (started) {
-    if (!opt.data_dir.empty()) {
-      if (auto r = databases.store().saveAll(); !r) {
-        log::error(kLogSource, "FLOW-DB-SAVE", r.error().message);
-      }
+    if (auto r = databases.store().close(); !r) {
+      log::error(kLogSource, "FLOW-DB-SAVE", r.error().message);
     }
     ::unlink(unix_path.c_str());
     started = false;

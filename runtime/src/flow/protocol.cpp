@@ -43,6 +43,12 @@ std::string_view codeName(uint8_t code) noexcept {
       return "CHAN_INFO";
     case Code::admin:
       return "ADMIN";
+    case Code::db_sync:
+      return "DB_SYNC";
+    case Code::db_sync_async:
+      return "DB_SYNC_ASYNC";
+    case Code::ev_db_synced:
+      return "EV_DB_SYNCED";
     case Code::chan_add:
       return "CHAN_ADD";
     case Code::chan_remove:
@@ -135,6 +141,10 @@ uint16_t minorOf(Code code) noexcept {
   switch (code) {
     case Code::admin:
       return 1;
+    case Code::db_sync:
+    case Code::db_sync_async:
+    case Code::ev_db_synced:
+      return 2;
     default:
       return 0;
   }

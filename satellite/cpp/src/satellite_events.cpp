@@ -88,6 +88,11 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       (void)m;
       return;
     }
+    case Code::ev_db_synced: {
+      SAT_DECODE(msg::EvDbSynced, m);
+      self.databasesSynced.emit(m.tag);
+      return;
+    }
     case Code::ev_dropped: {
       SAT_DECODE(msg::EvDropped, m);
       stats.data_dropped += m.count;

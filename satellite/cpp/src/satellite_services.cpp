@@ -119,6 +119,13 @@ Result<uint32_t> Satellite::saveDatabase(const std::string& name) {
   return tag;
 }
 
+Result<uint32_t> Satellite::syncDatabases() {
+  if (!impl_->flowOpen()) return notConnected();
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::DbSyncAsync{tag});
+  return tag;
+}
+
 Result<uint32_t> Satellite::selectDatabase(const std::string& name) {
   impl_->wanted_db = name;
   if (!impl_->flowOpen()) return notConnected();

@@ -178,6 +178,9 @@ Result<void> SyncClient::createDatabase(const std::string& name) {
 Result<void> SyncClient::saveDatabase(const std::string& name) {
   return expectEmpty(request(msg::DbSave{name}, options_.timeout_ms));
 }
+Result<void> SyncClient::syncDatabases() {
+  return expectEmpty(request(msg::Empty<Code::db_sync>{}, options_.timeout_ms));
+}
 Result<void> SyncClient::removeDatabase(const std::string& name) {
   return expectEmpty(request(msg::DbRemove{name}, options_.timeout_ms));
 }

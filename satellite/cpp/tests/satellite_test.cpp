@@ -181,6 +181,18 @@ TEST_F(Satellites, DatabasesWrittenOnTheFlowReadBlocking) {
       return !r && r.error().code == Errc::not_found;
     });
   }));
+  // The barrier for writes without a reply, on the flow and on the synchronous connection.
+  ASSERT_TRUE(s->on([](Satellite& x) { return x.set("synced", true, "calibration"); }));
+  auto tag = s->on([](Satellite& x) { return x.syncDatabases(); });
+  ASSERT_TRUE(tag) << tag.error().message;
+  ASSERT_TRUE(eventually([&] { return s->events.count("synced:" + std::to_string(*tag)) == 1; }))
+      << s->events.dump();
+  auto blocking = s->on([](Satellite& x) -> Result<void> {
+    auto sync = x.syncClient();
+    if (!sync) return sync.error();
+    return (*sync)->syncDatabases();
+  });
+  EXPECT_TRUE(blocking) << blocking.error().message;
   // A refused write comes back as an error event.
   ASSERT_TRUE(s->on([](Satellite& x) { return x.set("k", 1, "no-such-db"); }));
   ASSERT_TRUE(eventually([&] { return s->events.count("error:") >= 1; })) << s->events.dump();

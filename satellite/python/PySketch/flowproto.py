@@ -36,7 +36,7 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-PROTOCOL_MINOR = 0
+PROTOCOL_MINOR = 2  # 1.2: DB_SYNC; PySketch sends no ADMIN (1.1)
 
 DEFAULT_PORT = 9000
 DEFAULT_ADDRESS = "local:/tmp/Robot"
@@ -182,6 +182,7 @@ class Code(object):
     PING = 0x10
     DB_LIST = 0x11
     CHAN_INFO = 0x12
+    DB_SYNC = 0x13  # 1.2
 
     CHAN_ADD = 0x40
     CHAN_REMOVE = 0x41
@@ -197,6 +198,7 @@ class Code(object):
     VAR_SET_ASYNC = 0x4B
     VAR_DEL_ASYNC = 0x4C
     CHAN_SET_PROPS = 0x4D
+    DB_SYNC_ASYNC = 0x4E  # 1.2
 
     REPLY_OK = 0x80
     REPLY_ERROR = 0x81
@@ -211,6 +213,7 @@ class Code(object):
     EV_SERVICE_RESPONSE = 0x98
     EV_ERROR = 0x99
     EV_DROPPED = 0x9A
+    EV_DB_SYNCED = 0x9B  # 1.2
 
 
 def codeName(code):

@@ -177,6 +177,7 @@ class FlowSat(AbstractFlow):
         self._wantedSubs = set()           # channel names this satellite subscribes to
         self._subscribedIDs = set()        # ... and their ids on this connection
         self._pendingRequests = {}         # tag -> chanID
+        self._pendingSyncs = {}            # tag -> callback of syncDatabases()
         self._selectedDb = None            # what setCurrentDbName asked for
         self._tag = 0
         self._errorsLogged = {}
@@ -376,6 +377,7 @@ class FlowSat(AbstractFlow):
         self._subscribedIDs = set()
         self._pendingAdds = {}
         self._pendingRequests = {}
+        self._pendingSyncs = {}
         self._deferred = []
         if self._state != "closed":
             self._state = "offline"
@@ -745,6 +747,10 @@ class FlowSat(AbstractFlow):
             error = r.u16()
             message = r.str16()
             self._commandFailed(command, tag, chan, error, message)
+        elif code == Code.EV_DB_SYNCED:
+            callback = self._pendingSyncs.pop(r.u32(), None)
+            if callback is not None:
+                self._call("db-synced", callback)
         elif code == Code.EV_DROPPED:
             chan = r.u16()
             count = r.u32()
@@ -1122,6 +1128,16 @@ class FlowSat(AbstractFlow):
 
     def removeDatabase(self, name):
         return self._send(frame(Code.DB_REMOVE_ASYNC, u32(self._nextTag()) + str16(name)))
+
+    def syncDatabases(self, callback=None):
+        """A barrier for the writes above, which have no reply: `callback()` is called once every
+        change this flow sent before it is on disk (protocol 1.2). Returns the tag, or None."""
+        tag = self._nextTag()
+        if not self._send(frame(Code.DB_SYNC_ASYNC, u32(tag))):
+            return None
+        if callback is not None:
+            self._pendingSyncs[tag] = callback
+        return tag
 
     def newSyncClient(self, timeout=10.0):
         """A FlowSync on a new synchronous connection, logged in with the same address and

@@ -188,6 +188,11 @@ class FlowSync(AbstractFlow):
     def removeDatabase(self, name):
         return self._call(False, Code.DB_REMOVE, str16(name))
 
+    def syncDatabases(self):
+        """Returns True once every database change the hub made before it is on disk, whatever
+        the hub's durability policy (protocol 1.2)."""
+        return self._call(False, Code.DB_SYNC)
+
     # -- channels
     def channels(self):
         """Every channel of the hub, as FlowChannel objects."""

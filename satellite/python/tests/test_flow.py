@@ -287,6 +287,7 @@ class Databases(HubTestCase):
         self.assertEqual(sync.getAllVariables(), values)
         self.assertIn("pytest_values", sync.databases())
         self.assertTrue(sync.saveDatabase("pytest_values"))
+        self.assertTrue(sync.syncDatabases())  # a barrier: everything above is on disk
         self.assertTrue(sync.delVariable("t"))
         self.assertNotIn("t", sync.variablesKeys())
         self.assertTrue(sync.removeDatabase("pytest_values"))
@@ -303,6 +304,11 @@ class Databases(HubTestCase):
         with sat.newSyncClient() as sync:
             sync.setCurrentDbName("pytest_flowdb")
             self.assertTrue(pump([sat], lambda: sync.getVariable("answer") == 42))
+        # The barrier for writes without a reply: called once they are on disk.
+        synced = []
+        sat.setVariable("answer", 43)
+        self.assertIsNotNone(sat.syncDatabases(lambda: synced.append(True)))
+        self.assertTrue(pump([sat], lambda: synced == [True]))
 
 
 class Services(HubTestCase):

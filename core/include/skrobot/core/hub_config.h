@@ -6,6 +6,7 @@
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
 #include <skrobot/flow/access.h>
+#include <skrobot/flow/pair_database.h>
 #include <skrobot/flow/tls.h>
 
 #include <json/value.h>
@@ -48,7 +49,9 @@ struct ServerConfig {
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;
   flow::UserLimits user_limits{64, 1024, 64, 1024};  // per user, unless its account says otherwise
-  std::filesystem::path data_dir;    // resolved; default $XDG_DATA_HOME/skrobot/<app_name>
+  std::filesystem::path data_dir;  // resolved; default $XDG_DATA_HOME/skrobot/<app_name>
+  flow::Durability durability = flow::Durability::everysec;  // "databases.durability"
+  uint64_t compact_bytes = 4u << 20;                         // "databases.compact_bytes"
   std::filesystem::path users_file;  // resolved; default <data_dir>/users.json
   std::optional<std::pair<std::string, std::string>> dev_account;  // user, password
 };

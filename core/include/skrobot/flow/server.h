@@ -10,6 +10,7 @@
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
 #include <skrobot/flow/access.h>
+#include <skrobot/flow/pair_database.h>
 #include <skrobot/flow/protocol.h>
 #include <skrobot/flow/tls.h>
 #include <skrobot/flow/variant.h>
@@ -43,8 +44,10 @@ struct ServerOptions {
   size_t max_pending_requests = 1024;  // unanswered service requests per channel
   // What one user may hold at once unless its account says otherwise (flow/access.h).
   UserLimits user_limits{64, 1024, 64, 1024};
-  std::filesystem::path data_dir;    // persistent databases; empty: nothing is saved
-  std::filesystem::path users_file;  // empty: <data_dir>/users.json
+  std::filesystem::path data_dir;  // persistent databases; empty: nothing is saved
+  Durability durability = Durability::everysec;
+  uint64_t compact_bytes = 4u << 20;  // a database log longer than this is compacted
+  std::filesystem::path users_file;   // empty: <data_dir>/users.json
   // A development account accepted on the Unix socket only (guest/password in the default
   // config). TCP never starts without real accounts in the users file.
   std::optional<std::pair<std::string, std::string>> dev_account;

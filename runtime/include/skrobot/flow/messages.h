@@ -287,6 +287,15 @@ using DbCreateAsync = TagName<Code::db_create_async>;
 using DbRemoveAsync = TagName<Code::db_remove_async>;
 using DbSaveAsync = TagName<Code::db_save_async>;
 using VarDelAsync = TagName<Code::var_del_async>;
+// DB_SYNC_ASYNC (1.2): a barrier; EV_DB_SYNCED carries the same tag.
+struct DbSyncAsync {
+  static constexpr Code code = Code::db_sync_async;
+  uint32_t tag = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag);
+  }
+};
 struct VarSetAsync {
   static constexpr Code code = Code::var_set_async;
   uint32_t tag = 0;
@@ -315,6 +324,15 @@ struct EvDbChanged {
   template <class IO>
   bool io(IO& f) {
     return f(name);
+  }
+};
+// EV_DB_SYNCED (1.2): every database change made before DB_SYNC_ASYNC `tag` is on disk.
+struct EvDbSynced {
+  static constexpr Code code = Code::ev_db_synced;
+  uint32_t tag = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag);
   }
 };
 struct EvChanAdded {

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 1;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 2;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -43,6 +43,7 @@ enum class Code : uint8_t {
   ping = 0x10,
   db_list = 0x11,
   chan_info = 0x12,
+  db_sync = 0x13,  // 1.2: answered once every database change made before it is on disk
   // 1.1
   admin = 0x14,  // administration: an administrator's command, a value in, a value out
 
@@ -62,6 +63,7 @@ enum class Code : uint8_t {
   var_set_async = 0x4B,
   var_del_async = 0x4C,
   chan_set_props = 0x4D,
+  db_sync_async = 0x4E,  // 1.2: EV_DB_SYNCED with its tag once the changes before it are on disk
 
   // Hub -> client.
   reply_ok = 0x80,
@@ -77,6 +79,7 @@ enum class Code : uint8_t {
   ev_service_response = 0x98,
   ev_error = 0x99,
   ev_dropped = 0x9A,
+  ev_db_synced = 0x9B,  // 1.2
 
   // Reserved and specified; not implemented by protocol 1.0 hubs (answered with `unsupported`).
   blob_list = 0xC0,

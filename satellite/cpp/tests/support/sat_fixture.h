@@ -116,6 +116,8 @@ class SatOnThread {
       events.add("response:" + std::to_string(r.tag) + ":" + flow::variantToJsonText(r.value));
     });
     s.error.connect(&s, [this](const FlowError& e) { events.add("error:" + e.message); });
+    s.databasesSynced.connect(
+        &s, [this](uint32_t tag) { events.add("synced:" + std::to_string(tag)); });
   }
 
   LoopThread thread_;

@@ -175,6 +175,10 @@ class Satellite : public Object {
   [[nodiscard]] Result<uint32_t> del(const std::string& key, const std::string& db = {});
   [[nodiscard]] Result<uint32_t> createDatabase(const std::string& name);
   [[nodiscard]] Result<uint32_t> saveDatabase(const std::string& name = {});
+  // A barrier for the writes above, which have no reply: `databasesSynced` is emitted with the
+  // returned tag once every change this flow sent before it is on disk (a failure comes as the
+  // `error` signal with the tag). Protocol 1.2; an older hub answers unsupported.
+  [[nodiscard]] Result<uint32_t> syncDatabases();
   // The flow's current database from now on (and after reconnections).
   [[nodiscard]] Result<uint32_t> selectDatabase(const std::string& name);
   // BLOCKING: the synchronous connection itself, opened (or re-opened) as needed; valid until
@@ -195,6 +199,7 @@ class Satellite : public Object {
   Signal<const Request&> serviceRequest{*this};
   Signal<const Response&> serviceResponse{*this};
   Signal<const FlowError&> error{*this};
+  Signal<uint32_t> databasesSynced{*this};  // the tag of syncDatabases()
 
   struct Impl;
 

@@ -58,6 +58,9 @@ class SyncClient {
   [[nodiscard]] Result<void> createDatabase(const std::string& name);
   [[nodiscard]] Result<void> saveDatabase(const std::string& name = {});  // empty: current
   [[nodiscard]] Result<void> removeDatabase(const std::string& name);
+  // Returns once every database change the hub made before this request is on disk, whatever
+  // its durability policy (DB_SYNC, protocol 1.2; unsupported from an older hub).
+  [[nodiscard]] Result<void> syncDatabases();
   [[nodiscard]] Result<std::vector<std::string>> databases();
   // Variables of the current database.
   [[nodiscard]] Result<flow::Variant> get(const std::string& key);

@@ -50,8 +50,9 @@ uint64_t Journal::enqueue(Op op) {
   std::lock_guard lock(mutex_);
   op.seq = next_seq_++;
   const uint64_t seq = op.seq;
+  // The writer sleeps only on an empty queue: one wake-up per batch, not per change.
+  if (queue_.empty()) wake_.notify_one();
   queue_.push_back(std::move(op));
-  wake_.notify_one();
   return seq;
 }
 
@@ -97,15 +98,14 @@ Result<FileLayer::File*> Journal::openLog(const std::string& db) {
 Result<void> Journal::carryOut(Op& op) {
   switch (op.kind) {
     case Op::Kind::append: {
-      auto log = openLog(op.db);
-      if (!log) return log.error();
-      if (!op.bytes.empty()) {
-        if (auto r = (*log)->append(op.bytes); !r) return r;
-      }
+      // Gathered, and written with one call per log and batch (writeGathered).
+      if (auto log = openLog(op.db); !log) return log.error();
+      gathered_[op.db].append(op.bytes);
       unsynced_.insert(op.db);
       return {};
     }
     case Op::Kind::snapshot: {
+      if (auto r = writeGathered(); !r) return r;
       const std::string text = dblog::snapshotText(op.db, op.pairs, op.version);
       Result<void> r = replaceFile(*files_, dir_, op.db + ".json", text);
       if (r) {
@@ -121,6 +121,7 @@ Result<void> Journal::carryOut(Op& op) {
       return r;
     }
     case Op::Kind::drop: {
+      if (auto r = writeGathered(); !r) return r;
       // The drop record must be durable before the files go: a crash in between then leaves a
       // log that says "dropped", never a half-removed database that comes back.
       if (files_->exists(path(op.db, ".log"))) {
@@ -143,6 +144,18 @@ Result<void> Journal::carryOut(Op& op) {
   return {};
 }
 
+Result<void> Journal::writeGathered() {
+  Result<void> result;
+  for (auto& [db, bytes] : gathered_) {
+    if (bytes.empty()) continue;
+    auto log = openLog(db);
+    Result<void> r = log ? (*log)->append(bytes) : Result<void>(log.error());
+    if (!r && result) result = r;
+  }
+  gathered_.clear();
+  return result;
+}
+
 Result<void> Journal::syncAll() {
   Result<void> result;
   for (const std::string& db : unsynced_) {
@@ -163,6 +176,8 @@ void Journal::run() {
     log::error(kLogSource, "DB-LOG-FAILED", "the database directory: " + r.error().message);
   }
   auto last_sync = std::chrono::steady_clock::now();
+  auto last_failure_log = last_sync - kEverySec;
+  uint64_t failures_unlogged = 0;
   uint64_t written = 0;  // the last sequence number carried out
   for (;;) {
     std::vector<Op> batch;
@@ -180,22 +195,35 @@ void Journal::run() {
       sync_requested = std::exchange(sync_requested_, false);
       stopping = stopping_;
     }
+    // One log line per batch at most, and one a second: a full disk fails every operation.
     Result<void> result;
+    size_t failed = 0;
+    const auto failure = [&](const Result<void>& r) {
+      if (!r && failed++ == 0) result = r;
+    };
     for (Op& op : batch) {
-      if (auto r = carryOut(op); !r) {
-        log::error(kLogSource, "DB-LOG-FAILED", "database \"" + op.db + "\": " + r.error().message);
-        if (result) result = r;
-      }
+      failure(carryOut(op));
       written = op.seq;
     }
+    failure(writeGathered());
     const auto now = std::chrono::steady_clock::now();
     const bool sync = sync_requested || stopping || policy_ == Durability::always ||
                       (policy_ == Durability::everysec && now - last_sync >= kEverySec);
-    if (sync) {
-      if (auto r = syncAll(); !r) {
-        log::error(kLogSource, "DB-LOG-FAILED", "fsync: " + r.error().message);
-        if (result) result = r;
+    if (sync) failure(syncAll());
+    if (failed > 0) {
+      failures_unlogged += failed;
+      if (now - last_failure_log >= kEverySec) {
+        log::error(kLogSource, "DB-LOG-FAILED",
+                   std::to_string(failures_unlogged) +
+                       " journal operation(s) failed since the last report, the latest: " +
+                       result.error().message +
+                       "; the changes stay in memory, and each database's next snapshot "
+                       "writes them");
+        failures_unlogged = 0;
+        last_failure_log = now;
       }
+    }
+    if (sync) {
       last_sync = now;
       post_([durable = durable_, written, result] { durable(written, result); });
     }

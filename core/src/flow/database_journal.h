@@ -71,6 +71,8 @@ class Journal {
   void run();
   Result<void> carryOut(Op& op);
   Result<FileLayer::File*> openLog(const std::string& db);
+  // Writes the appends gathered in this batch, one call per log.
+  Result<void> writeGathered();
   Result<void> syncAll();
   std::filesystem::path path(const std::string& db, const char* suffix) const;
 
@@ -89,6 +91,7 @@ class Journal {
 
   // Writer thread only.
   std::map<std::string, std::unique_ptr<FileLayer::File>> logs_;
+  std::map<std::string, std::string> gathered_;  // appends of this batch, per database
   std::set<std::string> unsynced_;
   bool dir_unsynced_ = false;
 

@@ -16,10 +16,8 @@ stopped, and replaced. The hub is stopped cleanly and started again twice. Check
 Environment: SKROBOT_BIN (the hub), SOAK_SATELLITE_BIN (soak_satellite), PYTHONPATH (PySketch),
 SOAK_MINUTES (default 2), SOAK_SATELLITES (default 50).
 """
-import json
 import os
 import random
-import re
 import shutil
 import signal
 import subprocess
@@ -27,6 +25,8 @@ import sys
 import tempfile
 import threading
 import time
+
+from soakhub import Hub, waitUntil
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MINUTES = float(os.environ.get("SOAK_MINUTES", "2"))
@@ -39,92 +39,6 @@ failures = []
 def fail(why):
     failures.append(why)
     print("SOAK FAILURE: " + why, flush=True)
-
-
-def waitUntil(cond, timeout, step=0.05):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if cond():
-            return True
-        time.sleep(step)
-    return cond()
-
-
-class Hub(object):
-    def __init__(self, workdir):
-        self.dir = workdir
-        self.app = "soak-%d" % os.getpid()
-        self.data = os.path.join(workdir, "data")
-        cfg = {
-            "app_name": self.app,
-            "data_dir": self.data,
-            "accounts": {"dev_account": {"user": "guest", "password": "password"}},
-            "server": {"user_limits": {"connections": 4000, "channels": 4000}},
-        }
-        self.config = os.path.join(workdir, "hub.json")
-        with open(self.config, "w") as f:
-            json.dump(cfg, f)
-        self.address = "local:/tmp/" + self.app
-        self.proc = None
-        self.runs = 0
-
-    def logPath(self):
-        return os.path.join(self.dir, "hub-%d.log" % self.runs)
-
-    def log(self):
-        with open(self.logPath(), errors="replace") as f:
-            return f.read()
-
-    def start(self):
-        self.runs += 1
-        env = dict(os.environ)
-        # A bounded quarantine, so that memory measures the hub and not ASan's holding area.
-        env["ASAN_OPTIONS"] = "quarantine_size_mb=16:detect_leaks=1:" + env.get("ASAN_OPTIONS", "")
-        out = open(self.logPath(), "w")
-        self.proc = subprocess.Popen([os.environ["SKROBOT_BIN"], "--config", self.config],
-                                     stdout=out, stderr=subprocess.STDOUT, env=env)
-        out.close()
-        if not waitUntil(lambda: "HUB-READY" in self.log() or self.proc.poll() is not None, 60):
-            raise SystemExit("the hub did not start:\n" + self.log())
-        if self.proc.poll() is not None:
-            raise SystemExit("the hub exited at start:\n" + self.log())
-        self.started = time.monotonic()
-
-    def stop(self):
-        self.proc.send_signal(signal.SIGTERM)
-        try:
-            code = self.proc.wait(60)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            code = self.proc.wait()
-            fail("run %d: the hub did not stop within 60 s of SIGTERM" % self.runs)
-        text = self.log()
-        if code != 0:
-            fail("run %d: the hub exited %d" % (self.runs, code))
-        for marker in ("ERROR: AddressSanitizer", "ERROR: LeakSanitizer", "runtime error:"):
-            if marker in text:
-                at = text.index(marker)
-                fail("run %d: %s\n%s" % (self.runs, marker, text[at:at + 3000]))
-        return code
-
-    def rssKiB(self):
-        with open("/proc/%d/status" % self.proc.pid) as f:
-            return int(re.search(r"VmRSS:\s+(\d+)", f.read()).group(1))
-
-    def fds(self):
-        """(descriptors other than the database logs, database logs)."""
-        other, logs = 0, 0
-        fd_dir = "/proc/%d/fd" % self.proc.pid
-        for fd in os.listdir(fd_dir):
-            try:
-                target = os.readlink(os.path.join(fd_dir, fd))
-            except OSError:
-                continue
-            if target.startswith(self.data) and target.endswith(".log"):
-                logs += 1
-            else:
-                other += 1
-        return other, logs
 
 
 class Satellite(object):
@@ -184,7 +98,7 @@ def percentile(values, p):
 def main():
     random.seed(os.getpid())
     workdir = tempfile.mkdtemp(prefix="skrobot-soak-")
-    hub = Hub(workdir)
+    hub = Hub(workdir, "soak", fail)
     hub.start()
     # The database the writers write, created once; it survives the restarts.
     from PySketch.flowsync import FlowSync

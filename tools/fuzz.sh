@@ -14,7 +14,9 @@ for target in build/fuzz/bin/*_fuzz; do
   corpus=build/fuzz/corpus/$name
   mkdir -p "$corpus"
   echo "    fuzzing $name for ${SECONDS_EACH} s"
-  if ! "$target" "$corpus" -max_total_time="$SECONDS_EACH" -rss_limit_mb=2048 \
+  seeds=()  # small hand-written inputs, read but never written (tests/fuzz/seeds/<target>)
+  if [ -d tests/fuzz/seeds/"$name" ]; then seeds=(tests/fuzz/seeds/"$name"); fi
+  if ! "$target" "$corpus" "${seeds[@]}" -max_total_time="$SECONDS_EACH" -rss_limit_mb=2048 \
       -artifact_prefix=build/fuzz/crashes/"$name"- -print_final_stats=1 \
       > build/fuzz/"$name".log 2>&1; then
     echo "FUZZ FAILED: $name (build/fuzz/$name.log, inputs in build/fuzz/crashes/)"

@@ -100,12 +100,12 @@ def main():
     workdir = tempfile.mkdtemp(prefix="skrobot-soak-")
     hub = Hub(workdir, "soak", fail)
     hub.start()
+    base_fds = hub.fds()  # before anybody connects
     # The database the writers write, created once; it survives the restarts.
     from PySketch.flowsync import FlowSync
     with FlowSync(hub.address, "guest", "password", "soak-driver") as sync:
         if not sync.connect() or not sync.createDatabase("soak"):
             raise SystemExit("cannot create the soak database")
-    base_fds = hub.fds()
 
     counter = [0]
 

@@ -18,6 +18,9 @@ def say(line):
 def main():
     role, name = sys.argv[1], sys.argv[2]
     target = sys.argv[3] if len(sys.argv) > 3 else None
+    slot, base = "", 0
+    if role == "db":  # TARGET is SLOT:BASE, as for soak_satellite
+        slot, base = target.split(":")[0], int(target.split(":")[1])
     sat = FlowSat()
     sat.setLogin("guest", "password")
     sat.setNodeName("soak-py-%s-%s" % (role, name))
@@ -67,9 +70,9 @@ def main():
                     sync.close()
                     sync = None
                     continue
-            key = "%s-%d" % (name, n)
-            if sync.setVariable(key, n):
-                say("ACK %s %d" % (key, n))
+            key = "%s-%d" % (slot, n % 50)
+            if sync.setVariable(key, base + n):
+                say("ACK %s %d" % (key, base + n))
                 n += 1
             else:
                 sync.close()

@@ -7,12 +7,15 @@
 //   sub  NAME TARGET  subscribes to TARGET (a full name); prints "DATA" per payload
 //   svc  NAME         answers requests on the service "guest.NAME" with their value
 //   call NAME TARGET  requests TARGET every 50 ms; prints "RESP" per answer
-//   db   NAME         VAR_SET of "NAME-<n>" = n in the database "soak" every 50 ms over the
-//                     synchronous connection; prints "ACK NAME-<n> <n>" once answered
+//   db   NAME SLOT:BASE  VAR_SET of "SLOT-<n % 50>" = BASE + n in the database "soak" every 50 ms
+//                     over the synchronous connection; prints "ACK <key> <value>" once answered
+//                     (a slot's keys are reused by its next writer, with a higher BASE: the
+//                     database stays the same size however long the soak runs)
 #include <skrobot/core/clock.h>
 #include <skrobot/satellite.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 int main(int argc, char** argv) {
@@ -23,6 +26,10 @@ int main(int argc, char** argv) {
   const std::string role = argv[1];
   const std::string name = argv[2];
   const std::string target = argc > 3 ? argv[3] : "";
+  // db: TARGET is SLOT:BASE.
+  const std::string slot = target.substr(0, target.find(':'));
+  const int64_t base =
+      target.find(':') == std::string::npos ? 0 : std::atoll(target.c_str() + target.find(':') + 1);
   auto options = skr::sat::SatelliteOptions::fromEnvironment("soak-" + role + "-" + name);
   if (!options) {
     std::fprintf(stderr, "%s\n", options.error().message.c_str());
@@ -72,9 +79,10 @@ int main(int argc, char** argv) {
         if (!(*sync)->selectDatabase("soak")) return;
         db_selected = true;
       }
-      const std::string key = name + "-" + std::to_string(n);
-      if ((*sync)->set(key, skr::flow::Variant(int64_t(n)))) {
-        say("ACK " + key + " " + std::to_string(n));
+      const std::string key = slot + "-" + std::to_string(n % 50);
+      const int64_t value = base + static_cast<int64_t>(n);
+      if ((*sync)->set(key, skr::flow::Variant(value))) {
+        say("ACK " + key + " " + std::to_string(value));
         ++n;
       } else {
         db_selected = false;  // a new connection starts on the user's database

@@ -83,8 +83,8 @@ class Hub(object):
             return int(re.search(r"VmRSS:\s+(\d+)", f.read()).group(1))
 
     def fds(self):
-        """(descriptors other than the database logs, database logs)."""
-        other, logs = 0, 0
+        """(descriptors other than the database logs, database logs, what the others are)."""
+        other, logs, kinds = 0, 0, []
         fd_dir = "/proc/%d/fd" % self.proc.pid
         for fd in os.listdir(fd_dir):
             try:
@@ -95,4 +95,5 @@ class Hub(object):
                 logs += 1
             else:
                 other += 1
-        return other, logs
+                kinds.append(re.sub(r"\[\d+\]$", "", target))
+        return other, logs, sorted(kinds)

@@ -132,7 +132,8 @@ def main():
             target = "w%d:%d" % (i, counter[0] * 1000000)
         return Satellite(hub, lang, role, name, target)
 
-    for i in range(max(0, SATELLITES - len(sats))):
+    # spawn(i) makes the satellite of sats[i]: its role, and for a writer its keys, stay with i.
+    for i in range(len(sats), max(len(sats), SATELLITES)):
         sats.append(spawn(i))
     print("soak: %d satellites (%d C++, %d Python), %.1f minutes" % (
         len(sats), sum(s.lang == "cpp" for s in sats), sum(s.lang == "py" for s in sats),

@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
   }
   sat.connected.connect(&sat, [&say] { say("CONNECTED"); });
   uint64_t n = 0;
-  bool db_selected = false;
+  uint32_t selected_on = 0;  // the synchronous connection that selected "soak"
   const std::string payload(64, 'p');
   skr::Nanos last = 0;
   loop.addTickHandler(skr::Tick::fast, [&] {
@@ -75,17 +75,16 @@ int main(int argc, char** argv) {
     } else if (role == "db" && sat.isConnected()) {
       auto sync = sat.syncClient();  // blocking, as a satellite that writes synchronously is
       if (!sync) return;
-      if (!db_selected) {
+      // A new synchronous connection (after a restart) starts on the user's database.
+      if ((*sync)->login().connection_id != selected_on) {
         if (!(*sync)->selectDatabase("soak")) return;
-        db_selected = true;
+        selected_on = (*sync)->login().connection_id;
       }
       const std::string key = slot + "-" + std::to_string(n % 50);
       const int64_t value = base + static_cast<int64_t>(n);
       if ((*sync)->set(key, skr::flow::Variant(value))) {
         say("ACK " + key + " " + std::to_string(value));
         ++n;
-      } else {
-        db_selected = false;  // a new connection starts on the user's database
       }
     }
   });

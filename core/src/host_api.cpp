@@ -24,7 +24,8 @@ static_assert(offsetof(skr_module_descriptor, config_keys) == 72);  // 1.0 and 1
 static_assert(sizeof(skr_module_descriptor) == 88);
 static_assert(offsetof(skr_host_api, log) == 8);
 static_assert(offsetof(skr_host_api, channel_create) == 144);  // 1.0 ends here
-static_assert(offsetof(skr_host_api, reserved) == 224);
+static_assert(offsetof(skr_host_api, db_sync) == 224);         // 1.2 ends here
+static_assert(offsetof(skr_host_api, reserved) == 232);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -347,6 +348,9 @@ skr_status dbSet(skr_module_ctx* ctx, const char* db, const char* key,
                  const char* value_json) noexcept {
   return withFlow(ctx, [&](ModuleFlow& f) { return f.dbSet(db, key, value_json); });
 }
+skr_status dbSync(skr_module_ctx* ctx, skr_done_fn fn, void* user) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbSync(fn, user); });
+}
 
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
@@ -379,6 +383,7 @@ const skr_host_api kHostApi = {
     .service_respond = &serviceRespond,
     .db_get = &dbGet,
     .db_set = &dbSet,
+    .db_sync = &dbSync,
     .reserved = {},
 };
 

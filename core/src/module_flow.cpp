@@ -64,7 +64,11 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
   client_ = server.attachLocal(module_name, module_name, std::move(h), std::move(access));
 }
 
-ModuleFlow::~ModuleFlow() = default;
+ModuleFlow::~ModuleFlow() {
+  // The module stops before its barriers were answered: each gets its one call now.
+  for (const auto& [id, done] : std::exchange(syncs_, {}))
+    done.first(done.second, SKR_ERR_BAD_STATE);
+}
 
 skr_status ModuleFlow::fail(const std::string& what, const Error& error) const {
   log::warn("mod." + name_, "MODULE-FLOW", what + ": " + error.message);
@@ -166,6 +170,23 @@ skr_status ModuleFlow::dbGet(const char* db, const char* key, char* buf, size_t 
   *len_out = json.size() + 1;
   if (buf == nullptr || cap < json.size() + 1) return SKR_ERR_NO_MEMORY;
   std::memcpy(buf, json.c_str(), json.size() + 1);
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::dbSync(skr_done_fn fn, void* user) {
+  if (fn == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  const uint64_t id = next_sync_++;
+  syncs_.emplace(id, std::make_pair(fn, user));
+  client_->syncDatabases([alive = std::weak_ptr<ModuleFlow*>(alive_), id](Result<void> r) {
+    const auto self = alive.lock();
+    if (!self) return;  // answered BAD_STATE when the module stopped
+    auto it = (*self)->syncs_.find(id);
+    if (it == (*self)->syncs_.end()) return;
+    const auto [done, user] = it->second;
+    (*self)->syncs_.erase(it);
+    if (!r) (*self)->fail("db_sync", r.error());
+    done(user, r ? SKR_OK : SKR_ERR_FAILED);
+  });
   return SKR_OK;
 }
 

@@ -39,6 +39,7 @@ class ModuleFlow {
   skr_status respond(uint16_t chan_id, uint64_t request, const char* value_json);
   skr_status dbGet(const char* db, const char* key, char* buf, size_t cap, size_t* len_out);
   skr_status dbSet(const char* db, const char* key, const char* value_json);
+  skr_status dbSync(skr_done_fn fn, void* user);
 
  private:
   struct Owned {
@@ -68,6 +69,11 @@ class ModuleFlow {
   std::vector<Sub> subs_;
   std::map<uint32_t, Pending> pending_;  // by the internal tag given to the server
   uint32_t next_tag_ = 1;
+  // Barriers not answered yet, by number; the destructor answers them SKR_ERR_BAD_STATE. The
+  // store's answer finds them through `alive_`, which dies with this object.
+  std::map<uint64_t, std::pair<skr_done_fn, void*>> syncs_;
+  uint64_t next_sync_ = 1;
+  std::shared_ptr<ModuleFlow*> alive_ = std::make_shared<ModuleFlow*>(this);
   skr_sub_handle next_handle_ = 1;
 };
 

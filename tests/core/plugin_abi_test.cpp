@@ -12,7 +12,7 @@ namespace {
 
 constexpr size_t kHeader = 8;  // struct_size, abi_major, abi_minor
 constexpr size_t kPtr = sizeof(void (*)(void));
-// 1.0 and 1.1 named functions, then the reserved slots: 49 function pointers in all.
+// 1.0, 1.1 and 1.3 named functions, then the reserved slots: 49 function pointers in all.
 constexpr size_t kFunctionSlots = 49;
 
 TEST(PluginAbi, HostTableKeepsItsSizeWhileReservedSlotsLast) {
@@ -33,6 +33,8 @@ TEST(PluginAbi, FunctionsOfReleasedMinorsStayWhereTheyWere) {
   EXPECT_EQ(offsetof(skr_host_api, channel_create), kHeader + 17 * kPtr);
   EXPECT_EQ(offsetof(skr_host_api, publish), kHeader + 20 * kPtr);
   EXPECT_EQ(offsetof(skr_host_api, db_set), kHeader + 26 * kPtr);
+  // 1.3: the database barrier, in the first reserved slot of 1.2.
+  EXPECT_EQ(offsetof(skr_host_api, db_sync), kHeader + 27 * kPtr);
 }
 
 TEST(PluginAbi, DescriptorStartsWithItsVersionedHeader) {

@@ -287,7 +287,9 @@ void powerCuts(int rounds, uint32_t seed) {
       }
       store.startJournal(Durability::always, 4096, posted.poster());
       for (const char* name : {"arm", "head", "legs"}) {
-        if (store.find(name) == nullptr) ASSERT_TRUE(store.create(name, DatabaseKind::persistent));
+        if (store.find(name) == nullptr) {
+          ASSERT_TRUE(store.create(name, DatabaseKind::persistent));
+        }
       }
       const int writes = std::uniform_int_distribution<int>(20, 300)(rng);
       const int cut_at = std::uniform_int_distribution<int>(0, writes)(rng);
@@ -380,7 +382,9 @@ TEST(DatabaseDurability, ARemovedDatabaseIsGoneOrWholeNeverHalf) {
     DatabaseStore reloaded(kData, after);
     ASSERT_TRUE(reloaded.loadAll());
     const PairDatabase* db = reloaded.find("tmp");
-    if (wait) EXPECT_EQ(db, nullptr) << "an acknowledged removal came back";
+    if (wait) {
+      EXPECT_EQ(db, nullptr) << "an acknowledged removal came back";
+    }
     if (db != nullptr) {
       EXPECT_EQ(db->size(), db->contains("b") ? 2u : 1u) << "half a database";
     }

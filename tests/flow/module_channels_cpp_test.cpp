@@ -3,6 +3,9 @@
 
 #include <skrobot/media_frame.hpp>
 
+#include <fstream>
+#include <iterator>
+
 namespace skr::test {
 namespace {
 
@@ -73,6 +76,22 @@ TEST_F(ChannelsCpp, StreamSubscriptionServiceRequesterAndDatabase) {
   ASSERT_TRUE(resp);
   EXPECT_EQ(resp->tag, 9u);
   EXPECT_EQ(*resp->value.find("forwarded"), Variant(int64_t{42}));
+}
+
+TEST_F(ChannelsCpp, DatabaseBarrierOfAModule) {
+  startHub();
+  ASSERT_TRUE(start(R"({})").empty());
+  TestClient sync = syncClient();
+  auto ask = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"cpp.ask"}));
+  ASSERT_TRUE(ask);
+  auto answer =
+      as<msg::ReplyValue>(sync.call(msg::ServiceCall{ask->info.id, 5000, "sync", Variant("v1")}));
+  ASSERT_TRUE(answer);
+  EXPECT_EQ(answer->value, Variant("on disk"));
+  // The module's write is in its database's log on disk by then.
+  std::ifstream in(dir_.path() / "data" / "db" / "cpp.log", std::ios::binary);
+  const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(log.find("synced"), std::string::npos) << "the barrier answered before the write";
 }
 
 TEST(MediaFrame, RoundTripAndRefusals) {

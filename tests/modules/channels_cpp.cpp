@@ -1,7 +1,9 @@
 // A C++ module on plugin_channels.hpp:
 //   <name>.upper   streaming: what arrives on config "input" (default guest.in), upper-cased
 //   <name>.ask     service: forwards each request to config "forward" (a service channel) with
-//                  Requester and answers with {"forwarded": <the answer>} or {"error": ...}
+//                  Requester and answers with {"forwarded": <the answer>} or {"error": ...};
+//                  the command "sync" writes its value to key "synced" and answers "on disk"
+//                  after a database barrier (plugin ABI 1.3)
 // It counts what it upper-cased in its database, key "count", and frames read with
 // skr::media::parseFrame in key "media_seq".
 #include <skrobot/media_frame.hpp>
@@ -46,6 +48,13 @@ class ChannelsCpp final : public skr::plugin::Module {
  private:
   void onAsk(const skr::plugin::ServiceRequest& r) {
     const uint64_t id = r.id;
+    if (r.command == "sync") {  // a write, then a barrier: answered once both are on disk
+      skr::plugin::dbSet(host_, std::string(host_.name()), "synced", r.value_json);
+      const bool sent = skr::plugin::dbSync(
+          host_, [this, id](bool ok) { ask_.respond(id, ok ? R"("on disk")" : R"("failed")"); });
+      if (!sent) ask_.respond(id, R"("no barrier")");
+      return;
+    }
     const bool sent = requester_->request(
         forward_, r.command, r.value_json, [this, id](bool ok, const std::string& value) {
           ask_.respond(id, ok ? R"({"forwarded":)" + value + "}" : R"({"error":)" + value + "}");

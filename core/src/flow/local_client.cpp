@@ -143,4 +143,8 @@ Result<void> LocalClient::setVariable(const std::string& db, const std::string& 
   return impl_->server.databases.setVar(*impl_, db, key, value);
 }
 
+void LocalClient::syncDatabases(std::function<void(Result<void>)> done) {
+  impl_->server.databases.store().barrier(std::move(done));
+}
+
 }  // namespace skr::flow

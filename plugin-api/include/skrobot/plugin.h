@@ -48,7 +48,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 2
+#define SKR_PLUGIN_ABI_MINOR 3
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -123,6 +123,10 @@ typedef void (*skr_request_fn)(void* user, uint16_t chan_id, uint64_t request, c
  * JSON string explaining it (owner gone, no such channel, overflow). */
 typedef void (*skr_response_fn)(void* user, uint16_t chan_id, uint32_t tag, skr_status status,
                                 const char* value_json);
+
+/* The answer to db_sync (ABI 1.3): SKR_OK once the changes are on disk; SKR_ERR_FAILED when
+ * writing them failed; SKR_ERR_BAD_STATE when the module stopped first (then during its stop). */
+typedef void (*skr_done_fn)(void* user, skr_status status);
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -218,8 +222,14 @@ typedef struct skr_host_api {
   skr_status (*db_set)(skr_module_ctx* ctx, const char* db, const char* key,
                        const char* value_json);
 
+  /* --- durable databases (ABI 1.3; loop, as the calls above) --- */
+  /* A barrier: fn(user, status) is called once, on the loop thread, when every database change
+   * the hub made before this call (this module's db_set calls among them) is on disk, whatever
+   * the hub's durability policy (docs/pair-databases.md). */
+  skr_status (*db_sync)(skr_module_ctx* ctx, skr_done_fn fn, void* user);
+
   /* Later minors fill these; NULL until then. */
-  void (*reserved[22])(void);
+  void (*reserved[21])(void);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

@@ -305,4 +305,29 @@ inline bool dbSet(const Host& host, const std::string& db, const std::string& ke
   return host.api()->db_set(host.ctx(), db.c_str(), key.c_str(), value_json.c_str()) == SKR_OK;
 }
 
+// A barrier (plugin ABI 1.3): `done(true)` on the loop thread once every database change made so
+// far (this module's dbSet calls among them) is on disk, whatever the hub's durability policy;
+// `done(false)` when writing failed or the module stopped first. Returns false, and `done` is
+// never called, when the host is older than 1.3 or refuses the call.
+inline bool dbSync(const Host& host, std::function<void(bool ok)> done) {
+  const skr_host_api* api = host.api();
+  if (api->abi_minor < 3 || api->db_sync == nullptr) return false;
+  struct Waiting {
+    const skr_host_api* api;
+    skr_module_ctx* ctx;
+    std::function<void(bool)> fn;
+  };
+  auto* waiting = new Waiting{api, host.ctx(), std::move(done)};
+  const skr_status st = api->db_sync(
+      host.ctx(),
+      [](void* user, skr_status status) noexcept {
+        const std::unique_ptr<Waiting> w(static_cast<Waiting*>(user));
+        if (w->fn)
+          detail::logged(w->api, w->ctx, "db_sync handler", [&] { w->fn(status == SKR_OK); });
+      },
+      waiting);
+  if (st != SKR_OK) delete waiting;
+  return st == SKR_OK;
+}
+
 }  // namespace skr::plugin

@@ -153,6 +153,10 @@ class LocalClient {
   [[nodiscard]] std::optional<Variant> getVariable(const std::string& db, const std::string& key);
   [[nodiscard]] Result<void> setVariable(const std::string& db, const std::string& key,
                                          const Variant& value);
+  // A barrier: `done` runs on the loop thread once every database change made so far is on
+  // disk, whatever the durability policy (docs/pair-databases.md). It may run after this client
+  // is gone: hold nothing of it there.
+  void syncDatabases(std::function<void(Result<void>)> done);
   [[nodiscard]] const std::string& user() const noexcept;
   [[nodiscard]] uint32_t id() const noexcept;
 

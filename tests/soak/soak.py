@@ -16,6 +16,7 @@ stopped, and replaced. The hub is stopped cleanly and started again twice. Check
 Environment: SKROBOT_BIN (the hub), SOAK_SATELLITE_BIN (soak_satellite), PYTHONPATH (PySketch),
 SOAK_MINUTES (default 2), SOAK_SATELLITES (default 50).
 """
+import atexit
 import os
 import random
 import shutil
@@ -55,6 +56,7 @@ class Satellite(object):
         env["ASAN_OPTIONS"] = "detect_leaks=0:" + env.get("ASAN_OPTIONS", "")
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                      env=env)
+        atexit.register(self.kill)
         self.events = 0           # DATA, RESP or ACK lines
         self.last_event = None    # time.monotonic() of the last one
         self.acked = []           # (key, value)
@@ -75,6 +77,11 @@ class Satellite(object):
                     self.recovered_at = self.last_event
                 if line[0] == "ACK" and len(line) == 3:
                     self.acked.append((line[1], int(line[2])))
+
+    def kill(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
 
     def alive(self):
         return self.proc.poll() is None

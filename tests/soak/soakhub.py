@@ -1,4 +1,5 @@
 """The hub process for the soak and attack tests (soak.py, attack.py)."""
+import atexit
 import json
 import os
 import re
@@ -38,6 +39,12 @@ class Hub(object):
         self.address = "local:/tmp/" + self.app
         self.proc = None
         self.runs = 0
+        atexit.register(self.kill)  # whatever way the test ends, no hub outlives it
+
+    def kill(self):
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
 
     def logPath(self):
         return os.path.join(self.dir, "hub-%d.log" % self.runs)

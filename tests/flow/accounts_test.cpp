@@ -119,6 +119,8 @@ TEST(UsersFile, CorruptFileIsReportedWithPathAndReason) {  // 0 argon2id
       {R"({"format": 1, "users": []})", "\"users\""},
       {R"({"format": 1, "users": {"a": {"hash": "plain"}}})", "argon2id"},
       {R"({"format": 1, "users": {"a.b": {"hash": ")" + hash + R"("}}})", "may contain only"},
+      // Nesting past the JSON reader's stack limit (it throws; found by users_file_fuzz).
+      {R"({"format":)" + std::string(1100, '[') + std::string(1100, ']') + "}", "not valid JSON"},
   };
   for (const auto& [text, reason] : cases) {
     writeFile(file, text);

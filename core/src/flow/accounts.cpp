@@ -167,9 +167,13 @@ Result<UsersFile> UsersFile::load(const fs::path& path) {
   builder["rejectDupKeys"] = true;
   Json::Value root;
   std::string errs;
-  if (!Json::parseFromStream(builder, in, &root, &errs)) {
-    while (!errs.empty() && (errs.back() == '\n' || errs.back() == ' ')) errs.pop_back();
-    return corrupt("not valid JSON: " + errs);
+  try {
+    if (!Json::parseFromStream(builder, in, &root, &errs)) {
+      while (!errs.empty() && (errs.back() == '\n' || errs.back() == ' ')) errs.pop_back();
+      return corrupt("not valid JSON: " + errs);
+    }
+  } catch (const std::exception& e) {  // jsoncpp throws when nesting exceeds its stack limit
+    return corrupt(std::string("not valid JSON: ") + e.what());
   }
   if (!root.isObject()) return corrupt("the top level is not an object");
   const Json::Value& format = root["format"];

@@ -40,8 +40,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // header with every record's checksum made right, so that the fuzzer reaches the records'
   // contents (it cannot guess a CRC-32C).
   const uint8_t mode = size > 0 ? data[0] % 3 : 0;
-  std::string file = mode == 0 ? std::string(bytes)
-                               : std::string(dblog::kHeader) + std::string(bytes.substr(1));
+  std::string file =
+      mode == 0 ? std::string(bytes) : std::string(dblog::kHeader) + std::string(bytes.substr(1));
   if (mode == 2) {
     for (size_t at = dblog::kHeader.size(); at + 8 <= file.size();) {
       uint32_t len = 0;

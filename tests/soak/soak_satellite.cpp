@@ -45,9 +45,8 @@ int main(int argc, char** argv) {
     (void)sat.addChannel({.name = name, .mime = "application/octet-stream"});
   } else if (role == "svc") {
     (void)sat.addChannel({.name = name, .kind = skr::flow::ChannelKind::service});
-    sat.serviceRequest.connect(&sat, [&sat](const skr::sat::Request& r) {
-      (void)sat.respond(r, r.value);
-    });
+    sat.serviceRequest.connect(
+        &sat, [&sat](const skr::sat::Request& r) { (void)sat.respond(r, r.value); });
   } else if (role == "sub") {
     sat.data.connect(&sat, [&say](uint16_t, const std::string&) { say("DATA"); });
     sat.subscribe(target);

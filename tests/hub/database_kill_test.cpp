@@ -2,22 +2,20 @@
 // VAR_SET and counts the writes the hub acknowledged; the hub is killed at a random moment, twenty
 // times; after every restart each acknowledged write is there and no database is lost.
 // (The fsync order, which kill -9 cannot show, is tested in tests/flow/database_durability_test.)
+#include "hub_process.h"  // satellite/cpp/tests/support: Child
 #include "temp_dir.h"
 #include "test_client.h"
 
 #include <gtest/gtest.h>
 
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <random>
-#include <sstream>
 #include <string>
 #include <thread>
 
@@ -27,44 +25,6 @@ namespace fs = std::filesystem;
 using namespace skr;
 using skr::test::TempDir;
 using skr::test::TestClient;
-
-std::string slurp(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-pid_t spawnHub(const fs::path& cfg, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    FILE* out = std::fopen(log.c_str(), "w");
-    dup2(fileno(out), 1);
-    dup2(fileno(out), 2);
-    execl(SKROBOT_BIN, SKROBOT_BIN, "--config", cfg.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  return pid;
-}
-
-// Kills and reaps the hub when a check fails midway, so that no hub outlives the test.
-struct Reaper {
-  pid_t pid = -1;
-  ~Reaper() {
-    if (pid > 0) {
-      kill(pid, SIGKILL);
-      waitpid(pid, nullptr, 0);
-    }
-  }
-};
-
-bool waitForText(const fs::path& log, const std::string& text) {
-  for (int i = 0; i < 3000; ++i) {
-    if (slurp(log).find(text) != std::string::npos) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return false;
-}
 
 // The map of `db`'s pairs, read over the protocol.
 std::optional<flow::Variant::Map> readAll(TestClient& c, const std::string& db) {
@@ -87,21 +47,21 @@ TEST(DatabaseKill, AcknowledgedWritesSurviveKillNine) {
   size_t total_acked = 0;
   for (int round = 0; round < rounds; ++round) {
     const fs::path log = dir.path() / ("hub-" + std::to_string(round) + ".log");
-    const pid_t pid = spawnHub(cfg, log);
-    Reaper reaper{pid};
-    ASSERT_TRUE(waitForText(log, "HUB-READY")) << slurp(log);
+    // Killed with SIGKILL by its destructor if a check fails midway: no hub outlives the test.
+    skr::sat::test::Child hub({SKROBOT_BIN, "--config", cfg.string()}, {}, log);
+    ASSERT_TRUE(hub.waitOutput("HUB-READY", 30000)) << hub.output();
     auto c = TestClient::connectUnix("/tmp/" + app);
     ASSERT_TRUE(c) << c.error().message;
     ASSERT_TRUE(c->login("guest", "password"));
     // Everything acknowledged before is here.
     for (const auto& [db, pairs] : acked) {
       auto now = readAll(*c, db);
-      ASSERT_TRUE(now) << "round " << round << ": database " << db << " lost\n" << slurp(log);
+      ASSERT_TRUE(now) << "round " << round << ": database " << db << " lost\n" << hub.output();
       for (const auto& [key, value] : pairs) {
         auto it = now->find(key);
         ASSERT_NE(it, now->end()) << "round " << round << ": acknowledged " << db << "/" << key
                                   << " lost\n"
-                                  << slurp(log);
+                                  << hub.output();
         EXPECT_EQ(it->second, flow::Variant(value));
       }
     }
@@ -112,9 +72,9 @@ TEST(DatabaseKill, AcknowledgedWritesSurviveKillNine) {
     }
     // Write until the hub dies at a random moment.
     const int after_ms = std::uniform_int_distribution<int>(20, 250)(rng);
-    std::thread killer([pid, after_ms] {
+    std::thread killer([&hub, after_ms] {
       std::this_thread::sleep_for(std::chrono::milliseconds(after_ms));
-      kill(pid, SIGKILL);
+      hub.signal(SIGKILL);
     });
     for (int i = 0;; ++i) {
       // 50 writes to the user's database, 50 to a named one, and so on.
@@ -132,10 +92,7 @@ TEST(DatabaseKill, AcknowledgedWritesSurviveKillNine) {
       ++total_acked;
     }
     killer.join();
-    int status = 0;
-    waitpid(pid, &status, 0);
-    reaper.pid = -1;
-    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << slurp(log);
+    EXPECT_EQ(hub.wait(), 128 + SIGKILL) << hub.output();
   }
   std::printf("%d kills, %zu acknowledged writes, all found after each restart\n", rounds,
               total_acked);

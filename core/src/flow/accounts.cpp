@@ -1,8 +1,9 @@
 // The users file: validation, argon2id hashing, JSON load and crash-safe save.
+#include "file_layer.h"
+
 #include <skrobot/core/log.h>
 #include <skrobot/flow/accounts.h>
 
-#include <fcntl.h>
 #include <json/reader.h>
 #include <json/writer.h>
 #include <sodium.h>
@@ -55,40 +56,6 @@ Result<std::string> hashPassword(std::string_view password) {
   }
   return std::string(out);
 }
-
-// Writes all of `data` to `fd`, retrying short writes and EINTR.
-bool writeAll(int fd, const std::string& data) {
-  size_t done = 0;
-  while (done < data.size()) {
-    const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += static_cast<size_t>(n);
-  }
-  return true;
-}
-
-class Fd {
- public:
-  explicit Fd(int fd) noexcept : fd_(fd) {}
-  ~Fd() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Fd(const Fd&) = delete;
-  Fd& operator=(const Fd&) = delete;
-  Fd(Fd&&) = delete;
-  Fd& operator=(Fd&&) = delete;
-  [[nodiscard]] int get() const noexcept { return fd_; }
-  // close(2)'s own result matters for a file we wrote: it may report a failed write-back.
-  int close() noexcept {
-    const int r = ::close(fd_);
-    fd_ = -1;
-    return r;
-  }
-
- private:
-  int fd_;
-};
 
 Error fileError(const fs::path& path, const std::string& what, int err) {
   return makeError(Errc::io_error,
@@ -218,36 +185,13 @@ Result<void> UsersFile::save() const {
   writer["indentation"] = "  ";
   const std::string text = Json::writeString(writer, root) + "\n";
 
+  // Crash-safe, as the database snapshots: temporary file, fsync, rename, fsync of the directory.
   const fs::path dir = path_.has_parent_path() ? path_.parent_path() : fs::path(".");
-  std::error_code ec;
-  if (!fs::exists(dir, ec)) {
-    fs::create_directories(dir, ec);
-    if (ec) return fileError(path_, "cannot create directory " + dir.string(), ec.value());
-    fs::permissions(dir, fs::perms::owner_all, ec);  // best effort; the file is 0600 anyway
-  }
-
-  const fs::path tmp = path_.string() + ".tmp-" + std::to_string(::getpid());
-  {
-    Fd fd(::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600));
-    if (fd.get() < 0) return fileError(tmp, "cannot create", errno);
-    // O_CREAT's mode does not apply to a leftover file of the same name; fchmod does.
-    if (::fchmod(fd.get(), 0600) != 0 || !writeAll(fd.get(), text) || ::fsync(fd.get()) != 0 ||
-        fd.close() != 0) {
-      const int err = errno;
-      ::unlink(tmp.c_str());
-      return fileError(tmp, "cannot write", err);
-    }
-  }
-  if (::rename(tmp.c_str(), path_.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    return fileError(path_, "cannot rename " + tmp.string() + " over it", err);
-  }
-  // The rename is durable only once the directory entry is.
-  Fd dfd(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-  if (dfd.get() < 0 || ::fsync(dfd.get()) != 0) {
-    return fileError(path_, "cannot fsync directory " + dir.string(), errno);
-  }
+  FileLayer& files = *posixFiles();
+  Result<void> r = files.makeDir(dir);
+  if (r) r = replaceFile(files, dir, path_.filename().string(), text);
+  if (!r)
+    return makeError(Errc::io_error, "users file " + path_.string() + ": " + r.error().message);
   return {};
 }
 

@@ -69,6 +69,12 @@ class PosixFiles final : public FileLayer {
         O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC | O_NOFOLLOW | (truncate ? O_TRUNC : 0);
     const int fd = ::open(path.c_str(), flags, 0600);
     if (fd < 0) return ioError("cannot open", path, errno);
+    // O_CREAT's mode does not apply to a leftover file of the same name: private, whatever it was.
+    if (::fchmod(fd, 0600) != 0) {
+      const int err = errno;
+      ::close(fd);
+      return ioError("cannot chmod", path, err);
+    }
     struct stat st {};
     if (::fstat(fd, &st) != 0) {
       const int err = errno;

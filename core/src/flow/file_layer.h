@@ -1,5 +1,6 @@
-// FileLayer: the file operations the database store makes, behind an interface so that a test can
-// put a simulated disk underneath and cut its power (tests/flow/database_durability_test.cpp):
+// FileLayer: the file operations of the database store (and replaceFile, which the users file
+// uses too), behind an interface so that a test can put a simulated disk underneath and cut its
+// power (tests/flow/database_durability_test.cpp):
 // what counts is which data and which directory entries were made durable by sync() and
 // syncDir() before the cut, not what a process crash (kill -9) happens to leave in the page cache.
 //

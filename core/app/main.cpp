@@ -205,6 +205,8 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.data_dir = s.data_dir;
   o.durability = s.durability;
   o.compact_bytes = s.compact_bytes;
+  o.blob_channel_bytes = s.blob_channel_bytes;
+  o.blob_channel_files = s.blob_channel_files;
   o.users_file = s.users_file;
   o.dev_account = s.dev_account;
   return o;

@@ -233,12 +233,13 @@ s::Schema serverSchema() {
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
       s::optional("login_timeout_ms", s::integer().range(100, 600000), 5000),
       s::optional("max_pending_requests", s::integer().range(1, 1000000), 1024),
-      s::optional(
-          "user_limits",
-          s::object({s::optional("connections", s::integer().range(1, 100000), 64),
-                     s::optional("channels", s::integer().range(1, 32767), 1024),
-                     s::optional("databases", s::integer().range(1, 100000), 64),
-                     s::optional("pending_requests", s::integer().range(1, 1000000), 1024)})),
+      s::optional("user_limits",
+                  s::object({s::optional("connections", s::integer().range(1, 100000), 64),
+                             s::optional("channels", s::integer().range(1, 32767), 1024),
+                             s::optional("databases", s::integer().range(1, 100000), 64),
+                             s::optional("pending_requests", s::integer().range(1, 1000000), 1024),
+                             s::optional("blob_mib", s::integer().range(0, 100000000), 0),
+                             s::optional("blob_files", s::integer().range(0, 100000000), 0)})),
   });
 }
 
@@ -288,8 +289,9 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
     const auto limit = [&l](const char* key, uint32_t def) {
       return l.isObject() && l[key].isUInt() ? l[key].asUInt() : def;
     };
-    out.user_limits = {limit("connections", 64), limit("channels", 1024), limit("databases", 64),
-                       limit("pending_requests", 1024)};
+    out.user_limits = {limit("connections", 64), limit("channels", 1024),
+                       limit("databases", 64),   limit("pending_requests", 1024),
+                       limit("blob_mib", 0),     limit("blob_files", 0)};
   }
   const std::string data_dir = d["data_dir"].isString() ? d["data_dir"].asString() : "";
   out.data_dir = data_dir.empty() ? defaultDataDir(cfg.app_name) : resolve(base_dir, data_dir);
@@ -299,6 +301,10 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
                      : durability == "no"   ? flow::Durability::no
                                             : flow::Durability::everysec;
     out.compact_bytes = db["compact_bytes"].asUInt64();
+  }
+  if (const Json::Value& b = d["blobs"]; b.isObject()) {
+    out.blob_channel_bytes = b["max_channel_mib"].asUInt64() << 20;
+    out.blob_channel_files = b["max_channel_files"].asUInt64();
   }
   const Json::Value& a = d["accounts"];
   const std::string users =
@@ -363,6 +369,11 @@ s::Schema hubSchema() {
           s::object({s::optional("durability", s::string().oneOf({"always", "everysec", "no"}),
                                  "everysec"),
                      s::optional("compact_bytes", s::integer().range(4096, 1 << 30), 4 << 20)}),
+          Json::objectValue),
+      s::optional(
+          "blobs",
+          s::object({s::optional("max_channel_mib", s::integer().range(0, 100000000), 0),
+                     s::optional("max_channel_files", s::integer().range(0, 100000000), 0)}),
           Json::objectValue),
       s::optional("server", serverSchema(), Json::objectValue),
       s::optional("accounts", accountsSchema(), Json::objectValue),

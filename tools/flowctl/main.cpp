@@ -24,6 +24,8 @@ Commands:
   flows                       the hub's connections: id, user, client, source (administrators)
   kick ID                     disconnect connection ID (administrators)
   chan rm CHANNEL             remove any channel (administrators)
+  blob ls|get|put|mkdir|rmdir|rm CHANNEL ...
+                              the files of a blob channel (flowctl help blob)
   users                       the accounts of the users file (administrators)
   user add|del|passwd|role|rule NAME ...
                               change an account; a password is one line on stdin
@@ -97,6 +99,20 @@ std::string_view commandHelp(std::string_view command) {
   passwd read the password as one line from stdin. ACTION: publish, subscribe, call, db_read,
   db_write; no PATTERN: back to '**'. The account's connections keep their old rules until they
   reconnect.
+)";
+  }
+  if (command == "blob") {
+    return R"(usage: flowctl blob ls CHANNEL [DIR] | get CHANNEL PATH [LOCAL|-] | put CHANNEL LOCAL PATH
+                   | mkdir CHANNEL PATH | rmdir CHANNEL PATH | rm CHANNEL PATH
+  The files of a blob channel (docs/blob-channels.md). CHANNEL is <user>.<name>, or <name> for
+  one of yours. Everyone may list and get; only the channel's owner writes.
+  ls      the entries of DIR (default: the root): size, time, name (a '/' after directories)
+  get     downloads one whole version of PATH to LOCAL (default: its last component; '-' is
+          standard output)
+  put     uploads LOCAL as PATH (missing directories are made); creates your blob channel
+          <user>.<name> when it does not exist
+  mkdir, rmdir (empty directories), rm (files)
+  A progress bar is shown on a terminal for files of 4 MB and more.
 )";
   }
   if (command == "db") {
@@ -204,5 +220,6 @@ int main(int argc, char** argv) {
   if (cli.command == "chan") return cmdChan(cli);
   if (cli.command == "users") return cmdUsers(cli);
   if (cli.command == "user") return cmdUser(cli);
+  if (cli.command == "blob") return cmdBlob(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

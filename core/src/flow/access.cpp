@@ -28,7 +28,8 @@ std::string_view actionName(Action action) noexcept {
 UserLimits UserLimits::orElse(const UserLimits& d) const noexcept {
   const auto pick = [](uint32_t own, uint32_t def) { return own != 0 ? own : def; };
   return {pick(connections, d.connections), pick(channels, d.channels),
-          pick(databases, d.databases), pick(pending_requests, d.pending_requests)};
+          pick(databases, d.databases),     pick(pending_requests, d.pending_requests),
+          pick(blob_mib, d.blob_mib),       pick(blob_files, d.blob_files)};
 }
 
 namespace {
@@ -37,10 +38,10 @@ struct LimitField {
   const char* name;
   uint32_t UserLimits::*field;
 };
-constexpr LimitField kLimitFields[] = {{"connections", &UserLimits::connections},
-                                       {"channels", &UserLimits::channels},
-                                       {"databases", &UserLimits::databases},
-                                       {"pending_requests", &UserLimits::pending_requests}};
+constexpr LimitField kLimitFields[] = {
+    {"connections", &UserLimits::connections}, {"channels", &UserLimits::channels},
+    {"databases", &UserLimits::databases},     {"pending_requests", &UserLimits::pending_requests},
+    {"blob_mib", &UserLimits::blob_mib},       {"blob_files", &UserLimits::blob_files}};
 
 }  // namespace
 

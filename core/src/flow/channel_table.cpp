@@ -35,27 +35,25 @@ Result<Channel*> ChannelTable::existing(uint16_t id) {
 
 Result<Channel*> ChannelTable::owned(const Endpoint& e, uint16_t id, const char* action) {
   auto ch = existing(id);
-  if (ch && (*ch)->owner != &e) {
+  if (ch && ((*ch)->kind == ChannelKind::blob ? (*ch)->owner_user != e.user : (*ch)->owner != &e)) {
     return makeError(Errc::permission_denied,
                      std::string("only the owner ") + action + " " + (*ch)->name);
   }
   return ch;
 }
 
-Result<Channel*> ChannelTable::add(Endpoint& owner, const std::string& short_name, ChannelKind kind,
+Result<Channel*> ChannelTable::add(Endpoint* owner, const std::string& user,
+                                   const std::string& short_name, ChannelKind kind,
                                    const std::string& mime) {
   if (!validShortName(short_name)) {
     return makeError(Errc::invalid_argument,
                      "channel name \"" + short_name +
                          "\": 1 to 128 of A-Z a-z 0-9 _ - . (not starting with '.')");
   }
-  if (kind == ChannelKind::blob) {
-    return makeError(Errc::invalid_argument, "blob channels are not implemented by this hub");
-  }
-  if (kind != ChannelKind::streaming && kind != ChannelKind::service) {
+  if (kind != ChannelKind::streaming && kind != ChannelKind::service && kind != ChannelKind::blob) {
     return makeError(Errc::invalid_argument, "unknown channel kind");
   }
-  std::string name = owner.user + "." + short_name;
+  std::string name = user + "." + short_name;
   if (by_name_.count(name) != 0) {
     return makeError(Errc::already_exists, "channel " + name + " exists");
   }
@@ -72,12 +70,13 @@ Result<Channel*> ChannelTable::add(Endpoint& owner, const std::string& short_nam
   ch->kind = kind;
   ch->name = std::move(name);
   ch->mime = mime;
-  ch->owner = &owner;
+  ch->owner = owner;
+  ch->owner_user = user;
   Channel* raw = ch.get();
   channels_[id] = std::move(ch);
   by_name_[raw->name] = id;
   ++count_;
-  owner.owned.push_back(id);
+  if (owner != nullptr) owner->owned.push_back(id);
   return raw;
 }
 
@@ -97,8 +96,8 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   auto found = existing(id);
   if (!found) return found.error();
   Channel* ch = *found;
-  if (ch->kind != ChannelKind::streaming) {
-    return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
+  if (ch->kind == ChannelKind::service) {
+    return makeError(Errc::invalid_argument, ch->name + " is a service channel: call it");
   }
   if (!e.access->allows(Action::subscribe, ch->name)) {
     return accessDenied(e.user, Action::subscribe, ch->name);
@@ -108,7 +107,9 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   }
   ch->subscribers.push_back(&e);
   e.subscribed.push_back(id);
-  if (++ch->subscriber_count == 1 && ch->owner != nullptr) ch->owner->onSubscribers(*ch, true);
+  if (++ch->subscriber_count == 1 && ch->owner != nullptr && ch->kind == ChannelKind::streaming) {
+    ch->owner->onSubscribers(*ch, true);
+  }
   return {};
 }
 
@@ -125,7 +126,8 @@ Result<void> ChannelTable::unsubscribe(Endpoint& e, uint16_t id) {
     ch->subscribers.erase(it);
   }
   std::erase(e.subscribed, id);
-  if (--ch->subscriber_count == 0 && ch->owner != nullptr && ch->owner != &e) {
+  if (--ch->subscriber_count == 0 && ch->owner != nullptr && ch->owner != &e &&
+      ch->kind == ChannelKind::streaming) {
     ch->owner->onSubscribers(*ch, false);
   }
   return {};

@@ -27,7 +27,10 @@ class Channel {
   ChannelKind kind = ChannelKind::streaming;
   std::string name;  // <user>.<short>
   std::string mime;
+  // The owner connected now; a blob channel keeps its owner_user while nobody of it is connected
+  // (owner nullptr), and only that user writes to it.
   Endpoint* owner = nullptr;
+  std::string owner_user;
   // May hold nullptr tombstones while a publish is being dispatched (see ChannelTable::publish).
   std::vector<Endpoint*> subscribers;
   size_t subscriber_count = 0;
@@ -59,16 +62,17 @@ class ChannelTable {
   // The channel `id` when `e` owns it, or permission_denied ("only the owner <action> <name>").
   [[nodiscard]] Result<Channel*> owned(const Endpoint& e, uint16_t id, const char* action);
 
-  // Adds "<owner.user>.<short_name>" owned by `owner`, with a fresh id (ids rotate, so a removed
-  // channel's id is not reused at once). Tells nobody. invalid_argument (name, kind),
-  // already_exists, limit_exceeded.
-  [[nodiscard]] Result<Channel*> add(Endpoint& owner, const std::string& short_name,
-                                     ChannelKind kind, const std::string& mime);
+  // Adds "<user>.<short_name>" owned by `owner` (nullptr: a blob channel whose owner is not
+  // connected), with a fresh id (ids rotate, so a removed channel's id is not reused at once).
+  // Tells nobody. invalid_argument (name, kind), already_exists, limit_exceeded.
+  [[nodiscard]] Result<Channel*> add(Endpoint* owner, const std::string& user,
+                                     const std::string& short_name, ChannelKind kind,
+                                     const std::string& mime);
   // Takes `ch` out of the table, its subscribers' and its owner's lists. Tells nobody.
   std::unique_ptr<Channel> erase(Channel& ch);
 
-  // Subscribes `e` to the streaming channel `id` (ok when it is already); the owner hears of the
-  // first subscriber. not_found, invalid_argument (not streaming).
+  // Subscribes `e` to the streaming or blob channel `id` (ok when it is already); the owner of a
+  // streaming channel hears of the first subscriber. not_found, invalid_argument (a service).
   [[nodiscard]] Result<void> subscribe(Endpoint& e, uint16_t id);
   // ok when `e` was not subscribed; the owner (unless it is `e`) hears of the last one leaving.
   [[nodiscard]] Result<void> unsubscribe(Endpoint& e, uint16_t id);

@@ -216,9 +216,9 @@ void Connection::unblock() {
 }
 
 void Connection::handleFrame(uint8_t code, std::string_view body) {
-  const bool sync_code = inRange(code, 0x01, 0x3F);
+  const bool sync_code = inRange(code, 0x01, 0x3F) || isBlobRequest(code);
   const bool async_code = inRange(code, 0x40, 0x7F);
-  const bool reserved = code >= 0xC0;
+  const bool reserved = code >= 0xC0 && !sync_code && code != uint8_t(Code::ev_blob_changed);
   if (!sync_code && !async_code && !reserved) {
     protocolError("code 0x" +
                   [&] {
@@ -506,16 +506,26 @@ void Connection::onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode
   }
 }
 
+bool Connection::sees(const Channel& ch) const noexcept {
+  return ch.kind != ChannelKind::blob || minor_ >= minorOf(Code::blob_list);
+}
+
 void Connection::onChannelAdded(const Channel& ch, uint32_t tag) {
-  if (state_ == State::flow) send(msg::EvChanAdded{tag, server_.info(ch)});
+  if (state_ == State::flow && sees(ch)) send(msg::EvChanAdded{tag, server_.info(ch)});
 }
 
 void Connection::onChannelRemoved(const Channel& ch) {
-  if (state_ == State::flow) send(msg::EvChanRemoved{ch.id, ch.hash, ch.name});
+  if (state_ == State::flow && sees(ch)) send(msg::EvChanRemoved{ch.id, ch.hash, ch.name});
 }
 
 void Connection::onChannelHeader(const Channel& ch) {
-  if (state_ == State::flow) send(msg::EvChanHeader{server_.info(ch)});
+  if (state_ == State::flow && sees(ch)) send(msg::EvChanHeader{server_.info(ch)});
+}
+
+void Connection::onBlobChanged(const Channel& ch, const BlobEvent& ev) {
+  if (state_ == State::flow && sees(ch)) {
+    send(msg::EvBlobChanged{ch.id, ev.change, ev.path, ev.size, ev.version});
+  }
 }
 
 void Connection::onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,

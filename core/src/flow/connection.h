@@ -68,6 +68,9 @@ class Connection final : public Endpoint {
   void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
                const std::string& message) override;
   void onDbChanged(const std::string& name) override;
+  void onBlobChanged(const Channel& ch, const BlobEvent& event) override;
+  // False for a channel of a kind newer than the connection's minor (blob channels before 1.3).
+  [[nodiscard]] bool sees(const Channel& ch) const noexcept;
 
  private:
   static void onAlloc(uv_handle_t* h, size_t suggested, uv_buf_t* buf);
@@ -87,6 +90,11 @@ class Connection final : public Endpoint {
   void adminUsers(const std::string& command, const Variant& args);
   void handleSync(Code code, std::string_view body);
   void handleAsync(Code code, std::string_view body);
+  // The blob channel requests (connection_blobs.cpp), answered once the store has run them.
+  void handleBlob(Code code, std::string_view body);
+  // A blob request refused: the error to the caller and a tagged log line (BLOB-REFUSED, or
+  // BLOB-IO when the disk failed).
+  void blobRefused(Code code, const Error& e);
   void protocolError(const std::string& why);
   void replyError(ErrorCode error, const std::string& message);
   void replyOk();

@@ -220,15 +220,16 @@ void Connection::handleSync(Code code, std::string_view body) {
     case Code::chan_list: {
       if (!body.empty()) return protocolError("CHAN_LIST has a body");
       msg::ChannelList list;
-      server_.channels.forEach(
-          [&](const Channel& ch) { list.channels.push_back(server_.info(ch)); });
+      server_.channels.forEach([&](const Channel& ch) {
+        if (sees(ch)) list.channels.push_back(server_.info(ch));
+      });
       send(list);
       return;
     }
     case Code::chan_info: {
       SKR_DECODE(msg::ChanInfoByName, m);
       const Channel* ch = server_.channels.findByName(m.name);
-      if (ch == nullptr) {
+      if (ch == nullptr || !sees(*ch)) {
         replyError(ErrorCode::not_found, "no channel \"" + m.name + "\"");
       } else {
         send(msg::ChannelInfoReply{server_.info(*ch)});
@@ -291,6 +292,10 @@ void Connection::handleSync(Code code, std::string_view body) {
       return;
     }
     default:
+      if (isBlobRequest(static_cast<uint8_t>(code))) {
+        handleBlob(code, body);
+        return;
+      }
       replyError(ErrorCode::unsupported,
                  std::string(codeName(static_cast<uint8_t>(code))) + " is not implemented");
       return;
@@ -315,6 +320,11 @@ void Connection::handleAsync(Code code, std::string_view body) {
     }
     case Code::chan_add: {
       SKR_DECODE(msg::ChanAdd, m);
+      if (m.kind == uint8_t(ChannelKind::blob) && minor_ < minorOf(Code::blob_list)) {
+        onError(code, m.tag, 0, ErrorCode::invalid_argument,
+                "blob channels need protocol 1." + std::to_string(minorOf(Code::blob_list)));
+        return;
+      }
       auto r = server_.createChannel(*this, m.short_name, static_cast<ChannelKind>(m.kind), m.mime,
                                      m.props, m.tag);
       if (!r) onError(code, m.tag, 0, toErrorCode(r.error().code), r.error().message);

@@ -29,8 +29,8 @@ void DatabaseAccess::detach(const Endpoint& e) {
   (void)store_.remove(flow_db);
 }
 
-Result<void> DatabaseAccess::createChannelDb(const std::string& name, const Endpoint& owner,
-                                             const Variant& props) {
+Result<void> DatabaseAccess::createChannelDb(const std::string& name, const std::string& owner_user,
+                                             uint32_t owner_id, const Variant& props) {
   auto db = store_.getOrCreate(name, DatabaseKind::transient);
   if (!db) return db.error();
   (*db)->clear();
@@ -39,8 +39,12 @@ Result<void> DatabaseAccess::createChannelDb(const std::string& name, const Endp
       if (auto r = (*db)->set(k, v); !r) return r.error();
     }
   }
-  owners_[name] = Owner{Owner::Kind::channel, owner.user, owner.id};
+  owners_[name] = Owner{Owner::Kind::channel, owner_user, owner_id};
   return {};
+}
+
+void DatabaseAccess::setChannelDbOwner(const std::string& name, uint32_t owner_id) {
+  if (auto it = owners_.find(name); it != owners_.end()) it->second.endpoint = owner_id;
 }
 
 void DatabaseAccess::removeChannelDb(const std::string& name) {

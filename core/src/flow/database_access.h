@@ -31,9 +31,11 @@ class DatabaseAccess {
   // Removes the flow database of a leaving endpoint.
   void detach(const Endpoint& e);
   // The channel `name`'s database, owned by `owner`, holding `props` (a map or null).
-  [[nodiscard]] Result<void> createChannelDb(const std::string& name, const Endpoint& owner,
-                                             const Variant& props);
+  [[nodiscard]] Result<void> createChannelDb(const std::string& name, const std::string& owner_user,
+                                             uint32_t owner_id, const Variant& props);
   void removeChannelDb(const std::string& name);
+  // A blob channel's owner connected (its id) or left (0): who writes the channel's database.
+  void setChannelDbOwner(const std::string& name, uint32_t owner_id);
   // Sets (or, for null values, removes) the keys of `props` in channel `name`'s database.
   [[nodiscard]] Result<void> setChannelProps(const std::string& name, const Variant::Map& props);
   // The channel `name`'s properties (an empty map when it has none).

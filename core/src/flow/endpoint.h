@@ -18,6 +18,7 @@ namespace skr::flow {
 inline constexpr const char* kLogSource = "flow";
 
 class Channel;
+struct BlobEvent;
 
 // A satellite: events reach it through these calls, on the main loop thread. Whoever owns it
 // (the server for a Connection, the module for a LocalClient) removes it from the hub
@@ -65,6 +66,8 @@ class Endpoint {
   virtual void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
                        const std::string& message) = 0;
   virtual void onDbChanged(const std::string& name) = 0;
+  // A file of a blob channel it subscribes to changed (in-process clients ignore it for now).
+  virtual void onBlobChanged(const Channel& /*ch*/, const BlobEvent& /*event*/) {}
 };
 
 // The endpoints connected now, by id. Does not own them.

@@ -56,6 +56,7 @@ Result<void> FlowServer::Impl::start() {
   }
   dbs.startJournal(opt.durability, opt.compact_bytes,
                    [&l = loop](std::function<void()> fn) { l.post(std::move(fn)); });
+  if (auto b = startBlobs(); !b) return b.error();
   std::optional<DevAccount> dev;
   if (opt.dev_account) dev = DevAccount{opt.dev_account->first, opt.dev_account->second};
   std::filesystem::path users = opt.users_file;
@@ -326,6 +327,7 @@ void FlowServer::Impl::stop() noexcept {
     ::unlink(unix_path.c_str());
     started = false;
   }
+  blobs.reset();  // what was asked of the store runs first
   auth.reset();
 }
 

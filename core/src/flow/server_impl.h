@@ -13,6 +13,7 @@
 // docs/internals.md follows a published message through these files.
 #pragma once
 
+#include "blob_store.h"
 #include "channel_table.h"
 #include "database_access.h"
 #include "endpoint.h"
@@ -75,6 +76,8 @@ struct FlowServer::Impl {
   DatabaseAccess databases;
   ChannelTable channels;
   RequestTable requests;
+  // The files of blob channels (blob_wiring.cpp); null without a data directory.
+  std::unique_ptr<BlobStore> blobs;
 
   // --- lifecycle, transports, output (server.cpp)
   Result<void> start();
@@ -92,15 +95,29 @@ struct FlowServer::Impl {
   // An endpoint leaves: its subscriptions, channels, requests and flow database. Idempotent.
   void removeEndpoint(Endpoint& e);
   // A channel owned by `owner`, its database holding `props`; everyone is told (the owner with
-  // `tag`), then waiting in-process subscriptions attach.
+  // `tag`), then waiting in-process subscriptions attach. A blob channel's store is created on
+  // the store's thread: `stored` hears how that went.
   Result<Channel*> createChannel(Endpoint& owner, const std::string& short_name, ChannelKind kind,
-                                 const std::string& mime, const Variant& props, uint32_t tag);
+                                 const std::string& mime, const Variant& props, uint32_t tag,
+                                 std::function<void(Result<void>)> stored = {});
+  // Takes a channel out and tells everyone; a blob channel's files go too.
+  void dropChannel(Channel& ch);
   // Only the owner removes a channel: its requests fail with owner_gone, everyone is told.
   Result<void> removeChannel(Endpoint& by, uint16_t id);
   // The owner changes a channel's properties; everyone is told (EV_CHAN_HEADER).
   Result<void> setProps(Endpoint& e, uint16_t id, const Variant& props);
   msg::ChannelInfo info(const Channel& ch) const;
 
+  // --- blob channels (blob_wiring.cpp)
+  // Opens the store and brings back the blob channels kept in it, owned by nobody connected.
+  Result<void> startBlobs();
+  // The blob channel `name` already there for `owner`: it becomes its owner again when it takes
+  // events (a flow). Null when there is none.
+  Channel* reattachBlob(Endpoint& owner, const std::string& name, uint32_t tag);
+  // Its owner left: the channel stays, owned by nobody connected.
+  void detachBlob(Endpoint& owner, Channel& ch);
+  // Tells the subscribers of channel `id` (if it is still the channel `hash`) of a change.
+  void blobChanged(uint16_t id, uint64_t hash, const BlobEvent& event);
   // --- administration (admin.cpp): ADMIN's commands, for administrators only
   Result<Variant> admin(Connection& by, const std::string& command, const Variant& args);
 };

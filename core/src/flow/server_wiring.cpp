@@ -21,7 +21,15 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
     --stats.connections_open;
   }
   for (uint16_t id : std::vector<uint16_t>(e.subscribed)) (void)channels.unsubscribe(e, id);
-  for (uint16_t id : std::vector<uint16_t>(e.owned)) (void)removeChannel(e, id);
+  for (uint16_t id : std::vector<uint16_t>(e.owned)) {
+    Channel* ch = channels.find(id);
+    if (ch != nullptr && ch->kind == ChannelKind::blob) {
+      detachBlob(e, *ch);  // a store outlives its owner's connection
+    } else {
+      (void)removeChannel(e, id);
+    }
+  }
+  if (blobs) blobs->forget(e.id);
   requests.dropRequester(e.id);
   databases.detach(e);
   channels.unwantAll(e.id);
@@ -29,24 +37,57 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
 
 Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::string& short_name,
                                                  ChannelKind kind, const std::string& mime,
-                                                 const Variant& props, uint32_t tag) {
+                                                 const Variant& props, uint32_t tag,
+                                                 std::function<void(Result<void>)> stored) {
   if (!props.isNull() && !props.isMap()) {
     return makeError(Errc::invalid_argument, "channel properties must be a map");
   }
-  if (const std::string name = owner.user + "." + short_name;
-      !owner.access->allows(Action::publish, name)) {
+  const std::string name = owner.user + "." + short_name;
+  if (!owner.access->allows(Action::publish, name)) {
     return accessDenied(owner.user, Action::publish, name);
+  }
+  const bool blob = kind == ChannelKind::blob;
+  if (blob && !blobs) {
+    return makeError(Errc::unsupported, "this hub keeps no files: it has no data_dir");
+  }
+  if (blob) {
+    if (Channel* again = reattachBlob(owner, name, tag)) {
+      // Answered after what the store was asked before, never from inside this call.
+      if (stored) blobs->barrier([stored = std::move(stored)] { stored({}); });
+      return again;
+    }
   }
   if (endpoints.holdingsOf(owner.user).channels >= owner.limits.channels) {
     return limitReached(owner.user, "channels", owner.limits.channels);
   }
-  auto added = channels.add(owner, short_name, kind, mime);
+  // A blob channel created from a synchronous connection is owned by nobody connected.
+  Endpoint* holder = blob && !owner.receivesEvents() ? nullptr : &owner;
+  auto added = channels.add(holder, owner.user, short_name, kind, mime);
   if (!added) return added;
   Channel* raw = *added;
   const uint16_t id = raw->id;
-  if (auto db = databases.createChannelDb(raw->name, owner, props); !db) {
+  if (auto db = databases.createChannelDb(raw->name, owner.user, holder ? owner.id : 0, props);
+      !db) {
     (void)channels.erase(*raw);
     return db.error();
+  }
+  if (blob) {
+    // On disk, on the store's thread; a store that cannot be made takes the channel with it.
+    blobs->create(raw->name, owner.user,
+                  [this, id, hash = raw->hash, owner_id = owner.id, tag,
+                   stored = std::move(stored)](Result<void> r) {
+                    Channel* ch = channels.find(id);
+                    if (!r && ch != nullptr && ch->hash == hash) {
+                      log::error(kLogSource, "BLOB-IO",
+                                 "blob channel " + ch->name + ": " + r.error().message);
+                      dropChannel(*ch);
+                      if (Endpoint* e = endpoints.find(owner_id); e && e->receivesEvents()) {
+                        e->onError(Code::chan_add, tag, id, toErrorCode(r.error().code),
+                                   r.error().message);
+                      }
+                    }
+                    if (stored) stored(r);
+                  });
   }
   log::info(kLogSource, "FLOW-CHANNEL-ADDED",
             raw->name + " id " + std::to_string(id) + " (" + std::string(channelKindName(kind)) +
@@ -66,13 +107,24 @@ Result<void> FlowServer::Impl::removeChannel(Endpoint& by, uint16_t id) {
   // An administrator removes any channel; anyone else only its own.
   auto found = by.access->admin() ? channels.existing(id) : channels.owned(by, id, "removes");
   if (!found) return found.error();
-  Channel& ch = **found;
+  dropChannel(**found);
+  return {};
+}
+
+void FlowServer::Impl::dropChannel(Channel& ch) {
+  const uint16_t id = ch.id;
   requests.failChannel(id, ErrorCode::owner_gone, "channel " + ch.name + " was removed");
   std::unique_ptr<Channel> gone = channels.erase(ch);
   databases.removeChannelDb(gone->name);
+  if (gone->kind == ChannelKind::blob && blobs) {
+    blobs->drop(gone->name, [name = gone->name](Result<void> r) {
+      if (!r)
+        log::error(kLogSource, "BLOB-IO",
+                   "removing the files of " + name + ": " + r.error().message);
+    });
+  }
   log::info(kLogSource, "FLOW-CHANNEL-REMOVED", gone->name + " id " + std::to_string(id));
   endpoints.forEachEventReceiver([&](Endpoint& e) { e.onChannelRemoved(*gone); });
-  return {};
 }
 
 Result<void> FlowServer::Impl::setProps(Endpoint& e, uint16_t id, const Variant& props) {
@@ -92,7 +144,7 @@ msg::ChannelInfo FlowServer::Impl::info(const Channel& ch) const {
   i.hash = ch.hash;
   i.kind = static_cast<uint8_t>(ch.kind);
   i.name = ch.name;
-  i.owner = ch.owner != nullptr ? ch.owner->user : std::string();
+  i.owner = ch.owner_user;
   i.owner_connection = ch.owner != nullptr ? ch.owner->id : 0;
   i.mime = ch.mime;
   i.subscribers = static_cast<uint32_t>(ch.subscriber_count);

@@ -117,6 +117,14 @@ std::string_view codeName(uint8_t code) noexcept {
       return "BLOB_REMOVE";
     case Code::blob_chunk:
       return "BLOB_CHUNK";
+    case Code::blob_modify:
+      return "BLOB_MODIFY";
+    case Code::blob_abort:
+      return "BLOB_ABORT";
+    case Code::blob_create:
+      return "BLOB_CREATE";
+    case Code::ev_blob_changed:
+      return "EV_BLOB_CHANGED";
     case Code::sync_pulse:
       return "SYNC_PULSE";
     case Code::sync_source_register:
@@ -145,6 +153,18 @@ uint16_t minorOf(Code code) noexcept {
     case Code::db_sync_async:
     case Code::ev_db_synced:
       return 2;
+    case Code::blob_list:
+    case Code::blob_get:
+    case Code::blob_put:
+    case Code::blob_mkdir:
+    case Code::blob_rmdir:
+    case Code::blob_remove:
+    case Code::blob_chunk:
+    case Code::blob_modify:
+    case Code::blob_abort:
+    case Code::blob_create:
+    case Code::ev_blob_changed:
+      return 3;
     default:
       return 0;
   }

@@ -24,7 +24,8 @@ SyncClient::SyncClient(SyncClient&& o) noexcept
       options_(std::move(o.options_)),
       login_(std::move(o.login_)),
       last_error_(o.last_error_),
-      rbuf_(std::move(o.rbuf_)) {
+      rbuf_(std::move(o.rbuf_)),
+      held_(std::move(o.held_)) {
   o.fd_ = -1;
 }
 
@@ -38,6 +39,7 @@ SyncClient& SyncClient::operator=(SyncClient&& o) noexcept {
     login_ = std::move(o.login_);
     last_error_ = o.last_error_;
     rbuf_ = std::move(o.rbuf_);
+    held_ = std::move(o.held_);
   }
   return *this;
 }
@@ -91,20 +93,21 @@ Result<SyncClient> SyncClient::connect(const ConnectOptions& options) {
   return c;
 }
 
-template <class M>
-Result<SyncClient::Reply> SyncClient::request(const M& m, uint32_t timeout_ms) {
-  std::string frame;
-  if (!flow::encode(frame, m)) {
-    return makeError(Errc::invalid_argument, "a name or key is longer than 65535 bytes");
-  }
-  return roundTrip(frame, timeout_ms);
+Result<SyncClient::Reply> SyncClient::roundTrip(const std::string& frame, uint32_t timeout_ms) {
+  if (auto s = sendFrame(frame); !s) return s.error();
+  return receiveReply(timeout_ms);
 }
 
-Result<SyncClient::Reply> SyncClient::roundTrip(const std::string& frame, uint32_t timeout_ms) {
+Result<void> SyncClient::sendFrame(std::string_view frame) {
   if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
-  last_error_ = ErrorCode::ok;
   if (auto s = detail::sendAll(fd_, tls_ ? &*tls_ : nullptr, frame); !s)
     return fail(s.error().code, s.error().message);
+  return {};
+}
+
+Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
+  if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
+  last_error_ = ErrorCode::ok;
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {
     const auto n = splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()), rbuf_.size());
@@ -133,12 +136,10 @@ Result<SyncClient::Reply> SyncClient::roundTrip(const std::string& frame, uint32
   }
 }
 
-namespace {
-Error hubError(ErrorCode code, const std::string& body) {
+Error SyncClient::hubError(ErrorCode code, const std::string& body) {
   auto e = flow::decode<msg::ReplyError>(body);
   return makeError(toErrc(code), e ? e->message : std::string(flow::errorCodeName(code)));
 }
-}  // namespace
 
 Result<void> SyncClient::expectEmpty(Result<Reply> r) {
   if (!r) return r.error();

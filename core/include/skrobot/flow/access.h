@@ -36,7 +36,10 @@ struct UserLimits {
   uint32_t channels = 0;          // channels it owns
   uint32_t databases = 0;         // named databases it created (since the hub started)
   uint32_t pending_requests = 0;  // its service requests not answered yet
-  // Each limit of `this`, or of `defaults` where this one is 0.
+  uint32_t blob_mib = 0;          // MiB its blob channels hold together (uploads under way too)
+  uint32_t blob_files = 0;        // files its blob channels hold together
+  // Each limit of `this`, or of `defaults` where this one is 0. A blob limit of 0 in the result
+  // is no limit.
   [[nodiscard]] UserLimits orElse(const UserLimits& defaults) const noexcept;
 };
 

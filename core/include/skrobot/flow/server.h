@@ -43,11 +43,15 @@ struct ServerOptions {
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;  // unanswered service requests per channel
   // What one user may hold at once unless its account says otherwise (flow/access.h).
-  UserLimits user_limits{64, 1024, 64, 1024};
+  // blob_mib and blob_files 0: no limit unless the account sets one.
+  UserLimits user_limits{64, 1024, 64, 1024, 0, 0};
   std::filesystem::path data_dir;  // persistent databases; empty: nothing is saved
   Durability durability = Durability::everysec;
   uint64_t compact_bytes = 4u << 20;  // a database log longer than this is compacted
   std::filesystem::path users_file;   // empty: <data_dir>/users.json
+  // What one blob channel may hold (0: no limit); its files live in <data_dir>/blobs.
+  uint64_t blob_channel_bytes = 0;
+  uint64_t blob_channel_files = 0;
   // A development account accepted on the Unix socket only (guest/password in the default
   // config). TCP never starts without real accounts in the users file.
   std::optional<std::pair<std::string, std::string>> dev_account;

@@ -55,6 +55,22 @@ void forEachMessage(F&& f) {
   f(EvServiceResponse{});
   f(EvError{});
   f(EvDropped{});
+  f(DbSyncAsync{});
+  f(EvDbSynced{});
+  f(BlobList{});
+  f(BlobGet{});
+  f(BlobData{});
+  f(BlobPut{});
+  f(BlobPutOk{});
+  f(BlobMkdir{});
+  f(BlobRmdir{});
+  f(BlobRemove{});
+  f(BlobChunk{});
+  f(BlobWritten{});
+  f(BlobModify{});
+  f(BlobAbort{});
+  f(BlobCreate{});
+  f(EvBlobChanged{});
 }
 
 }  // namespace skr::flow

@@ -427,4 +427,141 @@ struct EvDropped {
   }
 };
 
+// --- blob channels (1.3): synchronous requests and their answers, and the change event --------
+// Paths are relative and '/'-separated (docs/blob-channels.md gives the rules).
+struct BlobList {
+  static constexpr Code code = Code::blob_list;
+  uint16_t chan_id = 0;
+  std::string dir;  // empty: the channel's root
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(dir);
+  }
+};
+// BLOB_GET: up to max_bytes from offset of one version of a file. version 0: the current one,
+// whose number the answer gives; later reads pass it so that every chunk comes from it.
+struct BlobGet {
+  static constexpr Code code = Code::blob_get;
+  uint16_t chan_id = 0;
+  std::string path;
+  uint64_t version = 0;
+  uint64_t offset = 0;
+  uint32_t max_bytes = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(path) && f(version) && f(offset) && f(max_bytes);
+  }
+};
+struct BlobData {
+  static constexpr Code code = Code::reply_ok;
+  uint64_t version = 0;
+  uint64_t total_size = 0;
+  Rest data;
+  template <class IO>
+  bool io(IO& f) {
+    return f(version) && f(total_size) && f(data);
+  }
+};
+// BLOB_PUT: starts an upload (upload_id 0) or resumes one; the answer says where to go on.
+struct BlobPut {
+  static constexpr Code code = Code::blob_put;
+  uint16_t chan_id = 0;
+  std::string path;
+  uint64_t total_size = 0;
+  uint64_t upload_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(path) && f(total_size) && f(upload_id);
+  }
+};
+struct BlobPutOk {
+  static constexpr Code code = Code::reply_ok;
+  uint64_t upload_id = 0;
+  uint64_t offset = 0;  // bytes the hub holds: the next chunk starts here
+  template <class IO>
+  bool io(IO& f) {
+    return f(upload_id) && f(offset);
+  }
+};
+// BLOB_MKDIR, BLOB_RMDIR, BLOB_REMOVE.
+template <Code C>
+struct BlobPath {
+  static constexpr Code code = C;
+  uint16_t chan_id = 0;
+  std::string path;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(path);
+  }
+};
+using BlobMkdir = BlobPath<Code::blob_mkdir>;
+using BlobRmdir = BlobPath<Code::blob_rmdir>;
+using BlobRemove = BlobPath<Code::blob_remove>;
+struct BlobChunk {
+  static constexpr Code code = Code::blob_chunk;
+  uint16_t chan_id = 0;
+  uint64_t upload_id = 0;
+  uint64_t offset = 0;  // must be the bytes received so far
+  Rest data;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(upload_id) && f(offset) && f(data);
+  }
+};
+// The answer to BLOB_CHUNK and BLOB_MODIFY: version is that of the file now in place, 0 while an
+// upload is not complete.
+struct BlobWritten {
+  static constexpr Code code = Code::reply_ok;
+  uint64_t received = 0;
+  uint64_t version = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(received) && f(version);
+  }
+};
+// BLOB_MODIFY: writes data at offset of an existing file, as a new whole version.
+struct BlobModify {
+  static constexpr Code code = Code::blob_modify;
+  uint16_t chan_id = 0;
+  std::string path;
+  uint64_t offset = 0;
+  Rest data;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(path) && f(offset) && f(data);
+  }
+};
+struct BlobAbort {
+  static constexpr Code code = Code::blob_abort;
+  uint16_t chan_id = 0;
+  uint64_t upload_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(upload_id);
+  }
+};
+// BLOB_CREATE: the caller's blob channel <user>.<short_name>, created unless it exists; the
+// answer is a ChannelInfoReply.
+struct BlobCreate {
+  static constexpr Code code = Code::blob_create;
+  std::string short_name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(short_name);
+  }
+};
+enum class BlobChange : uint8_t { written = 1, removed = 2, dir_added = 3, dir_removed = 4 };
+struct EvBlobChanged {
+  static constexpr Code code = Code::ev_blob_changed;
+  uint16_t chan_id = 0;
+  uint8_t change = 0;  // BlobChange
+  std::string path;
+  uint64_t size = 0;
+  uint64_t version = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(change) && f(path) && f(size) && f(version);
+  }
+};
+
 }  // namespace skr::flow::msg

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 2;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 3;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -81,7 +81,8 @@ enum class Code : uint8_t {
   ev_dropped = 0x9A,
   ev_db_synced = 0x9B,  // 1.2
 
-  // Reserved and specified; not implemented by protocol 1.0 hubs (answered with `unsupported`).
+  // 1.3: blob channels. Synchronous requests (REPLY_OK or REPLY_ERROR, on a synchronous
+  // connection), and one event to the subscribers of a blob channel.
   blob_list = 0xC0,
   blob_get = 0xC1,
   blob_put = 0xC2,
@@ -89,6 +90,12 @@ enum class Code : uint8_t {
   blob_rmdir = 0xC4,
   blob_remove = 0xC5,
   blob_chunk = 0xC6,
+  blob_modify = 0xC7,
+  blob_abort = 0xC8,
+  blob_create = 0xC9,
+  ev_blob_changed = 0xCF,
+
+  // Reserved and specified; not implemented yet (answered with `unsupported`).
   sync_pulse = 0xD0,
   sync_source_register = 0xD1,
   sync_target_register = 0xD2,
@@ -100,6 +107,11 @@ enum class Code : uint8_t {
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
+
+// A blob channel request (1.3): sent by satellites on a synchronous connection, like 0x01-0x3F.
+[[nodiscard]] constexpr bool isBlobRequest(uint8_t code) noexcept {
+  return code >= 0xC0 && code <= 0xC9;
+}
 
 enum class ErrorCode : uint16_t {
   ok = 0,

@@ -12,10 +12,12 @@
 #pragma once
 
 #include <skrobot/core/result.h>
+#include <skrobot/flow/codec.h>
 #include <skrobot/flow/messages.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -29,6 +31,9 @@ using LoginInfo = flow::msg::LoginOk;
 // The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/flow/protocol.h,
 // shared with the hub's modules (same name, one for one).
 using flow::toErrc;
+
+// Progress of a transfer: bytes done, bytes in all.
+using BlobProgress = std::function<void(uint64_t done, uint64_t total)>;
 
 class SyncClient {
  public:
@@ -84,6 +89,49 @@ class SyncClient {
   // Round trip with the hub.
   [[nodiscard]] Result<void> ping();
 
+  // Blob channels (protocol 1.3; Errc::unsupported from an older hub): docs/blob-channels.md.
+  // Reads work for every user the hub's rules allow; writes for the channel's owner only
+  // (permission_denied). Transfers run in chunks with a few requests ahead of their replies.
+  struct BlobEntry {
+    std::string name;
+    bool dir = false;
+    uint64_t size = 0;
+    int64_t mtime_ns = 0;
+    uint64_t version = 0;
+  };
+  // The caller's blob channel <user>.<short_name>, created unless it exists.
+  [[nodiscard]] Result<ChannelInfo> createBlobChannel(const std::string& short_name);
+  [[nodiscard]] Result<std::vector<BlobEntry>> blobList(uint16_t chan_id,
+                                                        const std::string& dir = {});
+  // One whole version of `path` (a reader never mixes two versions: when the file is replaced
+  // during a download, the download goes on from the version it started with).
+  [[nodiscard]] Result<std::string> blobGet(uint16_t chan_id, const std::string& path,
+                                            const BlobProgress& progress = {});
+  // The same into the local file `local` (written beside it, then renamed); returns its size.
+  [[nodiscard]] Result<uint64_t> blobGetFile(uint16_t chan_id, const std::string& path,
+                                             const std::string& local,
+                                             const BlobProgress& progress = {});
+  // Uploads `data` as `path` (missing directories are made); returns the new version. Readers
+  // see the old file until the last byte is on the hub's disk.
+  [[nodiscard]] Result<uint64_t> blobPut(uint16_t chan_id, const std::string& path,
+                                         std::string_view data, const BlobProgress& progress = {});
+  // The same from the local file `local`. With `upload_id`: *upload_id != 0 resumes that upload
+  // from where the hub got to (an interrupted one); the id is stored there as soon as the hub
+  // gives it, so that a caller can resume after a lost connection.
+  [[nodiscard]] Result<uint64_t> blobPutFile(uint16_t chan_id, const std::string& local,
+                                             const std::string& path,
+                                             const BlobProgress& progress = {},
+                                             uint64_t* upload_id = nullptr);
+  // Writes `data` at `offset` of an existing file, as a new whole version (a copy of the file).
+  [[nodiscard]] Result<uint64_t> blobModify(uint16_t chan_id, const std::string& path,
+                                            uint64_t offset, std::string_view data);
+  [[nodiscard]] Result<void> blobMkdir(uint16_t chan_id, const std::string& path);
+  [[nodiscard]] Result<void> blobRmdir(uint16_t chan_id, const std::string& path);
+  [[nodiscard]] Result<void> blobRemove(uint16_t chan_id, const std::string& path);
+  // Bytes moved per request, and requests sent ahead of their replies.
+  static constexpr size_t kBlobChunk = 1u << 20;
+  static constexpr int kBlobWindow = 4;
+
   // An administrator's command (protocol 1.1, docs/security.md): "flows", "kick"
   // {"connection": N}, "chan_rm" {"name": ...}, "db_rm" {"name": ...}. permission_denied unless
   // the account is an administrator; unsupported from a 1.0 hub.
@@ -99,6 +147,18 @@ class SyncClient {
   template <class M>
   Result<Reply> request(const M& m, uint32_t timeout_ms);
   Result<Reply> roundTrip(const std::string& frame, uint32_t timeout_ms);
+  // The two halves of a round trip, for requests sent ahead of their replies (blob transfers).
+  Result<void> sendFrame(std::string_view frame);
+  Result<Reply> receiveReply(uint32_t timeout_ms);
+  static Error hubError(flow::ErrorCode code, const std::string& body);
+  // Downloads one version chunk by chunk into `sink`; returns the total size.
+  Result<uint64_t> blobDownload(uint16_t chan_id, const std::string& path,
+                                const BlobProgress& progress,
+                                const std::function<Result<void>(std::string_view)>& sink);
+  // A pipelined upload from `read` (blobPut and blobPutFile).
+  Result<uint64_t> upload(uint16_t chan_id, const std::string& path, uint64_t size,
+                          const std::function<Result<std::string_view>(uint64_t, size_t)>& read,
+                          const BlobProgress& progress, uint64_t* upload_id);
   Result<void> expectEmpty(Result<Reply> r);
   Result<flow::Variant> expectValue(Result<Reply> r);
   Error fail(Errc code, std::string message);
@@ -109,6 +169,16 @@ class SyncClient {
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
   std::string rbuf_;
+  std::string held_;  // the body of the last blob reply, which its data points into
 };
+
+template <class M>
+Result<SyncClient::Reply> SyncClient::request(const M& m, uint32_t timeout_ms) {
+  std::string frame;
+  if (!flow::encode(frame, m)) {
+    return makeError(Errc::invalid_argument, "a name or key is longer than 65535 bytes");
+  }
+  return roundTrip(frame, timeout_ms);
+}
 
 }  // namespace skr::sat

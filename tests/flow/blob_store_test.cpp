@@ -1,8 +1,8 @@
 // The blob store on its own: path rules, confinement under both resolvers (a symlink planted in
 // the tree, a directory swapped for a symlink during the walk), the order of a commit's system
 // calls, resumed uploads across a restart, versions, quotas.
-#include "../../core/src/flow/blob_path.h"
 #include "../../core/src/flow/blob_store.h"
+#include "../../core/src/flow/blob_path.h"
 #include "temp_dir.h"
 
 #include <gtest/gtest.h>
@@ -109,9 +109,8 @@ class Store : public ::testing::TestWithParam<Resolver> {
   }
   Result<BlobStore::Read> get(const std::string& path, uint64_t version = 0, uint64_t offset = 0,
                               uint32_t max = 1 << 20, uint32_t reader = 1) {
-    return wait<BlobStore::Read>([&](auto done) {
-      store_->get(reader, "guest.maps", path, version, offset, max, done);
-    });
+    return wait<BlobStore::Read>(
+        [&](auto done) { store_->get(reader, "guest.maps", path, version, offset, max, done); });
   }
 
   TempDir dir_;
@@ -149,13 +148,13 @@ TEST_P(Store, NothingOutsideTheTreeIsReadOrWritten) {
   fs::create_directory_symlink(outside_, files() / "d" / "link");
   fs::create_symlink(outside_ / "secret", files() / "f");
   const auto refused = [](const auto& r) {
-    return !r && (r.error().code == Errc::permission_denied ||
-                  r.error().code == Errc::invalid_argument);
+    return !r &&
+           (r.error().code == Errc::permission_denied || r.error().code == Errc::invalid_argument);
   };
   EXPECT_TRUE(refused(get("d/link/secret")));
   EXPECT_TRUE(refused(get("f")));
-  EXPECT_TRUE(refused(
-      wait<flow::Variant>([&](auto done) { store_->list("guest.maps", "d/link", done); })));
+  EXPECT_TRUE(
+      refused(wait<flow::Variant>([&](auto done) { store_->list("guest.maps", "d/link", done); })));
   EXPECT_TRUE(refused(put("d/link/planted", "x")));
   EXPECT_TRUE(refused(wait<flow::BlobEvent>(
       [&](auto done) { store_->mkdir("guest.maps", "d/link/newdir", done); })));
@@ -167,8 +166,7 @@ TEST_P(Store, NothingOutsideTheTreeIsReadOrWritten) {
   auto list = wait<flow::Variant>([&](auto done) { store_->list("guest.maps", "d", done); });
   ASSERT_TRUE(list);
   EXPECT_TRUE(list->asList()->empty());
-  EXPECT_TRUE(
-      wait<flow::BlobEvent>([&](auto done) { store_->remove("guest.maps", "f", done); }));
+  EXPECT_TRUE(wait<flow::BlobEvent>([&](auto done) { store_->remove("guest.maps", "f", done); }));
   EXPECT_EQ(slurp(outside_ / "secret"), "outside the tree");
   EXPECT_FALSE(fs::exists(outside_ / "planted"));
   EXPECT_FALSE(fs::exists(outside_ / "newdir"));
@@ -346,7 +344,8 @@ class RecordingIo : public flow::BlobIo {
 TEST(BlobCommit, WriteSyncRenameSyncDirInThatOrder) {
   TempDir dir;
   auto io = std::make_shared<RecordingIo>();
-  BlobStore store(dir.path() / "blobs", {}, [](std::function<void()> fn) { fn(); }, io);
+  BlobStore store(
+      dir.path() / "blobs", {}, [](std::function<void()> fn) { fn(); }, io);
   ASSERT_TRUE(store.open());
   ASSERT_TRUE(wait<void>([&](auto done) { store.create("guest.maps", "guest", done); }));
   auto at = wait<BlobStore::PutAt>(

@@ -25,6 +25,7 @@ SyncClient::SyncClient(SyncClient&& o) noexcept
       login_(std::move(o.login_)),
       last_error_(o.last_error_),
       rbuf_(std::move(o.rbuf_)),
+      rpos_(o.rpos_),
       held_(std::move(o.held_)) {
   o.fd_ = -1;
 }
@@ -39,6 +40,7 @@ SyncClient& SyncClient::operator=(SyncClient&& o) noexcept {
     login_ = std::move(o.login_);
     last_error_ = o.last_error_;
     rbuf_ = std::move(o.rbuf_);
+    rpos_ = o.rpos_;
     held_ = std::move(o.held_);
   }
   return *this;
@@ -50,6 +52,7 @@ void SyncClient::close() noexcept {
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   rbuf_.clear();
+  rpos_ = 0;
 }
 
 Error SyncClient::fail(Errc code, std::string message) {
@@ -110,10 +113,20 @@ Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
   last_error_ = ErrorCode::ok;
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {
-    const auto n = splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()), rbuf_.size());
+    const auto n = splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()) + rpos_,
+                                 rbuf_.size() - rpos_);
     if (n.status == flow::FrameSplitter::Status::frame) {
       Reply reply{n.code, std::string(n.body)};
-      rbuf_.erase(0, n.consumed);
+      // Parsed bytes are dropped once they are half the buffer: large pipelined replies are not
+      // moved down the buffer one by one.
+      rpos_ += n.consumed;
+      if (rpos_ == rbuf_.size()) {
+        rbuf_.clear();
+        rpos_ = 0;
+      } else if (rpos_ > rbuf_.size() / 2) {
+        rbuf_.erase(0, rpos_);
+        rpos_ = 0;
+      }
       if (reply.code == static_cast<uint8_t>(Code::reply_error)) {
         auto e = flow::decode<msg::ReplyError>(reply.body);
         if (!e) return fail(Errc::protocol_error, "REPLY_ERROR: " + e.error().message);

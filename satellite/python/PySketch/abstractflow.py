@@ -297,6 +297,7 @@ class AbstractFlow(object):
         self._inbuf = bytearray()
         self._inpos = 0
         self.connectionID = None
+        self.hubMinor = 0
         self.hubAppName = None
         self.currentDbName = None
         self.lastError = None
@@ -347,7 +348,8 @@ class AbstractFlow(object):
     def _readLoginOk(self, body):
         r = Reader(body)
         major = r.u16()
-        r.u16()
+        # The connection's minor: what both sides know.
+        self.hubMinor = min(r.u16(), PROTOCOL_MINOR)
         if major != PROTOCOL_MAJOR:
             raise ProtocolError("hub speaks FlowProtocol %d" % major)
         self.connectionID = r.u32()

@@ -36,7 +36,7 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-PROTOCOL_MINOR = 2  # 1.2: DB_SYNC; PySketch sends no ADMIN (1.1)
+PROTOCOL_MINOR = 3  # 1.3: blob channels; 1.2: DB_SYNC; PySketch sends no ADMIN (1.1)
 
 DEFAULT_PORT = 9000
 DEFAULT_ADDRESS = "local:/tmp/Robot"
@@ -214,6 +214,19 @@ class Code(object):
     EV_ERROR = 0x99
     EV_DROPPED = 0x9A
     EV_DB_SYNCED = 0x9B  # 1.2
+
+    # 1.3: blob channels (synchronous requests) and their change event
+    BLOB_LIST = 0xC0
+    BLOB_GET = 0xC1
+    BLOB_PUT = 0xC2
+    BLOB_MKDIR = 0xC3
+    BLOB_RMDIR = 0xC4
+    BLOB_REMOVE = 0xC5
+    BLOB_CHUNK = 0xC6
+    BLOB_MODIFY = 0xC7
+    BLOB_ABORT = 0xC8
+    BLOB_CREATE = 0xC9
+    EV_BLOB_CHANGED = 0xCF
 
 
 def codeName(code):

@@ -192,6 +192,7 @@ class FlowSat(AbstractFlow):
         self._responseArity = None
         self._onChanHeader = None
         self._onDbChanged = None
+        self._onBlobChanged = None
         self._onError = None
         self.lastRequester = None
 
@@ -248,6 +249,12 @@ class FlowSat(AbstractFlow):
     def setDbChangedCallBack(self, f):
         """f(name) when the current database of the flow changed."""
         self._onDbChanged = f
+
+    def setBlobChangedCallBack(self, f):
+        """f(chanID, change, path, size, version) when a file of a blob channel this flow
+        subscribes to changed; change is 1 written, 2 removed, 3 directory made, 4 directory
+        removed (protocol 1.3)."""
+        self._onBlobChanged = f
 
     def setErrorCallBack(self, f):
         """f(FlowError) for every failed asynchronous command (they are also logged)."""
@@ -751,6 +758,12 @@ class FlowSat(AbstractFlow):
             callback = self._pendingSyncs.pop(r.u32(), None)
             if callback is not None:
                 self._call("db-synced", callback)
+        elif code == Code.EV_BLOB_CHANGED:
+            chan, change = r.u16(), r.u8()
+            path = r.str16()
+            size, version = r.u64(), r.u64()
+            if self._onBlobChanged is not None:
+                self._call("blob-changed", self._onBlobChanged, chan, change, path, size, version)
         elif code == Code.EV_DROPPED:
             chan = r.u16()
             count = r.u32()

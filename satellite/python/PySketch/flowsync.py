@@ -20,13 +20,14 @@ import ssl
 
 from PySketch.abstractflow import AbstractFlow, FlowChannel, openSocket, tlsFailure, wrapTls
 from PySketch.elapsedtime import now
+from PySketch.flowblobs import BlobRequests
 from PySketch.flowproto import (
     ChannelInfo, Code, Error_T, FlowError, ProtocolError, Reader, encodeValue, frame, str16,
     integer_types, toBytes, u16)
 from PySketch import log
 
 
-class FlowSync(AbstractFlow):
+class FlowSync(AbstractFlow, BlobRequests):
     def __init__(self, address=None, user=None, password=None, clientName=None, timeout=10.0):
         AbstractFlow.__init__(self)
         if address:

@@ -80,6 +80,7 @@ class Child {
   void signal(int sig) const {
     if (pid_ > 0 && !exited_) kill(pid_, sig);
   }
+  [[nodiscard]] pid_t pid() const noexcept { return pid_; }
   // Exit code (128 + signal when killed); -1 if it did not exit within timeout_ms.
   int wait(int timeout_ms = 60000) {
     if (exited_) return code_;

@@ -129,8 +129,8 @@ class SyncClient {
   [[nodiscard]] Result<void> blobRmdir(uint16_t chan_id, const std::string& path);
   [[nodiscard]] Result<void> blobRemove(uint16_t chan_id, const std::string& path);
   // Bytes moved per request, and requests sent ahead of their replies.
-  static constexpr size_t kBlobChunk = 1u << 20;
-  static constexpr int kBlobWindow = 4;
+  static constexpr size_t kBlobChunk = 256u << 10;
+  static constexpr int kBlobWindow = 8;
 
   // An administrator's command (protocol 1.1, docs/security.md): "flows", "kick"
   // {"connection": N}, "chan_rm" {"name": ...}, "db_rm" {"name": ...}. permission_denied unless
@@ -169,6 +169,7 @@ class SyncClient {
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
   std::string rbuf_;
+  size_t rpos_ = 0;  // rbuf_ before this is parsed
   std::string held_;  // the body of the last blob reply, which its data points into
 };
 

@@ -217,5 +217,38 @@ TEST_F(Flowctl, Databases) {
   EXPECT_EQ(denied.code, 7) << denied.out;
 }
 
+TEST_F(Flowctl, BlobFiles) {
+  const auto local = dir_.path() / "map.pgm";
+  std::ofstream(local, std::ios::binary) << std::string(300000, 'm');
+  // put creates the caller's blob channel; ls, get, mkdir, rmdir and rm work on it.
+  auto put = flowctl({"blob", "put", "maps", local.string(), "floor1/map.pgm"});
+  ASSERT_EQ(put.code, 0) << put.out;
+  EXPECT_TRUE(has(flowctl({"ls"}), "guest.maps"));
+  auto ls = flowctl({"blob", "ls", "guest.maps"});
+  EXPECT_TRUE(has(ls, "floor1/")) << ls.out;
+  ls = flowctl({"--json", "blob", "ls", "maps", "floor1"});
+  EXPECT_TRUE(has(ls, "\"name\":\"map.pgm\"")) << ls.out;
+  EXPECT_TRUE(has(ls, "\"size\":300000")) << ls.out;
+  const auto back = dir_.path() / "back.pgm";
+  EXPECT_EQ(flowctl({"blob", "get", "maps", "floor1/map.pgm", back.string()}).code, 0);
+  std::ifstream in(back, std::ios::binary);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), std::string(300000, 'm'));
+  EXPECT_EQ(flowctl({"blob", "get", "maps", "floor1/map.pgm", "-"}).out, std::string(300000, 'm'));
+  EXPECT_EQ(flowctl({"blob", "mkdir", "maps", "floor2"}).code, 0);
+  EXPECT_EQ(flowctl({"blob", "rmdir", "maps", "floor2"}).code, 0);
+  // Errors and their exit codes.
+  EXPECT_EQ(flowctl({"blob", "get", "maps", "no/such/file", back.string()}).code, 5);
+  EXPECT_EQ(flowctl({"blob", "ls", "nobody.maps"}).code, 5);
+  EXPECT_EQ(flowctl({"blob", "put", "nobody.maps", local.string(), "x"}).code, 5);
+  auto bad = flowctl({"blob", "get", "maps", "../../users.json", back.string()});
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_TRUE(has(bad, "bad path")) << bad.out;
+  EXPECT_EQ(flowctl({"blob", "rm", "maps", "floor1"}).code, 1);  // a directory: rmdir
+  EXPECT_EQ(flowctl({"blob", "rm", "maps", "floor1/map.pgm"}).code, 0);
+  EXPECT_EQ(flowctl({"blob", "rmdir", "maps", "floor1"}).code, 0);
+  EXPECT_EQ(flowctl({"blob", "get", "maps"}).code, 2);
+  EXPECT_EQ(flowctl({"blob", "copy", "maps", "a"}).code, 2);
+}
+
 }  // namespace
 }  // namespace skr::sat::test

@@ -48,7 +48,8 @@ constexpr const char* kUsage =
     "NAME: 1..64 characters of [A-Za-z0-9_-]. Passwords are stored as argon2id hashes.\n"
     "ACTION: publish, subscribe, call, db_read or db_write; PATTERNs in the channel-name\n"
     "pattern syntax ('**', 'bob.*', '!bob.secret'); none: back to '**' (docs/security.md).\n"
-    "WHAT: connections, channels, databases or pending_requests; N 0: the hub's limit.\n"
+    "WHAT: connections, channels, databases, pending_requests, blob_mib or blob_files;\n"
+    "      N 0: the hub's limit.\n"
     "The hub reads roles and rules at login: restart it, or reconnect, to apply a change.\n"
     "Exit codes: 0 done, 1 the operation failed, 2 usage. See docs/accounts.md.\n";
 
@@ -231,14 +232,10 @@ int run(const Args& args, const fs::path& path) {
       access.setRole(args.values[0] == "admin" ? skr::flow::Role::admin : skr::flow::Role::user);
     } else if (args.verb == "limit") {
       skr::flow::UserLimits limits = access.limits();
-      uint32_t* field = args.values[0] == "connections"        ? &limits.connections
-                        : args.values[0] == "channels"         ? &limits.channels
-                        : args.values[0] == "databases"        ? &limits.databases
-                        : args.values[0] == "pending_requests" ? &limits.pending_requests
-                                                               : nullptr;
+      uint32_t* field = limits.field(args.values[0]);
       if (field == nullptr) {
-        return failed("unknown limit " + args.values[0] +
-                      " (connections, channels, databases, pending_requests)");
+        return failed("unknown limit " + args.values[0] + " (" +
+                      skr::flow::UserLimits::kNames + ")");
       }
       char* end = nullptr;
       const unsigned long n = std::strtoul(args.values[1].c_str(), &end, 10);
@@ -276,9 +273,11 @@ int run(const Args& args, const fs::path& path) {
     }
     const skr::flow::UserLimits& l = access.limits();
     const auto shown = [](uint32_t n) { return n == 0 ? std::string("hub's") : std::to_string(n); };
-    std::printf("  limits    connections %s, channels %s, databases %s, pending_requests %s\n",
-                shown(l.connections).c_str(), shown(l.channels).c_str(), shown(l.databases).c_str(),
-                shown(l.pending_requests).c_str());
+    std::printf(
+        "  limits    connections %s, channels %s, databases %s, pending_requests %s, blob_mib %s, "
+        "blob_files %s\n",
+        shown(l.connections).c_str(), shown(l.channels).c_str(), shown(l.databases).c_str(),
+        shown(l.pending_requests).c_str(), shown(l.blob_mib).c_str(), shown(l.blob_files).c_str());
     return kExitOk;
   }
   if (args.verb == "del") {

@@ -45,6 +45,13 @@ constexpr LimitField kLimitFields[] = {
 
 }  // namespace
 
+uint32_t* UserLimits::field(std::string_view name) noexcept {
+  for (const auto& lf : kLimitFields) {
+    if (name == lf.name) return &(this->*(lf.field));
+  }
+  return nullptr;
+}
+
 AccessRules::AccessRules() {
   for (int i = 0; i < kActions; ++i) {
     (void)setRule(static_cast<Action>(i), {"**"});

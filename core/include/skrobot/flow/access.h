@@ -41,6 +41,11 @@ struct UserLimits {
   // Each limit of `this`, or of `defaults` where this one is 0. A blob limit of 0 in the result
   // is no limit.
   [[nodiscard]] UserLimits orElse(const UserLimits& defaults) const noexcept;
+  // The limit named `name` as the users file names it ("connections", ..., "blob_files"), or
+  // nullptr; kNames lists them.
+  [[nodiscard]] uint32_t* field(std::string_view name) noexcept;
+  static constexpr const char* kNames =
+      "connections, channels, databases, pending_requests, blob_mib, blob_files";
 };
 
 // What one action needs; the rule of the same name decides.

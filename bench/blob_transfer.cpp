@@ -82,8 +82,8 @@ double rawCopy(bool tcp, const std::string& data) {
   std::thread writer([&, a = a] {
     size_t off = 0;
     while (off < data.size()) {
-      const ssize_t n = ::send(a, data.data() + off, std::min<size_t>(1 << 20, data.size() - off),
-                               MSG_NOSIGNAL);
+      const ssize_t n =
+          ::send(a, data.data() + off, std::min<size_t>(1 << 20, data.size() - off), MSG_NOSIGNAL);
       if (n <= 0) fail("raw send");
       off += size_t(n);
     }
@@ -221,8 +221,8 @@ int main(int argc, char** argv) {
   }
   test::TempDir dir;
   Hub hub(dir.path());
-  std::printf("%-6s %-5s %10s %10s %10s %10s %10s %9s %9s\n", "size", "via", "up MB/s",
-              "down MB/s", "raw MB/s", "file MB/s", "", "up/raw", "down/raw");
+  std::printf("%-6s %-5s %10s %10s %10s %10s %10s %9s %9s\n", "size", "via", "up MB/s", "down MB/s",
+              "raw MB/s", "file MB/s", "", "up/raw", "down/raw");
   for (const size_t mb : sizes_mb) {
     std::string data(mb << 20, '\0');
     for (size_t i = 0; i < data.size(); i += 4096) data[i] = char(i * 2654435761u >> 24);

@@ -234,8 +234,8 @@ int run(const Args& args, const fs::path& path) {
       skr::flow::UserLimits limits = access.limits();
       uint32_t* field = limits.field(args.values[0]);
       if (field == nullptr) {
-        return failed("unknown limit " + args.values[0] + " (" +
-                      skr::flow::UserLimits::kNames + ")");
+        return failed("unknown limit " + args.values[0] + " (" + skr::flow::UserLimits::kNames +
+                      ")");
       }
       char* end = nullptr;
       const unsigned long n = std::strtoul(args.values[1].c_str(), &end, 10);

@@ -7,8 +7,8 @@
 #include "../../core/src/flow/blob_path.h"
 
 #include <fcntl.h>
-#include <sys/stat.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdint>

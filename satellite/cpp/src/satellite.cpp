@@ -81,9 +81,6 @@ Result<void> Satellite::addChannel(ChannelSpec spec) {
         Errc::invalid_argument,
         "bad channel name \"" + spec.name + "\": 1-128 of A-Z a-z 0-9 _ - . not starting with '.'");
   }
-  if (spec.kind == flow::ChannelKind::blob) {
-    return makeError(Errc::invalid_argument, "blob channels are not supported yet");
-  }
   if (!spec.props.isMap() && !spec.props.isNull()) {
     return makeError(Errc::invalid_argument, "channel properties must be a map");
   }

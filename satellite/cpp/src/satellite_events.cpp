@@ -93,6 +93,12 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       self.databasesSynced.emit(m.tag);
       return;
     }
+    case Code::ev_blob_changed: {
+      SAT_DECODE(msg::EvBlobChanged, m);
+      self.blobChanged.emit(BlobChange{m.chan_id, static_cast<msg::BlobChange>(m.change),
+                                       std::move(m.path), m.size, m.version});
+      return;
+    }
     case Code::ev_dropped: {
       SAT_DECODE(msg::EvDropped, m);
       stats.data_dropped += m.count;

@@ -113,8 +113,8 @@ Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
   last_error_ = ErrorCode::ok;
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {
-    const auto n = splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()) + rpos_,
-                                 rbuf_.size() - rpos_);
+    const auto n =
+        splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()) + rpos_, rbuf_.size() - rpos_);
     if (n.status == flow::FrameSplitter::Status::frame) {
       Reply reply{n.code, std::string(n.body)};
       // Parsed bytes are dropped once they are half the buffer: large pipelined replies are not

@@ -1,4 +1,5 @@
 // Two or more C++ satellites through a real hub: channels, data, properties, services, databases.
+#include <mutex>
 #include "sat_fixture.h"
 
 namespace skr::sat::test {
@@ -196,6 +197,70 @@ TEST_F(Satellites, DatabasesWrittenOnTheFlowReadBlocking) {
   // A refused write comes back as an error event.
   ASSERT_TRUE(s->on([](Satellite& x) { return x.set("k", 1, "no-such-db"); }));
   ASSERT_TRUE(eventually([&] { return s->events.count("error:") >= 1; })) << s->events.dump();
+}
+
+TEST_F(Satellites, BlobChannelsKeepFilesAndTellSubscribers) {
+  auto owner = satellite("mapper");
+  ASSERT_TRUE(owner->on([](Satellite& x) {
+    return x.addChannel({.name = "maps", .kind = flow::ChannelKind::blob});
+  }));
+  ASSERT_TRUE(eventually([&] { return owner->events.count("ready:guest.maps") == 1; }));
+  auto reader = satellite("navigator");
+  std::vector<BlobChange> changes;
+  std::mutex m;
+  reader->on([&](Satellite& x) {
+    x.blobChanged.connect(&x, [&](const BlobChange& c) {
+      const std::lock_guard lock(m);
+      changes.push_back(c);
+    });
+    x.subscribe("guest.maps");
+  });
+  ASSERT_TRUE(eventually([&] { return reader->events.count("subscribed:guest.maps") == 1; }));
+  auto version = owner->on([](Satellite& x) -> Result<uint64_t> {
+    auto sync = x.syncClient();
+    if (!sync) return sync.error();
+    const ChannelInfo* ch = x.channel("guest.maps");
+    if (ch == nullptr) return makeError(Errc::not_found, "no guest.maps");
+    return (*sync)->blobPut(ch->id, "floor1.pgm", "P5 2 2 255 abcd");
+  });
+  ASSERT_TRUE(version) << version.error().message;
+  ASSERT_TRUE(eventually([&] {
+    const std::lock_guard lock(m);
+    return !changes.empty();
+  }));
+  {
+    const std::lock_guard lock(m);
+    EXPECT_EQ(changes[0].path, "floor1.pgm");
+    EXPECT_EQ(changes[0].change, flow::msg::BlobChange::written);
+    EXPECT_EQ(changes[0].size, 15u);
+    EXPECT_EQ(changes[0].version, *version);
+  }
+  auto got = reader->on([](Satellite& x) -> Result<std::string> {
+    auto sync = x.syncClient();
+    if (!sync) return sync.error();
+    auto info = (*sync)->channel("guest.maps");
+    if (!info) return info.error();
+    return (*sync)->blobGet(info->id, "floor1.pgm");
+  });
+  ASSERT_TRUE(got) << got.error().message;
+  EXPECT_EQ(*got, "P5 2 2 255 abcd");
+  // The mapper goes; its maps stay, and come back to it when it does.
+  owner.reset();
+  auto again = satellite("mapper-again");
+  ASSERT_TRUE(again->on([](Satellite& x) {
+    return x.addChannel({.name = "maps", .kind = flow::ChannelKind::blob});
+  }));
+  ASSERT_TRUE(eventually([&] { return again->events.count("ready:guest.maps") == 1; }))
+      << again->events.dump();
+  auto listed = again->on([](Satellite& x) -> Result<size_t> {
+    auto sync = x.syncClient();
+    if (!sync) return sync.error();
+    auto list = (*sync)->blobList(x.channel("guest.maps")->id);
+    if (!list) return list.error();
+    return list->size();
+  });
+  ASSERT_TRUE(listed) << listed.error().message;
+  EXPECT_EQ(*listed, 1u);
 }
 
 }  // namespace

@@ -75,6 +75,14 @@ struct Response {  // NOLINT(bugprone-exception-escape): Variant moves do not th
   // The error as the Errc a module would get for the same failure (flow::toErrc).
   [[nodiscard]] Errc errc() const noexcept { return flow::toErrc(error); }
 };
+// A file of a subscribed blob channel changed (EV_BLOB_CHANGED, docs/blob-channels.md).
+struct BlobChange {
+  uint16_t chan_id = 0;
+  flow::msg::BlobChange change = flow::msg::BlobChange::written;
+  std::string path;
+  uint64_t size = 0;
+  uint64_t version = 0;
+};
 // A command the hub refused (EV_ERROR: `command` and `tag` name it), a refused login (command
 // LOGIN), or a local failure (command 0): protocol_error when the hub broke the protocol,
 // io_error when the first connection failed and `reconnect` is off.
@@ -117,6 +125,8 @@ class Satellite : public Object {
   // Declares a channel of ours: created now when connected, and after every reconnection;
   // `channelReady` gives its id each time. Errc::already_exists when declared already,
   // Errc::invalid_argument for a bad name. The hub may still refuse it (`error` signal).
+  // A blob channel (kind blob, protocol 1.3) outlives this satellite on the hub: adding it again
+  // gives back the same channel with its files, which syncClient() reads and writes.
   [[nodiscard]] Result<void> addChannel(ChannelSpec spec);
   // Removes one of ours (by short name). Errc::not_found.
   [[nodiscard]] Result<void> removeChannel(std::string_view name);
@@ -200,6 +210,9 @@ class Satellite : public Object {
   Signal<const Response&> serviceResponse{*this};
   Signal<const FlowError&> error{*this};
   Signal<uint32_t> databasesSynced{*this};  // the tag of syncDatabases()
+  // A file of a blob channel we subscribe to was written or removed (subscribe() by its name);
+  // its files are read and written through syncClient() (SyncClient::blobGet, blobPut, ...).
+  Signal<const BlobChange&> blobChanged{*this};
 
   struct Impl;
 

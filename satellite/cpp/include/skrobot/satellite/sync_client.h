@@ -169,7 +169,7 @@ class SyncClient {
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
   std::string rbuf_;
-  size_t rpos_ = 0;  // rbuf_ before this is parsed
+  size_t rpos_ = 0;   // rbuf_ before this is parsed
   std::string held_;  // the body of the last blob reply, which its data points into
 };
 

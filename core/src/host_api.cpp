@@ -25,7 +25,8 @@ static_assert(sizeof(skr_module_descriptor) == 88);
 static_assert(offsetof(skr_host_api, log) == 8);
 static_assert(offsetof(skr_host_api, channel_create) == 144);  // 1.0 ends here
 static_assert(offsetof(skr_host_api, db_sync) == 224);         // 1.2 ends here
-static_assert(offsetof(skr_host_api, reserved) == 232);
+static_assert(offsetof(skr_host_api, blob_get) == 232);        // 1.3 ends here
+static_assert(offsetof(skr_host_api, reserved) == 264);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -351,6 +352,24 @@ skr_status dbSet(skr_module_ctx* ctx, const char* db, const char* key,
 skr_status dbSync(skr_module_ctx* ctx, skr_done_fn fn, void* user) noexcept {
   return withFlow(ctx, [&](ModuleFlow& f) { return f.dbSync(fn, user); });
 }
+skr_status blobGet(skr_module_ctx* ctx, uint16_t chan_id, const char* path, uint64_t max_bytes,
+                   skr_blob_fn fn, void* user) noexcept {
+  return withFlow(ctx,
+                  [&](ModuleFlow& f) { return f.blobGet(chan_id, path, max_bytes, fn, user); });
+}
+skr_status blobPut(skr_module_ctx* ctx, uint16_t chan_id, const char* path, const void* data,
+                   size_t size, skr_blob_fn fn, void* user) noexcept {
+  return withFlow(ctx,
+                  [&](ModuleFlow& f) { return f.blobPut(chan_id, path, data, size, fn, user); });
+}
+skr_status blobList(skr_module_ctx* ctx, uint16_t chan_id, const char* dir, skr_blob_fn fn,
+                    void* user) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.blobList(chan_id, dir, fn, user); });
+}
+skr_status blobDo(skr_module_ctx* ctx, uint16_t chan_id, skr_blob_op op, const char* path,
+                  skr_blob_fn fn, void* user) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.blobDo(chan_id, op, path, fn, user); });
+}
 
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
@@ -384,6 +403,10 @@ const skr_host_api kHostApi = {
     .db_get = &dbGet,
     .db_set = &dbSet,
     .db_sync = &dbSync,
+    .blob_get = &blobGet,
+    .blob_put = &blobPut,
+    .blob_list = &blobList,
+    .blob_do = &blobDo,
     .reserved = {},
 };
 

@@ -65,9 +65,12 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
 }
 
 ModuleFlow::~ModuleFlow() {
-  // The module stops before its barriers were answered: each gets its one call now.
+  // The module stops before its barriers and blob calls were answered: each gets its one call.
   for (const auto& [id, done] : std::exchange(syncs_, {}))
     done.first(done.second, SKR_ERR_BAD_STATE);
+  static constexpr char kStopped[] = "the module stopped first";
+  for (const auto& [id, done] : std::exchange(blobs_, {}))
+    done.first(done.second, SKR_ERR_BAD_STATE, kStopped, sizeof kStopped, 0);
 }
 
 skr_status ModuleFlow::fail(const std::string& what, const Error& error) const {
@@ -196,6 +199,102 @@ skr_status ModuleFlow::dbSet(const char* db, const char* key, const char* value_
   if (!value) return fail("db_set", value.error());
   auto r = client_->setVariable(db, key, *value);
   return r ? SKR_OK : fail("db_set " + std::string(db) + "." + key, r.error());
+}
+
+// --- blob channels (ABI 1.4) ------------------------------------------------------------------
+
+void ModuleFlow::BlobAnswer::operator()(skr_status status, std::string_view data,
+                                        uint64_t version) const {
+  const auto self = alive.lock();
+  if (!self) return;  // answered BAD_STATE when the module stopped
+  auto it = (*self)->blobs_.find(id);
+  if (it == (*self)->blobs_.end()) return;
+  const auto [fn, user] = it->second;
+  (*self)->blobs_.erase(it);
+  fn(user, status, data.data(), data.size(), version);
+}
+
+ModuleFlow::BlobAnswer ModuleFlow::expectBlob(skr_blob_fn fn, void* user) {
+  const uint64_t id = next_blob_++;
+  blobs_.emplace(id, std::make_pair(fn, user));
+  return BlobAnswer{alive_, id};
+}
+
+skr_status ModuleFlow::refuseBlob(const BlobAnswer& a, const std::string& what,
+                                  const Error& error) {
+  blobs_.erase(a.id);
+  return fail(what, error);
+}
+
+namespace {
+// An error's message as a blob answer's data: NUL-terminated for C.
+std::string messageOf(const Error& e) {
+  return e.message + '\0';
+}
+}  // namespace
+
+skr_status ModuleFlow::blobGet(uint16_t chan_id, const char* path, uint64_t max_bytes,
+                               skr_blob_fn fn, void* user) {
+  if (path == nullptr || fn == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  const BlobAnswer answer = expectBlob(fn, user);
+  auto r =
+      client_->blobGet(chan_id, path, max_bytes, [answer](Result<flow::LocalClient::BlobFile> f) {
+        if (!f) return answer(toStatus(f.error().code), messageOf(f.error()), 0);
+        answer(SKR_OK, f->data, f->version);
+      });
+  return r ? SKR_OK : refuseBlob(answer, "blob_get " + std::string(path), r.error());
+}
+
+skr_status ModuleFlow::blobPut(uint16_t chan_id, const char* path, const void* data, size_t size,
+                               skr_blob_fn fn, void* user) {
+  if (path == nullptr || fn == nullptr || (data == nullptr && size > 0)) {
+    return SKR_ERR_INVALID_ARGUMENT;
+  }
+  const BlobAnswer answer = expectBlob(fn, user);
+  auto r = client_->blobPut(chan_id, path,
+                            std::string(static_cast<const char*>(data), data != nullptr ? size : 0),
+                            [answer](Result<uint64_t> v) {
+                              if (!v)
+                                return answer(toStatus(v.error().code), messageOf(v.error()), 0);
+                              answer(SKR_OK, {}, *v);
+                            });
+  return r ? SKR_OK : refuseBlob(answer, "blob_put " + std::string(path), r.error());
+}
+
+skr_status ModuleFlow::blobList(uint16_t chan_id, const char* dir, skr_blob_fn fn, void* user) {
+  if (fn == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  const BlobAnswer answer = expectBlob(fn, user);
+  auto r = client_->blobList(chan_id, dir != nullptr ? dir : "", [answer](Result<flow::Variant> v) {
+    if (!v) return answer(toStatus(v.error().code), messageOf(v.error()), 0);
+    answer(SKR_OK, flow::variantToJsonText(*v) + '\0', 0);
+  });
+  return r ? SKR_OK : refuseBlob(answer, "blob_list", r.error());
+}
+
+skr_status ModuleFlow::blobDo(uint16_t chan_id, skr_blob_op op, const char* path, skr_blob_fn fn,
+                              void* user) {
+  if (path == nullptr || fn == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  using Op = flow::LocalClient::BlobOp;
+  Op what;
+  switch (op) {
+    case SKR_BLOB_MKDIR:
+      what = Op::mkdir;
+      break;
+    case SKR_BLOB_RMDIR:
+      what = Op::rmdir;
+      break;
+    case SKR_BLOB_REMOVE:
+      what = Op::remove;
+      break;
+    default:
+      return SKR_ERR_INVALID_ARGUMENT;
+  }
+  const BlobAnswer answer = expectBlob(fn, user);
+  auto r = client_->blobDo(chan_id, what, path, [answer](Result<void> v) {
+    if (!v) return answer(toStatus(v.error().code), messageOf(v.error()), 0);
+    answer(SKR_OK, {}, 0);
+  });
+  return r ? SKR_OK : refuseBlob(answer, "blob_do " + std::string(path), r.error());
 }
 
 }  // namespace skr

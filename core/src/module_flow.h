@@ -40,6 +40,12 @@ class ModuleFlow {
   skr_status dbGet(const char* db, const char* key, char* buf, size_t cap, size_t* len_out);
   skr_status dbSet(const char* db, const char* key, const char* value_json);
   skr_status dbSync(skr_done_fn fn, void* user);
+  skr_status blobGet(uint16_t chan_id, const char* path, uint64_t max_bytes, skr_blob_fn fn,
+                     void* user);
+  skr_status blobPut(uint16_t chan_id, const char* path, const void* data, size_t size,
+                     skr_blob_fn fn, void* user);
+  skr_status blobList(uint16_t chan_id, const char* dir, skr_blob_fn fn, void* user);
+  skr_status blobDo(uint16_t chan_id, skr_blob_op op, const char* path, skr_blob_fn fn, void* user);
 
  private:
   struct Owned {
@@ -73,6 +79,18 @@ class ModuleFlow {
   // store's answer finds them through `alive_`, which dies with this object.
   std::map<uint64_t, std::pair<skr_done_fn, void*>> syncs_;
   uint64_t next_sync_ = 1;
+  // Blob calls not answered yet, by number; answered SKR_ERR_BAD_STATE when the module stops.
+  std::map<uint64_t, std::pair<skr_blob_fn, void*>> blobs_;
+  uint64_t next_blob_ = 1;
+  // Registers a blob call's answer; the function answers it once, if the module is still there.
+  struct BlobAnswer {
+    std::weak_ptr<ModuleFlow*> alive;
+    uint64_t id;
+    void operator()(skr_status status, std::string_view data, uint64_t version) const;
+  };
+  BlobAnswer expectBlob(skr_blob_fn fn, void* user);
+  // The status for an immediate refusal, after the registered answer is dropped.
+  skr_status refuseBlob(const BlobAnswer& a, const std::string& what, const Error& error);
   std::shared_ptr<ModuleFlow*> alive_ = std::make_shared<ModuleFlow*>(this);
   skr_sub_handle next_handle_ = 1;
 };

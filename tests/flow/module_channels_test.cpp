@@ -2,6 +2,9 @@
 #include "flow_fixture.h"
 
 #include <skrobot/core/module_host.h>
+#include <skrobot/plugin.h>
+
+#include <algorithm>
 
 namespace skr::test {
 namespace {
@@ -12,13 +15,13 @@ namespace msg = flow::msg;
 
 class ModuleChannels : public FlowFixture {
  protected:
-  void startModules() {
+  void startModules(const std::string& module = "test_channel_echo") {
     onHub([&] {
       host_ = std::make_unique<ModuleHost>(hub_->loop(), std::vector<std::filesystem::path>{},
                                            server_.get());
       ModuleEntry e;
-      e.name = "test_channel_echo";
-      e.path = std::filesystem::path(SKROBOT_TEST_MODULE_DIR) / "test_channel_echo.so";
+      e.name = module;
+      e.path = std::filesystem::path(SKROBOT_TEST_MODULE_DIR) / (module + ".so");
       host_->start({e});
       EXPECT_EQ(host_->failures().size(), 0u);
       EXPECT_EQ(host_->modules().size(), 1u);
@@ -143,6 +146,47 @@ TEST_F(ModuleChannels, ModulesOnTheirOwnThreadAreToldChannelCallsAreMainLoopOnly
     EXPECT_NE(host_->failures()[0].reason.find("loop thread"), std::string::npos)
         << host_->failures()[0].reason;
   });
+}
+
+TEST_F(ModuleChannels, CModuleReadsAndWritesItsBlobChannel) {
+  startHub();
+  startModules("test_blob_files");
+  TestClient sat = flowClient();
+  TestClient sync = syncClient();
+  auto report = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_blob_files.report"}));
+  ASSERT_TRUE(report);
+  ASSERT_TRUE(sat.send(msg::Subscribe{1, report->info.id}));  // the module starts its calls
+  std::vector<std::string> lines;
+  while (lines.size() < 8) {
+    auto d = as<msg::EvData>(sat.waitFor(Code::ev_data));
+    ASSERT_TRUE(d) << "after " << lines.size() << " lines";
+    lines.emplace_back(d->payload.bytes);
+  }
+  const auto has = [&](const std::string& prefix) {
+    return std::any_of(lines.begin(), lines.end(),
+                       [&](const std::string& l) { return l.rfind(prefix, 0) == 0; });
+  };
+  EXPECT_EQ(lines[0], "bad:" + std::to_string(SKR_ERR_INVALID_ARGUMENT));  // refused at once
+  EXPECT_TRUE(has("put:0:versioned"));
+  EXPECT_TRUE(has("get:0:hello from a module"));
+  EXPECT_TRUE(has("list:0:[{\"dir\":false,\"mtime_ns\":"));
+  EXPECT_TRUE(has("removed:0"));
+  EXPECT_TRUE(has("missing:" + std::to_string(SKR_ERR_NOT_FOUND) + ":no such file"));
+  EXPECT_TRUE(has("event:0:{\"change\":\"written\",\"path\":\"a/hello.txt\",\"size\":19,"));
+  EXPECT_TRUE(has("event:0:{\"change\":\"removed\",\"path\":\"a/hello.txt\""));
+  EXPECT_FALSE(has("never:"));
+  // A satellite reads the module's files, and the channel outlives the module.
+  auto files = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_blob_files.files"}));
+  ASSERT_TRUE(files);
+  EXPECT_EQ(files->info.kind, uint8_t(flow::ChannelKind::blob));
+  onHub([&] { host_.reset(); });
+  auto kept = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_blob_files.files"}));
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(kept->info.owner_connection, 0u);
+  // A satellite may not write to it.
+  auto denied = as<msg::ReplyError>(sync.call(msg::BlobMkdir{kept->info.id, "x"}));
+  ASSERT_TRUE(denied);
+  EXPECT_EQ(denied->error, uint16_t(flow::ErrorCode::permission_denied));
 }
 
 }  // namespace

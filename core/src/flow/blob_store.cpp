@@ -450,20 +450,9 @@ void BlobStore::get(uint32_t reader, const std::string& channel, const std::stri
                          it->second.path == path && version != 0 && it->second.version == version;
       if (!reuse) {
         if (it != s.reads.end()) s.reads.erase(it);
-        auto at = locate((*ch)->files.get(), path, false);
-        if (!at) return at.error();
-        Reading r;
-        r.channel = channel;
-        r.path = path;
-        r.fd = Fd(::openat(at->parent.get(), at->name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC));
-        if (!r.fd.valid()) return fsError(errno, path);
-        struct stat st {};
-        if (::fstat(r.fd.get(), &st) != 0) return fsError(errno, path);
-        if (!S_ISREG(st.st_mode)) {
-          return makeError(Errc::invalid_argument, path + " is not a file");
-        }
-        r.version = versionOf(st);
-        r.size = uint64_t(st.st_size);
+        auto opened = openReading(channel, path);
+        if (!opened) return opened.error();
+        Reading r = std::move(opened).value();
         if (version != 0 && version != r.version) {
           return makeError(Errc::not_found, "version " + std::to_string(version) + " of " + path +
                                                 " is gone (it was replaced): read it again");
@@ -492,6 +481,55 @@ void BlobStore::get(uint32_t reader, const std::string& channel, const std::stri
       }
       out.data.resize(got);
       if (offset + got >= r.size) s.reads.erase(reader);  // read to its end
+      return out;
+    }();
+    answer(std::move(done), std::move(read));
+  });
+}
+
+Result<BlobStore::Reading> BlobStore::openReading(const std::string& channel,
+                                                  const std::string& path) {
+  auto ch = state_->channel(channel);
+  if (!ch) return ch.error();
+  auto at = locate((*ch)->files.get(), path, false);
+  if (!at) return at.error();
+  Reading r;
+  r.channel = channel;
+  r.path = path;
+  r.fd = Fd(::openat(at->parent.get(), at->name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC));
+  if (!r.fd.valid()) return fsError(errno, path);
+  struct stat st {};
+  if (::fstat(r.fd.get(), &st) != 0) return fsError(errno, path);
+  if (!S_ISREG(st.st_mode)) return makeError(Errc::invalid_argument, path + " is not a file");
+  r.version = versionOf(st);
+  r.size = uint64_t(st.st_size);
+  return r;
+}
+
+void BlobStore::readAll(const std::string& channel, const std::string& path, uint64_t max_bytes,
+                        Done<Read> done) {
+  enqueue([=, this, done = std::move(done)]() mutable {
+    const auto read = [&]() -> Result<Read> {
+      auto r = openReading(channel, path);
+      if (!r) return r.error();
+      if (r->size > max_bytes) {
+        return makeError(Errc::limit_exceeded, path + " has " + std::to_string(r->size) +
+                                                   " bytes, more than the " +
+                                                   std::to_string(max_bytes) + " asked for");
+      }
+      Read out;
+      out.version = r->version;
+      out.total_size = r->size;
+      out.data.resize(r->size);
+      size_t got = 0;
+      while (got < r->size) {
+        const ssize_t n = ::pread(r->fd.get(), out.data.data() + got, r->size - got, off_t(got));
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) return fsError(errno, path);
+        if (n == 0) break;
+        got += size_t(n);
+      }
+      out.data.resize(got);
       return out;
     }();
     answer(std::move(done), std::move(read));

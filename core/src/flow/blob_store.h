@@ -91,6 +91,9 @@ class BlobStore {
   // `reader` keeps one open version per connection: its next chunks come from that version.
   void get(uint32_t reader, const std::string& channel, const std::string& path, uint64_t version,
            uint64_t offset, uint32_t max_bytes, Done<Read> done);
+  // The whole current version of `path` (limit_exceeded when it is larger than `max_bytes`).
+  void readAll(const std::string& channel, const std::string& path, uint64_t max_bytes,
+               Done<Read> done);
   void put(const std::string& channel, BlobQuota user_quota, const std::string& path,
            uint64_t total_size, uint64_t upload_id, Done<PutAt> done);
   void chunk(const std::string& channel, uint64_t upload_id, uint64_t offset, std::string data,
@@ -116,6 +119,8 @@ class BlobStore {
   struct State;
 
   void enqueue(std::function<void()> job);
+  // Opens the current version of `path` in `channel` for reading (worker thread).
+  Result<Reading> openReading(const std::string& channel, const std::string& path);
   template <class T>
   void answer(Done<T> done, Result<T> r);
   void run();

@@ -65,6 +65,21 @@ void FlowServer::Impl::detachBlob(Endpoint& owner, Channel& ch) {
   });
 }
 
+Result<Channel*> FlowServer::Impl::blobChannel(const Endpoint& e, uint16_t id, bool write) {
+  Channel* ch = channels.find(id);
+  if (ch == nullptr || ch->kind != ChannelKind::blob) {
+    return makeError(Errc::not_found, "no blob channel with id " + std::to_string(id));
+  }
+  if (write && ch->owner_user != e.user) {
+    return makeError(Errc::permission_denied,
+                     "only " + ch->owner_user + " writes to the blob channel " + ch->name);
+  }
+  if (!write && !e.access->allows(Action::subscribe, ch->name)) {
+    return accessDenied(e.user, Action::subscribe, ch->name);
+  }
+  return ch;
+}
+
 void FlowServer::Impl::blobChanged(uint16_t id, uint64_t hash, const BlobEvent& event) {
   Channel* ch = channels.find(id);
   if (ch == nullptr || ch->hash != hash) return;

@@ -41,21 +41,8 @@ void Connection::handleBlob(Code code, std::string_view body) {
     replyError(ErrorCode::unsupported, "this hub keeps no files: it has no data_dir");
     return;
   }
-  // The blob channel a request names, for reading (every user its subscribe rule allows) or
-  // writing (its owner's user only).
-  const auto channel = [&](uint16_t chan_id, bool write) -> Result<Channel*> {
-    Channel* ch = server_.channels.find(chan_id);
-    if (ch == nullptr || ch->kind != ChannelKind::blob) {
-      return makeError(Errc::not_found, "no blob channel with id " + std::to_string(chan_id));
-    }
-    if (write && ch->owner_user != user) {
-      return makeError(Errc::permission_denied,
-                       "only " + ch->owner_user + " writes to the blob channel " + ch->name);
-    }
-    if (!write && !access->allows(Action::subscribe, ch->name)) {
-      return accessDenied(user, Action::subscribe, ch->name);
-    }
-    return ch;
+  const auto channel = [&](uint16_t chan_id, bool write) {
+    return server_.blobChannel(*this, chan_id, write);
   };
   const BlobQuota quota{uint64_t(limits.blob_mib) << 20, limits.blob_files};
   // Answers to requests that change a file: the change reaches the channel's subscribers.

@@ -56,6 +56,18 @@ struct LocalClient::Impl final : Endpoint {
                   std::string(errorCodeName(error)) + ": " + message);
   }
   void onDbChanged(const std::string&) override {}
+  void onBlobChanged(const Channel& ch, const BlobEvent& ev) override {
+    static constexpr const char* kChanges[] = {"", "written", "removed", "dir_added",
+                                               "dir_removed"};
+    if (!handlers.on_data || ev.change < 1 || ev.change > 4) return;
+    const std::string json = variantToJsonText(Variant(Variant::Map{
+        {"change", Variant(kChanges[ev.change])},
+        {"path", Variant(ev.path)},
+        {"size", Variant(ev.size)},
+        {"version", Variant(ev.version)},
+    }));
+    handlers.on_data(ch.id, json);
+  }
 };
 
 std::unique_ptr<LocalClient> FlowServer::attachLocal(const std::string& user,
@@ -145,6 +157,93 @@ Result<void> LocalClient::setVariable(const std::string& db, const std::string& 
 
 void LocalClient::syncDatabases(std::function<void(Result<void>)> done) {
   impl_->server.databases.store().barrier(std::move(done));
+}
+
+// --- blob channels: the checks of connection_blobs.cpp, then the store -----------------------
+
+namespace {
+// The store, once the path is known to be one (a bad path is refused at once, not later).
+Result<BlobStore*> blobStore(FlowServer::Impl& server, const std::string& path, bool root_ok) {
+  if (!server.blobs) {
+    return makeError(Errc::unsupported, "this hub keeps no files: it has no data_dir");
+  }
+  if (auto parts = blob::splitPath(path, root_ok); !parts) return parts.error();
+  return server.blobs.get();
+}
+}  // namespace
+
+Result<void> LocalClient::blobList(uint16_t chan_id, const std::string& dir,
+                                   std::function<void(Result<Variant>)> done) {
+  auto store = blobStore(impl_->server, dir, true);
+  if (!store) return store.error();
+  auto ch = impl_->server.blobChannel(*impl_, chan_id, false);
+  if (!ch) return ch.error();
+  (*store)->list((*ch)->name, dir, std::move(done));
+  return {};
+}
+
+Result<void> LocalClient::blobGet(uint16_t chan_id, const std::string& path, uint64_t max_bytes,
+                                  std::function<void(Result<BlobFile>)> done) {
+  auto store = blobStore(impl_->server, path, false);
+  if (!store) return store.error();
+  auto ch = impl_->server.blobChannel(*impl_, chan_id, false);
+  if (!ch) return ch.error();
+  (*store)->readAll((*ch)->name, path, max_bytes,
+                    [done = std::move(done)](Result<BlobStore::Read> r) {
+                      if (!r) return done(r.error());
+                      done(BlobFile{r->version, std::move(r->data)});
+                    });
+  return {};
+}
+
+Result<void> LocalClient::blobPut(uint16_t chan_id, const std::string& path, std::string data,
+                                  std::function<void(Result<uint64_t>)> done) {
+  auto store = blobStore(impl_->server, path, false);
+  if (!store) return store.error();
+  auto ch = impl_->server.blobChannel(*impl_, chan_id, true);
+  if (!ch) return ch.error();
+  const BlobQuota quota{uint64_t(impl_->limits.blob_mib) << 20, impl_->limits.blob_files};
+  // An upload of one chunk: started, then its data, then the change told to subscribers.
+  FlowServer::Impl& server = impl_->server;
+  const std::string name = (*ch)->name;
+  const uint64_t size = data.size();
+  (*store)->put(name, quota, path, size, 0,
+                [&server, name, id = chan_id, hash = (*ch)->hash, data = std::move(data),
+                 done = std::move(done)](Result<BlobStore::PutAt> at) mutable {
+                  if (!at) return done(at.error());
+                  if (!server.blobs) return done(makeError(Errc::closed, "the hub is stopping"));
+                  server.blobs->chunk(
+                      name, at->upload_id, 0, std::move(data),
+                      [&server, id, hash, done = std::move(done)](Result<BlobStore::Written> w) {
+                        if (!w) return done(w.error());
+                        if (w->event) server.blobChanged(id, hash, *w->event);
+                        done(w->version);
+                      });
+                });
+  return {};
+}
+
+Result<void> LocalClient::blobDo(uint16_t chan_id, BlobOp op, const std::string& path,
+                                 std::function<void(Result<void>)> done) {
+  auto store = blobStore(impl_->server, path, false);
+  if (!store) return store.error();
+  auto ch = impl_->server.blobChannel(*impl_, chan_id, true);
+  if (!ch) return ch.error();
+  auto then = [&server = impl_->server, id = chan_id, hash = (*ch)->hash,
+               done = std::move(done)](Result<BlobEvent> r) {
+    if (!r) return done(r.error());
+    server.blobChanged(id, hash, *r);
+    done({});
+  };
+  const std::string& name = (*ch)->name;
+  if (op == BlobOp::mkdir) {
+    (*store)->mkdir(name, path, std::move(then));
+  } else if (op == BlobOp::rmdir) {
+    (*store)->rmdir(name, path, std::move(then));
+  } else {
+    (*store)->remove(name, path, std::move(then));
+  }
+  return {};
 }
 
 }  // namespace skr::flow

@@ -116,6 +116,9 @@ struct FlowServer::Impl {
   Channel* reattachBlob(Endpoint& owner, const std::string& name, uint32_t tag);
   // Its owner left: the channel stays, owned by nobody connected.
   void detachBlob(Endpoint& owner, Channel& ch);
+  // The blob channel `id` for `e` to read (its subscribe rule) or write (its owner's user only):
+  // not_found, permission_denied.
+  Result<Channel*> blobChannel(const Endpoint& e, uint16_t id, bool write);
   // Tells the subscribers of channel `id` (if it is still the channel `hash`) of a change.
   void blobChanged(uint16_t id, uint64_t hash, const BlobEvent& event);
   // --- administration (admin.cpp): ADMIN's commands, for administrators only

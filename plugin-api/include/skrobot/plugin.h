@@ -48,7 +48,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 3
+#define SKR_PLUGIN_ABI_MINOR 4
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -103,7 +103,8 @@ typedef void (*skr_callback)(void* user);
 /* --- FlowNetwork channels (ABI 1.1) --- */
 typedef enum skr_channel_kind {
   SKR_CHANNEL_STREAMING = 1, /* one publisher (the owner), many subscribers */
-  SKR_CHANNEL_SERVICE = 2    /* requests to the owner, one response each */
+  SKR_CHANNEL_SERVICE = 2,   /* requests to the owner, one response each */
+  SKR_CHANNEL_BLOB = 3       /* files kept by the hub (ABI 1.4; docs/blob-channels.md) */
 } skr_channel_kind;
 
 /* Handle of a subscription; 0 is never a valid handle. */
@@ -127,6 +128,22 @@ typedef void (*skr_response_fn)(void* user, uint16_t chan_id, uint32_t tag, skr_
 /* The answer to db_sync (ABI 1.3): SKR_OK once the changes are on disk; SKR_ERR_FAILED when
  * writing them failed; SKR_ERR_BAD_STATE when the module stopped first (then during its stop). */
 typedef void (*skr_done_fn)(void* user, skr_status status);
+
+/* --- blob channels (ABI 1.4) --- */
+typedef enum skr_blob_op {
+  SKR_BLOB_MKDIR = 1, /* makes a directory (and missing parents) */
+  SKR_BLOB_RMDIR = 2, /* removes an empty directory */
+  SKR_BLOB_REMOVE = 3 /* removes a file */
+} skr_blob_op;
+/* The answer to a blob call, once, on the loop thread: status SKR_OK and, for blob_get, the
+ * file's bytes (valid during the call only), for blob_list, the entries as JSON text (a list of
+ * {"name", "dir", "size", "mtime_ns", "version"}); `version` is the file's version (blob_get,
+ * blob_put). An error status otherwise, with a message as data (NUL-terminated):
+ * SKR_ERR_NOT_FOUND (no such file or channel), SKR_ERR_INVALID_ARGUMENT (a bad path, not the
+ * owner), SKR_ERR_FAILED (a quota, a disk failure); SKR_ERR_BAD_STATE when the module stopped
+ * first (then during its stop). */
+typedef void (*skr_blob_fn)(void* user, skr_status status, const void* data, size_t size,
+                            uint64_t version);
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -228,8 +245,29 @@ typedef struct skr_host_api {
    * the hub's durability policy (docs/pair-databases.md). */
   skr_status (*db_sync)(skr_module_ctx* ctx, skr_done_fn fn, void* user);
 
+  /* --- blob channels (ABI 1.4; loop, as the calls above) --- channel_create with
+   * SKR_CHANNEL_BLOB makes the module's blob channel "<module name>.<short_name>", or gives the
+   * existing one back with its files: unlike other channels it outlives the module's stop. Reads
+   * are for any blob channel the module may subscribe to; writes for its own. Each call checks
+   * the channel and the path at once (an error status, and fn is never called) and answers
+   * through fn(user, ...) on the loop thread; the disk work runs on the hub's blob thread.
+   * subscribe() to a blob channel gets its changes as data: a JSON object {"change":
+   * "written"|"removed"|"dir_added"|"dir_removed", "path", "size", "version"}. */
+  /* The whole current version of `path`, if it has at most max_bytes. */
+  skr_status (*blob_get)(skr_module_ctx* ctx, uint16_t chan_id, const char* path,
+                         uint64_t max_bytes, skr_blob_fn fn, void* user);
+  /* Replaces or creates `path` (missing directories are made) with the `size` bytes at `data`
+   * (copied), atomically: readers see the old file or the new one, never a mix. */
+  skr_status (*blob_put)(skr_module_ctx* ctx, uint16_t chan_id, const char* path, const void* data,
+                         size_t size, skr_blob_fn fn, void* user);
+  /* The entries of the directory `dir` ("" is the root). */
+  skr_status (*blob_list)(skr_module_ctx* ctx, uint16_t chan_id, const char* dir, skr_blob_fn fn,
+                          void* user);
+  skr_status (*blob_do)(skr_module_ctx* ctx, uint16_t chan_id, skr_blob_op op, const char* path,
+                        skr_blob_fn fn, void* user);
+
   /* Later minors fill these; NULL until then. */
-  void (*reserved[21])(void);
+  void (*reserved[17])(void);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

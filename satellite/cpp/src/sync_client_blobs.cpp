@@ -135,7 +135,9 @@ Result<uint64_t> SyncClient::blobDownload(
   while (got < total) {
     while (failed && ahead < kBlobWindow && asked < total) {
       std::string frame;
-      flow::encode(frame, msg::BlobGet{chan_id, path, version, asked, uint32_t(kBlobChunk)});
+      if (!flow::encode(frame, msg::BlobGet{chan_id, path, version, asked, uint32_t(kBlobChunk)})) {
+        return makeError(Errc::invalid_argument, "the path is longer than 65535 bytes");
+      }
       if (auto s = sendFrame(frame); !s) return s.error();
       asked += std::min<uint64_t>(kBlobChunk, total - asked);
       ++ahead;
@@ -233,7 +235,9 @@ Result<uint64_t> SyncClient::upload(
         break;
       }
       std::string frame;
-      flow::encode(frame, msg::BlobChunk{chan_id, at->upload_id, sent, msg::Rest{*data}});
+      if (!flow::encode(frame, msg::BlobChunk{chan_id, at->upload_id, sent, msg::Rest{*data}})) {
+        return makeError(Errc::invalid_argument, "a chunk too large to encode");
+      }
       if (auto s = sendFrame(frame); !s) return s.error();
       sent += n;
       empty_sent = true;

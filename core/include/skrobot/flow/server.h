@@ -161,6 +161,27 @@ class LocalClient {
   // disk, whatever the durability policy (docs/pair-databases.md). It may run after this client
   // is gone: hold nothing of it there.
   void syncDatabases(std::function<void(Result<void>)> done);
+
+  // Blob channels (docs/blob-channels.md), as a satellite's synchronous requests: checked now
+  // (an error, and `done` is never called), run on the store's thread, answered through `done`
+  // on the loop thread, possibly after this client is gone: hold nothing of it there. A
+  // subscription (subscribe()) to a blob channel gets each change as on_data with a JSON object
+  // {"change": "written"|"removed"|"dir_added"|"dir_removed", "path", "size", "version"}.
+  enum class BlobOp { mkdir, rmdir, remove };
+  struct BlobFile {
+    uint64_t version = 0;
+    std::string data;
+  };
+  [[nodiscard]] Result<void> blobList(uint16_t chan_id, const std::string& dir,
+                                      std::function<void(Result<Variant>)> done);
+  // The whole current version of a file of at most `max_bytes`.
+  [[nodiscard]] Result<void> blobGet(uint16_t chan_id, const std::string& path, uint64_t max_bytes,
+                                     std::function<void(Result<BlobFile>)> done);
+  // Replaces (or creates) a file of an owned blob channel with `data`, atomically: the version.
+  [[nodiscard]] Result<void> blobPut(uint16_t chan_id, const std::string& path, std::string data,
+                                     std::function<void(Result<uint64_t>)> done);
+  [[nodiscard]] Result<void> blobDo(uint16_t chan_id, BlobOp op, const std::string& path,
+                                    std::function<void(Result<void>)> done);
   [[nodiscard]] const std::string& user() const noexcept;
   [[nodiscard]] uint32_t id() const noexcept;
 

@@ -780,62 +780,62 @@ void BlobStore::abort(const std::string& channel, uint64_t upload_id, Done<void>
   });
 }
 
-void BlobStore::mkdir(const std::string& channel, const std::string& path, Done<BlobEvent> done) {
-  enqueue([=, this, done = std::move(done)]() mutable {
-    const auto made = [&]() -> Result<BlobEvent> {
+void BlobStore::onPath(const std::string& channel, const std::string& path, bool make, PathOp op,
+                       Done<BlobEvent> done) {
+  enqueue([=, this, op = std::move(op), done = std::move(done)]() mutable {
+    const auto changed = [&]() -> Result<BlobEvent> {
       auto ch = state_->channel(channel);
       if (!ch) return ch.error();
-      auto at = locate((*ch)->files.get(), path, true);
+      auto at = locate((*ch)->files.get(), path, make);
       if (!at) return at.error();
-      if (::mkdirat(at->parent.get(), at->name.c_str(), 0700) != 0) return fsError(errno, path);
+      auto ev = op(**ch, at->parent.get(), at->name);
+      if (!ev) return ev;
       if (auto r = io_->syncDir(at->parent.get()); !r) return r.error();
-      return BlobEvent{uint8_t(msg::BlobChange::dir_added), path, 0, 0};
+      return ev;
     }();
-    answer(std::move(done), std::move(made));
+    answer(std::move(done), std::move(changed));
   });
+}
+
+void BlobStore::mkdir(const std::string& channel, const std::string& path, Done<BlobEvent> done) {
+  onPath(
+      channel, path, true,
+      [path](Channel&, int parent, const std::string& name) -> Result<BlobEvent> {
+        if (::mkdirat(parent, name.c_str(), 0700) != 0) return fsError(errno, path);
+        return BlobEvent{uint8_t(msg::BlobChange::dir_added), path, 0, 0};
+      },
+      std::move(done));
 }
 
 void BlobStore::rmdir(const std::string& channel, const std::string& path, Done<BlobEvent> done) {
-  enqueue([=, this, done = std::move(done)]() mutable {
-    const auto removed = [&]() -> Result<BlobEvent> {
-      auto ch = state_->channel(channel);
-      if (!ch) return ch.error();
-      auto at = locate((*ch)->files.get(), path, false);
-      if (!at) return at.error();
-      if (::unlinkat(at->parent.get(), at->name.c_str(), AT_REMOVEDIR) != 0) {
-        return fsError(errno, path);
-      }
-      if (auto r = io_->syncDir(at->parent.get()); !r) return r.error();
-      return BlobEvent{uint8_t(msg::BlobChange::dir_removed), path, 0, 0};
-    }();
-    answer(std::move(done), std::move(removed));
-  });
+  onPath(
+      channel, path, false,
+      [path](Channel&, int parent, const std::string& name) -> Result<BlobEvent> {
+        if (::unlinkat(parent, name.c_str(), AT_REMOVEDIR) != 0) return fsError(errno, path);
+        return BlobEvent{uint8_t(msg::BlobChange::dir_removed), path, 0, 0};
+      },
+      std::move(done));
 }
 
 void BlobStore::remove(const std::string& channel, const std::string& path, Done<BlobEvent> done) {
-  enqueue([=, this, done = std::move(done)]() mutable {
-    const auto removed = [&]() -> Result<BlobEvent> {
-      auto ch = state_->channel(channel);
-      if (!ch) return ch.error();
-      auto at = locate((*ch)->files.get(), path, false);
-      if (!at) return at.error();
-      struct stat st {};
-      if (::fstatat(at->parent.get(), at->name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) {
-        return fsError(errno, path);
-      }
-      if (S_ISDIR(st.st_mode)) {
-        return makeError(Errc::invalid_argument, path + " is a directory: use rmdir");
-      }
-      if (::unlinkat(at->parent.get(), at->name.c_str(), 0) != 0) return fsError(errno, path);
-      if (auto r = io_->syncDir(at->parent.get()); !r) return r.error();
-      if (S_ISREG(st.st_mode)) {
-        (*ch)->bytes -= std::min<uint64_t>((*ch)->bytes, uint64_t(st.st_size));
-        if ((*ch)->count > 0) --(*ch)->count;
-      }
-      return BlobEvent{uint8_t(msg::BlobChange::removed), path, 0, 0};
-    }();
-    answer(std::move(done), std::move(removed));
-  });
+  onPath(
+      channel, path, false,
+      [path](Channel& ch, int parent, const std::string& name) -> Result<BlobEvent> {
+        struct stat st {};
+        if (::fstatat(parent, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) {
+          return fsError(errno, path);
+        }
+        if (S_ISDIR(st.st_mode)) {
+          return makeError(Errc::invalid_argument, path + " is a directory: use rmdir");
+        }
+        if (::unlinkat(parent, name.c_str(), 0) != 0) return fsError(errno, path);
+        if (S_ISREG(st.st_mode)) {
+          ch.bytes -= std::min<uint64_t>(ch.bytes, uint64_t(st.st_size));
+          if (ch.count > 0) --ch.count;
+        }
+        return BlobEvent{uint8_t(msg::BlobChange::removed), path, 0, 0};
+      },
+      std::move(done));
 }
 
 void BlobStore::forget(uint32_t reader) {

@@ -119,6 +119,11 @@ class BlobStore {
   struct State;
 
   void enqueue(std::function<void()> job);
+  // Runs `op` on the parent directory of `path` in `channel`'s tree (made when `make`), then
+  // makes the directory's change durable (worker thread).
+  using PathOp = std::function<Result<BlobEvent>(Channel&, int parent, const std::string& name)>;
+  void onPath(const std::string& channel, const std::string& path, bool make, PathOp op,
+              Done<BlobEvent> done);
   // Opens the current version of `path` in `channel` for reading (worker thread).
   Result<Reading> openReading(const std::string& channel, const std::string& path);
   template <class T>

@@ -312,6 +312,7 @@ TEST_F(Blobs, QuotasAreErrorsAndKeepWhatIsStored) {
       [] {
         Json::Value v(Json::objectValue);
         v["limits"]["blob_mib"] = 1;
+        v["limits"]["channels"] = 2;
         return v;
       }(),
       "users.tight");
@@ -332,6 +333,11 @@ TEST_F(Blobs, QuotasAreErrorsAndKeepWhatIsStored) {
   ASSERT_FALSE(files);
   EXPECT_EQ(files.error().code, Errc::limit_exceeded);
   EXPECT_EQ(tight.blobGet(ch->id, "a")->size(), 600000u);
+  // Blob channels count against the user's channels, connected or not.
+  ASSERT_TRUE(tight.createBlobChannel("second"));
+  auto third = tight.createBlobChannel("third");
+  ASSERT_FALSE(third);
+  EXPECT_EQ(third.error().code, Errc::limit_exceeded);
 }
 
 }  // namespace

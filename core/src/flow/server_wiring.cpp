@@ -57,7 +57,12 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
       return again;
     }
   }
-  if (endpoints.holdingsOf(owner.user).channels >= owner.limits.channels) {
+  // Blob channels whose owner is not connected count too: they are the user's all the same.
+  uint32_t held = endpoints.holdingsOf(owner.user).channels;
+  channels.forEach([&](const Channel& ch) {
+    if (ch.owner == nullptr && ch.owner_user == owner.user) ++held;
+  });
+  if (held >= owner.limits.channels) {
     return limitReached(owner.user, "channels", owner.limits.channels);
   }
   // A blob channel created from a synchronous connection is owned by nobody connected.

@@ -302,6 +302,47 @@ TEST_F(Blobs, ADisconnectMidDownloadOrMidUploadLeavesTheHubWell) {
   EXPECT_EQ(stats().protocol_errors, 0u);
 }
 
+TEST_F(Blobs, PipelinedRequestsAreAnsweredInOrder) {
+  SyncClient alice = client("alice");
+  auto ch = alice.createBlobChannel("maps");
+  ASSERT_TRUE(ch);
+  ASSERT_TRUE(alice.blobPut(ch->id, "a.txt", std::string(100000, 'a')));
+  // Everything sent at once: blob requests, a refusal made at once, and a request of another
+  // kind; the answers come back in the order of the requests.
+  TestClient c = syncClient("bob", "pw");
+  std::string frames;
+  const auto add = [&](const auto& m) { ASSERT_TRUE(flow::encode(frames, m)); };
+  add(msg::BlobGet{ch->id, "a.txt", 0, 0, 1000});
+  add(msg::BlobList{ch->id, ""});
+  add(msg::BlobList{9999, ""});  // no such channel: refused before the store is asked
+  add(msg::Ping{msg::Rest{"between"}});
+  add(msg::BlobGet{ch->id, "a.txt", 0, 0, 50000});
+  add(msg::BlobMkdir{ch->id, "not-bobs"});  // bob is not the owner
+  add(msg::Ping{msg::Rest{"last"}});
+  ASSERT_TRUE(c.sendRaw(frames));
+  auto first = as<msg::BlobData>(c.recvReply());
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->data.bytes.size(), 1000u);
+  auto list = as<msg::ReplyValue>(c.recvReply());
+  ASSERT_TRUE(list);
+  EXPECT_EQ(list->value.asList()->size(), 1u);
+  auto none = as<msg::ReplyError>(c.recvReply());
+  ASSERT_TRUE(none);
+  EXPECT_EQ(none->error, uint16_t(ErrorCode::not_found));
+  auto ping = c.recvReply();
+  ASSERT_TRUE(ping);
+  EXPECT_EQ(ping->body, "between");
+  auto second = as<msg::BlobData>(c.recvReply());
+  ASSERT_TRUE(second);
+  EXPECT_EQ(second->data.bytes.size(), 50000u);
+  auto denied = as<msg::ReplyError>(c.recvReply());
+  ASSERT_TRUE(denied);
+  EXPECT_EQ(denied->error, uint16_t(ErrorCode::permission_denied));
+  auto last = c.recvReply();
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->body, "last");
+}
+
 TEST_F(Blobs, QuotasAreErrorsAndKeepWhatIsStored) {
   stopHub();
   auto o = options_;

@@ -188,7 +188,8 @@ void Connection::processInput() {
       protocolError("frame length 0 (a frame holds at least its code)");
       return;
     }
-    rstart_ += n.consumed;  // before handling: a handler may block and resume later
+    if (waitForBlobAnswers(n.code)) break;  // handled once the blob answers have left
+    rstart_ += n.consumed;                  // before handling: a handler may block and resume later
     rneed_ = 0;
     ++server_.stats.frames_in;
     handleFrame(n.code, n.body);

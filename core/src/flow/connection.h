@@ -93,8 +93,21 @@ class Connection final : public Endpoint {
   // The blob channel requests (connection_blobs.cpp), answered once the store has run them.
   void handleBlob(Code code, std::string_view body);
   // A blob request refused: the error to the caller and a tagged log line (BLOB-REFUSED, or
-  // BLOB-IO when the disk failed).
+  // BLOB-IO when the disk failed); InOrder: behind the blob answers still to come.
   void blobRefused(Code code, const Error& e);
+  void blobRefusedInOrder(Code code, const Error& e);
+  // Counts a blob request (and `bytes` of its data) in the hub until its answer, made by `then`.
+  template <class T>
+  std::function<void(Result<T>)> blobLater(uint64_t bytes,
+                                           std::function<void(Connection&, Result<T>&)> then);
+  void blobAnswered(uint64_t bytes);
+
+ public:
+  // Before handling a frame: a request other than a blob one waits until the blob answers before
+  // it have left (replies go in the order of the requests). True when it must wait.
+  bool waitForBlobAnswers(uint8_t code);
+
+ private:
   void protocolError(const std::string& why);
   void replyError(ErrorCode error, const std::string& message);
   void replyOk();
@@ -134,8 +147,11 @@ class Connection final : public Endpoint {
   // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
   std::unique_ptr<char[]> rbuf_;
   size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
-  bool blocked_ = false;     // a sync reply is pending: do not parse further frames
-  bool first_input_ = true;  // nothing received yet: a plain TCP port checks for a TLS peer
+  bool blocked_ = false;         // a sync reply is pending: do not parse further frames
+  uint32_t blob_in_flight_ = 0;  // blob requests in the hub, not answered yet
+  uint64_t blob_bytes_ = 0;      // the data they carry or ask for
+  bool blob_waiting_ = false;    // reading paused until a blob answer leaves
+  bool first_input_ = true;      // nothing received yet: a plain TCP port checks for a TLS peer
   std::optional<TlsSession> tls_;
   std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;

@@ -1,7 +1,10 @@
 // The blob channel requests of a synchronous connection (protocol 1.3). Each is checked here
 // (the channel, who may read, who may write), run by the store on its thread, and answered when
-// the store is done; reading stays paused meanwhile, so one connection has one request in the hub
-// at a time and a transfer moves at the pace of its replies.
+// the store is done. Up to kMaxBlobInFlight requests (and kMaxBlobBytes of their data) of one
+// connection are in the hub at once, so that its disk work overlaps the socket's; past that its
+// reading pauses. Answers leave in the order of the requests: the store runs them in order, a
+// refusal made here waits behind the answers before it, and any other request waits until every
+// blob answer before it has left.
 #include "connection.h"
 
 #include <skrobot/core/log.h>
@@ -10,18 +13,53 @@ namespace skr::flow {
 
 namespace {
 
+constexpr uint32_t kMaxBlobInFlight = 8;
+constexpr uint64_t kMaxBlobBytes = 8u << 20;
+
+}  // namespace
+
 // A callback for the store that finds the connection again (if it is still there), answers, and
-// resumes reading.
+// lets the next requests in.
 template <class T>
-std::function<void(Result<T>)> later(FlowServer::Impl& server, uint32_t id,
-                                     std::function<void(Connection&, Result<T>&)> then) {
-  return [&server, id, then = std::move(then)](Result<T> r) {
+std::function<void(Result<T>)> Connection::blobLater(
+    uint64_t bytes, std::function<void(Connection&, Result<T>&)> then) {
+  ++blob_in_flight_;
+  blob_bytes_ += bytes;
+  return [&server = server_, id = id, bytes, then = std::move(then)](Result<T> r) {
     auto it = server.connections.find(id);
-    if (it != server.connections.end()) then(*it->second, r);
+    if (it == server.connections.end()) return;
+    Connection& c = *it->second;
+    then(c, r);
+    c.blobAnswered(bytes);
   };
 }
 
-}  // namespace
+void Connection::blobAnswered(uint64_t bytes) {
+  --blob_in_flight_;
+  blob_bytes_ -= bytes;
+  if (blob_waiting_) {
+    blob_waiting_ = false;
+    unblock();
+  }
+}
+
+bool Connection::waitForBlobAnswers(uint8_t code) {
+  if (state_ != State::sync || blob_in_flight_ == 0 || isBlobRequest(code)) return false;
+  blob_waiting_ = true;
+  block();
+  return true;
+}
+
+void Connection::blobRefusedInOrder(Code code, const Error& e) {
+  if (blob_in_flight_ == 0) {
+    blobRefused(code, e);
+    return;
+  }
+  // Behind the answers still to come.
+  auto answer =
+      blobLater<void>(0, [code, e](Connection& c, Result<void>&) { c.blobRefused(code, e); });
+  server_.blobs->barrier([answer = std::move(answer)] { answer({}); });
+}
 
 void Connection::blobRefused(Code code, const Error& e) {
   const std::string line =
@@ -38,38 +76,38 @@ void Connection::handleBlob(Code code, std::string_view body) {
   const DecodeLimits dl{32, 1u << 20};
   BlobStore* store = server_.blobs.get();
   if (store == nullptr) {
-    replyError(ErrorCode::unsupported, "this hub keeps no files: it has no data_dir");
+    blobRefusedInOrder(code,
+                       makeError(Errc::unsupported, "this hub keeps no files: it has no data_dir"));
     return;
   }
   const auto channel = [&](uint16_t chan_id, bool write) {
     return server_.blobChannel(*this, chan_id, write);
   };
   const BlobQuota quota{uint64_t(limits.blob_mib) << 20, limits.blob_files};
+  // An answer sent as it is, or the refusal.
+  const auto reply = [code](auto encode) {
+    return [code, encode](Connection& c, auto& r) {
+      if (r) {
+        encode(c, r);
+      } else {
+        c.blobRefused(code, r.error());
+      }
+    };
+  };
   // Answers to requests that change a file: the change reaches the channel's subscribers.
-  const auto written = [&](const Channel& ch) {
-    return later<BlobStore::Written>(
-        server_, id,
-        [code, chan = ch.id, hash = ch.hash](Connection& c, Result<BlobStore::Written>& r) {
-          if (r) {
-            c.send(msg::BlobWritten{r->received, r->version});
-            if (r->event) c.server_.blobChanged(chan, hash, *r->event);
-          } else {
-            c.blobRefused(code, r.error());
-          }
-          c.unblock();
-        });
+  const auto written = [&](const Channel& ch, uint64_t bytes) {
+    return blobLater<BlobStore::Written>(
+        bytes, reply([chan = ch.id, hash = ch.hash](Connection& c, Result<BlobStore::Written>& r) {
+          c.send(msg::BlobWritten{r->received, r->version});
+          if (r->event) c.server_.blobChanged(chan, hash, *r->event);
+        }));
   };
   const auto changed = [&](const Channel& ch) {
-    return later<BlobEvent>(
-        server_, id, [code, chan = ch.id, hash = ch.hash](Connection& c, Result<BlobEvent>& r) {
-          if (r) {
-            c.replyOk();
-            c.server_.blobChanged(chan, hash, *r);
-          } else {
-            c.blobRefused(code, r.error());
-          }
-          c.unblock();
-        });
+    return blobLater<BlobEvent>(
+        0, reply([chan = ch.id, hash = ch.hash](Connection& c, Result<BlobEvent>& r) {
+          c.replyOk();
+          c.server_.blobChanged(chan, hash, *r);
+        }));
   };
   // Decodes the body as M, or closes the connection as a protocol breaker.
 #define SKR_BLOB_DECODE(M, m)                                                           \
@@ -82,48 +120,38 @@ void Connection::handleBlob(Code code, std::string_view body) {
 #define SKR_BLOB_CHANNEL(ch, chan_id, write) \
   auto ch = channel(chan_id, write);         \
   if (!ch) {                                 \
-    blobRefused(code, ch.error());           \
+    blobRefusedInOrder(code, ch.error());    \
     return;                                  \
-  }                                          \
-  block();
+  }
 
   switch (code) {
     case Code::blob_create: {
       SKR_BLOB_DECODE(msg::BlobCreate, m);
       const std::string name = user + "." + m.short_name;
-      block();
-      auto r = server_.createChannel(
-          *this, m.short_name, ChannelKind::blob, "", Variant(), 0,
-          later<void>(server_, id, [name](Connection& c, Result<void>& done) {
-            const Channel* ch = c.server_.channels.findByName(name);
-            if (!done) {
-              c.blobRefused(Code::blob_create, done.error());
-            } else if (ch == nullptr) {
-              c.replyError(ErrorCode::not_found, "the blob channel " + name + " was removed");
-            } else {
-              c.send(msg::ChannelInfoReply{c.server_.info(*ch)});
-            }
-            c.unblock();
-          }));
-      if (!r) {  // an existing channel of another kind or user, a rule, a limit
-        blobRefused(code, r.error());
-        unblock();
-      }
-      return;
+      auto answer = blobLater<void>(0, reply([name](Connection& c, Result<void>&) {
+                                      const Channel* ch = c.server_.channels.findByName(name);
+                                      if (ch == nullptr) {
+                                        c.replyError(ErrorCode::not_found,
+                                                     "the blob channel " + name + " was removed");
+                                      } else {
+                                        c.send(msg::ChannelInfoReply{c.server_.info(*ch)});
+                                      }
+                                    }));
+      auto r =
+          server_.createChannel(*this, m.short_name, ChannelKind::blob, "", Variant(), 0, answer);
+      // Refused at once (an existing channel of another kind or user, a rule, a limit): the
+      // refusal still leaves behind the answers before it.
+      if (!r) store->barrier([answer, e = r.error()] { answer(e); });
+      break;
     }
     case Code::blob_list: {
       SKR_BLOB_DECODE(msg::BlobList, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, false);
       store->list((*ch)->name, m.dir,
-                  later<Variant>(server_, id, [code](Connection& c, Result<Variant>& r) {
-                    if (r) {
-                      c.send(msg::ReplyValue{std::move(r).value()});
-                    } else {
-                      c.blobRefused(code, r.error());
-                    }
-                    c.unblock();
-                  }));
-      return;
+                  blobLater<Variant>(0, reply([](Connection& c, Result<Variant>& r) {
+                                       c.send(msg::ReplyValue{std::move(r).value()});
+                                     })));
+      break;
     }
     case Code::blob_get: {
       SKR_BLOB_DECODE(msg::BlobGet, m);
@@ -131,52 +159,43 @@ void Connection::handleBlob(Code code, std::string_view body) {
       // Room for the reply's header in a frame of the hub's limit.
       const uint32_t most =
           std::min<uint32_t>({m.max_bytes, BlobStore::kMaxChunk, server_.opt.max_frame_bytes - 64});
-      store->get(
-          id, (*ch)->name, m.path, m.version, m.offset, most,
-          later<BlobStore::Read>(server_, id, [code](Connection& c, Result<BlobStore::Read>& r) {
-            if (r) {
-              c.send(msg::BlobData{r->version, r->total_size, msg::Rest{r->data}});
-            } else {
-              c.blobRefused(code, r.error());
-            }
-            c.unblock();
-          }));
-      return;
+      store->get(id, (*ch)->name, m.path, m.version, m.offset, most,
+                 blobLater<BlobStore::Read>(
+                     most, reply([](Connection& c, Result<BlobStore::Read>& r) {
+                       c.send(msg::BlobData{r->version, r->total_size, msg::Rest{r->data}});
+                     })));
+      break;
     }
     case Code::blob_put: {
       SKR_BLOB_DECODE(msg::BlobPut, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, true);
       store->put(
           (*ch)->name, quota, m.path, m.total_size, m.upload_id,
-          later<BlobStore::PutAt>(server_, id, [code](Connection& c, Result<BlobStore::PutAt>& r) {
-            if (r) {
-              c.send(msg::BlobPutOk{r->upload_id, r->offset});
-            } else {
-              c.blobRefused(code, r.error());
-            }
-            c.unblock();
-          }));
-      return;
+          blobLater<BlobStore::PutAt>(0, reply([](Connection& c, Result<BlobStore::PutAt>& r) {
+                                        c.send(msg::BlobPutOk{r->upload_id, r->offset});
+                                      })));
+      break;
     }
     case Code::blob_chunk: {
       SKR_BLOB_DECODE(msg::BlobChunk, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, true);
-      store->chunk((*ch)->name, m.upload_id, m.offset, std::string(m.data.bytes), written(**ch));
-      return;
+      store->chunk((*ch)->name, m.upload_id, m.offset, std::string(m.data.bytes),
+                   written(**ch, m.data.bytes.size()));
+      break;
     }
     case Code::blob_modify: {
       SKR_BLOB_DECODE(msg::BlobModify, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, true);
-      store->modify((*ch)->name, quota, m.path, m.offset, std::string(m.data.bytes), written(**ch));
-      return;
+      store->modify((*ch)->name, quota, m.path, m.offset, std::string(m.data.bytes),
+                    written(**ch, m.data.bytes.size()));
+      break;
     }
     case Code::blob_abort: {
       SKR_BLOB_DECODE(msg::BlobAbort, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, true);
-      store->abort(
-          (*ch)->name, m.upload_id,
-          later<void>(server_, id, [](Connection& c, Result<void>& r) { c.answerDone(r); }));
-      return;
+      store->abort((*ch)->name, m.upload_id,
+                   blobLater<void>(0, reply([](Connection& c, Result<void>&) { c.replyOk(); })));
+      break;
     }
     case Code::blob_mkdir:
     case Code::blob_rmdir:
@@ -190,15 +209,20 @@ void Connection::handleBlob(Code code, std::string_view body) {
       } else {
         store->remove((*ch)->name, m.path, changed(**ch));
       }
-      return;
+      break;
     }
     default:
-      replyError(ErrorCode::unsupported,
-                 std::string(codeName(uint8_t(code))) + " is not implemented");
+      blobRefusedInOrder(code, makeError(Errc::unsupported, std::string(codeName(uint8_t(code))) +
+                                                                " is not implemented"));
       return;
   }
 #undef SKR_BLOB_DECODE
 #undef SKR_BLOB_CHANNEL
+  // Enough in the hub for this connection: the next requests wait for answers.
+  if (blob_in_flight_ >= kMaxBlobInFlight || blob_bytes_ >= kMaxBlobBytes) {
+    blob_waiting_ = true;
+    block();
+  }
 }
 
 }  // namespace skr::flow

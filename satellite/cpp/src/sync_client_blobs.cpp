@@ -76,10 +76,16 @@ Result<std::vector<SyncClient::BlobEntry>> SyncClient::blobList(uint16_t chan_id
 Result<std::string> SyncClient::blobGet(uint16_t chan_id, const std::string& path,
                                         const BlobProgress& progress) {
   std::string out;
-  auto r = blobDownload(chan_id, path, progress, [&](std::string_view data) -> Result<void> {
-    out.append(data);
-    return {};
-  });
+  auto r = blobGetStream(
+      chan_id, path,
+      [&](std::string_view data) -> Result<void> {
+        out.append(data);
+        return {};
+      },
+      [&](uint64_t done, uint64_t total) {
+        if (out.capacity() < total) out.reserve(total);  // once, when the size is known
+        if (progress) progress(done, total);
+      });
   if (!r) return r.error();
   return out;
 }
@@ -89,15 +95,18 @@ Result<uint64_t> SyncClient::blobGetFile(uint16_t chan_id, const std::string& pa
   const std::string part = local + ".part";
   const int fd = ::open(part.c_str(), O_CREAT | O_TRUNC | O_WRONLY | O_CLOEXEC, 0644);
   if (fd < 0) return localError("cannot write", part);
-  auto r = blobDownload(chan_id, path, progress, [&](std::string_view data) -> Result<void> {
-    while (!data.empty()) {
-      const ssize_t n = ::write(fd, data.data(), data.size());
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) return localError("cannot write", part);
-      data.remove_prefix(size_t(n));
-    }
-    return {};
-  });
+  auto r = blobGetStream(
+      chan_id, path,
+      [&](std::string_view data) -> Result<void> {
+        while (!data.empty()) {
+          const ssize_t n = ::write(fd, data.data(), data.size());
+          if (n < 0 && errno == EINTR) continue;
+          if (n < 0) return localError("cannot write", part);
+          data.remove_prefix(size_t(n));
+        }
+        return {};
+      },
+      progress);
   const bool synced = r && ::fsync(fd) == 0;
   ::close(fd);
   if (!r || !synced || ::rename(part.c_str(), local.c_str()) != 0) {
@@ -108,9 +117,9 @@ Result<uint64_t> SyncClient::blobGetFile(uint16_t chan_id, const std::string& pa
   return *r;
 }
 
-Result<uint64_t> SyncClient::blobDownload(
-    uint16_t chan_id, const std::string& path, const BlobProgress& progress,
-    const std::function<Result<void>(std::string_view)>& sink) {
+Result<uint64_t> SyncClient::blobGetStream(
+    uint16_t chan_id, const std::string& path,
+    const std::function<Result<void>(std::string_view)>& sink, const BlobProgress& progress) {
   SKR_NEEDS_BLOBS();
   const auto reply = [&](Result<Reply> r) -> Result<msg::BlobData> {
     if (!r) return r.error();

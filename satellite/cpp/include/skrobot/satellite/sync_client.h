@@ -111,6 +111,11 @@ class SyncClient {
   [[nodiscard]] Result<uint64_t> blobGetFile(uint16_t chan_id, const std::string& path,
                                              const std::string& local,
                                              const BlobProgress& progress = {});
+  // The same, chunk by chunk into `sink` (each piece valid during the call; an error from it
+  // ends the download): a file of any size without holding it. Returns its size.
+  [[nodiscard]] Result<uint64_t> blobGetStream(
+      uint16_t chan_id, const std::string& path,
+      const std::function<Result<void>(std::string_view)>& sink, const BlobProgress& progress = {});
   // Uploads `data` as `path` (missing directories are made); returns the new version. Readers
   // see the old file until the last byte is on the hub's disk.
   [[nodiscard]] Result<uint64_t> blobPut(uint16_t chan_id, const std::string& path,
@@ -151,10 +156,6 @@ class SyncClient {
   Result<void> sendFrame(std::string_view frame);
   Result<Reply> receiveReply(uint32_t timeout_ms);
   static Error hubError(flow::ErrorCode code, const std::string& body);
-  // Downloads one version chunk by chunk into `sink`; returns the total size.
-  Result<uint64_t> blobDownload(uint16_t chan_id, const std::string& path,
-                                const BlobProgress& progress,
-                                const std::function<Result<void>(std::string_view)>& sink);
   // A pipelined upload from `read` (blobPut and blobPutFile).
   Result<uint64_t> upload(uint16_t chan_id, const std::string& path, uint64_t size,
                           const std::function<Result<std::string_view>(uint64_t, size_t)>& read,

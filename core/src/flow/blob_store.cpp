@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <random>
@@ -267,6 +268,9 @@ Result<std::vector<BlobStore::Stored>> BlobStore::open() {
     ch.dir = Fd(::openat(s.root.get(), name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW));
     if (!ch.dir.valid()) continue;
     ch.owner = readSmall(ch.dir.get(), "owner");
+    while (!ch.owner.empty() && std::isspace(static_cast<unsigned char>(ch.owner.back()))) {
+      ch.owner.pop_back();  // a newline left by a hand edit
+    }
     auto files = openOrMakeDir(ch.dir.get(), "files");
     auto uploads = openOrMakeDir(ch.dir.get(), "uploads");
     if (ch.owner.empty() || !files || !uploads) {

@@ -52,8 +52,8 @@ struct ServerConfig {
   std::filesystem::path data_dir;  // resolved; default $XDG_DATA_HOME/skrobot/<app_name>
   flow::Durability durability = flow::Durability::everysec;  // "databases.durability"
   uint64_t compact_bytes = 4u << 20;                         // "databases.compact_bytes"
-  uint64_t blob_channel_bytes = 0;  // "blobs.max_channel_mib", in bytes; 0: no limit
-  uint64_t blob_channel_files = 0;  // "blobs.max_channel_files"; 0: no limit
+  uint64_t blob_channel_bytes = 0;   // "blobs.max_channel_mib", in bytes; 0: no limit
+  uint64_t blob_channel_files = 0;   // "blobs.max_channel_files"; 0: no limit
   std::filesystem::path users_file;  // resolved; default <data_dir>/users.json
   std::optional<std::pair<std::string, std::string>> dev_account;  // user, password
 };

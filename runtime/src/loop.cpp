@@ -17,7 +17,8 @@ namespace {
 thread_local Loop* t_current = nullptr;
 
 constexpr Nanos kOneSecond = kNsPerSec;
-constexpr Nanos kWarningInterval = 10 * kNsPerSec;  // at most one LOOP-OVERLOAD line per 10 s
+constexpr Nanos kWarningInterval = 10 * kNsPerSec;       // at most one LOOP-OVERLOAD line per 10 s
+constexpr Nanos kPulseBudgetNs = 100 * kNsPerMs / 1000;  // posted work run before I/O gets a turn
 
 void runGuarded(const std::function<void()>& fn, const std::string& loop_name, const char* what) {
   // An exception must not unwind through libuv's C frames: log it and go on.
@@ -345,15 +346,24 @@ void Loop::onAsync(uv_async_t* handle) {
 }
 
 void Loop::pulse() {
-  std::vector<std::function<void()>> work;
   {
     std::lock_guard lock(post_mutex_);
-    work.swap(posted_);
+    for (auto& fn : posted_) runnable_.push_back(std::move(fn));
+    posted_.clear();
   }
-  if (work.empty()) return;
+  if (runnable_.empty()) return;
   ++stats_.pulses;
-  stats_.posted += work.size();
-  for (auto& fn : work) runGuarded(fn, options_.name, "posted work");
+  const Nanos until = monotonicNs() + kPulseBudgetNs;
+  while (!runnable_.empty()) {
+    auto fn = std::move(runnable_.front());
+    runnable_.pop_front();
+    ++stats_.posted;
+    runGuarded(fn, options_.name, "posted work");
+    if (!runnable_.empty() && monotonicNs() >= until) {
+      uv_async_send(async_);  // the rest after this iteration's I/O
+      break;
+    }
+  }
 }
 
 void Loop::fireTicks(Nanos now) {

@@ -158,6 +158,30 @@ TEST(Loop, PostFromManyThreadsRunsEverythingInOrderPerThread) {
   EXPECT_EQ(loop.stats().posted, static_cast<uint64_t>(kThreads * kPerThread));
 }
 
+// A batch of long posted work does not hold the loop: after the pulse's budget the rest waits for
+// the next iteration, so ticks (and I/O) run between the jobs, which keep their order.
+TEST(Loop, LongPostedWorkLetsTicksRunBetweenJobs) {
+  Loop loop(options(TimingMode::coarse, 1, 100));
+  std::vector<char> seq;
+  std::vector<int> order;
+  loop.addTickHandler(Tick::fast, [&] { seq.push_back('t'); });
+  for (int i = 0; i < 20; ++i) {
+    loop.post([&, i] {
+      const Nanos until = monotonicNs() + 2 * kNsPerMs;
+      while (monotonicNs() < until) {
+      }
+      seq.push_back('j');
+      order.push_back(i);
+    });
+  }
+  ASSERT_TRUE(loop.runUntil([&] { return order.size() == 20; }, kLongTimeout));
+  for (int i = 0; i < 20; ++i) ASSERT_EQ(order[i], i);
+  const std::string s(seq.begin(), seq.end());
+  const auto first = s.find('j'), last = s.rfind('j');
+  EXPECT_NE(s.substr(first, last - first).find('t'), std::string::npos)
+      << "no tick ran during 40 ms of posted work: " << s;
+}
+
 TEST(Loop, PostedWorkRunsAtNextPulseNotInline) {
   Loop loop;
   bool ran = false;

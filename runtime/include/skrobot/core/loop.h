@@ -15,6 +15,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -171,6 +172,10 @@ class Loop {
 
   std::mutex post_mutex_;
   std::vector<std::function<void()>> posted_;
+  // Posted work taken from posted_ and not run yet (loop thread only): a pulse runs work until
+  // kPulseBudgetNs have passed and leaves the rest for the next iteration, after the I/O that
+  // became ready meanwhile (a long batch of posted work does not hold up a ping).
+  std::deque<std::function<void()>> runnable_;
 
   std::vector<Handler> handlers_[3];
   std::vector<Handler> added_during_dispatch_[3];

@@ -262,22 +262,30 @@ int main(int argc, char** argv) {
     rawCopy(false, data);
     std::tie(raw_p50, raw_p99) = p.finish();
   }
+  double up_p50 = 0, up_p99 = 0, down_p50 = 0, down_p99 = 0;
   {
     SyncClient c = hub.client(false);
     auto ch = c.createBlobChannel("bench");
     if (!ch) fail("create");
+    {
+      Pinger p(hub);
+      if (!c.blobPut(ch->id, "ping.bin", data)) fail("put");
+      std::tie(up_p50, up_p99) = p.finish();
+    }
     Pinger p(hub);
-    if (!c.blobPut(ch->id, "ping.bin", data)) fail("put");
     if (!c.blobGetStream(ch->id, "ping.bin", [](std::string_view) -> Result<void> { return {}; })) {
       fail("get");
     }
-    std::tie(hub_p50, hub_p99) = p.finish();
+    std::tie(down_p50, down_p99) = p.finish();
   }
+  hub_p50 = std::max(up_p50, down_p50);
+  hub_p99 = std::max(up_p99, down_p99);
   std::printf(
-      "\nping round trip through the hub during a %zu MB transfer: p50 %.0f us, p99 %.0f us\n"
-      "                          during a raw socket copy:      p50 %.0f us, p99 %.0f us\n"
-      "ratio (transfer / raw copy): p50 %.2f, p99 %.2f\n",
-      sizes_mb.back(), hub_p50, hub_p99, raw_p50, raw_p99, hub_p50 / std::max(raw_p50, 1.0),
-      hub_p99 / std::max(raw_p99, 1.0));
+      "\nping round trip through the hub during a %zu MB upload:   p50 %.0f us, p99 %.0f us\n"
+      "                                          download: p50 %.0f us, p99 %.0f us\n"
+      "                          during a raw socket copy:  p50 %.0f us, p99 %.0f us\n"
+      "ratio (the worse of upload and download / raw copy): p50 %.2f, p99 %.2f\n",
+      sizes_mb.back(), up_p50, up_p99, down_p50, down_p99, raw_p50, raw_p99,
+      hub_p50 / std::max(raw_p50, 1.0), hub_p99 / std::max(raw_p99, 1.0));
   return 0;
 }

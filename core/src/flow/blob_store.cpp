@@ -5,6 +5,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -22,6 +23,7 @@ using blob::fsError;
 namespace {
 
 constexpr const char* kLog = "blob";
+constexpr int kNice = 10;  // the store thread's niceness, above the loop's
 
 uint64_t versionOf(const struct stat& st) {
   const uint64_t mtime = uint64_t(st.st_mtim.tv_sec) * 1000000000u + uint64_t(st.st_mtim.tv_nsec);
@@ -338,6 +340,9 @@ void BlobStore::enqueue(std::function<void()> job) {
 }
 
 void BlobStore::run() {
+  // Bulk file work yields the CPU to the hub's loop (the relay, service calls, pings): on a
+  // machine of two cores a transfer competes with it otherwise. Best effort.
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kNice);
   for (;;) {
     std::function<void()> job;
     {
@@ -443,7 +448,8 @@ void BlobStore::list(const std::string& channel, const std::string& dir, Done<Va
 }
 
 void BlobStore::get(uint32_t reader, const std::string& channel, const std::string& path,
-                    uint64_t version, uint64_t offset, uint32_t max_bytes, Done<Read> done) {
+                    uint64_t version, uint64_t offset, uint32_t max_bytes, size_t head_room,
+                    Done<Read> done) {
   enqueue([=, this, done = std::move(done)]() mutable {
     const auto read = [&]() -> Result<Read> {
       State& s = *state_;
@@ -473,17 +479,18 @@ void BlobStore::get(uint32_t reader, const std::string& channel, const std::stri
       out.version = r.version;
       out.total_size = r.size;
       const uint64_t want = std::min<uint64_t>({max_bytes, kMaxChunk, r.size - offset});
-      out.data.resize(want);
+      out.head = head_room;
+      out.data.resize(head_room + want);
+      char* const into = out.data.data() + head_room;
       size_t got = 0;
       while (got < want) {
-        const ssize_t n =
-            ::pread(r.fd.get(), out.data.data() + got, want - got, off_t(offset + got));
+        const ssize_t n = ::pread(r.fd.get(), into + got, want - got, off_t(offset + got));
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) return fsError(errno, path);
         if (n == 0) break;
         got += size_t(n);
       }
-      out.data.resize(got);
+      out.data.resize(head_room + got);
       if (offset + got >= r.size) s.reads.erase(reader);  // read to its end
       return out;
     }();

@@ -74,7 +74,8 @@ class BlobStore {
 
   struct Read {
     uint64_t version = 0, total_size = 0;
-    std::string data;
+    std::string data;  // after `head` bytes left for the caller (get's head_room)
+    size_t head = 0;
   };
   struct PutAt {
     uint64_t upload_id = 0, offset = 0;
@@ -89,8 +90,10 @@ class BlobStore {
   void drop(const std::string& channel, Done<void> done);
   void list(const std::string& channel, const std::string& dir, Done<Variant> done);
   // `reader` keeps one open version per connection: its next chunks come from that version.
+  // The bytes are read into Read::data after `head_room` bytes, so that a frame header can be
+  // written in front of them without copying them again.
   void get(uint32_t reader, const std::string& channel, const std::string& path, uint64_t version,
-           uint64_t offset, uint32_t max_bytes, Done<Read> done);
+           uint64_t offset, uint32_t max_bytes, size_t head_room, Done<Read> done);
   // The whole current version of `path` (limit_exceeded when it is larger than `max_bytes`).
   void readAll(const std::string& channel, const std::string& path, uint64_t max_bytes,
                Done<Read> done);

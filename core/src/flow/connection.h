@@ -101,6 +101,9 @@ class Connection final : public Endpoint {
   std::function<void(Result<T>)> blobLater(uint64_t bytes,
                                            std::function<void(Connection&, Result<T>&)> then);
   void blobAnswered(uint64_t bytes);
+  // BLOB_DATA around bytes read after blobDataHead() bytes of `frame`: the header is written in
+  // front of them, and the buffer becomes the output queue's when that is empty (no copy).
+  void sendBlobData(uint64_t version, uint64_t total_size, std::string frame);
 
  public:
   // Before handling a frame: a request other than a blob one waits until the blob answers before

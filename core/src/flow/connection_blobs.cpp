@@ -9,12 +9,24 @@
 
 #include <skrobot/core/log.h>
 
+#include <cstring>
+
 namespace skr::flow {
 
 namespace {
 
 constexpr uint32_t kMaxBlobInFlight = 8;
 constexpr uint64_t kMaxBlobBytes = 8u << 20;
+
+// The bytes of a BLOB_DATA frame before its data.
+size_t blobDataHead() {
+  static const size_t head = [] {
+    std::string frame;
+    (void)encode(frame, msg::BlobData{});
+    return frame.size();
+  }();
+  return head;
+}
 
 }  // namespace
 
@@ -32,6 +44,19 @@ std::function<void(Result<T>)> Connection::blobLater(
     then(c, r);
     c.blobAnswered(bytes);
   };
+}
+
+void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string frame) {
+  std::string head;
+  (void)encode(head, msg::BlobData{version, total_size, {}});
+  ByteWriter(head).patchU32(0, static_cast<uint32_t>(frame.size() - 4));
+  std::memcpy(frame.data(), head.data(), head.size());
+  if (out_.empty()) {
+    out_.swap(frame);
+  } else {
+    out_.append(frame);
+  }
+  queued();
 }
 
 void Connection::blobAnswered(uint64_t bytes) {
@@ -159,10 +184,10 @@ void Connection::handleBlob(Code code, std::string_view body) {
       // Room for the reply's header in a frame of the hub's limit.
       const uint32_t most =
           std::min<uint32_t>({m.max_bytes, BlobStore::kMaxChunk, server_.opt.max_frame_bytes - 64});
-      store->get(id, (*ch)->name, m.path, m.version, m.offset, most,
+      store->get(id, (*ch)->name, m.path, m.version, m.offset, most, blobDataHead(),
                  blobLater<BlobStore::Read>(
                      most, reply([](Connection& c, Result<BlobStore::Read>& r) {
-                       c.send(msg::BlobData{r->version, r->total_size, msg::Rest{r->data}});
+                       c.sendBlobData(r->version, r->total_size, std::move(r->data));
                      })));
       break;
     }

@@ -134,7 +134,7 @@ class SyncClient {
   [[nodiscard]] Result<void> blobRmdir(uint16_t chan_id, const std::string& path);
   [[nodiscard]] Result<void> blobRemove(uint16_t chan_id, const std::string& path);
   // Bytes moved per request, and requests sent ahead of their replies.
-  static constexpr size_t kBlobChunk = 256u << 10;
+  static constexpr size_t kBlobChunk = 1u << 20;
   static constexpr int kBlobWindow = 8;
 
   // An administrator's command (protocol 1.1, docs/security.md): "flows", "kick"

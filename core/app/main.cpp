@@ -201,6 +201,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.max_connections = s.max_connections;
   o.login_timeout_ms = s.login_timeout_ms;
   o.max_pending_requests = s.max_pending_requests;
+  o.request_timeout_ms = s.request_timeout_ms;
   o.user_limits = s.user_limits;
   o.data_dir = s.data_dir;
   o.durability = s.durability;

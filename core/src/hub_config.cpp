@@ -233,6 +233,7 @@ s::Schema serverSchema() {
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
       s::optional("login_timeout_ms", s::integer().range(100, 600000), 5000),
       s::optional("max_pending_requests", s::integer().range(1, 1000000), 1024),
+      s::optional("request_timeout_ms", s::integer().range(10, 86400000), 30000),
       s::optional("user_limits",
                   s::object({s::optional("connections", s::integer().range(1, 100000), 64),
                              s::optional("channels", s::integer().range(1, 32767), 1024),
@@ -285,6 +286,7 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
     out.max_connections = s["max_connections"].asUInt();
     out.login_timeout_ms = s["login_timeout_ms"].asUInt();
     out.max_pending_requests = s["max_pending_requests"].asUInt();
+    out.request_timeout_ms = s["request_timeout_ms"].asUInt();
     const Json::Value& l = s["user_limits"];
     const auto limit = [&l](const char* key, uint32_t def) {
       return l.isObject() && l[key].isUInt() ? l[key].asUInt() : def;

@@ -345,6 +345,63 @@ TEST_F(Server, SyncServiceCallTimesOut) {
   EXPECT_EQ(sync.call(msg::VarSet{"after", Variant(true)})->kind(), Code::reply_ok);
 }
 
+// Asynchronous requests expire (1.4): at the caller's timeout, or at server.request_timeout_ms
+// for one that names none; the caller gets `timeout` and the channel's slot is free again.
+TEST_F(Server, AsyncRequestsExpireAndFreeTheirSlots) {
+  auto o = defaults();
+  o.max_pending_requests = 2;
+  o.request_timeout_ms = 300;
+  ASSERT_TRUE(startHub(o));
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "silent", flow::ChannelKind::service);
+  TestClient caller = flowClient();
+  ASSERT_TRUE(caller.send(msg::ServiceRequestTimed{1, id, 50, "a", Variant()}));
+  ASSERT_TRUE(caller.send(msg::ServiceRequest{2, id, "b", Variant()}));
+  ASSERT_TRUE(caller.send(msg::ServiceRequest{3, id, "c", Variant()}));  // the queue is full
+  std::vector<std::pair<uint32_t, uint16_t>> answers;
+  for (int i = 0; i < 3; ++i) {
+    auto r = as<msg::EvServiceResponse>(caller.waitFor(Code::ev_service_response));
+    ASSERT_TRUE(r);
+    answers.emplace_back(r->tag, r->error);
+  }
+  const std::vector<std::pair<uint32_t, uint16_t>> expected{
+      {3, uint16_t(ErrorCode::overflow)},
+      {1, uint16_t(ErrorCode::timeout)},
+      {2, uint16_t(ErrorCode::timeout)}};
+  EXPECT_EQ(answers, expected);
+  // The owner answering an expired request learns that it is gone.
+  auto first = as<msg::EvServiceRequest>(owner.waitFor(Code::ev_service_request));
+  ASSERT_TRUE(first);
+  ASSERT_TRUE(owner.waitFor(Code::ev_service_request));
+  ASSERT_TRUE(owner.send(msg::ServiceResponse{id, first->request, Variant("late")}));
+  auto late = as<msg::EvError>(owner.waitFor(Code::ev_error));
+  ASSERT_TRUE(late);
+  EXPECT_EQ(late->error, uint16_t(ErrorCode::not_found));
+  // Both slots are free: two more requests reach the owner and are answered.
+  for (uint32_t tag : {4u, 5u}) {
+    ASSERT_TRUE(caller.send(msg::ServiceRequestTimed{tag, id, 10000, "d", Variant()}));
+    auto req = as<msg::EvServiceRequest>(owner.waitFor(Code::ev_service_request));
+    ASSERT_TRUE(req);
+    ASSERT_TRUE(owner.send(msg::ServiceResponse{id, req->request, Variant("ok")}));
+    auto r = as<msg::EvServiceResponse>(caller.waitFor(Code::ev_service_response));
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->tag, tag);
+    EXPECT_EQ(r->error, 0);
+  }
+  // A 1.3 client cannot send the timed request.
+  TestClient old = connect();
+  msg::Login login;
+  login.minor = 3;
+  login.user = "guest";
+  login.password = "password";
+  ASSERT_TRUE(as<msg::LoginOk>(old.call(login)));
+  ASSERT_TRUE(old.call(msg::Empty<Code::go_async>{}));
+  ASSERT_TRUE(old.send(msg::ServiceRequestTimed{6, id, 100, "e", Variant()}));
+  auto e = as<msg::EvError>(old.waitFor(Code::ev_error));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->error, uint16_t(ErrorCode::unsupported));
+}
+
 TEST_F(Server, RequestsToAVanishedOwnerFail) {
   startHub();
   TestClient owner = flowClient();

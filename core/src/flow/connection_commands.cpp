@@ -345,9 +345,18 @@ void Connection::handleAsync(Code code, std::string_view body) {
       check(server_.channels.unsubscribe(*this, m.chan_id), m.tag, m.chan_id);
       return;
     }
-    case Code::service_request: {
-      SKR_DECODE(msg::ServiceRequest, m);
-      auto r = server_.requests.request(*this, m.chan_id, m.tag, false, 0, m.command, m.value);
+    case Code::service_request:
+    case Code::service_request_timed: {
+      msg::ServiceRequestTimed m;
+      if (code == Code::service_request) {
+        SKR_DECODE(msg::ServiceRequest, old);
+        m = {old.tag, old.chan_id, 0, std::move(old.command), std::move(old.value)};
+      } else {
+        SKR_DECODE(msg::ServiceRequestTimed, timed);
+        m = std::move(timed);
+      }
+      auto r = server_.requests.request(*this, m.chan_id, m.tag, false, m.timeout_ms, m.command,
+                                        m.value);
       // Failures of a request come back as its response, where the caller waits for them.
       if (!r) {
         send(msg::EvServiceResponse{m.chan_id, m.tag, uint16_t(toErrorCode(r.error().code)),

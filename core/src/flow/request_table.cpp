@@ -1,6 +1,5 @@
 // The request table (see request_table.h). Nothing is dropped silently: a request that cannot
-// be queued, whose owner vanishes, or (for synchronous calls) that times out, fails with an
-// error to the caller.
+// be queued, whose owner vanishes, or that times out, fails with an error to the caller.
 #include "request_table.h"
 
 #include <vector>
@@ -35,11 +34,9 @@ Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t ta
   p.requester = from.id;
   p.tag = tag;
   p.sync = sync;
-  if (sync) {
-    const Nanos timeout = timeout_ms == 0 ? 10 * kNsPerSec : timeout_ms * kNsPerMs;
-    p.deadline = monotonicNs() + timeout;
-  }
+  p.deadline = monotonicNs() + Nanos(timeout_ms == 0 ? default_timeout_ms_ : timeout_ms) * kNsPerMs;
   requests_.emplace(id, p);
+  deadlines_.emplace(p.deadline, id);
   ++ch->pending_requests;
   ++from.pending_requests;
   ch->owner->onRequest(*ch, id, command, from.user, value);
@@ -91,13 +88,19 @@ void RequestTable::failChannel(uint16_t chan_id, ErrorCode error, const std::str
 }
 
 void RequestTable::expire(Nanos now) {
-  std::vector<std::pair<uint64_t, PendingRequest>> expired;
-  for (const auto& [id, p] : requests_) {
-    if (p.sync && now > p.deadline) expired.emplace_back(id, p);
-  }
-  for (const auto& [id, p] : expired) {
-    take(requests_.find(id));
+  while (!deadlines_.empty() && deadlines_.top().first < now) {
+    const uint64_t id = deadlines_.top().second;
+    deadlines_.pop();
+    auto it = requests_.find(id);
+    if (it == requests_.end()) continue;  // answered or failed before
+    const PendingRequest p = take(it);
     answer(p, ErrorCode::timeout, Variant("the service did not answer in time"));
+  }
+  // Answered requests leave their entries behind: drop them when they outnumber the live ones.
+  if (deadlines_.size() > 2 * requests_.size() + 1024) {
+    decltype(deadlines_) live;
+    for (const auto& [id, p] : requests_) live.emplace(p.deadline, id);
+    deadlines_.swap(live);
   }
 }
 

@@ -30,7 +30,7 @@ FlowServer::Impl::Impl(Loop& l, ServerOptions options)
     : loop(l),
       opt(std::move(options)),
       databases(opt.data_dir),
-      requests(endpoints, channels, opt.max_pending_requests) {
+      requests(endpoints, channels, opt.max_pending_requests, opt.request_timeout_ms) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
 }
 

@@ -61,6 +61,8 @@ std::string_view codeName(uint8_t code) noexcept {
       return "PUBLISH";
     case Code::service_request:
       return "SERVICE_REQUEST";
+    case Code::service_request_timed:
+      return "SERVICE_REQUEST_TIMED";
     case Code::service_response:
       return "SERVICE_RESPONSE";
     case Code::db_set_current:
@@ -165,6 +167,8 @@ uint16_t minorOf(Code code) noexcept {
     case Code::blob_create:
     case Code::ev_blob_changed:
       return 3;
+    case Code::service_request_timed:
+      return 4;
     default:
       return 0;
   }

@@ -14,19 +14,32 @@ Error notConnected() {
 }  // namespace
 
 Result<uint32_t> Satellite::request(std::string_view service, const std::string& command,
-                                    const Variant& value, ResponseHandler done) {
+                                    const Variant& value, ResponseHandler done,
+                                    uint32_t timeout_ms) {
   if (!impl_->flowOpen()) return notConnected();
   auto id = channelId(service);
   if (!id) return makeError(Errc::not_found, "no channel " + std::string(service));
-  return request(*id, command, value, std::move(done));
+  return request(*id, command, value, std::move(done), timeout_ms);
 }
 
 Result<uint32_t> Satellite::request(uint16_t chan_id, const std::string& command,
-                                    const Variant& value, ResponseHandler done) {
+                                    const Variant& value, ResponseHandler done,
+                                    uint32_t timeout_ms) {
   if (!impl_->flowOpen()) return notConnected();
+  const uint16_t timed = flow::minorOf(flow::Code::service_request_timed);
+  if (timeout_ms != 0 && impl_->login.minor < timed) {
+    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." +
+                                            std::to_string(impl_->login.minor) +
+                                            ") does not time requests out: it needs 1." +
+                                            std::to_string(timed));
+  }
   const uint32_t tag = impl_->nextTag();
   impl_->pending[tag] = std::move(done);
-  impl_->send(msg::ServiceRequest{tag, chan_id, command, value});
+  if (timeout_ms == 0) {
+    impl_->send(msg::ServiceRequest{tag, chan_id, command, value});
+  } else {
+    impl_->send(msg::ServiceRequestTimed{tag, chan_id, timeout_ms, command, value});
+  }
   return tag;
 }
 

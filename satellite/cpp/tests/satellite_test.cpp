@@ -153,6 +153,15 @@ TEST_F(Satellites, ServiceRoundTripAsyncAndBlocking) {
   // The flow goes on after a timed-out blocking call.
   ASSERT_TRUE(caller->on([](Satellite& s) { return s.request("guest.math", "double", 2); }));
   ASSERT_TRUE(eventually([&] { return caller->events.count("response:") == 2; }));
+  // An asynchronous request with a timeout (1.4) that nobody answers fails with timeout.
+  auto expired = std::make_shared<Events>();
+  ASSERT_TRUE(caller->on([&](Satellite& s) {
+    return s.request(
+        "guest.math", "silent", 1,
+        [expired](const Response& r) { expired->add(std::string(flow::errorCodeName(r.error))); },
+        100);
+  }));
+  ASSERT_TRUE(eventually([&] { return expired->count("timeout") == 1; }));
 }
 
 TEST_F(Satellites, DatabasesWrittenOnTheFlowReadBlocking) {

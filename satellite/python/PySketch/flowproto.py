@@ -36,7 +36,7 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-PROTOCOL_MINOR = 3  # 1.3: blob channels; 1.2: DB_SYNC; PySketch sends no ADMIN (1.1)
+PROTOCOL_MINOR = 4  # 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
 
 DEFAULT_PORT = 9000
 DEFAULT_ADDRESS = "local:/tmp/Robot"
@@ -199,6 +199,7 @@ class Code(object):
     VAR_DEL_ASYNC = 0x4C
     CHAN_SET_PROPS = 0x4D
     DB_SYNC_ASYNC = 0x4E  # 1.2
+    SERVICE_REQUEST_TIMED = 0x4F  # 1.4
 
     REPLY_OK = 0x80
     REPLY_ERROR = 0x81

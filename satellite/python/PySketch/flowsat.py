@@ -84,6 +84,7 @@ from PySketch.flowproto import (
     toBytes, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
+TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
@@ -1079,16 +1080,26 @@ class FlowSat(AbstractFlow):
     ###########################################################################
     # Services
 
-    def sendServiceRequest(self, chanID, cmdName, value=None):
+    def sendServiceRequest(self, chanID, cmdName, value=None, timeoutMs=0):
         """Sends a request to a service channel (non-blocking); the answer arrives at the
-        response callback. The channel: chanID, name or FlowChannel. Returns the request's tag
-        (true) or 0 when offline or when no channel has that name."""
+        response callback. The channel: chanID, name or FlowChannel. Without an answer within
+        timeoutMs (0: the hub's server.request_timeout_ms) the callback gets the timeout as a
+        failure. Returns the request's tag (true) or 0 when offline or when no channel has that
+        name; a timeout asked of a hub older than 1.4 raises FlowError (unsupported)."""
         chanID = self._chanID(chanID)
         if chanID is None:
             return 0
         tag = self._nextTag()
-        body = u32(tag) + u16(chanID) + str16(cmdName) + encodeValue(value)
-        if not self._send(frame(Code.SERVICE_REQUEST, body)):
+        if timeoutMs:
+            if self.hubMinor < TIMED_REQUEST_MINOR:
+                raise FlowError(Error_T.unsupported, "this hub (FlowProtocol 1.%d) does not time "
+                                "requests out: it needs 1.%d" % (self.hubMinor, TIMED_REQUEST_MINOR))
+            body = u32(tag) + u16(chanID) + u32(timeoutMs) + str16(cmdName) + encodeValue(value)
+            sent = self._send(frame(Code.SERVICE_REQUEST_TIMED, body))
+        else:
+            body = u32(tag) + u16(chanID) + str16(cmdName) + encodeValue(value)
+            sent = self._send(frame(Code.SERVICE_REQUEST, body))
+        if not sent:
             return 0
         self._pendingRequests[tag] = chanID
         return tag

@@ -357,6 +357,19 @@ class Services(HubTestCase):
             stop.set()
             thread.join()
 
+    def test_a_request_nobody_answers_times_out(self):
+        """1.4: the caller's timeout reaches the response callback as a failure."""
+        provider = self.connected()
+        caller = self.connected()
+        provider.setRequestCallBack(lambda chanID, hash, cmd, v: None)  # never answers
+        self.assertTrue(provider.addServiceChannel("deaf"))
+        self.assertTrue(pump([provider, caller], lambda: caller.channelByName("guest.deaf")))
+        got = []
+        caller.setResponseCallBack(lambda chanID, v: got.append(v))
+        self.assertTrue(caller.sendServiceRequest("guest.deaf", "hello", 1, timeoutMs=100))
+        self.assertTrue(pump([provider, caller], lambda: got))
+        self.assertIn("did not answer in time", got[0])
+
     def test_provider_answers_the_caller_back(self):
         """Both directions: each satellite owns a service and calls the other's."""
         a = self.connected()

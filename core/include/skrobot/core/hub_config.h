@@ -48,6 +48,7 @@ struct ServerConfig {
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;
+  uint32_t request_timeout_ms = 30000;
   flow::UserLimits user_limits{64, 1024, 64, 1024};  // per user, unless its account says otherwise
   std::filesystem::path data_dir;  // resolved; default $XDG_DATA_HOME/skrobot/<app_name>
   flow::Durability durability = flow::Durability::everysec;  // "databases.durability"

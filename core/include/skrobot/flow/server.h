@@ -42,6 +42,7 @@ struct ServerOptions {
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;  // unanswered service requests per channel
+  uint32_t request_timeout_ms = 30000;  // a service request that names no timeout fails after it
   // What one user may hold at once unless its account says otherwise (flow/access.h).
   // blob_mib and blob_files 0: no limit unless the account sets one.
   UserLimits user_limits{64, 1024, 64, 1024, 0, 0};

@@ -36,6 +36,7 @@ void forEachMessage(F&& f) {
   f(Unsubscribe{});
   f(Publish{});
   f(ServiceRequest{});
+  f(ServiceRequestTimed{});
   f(ServiceResponse{});
   f(DbSetCurrent{});
   f(DbCreateAsync{});

@@ -262,6 +262,20 @@ struct ServiceRequest {
     return f(tag) && f(chan_id) && f(command) && f(value);
   }
 };
+// 1.4: the same with the caller's timeout; past it the caller gets `timeout` and the request's
+// slot is freed (0: the hub's server.request_timeout_ms, which SERVICE_REQUEST gets too).
+struct ServiceRequestTimed {
+  static constexpr Code code = Code::service_request_timed;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  uint32_t timeout_ms = 0;
+  std::string command;
+  Variant value;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(timeout_ms) && f(command) && f(value);
+  }
+};
 struct ServiceResponse {
   static constexpr Code code = Code::service_response;
   uint16_t chan_id = 0;

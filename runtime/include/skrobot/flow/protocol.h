@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 3;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 4;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -64,6 +64,7 @@ enum class Code : uint8_t {
   var_del_async = 0x4C,
   chan_set_props = 0x4D,
   db_sync_async = 0x4E,  // 1.2: EV_DB_SYNCED with its tag once the changes before it are on disk
+  service_request_timed = 0x4F,  // 1.4: SERVICE_REQUEST with the caller's timeout
 
   // Hub -> client.
   reply_ok = 0x80,

@@ -161,11 +161,15 @@ class Satellite : public Object {
   // --- services ------------------------------------------------------------------------------
   // An asynchronous request to a service channel (by name or id). The answer comes as the
   // `serviceResponse` signal and to `done`, matched by the returned tag; a lost connection
-  // answers with error io_error. Errc::closed, Errc::not_found (no such channel now).
+  // answers with error io_error; no answer within `timeout_ms` (0: the hub's
+  // server.request_timeout_ms) answers with error timeout. Errc::closed, Errc::not_found (no
+  // such channel now), Errc::unsupported (a timeout asked of a hub older than 1.4).
   [[nodiscard]] Result<uint32_t> request(std::string_view service, const std::string& command,
-                                         const flow::Variant& value, ResponseHandler done = {});
+                                         const flow::Variant& value, ResponseHandler done = {},
+                                         uint32_t timeout_ms = 0);
   [[nodiscard]] Result<uint32_t> request(uint16_t chan_id, const std::string& command,
-                                         const flow::Variant& value, ResponseHandler done = {});
+                                         const flow::Variant& value, ResponseHandler done = {},
+                                         uint32_t timeout_ms = 0);
   // Answers a request made to one of our service channels.
   [[nodiscard]] Result<void> respond(const Request& request, const flow::Variant& value);
   // BLOCKING: a synchronous service call over the synchronous connection (see SyncClient::call).

@@ -37,6 +37,11 @@ TEST_F(ChannelsCpp, StreamSubscriptionServiceRequesterAndDatabase) {
   auto data = as<msg::EvData>(sat.waitFor(Code::ev_data));
   ASSERT_TRUE(data);
   EXPECT_EQ(data->payload.bytes, "HELLO");
+  // The module changed a property of its channel through the channel's database.
+  auto header = as<msg::EvChanHeader>(sat.waitFor(Code::ev_chan_header));
+  ASSERT_TRUE(header);
+  EXPECT_EQ(header->info.name, "cpp.upper");
+  EXPECT_EQ(*header->info.props.find("last_length"), Variant(int64_t{5}));
 
   // A media frame is recognised, not upper-cased.
   media::FrameHeader h;

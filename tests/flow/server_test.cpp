@@ -274,6 +274,29 @@ TEST_F(Server, ChannelPropertiesAreReadableByOthers) {
   auto info = as<msg::ChannelInfoReply>(reader.call(msg::ChanInfoByName{"guest.mic"}));
   ASSERT_TRUE(info);
   EXPECT_EQ(info->info.kind, uint8_t(flow::ChannelKind::streaming));
+  // The owner writing its channel's database changes the properties: every flow hears of it.
+  TestClient watcher = flowClient();
+  ASSERT_TRUE(owner.send(msg::DbSetCurrent{1, "guest.mic"}));
+  ASSERT_TRUE(owner.waitFor(Code::ev_db_changed));
+  ASSERT_TRUE(owner.send(msg::VarSetAsync{2, "rate", Variant(int64_t{48000})}));
+  auto header = as<msg::EvChanHeader>(watcher.waitFor(Code::ev_chan_header));
+  ASSERT_TRUE(header);
+  EXPECT_EQ(*header->info.props.find("rate"), Variant(int64_t{48000}));
+  ASSERT_TRUE(owner.send(msg::VarDelAsync{3, "format"}));
+  header = as<msg::EvChanHeader>(watcher.waitFor(Code::ev_chan_header));
+  ASSERT_TRUE(header);
+  EXPECT_EQ(header->info.props.find("format"), nullptr);
+  // CHAN_SET_PROPS still tells once per command, and a change to nothing tells nobody.
+  ASSERT_TRUE(owner.send(msg::ChanSetProps{
+      4, header->info.id, Variant(Variant::Map{{"a", Variant(1)}, {"b", Variant(2)}})}));
+  header = as<msg::EvChanHeader>(watcher.waitFor(Code::ev_chan_header));
+  ASSERT_TRUE(header);
+  EXPECT_EQ(*header->info.props.find("b"), Variant(2));
+  ASSERT_TRUE(owner.send(msg::VarSetAsync{5, "a", Variant(1)}));
+  ASSERT_TRUE(owner.send(msg::VarSetAsync{6, "a", Variant(3)}));
+  header = as<msg::EvChanHeader>(watcher.waitFor(Code::ev_chan_header));
+  ASSERT_TRUE(header);
+  EXPECT_EQ(*header->info.props.find("a"), Variant(3));
 }
 
 TEST_F(Server, PollingTheLatestBuffer) {
@@ -364,10 +387,9 @@ TEST_F(Server, AsyncRequestsExpireAndFreeTheirSlots) {
     ASSERT_TRUE(r);
     answers.emplace_back(r->tag, r->error);
   }
-  const std::vector<std::pair<uint32_t, uint16_t>> expected{
-      {3, uint16_t(ErrorCode::overflow)},
-      {1, uint16_t(ErrorCode::timeout)},
-      {2, uint16_t(ErrorCode::timeout)}};
+  const std::vector<std::pair<uint32_t, uint16_t>> expected{{3, uint16_t(ErrorCode::overflow)},
+                                                            {1, uint16_t(ErrorCode::timeout)},
+                                                            {2, uint16_t(ErrorCode::timeout)}};
   EXPECT_EQ(answers, expected);
   // The owner answering an expired request learns that it is gone.
   auto first = as<msg::EvServiceRequest>(owner.waitFor(Code::ev_service_request));

@@ -36,6 +36,8 @@ class ChannelsCpp final : public skr::plugin::Module {
       for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
       upper_.publish(text);
       skr::plugin::dbSet(host_, self, "count", std::to_string(++count_));
+      // A property of its channel, in the channel's database: subscribers get EV_CHAN_HEADER.
+      skr::plugin::dbSet(host_, self + ".upper", "last_length", std::to_string(text.size()));
     });
   }
   void stop() override {

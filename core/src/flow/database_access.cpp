@@ -55,14 +55,24 @@ void DatabaseAccess::removeChannelDb(const std::string& name) {
 Result<void> DatabaseAccess::setChannelProps(const std::string& name, const Variant::Map& props) {
   PairDatabase* db = store_.find(name);
   if (db == nullptr) return noDatabase(name);
+  const uint64_t before = db->version();
+  Result<void> r;
   for (const auto& [k, v] : props) {
     if (v.isNull()) {
       db->remove(k);
-    } else if (auto r = db->set(k, v); !r) {
-      return makeError(Errc::invalid_argument, r.error().message);
+    } else if (auto s = db->set(k, v); !s) {
+      r = makeError(Errc::invalid_argument, s.error().message);
+      break;
     }
   }
-  return {};
+  propsChanged(*db, before);  // the keys set before a refused one stay set
+  return r;
+}
+
+void DatabaseAccess::propsChanged(const PairDatabase& db, uint64_t before) const {
+  if (db.version() == before || !on_props_changed) return;
+  auto it = owners_.find(db.name());
+  if (it != owners_.end() && it->second.kind == Owner::Kind::channel) on_props_changed(db.name());
 }
 
 Variant DatabaseAccess::channelProps(const std::string& name) const {
@@ -158,7 +168,10 @@ Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, con
     return makeError(Errc::permission_denied,
                      "database \"" + db->name() + "\" is not yours to write");
   }
-  return db->set(key, value);
+  const uint64_t before = db->version();
+  auto r = db->set(key, value);
+  propsChanged(*db, before);
+  return r;
 }
 
 Result<void> DatabaseAccess::delVar(Endpoint& e, const std::string& db_name,
@@ -172,6 +185,7 @@ Result<void> DatabaseAccess::delVar(Endpoint& e, const std::string& db_name,
   if (!db->remove(key)) {
     return makeError(Errc::not_found, "no variable \"" + key + "\" in \"" + db->name() + "\"");
   }
+  propsChanged(*db, db->version() - 1);
   return {};
 }
 

@@ -12,6 +12,7 @@
 #include <skrobot/flow/pair_database.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <unordered_map>
 
@@ -24,6 +25,10 @@ class DatabaseAccess {
 
   [[nodiscard]] DatabaseStore& store() noexcept { return store_; }
   [[nodiscard]] const DatabaseStore& store() const noexcept { return store_; }
+
+  // Told (with the channel's name) whenever a channel's properties change, whichever way they
+  // were written: CHAN_SET_PROPS, or a variable set or removed in the channel's database.
+  std::function<void(const std::string& channel)> on_props_changed;
 
   // A logged-in endpoint's databases: its flow database (created) and its user's (created if
   // new, persistent); its current database becomes the user's.
@@ -71,6 +76,9 @@ class DatabaseAccess {
     std::string user_name;
     uint32_t endpoint = 0;
   };
+
+  // Calls on_props_changed when `db` is a channel's and its version moved past `before`.
+  void propsChanged(const PairDatabase& db, uint64_t before) const;
 
   DatabaseStore store_;
   std::unordered_map<std::string, Owner> owners_;

@@ -32,6 +32,11 @@ FlowServer::Impl::Impl(Loop& l, ServerOptions options)
       databases(opt.data_dir),
       requests(endpoints, channels, opt.max_pending_requests, opt.request_timeout_ms) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
+  databases.on_props_changed = [this](const std::string& name) {
+    if (const Channel* ch = channels.findByName(name)) {
+      endpoints.forEachEventReceiver([&](Endpoint& e) { e.onChannelHeader(*ch); });
+    }
+  };
 }
 
 Result<void> FlowServer::Impl::start() {

@@ -138,9 +138,7 @@ Result<void> FlowServer::Impl::setProps(Endpoint& e, uint16_t id, const Variant&
   Channel& ch = **found;
   const auto* map = props.asMap();
   if (map == nullptr) return makeError(Errc::invalid_argument, "channel properties must be a map");
-  if (auto r = databases.setChannelProps(ch.name, *map); !r) return r;
-  endpoints.forEachEventReceiver([&](Endpoint& r) { r.onChannelHeader(ch); });
-  return {};
+  return databases.setChannelProps(ch.name, *map);  // EV_CHAN_HEADER from on_props_changed
 }
 
 msg::ChannelInfo FlowServer::Impl::info(const Channel& ch) const {

@@ -1,6 +1,7 @@
 // A hub's FlowServer on its own loop thread, and clients that talk to it over real sockets.
 #pragma once
 
+#include "eventually.h"
 #include "temp_dir.h"
 #include "test_client.h"
 

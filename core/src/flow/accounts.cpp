@@ -1,6 +1,7 @@
 // The users file: validation, argon2id hashing, JSON load and crash-safe save.
 #include "file_layer.h"
 
+#include <skrobot/core/clock.h>
 #include <skrobot/core/log.h>
 #include <skrobot/flow/accounts.h>
 
@@ -34,15 +35,6 @@ constexpr const char* kDummyHash =
 
 std::string errnoText(int err) {
   return std::strerror(err);
-}
-
-std::string nowUtc() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
 }
 
 Result<std::string> hashPassword(std::string_view password) {
@@ -202,7 +194,7 @@ Result<void> UsersFile::add(std::string_view user, std::string_view password) {
   }
   auto hash = hashPassword(password);
   if (!hash) return hash.error();
-  users_.emplace(std::string(user), Entry{std::move(hash.value()), nowUtc(), nullptr});
+  users_.emplace(std::string(user), Entry{std::move(hash.value()), utcNowText(), nullptr});
   return {};
 }
 

@@ -192,6 +192,8 @@ void Connection::processInput() {
     rstart_ += n.consumed;                  // before handling: a handler may block and resume later
     rneed_ = 0;
     ++server_.stats.frames_in;
+    ++traffic.messages_in;
+    traffic.bytes_in += n.consumed;
     handleFrame(n.code, n.body);
   }
   if (rstart_ == rend_) {
@@ -346,7 +348,7 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
     dropOldestData(frame);
     if (!out_.empty() && out_.size() + frame > limit) {
       ++dropped_[ch.id];
-      ++dropped_total_;
+      ++traffic.dropped;
       ++server_.stats.data_frames_dropped;
       return;
     }
@@ -361,6 +363,8 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
   std::memcpy(p + 5, &ch.id, 2);
   if (!payload.empty()) std::memcpy(p + 7, payload.data(), payload.size());
   ++server_.stats.data_frames_out;
+  ++traffic.messages_out;
+  traffic.bytes_out += frame;
   if (!flush_queued) server_.markDirty(this);
 }
 
@@ -391,17 +395,14 @@ void Connection::dropOldestData(size_t needed) {
     pos += frame;
   }
   out_.swap(kept);
-  dropped_total_ += dropped;
+  traffic.dropped += dropped;
   server_.stats.data_frames_dropped += dropped;
-  if (auto* db = server_.databases.store().find("_flow." + std::to_string(id))) {
-    (void)db->set("dropped_frames", Variant(static_cast<int64_t>(dropped_total_)));
-  }
   const Nanos now = monotonicNs();
   if (now - last_drop_log_ > kNsPerSec) {
     last_drop_log_ = now;
     log::warn(kLogSource, "FLOW-SLOW-SUBSCRIBER",
               describe() + ": dropped " + std::to_string(dropped) + " oldest data frames (" +
-                  std::to_string(dropped_total_) + " in all), its queue holds " +
+                  std::to_string(traffic.dropped) + " in all), its queue holds " +
                   std::to_string(limit) + " bytes");
   }
 }

@@ -128,9 +128,12 @@ class Connection final : public Endpoint {
 
   template <class M>
   void send(const M& m) {
+    const size_t before = out_.size();
     if (!encode(out_, m, enc_)) {
       log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
     }
+    ++traffic.messages_out;
+    traffic.bytes_out += out_.size() - before;
     queued();
   }
   void queued();  // after appending to out_: limits, then flush scheduling
@@ -165,7 +168,6 @@ class Connection final : public Endpoint {
   bool writing_ = false;
   bool close_after_flush_ = false;
   std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED
-  uint64_t dropped_total_ = 0;
   Nanos last_drop_log_ = 0;
 };
 

@@ -51,6 +51,8 @@ void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string
   (void)encode(head, msg::BlobData{version, total_size, {}});
   ByteWriter(head).patchU32(0, static_cast<uint32_t>(frame.size() - 4));
   std::memcpy(frame.data(), head.data(), head.size());
+  ++traffic.messages_out;
+  traffic.bytes_out += frame.size();
   if (out_.empty()) {
     out_.swap(frame);
   } else {

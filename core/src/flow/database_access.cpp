@@ -1,6 +1,7 @@
 // Database access (see database_access.h).
 #include "database_access.h"
 
+#include <skrobot/core/clock.h>
 #include <skrobot/core/log.h>
 
 #include <algorithm>
@@ -16,7 +17,11 @@ Error noDatabase(const std::string& name) {
 
 void DatabaseAccess::attach(Endpoint& e) {
   const std::string flow_db = "_flow." + std::to_string(e.id);
-  (void)store_.getOrCreate(flow_db, DatabaseKind::transient);
+  if (auto db = store_.getOrCreate(flow_db, DatabaseKind::transient)) {
+    (void)(*db)->set("user", Variant(e.user));
+    (void)(*db)->set("client", Variant(e.client_name));
+    (void)(*db)->set("connected_since", Variant(utcNowText()));
+  }
   owners_[flow_db] = Owner{Owner::Kind::flow, e.user, e.id};
   if (store_.find(e.user) == nullptr) (void)store_.create(e.user, DatabaseKind::persistent);
   owners_[e.user] = Owner{Owner::Kind::user, e.user, 0};

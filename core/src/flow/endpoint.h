@@ -43,6 +43,12 @@ class Endpoint {
   // requests not answered yet (the request table counts them).
   UserLimits limits;
   uint32_t pending_requests = 0;
+  // What crossed between it and the hub ("in": to the hub): frames and their bytes for a
+  // connection, payloads published and delivered for a module. Written to its flow database
+  // once a second (FlowServer::Impl::writeFlowStats).
+  struct Traffic {
+    uint64_t messages_in = 0, bytes_in = 0, messages_out = 0, bytes_out = 0, dropped = 0;
+  } traffic;
   std::vector<uint16_t> owned;       // channels it owns
   std::vector<uint16_t> subscribed;  // channels it is subscribed to
 
@@ -103,6 +109,11 @@ class EndpointTable {
       h.pending_requests += e->pending_requests;
     }
     return h;
+  }
+
+  template <class F>
+  void forEach(F&& f) const {
+    for (const auto& [id, e] : by_id_) f(*e);
   }
 
   template <class F>

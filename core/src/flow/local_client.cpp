@@ -23,6 +23,8 @@ struct LocalClient::Impl final : Endpoint {
     return "module " + client_name + " (" + user + ")";
   }
   void onData(const Channel& ch, std::string_view payload) override {
+    ++traffic.messages_out;
+    traffic.bytes_out += payload.size();
     if (handlers.on_data) handlers.on_data(ch.id, payload);
   }
   void onSubscribers(const Channel& ch, bool first) override {
@@ -118,6 +120,8 @@ std::optional<uint16_t> LocalClient::findChannel(const std::string& name) const 
 }
 
 Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
+  ++impl_->traffic.messages_in;
+  impl_->traffic.bytes_in += payload.size();
   return impl_->server.channels.publish(*impl_, chan_id, payload);
 }
 

@@ -314,6 +314,10 @@ void FlowServer::Impl::sweep() {
     }
   }
   requests.expire(now);
+  if (now >= next_flow_stats) {
+    next_flow_stats = now + kNsPerSec;
+    writeFlowStats();
+  }
 }
 
 void FlowServer::Impl::stop() noexcept {

@@ -88,6 +88,9 @@ struct FlowServer::Impl {
   void markDirty(Connection* c);
   void flushDirty();
   void sweep();
+  // Each endpoint's traffic counters into its flow database (once a second, from sweep).
+  void writeFlowStats();
+  Nanos next_flow_stats = 0;
 
   // --- across the parts (server_wiring.cpp)
   // An endpoint logged in: its databases, its current database.

@@ -14,6 +14,21 @@ void FlowServer::Impl::loggedIn(Endpoint& e) {
   databases.attach(e);
 }
 
+void FlowServer::Impl::writeFlowStats() {
+  endpoints.forEach([&](const Endpoint& e) {
+    PairDatabase* db = databases.store().find("_flow." + std::to_string(e.id));
+    if (db == nullptr) return;
+    const auto put = [db](const char* key, uint64_t v) {
+      (void)db->set(key, Variant(static_cast<int64_t>(v)));
+    };
+    put("messages_in", e.traffic.messages_in);
+    put("bytes_in", e.traffic.bytes_in);
+    put("messages_out", e.traffic.messages_out);
+    put("bytes_out", e.traffic.bytes_out);
+    put("dropped_frames", e.traffic.dropped);
+  });
+}
+
 void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   if (!endpoints.remove(e.id)) return;
   connections.erase(e.id);

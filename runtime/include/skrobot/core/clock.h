@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <ctime>
+#include <string>
 
 namespace skr {
 
@@ -23,5 +24,15 @@ inline Nanos threadCpuNs() noexcept {
 
 constexpr Nanos kNsPerMs = 1'000'000;
 constexpr Nanos kNsPerSec = 1'000'000'000;
+
+// The wall clock now as ISO 8601 UTC to the second: "2026-11-24T08:15:00Z".
+inline std::string utcNowText() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
 
 }  // namespace skr

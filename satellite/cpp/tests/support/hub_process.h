@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "eventually.h"
 #include "temp_dir.h"
 
 #include <chrono>
@@ -30,15 +31,7 @@ inline std::string slurp(const fs::path& file) {
   return ss.str();
 }
 
-// Polls `done` every 10 ms for up to timeout_ms (generous: CI machines are slow).
-inline bool eventually(const std::function<bool()>& done, int timeout_ms = 20000) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return done();
-}
+using skr::test::eventually;
 
 // A child process with stdout+stderr in a file. Killed (SIGKILL) if still running at destruction.
 class Child {

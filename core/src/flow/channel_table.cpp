@@ -50,7 +50,8 @@ Result<Channel*> ChannelTable::add(Endpoint* owner, const std::string& user,
                      "channel name \"" + short_name +
                          "\": 1 to 128 of A-Z a-z 0-9 _ - . (not starting with '.')");
   }
-  if (kind != ChannelKind::streaming && kind != ChannelKind::service && kind != ChannelKind::blob) {
+  if (kind != ChannelKind::streaming && kind != ChannelKind::service && kind != ChannelKind::blob &&
+      kind != ChannelKind::sync) {
     return makeError(Errc::invalid_argument, "unknown channel kind");
   }
   std::string name = user + "." + short_name;
@@ -98,6 +99,9 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   Channel* ch = *found;
   if (ch->kind == ChannelKind::service) {
     return makeError(Errc::invalid_argument, ch->name + " is a service channel: call it");
+  }
+  if (ch->kind == ChannelKind::sync) {
+    return makeError(Errc::invalid_argument, ch->name + " is a sync source: follow it");
   }
   if (!e.access->allows(Action::subscribe, ch->name)) {
     return accessDenied(e.user, Action::subscribe, ch->name);

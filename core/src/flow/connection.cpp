@@ -9,7 +9,8 @@ namespace skr::flow {
 namespace {
 
 constexpr size_t kReadChunk = 64 * 1024;
-constexpr size_t kKeepBuffer = 1 << 20;  // shrink buffers above this once they drain
+constexpr size_t kKeepBuffer = 1 << 20;    // shrink buffers above this once they drain
+constexpr size_t kWriteSlice = 256 << 10;  // queued output is handed to the socket in slices
 
 bool inRange(uint8_t code, uint8_t lo, uint8_t hi) {
   return code >= lo && code <= hi;
@@ -220,8 +221,10 @@ void Connection::unblock() {
 
 void Connection::handleFrame(uint8_t code, std::string_view body) {
   const bool sync_code = inRange(code, 0x01, 0x3F) || isBlobRequest(code);
-  const bool async_code = inRange(code, 0x40, 0x7F);
-  const bool reserved = code >= 0xC0 && !sync_code && code != uint8_t(Code::ev_blob_changed);
+  const bool async_code = inRange(code, 0x40, 0x7F) || isSyncCommand(code);
+  const bool reserved = code >= 0xC0 && !sync_code && !async_code &&
+                        code != uint8_t(Code::ev_blob_changed) &&
+                        code != uint8_t(Code::ev_sync_pulse);
   if (!sync_code && !async_code && !reserved) {
     protocolError("code 0x" +
                   [&] {
@@ -416,17 +419,26 @@ void Connection::flush() {
     dropped_.clear();
   }
   if (tls_) {
-    // The queue holds whole frames up to here (dropOldestData reads it); it leaves encrypted.
-    if (!out_.empty()) {
-      auto w = tls_->write(out_);
-      out_.clear();
+    // Ciphertext has no frame boundaries to slice at: urgent frames go ahead of the plaintext not
+    // encrypted yet, and the queue holds whole frames up to here (dropOldestData reads it).
+    for (std::string* plain : {&urgent_, &out_}) {
+      if (plain->empty()) continue;
+      auto w = tls_->write(*plain);
+      plain->clear();
       if (!w) {
         refuse(w.error().message, {});
         return;
       }
     }
     tls_->takeOutput(out_);
+  } else if (!urgent_.empty() && atFrameBoundary()) {
+    if (!writeUrgent()) return;
   }
+  if (inflight_off_ < inflight_.size()) {
+    writeSlice();
+    return;
+  }
+  releaseInflight();
   if (out_.empty()) {
     if (close_after_flush_) close("replies sent");
     return;
@@ -450,14 +462,75 @@ void Connection::flush() {
   }
   inflight_.swap(out_);
   out_.clear();
-  const size_t done = sent > 0 ? static_cast<size_t>(sent) : 0;
+  inflight_off_ = sent > 0 ? static_cast<size_t>(sent) : 0;
+  next_frame_ = 0;
+  writeSlice();
+}
+
+bool Connection::atFrameBoundary() {
+  if (inflight_off_ >= inflight_.size()) return true;
+  while (next_frame_ < inflight_off_) {
+    uint32_t len = 0;
+    std::memcpy(&len, inflight_.data() + next_frame_, 4);
+    next_frame_ += 4 + static_cast<size_t>(len);
+  }
+  return next_frame_ == inflight_off_;
+}
+
+bool Connection::writeUrgent() {
+  uv_buf_t b = uv_buf_init(urgent_.data(), static_cast<unsigned>(urgent_.size()));
+  const int sent = uv_try_write(stream(), &b, 1);
+  if (sent == static_cast<int>(urgent_.size())) {
+    urgent_.clear();
+    return true;
+  }
+  if (sent < 0 && sent != UV_EAGAIN) {
+    close(uv_strerror(sent));
+    return false;
+  }
+  // The socket is full: the rest goes first, on its own.
+  urgent_wire_.assign(urgent_, sent > 0 ? static_cast<size_t>(sent) : 0);
+  urgent_.clear();
+  writing_urgent_ = true;
+  writing_ = true;
+  uv_buf_t rest = uv_buf_init(urgent_wire_.data(), static_cast<unsigned>(urgent_wire_.size()));
+  if (int rc = uv_write(&wreq_, stream(), &rest, 1, &Connection::onWrite); rc < 0) {
+    writing_ = false;
+    close(uv_strerror(rc));
+  }
+  return false;
+}
+
+void Connection::writeSlice() {
+  // Whole frames of at least kWriteSlice bytes (one larger frame goes whole), so that urgent
+  // frames wait behind one slice at most. TLS output is written whole.
+  size_t end = inflight_.size();
+  if (!tls_) {
+    while (next_frame_ < inflight_.size() &&
+           (next_frame_ <= inflight_off_ || next_frame_ - inflight_off_ < kWriteSlice)) {
+      uint32_t len = 0;
+      std::memcpy(&len, inflight_.data() + next_frame_, 4);
+      next_frame_ += 4 + static_cast<size_t>(len);
+    }
+    end = std::min(next_frame_, inflight_.size());
+  }
+  slice_end_ = end;
   uv_buf_t buf =
-      uv_buf_init(inflight_.data() + done, static_cast<unsigned>(inflight_.size() - done));
+      uv_buf_init(inflight_.data() + inflight_off_, static_cast<unsigned>(end - inflight_off_));
   writing_ = true;
   if (int rc = uv_write(&wreq_, stream(), &buf, 1, &Connection::onWrite); rc < 0) {
     writing_ = false;
     close(uv_strerror(rc));
   }
+}
+
+void Connection::releaseInflight() {
+  if (inflight_.capacity() > kKeepBuffer) {
+    std::string().swap(inflight_);
+  } else {
+    inflight_.clear();
+  }
+  inflight_off_ = next_frame_ = slice_end_ = 0;
 }
 
 void Connection::onWrite(uv_write_t* req, int status) {
@@ -468,12 +541,34 @@ void Connection::onWrite(uv_write_t* req, int status) {
     c->close(uv_strerror(status));
     return;
   }
-  if (c->inflight_.capacity() > kKeepBuffer) {
-    std::string().swap(c->inflight_);
+  if (c->writing_urgent_) {
+    c->writing_urgent_ = false;
+    c->urgent_wire_.clear();
   } else {
-    c->inflight_.clear();
+    c->inflight_off_ = c->slice_end_;
   }
-  if (!c->out_.empty() || !c->dropped_.empty() || c->close_after_flush_) c->flush();
+  if (c->inflight_off_ < c->inflight_.size() || !c->urgent_.empty() || !c->out_.empty() ||
+      !c->dropped_.empty() || c->close_after_flush_) {
+    c->flush();
+  } else {
+    c->releaseInflight();
+  }
+}
+
+void Connection::onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,
+                             uint32_t dropped) {
+  if (state_ != State::flow || !sees(ch)) return;
+  std::string frame;
+  (void)encode(frame, msg::EvSyncPulse{ch.id, seq, source_time_ns, dropped});
+  sendUrgent(frame);
+}
+
+void Connection::sendUrgent(std::string_view frame) {
+  if (state_ == State::closing) return;
+  urgent_.append(frame);
+  ++traffic.messages_out;
+  traffic.bytes_out += frame.size();
+  server_.markDirty(this);
 }
 
 // --- events ----------------------------------------------------------------------------------
@@ -509,7 +604,7 @@ void Connection::onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode
 }
 
 bool Connection::sees(const Channel& ch) const noexcept {
-  return ch.kind != ChannelKind::blob || minor_ >= minorOf(Code::blob_list);
+  return minor_ >= minorOfKind(ch.kind);
 }
 
 void Connection::onChannelAdded(const Channel& ch, uint32_t tag) {

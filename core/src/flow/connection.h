@@ -65,6 +65,8 @@ class Connection final : public Endpoint {
   void onChannelAdded(const Channel& ch, uint32_t tag) override;
   void onChannelRemoved(const Channel& ch) override;
   void onChannelHeader(const Channel& ch) override;
+  void onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,
+                   uint32_t dropped) override;
   void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
                const std::string& message) override;
   void onDbChanged(const std::string& name) override;
@@ -137,6 +139,16 @@ class Connection final : public Endpoint {
     queued();
   }
   void queued();  // after appending to out_: limits, then flush scheduling
+  // A frame that goes ahead of the output queued in the hub (a sync pulse): after the slice being
+  // written, before everything else.
+  void sendUrgent(std::string_view frame);
+  // Output: whether the next byte to write starts a frame (urgent frames go in only there); the
+  // urgent frames, written at once or on their own (false: the write is under way or failed);
+  // the next slice of inflight_; inflight_ done with.
+  bool atFrameBoundary();
+  bool writeUrgent();
+  void writeSlice();
+  void releaseInflight();
   void dropOldestData(size_t needed);
 
   FlowServer::Impl& server_;
@@ -162,8 +174,12 @@ class Connection final : public Endpoint {
   std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;
 
-  // Output: frames accumulate in out_; inflight_ is being written.
-  std::string out_, inflight_;
+  // Output: frames accumulate in out_; inflight_ is being written, a slice at a time
+  // ([inflight_off_, slice_end_) now; next_frame_: a frame start at or past inflight_off_).
+  // Urgent frames wait in urgent_ (urgent_wire_ while the socket takes their rest).
+  std::string out_, inflight_, urgent_, urgent_wire_;
+  size_t inflight_off_ = 0, slice_end_ = 0, next_frame_ = 0;
+  bool writing_urgent_ = false;
   uv_write_t wreq_{};
   bool writing_ = false;
   bool close_after_flush_ = false;

@@ -320,9 +320,11 @@ void Connection::handleAsync(Code code, std::string_view body) {
     }
     case Code::chan_add: {
       SKR_DECODE(msg::ChanAdd, m);
-      if (m.kind == uint8_t(ChannelKind::blob) && minor_ < minorOf(Code::blob_list)) {
+      const auto kind = static_cast<ChannelKind>(m.kind);
+      if (minor_ < minorOfKind(kind)) {
         onError(code, m.tag, 0, ErrorCode::invalid_argument,
-                "blob channels need protocol 1." + std::to_string(minorOf(Code::blob_list)));
+                std::string(channelKindName(kind)) + " channels need protocol 1." +
+                    std::to_string(minorOfKind(kind)));
         return;
       }
       auto r = server_.createChannel(*this, m.short_name, static_cast<ChannelKind>(m.kind), m.mime,
@@ -417,6 +419,30 @@ void Connection::handleAsync(Code code, std::string_view body) {
     case Code::var_del_async: {
       SKR_DECODE(msg::VarDelAsync, m);
       check(dbs.delVar(*this, {}, m.name), m.tag, 0);
+      return;
+    }
+    case Code::sync_pulse: {
+      SKR_DECODE(msg::SyncPulse, m);
+      check(server_.syncs.pulse(*this, m.chan_id, m.source_time_ns), 0, m.chan_id);
+      return;
+    }
+    case Code::sync_follow: {
+      SKR_DECODE(msg::SyncFollow, m);
+      auto r = server_.syncs.follow(*this, m.chan_id, m.every);
+      if (r) server_.noteFollowed(*this);
+      check(r, m.tag, m.chan_id);
+      return;
+    }
+    case Code::sync_unfollow: {
+      SKR_DECODE(msg::SyncUnfollow, m);
+      auto r = server_.syncs.unfollow(*this, m.chan_id);
+      if (r) server_.noteFollowed(*this);
+      check(r, m.tag, m.chan_id);
+      return;
+    }
+    case Code::sync_done: {
+      SKR_DECODE(msg::SyncDone, m);
+      server_.syncs.done(*this, m.chan_id, m.seq);
       return;
     }
     case Code::chan_set_props: {

@@ -48,6 +48,7 @@ class Endpoint {
   // once a second (FlowServer::Impl::writeFlowStats).
   struct Traffic {
     uint64_t messages_in = 0, bytes_in = 0, messages_out = 0, bytes_out = 0, dropped = 0;
+    uint64_t sync_pulses = 0, sync_dropped = 0;  // pulses it got, and dropped while it was busy
   } traffic;
   std::vector<uint16_t> owned;       // channels it owns
   std::vector<uint16_t> subscribed;  // channels it is subscribed to
@@ -74,6 +75,9 @@ class Endpoint {
   virtual void onDbChanged(const std::string& name) = 0;
   // A file of a blob channel it subscribes to changed (in-process clients ignore it for now).
   virtual void onBlobChanged(const Channel& /*ch*/, const BlobEvent& /*event*/) {}
+  // A pulse of a sync source it follows (in-process clients cannot follow yet).
+  virtual void onSyncPulse(const Channel& /*ch*/, uint64_t /*seq*/, uint64_t /*source_time_ns*/,
+                           uint32_t /*dropped*/) {}
 };
 
 // The endpoints connected now, by id. Does not own them.

@@ -3,6 +3,7 @@
 //   endpoint.h          Endpoint (a satellite: Connection or LocalClient) and the EndpointTable
 //   channel_table.h     channels, subscribers, and the router of published data
 //   request_table.h     pending service requests, timeouts, owner-gone failures
+//   sync_pulses.h       sync pulse sources and their targets
 //   database_access.h   the PairDatabases and who may write them
 //   connection.h        one socket satellite: framing, command handlers, output queue
 //   server.cpp          transports, accept, output flushing, timeouts
@@ -18,6 +19,7 @@
 #include "database_access.h"
 #include "endpoint.h"
 #include "request_table.h"
+#include "sync_pulses.h"
 
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
@@ -76,6 +78,7 @@ struct FlowServer::Impl {
   DatabaseAccess databases;
   ChannelTable channels;
   RequestTable requests;
+  SyncPulses syncs{endpoints, channels};
   // The files of blob channels (blob_wiring.cpp); null without a data directory.
   std::unique_ptr<BlobStore> blobs;
 
@@ -90,6 +93,8 @@ struct FlowServer::Impl {
   void sweep();
   // Each endpoint's traffic counters into its flow database (once a second, from sweep).
   void writeFlowStats();
+  // The sources `e` follows, into its flow database ("sync_following").
+  void noteFollowed(const Endpoint& e);
   Nanos next_flow_stats = 0;
 
   // --- across the parts (server_wiring.cpp)

@@ -26,7 +26,15 @@ void FlowServer::Impl::writeFlowStats() {
     put("messages_out", e.traffic.messages_out);
     put("bytes_out", e.traffic.bytes_out);
     put("dropped_frames", e.traffic.dropped);
+    put("sync_pulses", e.traffic.sync_pulses);
+    put("sync_dropped", e.traffic.sync_dropped);
   });
+}
+
+void FlowServer::Impl::noteFollowed(const Endpoint& e) {
+  if (PairDatabase* db = databases.store().find("_flow." + std::to_string(e.id))) {
+    (void)db->set("sync_following", Variant(syncs.followedBy(e.id)));
+  }
 }
 
 void FlowServer::Impl::removeEndpoint(Endpoint& e) {
@@ -46,6 +54,7 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   }
   if (blobs) blobs->forget(e.id);
   requests.dropRequester(e.id);
+  syncs.dropEndpoint(e.id);
   databases.detach(e);
   channels.unwantAll(e.id);
 }
@@ -134,6 +143,7 @@ Result<void> FlowServer::Impl::removeChannel(Endpoint& by, uint16_t id) {
 void FlowServer::Impl::dropChannel(Channel& ch) {
   const uint16_t id = ch.id;
   requests.failChannel(id, ErrorCode::owner_gone, "channel " + ch.name + " was removed");
+  syncs.dropSource(id);
   std::unique_ptr<Channel> gone = channels.erase(ch);
   databases.removeChannelDb(gone->name);
   if (gone->kind == ChannelKind::blob && blobs) {

@@ -129,10 +129,14 @@ std::string_view codeName(uint8_t code) noexcept {
       return "EV_BLOB_CHANGED";
     case Code::sync_pulse:
       return "SYNC_PULSE";
-    case Code::sync_source_register:
-      return "SYNC_SOURCE_REGISTER";
-    case Code::sync_target_register:
-      return "SYNC_TARGET_REGISTER";
+    case Code::sync_follow:
+      return "SYNC_FOLLOW";
+    case Code::sync_unfollow:
+      return "SYNC_UNFOLLOW";
+    case Code::sync_done:
+      return "SYNC_DONE";
+    case Code::ev_sync_pulse:
+      return "EV_SYNC_PULSE";
     case Code::replicate_channel:
       return "REPLICATE_CHANNEL";
     case Code::replicate_stop:
@@ -168,6 +172,11 @@ uint16_t minorOf(Code code) noexcept {
     case Code::ev_blob_changed:
       return 3;
     case Code::service_request_timed:
+    case Code::sync_pulse:
+    case Code::sync_follow:
+    case Code::sync_unfollow:
+    case Code::sync_done:
+    case Code::ev_sync_pulse:
       return 4;
     default:
       return 0;
@@ -307,8 +316,21 @@ std::string_view channelKindName(ChannelKind kind) noexcept {
       return "service";
     case ChannelKind::blob:
       return "blob";
+    case ChannelKind::sync:
+      return "sync";
   }
   return "unknown";
+}
+
+uint16_t minorOfKind(ChannelKind kind) noexcept {
+  switch (kind) {
+    case ChannelKind::blob:
+      return minorOf(Code::blob_list);
+    case ChannelKind::sync:
+      return minorOf(Code::sync_pulse);
+    default:
+      return 0;
+  }
 }
 
 FrameSplitter::Next FrameSplitter::next(const uint8_t* data, size_t size) const noexcept {

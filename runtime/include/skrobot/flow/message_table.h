@@ -72,6 +72,11 @@ void forEachMessage(F&& f) {
   f(BlobAbort{});
   f(BlobCreate{});
   f(EvBlobChanged{});
+  f(SyncPulse{});
+  f(SyncFollow{});
+  f(SyncUnfollow{});
+  f(SyncDone{});
+  f(EvSyncPulse{});
 }
 
 }  // namespace skr::flow

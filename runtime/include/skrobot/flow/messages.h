@@ -578,4 +578,63 @@ struct EvBlobChanged {
   }
 };
 
+// --- the sync pulse (1.4) ---------------------------------------------------------------------
+
+// Source -> hub: a pulse of the source channel `chan_id` (owner only). `source_time_ns` is the
+// source's CLOCK_MONOTONIC when it sent the pulse (comparable on one machine).
+struct SyncPulse {
+  static constexpr Code code = Code::sync_pulse;
+  uint16_t chan_id = 0;
+  uint64_t source_time_ns = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(source_time_ns);
+  }
+};
+// Target -> hub: follow source `chan_id`, every `every`th pulse (0 and 1: each).
+struct SyncFollow {
+  static constexpr Code code = Code::sync_follow;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  uint32_t every = 1;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(every);
+  }
+};
+struct SyncUnfollow {
+  static constexpr Code code = Code::sync_unfollow;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id);
+  }
+};
+// Target -> hub: its tick for pulse `seq` of `chan_id` is done. Until then the hub drops that
+// source's pulses for it and counts them.
+struct SyncDone {
+  static constexpr Code code = Code::sync_done;
+  uint16_t chan_id = 0;
+  uint64_t seq = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(seq);
+  }
+};
+// Hub -> target: pulse `seq` of source `chan_id` (1, 2, ... as the source sent them);
+// `dropped`: pulses of that source dropped for this target since its previous one, because its
+// tick was not done (the ones `every` skips are not counted).
+struct EvSyncPulse {
+  static constexpr Code code = Code::ev_sync_pulse;
+  uint16_t chan_id = 0;
+  uint64_t seq = 0;
+  uint64_t source_time_ns = 0;
+  uint32_t dropped = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(seq) && f(source_time_ns) && f(dropped);
+  }
+};
+
 }  // namespace skr::flow::msg

@@ -96,10 +96,14 @@ enum class Code : uint8_t {
   blob_create = 0xC9,
   ev_blob_changed = 0xCF,
 
+  // 1.4: the sync pulse. A source is a channel of kind sync; commands on a flow, and one event.
+  sync_pulse = 0xD0,     // the source's pulse
+  sync_follow = 0xD1,    // become a target of a source (every Nth pulse)
+  sync_unfollow = 0xD2,  // stop following it
+  sync_done = 0xD3,      // a target's tick for a pulse is done: it may have the next one
+  ev_sync_pulse = 0xD8,  // a pulse, to each target
+
   // Reserved and specified; not implemented yet (answered with `unsupported`).
-  sync_pulse = 0xD0,
-  sync_source_register = 0xD1,
-  sync_target_register = 0xD2,
   replicate_channel = 0xE0,
   replicate_stop = 0xE1,
   hub_link_hello = 0xE8,
@@ -112,6 +116,10 @@ enum class Code : uint8_t {
 // A blob channel request (1.3): sent by satellites on a synchronous connection, like 0x01-0x3F.
 [[nodiscard]] constexpr bool isBlobRequest(uint8_t code) noexcept {
   return code >= 0xC0 && code <= 0xC9;
+}
+// A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
+[[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {
+  return code >= 0xD0 && code <= 0xD3;
 }
 
 enum class ErrorCode : uint16_t {
@@ -149,8 +157,11 @@ enum class ErrorCode : uint16_t {
 // A wire error as an Error (toErrc(code) and the peer's message).
 [[nodiscard]] Error wireError(ErrorCode code, std::string message);
 
-enum class ChannelKind : uint8_t { streaming = 1, service = 2, blob = 3 };
+// sync (1.4): a sync pulse source; it carries pulses, not data.
+enum class ChannelKind : uint8_t { streaming = 1, service = 2, blob = 3, sync = 4 };
 [[nodiscard]] std::string_view channelKindName(ChannelKind kind) noexcept;
+// The protocol minor that introduced a channel kind (0 for those of 1.0).
+[[nodiscard]] uint16_t minorOfKind(ChannelKind kind) noexcept;
 
 // How a frame carries a typed value: u8 encoding, then a binary Variant or u32 length + JSON text.
 enum class ValueEncoding : uint8_t { binary = 0, json = 1 };

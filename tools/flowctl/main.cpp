@@ -26,6 +26,8 @@ Commands:
   chan rm CHANNEL             remove any channel (administrators)
   blob ls|get|put|mkdir|rmdir|rm CHANNEL ...
                               the files of a blob channel (flowctl help blob)
+  sync source NAME --hz N | sync follow NAME
+                              emit sync pulses, or follow them and measure their period
   users                       the accounts of the users file (administrators)
   user add|del|passwd|role|rule NAME ...
                               change an account; a password is one line on stdin
@@ -99,6 +101,18 @@ std::string_view commandHelp(std::string_view command) {
   passwd read the password as one line from stdin. ACTION: publish, subscribe, call, db_read,
   db_write; no PATTERN: back to '**'. The account's connections keep their old rules until they
   reconnect.
+)";
+  }
+  if (command == "sync") {
+    return R"(usage: flowctl sync source NAME --hz N [--count N] | follow NAME [--every N] [--count N]
+  The sync pulse (docs/sync-pulse.md).
+  source  creates your sync source <user>.NAME and pulses N times a second (--count: then
+          stops); at the end prints its own period error p50/p99/max
+  follow  follows the source NAME (every Nth pulse), printing each pulse's arrival: the period
+          since the previous one, the delay from the source (one machine's clock), and the
+          pulses the hub dropped while this follower was busy; at the end (Ctrl-C, or --count
+          pulses) the period error p50/p99/max, the delay's, and the pulses dropped and missed
+          (--json: one object per pulse, then the summary)
 )";
   }
   if (command == "blob") {
@@ -221,5 +235,6 @@ int main(int argc, char** argv) {
   if (cli.command == "users") return cmdUsers(cli);
   if (cli.command == "user") return cmdUser(cli);
   if (cli.command == "blob") return cmdBlob(cli);
+  if (cli.command == "sync") return cmdSync(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

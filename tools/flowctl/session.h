@@ -42,8 +42,9 @@ class StopOnSignals {
 
 // What echo and pub share: a flow that does not reconnect, and how it ends.
 struct Session {
-  explicit Session(const Cli& cli, skr::Nanos tick_ns)
-      : loop(skr::LoopOptions{.name = "flowctl", .fast_interval_ns = tick_ns}),
+  explicit Session(const Cli& cli, skr::Nanos tick_ns,
+                   skr::TimingMode mode = skr::TimingMode::coarse)
+      : loop(skr::LoopOptions{.name = "flowctl", .mode = mode, .fast_interval_ns = tick_ns}),
         satellite(loop,
                   [&] {
                     sat::SatelliteOptions o;

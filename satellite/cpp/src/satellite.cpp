@@ -175,6 +175,41 @@ void Satellite::unsubscribe(std::string_view name) {
   impl_->subs.erase(it);
 }
 
+void Satellite::follow(std::string name, uint32_t every) {
+  auto f = impl_->follows.find(name);
+  if (f != impl_->follows.end() && f->second == every) return;
+  impl_->follows[name] = every;
+  auto s = impl_->subs.find(name);
+  if (s != impl_->subs.end() && s->second != 0) {
+    if (impl_->flowOpen()) impl_->send(msg::SyncFollow{impl_->nextTag(), s->second, every});
+    return;
+  }
+  subscribe(std::move(name));  // attach() follows what `follows` names
+}
+
+void Satellite::unfollow(std::string_view name) {
+  auto f = impl_->follows.find(name);
+  if (f == impl_->follows.end()) return;
+  auto s = impl_->subs.find(name);
+  if (s != impl_->subs.end()) {
+    if (s->second != 0 && impl_->flowOpen()) {
+      impl_->send(msg::SyncUnfollow{impl_->nextTag(), s->second});
+    }
+    impl_->subs.erase(s);
+  }
+  impl_->follows.erase(f);
+}
+
+Result<void> Satellite::pulse(std::string_view name) {
+  if (!impl_->flowOpen()) return notConnected();
+  const Impl::Own* o = impl_->findOwn(name);
+  if (o == nullptr || o->id == 0 || o->spec.kind != flow::ChannelKind::sync) {
+    return makeError(Errc::not_found, "no sync source of ours named " + std::string(name));
+  }
+  impl_->send(msg::SyncPulse{o->id, static_cast<uint64_t>(monotonicNs())});
+  return {};
+}
+
 bool Satellite::isSubscribed(std::string_view name) const {
   auto it = impl_->subs.find(name);
   return it != impl_->subs.end() && it->second != 0;

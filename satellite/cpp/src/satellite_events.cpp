@@ -41,6 +41,14 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       onChanRemoved(m);
       return;
     }
+    case Code::ev_sync_pulse: {
+      SAT_DECODE(msg::EvSyncPulse, m);
+      const SyncPulse p{m.chan_id, m.seq, m.source_time_ns, m.dropped, monotonicNs()};
+      self.syncPulse.emit(p);
+      // The slots' work is the tick this pulse drove: done now.
+      if (gen == generation && flowOpen()) send(msg::SyncDone{m.chan_id, m.seq});
+      return;
+    }
     case Code::ev_chan_header: {
       SAT_DECODE(msg::EvChanHeader, m);
       upsert(m.info);
@@ -197,7 +205,11 @@ void Satellite::Impl::onHubError(const msg::EvError& ev) {
 
 void Satellite::Impl::attach(const std::string& name, uint16_t id) {
   subs[name] = id;
-  send(msg::Subscribe{nextTag(), id});
+  if (auto f = follows.find(name); f != follows.end()) {
+    send(msg::SyncFollow{nextTag(), id, f->second});
+  } else {
+    send(msg::Subscribe{nextTag(), id});
+  }
   if (auto it = table.find(id); it != table.end()) {
     const ChannelInfo info = it->second;
     self.subscribed.emit(info);

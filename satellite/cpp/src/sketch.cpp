@@ -78,7 +78,19 @@ int Sketch::run() {
   s.serviceRequest.connect(&s, [this](const Request& r) { onRequest(r); });
   s.serviceResponse.connect(&s, [this](const Response& r) { onResponse(r); });
   s.error.connect(&s, [this](const FlowError& e) { onError(e); });
-  const TickId tick = loop_->addTickHandler(Tick::fast, [this] { this->tick(); });
+  const bool following = !options_.sync_source.empty();
+  if (following) {
+    s.follow(options_.sync_source, options_.sync_every);
+    s.syncPulse.connect(&s, [this](const SyncPulse& p) { onPulse(p); });
+    last_pulse_ns_ = monotonicNs();
+  }
+  const TickId tick = loop_->addTickHandler(Tick::fast, [this, following] {
+    if (following) {
+      ownTick();
+    } else {
+      this->tick();
+    }
+  });
 
   // SIGINT/SIGTERM stop the loop through libuv, so that nothing runs in signal context.
   std::vector<uv_signal_t*> signals;
@@ -124,6 +136,31 @@ void Sketch::tick() {
   window_work_sum_ += static_cast<double>(monotonicNs() - start) /
                       static_cast<double>(loop_->options().fast_interval_ns);
   if (start - window_start_ns_ >= kNsPerSec) measureSecond();
+}
+
+void Sketch::onPulse(const SyncPulse& pulse) {
+  last_pulse_ns_ = pulse.arrival_ns;
+  if (sync_lost_) {
+    sync_lost_ = false;
+    log::info("satellite", "SAT-SYNC-BACK", "pulses of " + options_.sync_source + " again");
+  }
+  onSyncPulse(pulse);
+  tick();
+}
+
+void Sketch::ownTick() {
+  const Nanos timeout = Nanos(options_.sync_timeout_ms) * kNsPerMs;
+  if (monotonicNs() - last_pulse_ns_ < timeout) return;  // the pulses drive loop()
+  if (!sync_lost_) {
+    sync_lost_ = true;
+    log::warn("satellite", "SAT-SYNC-LOST",
+              "no pulse of " + options_.sync_source + " for " +
+                  std::to_string(options_.sync_timeout_ms) + " ms: " +
+                  (options_.sync_strict ? "loop() waits for them"
+                                        : "loop() runs on the sketch's own timer meanwhile"));
+    onSyncLost();
+  }
+  if (!options_.sync_strict) tick();
 }
 
 void Sketch::measureSecond() {

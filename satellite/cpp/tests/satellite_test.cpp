@@ -164,6 +164,40 @@ TEST_F(Satellites, ServiceRoundTripAsyncAndBlocking) {
   ASSERT_TRUE(eventually([&] { return expired->count("timeout") == 1; }));
 }
 
+// The sync pulse: a source of one satellite, followed by another (kept across re-creation),
+// every pulse and then every second one; the follower answers each once its slots returned.
+TEST_F(Satellites, SyncPulsesFromASourceToAFollower) {
+  auto source = satellite("source");
+  source->on([](Satellite& s) {
+    ASSERT_TRUE(s.addChannel({.name = "clock", .kind = flow::ChannelKind::sync}));
+  });
+  ASSERT_TRUE(eventually([&] { return source->events.count("ready:guest.clock") == 1; }));
+  auto target = satellite("target");
+  target->on([](Satellite& s) { s.follow("guest.clock"); });
+  ASSERT_TRUE(eventually([&] { return target->events.count("subscribed:guest.clock") == 1; }));
+  // A round trip on the follower's flow: the hub has its SYNC_FOLLOW.
+  ASSERT_TRUE(target->on([](Satellite& s) { return s.syncDatabases(); }));
+  ASSERT_TRUE(eventually([&] { return target->events.count("synced:") == 1; }));
+  for (int i = 1; i <= 5; ++i) {
+    ASSERT_TRUE(source->on([](Satellite& s) { return s.pulse("clock"); }));
+    // The next one only once this one was handled: SYNC_DONE reached the hub before it.
+    ASSERT_TRUE(eventually([&] { return target->events.count("pulse:") == size_t(i); }));
+    ASSERT_TRUE(target->on([](Satellite& s) { return s.syncDatabases(); }));
+    ASSERT_TRUE(eventually([&] { return target->events.count("synced:") == size_t(i + 1); }));
+  }
+  EXPECT_EQ(target->events.with("pulse:guest.clock:"),
+            (std::vector<std::string>{"1:0", "2:0", "3:0", "4:0", "5:0"}));
+  auto bad = source->on([](Satellite& s) { return s.pulse("nope"); });
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().code, Errc::not_found);
+  target->on([](Satellite& s) { s.unfollow("guest.clock"); });
+  ASSERT_TRUE(target->on([](Satellite& s) { return s.syncDatabases(); }));
+  ASSERT_TRUE(eventually([&] { return target->events.count("synced:") == 7; }));
+  ASSERT_TRUE(source->on([](Satellite& s) { return s.pulse("clock"); }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(target->events.count("pulse:"), 5u) << "a pulse after unfollow";
+}
+
 TEST_F(Satellites, DatabasesWrittenOnTheFlowReadBlocking) {
   auto s = satellite("db");
   ASSERT_TRUE(s->on([](Satellite& x) { return x.set("speed", 1.5); }));

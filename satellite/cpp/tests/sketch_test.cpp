@@ -1,6 +1,7 @@
 // The sketch style: setup() once when the flow opens, loop() at the requested cadence, which the
 // sketch measures and reports. Rate bounds are loose (40% of the requested rate, and never
 // faster than requested) so that loaded machines pass, but a wrong cadence does not.
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -76,6 +77,67 @@ TEST_F(Sketches, StopFromAnotherThread) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   t.stop();
   runner.join();
+}
+
+// A sketch that follows a source: loop() runs on its pulses (the timer's 2 Hz would give a few),
+// falls back to the timer when they stop (onSyncLost once), and in strict mode waits instead.
+class Follower : public Sketch {
+ public:
+  using Sketch::Sketch;
+  std::atomic<int> loops{0}, pulses{0}, lost{0};
+
+ protected:
+  void loop() override { ++loops; }
+  void onSyncPulse(const SyncPulse&) override { ++pulses; }
+  void onSyncLost() override { ++lost; }
+};
+
+TEST_F(Sketches, LoopFollowsASyncSourceAndFallsBackWithoutIt) {
+  for (const bool strict : {false, true}) {
+    SCOPED_TRACE(strict ? "strict" : "fallback");
+    auto source = std::make_unique<SatOnThread>(options("source"));
+    source->start();
+    source->on([](Satellite& s) {
+      ASSERT_TRUE(s.addChannel({.name = "clock", .kind = flow::ChannelKind::sync}));
+    });
+    ASSERT_TRUE(eventually([&] { return source->events.count("ready:guest.clock") == 1; }));
+    SketchOptions o;
+    o.satellite = options("follower");
+    o.rate_hz = 20;
+    o.handle_signals = false;
+    o.sync_source = "guest.clock";
+    o.sync_timeout_ms = 800;
+    o.sync_strict = strict;
+    Follower f(o);
+    std::thread runner([&] { EXPECT_EQ(f.run(), 0); });
+    const auto pulse = [&] {
+      (void)source->on([](Satellite& s) { return s.pulse("clock"); });
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    };
+    // Pulses until the follower gets one (it connects and follows meanwhile) ...
+    ASSERT_TRUE(eventually([&] {
+      pulse();
+      return f.pulses >= 1;
+    }));
+    // ... then 100 at about 200 Hz: loop() runs on each (it is quick: none is dropped).
+    const int first = f.pulses;
+    for (int i = 0; i < 100; ++i) pulse();
+    ASSERT_TRUE(eventually([&] { return f.pulses >= first + 95; })) << f.pulses;
+    EXPECT_EQ(f.lost, 0);
+    const int during = f.loops;
+    EXPECT_GE(during, f.pulses);
+    EXPECT_LE(during, f.pulses + 2) << "loop() ran on the timer while pulses came";
+    // No more pulses: after the timeout, loop() runs at 20 Hz again, or not at all.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1800));
+    EXPECT_EQ(f.lost, 1);
+    if (strict) {
+      EXPECT_EQ(f.loops, during);
+    } else {
+      EXPECT_GE(f.loops - during, 5) << "the timer did not take over";
+    }
+    f.stop();
+    runner.join();
+  }
 }
 
 TEST(SketchOptionsTest, BadRobotAddressMakesRunReturnTwo) {

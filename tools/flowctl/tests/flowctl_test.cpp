@@ -160,6 +160,29 @@ TEST_F(Flowctl, EchoWhatPubPublishes) {
   EXPECT_EQ(rate->output(), "from a file\nfrom a file\nfrom a file\nfrom a file\n");
 }
 
+TEST_F(Flowctl, SyncSourceAndFollower) {
+  EXPECT_EQ(flowctl({"sync", "source", "clock"}).code, 2);  // no --hz
+  EXPECT_EQ(flowctl({"sync", "follow", "guest.nothing"}).code, 5);
+  auto source = background({"sync", "source", "clock", "--hz", "200"});
+  ASSERT_TRUE(eventually([&] { return has(flowctl({"ls"}), "guest.clock"); })) << source->output();
+  auto follow = flowctl({"--json", "sync", "follow", "guest.clock", "--count", "40"});
+  EXPECT_EQ(follow.code, 0) << follow.out;
+  // One line per pulse, then the summary.
+  EXPECT_EQ(std::count(follow.out.begin(), follow.out.end(), '\n'), 41) << follow.out;
+  const std::string summary = follow.out.substr(follow.out.rfind("{\"source\""));
+  auto v = flow::variantFromJsonText(summary);
+  ASSERT_TRUE(v) << summary;
+  EXPECT_EQ(*v->find("pulses"), Variant(40));
+  EXPECT_NEAR(*v->find("period_ms")->asDouble(), 5.0, 2.5) << summary;
+  EXPECT_TRUE(v->find("period_error")->find("p99_us") != nullptr) << summary;
+  EXPECT_EQ(*v->find("missed"), Variant(0)) << summary;
+  // --every 0 is each pulse; the source prints its own figures when it stops.
+  EXPECT_EQ(flowctl({"sync", "follow", "guest.clock", "--every", "0", "--count", "1"}).code, 0);
+  source->signal(SIGINT);
+  EXPECT_EQ(source->wait(), 0) << source->output();
+  EXPECT_TRUE(has(Ran{0, source->output()}, "period error: p50")) << source->output();
+}
+
 TEST_F(Flowctl, EchoRateAndOthersChannels) {
   auto o = owner();
   auto rate = background({"echo", "guest.counter", "--rate"});

@@ -118,6 +118,10 @@ class SatOnThread {
     s.error.connect(&s, [this](const FlowError& e) { events.add("error:" + e.message); });
     s.databasesSynced.connect(
         &s, [this](uint32_t tag) { events.add("synced:" + std::to_string(tag)); });
+    s.syncPulse.connect(&s, [this, name](const SyncPulse& p) {
+      events.add("pulse:" + name(p.chan_id) + ":" + std::to_string(p.seq) + ":" +
+                 std::to_string(p.dropped));
+    });
   }
 
   LoopThread thread_;

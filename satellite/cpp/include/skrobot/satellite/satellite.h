@@ -83,6 +83,15 @@ struct BlobChange {
   uint64_t size = 0;
   uint64_t version = 0;
 };
+// A pulse of a sync source we follow (EV_SYNC_PULSE, docs/sync-pulse.md). `dropped`: pulses the
+// hub dropped for us since the previous one because our handling of that one was not done.
+struct SyncPulse {
+  uint16_t chan_id = 0;
+  uint64_t seq = 0;
+  uint64_t source_time_ns = 0;  // the source's CLOCK_MONOTONIC (comparable on one machine)
+  uint32_t dropped = 0;
+  Nanos arrival_ns = 0;  // our CLOCK_MONOTONIC when it arrived
+};
 // A command the hub refused (EV_ERROR: `command` and `tag` name it), a refused login (command
 // LOGIN), or a local failure (command 0): protocol_error when the hub broke the protocol,
 // io_error when the first connection failed and `reconnect` is off.
@@ -151,6 +160,17 @@ class Satellite : public Object {
   void unsubscribe(std::string_view name);
   [[nodiscard]] bool isSubscribed(std::string_view name) const;  // attached to the channel now
 
+  // --- the sync pulse (FlowProtocol 1.4, docs/sync-pulse.md) ---------------------------------
+  // Follows the sync source `name` ("<user>.<name>"), every `every`th pulse: `syncPulse` is
+  // emitted for each, and the hub learns that we are done with it when the signal's slots have
+  // returned (pulses that come meanwhile are dropped and counted). Kept like a subscription by
+  // name: across re-creations and reconnections. unfollow() with the same name stops it.
+  void follow(std::string name, uint32_t every = 1);
+  void unfollow(std::string_view name);
+  // A pulse of one of our sync sources (addChannel with kind sync), stamped with the monotonic
+  // clock now. Errc::closed, Errc::not_found (no such source of ours yet).
+  [[nodiscard]] Result<void> pulse(std::string_view name);
+
   // Publishes on one of our streaming channels. Queued: everything queued during one loop
   // iteration goes out in one write. Errc::closed (not connected), Errc::not_found (no such
   // channel of ours yet), Errc::limit_exceeded (max_queued_bytes wait: the frame is dropped).
@@ -217,6 +237,7 @@ class Satellite : public Object {
   // A file of a blob channel we subscribe to was written or removed (subscribe() by its name);
   // its files are read and written through syncClient() (SyncClient::blobGet, blobPut, ...).
   Signal<const BlobChange&> blobChanged{*this};
+  Signal<const SyncPulse&> syncPulse{*this};  // a pulse of a source we follow
 
   struct Impl;
 

@@ -27,6 +27,14 @@ struct SketchOptions {
   double rate_hz = 10;         // loop() calls per second
   TimingMode timing = TimingMode::coarse;
   bool handle_signals = true;  // SIGINT and SIGTERM make run() return 0
+  // Follow a sync source ("<user>.<name>", docs/sync-pulse.md): loop() runs on each of its
+  // pulses (every sync_every-th) instead of at rate_hz. After sync_timeout_ms without a pulse,
+  // loop() runs at rate_hz again until pulses come back (onSyncLost once per loss), or, with
+  // sync_strict, does not run at all.
+  std::string sync_source;
+  uint32_t sync_every = 1;
+  uint32_t sync_timeout_ms = 1000;
+  bool sync_strict = false;
 
   // SatelliteOptions::fromEnvironment(); ROBOT_ADDRESS must parse.
   [[nodiscard]] static Result<SketchOptions> fromEnvironment(std::string client_name = {});
@@ -82,10 +90,15 @@ class Sketch {
   virtual void onRequest(const Request& /*request*/) {}
   virtual void onResponse(const Response& /*response*/) {}
   virtual void onError(const FlowError& /*error*/) {}
+  // Following a sync source: each pulse, before its loop(); and a loss of pulses (timeout).
+  virtual void onSyncPulse(const SyncPulse& /*pulse*/) {}
+  virtual void onSyncLost() {}
 
  private:
   void tick();
   void measureSecond();
+  void onPulse(const SyncPulse& pulse);
+  void ownTick();  // the loop's fast tick while following: the fallback after a timeout
 
   SketchOptions options_;
   bool options_ok_ = true;
@@ -100,6 +113,8 @@ class Sketch {
   double window_error_sum_ns_ = 0;
   double window_error_max_ns_ = 0;
   double window_work_sum_ = 0;
+  Nanos last_pulse_ns_ = 0;  // following: the last pulse's arrival (or when following began)
+  bool sync_lost_ = false;
 };
 
 }  // namespace skr::sat

@@ -237,6 +237,18 @@ int runHub(const skr::HubConfig& cfg) {
     uv_run(loop.uv(), UV_RUN_NOWAIT);
     return kExitServer;
   }
+  // The hub's own sync source: a pulse on each of its fast ticks (docs/sync-pulse.md).
+  std::unique_ptr<skr::flow::LocalClient> pulser;
+  if (!cfg.sync_hub_source.empty()) {
+    pulser = server.attachLocal("hub", "sync source", {});
+    auto id = pulser->createChannel(cfg.sync_hub_source, skr::flow::ChannelKind::sync, "", {});
+    if (!id) {
+      skr::log::error("hub", "HUB-SYNC-SOURCE",
+                      "hub." + cfg.sync_hub_source + ": " + id.error().message);
+    } else {
+      loop.addTickHandler(skr::Tick::fast, [&pulser, chan = *id] { (void)pulser->pulse(chan); });
+    }
+  }
   {
     skr::ModuleHost host(loop, cfg.module_paths, &server);
     host.start(cfg.modules);
@@ -246,6 +258,7 @@ int runHub(const skr::HubConfig& cfg) {
     loop.run();
     host.shutdown();
   }
+  pulser.reset();
   server.stop();
   for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
   uv_run(loop.uv(), UV_RUN_NOWAIT);  // let the close callbacks run before the loop goes

@@ -338,6 +338,7 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
       }
     }
     readModules(d["modules"], base_dir, cfg, problems);
+    if (d["sync"].isObject()) cfg.sync_hub_source = d["sync"]["hub_source"].asString();
     readServer(d, base_dir, cfg);
     if (cfg.server.tls && !cfg.server.tcp_enabled) {
       problems.push_back({"$.server.tls", "TLS is served on the TCP listener: set \"tcp\": true"});
@@ -378,6 +379,9 @@ s::Schema hubSchema() {
                      s::optional("max_channel_files", s::integer().range(0, 100000000), 0)}),
           Json::objectValue),
       s::optional("server", serverSchema(), Json::objectValue),
+      s::optional("sync",
+                  s::object({s::optional("hub_source", s::string().check(plainName("")), "")}),
+                  Json::objectValue),
       s::optional("accounts", accountsSchema(), Json::objectValue),
   });
 }

@@ -125,6 +125,10 @@ Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
   return impl_->server.channels.publish(*impl_, chan_id, payload);
 }
 
+Result<void> LocalClient::pulse(uint16_t chan_id) {
+  return impl_->server.syncs.pulse(*impl_, chan_id, static_cast<uint64_t>(monotonicNs()));
+}
+
 Result<void> LocalClient::subscribe(const std::string& name) {
   ChannelTable& channels = impl_->server.channels;
   channels.want(name, impl_->id);

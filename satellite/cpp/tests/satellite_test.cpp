@@ -198,6 +198,23 @@ TEST_F(Satellites, SyncPulsesFromASourceToAFollower) {
   EXPECT_EQ(target->events.count("pulse:"), 5u) << "a pulse after unfollow";
 }
 
+// The hub as a source: "sync.hub_source" pulses hub.<name> on each of the hub's fast ticks.
+TEST(HubSyncSource, TheHubPulsesItsOwnSourceOnItsFastTick) {
+  TempDir dir;
+  HubProcess hub(SKROBOT_BIN, dir.path(), {}, {},
+                 R"("sync": {"hub_source": "tick"}, "loop": {"fast_tick_ms": 10}, )");
+  ASSERT_TRUE(hub.start()) << hub.log();
+  SatelliteOptions o;
+  o.connection.address = Address::parse("local:" + (dir.path() / "hub.sock").string()).value();
+  SatOnThread target(o);
+  target.start();
+  target.on([](Satellite& s) { s.follow("hub.tick"); });
+  ASSERT_TRUE(eventually([&] { return target.events.count("pulse:hub.tick:") >= 20; }))
+      << target.events.dump();
+  const ChannelInfo info = target.on([](Satellite& s) { return *s.channel("hub.tick"); });
+  EXPECT_EQ(info.kind, uint8_t(flow::ChannelKind::sync));
+}
+
 TEST_F(Satellites, DatabasesWrittenOnTheFlowReadBlocking) {
   auto s = satellite("db");
   ASSERT_TRUE(s->on([](Satellite& x) { return x.set("speed", 1.5); }));

@@ -66,6 +66,7 @@ struct HubConfig {
   std::vector<std::filesystem::path> module_paths;  // searched before the built-in ones
   std::vector<ModuleEntry> modules;
   ServerConfig server;
+  std::string sync_hub_source;  // "sync.hub_source": the hub pulses hub.<name> on its fast tick
   std::filesystem::path config_file;  // absolute path of the file loaded
   Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections
 };

@@ -41,7 +41,7 @@ struct ServerOptions {
   size_t subscriber_queue_bytes = 8u << 20;
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 5000;
-  size_t max_pending_requests = 1024;  // unanswered service requests per channel
+  size_t max_pending_requests = 1024;   // unanswered service requests per channel
   uint32_t request_timeout_ms = 30000;  // a service request that names no timeout fails after it
   // What one user may hold at once unless its account says otherwise (flow/access.h).
   // blob_mib and blob_files 0: no limit unless the account sets one.
@@ -146,6 +146,8 @@ class LocalClient {
   // Publishes on an owned streaming channel: in-process subscribers get a view of `payload`
   // (no copy), satellites a frame each.
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
+  // A pulse of an owned sync source (docs/sync-pulse.md), stamped with the monotonic clock.
+  [[nodiscard]] Result<void> pulse(uint16_t chan_id);
   // Subscribes by name; if the channel does not exist yet the subscription waits for it, and it
   // follows the channel when it is removed and created again.
   [[nodiscard]] Result<void> subscribe(const std::string& name);

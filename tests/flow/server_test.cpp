@@ -322,6 +322,64 @@ TEST_F(Server, PollingTheLatestBuffer) {
   FAIL() << "the latest buffer never arrived";
 }
 
+// Polling keeps the payload only while someone polls: late registration, deregistering and
+// disconnecting all start again from "nothing yet" (seq 0), never a stale or empty payload.
+TEST_F(Server, PollingStopsWithTheLastPoller) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "battery");
+  const auto publish = [&](const std::string& p) {
+    ASSERT_TRUE(owner.send(msg::Publish{id, msg::Rest{p}}));
+    ASSERT_TRUE(owner.send(msg::DbSetCurrent{1, "guest"}));  // a round trip: published by now
+    ASSERT_TRUE(owner.waitFor(Code::ev_db_changed));
+  };
+  const auto fetch = [&](TestClient& c) {
+    auto p = as<msg::PollData>(c.call(msg::PollFetch{id}));
+    return p ? std::pair<uint64_t, std::string>{p->seq, std::string(p->payload.bytes)}
+             : std::pair<uint64_t, std::string>{~0ull, ""};
+  };
+  publish("90%");
+  publish("89%");
+  TestClient a = syncClient();
+  EXPECT_EQ(a.call(msg::PollRegister{id})->kind(), Code::reply_ok);
+  EXPECT_EQ(fetch(a), (std::pair<uint64_t, std::string>{0, ""})) << "registered after 2";
+  publish("88%");
+  EXPECT_EQ(fetch(a), (std::pair<uint64_t, std::string>{3, "88%"}));
+  {
+    TestClient b = syncClient();
+    EXPECT_EQ(b.call(msg::PollRegister{id})->kind(), Code::reply_ok);
+    EXPECT_EQ(b.call(msg::PollRegister{id})->kind(), Code::reply_ok);  // twice is once
+    EXPECT_EQ(fetch(b), (std::pair<uint64_t, std::string>{3, "88%"}));
+    EXPECT_EQ(b.call(msg::PollDeregister{id})->kind(), Code::reply_ok);
+    EXPECT_EQ(errorOf(b.call(msg::PollDeregister{id})), uint16_t(ErrorCode::not_found));
+  }
+  EXPECT_EQ(fetch(a), (std::pair<uint64_t, std::string>{3, "88%"})) << "a still polls";
+  // The last poller leaves: nothing is kept, and a new poller starts from nothing.
+  EXPECT_EQ(a.call(msg::PollDeregister{id})->kind(), Code::reply_ok);
+  publish("87%");
+  TestClient c = syncClient();
+  EXPECT_EQ(c.call(msg::PollRegister{id})->kind(), Code::reply_ok);
+  EXPECT_EQ(fetch(c), (std::pair<uint64_t, std::string>{0, ""}));
+  publish("86%");
+  EXPECT_EQ(fetch(c), (std::pair<uint64_t, std::string>{5, "86%"}));
+  c.close();  // a poller that disconnects deregisters
+  ASSERT_TRUE(eventually([&] {
+    TestClient d = syncClient();
+    (void)d.call(msg::PollRegister{id});
+    const bool fresh = fetch(d).first == 0;
+    (void)d.call(msg::PollDeregister{id});
+    return fresh;
+  }));
+  // A 1.3 client cannot deregister (it has no such request).
+  TestClient old = connect();
+  msg::Login login;
+  login.minor = 3;
+  login.user = "guest";
+  login.password = "password";
+  ASSERT_TRUE(as<msg::LoginOk>(old.call(login)));
+  EXPECT_EQ(errorOf(old.call(msg::PollDeregister{id})), uint16_t(ErrorCode::unsupported));
+}
+
 TEST_F(Server, ServiceRoundTripAsyncAndSync) {
   startHub();
   TestClient owner = flowClient();

@@ -59,6 +59,7 @@ bool parseNumber(const std::string& text, const char* what, double& out);
 // Commands. Each returns an exit code.
 int cmdLs(const Cli& cli);
 int cmdEcho(const Cli& cli);
+int cmdPoll(const Cli& cli);
 int cmdPub(const Cli& cli);
 int cmdCall(const Cli& cli);
 int cmdDb(const Cli& cli);

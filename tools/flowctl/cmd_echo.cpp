@@ -1,4 +1,7 @@
-// flowctl echo: print what a streaming channel carries.
+// flowctl echo and poll: print what a streaming channel carries, as it comes or its latest.
+#include <chrono>
+#include <thread>
+
 #include "session.h"
 
 namespace flowctl {
@@ -110,6 +113,56 @@ int cmdEcho(const Cli& cli) {
   }
   s.satellite.subscribe(name);
   return s.run();
+}
+
+int cmdPoll(const Cli& cli) {
+  Args args(cli.args);
+  const std::string format = args.option("--format").value_or("auto");
+  const auto count_text = args.option("--count");
+  const auto interval_text = args.option("--interval");
+  const auto rest = args.rest();
+  if (!args.error().empty()) return fail(kUsage, args.error());
+  if (rest.size() != 1) return fail(kUsage, "usage: flowctl poll CHANNEL [options]");
+  if (format != "auto" && format != "text" && format != "hex" && format != "json") {
+    return fail(kUsage, "--format is auto, text, hex or json, not '" + format + "'");
+  }
+  double count = 0, interval_ms = 500;
+  if (count_text && !parseNumber(*count_text, "--count", count)) return kUsage;
+  if (interval_text && !parseNumber(*interval_text, "--interval", interval_ms)) return kUsage;
+  const std::string& name = rest[0];
+  int code = kOk;
+  auto sync = connectSync(cli, code);
+  if (!sync) return code;
+  auto info = sync->channel(name);
+  if (!info) return fail(exitFor(info.error()), info.error().message);
+  if (info->kind != uint8_t(skr::flow::ChannelKind::streaming)) {
+    return fail(kFailed, name + " is not a streaming channel");
+  }
+  if (auto r = sync->pollRegister(info->id); !r) return fail(exitFor(r.error()), r.error().message);
+  // Until --count payloads were printed, or SIGINT/SIGTERM (checked between fetches).
+  static volatile std::sig_atomic_t stop = 0;
+  std::signal(SIGINT, [](int) { stop = 1; });
+  std::signal(SIGTERM, [](int) { stop = 1; });
+  uint64_t last = 0, printed = 0;
+  while (stop == 0 && (count <= 0 || printed < static_cast<uint64_t>(count))) {
+    auto p = sync->pollFetch(info->id);
+    if (!p) return fail(exitFor(p.error()), p.error().message);
+    if (p->seq != 0 && p->seq != last) {
+      last = p->seq;
+      ++printed;
+      std::string line = render(format, cli.json, name, p->payload);
+      if (cli.json) line.insert(1, "\"seq\":" + std::to_string(p->seq) + ",");
+      line += "\n";
+      std::fwrite(line.data(), 1, line.size(), stdout);
+      std::fflush(stdout);
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(static_cast<int64_t>(interval_ms * 1e3)));
+  }
+  // Lets the hub stop keeping the payload (an older hub keeps it: it has no deregister).
+  if (auto r = sync->pollDeregister(info->id); !r && r.error().code != skr::Errc::unsupported) {
+    return fail(exitFor(r.error()), r.error().message);
+  }
+  return kOk;
 }
 
 }  // namespace flowctl

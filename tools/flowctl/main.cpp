@@ -17,6 +17,7 @@ Commands:
   ls                          list the hub's channels: id, kind, name, owner, subscribers, mime,
                               properties
   echo CHANNEL                print the data published on a streaming channel
+  poll CHANNEL                print a streaming channel's latest payload when it changes
   pub CHANNEL [PAYLOAD]       publish on one of your channels (<user>.<name>), creating it
   call SERVICE CMD [VALUE]    call a service channel; VALUE is JSON; prints the answer
   db get|set|del|ls|save|databases [--db NAME] [KEY [VALUE]]
@@ -101,6 +102,13 @@ std::string_view commandHelp(std::string_view command) {
   passwd read the password as one line from stdin. ACTION: publish, subscribe, call, db_read,
   db_write; no PATTERN: back to '**'. The account's connections keep their old rules until they
   reconnect.
+)";
+  }
+  if (command == "poll") {
+    return R"(usage: flowctl poll CHANNEL [--interval MS] [--count N] [--format auto|text|hex|json]
+  Polls a streaming channel instead of subscribing: the hub keeps its latest payload, which is
+  fetched every --interval ms (default 500) and printed when it changed (--count: after N, stop).
+  Payloads published between two fetches are not seen: that is polling. --json adds "seq".
 )";
   }
   if (command == "sync") {
@@ -236,5 +244,6 @@ int main(int argc, char** argv) {
   if (cli.command == "user") return cmdUser(cli);
   if (cli.command == "blob") return cmdBlob(cli);
   if (cli.command == "sync") return cmdSync(cli);
+  if (cli.command == "poll") return cmdPoll(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

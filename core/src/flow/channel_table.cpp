@@ -137,6 +137,55 @@ Result<void> ChannelTable::unsubscribe(Endpoint& e, uint16_t id) {
   return {};
 }
 
+namespace {
+Result<Channel*> streaming(ChannelTable& t, uint16_t id) {
+  Channel* ch = t.find(id);
+  if (ch == nullptr || ch->kind != ChannelKind::streaming) {
+    return makeError(Errc::not_found, "no streaming channel with id " + std::to_string(id));
+  }
+  return ch;
+}
+void stopKeeping(Channel& ch) {
+  std::string().swap(ch.last);
+  ch.last_seq = 0;
+}
+}  // namespace
+
+Result<void> ChannelTable::pollRegister(uint32_t endpoint, uint16_t id) {
+  auto ch = streaming(*this, id);
+  if (!ch) return ch.error();
+  auto& p = (*ch)->pollers;
+  if (std::find(p.begin(), p.end(), endpoint) == p.end()) p.push_back(endpoint);
+  return {};
+}
+
+Result<std::pair<uint64_t, std::string_view>> ChannelTable::pollFetch(uint16_t id) {
+  auto ch = streaming(*this, id);
+  if (!ch) return ch.error();
+  return std::pair<uint64_t, std::string_view>{(*ch)->last_seq, (*ch)->last};
+}
+
+Result<void> ChannelTable::pollDeregister(uint32_t endpoint, uint16_t id) {
+  auto ch = streaming(*this, id);
+  if (!ch) return ch.error();
+  auto& p = (*ch)->pollers;
+  auto it = std::find(p.begin(), p.end(), endpoint);
+  if (it == p.end()) {
+    return makeError(Errc::not_found, "this client does not poll " + (*ch)->name);
+  }
+  p.erase(it);
+  if (p.empty()) stopKeeping(**ch);
+  return {};
+}
+
+void ChannelTable::unpollAll(uint32_t endpoint) {
+  for (auto& ch : channels_) {
+    if (ch != nullptr && std::erase(ch->pollers, endpoint) > 0 && ch->pollers.empty()) {
+      stopKeeping(*ch);
+    }
+  }
+}
+
 void ChannelTable::compact(Channel& ch) {
   std::erase(ch.subscribers, nullptr);
 }
@@ -149,7 +198,10 @@ Result<void> ChannelTable::publish(Endpoint& e, uint16_t id, std::string_view pa
     return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
   }
   ++ch->seq;
-  if (ch->polled) ch->last.assign(payload);
+  if (!ch->pollers.empty()) {
+    ch->last.assign(payload);
+    ch->last_seq = ch->seq;
+  }
   ++dispatching_;
   // Index loop: a local handler may subscribe (appends) or unsubscribe (tombstones).
   for (size_t i = 0; i < ch->subscribers.size(); ++i) {

@@ -34,8 +34,11 @@ class Channel {
   // May hold nullptr tombstones while a publish is being dispatched (see ChannelTable::publish).
   std::vector<Endpoint*> subscribers;
   size_t subscriber_count = 0;
-  bool polled = false;  // keep the latest payload for POLL_FETCH
+  // Polling: the endpoints registered; while there are any, the latest payload and its seq
+  // (0: none published since the first registered).
+  std::vector<uint32_t> pollers;
   std::string last;
+  uint64_t last_seq = 0;
   uint64_t seq = 0;
   size_t pending_requests = 0;  // kept by the RequestTable
 };
@@ -81,6 +84,14 @@ class ChannelTable {
   // subscribe, unsubscribe or remove the channel from inside onData. not_found,
   // permission_denied (not the owner), invalid_argument (not streaming).
   [[nodiscard]] Result<void> publish(Endpoint& e, uint16_t id, std::string_view payload);
+
+  // Polling (POLL_REGISTER, POLL_FETCH, POLL_DEREGISTER) of a streaming channel. not_found (no
+  // such streaming channel; deregister: not registered by `endpoint`).
+  [[nodiscard]] Result<void> pollRegister(uint32_t endpoint, uint16_t id);
+  [[nodiscard]] Result<std::pair<uint64_t, std::string_view>> pollFetch(uint16_t id);
+  [[nodiscard]] Result<void> pollDeregister(uint32_t endpoint, uint16_t id);
+  // A leaving endpoint's registrations.
+  void unpollAll(uint32_t endpoint);
 
   // In-process subscriptions by name that wait for (or follow) their channel.
   void want(const std::string& name, uint32_t endpoint);

@@ -237,17 +237,26 @@ void Connection::handleSync(Code code, std::string_view body) {
       return;
     }
     case Code::poll_register:
-    case Code::poll_fetch: {
-      SKR_DECODE(msg::PollFetch, m);  // both are a u16 channel id
-      Channel* ch = server_.channels.find(m.chan_id);
-      if (ch == nullptr || ch->kind != ChannelKind::streaming) {
-        replyError(ErrorCode::not_found,
-                   "no streaming channel with id " + std::to_string(m.chan_id));
+    case Code::poll_fetch:
+    case Code::poll_deregister: {
+      SKR_DECODE(msg::PollFetch, m);  // the three are a u16 channel id
+      Result<void> r;
+      if (code == Code::poll_fetch) {
+        auto kept = server_.channels.pollFetch(m.chan_id);
+        if (kept) {
+          send(msg::PollData{kept->first, msg::Rest{kept->second}});
+          return;
+        }
+        r = kept.error();
       } else if (code == Code::poll_register) {
-        ch->polled = true;
+        r = server_.channels.pollRegister(id, m.chan_id);
+      } else {
+        r = server_.channels.pollDeregister(id, m.chan_id);
+      }
+      if (r) {
         replyOk();
       } else {
-        send(msg::PollData{ch->polled ? ch->seq : 0, msg::Rest{ch->last}});
+        replyError(toErrorCode(r.error().code), r.error().message);
       }
       return;
     }

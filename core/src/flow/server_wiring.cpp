@@ -55,6 +55,7 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   if (blobs) blobs->forget(e.id);
   requests.dropRequester(e.id);
   syncs.dropEndpoint(e.id);
+  channels.unpollAll(e.id);
   databases.detach(e);
   channels.unwantAll(e.id);
 }

@@ -31,6 +31,8 @@ std::string_view codeName(uint8_t code) noexcept {
       return "POLL_REGISTER";
     case Code::poll_fetch:
       return "POLL_FETCH";
+    case Code::poll_deregister:
+      return "POLL_DEREGISTER";
     case Code::service_call:
       return "SERVICE_CALL";
     case Code::go_async:
@@ -172,6 +174,7 @@ uint16_t minorOf(Code code) noexcept {
     case Code::ev_blob_changed:
       return 3;
     case Code::service_request_timed:
+    case Code::poll_deregister:
     case Code::sync_pulse:
     case Code::sync_follow:
     case Code::sync_unfollow:

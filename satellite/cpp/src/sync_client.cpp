@@ -256,6 +256,29 @@ Result<flow::Variant> SyncClient::admin(const std::string& command, const flow::
   return expectValue(request(msg::Admin{command, args}, options_.timeout_ms));
 }
 
+Result<void> SyncClient::pollRegister(uint16_t chan_id) {
+  return expectEmpty(request(msg::PollRegister{chan_id}, options_.timeout_ms));
+}
+
+Result<SyncClient::Polled> SyncClient::pollFetch(uint16_t chan_id) {
+  auto r = request(msg::PollFetch{chan_id}, options_.timeout_ms);
+  if (!r) return r.error();
+  if (r->code != static_cast<uint8_t>(Code::reply_ok)) return hubError(last_error_, r->body);
+  auto data = flow::decode<msg::PollData>(r->body);
+  if (!data) return fail(Errc::protocol_error, data.error().message);
+  return Polled{data->seq, std::string(data->payload.bytes)};
+}
+
+Result<void> SyncClient::pollDeregister(uint16_t chan_id) {
+  const uint16_t needs = flow::minorOf(Code::poll_deregister);
+  if (login_.minor < needs) {
+    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." + std::to_string(login_.minor) +
+                                            ") has no POLL_DEREGISTER: it needs 1." +
+                                            std::to_string(needs));
+  }
+  return expectEmpty(request(msg::PollDeregister{chan_id}, options_.timeout_ms));
+}
+
 Result<void> SyncClient::ping() {
   auto r = request(msg::Ping{msg::Rest{"ping"}}, options_.timeout_ms);
   if (!r) return r.error();

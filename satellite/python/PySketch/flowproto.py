@@ -177,6 +177,7 @@ class Code(object):
     CHAN_LIST = 0x0B
     POLL_REGISTER = 0x0C
     POLL_FETCH = 0x0D
+    POLL_DEREGISTER = 0x15  # 1.4
     SERVICE_CALL = 0x0E
     GO_ASYNC = 0x0F
     PING = 0x10

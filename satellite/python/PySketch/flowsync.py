@@ -26,6 +26,8 @@ from PySketch.flowproto import (
     integer_types, toBytes, u16)
 from PySketch import log
 
+POLL_DEREGISTER_MINOR = 4
+
 
 class FlowSync(AbstractFlow, BlobRequests):
     def __init__(self, address=None, user=None, password=None, clientName=None, timeout=10.0):
@@ -233,11 +235,23 @@ class FlowSync(AbstractFlow, BlobRequests):
         return self._call(False, Code.POLL_REGISTER, u16(chanID))
 
     def pollFetch(self, chanID):
-        """(seq, payload) of the latest payload (seq 0: nothing yet), or None."""
+        """(seq, payload) of the latest payload, or None. seq is the channel's sequence number of
+        that payload; 0 while nothing was published since the first client registered."""
         if isinstance(chanID, FlowChannel):
             chanID = chanID.chanID
         return self._call(None, Code.POLL_FETCH, u16(chanID),
                           lambda r: (r.u64(), r.rest()))
+
+    def pollDeregister(self, chanID):
+        """This client no longer polls the channel: the hub keeps its payload only while some
+        client does (protocol 1.4; FlowError unsupported from an older hub)."""
+        if self.hubMinor < POLL_DEREGISTER_MINOR:
+            raise FlowError(Error_T.unsupported, "this hub (FlowProtocol 1.%d) has no "
+                            "POLL_DEREGISTER: it needs 1.%d" % (self.hubMinor,
+                                                               POLL_DEREGISTER_MINOR))
+        if isinstance(chanID, FlowChannel):
+            chanID = chanID.chanID
+        return self._call(False, Code.POLL_DEREGISTER, u16(chanID))
 
     def ping(self, data=b""):
         """Round-trip time to the hub in seconds, or None."""

@@ -175,6 +175,28 @@ class Streaming(HubTestCase):
         self.assertFalse(a.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY, "mine"))
 
 
+class Polling(HubTestCase):
+    def test_flowsync_polls_the_latest_payload(self):
+        pub = self.connected()
+        p = Recorder(pub)
+        self.assertTrue(pub.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY, "level"))
+        self.assertTrue(pump([pub], lambda: p.channel("guest.level")))
+        chan = p.channel("guest.level").chanID
+        pub.publish(chan, b"before")  # published before anyone polls: not kept
+        with pub.newSyncClient() as sync:
+            self.assertTrue(pump([pub], lambda: sync.pollRegister(chan)))
+            self.assertEqual(sync.pollFetch(chan), (0, b""))
+            pub.publish(chan, b"first")
+            pub.publish(chan, b"second")
+            self.assertTrue(pump([pub], lambda: sync.pollFetch(chan)[1] == b"second"))
+            seq, payload = sync.pollFetch(chan)
+            self.assertEqual(seq, 3, "the channel's sequence number, the early one included")
+            self.assertTrue(sync.pollDeregister(chan))
+            self.assertEqual(sync.pollFetch(chan), (0, b""), "nobody polls: nothing kept")
+            self.assertFalse(sync.pollDeregister(chan))
+            self.assertIn("does not poll", str(sync.lastError))
+
+
 class Connections(HubTestCase):
     def test_connect_failures(self):
         s = self.sat(password="wrong")

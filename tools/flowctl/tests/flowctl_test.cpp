@@ -183,6 +183,24 @@ TEST_F(Flowctl, SyncSourceAndFollower) {
   EXPECT_TRUE(has(Ran{0, source->output()}, "period error: p50")) << source->output();
 }
 
+TEST_F(Flowctl, PollPrintsTheLatestPayloadWhenItChanges) {
+  EXPECT_EQ(flowctl({"poll", "guest.nothing"}).code, 5);
+  auto o = owner();
+  EXPECT_EQ(flowctl({"poll", "guest.adder"}).code, 1);  // a service
+  auto poll = background({"--json", "poll", "guest.counter", "--interval", "20", "--count", "2"});
+  // Publish until the poller has printed two different payloads.
+  for (int i = 0; i < 200 && std::count(poll->output().begin(), poll->output().end(), '\n') < 2;
+       ++i) {
+    o->on([i](Satellite& x) { (void)x.publish("counter", "n" + std::to_string(i / 10)); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_EQ(poll->wait(), 0) << poll->output();
+  const std::string out = poll->output();
+  EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 2) << out;
+  EXPECT_NE(out.find("\"seq\":"), std::string::npos) << out;
+  EXPECT_NE(out.find("\"channel\":\"guest.counter\""), std::string::npos) << out;
+}
+
 TEST_F(Flowctl, EchoRateAndOthersChannels) {
   auto o = owner();
   auto rate = background({"echo", "guest.counter", "--rate"});

@@ -21,6 +21,7 @@ void forEachMessage(F&& f) {
   f(Empty<Code::var_get_all>{});
   f(PollRegister{});
   f(PollFetch{});
+  f(PollDeregister{});
   f(ServiceCall{});
   f(Ping{});
   f(ChanInfoByName{});

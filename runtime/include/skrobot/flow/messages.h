@@ -113,6 +113,15 @@ struct PollFetch {
     return f(chan_id);
   }
 };
+// 1.4: this client no longer polls the channel; the hub keeps its payload while anyone does.
+struct PollDeregister {
+  static constexpr Code code = Code::poll_deregister;
+  uint16_t chan_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id);
+  }
+};
 struct ServiceCall {
   static constexpr Code code = Code::service_call;
   uint16_t chan_id = 0;
@@ -174,7 +183,7 @@ struct ReplyValue {
 };
 struct PollData {
   static constexpr Code code = Code::reply_ok;
-  uint64_t seq = 0;  // 0: nothing published yet
+  uint64_t seq = 0;  // the channel's sequence of `payload`; 0: nothing kept yet
   Rest payload;
   template <class IO>
   bool io(IO& f) {

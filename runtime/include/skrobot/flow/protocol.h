@@ -45,7 +45,8 @@ enum class Code : uint8_t {
   chan_info = 0x12,
   db_sync = 0x13,  // 1.2: answered once every database change made before it is on disk
   // 1.1
-  admin = 0x14,  // administration: an administrator's command, a value in, a value out
+  admin = 0x14,            // administration: an administrator's command, a value in, a value out
+  poll_deregister = 0x15,  // 1.4: the hub stops keeping a channel's latest payload for this client
 
   // Asynchronous commands, client -> hub, on a flow. No reply on success; failures come back as
   // EV_ERROR carrying the command's tag.

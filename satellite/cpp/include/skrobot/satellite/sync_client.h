@@ -86,6 +86,19 @@ class SyncClient {
   [[nodiscard]] Result<flow::Variant> call(const std::string& service, const std::string& command,
                                            const flow::Variant& value, uint32_t timeout_ms = 5000);
 
+  // Polling a streaming channel instead of subscribing: once registered, the hub keeps the
+  // channel's latest payload (while any client polls it) and pollFetch() reads it: seq is the
+  // channel's sequence number of that payload, 0 while nothing was published since the first
+  // registration. pollDeregister (protocol 1.4; Errc::unsupported from an older hub) lets the hub
+  // stop keeping it; Errc::not_found when this client was not registered.
+  struct Polled {
+    uint64_t seq = 0;
+    std::string payload;
+  };
+  [[nodiscard]] Result<void> pollRegister(uint16_t chan_id);
+  [[nodiscard]] Result<Polled> pollFetch(uint16_t chan_id);
+  [[nodiscard]] Result<void> pollDeregister(uint16_t chan_id);
+
   // Round trip with the hub.
   [[nodiscard]] Result<void> ping();
 

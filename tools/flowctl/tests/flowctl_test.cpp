@@ -189,8 +189,11 @@ TEST_F(Flowctl, PollPrintsTheLatestPayloadWhenItChanges) {
   EXPECT_EQ(flowctl({"poll", "guest.adder"}).code, 1);  // a service
   auto poll = background({"--json", "poll", "guest.counter", "--interval", "20", "--count", "2"});
   // Publish until the poller has printed two different payloads.
-  for (int i = 0; i < 200 && std::count(poll->output().begin(), poll->output().end(), '\n') < 2;
-       ++i) {
+  const auto lines = [&] {
+    const std::string out = poll->output();
+    return std::count(out.begin(), out.end(), '\n');
+  };
+  for (int i = 0; i < 200 && lines() < 2; ++i) {
     o->on([i](Satellite& x) { (void)x.publish("counter", "n" + std::to_string(i / 10)); });
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }

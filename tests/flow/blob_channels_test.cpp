@@ -168,13 +168,7 @@ TEST_F(Blobs, OlderClientsNeitherSeeNorMakeBlobChannels) {
   SyncClient alice = client("alice");
   auto ch = alice.createBlobChannel("maps");
   ASSERT_TRUE(ch);
-  TestClient old = connect();
-  msg::Login login;
-  login.minor = 2;
-  login.user = "bob";
-  login.password = "pw";
-  auto ok = as<msg::LoginOk>(old.call(login));
-  ASSERT_TRUE(ok);
+  TestClient old = olderClient(2, "bob", "pw");
   auto list = as<msg::ChannelList>(old.call(msg::Empty<Code::chan_list>{}));
   ASSERT_TRUE(list);
   EXPECT_TRUE(list->channels.empty());

@@ -371,12 +371,7 @@ TEST_F(Server, PollingStopsWithTheLastPoller) {
     return fresh;
   }));
   // A 1.3 client cannot deregister (it has no such request).
-  TestClient old = connect();
-  msg::Login login;
-  login.minor = 3;
-  login.user = "guest";
-  login.password = "password";
-  ASSERT_TRUE(as<msg::LoginOk>(old.call(login)));
+  TestClient old = olderClient(3);
   EXPECT_EQ(errorOf(old.call(msg::PollDeregister{id})), uint16_t(ErrorCode::unsupported));
 }
 
@@ -469,12 +464,7 @@ TEST_F(Server, AsyncRequestsExpireAndFreeTheirSlots) {
     EXPECT_EQ(r->error, 0);
   }
   // A 1.3 client cannot send the timed request.
-  TestClient old = connect();
-  msg::Login login;
-  login.minor = 3;
-  login.user = "guest";
-  login.password = "password";
-  ASSERT_TRUE(as<msg::LoginOk>(old.call(login)));
+  TestClient old = olderClient(3);
   ASSERT_TRUE(old.call(msg::Empty<Code::go_async>{}));
   ASSERT_TRUE(old.send(msg::ServiceRequestTimed{6, id, 100, "e", Variant()}));
   auto e = as<msg::EvError>(old.waitFor(Code::ev_error));

@@ -170,12 +170,7 @@ TEST_F(SyncPulse, RulesAndOlderClients) {
   ASSERT_TRUE(source.send(msg::Publish{id, msg::Rest{"x"}}));  // nor published on
   EXPECT_EQ(error(source), uint16_t(ErrorCode::invalid_argument));
   // A 1.3 client neither sees sources nor makes one.
-  TestClient old = connect();
-  msg::Login login;
-  login.minor = 3;
-  login.user = "guest";
-  login.password = "password";
-  ASSERT_TRUE(as<msg::LoginOk>(old.call(login)));
+  TestClient old = olderClient(3);
   auto list = as<msg::ChannelList>(old.call(msg::Empty<Code::chan_list>{}));
   ASSERT_TRUE(list);
   ASSERT_EQ(list->channels.size(), 1u);

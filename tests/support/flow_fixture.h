@@ -76,6 +76,14 @@ class FlowFixture : public ::testing::Test {
     EXPECT_TRUE(r) << r.error().message;
     return c;
   }
+  // A synchronous connection of a client that speaks protocol 1.<minor>.
+  TestClient olderClient(uint16_t minor, const std::string& user = "guest",
+                         const std::string& pw = "password") {
+    TestClient c = connect();
+    auto r = c.login(user, pw, flow::ValueEncoding::binary, minor);
+    EXPECT_TRUE(r) << r.error().message;
+    return c;
+  }
 
   // Creates a channel from `owner` and returns its id (from the creator's EV_CHAN_ADDED).
   uint16_t addChannel(TestClient& owner, const std::string& name,

@@ -151,8 +151,9 @@ bool TestClient::closedByPeer(int timeout_ms) {
 }
 
 Result<flow::msg::LoginOk> TestClient::login(const std::string& user, const std::string& password,
-                                             flow::ValueEncoding enc) {
+                                             flow::ValueEncoding enc, uint16_t minor) {
   flow::msg::Login m;
+  m.minor = minor;
   m.value_encoding = static_cast<uint8_t>(enc);
   m.user = user;
   m.password = password;

@@ -32,9 +32,11 @@ class TestClient {
   [[nodiscard]] static Result<TestClient> connectTcp(const std::string& host, uint16_t port);
 
   // LOGIN and wait for the reply.
+  // `minor`: the protocol minor the client announces (an older client's).
   [[nodiscard]] Result<flow::msg::LoginOk> login(
       const std::string& user, const std::string& password,
-      flow::ValueEncoding enc = flow::ValueEncoding::binary);
+      flow::ValueEncoding enc = flow::ValueEncoding::binary,
+      uint16_t minor = flow::kProtocolMinor);
   // LOGIN then GO_ASYNC.
   [[nodiscard]] Result<flow::msg::LoginOk> loginFlow(const std::string& user,
                                                      const std::string& password);

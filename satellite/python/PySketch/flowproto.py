@@ -143,7 +143,7 @@ Flow_T = _enum("Flow_T", [
    "Written to the channel's properties as `flow_type`.")
 
 ChanKind_T = _enum("ChanKind_T", [
-    ("CK_STREAMING", 1), ("CK_SERVICE", 2), ("CK_BLOB", 3),
+    ("CK_STREAMING", 1), ("CK_SERVICE", 2), ("CK_BLOB", 3), ("CK_SYNC", 4),
 ], "Channel kinds on the wire (ChannelInfo.kind).")
 
 Error_T = _enum("Error_T", [
@@ -229,6 +229,13 @@ class Code(object):
     BLOB_ABORT = 0xC8
     BLOB_CREATE = 0xC9
     EV_BLOB_CHANGED = 0xCF
+
+    # 1.4: the sync pulse (commands on a flow, and the pulse event)
+    SYNC_PULSE = 0xD0
+    SYNC_FOLLOW = 0xD1
+    SYNC_UNFOLLOW = 0xD2
+    SYNC_DONE = 0xD3
+    EV_SYNC_PULSE = 0xD8
 
 
 def codeName(code):

@@ -85,6 +85,7 @@ from PySketch.flowproto import (
 from PySketch.flowsync import FlowSync
 
 TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
+SYNC_MINOR = 4           # the sync pulse
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
@@ -197,6 +198,19 @@ class FlowSat(AbstractFlow):
         self._onError = None
         self.lastRequester = None
 
+        # The sync pulse (docs/sync-pulse.md): the sources followed, by name -> every Nth pulse.
+        self._follows = {}
+        self._syncTimeout = None   # seconds without a pulse before the own timer takes over
+        self._syncStrict = False   # ... or tick() waits for pulses
+        self._pulse = None         # (chanID, seq, sourceTimeNs, dropped) not handed to tick()
+        self._doneFor = None       # (chanID, seq): SYNC_DONE goes at the next tick()
+        self._lastPulseAt = None
+        self._syncLost = False
+        self._onSync = None
+        self._onSyncLost = None
+        self.syncDropped = 0       # pulses the hub dropped because our loop was still busy
+        self.lastPulse = None      # (chanID, seq, sourceTimeNs) of the last pulse
+
     ###########################################################################
     # Settings
 
@@ -256,6 +270,15 @@ class FlowSat(AbstractFlow):
         subscribes to changed; change is 1 written, 2 removed, 3 directory made, 4 directory
         removed (protocol 1.3)."""
         self._onBlobChanged = f
+
+    def setSyncCallBack(self, f):
+        """f(chanID, seq, dropped) for each pulse of a followed source, before tick() returns
+        on it; dropped > 0: the hub dropped that many because this loop was still busy."""
+        self._onSync = f
+
+    def setSyncLostCallBack(self, f):
+        """f(chanID) once when the pulses stop for longer than followSync's timeout."""
+        self._onSyncLost = f
 
     def setErrorCallBack(self, f):
         """f(FlowError) for every failed asynchronous command (they are also logged)."""
@@ -643,6 +666,7 @@ class FlowSat(AbstractFlow):
                                                                  self.connectionID))
         self._channels = OrderedDict()
         self._byName = {}
+        self._pulse = self._doneFor = None  # pulses of the last connection
         fresh = [self._addChannel(info) for info in infos]
         for short in list(self._specs.keys()):
             self._sendChanAdd(short)
@@ -669,6 +693,9 @@ class FlowSat(AbstractFlow):
         if ch.name in self._wantedSubs and ch.kind == ChanKind_T.CK_STREAMING:
             self._subscribe(ch.chanID)
             ch.isSubscribed = True
+        if ch.name in self._follows and ch.kind == ChanKind_T.CK_SYNC:
+            self._send(frame(Code.SYNC_FOLLOW, u32(self._nextTag()) + u16(ch.chanID) +
+                             u32(self._follows[ch.name])))
 
     def _event(self, code, body):
         r = Reader(body)
@@ -765,6 +792,17 @@ class FlowSat(AbstractFlow):
             size, version = r.u64(), r.u64()
             if self._onBlobChanged is not None:
                 self._call("blob-changed", self._onBlobChanged, chan, change, path, size, version)
+        elif code == Code.EV_SYNC_PULSE:
+            chan, seq, sourceTime, dropped = r.u16(), r.u64(), r.u64(), r.u32()
+            self._lastPulseAt = now()
+            if self._syncLost:
+                self._syncLost = False
+                log.msg("FlowSat: pulses of channel %d again" % chan)
+            self._pulse = (chan, seq, sourceTime, dropped)
+            self.lastPulse = (chan, seq, sourceTime)
+            self.syncDropped += dropped
+            if self._onSync is not None:
+                self._call("sync", self._onSync, chan, seq, dropped)
         elif code == Code.EV_DROPPED:
             chan = r.u16()
             count = r.u32()
@@ -808,7 +846,14 @@ class FlowSat(AbstractFlow):
     # The loop
 
     def tick(self):
-        """Call once per loop(): dispatches pending events and sleeps until the next tick."""
+        """Call once per loop(): dispatches pending events and sleeps until the next tick (the
+        next pulse when following a sync source: followSync)."""
+        if self._doneFor is not None:  # the loop() of the last pulse is over
+            chan, seq = self._doneFor
+            self._doneFor = None
+            self._send(frame(Code.SYNC_DONE, u16(chan) + u64(seq)))
+        if self._follows:
+            return self._syncTick()
         interval = self._timer.interval
         enter = now()
         if self._deadline is None:
@@ -835,6 +880,52 @@ class FlowSat(AbstractFlow):
             self._deadline += interval * (int((t - self._deadline) / interval) + 1)
         if self._speedMonitor:
             self._measure(enter, t)
+
+    def _syncTimeoutNow(self):
+        return self._syncTimeout if self._syncTimeout is not None else 1.0
+
+    def _syncTick(self):
+        """tick() while following: returns on the next pulse; past the timeout, on the own
+        timer meanwhile (or, strict, not at all)."""
+        interval = self._timer.interval
+        enter = now()
+        if self._lastPulseAt is None:
+            self._lastPulseAt = enter  # following began: the timeout counts from here
+        self._maintain(enter)
+        self._flush()
+        if self._sock is not None:
+            self._processBuffered()
+        self._pump(0.0)
+        while self._pulse is None:
+            t = now()
+            self._maintain(t)
+            left = self._lastPulseAt + self._syncTimeoutNow() - t
+            if left <= 0:
+                if not self._syncLost:
+                    self._syncLost = True
+                    log.wrn("FlowSat: no sync pulse for %.3f s: %s" % (
+                        self._syncTimeoutNow(), "waiting for them (strict)" if self._syncStrict
+                        else "ticking on the own timer meanwhile"))
+                    if self._onSyncLost is not None:
+                        chans = [c.chanID for c in self._channels.values()
+                                 if c.name in self._follows]
+                        self._call("sync-lost", self._onSyncLost, chans[0] if chans else None)
+                if self._syncStrict:
+                    left = interval
+                else:
+                    if self._deadline is None:
+                        self._deadline = t + interval
+                    left = self._deadline - t
+                    if left <= 0:
+                        self._deadline += interval
+                        if self._deadline <= t:
+                            self._deadline = t + interval
+                        return
+            self._pump(min(left, interval))
+        chan, seq, _, _ = self._pulse
+        self._pulse = None
+        self._doneFor = (chan, seq)
+        self._deadline = None
 
     def _measure(self, enter, t):
         s = self._speed
@@ -914,6 +1005,57 @@ class FlowSat(AbstractFlow):
     def addServiceChannel(self, name, mime="", props=None):
         """Creates the service channel "<user>.<name>". Returns bool."""
         return self._addSpec(ChanKind_T.CK_SERVICE.value, name, mime, props)
+
+    def addSyncSource(self, name):
+        """Creates the sync source "<user>.<name>" (a channel of kind sync, protocol 1.4):
+        pulse(name) sends its pulses. Returns bool, like addStreamingChannel."""
+        self._needsSync()
+        return self._addSpec(ChanKind_T.CK_SYNC.value, name, "", None)
+
+    def pulse(self, chan):
+        """A pulse of one of our sync sources (chanID, name or FlowChannel), stamped with the
+        monotonic clock (comparable with a follower's only on the same machine)."""
+        chanID = self._chanID(chan)
+        if chanID is None:
+            return False
+        return self._send(frame(Code.SYNC_PULSE, u16(chanID) + u64(int(now() * 1e9))))
+
+    def followSync(self, name, every=1, timeout=None, strict=False):
+        """Follows the sync source `name` ("<user>.<name>"): tick() returns on each of its
+        pulses (every `every`th) instead of at the tick timer's cadence, and the hub learns that
+        the loop is done with a pulse when the next tick() starts (pulses that come meanwhile
+        are dropped for us and counted: syncDropped, setSyncCallBack). Without a pulse for
+        `timeout` seconds (default 1 s) tick() runs on the own
+        timer again (setSyncLostCallBack) until pulses return; with strict=True it waits for
+        them instead. Kept across reconnections and re-creations of the source."""
+        self._needsSync()
+        self._follows[name] = max(int(every), 1)
+        self._syncTimeout = timeout
+        self._syncStrict = bool(strict)
+        self._lastPulseAt = None
+        ch = self._byName.get(name)
+        if ch is not None and self._state == "online":
+            self._autoSubscribe(ch)
+        return True
+
+    def unfollowSync(self, name=None):
+        """Stops following `name` (None: every source); tick() keeps its own timer again."""
+        names = list(self._follows) if name is None else [name]
+        for n in names:
+            if self._follows.pop(n, None) is None:
+                continue
+            ch = self._byName.get(n)
+            if ch is not None and self._state == "online":
+                self._send(frame(Code.SYNC_UNFOLLOW, u32(self._nextTag()) + u16(ch.chanID)))
+        if not self._follows:
+            self._pulse = self._doneFor = None
+            self._deadline = None
+        return True
+
+    def _needsSync(self):
+        if self._state == "online" and self.hubMinor < SYNC_MINOR:
+            raise FlowError(Error_T.unsupported, "this hub (FlowProtocol 1.%d) has no sync "
+                            "pulse: it needs 1.%d" % (self.hubMinor, SYNC_MINOR))
 
     def _chanID(self, chan):
         """The chanID of `chan`: a chanID (int), a FlowChannel, or the name of a channel this

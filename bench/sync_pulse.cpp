@@ -94,8 +94,11 @@ int runTarget(const std::string& socket, double hz, bool video) {
   s.data.connect(&s, [&](uint16_t, const std::string&) { ++frames; });
   s.follow("bench.clock");
   if (video) s.subscribe("bench.video");
+  const Nanos started = monotonicNs();
   loop.addTickHandler(Tick::fast, [&] {
-    if (!arrivals.empty() && monotonicNs() - arrivals.back() > kNsPerSec) loop.stop();
+    const Nanos now = monotonicNs();
+    if (!arrivals.empty() && now - arrivals.back() > kNsPerSec) loop.stop();
+    if (now - started > 60 * kNsPerSec) loop.stop();  // never left behind
   });
   s.start();
   loop.run();

@@ -8,6 +8,7 @@
 // Targets are processes of this binary (--target): each follows the source with a Satellite and
 // answers each pulse at once (a target that keeps up), and reports its figures on stdout.
 #include <skrobot/core/loop.h>
+#include <skrobot/core/spread.h>
 #include <skrobot/flow/server.h>
 #include <skrobot/satellite/satellite.h>
 
@@ -36,23 +37,6 @@ using namespace skr;
 [[noreturn]] void fail(const std::string& why) {
   std::fprintf(stderr, "sync_pulse: %s\n", why.c_str());
   std::exit(1);
-}
-
-struct Spread {
-  double p50 = 0, p99 = 0, max = 0;
-};
-Spread spread(std::vector<double> v) {
-  if (v.empty()) return {};
-  std::sort(v.begin(), v.end());
-  return {v[v.size() / 2], v[std::min(v.size() - 1, v.size() * 99 / 100)], v.back()};
-}
-// |interval - nominal| between consecutive `times`, in microseconds.
-std::vector<double> periodErrors(const std::vector<Nanos>& times, double nominal_ns) {
-  std::vector<double> e;
-  for (size_t i = 1; i < times.size(); ++i) {
-    e.push_back(std::abs(double(times[i] - times[i - 1]) - nominal_ns) / 1e3);
-  }
-  return e;
 }
 
 sat::SatelliteOptions options(const std::string& socket, const std::string& name) {
@@ -102,8 +86,8 @@ int runTarget(const std::string& socket, double hz, bool video) {
   });
   s.start();
   loop.run();
-  const Spread err = spread(periodErrors(arrivals, 1e9 / hz));
-  const Spread delay = spread(delays);
+  const Spread err = spreadOf(periodErrorsUs(arrivals, 1e9 / hz));
+  const Spread delay = spreadOf(delays);
   std::printf("%zu %llu %llu %.1f %.1f %.1f %.1f %.1f %.1f %llu\n", arrivals.size(),
               (unsigned long long)dropped, (unsigned long long)missed, err.p50, err.p99, err.max,
               delay.p50, delay.p99, delay.max, (unsigned long long)frames);
@@ -222,7 +206,7 @@ Row runOnce(const std::string& socket, double hz, int targets, bool video, doubl
   source_thread.loop().invoke([&] { source.reset(); });
   if (video) camera_thread.loop().invoke([&] { camera.reset(); });
   row.sent = sent.size();
-  row.source = spread(periodErrors(sent, 1e9 / hz));
+  row.source = spreadOf(periodErrorsUs(sent, 1e9 / hz));
   return row;
 }
 

@@ -35,8 +35,7 @@ class TestClient {
   // `minor`: the protocol minor the client announces (an older client's).
   [[nodiscard]] Result<flow::msg::LoginOk> login(
       const std::string& user, const std::string& password,
-      flow::ValueEncoding enc = flow::ValueEncoding::binary,
-      uint16_t minor = flow::kProtocolMinor);
+      flow::ValueEncoding enc = flow::ValueEncoding::binary, uint16_t minor = flow::kProtocolMinor);
   // LOGIN then GO_ASYNC.
   [[nodiscard]] Result<flow::msg::LoginOk> loginFlow(const std::string& user,
                                                      const std::string& password);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include <skrobot/core/spread.h>
+
 #include "session.h"
 
 namespace flowctl {
@@ -12,32 +14,13 @@ namespace {
 
 using skr::Nanos;
 
-// p50, p99 and max of `v` (sorted here), in microseconds.
-struct Spread {
-  double p50 = 0, p99 = 0, max = 0;
-};
-Spread spread(std::vector<double> v) {
-  if (v.empty()) return {};
-  std::sort(v.begin(), v.end());
-  return {v[v.size() / 2], v[std::min(v.size() - 1, v.size() * 99 / 100)], v.back()};
-}
-
-// |interval - nominal| of each interval between `times`, in microseconds.
-std::vector<double> periodErrors(const std::vector<Nanos>& times, double nominal_ns) {
-  std::vector<double> e;
-  for (size_t i = 1; i < times.size(); ++i) {
-    e.push_back(std::abs(static_cast<double>(times[i] - times[i - 1]) - nominal_ns) / 1e3);
-  }
-  return e;
-}
-
 double median(std::vector<double> v) {
   if (v.empty()) return 0;
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
   return v[v.size() / 2];
 }
 
-void printSpread(bool json, const char* what, const Spread& s) {
+void printSpread(bool json, const char* what, const skr::Spread& s) {
   if (json) {
     std::printf("\"%s\":{\"p50_us\":%.1f,\"p99_us\":%.1f,\"max_us\":%.1f}", what, s.p50, s.p99,
                 s.max);
@@ -76,7 +59,7 @@ int source(const Cli& cli, const std::string& name, double hz, double count) {
   });
   const int code = s.run();
   if (code != kOk) return code;
-  const Spread own = spread(periodErrors(sent, 1e9 / hz));
+  const skr::Spread own = skr::spreadOf(skr::periodErrorsUs(sent, 1e9 / hz));
   if (cli.json) {
     std::printf("{\"source\":\"%s\",\"pulses\":%zu,", full.c_str(), sent.size());
     printSpread(true, "period_error", own);
@@ -136,8 +119,8 @@ int follow(const Cli& cli, const std::string& name, double every, double count) 
     intervals.push_back(static_cast<double>(arrivals[i] - arrivals[i - 1]));
   }
   const double nominal = median(intervals);  // the period the pulses came at
-  const Spread err = spread(periodErrors(arrivals, nominal));
-  const Spread delay = spread(delays_us);
+  const skr::Spread err = skr::spreadOf(skr::periodErrorsUs(arrivals, nominal));
+  const skr::Spread delay = skr::spreadOf(delays_us);
   if (cli.json) {
     std::printf(
         "{\"source\":\"%s\",\"pulses\":%zu,\"period_ms\":%.3f,\"dropped\":%llu,"

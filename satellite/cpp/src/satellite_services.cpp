@@ -28,10 +28,9 @@ Result<uint32_t> Satellite::request(uint16_t chan_id, const std::string& command
   if (!impl_->flowOpen()) return notConnected();
   const uint16_t timed = flow::minorOf(flow::Code::service_request_timed);
   if (timeout_ms != 0 && impl_->login.minor < timed) {
-    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." +
-                                            std::to_string(impl_->login.minor) +
-                                            ") does not time requests out: it needs 1." +
-                                            std::to_string(timed));
+    return makeError(Errc::unsupported,
+                     "this hub (FlowProtocol 1." + std::to_string(impl_->login.minor) +
+                         ") does not time requests out: it needs 1." + std::to_string(timed));
   }
   const uint32_t tag = impl_->nextTag();
   impl_->pending[tag] = std::move(done);

@@ -132,7 +132,9 @@ class OverTls(TlsTestCase):
         data = []
         sub.setGrabDataCallBack(lambda chanID, d: data.append(bytes(d)))
         self.assertTrue(pub.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY, "n"))
-        self.assertTrue(pump([pub, sub], lambda: sub.channelByName("alice.n") is not None))
+        # Each side learns of the channel on its own: the owner from the hub's answer.
+        self.assertTrue(pump([pub, sub], lambda: sub.channelByName("alice.n") is not None
+                             and pub.channelByName("alice.n") is not None))
         self.assertTrue(sub.subscribeChannel("alice.n"))
         mine = pub.channelByName("alice.n")
         self.assertTrue(pump([pub, sub], lambda: mine.isPublishingEnabled))

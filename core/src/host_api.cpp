@@ -26,7 +26,8 @@ static_assert(offsetof(skr_host_api, log) == 8);
 static_assert(offsetof(skr_host_api, channel_create) == 144);  // 1.0 ends here
 static_assert(offsetof(skr_host_api, db_sync) == 224);         // 1.2 ends here
 static_assert(offsetof(skr_host_api, blob_get) == 232);        // 1.3 ends here
-static_assert(offsetof(skr_host_api, reserved) == 264);
+static_assert(offsetof(skr_host_api, sync_pulse) == 264);      // 1.4 ends here
+static_assert(offsetof(skr_host_api, reserved) == 296);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -370,6 +371,20 @@ skr_status blobDo(skr_module_ctx* ctx, uint16_t chan_id, skr_blob_op op, const c
                   skr_blob_fn fn, void* user) noexcept {
   return withFlow(ctx, [&](ModuleFlow& f) { return f.blobDo(chan_id, op, path, fn, user); });
 }
+skr_status syncPulse(skr_module_ctx* ctx, uint16_t chan_id) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.syncPulse(chan_id); });
+}
+skr_status syncFollow(skr_module_ctx* ctx, const char* name, uint32_t every, uint32_t flags,
+                      skr_sync_fn fn, void* user, skr_sub_handle* out) noexcept {
+  return withFlow(ctx,
+                  [&](ModuleFlow& f) { return f.syncFollow(name, every, flags, fn, user, out); });
+}
+skr_status syncUnfollow(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.syncUnfollow(handle); });
+}
+skr_status syncDone(skr_module_ctx* ctx, skr_sub_handle handle, uint64_t seq) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.syncDone(handle, seq); });
+}
 
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
@@ -407,6 +422,10 @@ const skr_host_api kHostApi = {
     .blob_put = &blobPut,
     .blob_list = &blobList,
     .blob_do = &blobDo,
+    .sync_pulse = &syncPulse,
+    .sync_follow = &syncFollow,
+    .sync_unfollow = &syncUnfollow,
+    .sync_done = &syncDone,
     .reserved = {},
 };
 

@@ -61,6 +61,16 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
       if (s.name == name) s.chan_id = added ? chan_id : 0;
     }
   };
+  h.on_sync_pulse = [this](uint16_t chan_id, uint64_t seq, uint64_t source_time_ns,
+                           uint32_t dropped) {
+    auto it = std::find_if(follows_.begin(), follows_.end(), [&](const Follow& f) {
+      return client_->findChannel(f.name) == chan_id;
+    });
+    if (it == follows_.end()) return client_->syncDone(chan_id, seq);
+    const Follow f = *it;  // the handler may unfollow
+    f.fn(f.user, chan_id, seq, source_time_ns, dropped);
+    if ((f.flags & SKR_SYNC_DONE_LATER) == 0) client_->syncDone(chan_id, seq);
+  };
   client_ = server.attachLocal(module_name, module_name, std::move(h), std::move(access));
 }
 
@@ -295,6 +305,43 @@ skr_status ModuleFlow::blobDo(uint16_t chan_id, skr_blob_op op, const char* path
     answer(SKR_OK, {}, 0);
   });
   return r ? SKR_OK : refuseBlob(answer, "blob_do " + std::string(path), r.error());
+}
+
+// --- the sync pulse (ABI 1.5) ---------------------------------------------------------------
+
+skr_status ModuleFlow::syncPulse(uint16_t chan_id) {
+  auto r = client_->pulse(chan_id);
+  return r ? SKR_OK : fail("sync_pulse", r.error());
+}
+
+skr_status ModuleFlow::syncFollow(const char* name, uint32_t every, uint32_t flags, skr_sync_fn fn,
+                                  void* user, skr_sub_handle* handle_out) {
+  if (name == nullptr || fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  const std::string n = name;
+  if (std::any_of(follows_.begin(), follows_.end(), [&](const Follow& f) { return f.name == n; })) {
+    return fail("sync_follow " + n, makeError(Errc::invalid_argument, "it follows it already"));
+  }
+  if (auto r = client_->follow(n, every); !r) return fail("sync_follow " + n, r.error());
+  *handle_out = next_handle_++;
+  follows_.push_back(Follow{*handle_out, n, flags, fn, user});
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::syncUnfollow(skr_sub_handle handle) {
+  auto it = std::find_if(follows_.begin(), follows_.end(),
+                         [handle](const Follow& f) { return f.handle == handle; });
+  if (it == follows_.end()) return SKR_ERR_NOT_FOUND;
+  client_->unfollow(it->name);
+  follows_.erase(it);
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::syncDone(skr_sub_handle handle, uint64_t seq) {
+  auto it = std::find_if(follows_.begin(), follows_.end(),
+                         [handle](const Follow& f) { return f.handle == handle; });
+  if (it == follows_.end()) return SKR_ERR_NOT_FOUND;
+  if (auto id = client_->findChannel(it->name)) client_->syncDone(*id, seq);
+  return SKR_OK;
 }
 
 }  // namespace skr

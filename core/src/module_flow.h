@@ -46,6 +46,11 @@ class ModuleFlow {
                      skr_blob_fn fn, void* user);
   skr_status blobList(uint16_t chan_id, const char* dir, skr_blob_fn fn, void* user);
   skr_status blobDo(uint16_t chan_id, skr_blob_op op, const char* path, skr_blob_fn fn, void* user);
+  skr_status syncPulse(uint16_t chan_id);
+  skr_status syncFollow(const char* name, uint32_t every, uint32_t flags, skr_sync_fn fn,
+                        void* user, skr_sub_handle* handle_out);
+  skr_status syncUnfollow(skr_sub_handle handle);
+  skr_status syncDone(skr_sub_handle handle, uint64_t seq);
 
  private:
   struct Owned {
@@ -58,6 +63,13 @@ class ModuleFlow {
     std::string name;
     uint16_t chan_id;  // 0 while the channel does not exist
     skr_data_fn fn;
+    void* user;
+  };
+  struct Follow {
+    skr_sub_handle handle;
+    std::string name;
+    uint32_t flags;
+    skr_sync_fn fn;
     void* user;
   };
   struct Pending {
@@ -73,6 +85,7 @@ class ModuleFlow {
   std::unordered_map<uint16_t, Owned> owned_;
   std::optional<Owned> creating_;  // callbacks of the channel being created
   std::vector<Sub> subs_;
+  std::vector<Follow> follows_;
   std::map<uint32_t, Pending> pending_;  // by the internal tag given to the server
   uint32_t next_tag_ = 1;
   // Barriers not answered yet, by number; the destructor answers them SKR_ERR_BAD_STATE. The

@@ -12,7 +12,7 @@ namespace {
 
 constexpr size_t kHeader = 8;  // struct_size, abi_major, abi_minor
 constexpr size_t kPtr = sizeof(void (*)(void));
-// 1.0, 1.1 and 1.3 named functions, then the reserved slots: 49 function pointers in all.
+// 1.0, 1.1 and 1.3 to 1.5 named functions, then the reserved slots: 49 function pointers in all.
 constexpr size_t kFunctionSlots = 49;
 
 TEST(PluginAbi, HostTableKeepsItsSizeWhileReservedSlotsLast) {
@@ -35,6 +35,11 @@ TEST(PluginAbi, FunctionsOfReleasedMinorsStayWhereTheyWere) {
   EXPECT_EQ(offsetof(skr_host_api, db_set), kHeader + 26 * kPtr);
   // 1.3: the database barrier, in the first reserved slot of 1.2.
   EXPECT_EQ(offsetof(skr_host_api, db_sync), kHeader + 27 * kPtr);
+  // 1.4: blob channels; 1.5: the sync pulse, each in the next free slots.
+  EXPECT_EQ(offsetof(skr_host_api, blob_get), kHeader + 28 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, blob_do), kHeader + 31 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, sync_pulse), kHeader + 32 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, sync_done), kHeader + 35 * kPtr);
 }
 
 TEST(PluginAbi, DescriptorStartsWithItsVersionedHeader) {

@@ -83,6 +83,38 @@ TEST_F(ChannelsCpp, StreamSubscriptionServiceRequesterAndDatabase) {
   EXPECT_EQ(*resp->value.find("forwarded"), Variant(int64_t{42}));
 }
 
+TEST_F(ChannelsCpp, SyncFollowAndSyncSourceMakeAChainInLockstep) {
+  startHub();
+  ASSERT_TRUE(start(R"({"follow":"guest.clock"})").empty());
+  TestClient sat = flowClient();
+  TestClient sync = syncClient();
+  auto upper = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"cpp.upper"}));
+  auto tock = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"cpp.tock"}));
+  ASSERT_TRUE(upper && tock);
+  ASSERT_TRUE(sat.send(msg::Subscribe{1, upper->info.id}));
+  TestClient last = flowClient();  // the end of the chain: follows the module's source
+  // Commands on a flow have no reply: a round trip says those before it were handled (the
+  // pulses come from another connection).
+  const auto settle = [](TestClient& c) {
+    ASSERT_TRUE(c.send(msg::DbSetCurrent{9, "guest"}));
+    ASSERT_TRUE(c.waitFor(Code::ev_db_changed));
+  };
+  ASSERT_TRUE(last.send(msg::SyncFollow{2, tock->info.id, 1}));
+  settle(last);
+  const uint16_t clock = addChannel(sat, "clock", flow::ChannelKind::sync);
+  for (uint64_t i = 1; i <= 3; ++i) {
+    ASSERT_TRUE(sat.send(msg::SyncPulse{clock, i}));
+    auto data = as<msg::EvData>(sat.waitFor(Code::ev_data));
+    ASSERT_TRUE(data);
+    EXPECT_EQ(data->payload.bytes, "pulse:" + std::to_string(i) + ":0");
+    auto p = as<msg::EvSyncPulse>(last.waitFor(Code::ev_sync_pulse));
+    ASSERT_TRUE(p);
+    EXPECT_EQ(p->seq, i);
+    ASSERT_TRUE(last.send(msg::SyncDone{tock->info.id, p->seq}));
+    settle(last);
+  }
+}
+
 TEST_F(ChannelsCpp, DatabaseBarrierOfAModule) {
   startHub();
   ASSERT_TRUE(start(R"({})").empty());

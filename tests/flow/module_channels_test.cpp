@@ -15,13 +15,15 @@ namespace msg = flow::msg;
 
 class ModuleChannels : public FlowFixture {
  protected:
-  void startModules(const std::string& module = "test_channel_echo") {
+  void startModules(const std::string& module = "test_channel_echo",
+                    const Json::Value& config = Json::Value(Json::objectValue)) {
     onHub([&] {
       host_ = std::make_unique<ModuleHost>(hub_->loop(), std::vector<std::filesystem::path>{},
                                            server_.get());
       ModuleEntry e;
       e.name = module;
       e.path = std::filesystem::path(SKROBOT_TEST_MODULE_DIR) / (module + ".so");
+      e.config = config;
       host_->start({e});
       EXPECT_EQ(host_->failures().size(), 0u);
       EXPECT_EQ(host_->modules().size(), 1u);
@@ -187,6 +189,86 @@ TEST_F(ModuleChannels, CModuleReadsAndWritesItsBlobChannel) {
   auto denied = as<msg::ReplyError>(sync.call(msg::BlobMkdir{kept->info.id, "x"}));
   ASSERT_TRUE(denied);
   EXPECT_EQ(denied->error, uint16_t(flow::ErrorCode::permission_denied));
+}
+
+// --- the sync pulse (ABI 1.5): test_sync_step follows guest.clock, pulses its own "beat" -----
+
+class ModuleSync : public ModuleChannels {
+ protected:
+  // Starts the module and a satellite subscribed to its "ticks" (one line per pulse it got).
+  void start(const Json::Value& config = Json::Value(Json::objectValue)) {
+    startHub();
+    startModules("test_sync_step", config);
+    sat_ = flowClient();
+    TestClient sync = syncClient();
+    auto ticks = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_sync_step.ticks"}));
+    ASSERT_TRUE(ticks);
+    ASSERT_TRUE(sat_.send(msg::Subscribe{1, ticks->info.id}));
+    ASSERT_TRUE(sat_.send(msg::DbSetCurrent{2, "guest"}));  // a round trip: subscribed now
+    ASSERT_TRUE(sat_.waitFor(Code::ev_db_changed));
+  }
+  // The module's next line on "ticks", or "" when none comes.
+  std::string nextTick(int timeout_ms = 5000) {
+    auto d = as<msg::EvData>(sat_.waitFor(Code::ev_data, timeout_ms));
+    return d ? std::string(d->payload.bytes) : std::string();
+  }
+  void pulse(uint16_t source) { ASSERT_TRUE(sat_.send(msg::SyncPulse{source, 0})); }
+  TestClient sat_;
+};
+
+TEST_F(ModuleSync, AModuleFollowsASourceMadeAfterItAndIsASourceItself) {
+  start();
+  // guest.clock appears after the module asked to follow it: the follow attaches.
+  const uint16_t clock = addChannel(sat_, "clock", flow::ChannelKind::sync);
+  ASSERT_NE(clock, 0);
+  for (int i = 1; i <= 3; ++i) {
+    pulse(clock);
+    EXPECT_EQ(nextTick(), std::to_string(i) + ":0");  // each finished when its handler returned
+  }
+  // The module's own source: a satellite follows it; each message on guest.trigger pulses it.
+  TestClient sync = syncClient();
+  auto beat = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_sync_step.beat"}));
+  ASSERT_TRUE(beat);
+  EXPECT_EQ(beat->info.kind, static_cast<uint8_t>(flow::ChannelKind::sync));
+  TestClient target = flowClient();
+  ASSERT_TRUE(target.send(msg::SyncFollow{3, beat->info.id, 1}));
+  ASSERT_TRUE(target.send(msg::DbSetCurrent{4, "guest"}));  // a round trip: it follows now
+  ASSERT_TRUE(target.waitFor(Code::ev_db_changed));
+  const uint16_t trigger = addChannel(sat_, "trigger");
+  ASSERT_TRUE(sat_.waitFor(Code::ev_start_publish));  // the module subscribes to it
+  ASSERT_TRUE(sat_.send(msg::Publish{trigger, msg::Rest{"go"}}));
+  auto p = as<msg::EvSyncPulse>(target.waitFor(Code::ev_sync_pulse));
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->chan_id, beat->info.id);
+  EXPECT_EQ(p->seq, 1u);
+  // Re-created, the source is followed again; unfollowed, its pulses stop reaching the module.
+  ASSERT_TRUE(sat_.send(msg::ChanRemove{4, clock}));
+  const uint16_t again =
+      addChannel(sat_, "clock", flow::ChannelKind::sync, Variant(Variant::Map{}), 78);
+  pulse(again);
+  EXPECT_EQ(nextTick(), "1:0");
+  ASSERT_TRUE(sat_.send(msg::Publish{trigger, msg::Rest{"unfollow"}}));
+  pulse(again);
+  EXPECT_EQ(nextTick(300), "");
+}
+
+TEST_F(ModuleSync, AModuleThatFinishesLaterLosesThePulsesThatComeMeanwhile) {
+  Json::Value config(Json::objectValue);
+  config["later"] = true;
+  config["every"] = 2;
+  start(config);
+  const uint16_t clock = addChannel(sat_, "clock", flow::ChannelKind::sync);
+  const uint16_t finish = addChannel(sat_, "finish");
+  ASSERT_TRUE(sat_.waitFor(Code::ev_start_publish));
+  pulse(clock);
+  pulse(clock);
+  EXPECT_EQ(nextTick(), "2:0");              // every 2nd
+  for (int i = 0; i < 4; ++i) pulse(clock);  // 4 and 6 are due while 2 is not finished
+  EXPECT_EQ(nextTick(300), "");
+  ASSERT_TRUE(sat_.send(msg::Publish{finish, msg::Rest{"."}}));  // sync_done(2)
+  pulse(clock);
+  pulse(clock);
+  EXPECT_EQ(nextTick(), "8:2");
 }
 
 }  // namespace

@@ -45,7 +45,11 @@ TEST_F(Promised, ConnectionsBeyondTheLimitAreRefusedUntilOneLeaves) {
   TestClient a = syncClient();
   auto b = std::make_unique<TestClient>(syncClient());
   TestClient c = connect();
-  EXPECT_FALSE(c.login("guest", "password")) << "a third connection was served";
+  auto refused = c.login("guest", "password");
+  ASSERT_FALSE(refused) << "a third connection was served";
+  // Told why, in answer to its LOGIN.
+  EXPECT_NE(refused.error().message.find("server.max_connections"), std::string::npos)
+      << refused.error().message;
   EXPECT_TRUE(eventually([&] { return logs.sawTag("FLOW-LIMIT"); }));
   // The others stay up.
   EXPECT_EQ(a.call(msg::VarSet{"x", Variant(1)})->kind(), Code::reply_ok);

@@ -4,10 +4,14 @@
 //                  Requester and answers with {"forwarded": <the answer>} or {"error": ...};
 //                  the command "sync" writes its value to key "synced" and answers "on disk"
 //                  after a database barrier (plugin ABI 1.3)
+// With config "follow" (a sync source, plugin_sync.hpp) it publishes "pulse:<seq>:<dropped>" on
+// <name>.upper for each pulse of that source and passes the pulse on to its own source
+// <name>.tock: a chain in lockstep.
 // It counts what it upper-cased in its database, key "count", and frames read with
 // skr::media::parseFrame in key "media_seq".
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/plugin_sync.hpp>
 
 #include <cctype>
 #include <string>
@@ -19,7 +23,8 @@ class ChannelsCpp final : public skr::plugin::Module {
   explicit ChannelsCpp(skr::plugin::Host& host)
       : host_(host),
         input_(host.configString("input", "guest.in")),
-        forward_(host.configString("forward", "")) {}
+        forward_(host.configString("forward", "")),
+        follow_(host.configString("follow", "")) {}
 
   void start() override {
     using namespace skr::plugin;
@@ -27,6 +32,13 @@ class ChannelsCpp final : public skr::plugin::Module {
     upper_ = StreamChannel(host_, "upper", "text/plain", R"({"case":"upper"})");
     ask_ = ServiceChannel(host_, "ask", [this](const ServiceRequest& r) { onAsk(r); });
     requester_.emplace(host_);
+    if (!follow_.empty()) {
+      tock_ = SyncSource(host_, "tock");
+      clock_ = SyncFollow(host_, follow_, [this](const Pulse& p) {
+        upper_.publish("pulse:" + std::to_string(p.seq) + ":" + std::to_string(p.dropped));
+        tock_.pulse();
+      });
+    }
     in_ = Subscription(host_, input_, [this, self](std::string_view payload) {
       if (auto frame = skr::media::parseFrame(payload)) {
         skr::plugin::dbSet(host_, self, "media_seq", std::to_string(frame->header.seq));
@@ -41,6 +53,8 @@ class ChannelsCpp final : public skr::plugin::Module {
     });
   }
   void stop() override {
+    clock_.reset();
+    tock_.reset();
     in_.reset();
     requester_.reset();
     ask_.reset();
@@ -67,6 +81,9 @@ class ChannelsCpp final : public skr::plugin::Module {
   skr::plugin::Host& host_;
   std::string input_;
   std::string forward_;
+  std::string follow_;
+  skr::plugin::SyncSource tock_;
+  skr::plugin::SyncFollow clock_;
   skr::plugin::StreamChannel upper_;
   skr::plugin::ServiceChannel ask_;
   skr::plugin::Subscription in_;

@@ -46,6 +46,8 @@ class Connection final : public Endpoint {
   [[nodiscard]] State state() const noexcept { return state_; }
   [[nodiscard]] Transport transport() const noexcept { return transport_; }
   Nanos login_deadline = 0;
+  // Accepted beyond server.max_connections: its LOGIN is answered limit_exceeded, then it closes.
+  bool over_limit = false;
   bool flush_queued = false;
   // Where it comes from, for the login throttle: "tcp:<address>" or "uid:<n>" (set at accept).
   std::string source;

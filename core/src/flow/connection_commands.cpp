@@ -32,6 +32,13 @@ DecodeLimits valueLimits(const ServerOptions& opt) {
 void Connection::handleLogin(std::string_view body) {
   const DecodeLimits limits = valueLimits(server_.opt);
   SKR_DECODE(msg::Login, m);
+  if (over_limit) {
+    replyError(ErrorCode::limit_exceeded,
+               "this hub serves " + std::to_string(server_.opt.max_connections) +
+                   " connections at most (server.max_connections); try again later");
+    closeAfterFlush("too many connections");
+    return;
+  }
   if (m.major != kProtocolMajor) {
     const std::string why = "this hub speaks FlowProtocol " + std::to_string(kProtocolMajor) + "." +
                             std::to_string(kProtocolMinor) + ", the client " +

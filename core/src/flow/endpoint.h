@@ -75,7 +75,7 @@ class Endpoint {
   virtual void onDbChanged(const std::string& name) = 0;
   // A file of a blob channel it subscribes to changed (in-process clients ignore it for now).
   virtual void onBlobChanged(const Channel& /*ch*/, const BlobEvent& /*event*/) {}
-  // A pulse of a sync source it follows (in-process clients cannot follow yet).
+  // A pulse of a sync source it follows; it answers with SyncPulses::done when its tick is over.
   virtual void onSyncPulse(const Channel& /*ch*/, uint64_t /*seq*/, uint64_t /*source_time_ns*/,
                            uint32_t /*dropped*/) {}
 };

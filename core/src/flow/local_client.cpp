@@ -4,6 +4,8 @@
 
 #include <skrobot/core/log.h>
 
+#include <unordered_map>
+
 namespace skr::flow {
 
 struct LocalClient::Impl final : Endpoint {
@@ -16,6 +18,7 @@ struct LocalClient::Impl final : Endpoint {
 
   FlowServer::Impl& server;
   LocalHandlers handlers;
+  std::unordered_map<std::string, uint32_t> follows;  // sync sources by name, and `every`
 
   [[nodiscard]] bool receivesEvents() const override { return true; }
   [[nodiscard]] bool congested() const override { return false; }
@@ -44,7 +47,24 @@ struct LocalClient::Impl final : Endpoint {
     if (handlers.on_response) handlers.on_response(chan_id, tag, toErrc(error), value);
   }
   void onChannelAdded(const Channel& ch, uint32_t) override {
+    if (ch.kind == ChannelKind::sync) {
+      if (auto f = follows.find(ch.name); f != follows.end()) followNow(ch, f->second);
+    }
     if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, true);
+  }
+  void onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,
+                   uint32_t dropped) override {
+    if (handlers.on_sync_pulse) {
+      handlers.on_sync_pulse(ch.id, seq, source_time_ns, dropped);
+    } else {
+      server.syncs.done(*this, ch.id, seq);
+    }
+  }
+  void followNow(const Channel& ch, uint32_t every) {
+    if (auto r = server.syncs.follow(*this, ch.id, every); !r) {
+      log::warn(kLogSource, "FLOW-MODULE-ERROR",
+                describe() + ": cannot follow " + ch.name + ": " + r.error().message);
+    }
   }
   void onChannelRemoved(const Channel& ch) override {
     if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, false);
@@ -127,6 +147,26 @@ Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
 
 Result<void> LocalClient::pulse(uint16_t chan_id) {
   return impl_->server.syncs.pulse(*impl_, chan_id, static_cast<uint64_t>(monotonicNs()));
+}
+
+Result<void> LocalClient::follow(const std::string& name, uint32_t every) {
+  const Channel* ch = impl_->server.channels.findByName(name);
+  if (ch != nullptr) {
+    if (auto r = impl_->server.syncs.follow(*impl_, ch->id, every); !r) return r.error();
+  }
+  impl_->follows[name] = every;  // waits for the source, or follows it again when re-created
+  return {};
+}
+
+void LocalClient::unfollow(const std::string& name) {
+  impl_->follows.erase(name);
+  if (const Channel* ch = impl_->server.channels.findByName(name)) {
+    (void)impl_->server.syncs.unfollow(*impl_, ch->id);
+  }
+}
+
+void LocalClient::syncDone(uint16_t chan_id, uint64_t seq) {
+  impl_->server.syncs.done(*impl_, chan_id, seq);
 }
 
 Result<void> LocalClient::subscribe(const std::string& name) {

@@ -262,8 +262,14 @@ void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
     log::warn(kLogSource, "FLOW-LIMIT",
               "refusing " + c->describe() + ": " + std::to_string(opt.max_connections) +
                   " connections already");
-    c->close("too many connections");
-    return;
+    // A few are told why, in answer to their LOGIN (closing at once could cut off the answer);
+    // beyond those, a flood is closed at once.
+    constexpr size_t kToldAtOnce = 16;
+    if (connections.size() > opt.max_connections + kToldAtOnce) {
+      c->close("too many connections");
+      return;
+    }
+    c->over_limit = true;
   }
   if (tls_failed) {
     c->close("no TLS session");  // never serve plain bytes on the TLS port

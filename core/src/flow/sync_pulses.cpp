@@ -52,7 +52,13 @@ Result<void> SyncPulses::pulse(Endpoint& e, uint16_t chan_id, uint64_t source_ti
   }
   Source& s = sources_[chan_id];
   const uint64_t seq = ++s.seq;
-  // onSyncPulse only queues the event: nothing calls back here meanwhile.
+  const uint64_t source_hash = ch.hash;
+  // Decided first, delivered after: a module's handler runs during delivery and may follow,
+  // unfollow, pulse or remove channels, which changes what the loop below walks.
+  struct Due {
+    uint32_t endpoint, dropped;
+  };
+  std::vector<Due> due;
   for (Target& t : s.targets) {
     if (++t.skipped < t.every) continue;
     t.skipped = 0;
@@ -71,11 +77,17 @@ Result<void> SyncPulses::pulse(Endpoint& e, uint16_t chan_id, uint64_t source_ti
       continue;
     }
     if (t.lagging && t.dropped == 0) t.lagging = false;  // it kept up for a whole period
-    const uint32_t dropped = t.dropped;
+    due.push_back(Due{t.endpoint, t.dropped});
     t.dropped = 0;
     t.waiting_for = seq;
     ++target->traffic.sync_pulses;
-    target->onSyncPulse(ch, seq, source_time_ns, dropped);
+  }
+  for (const Due& d : due) {
+    const Channel* now = channels_.find(chan_id);
+    if (now == nullptr || now->hash != source_hash) break;  // removed by a handler
+    if (Endpoint* target = endpoints_.find(d.endpoint)) {
+      target->onSyncPulse(*now, seq, source_time_ns, d.dropped);
+    }
   }
   return {};
 }

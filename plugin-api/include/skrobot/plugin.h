@@ -48,7 +48,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 4
+#define SKR_PLUGIN_ABI_MINOR 5
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -104,7 +104,8 @@ typedef void (*skr_callback)(void* user);
 typedef enum skr_channel_kind {
   SKR_CHANNEL_STREAMING = 1, /* one publisher (the owner), many subscribers */
   SKR_CHANNEL_SERVICE = 2,   /* requests to the owner, one response each */
-  SKR_CHANNEL_BLOB = 3       /* files kept by the hub (ABI 1.4; docs/blob-channels.md) */
+  SKR_CHANNEL_BLOB = 3,      /* files kept by the hub (ABI 1.4; docs/blob-channels.md) */
+  SKR_CHANNEL_SYNC = 4       /* a sync source: pulses, no data (ABI 1.5; docs/sync-pulse.md) */
 } skr_channel_kind;
 
 /* Handle of a subscription; 0 is never a valid handle. */
@@ -144,6 +145,17 @@ typedef enum skr_blob_op {
  * first (then during its stop). */
 typedef void (*skr_blob_fn)(void* user, skr_status status, const void* data, size_t size,
                             uint64_t version);
+
+/* --- the sync pulse (ABI 1.5) --- */
+/* A pulse of a followed source, on the loop thread: the module's tick for it. `seq` counts the
+ * source's pulses; `source_time_ns` is the source's monotonic clock when it pulsed; `dropped`
+ * is the number of pulses dropped for this module since the last one it got, because it had not
+ * finished the previous one. The pulse is finished when fn returns, or, with
+ * SKR_SYNC_DONE_LATER, when the module calls sync_done (e.g. once its worker is through). */
+typedef void (*skr_sync_fn)(void* user, uint16_t chan_id, uint64_t seq, uint64_t source_time_ns,
+                            uint32_t dropped);
+/* Flags of sync_follow. */
+#define SKR_SYNC_DONE_LATER ((uint32_t)1 << 0) /* the module calls sync_done for each pulse */
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -266,8 +278,25 @@ typedef struct skr_host_api {
   skr_status (*blob_do)(skr_module_ctx* ctx, uint16_t chan_id, skr_blob_op op, const char* path,
                         skr_blob_fn fn, void* user);
 
+  /* --- the sync pulse (ABI 1.5; loop, as the calls above; docs/sync-pulse.md) ---
+   * channel_create with SKR_CHANNEL_SYNC makes a source "<module name>.<short_name>" that other
+   * modules and satellites may follow. */
+  /* Pulses an owned source: each follower that finished the previous pulse gets this one. */
+  skr_status (*sync_pulse)(skr_module_ctx* ctx, uint16_t chan_id);
+  /* Follows the source with that full name, every `every`th pulse (0 and 1: each), calling
+   * fn(user, ...) on each. Like subscribe it waits for a source that does not exist yet and
+   * follows it again when it is re-created. One follow per source and module: another call for
+   * the same name is SKR_ERR_INVALID_ARGUMENT. `flags`: SKR_SYNC_*. */
+  skr_status (*sync_follow)(skr_module_ctx* ctx, const char* name, uint32_t every, uint32_t flags,
+                            skr_sync_fn fn, void* user, skr_sub_handle* handle_out);
+  /* After it returns, fn is never called again. */
+  skr_status (*sync_unfollow)(skr_module_ctx* ctx, skr_sub_handle handle);
+  /* With SKR_SYNC_DONE_LATER: the module's tick for pulse `seq` is over, the next pulse may come.
+   * A stale seq is ignored. */
+  skr_status (*sync_done)(skr_module_ctx* ctx, skr_sub_handle handle, uint64_t seq);
+
   /* Later minors fill these; NULL until then. */
-  void (*reserved[17])(void);
+  void (*reserved[13])(void);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

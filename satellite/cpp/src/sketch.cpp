@@ -61,6 +61,7 @@ int Sketch::run() {
   if (!options_ok_) return 2;
   Satellite& s = *satellite_;
   s.connected.connect(&s, [this] {
+    noteTickMode();
     onConnected();
     if (!set_up_) {
       set_up_ = true;
@@ -114,6 +115,16 @@ int Sketch::run() {
              [](uv_handle_t* handle) { delete reinterpret_cast<uv_signal_t*>(handle); });
   }
   return 0;
+}
+
+void Sketch::noteTickMode() {
+  Satellite& s = *satellite_;
+  const std::string db = "_flow." + std::to_string(s.login().connection_id);
+  std::string mode(timingModeName(loop_->options().mode));
+  if (!options_.sync_source.empty()) mode = options_.sync_strict ? "sync-strict" : "sync";
+  (void)s.set("tick_mode", flow::Variant(mode), db);
+  (void)s.set("tick_interval_ms",
+              flow::Variant(static_cast<double>(loop_->options().fast_interval_ns) / kNsPerMs), db);
 }
 
 void Sketch::tick() {

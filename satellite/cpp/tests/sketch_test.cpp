@@ -124,6 +124,17 @@ TEST_F(Sketches, LoopFollowsASyncSourceAndFallsBackWithoutIt) {
     for (int i = 0; i < 100; ++i) pulse();
     ASSERT_TRUE(eventually([&] { return f.pulses >= first + 95; })) << f.pulses;
     EXPECT_EQ(f.lost, 0);
+    // Its flow database says how its loop ticks.
+    auto reader = SyncClient::connect(options("reader").connection);
+    ASSERT_TRUE(reader) << reader.error().message;
+    ASSERT_TRUE(
+        reader->selectDatabase("_flow." + std::to_string(f.satellite().login().connection_id)));
+    const auto value = [&](const char* key) {
+      auto v = reader->get(key);
+      return v ? *v : flow::Variant();
+    };
+    EXPECT_EQ(value("tick_mode"), flow::Variant(strict ? "sync-strict" : "sync"));
+    EXPECT_EQ(value("tick_interval_ms"), flow::Variant(50.0));
     const int during = f.loops;
     EXPECT_GE(during, f.pulses);
     EXPECT_LE(during, f.pulses + 2) << "loop() ran on the timer while pulses came";

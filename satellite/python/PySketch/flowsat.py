@@ -208,6 +208,7 @@ class FlowSat(AbstractFlow):
         self._syncLost = False
         self._onSync = None
         self._onSyncLost = None
+        self._quietDbSwitches = []  # EV_DB_CHANGED names of our own switches (_noteTickMode)
         self.syncDropped = 0       # pulses the hub dropped because our loop was still busy
         self.lastPulse = None      # (chanID, seq, sourceTimeNs) of the last pulse
 
@@ -223,6 +224,7 @@ class FlowSat(AbstractFlow):
         self._timer.interval = tick
         self._timer.check = max(float(check), tick) if check else max(1.0, tick)
         self._deadline = None
+        self._noteTickMode()
 
     def getTickTimer(self):
         return self._timer.interval
@@ -667,6 +669,7 @@ class FlowSat(AbstractFlow):
         self._channels = OrderedDict()
         self._byName = {}
         self._pulse = self._doneFor = None  # pulses of the last connection
+        self._quietDbSwitches = []
         fresh = [self._addChannel(info) for info in infos]
         for short in list(self._specs.keys()):
             self._sendChanAdd(short)
@@ -675,6 +678,7 @@ class FlowSat(AbstractFlow):
             self._send(frame(Code.DB_SET_CURRENT, u32(self._nextTag()) + str16(self._selectedDb)))
         for ch in fresh:
             self._autoSubscribe(ch)
+        self._noteTickMode()
         # The new-channel callbacks run from the next tick(), in order with the events that
         # follow (a sketch may set its callbacks after connect()).
         self._deferred = fresh
@@ -773,7 +777,9 @@ class FlowSat(AbstractFlow):
                     self._call("response", self._onResponse, chan, value)
         elif code == Code.EV_DB_CHANGED:
             self.currentDbName = r.str16()
-            if self._onDbChanged is not None:
+            if self._quietDbSwitches and self._quietDbSwitches[0] == self.currentDbName:
+                self._quietDbSwitches.pop(0)
+            elif self._onDbChanged is not None:
                 self._call("db-changed", self._onDbChanged, self.currentDbName)
         elif code == Code.EV_ERROR:
             command = r.u8()
@@ -1036,6 +1042,7 @@ class FlowSat(AbstractFlow):
         ch = self._byName.get(name)
         if ch is not None and self._state == "online":
             self._autoSubscribe(ch)
+        self._noteTickMode()
         return True
 
     def unfollowSync(self, name=None):
@@ -1050,7 +1057,24 @@ class FlowSat(AbstractFlow):
         if not self._follows:
             self._pulse = self._doneFor = None
             self._deadline = None
+        self._noteTickMode()
         return True
+
+    def _noteTickMode(self):
+        """Writes the loop's tick mode and interval to the flow's database (_flow.<connection
+        id>), where the hub keeps the flow's figures. The two database switches it takes do not
+        reach the db-changed callback."""
+        if self._state != "online" or self.connectionID is None:
+            return
+        mode = ("sync-strict" if self._syncStrict else "sync") if self._follows else "timer"
+        back = self._selectedDb or self.currentDbName or self._userName
+        mine = "_flow.%d" % self.connectionID
+        tag = self._nextTag
+        self._quietDbSwitches += [mine, back]
+        self._send(frame(Code.DB_SET_CURRENT, u32(tag()) + str16(mine)))
+        for key, value in (("tick_mode", mode), ("tick_interval_ms", self._timer.interval * 1e3)):
+            self._send(frame(Code.VAR_SET_ASYNC, u32(tag()) + str16(key) + encodeValue(value)))
+        self._send(frame(Code.DB_SET_CURRENT, u32(tag()) + str16(back)))
 
     def _needsSync(self):
         if self._state == "online" and self.hubMinor < SYNC_MINOR:

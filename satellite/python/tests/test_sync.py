@@ -134,3 +134,26 @@ class SyncPulse(HubTestCase):
             src.tick()
             f.sat.tick()
         self.assertEqual(len(f.pulses), count)
+
+    def test_the_tick_mode_is_in_the_flow_database(self):
+        from PySketch.flowsync import FlowSync
+        self.source()
+        sat = self.connected(tick=0.05)
+        switches = []
+        sat.setDbChangedCallBack(lambda name: switches.append(name))
+        reader = FlowSync(self.hub.address, "guest", "password")
+        self.addCleanup(reader.close)
+        self.assertTrue(reader.connect())
+        self.assertTrue(reader.setCurrentDbName("_flow.%d" % sat.connectionID))
+
+        def mode():
+            return (reader.getVariable("tick_mode"), reader.getVariable("tick_interval_ms"))
+        self.assertTrue(pump([sat], lambda: mode() == ("timer", 50.0)), mode())
+        sat.followSync("guest.clock", timeout=0.1)  # no pulses: tick() returns after 0.1 s
+        self.assertTrue(pump([sat], lambda: mode()[0] == "sync"), mode())
+        sat.unfollowSync("guest.clock")
+        sat.setTickTimer(0.02)
+        self.assertTrue(pump([sat], lambda: mode() == ("timer", 20.0)), mode())
+        self.assertEqual(switches, [], "the library's own database switches reached the callback")
+        self.assertEqual(sat.currentDbName, "guest")
+

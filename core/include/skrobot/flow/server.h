@@ -86,6 +86,9 @@ struct LocalHandlers {
   // ...: the Errc of the wire error a satellite gets, see toErrc) and value holds the message.
   std::function<void(uint16_t chan_id, uint32_t tag, Errc error, const Variant& value)> on_response;
   std::function<void(uint16_t chan_id, const std::string& name, bool added)> on_channel;
+  // A pulse of a source it follows (LocalClient::follow); answer with LocalClient::syncDone.
+  std::function<void(uint16_t chan_id, uint64_t seq, uint64_t source_time_ns, uint32_t dropped)>
+      on_sync_pulse;
 };
 
 class FlowServer {
@@ -148,6 +151,12 @@ class LocalClient {
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
   // A pulse of an owned sync source (docs/sync-pulse.md), stamped with the monotonic clock.
   [[nodiscard]] Result<void> pulse(uint16_t chan_id);
+  // Follows a sync source by name, every `every`th pulse; like subscribe() it waits for a source
+  // that does not exist yet and follows it again when it is re-created. Again: a new `every`.
+  [[nodiscard]] Result<void> follow(const std::string& name, uint32_t every);
+  void unfollow(const std::string& name);
+  // Its tick for pulse `seq` of source `chan_id` is over: the next pulse may come.
+  void syncDone(uint16_t chan_id, uint64_t seq);
   // Subscribes by name; if the channel does not exist yet the subscription waits for it, and it
   // follows the channel when it is removed and created again.
   [[nodiscard]] Result<void> subscribe(const std::string& name);

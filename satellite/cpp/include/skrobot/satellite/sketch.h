@@ -98,7 +98,8 @@ class Sketch {
   void tick();
   void measureSecond();
   void onPulse(const SyncPulse& pulse);
-  void ownTick();  // the loop's fast tick while following: the fallback after a timeout
+  void ownTick();       // the loop's fast tick while following: the fallback after a timeout
+  void noteTickMode();  // tick_mode and tick_interval_ms in the flow's database
 
   SketchOptions options_;
   bool options_ok_ = true;

@@ -105,6 +105,10 @@ class Connection final : public Endpoint {
   std::function<void(Result<T>)> blobLater(uint64_t bytes,
                                            std::function<void(Connection&, Result<T>&)> then);
   void blobAnswered(uint64_t bytes);
+  // A Unix socket's send buffer, raised once the connection downloads files: the kernel's
+  // default (about 200 KiB) makes a write, and a wake-up of each side, per 200 KiB. TCP tunes
+  // its own. Only synchronous connections download, so no sync pulse waits behind it.
+  void widenSendBuffer();
   // BLOB_DATA around bytes read after blobDataHead() bytes of `frame`: the header is written in
   // front of them, and the buffer becomes the output queue's when that is empty (no copy).
   void sendBlobData(uint64_t version, uint64_t total_size, std::string frame);
@@ -167,11 +171,12 @@ class Connection final : public Endpoint {
   // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
   std::unique_ptr<char[]> rbuf_;
   size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
-  bool blocked_ = false;         // a sync reply is pending: do not parse further frames
-  uint32_t blob_in_flight_ = 0;  // blob requests in the hub, not answered yet
-  uint64_t blob_bytes_ = 0;      // the data they carry or ask for
-  bool blob_waiting_ = false;    // reading paused until a blob answer leaves
-  bool first_input_ = true;      // nothing received yet: a plain TCP port checks for a TLS peer
+  bool blocked_ = false;           // a sync reply is pending: do not parse further frames
+  uint32_t blob_in_flight_ = 0;    // blob requests in the hub, not answered yet
+  uint64_t blob_bytes_ = 0;        // the data they carry or ask for
+  bool blob_waiting_ = false;      // reading paused until a blob answer leaves
+  bool wide_send_buffer_ = false;  // widened for downloads (widenSendBuffer)
+  bool first_input_ = true;        // nothing received yet: a plain TCP port checks for a TLS peer
   std::optional<TlsSession> tls_;
   std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;

@@ -61,6 +61,13 @@ void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string
   queued();
 }
 
+void Connection::widenSendBuffer() {
+  if (wide_send_buffer_ || transport_ != Transport::unix_socket) return;
+  wide_send_buffer_ = true;
+  int size = 1 << 20;  // Linux doubles it (and caps it at net.core.wmem_max)
+  (void)uv_send_buffer_size(reinterpret_cast<uv_handle_t*>(stream()), &size);
+}
+
 void Connection::blobAnswered(uint64_t bytes) {
   --blob_in_flight_;
   blob_bytes_ -= bytes;
@@ -183,6 +190,7 @@ void Connection::handleBlob(Code code, std::string_view body) {
     case Code::blob_get: {
       SKR_BLOB_DECODE(msg::BlobGet, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, false);
+      widenSendBuffer();
       // Room for the reply's header in a frame of the hub's limit.
       const uint32_t most =
           std::min<uint32_t>({m.max_bytes, BlobStore::kMaxChunk, server_.opt.max_frame_bytes - 64});

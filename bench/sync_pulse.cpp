@@ -279,8 +279,8 @@ int main(int argc, char** argv) {
       "\n(target columns: the worst target's figure; 2 cores are shared by the hub, the "
       "source, the camera and every target)\n");
   if (gate) {
-    const bool met = gate->err_p99 <= gate->source.p99 + 100 && gate->dropped == 0 &&
-                     gate->missed == 0;
+    const bool met =
+        gate->err_p99 <= gate->source.p99 + 100 && gate->dropped == 0 && gate->missed == 0;
     std::printf(
         "target at 100 Hz, 10 targets, no video: worst target p99 %.0f us vs source p99 %.0f us "
         "+ 100 us, %llu dropped, %llu missed over %llu pulses: %s\n",

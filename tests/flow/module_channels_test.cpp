@@ -33,6 +33,7 @@ class ModuleChannels : public FlowFixture {
     if (hub_) onHub([&] { host_.reset(); });
     FlowFixture::TearDown();
   }
+  void checkBlobModule(const std::string& module, const std::string& bad);
   std::unique_ptr<ModuleHost> host_;
 };
 
@@ -150,12 +151,15 @@ TEST_F(ModuleChannels, ModulesOnTheirOwnThreadAreToldChannelCallsAreMainLoopOnly
   });
 }
 
-TEST_F(ModuleChannels, CModuleReadsAndWritesItsBlobChannel) {
+// A module that reads and writes its blob channel (test_blob_files in C, test_blob_files_cpp
+// through plugin_blobs.hpp): the lines it reports, then the channel as satellites see it.
+// `bad`: its first line, about a path refused at once.
+void ModuleChannels::checkBlobModule(const std::string& module, const std::string& bad) {
   startHub();
-  startModules("test_blob_files");
+  startModules(module);
   TestClient sat = flowClient();
   TestClient sync = syncClient();
-  auto report = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_blob_files.report"}));
+  auto report = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{module + ".report"}));
   ASSERT_TRUE(report);
   ASSERT_TRUE(sat.send(msg::Subscribe{1, report->info.id}));  // the module starts its calls
   std::vector<std::string> lines;
@@ -168,7 +172,7 @@ TEST_F(ModuleChannels, CModuleReadsAndWritesItsBlobChannel) {
     return std::any_of(lines.begin(), lines.end(),
                        [&](const std::string& l) { return l.rfind(prefix, 0) == 0; });
   };
-  EXPECT_EQ(lines[0], "bad:" + std::to_string(SKR_ERR_INVALID_ARGUMENT));  // refused at once
+  EXPECT_EQ(lines[0], bad);  // refused at once
   EXPECT_TRUE(has("put:0:versioned"));
   EXPECT_TRUE(has("get:0:hello from a module"));
   EXPECT_TRUE(has("list:0:[{\"dir\":false,\"mtime_ns\":"));
@@ -178,17 +182,25 @@ TEST_F(ModuleChannels, CModuleReadsAndWritesItsBlobChannel) {
   EXPECT_TRUE(has("event:0:{\"change\":\"removed\",\"path\":\"a/hello.txt\""));
   EXPECT_FALSE(has("never:"));
   // A satellite reads the module's files, and the channel outlives the module.
-  auto files = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_blob_files.files"}));
+  auto files = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{module + ".files"}));
   ASSERT_TRUE(files);
   EXPECT_EQ(files->info.kind, uint8_t(flow::ChannelKind::blob));
   onHub([&] { host_.reset(); });
-  auto kept = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_blob_files.files"}));
+  auto kept = as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{module + ".files"}));
   ASSERT_TRUE(kept);
   EXPECT_EQ(kept->info.owner_connection, 0u);
   // A satellite may not write to it.
   auto denied = as<msg::ReplyError>(sync.call(msg::BlobMkdir{kept->info.id, "x"}));
   ASSERT_TRUE(denied);
   EXPECT_EQ(denied->error, uint16_t(flow::ErrorCode::permission_denied));
+}
+
+TEST_F(ModuleChannels, CModuleReadsAndWritesItsBlobChannel) {
+  checkBlobModule("test_blob_files", "bad:" + std::to_string(SKR_ERR_INVALID_ARGUMENT));
+}
+
+TEST_F(ModuleChannels, CppModuleReadsAndWritesItsBlobChannel) {
+  checkBlobModule("test_blob_files_cpp", "bad:refused");
 }
 
 // --- the sync pulse (ABI 1.5): test_sync_step follows guest.clock, pulses its own "beat" -----

@@ -20,7 +20,15 @@ shift || true
 
 JOBS=$(nproc 2>/dev/null || echo 2)
 STEP=0
-step() { STEP=$((STEP + 1)); echo "==> [$STEP] $*"; }
+# Each step says how long the one before it took, so that a slow run shows where its time went.
+STEP_START=$SECONDS
+step() {
+  if ((STEP > 0)); then echo "    (step $STEP: $((SECONDS - STEP_START)) s)"; fi
+  STEP=$((STEP + 1))
+  STEP_START=$SECONDS
+  echo "==> [$STEP] $*"
+}
+trap 'if ((STEP > 0)); then echo "    (step $STEP: $((SECONDS - STEP_START)) s; $SECONDS s in all)"; fi' EXIT
 
 # Debian packages the build, the hub and the tests need.
 PACKAGES=(

@@ -98,10 +98,7 @@ class BlobChannel {
       : host_(std::make_shared<Host>(host)), name_(std::move(name)) {}
 
   static void requireBlobs(const Host& host) {
-    detail::requireFlow(host);
-    if (host.api()->abi_minor < 4 || host.api()->blob_get == nullptr) {
-      throw Failure(SKR_ERR_UNSUPPORTED, "this hub has no blob channel calls (plugin ABI < 1.4)");
-    }
+    detail::requireAbi(host, 4, host.api()->blob_get != nullptr, "blob channel calls");
   }
 
   // One call in flight: its callback, freed when answered.

@@ -27,11 +27,17 @@ namespace skr::plugin {
 
 namespace detail {
 
-inline void requireFlow(const Host& host) {
-  const skr_host_api* api = host.api();
-  if (api->abi_minor < 1 || api->channel_create == nullptr) {
-    throw Failure(SKR_ERR_UNSUPPORTED, "this hub has no FlowNetwork calls (plugin ABI < 1.1)");
+// Throws unless the host has the calls of ABI 1.<minor> (`present`: the one the caller needs
+// is not NULL), named `what` in the error.
+inline void requireAbi(const Host& host, unsigned minor, bool present, const char* what) {
+  if (host.api()->abi_minor < minor || !present) {
+    throw Failure(SKR_ERR_UNSUPPORTED, std::string("this hub has no ") + what +
+                                           " (plugin ABI < 1." + std::to_string(minor) + ")");
   }
+}
+
+inline void requireFlow(const Host& host) {
+  requireAbi(host, 1, host.api()->channel_create != nullptr, "FlowNetwork calls");
 }
 
 inline void check(const Host& host, skr_status st, const std::string& what) {

@@ -22,10 +22,7 @@ namespace skr::plugin {
 namespace detail {
 
 inline void requireSync(const Host& host) {
-  const skr_host_api* api = host.api();
-  if (api->abi_minor < 5 || api->sync_follow == nullptr) {
-    throw Failure(SKR_ERR_UNSUPPORTED, "this hub has no sync pulse calls (plugin ABI < 1.5)");
-  }
+  requireAbi(host, 5, host.api()->sync_follow != nullptr, "sync pulse calls");
 }
 
 }  // namespace detail

@@ -60,12 +60,14 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
     for (Sub& s : subs_) {
       if (s.name == name) s.chan_id = added ? chan_id : 0;
     }
+    for (Follow& f : follows_) {
+      if (f.name == name) f.chan_id = added ? chan_id : 0;
+    }
   };
   h.on_sync_pulse = [this](uint16_t chan_id, uint64_t seq, uint64_t source_time_ns,
                            uint32_t dropped) {
-    auto it = std::find_if(follows_.begin(), follows_.end(), [&](const Follow& f) {
-      return client_->findChannel(f.name) == chan_id;
-    });
+    auto it = std::find_if(follows_.begin(), follows_.end(),
+                           [&](const Follow& f) { return f.chan_id == chan_id; });
     if (it == follows_.end()) return client_->syncDone(chan_id, seq);
     const Follow f = *it;  // the handler may unfollow
     f.fn(f.user, chan_id, seq, source_time_ns, dropped);
@@ -323,7 +325,7 @@ skr_status ModuleFlow::syncFollow(const char* name, uint32_t every, uint32_t fla
   }
   if (auto r = client_->follow(n, every); !r) return fail("sync_follow " + n, r.error());
   *handle_out = next_handle_++;
-  follows_.push_back(Follow{*handle_out, n, flags, fn, user});
+  follows_.push_back(Follow{*handle_out, n, client_->findChannel(n).value_or(0), flags, fn, user});
   return SKR_OK;
 }
 
@@ -340,7 +342,7 @@ skr_status ModuleFlow::syncDone(skr_sub_handle handle, uint64_t seq) {
   auto it = std::find_if(follows_.begin(), follows_.end(),
                          [handle](const Follow& f) { return f.handle == handle; });
   if (it == follows_.end()) return SKR_ERR_NOT_FOUND;
-  if (auto id = client_->findChannel(it->name)) client_->syncDone(*id, seq);
+  if (it->chan_id != 0) client_->syncDone(it->chan_id, seq);
   return SKR_OK;
 }
 

@@ -68,6 +68,7 @@ class ModuleFlow {
   struct Follow {
     skr_sub_handle handle;
     std::string name;
+    uint16_t chan_id;  // 0 while the source does not exist
     uint32_t flags;
     skr_sync_fn fn;
     void* user;

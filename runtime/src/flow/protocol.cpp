@@ -145,10 +145,6 @@ std::string_view codeName(uint8_t code) noexcept {
       return "REPLICATE_STOP";
     case Code::hub_link_hello:
       return "HUB_LINK_HELLO";
-    case Code::hub_link_channels:
-      return "HUB_LINK_CHANNELS";
-    case Code::hub_link_forward:
-      return "HUB_LINK_FORWARD";
   }
   return "UNKNOWN";
 }
@@ -181,6 +177,8 @@ uint16_t minorOf(Code code) noexcept {
     case Code::sync_done:
     case Code::ev_sync_pulse:
       return 4;
+    case Code::hub_link_hello:
+      return 5;
     default:
       return 0;
   }

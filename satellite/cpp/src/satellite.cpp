@@ -56,6 +56,9 @@ const SatelliteOptions& Satellite::options() const noexcept {
 const LoginInfo& Satellite::login() const noexcept {
   return impl_->login;
 }
+const std::string& Satellite::linkedHub() const noexcept {
+  return impl_->linked_hub;
+}
 const SatelliteStats& Satellite::stats() const noexcept {
   if (impl_->link != nullptr) impl_->stats.writes = impl_->link->writes();
   return impl_->stats;

@@ -20,7 +20,7 @@ namespace skr::sat {
 inline constexpr std::string_view kLogSource = "satellite";
 
 struct Satellite::Impl final : detail::Link::Handler {
-  enum class State { stopped, waiting, connecting, login, listing, going_async, flow };
+  enum class State { stopped, waiting, connecting, login, hello, listing, going_async, flow };
 
   struct Own {
     ChannelSpec spec;
@@ -104,6 +104,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   Nanos last_drop_log_ns = 0;
 
   LoginInfo login;
+  std::string linked_hub;  // the far hub's name, when opt.hub_name made this a hub link
   SatelliteStats stats;
   std::map<uint16_t, ChannelInfo> table;                 // every channel of the hub
   std::map<std::string, uint16_t, std::less<>> by_name;  // full name -> id

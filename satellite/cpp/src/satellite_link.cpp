@@ -101,6 +101,7 @@ void Satellite::Impl::onTimer(uv_timer_t* t) {
       return;
     case State::connecting:
     case State::login:
+    case State::hello:
     case State::listing:
     case State::going_async:
       impl->guarded("a handshake time-out", [impl] {
@@ -199,16 +200,19 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
 
 void Satellite::Impl::handshake(uint8_t code, std::string_view body) {
   const auto c = static_cast<Code>(code);
-  if (c == Code::reply_error && state == State::login) {
+  if (c == Code::reply_error && (state == State::login || state == State::hello)) {
     auto e = flow::decode<msg::ReplyError>(body);
     if (!e) return drop("REPLY_ERROR: " + e.error().message, true);
-    const std::string why = "login to " + opt.connection.address.toString() + " as \"" +
-                            opt.connection.user + "\" refused: " + e->message;
+    const std::string why = (state == State::hello ? "hub link to " : "login to ") +
+                            opt.connection.address.toString() + " as \"" +
+                            (state == State::hello ? opt.hub_name : opt.connection.user) +
+                            "\" refused: " + e->message;
+    const auto command = state == State::hello ? Code::hub_link_hello : Code::login;
     log::error(kLogSource, "SAT-LOGIN", why);
     backoff_ns = opt.reconnect_max_ns;  // a refused login is not retried in a hurry
     failure_logged = true;
     const uint64_t gen = generation;
-    self.error.emit(FlowError{uint8_t(Code::login), 0, 0, e->error, e->message});
+    self.error.emit(FlowError{uint8_t(command), 0, 0, e->error, e->message});
     if (gen == generation) drop(why);
     return;
   }
@@ -221,8 +225,25 @@ void Satellite::Impl::handshake(uint8_t code, std::string_view body) {
       if (!ok) return drop(ok.error().message, true);
       login = std::move(ok).value();
       flow_db = login.current_db;
+      state = State::listing;
+      if (!opt.hub_name.empty()) {
+        if (login.minor < flow::minorOf(Code::hub_link_hello)) {
+          backoff_ns = opt.reconnect_max_ns;
+          return drop("the hub at " + opt.connection.address.toString() +
+                      " speaks FlowProtocol 1." + std::to_string(login.minor) +
+                      ": hub links need 1.5");
+        }
+        send(msg::HubLinkHello{opt.hub_name});
+        state = State::hello;
+      }
       send(msg::Empty<Code::chan_list>{});  // the channels that exist, then the flow: both go
       send(msg::Empty<Code::go_async>{});   // in one write, so no channel is missed in between
+      return;
+    }
+    case State::hello: {
+      auto ok = flow::decode<msg::HubLinkHelloOk>(body);
+      if (!ok) return drop(ok.error().message, true);
+      linked_hub = std::move(ok->hub_name);
       state = State::listing;
       return;
     }

@@ -78,6 +78,8 @@ void forEachMessage(F&& f) {
   f(SyncUnfollow{});
   f(SyncDone{});
   f(EvSyncPulse{});
+  f(HubLinkHello{});
+  f(HubLinkHelloOk{});
 }
 
 }  // namespace skr::flow

@@ -646,4 +646,25 @@ struct EvSyncPulse {
   }
 };
 
+// 1.5, hub links (docs/hub-links.md). Hub -> hub, on a synchronous connection after LOGIN and
+// before GO_ASYNC: the linking hub's name. Answered with HubLinkHelloOk (the far hub's name), or
+// already_exists (a hub of that name is linked already), invalid_argument (a bad name, or the far
+// hub's own).
+struct HubLinkHello {
+  static constexpr Code code = Code::hub_link_hello;
+  std::string hub_name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(hub_name);
+  }
+};
+struct HubLinkHelloOk {
+  static constexpr Code code = Code::reply_ok;
+  std::string hub_name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(hub_name);
+  }
+};
+
 }  // namespace skr::flow::msg

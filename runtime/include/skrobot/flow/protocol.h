@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 4;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 5;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -104,12 +104,12 @@ enum class Code : uint8_t {
   sync_done = 0xD3,      // a target's tick for a pulse is done: it may have the next one
   ev_sync_pulse = 0xD8,  // a pulse, to each target
 
+  // 1.5: hub links. A hub that links to another logs in as a satellite and says who it is.
+  hub_link_hello = 0xE8,  // synchronous, after LOGIN: the linking hub's name
+
   // Reserved and specified; not implemented yet (answered with `unsupported`).
   replicate_channel = 0xE0,
   replicate_stop = 0xE1,
-  hub_link_hello = 0xE8,
-  hub_link_channels = 0xE9,
-  hub_link_forward = 0xEA,
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -117,6 +117,10 @@ enum class Code : uint8_t {
 // A blob channel request (1.3): sent by satellites on a synchronous connection, like 0x01-0x3F.
 [[nodiscard]] constexpr bool isBlobRequest(uint8_t code) noexcept {
   return code >= 0xC0 && code <= 0xC9;
+}
+// A synchronous request of a family block: blob channels (1.3), HUB_LINK_HELLO (1.5).
+[[nodiscard]] constexpr bool isSyncFamilyRequest(uint8_t code) noexcept {
+  return isBlobRequest(code) || code == 0xE8;
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

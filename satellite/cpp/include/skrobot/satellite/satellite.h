@@ -50,6 +50,9 @@ struct SatelliteOptions {
   Nanos reconnect_reset_after_ns = 5 * kNsPerSec;
   Nanos handshake_timeout_ns = 10 * kNsPerSec;  // connect + login + GO_ASYNC
   size_t max_queued_bytes = 8u << 20;  // outgoing bytes waiting; publish() fails beyond this
+  // Set only by a hub that links to another (docs/hub-links.md): its own hub name, said in
+  // HUB_LINK_HELLO after each login (FlowProtocol 1.5). A refusal is a refused login.
+  std::string hub_name;
 
   // ConnectOptions::fromEnvironment() with the defaults above.
   [[nodiscard]] static Result<SatelliteOptions> fromEnvironment(std::string client_name = {});
@@ -129,6 +132,8 @@ class Satellite : public Object {
   [[nodiscard]] const LoginInfo& login() const noexcept;  // from the last login
   [[nodiscard]] const std::string& user() const noexcept { return login().user; }
   [[nodiscard]] const SatelliteStats& stats() const noexcept;
+  // The far hub's name, when options().hub_name made this connection a hub link.
+  [[nodiscard]] const std::string& linkedHub() const noexcept;
 
   // --- channels ------------------------------------------------------------------------------
   // Declares a channel of ours: created now when connected, and after every reconnection;

@@ -210,6 +210,8 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.blob_channel_files = s.blob_channel_files;
   o.users_file = s.users_file;
   o.dev_account = s.dev_account;
+  o.hub_name = cfg.hub_name;
+  o.links = cfg.links;
   return o;
 }
 

@@ -1,5 +1,7 @@
 #include <skrobot/core/hub_config.h>
 
+#include "link_config.h"
+
 #include <json/reader.h>
 
 #include <algorithm>
@@ -340,6 +342,7 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
     readModules(d["modules"], base_dir, cfg, problems);
     if (d["sync"].isObject()) cfg.sync_hub_source = d["sync"]["hub_source"].asString();
     readServer(d, base_dir, cfg);
+    readLinks(d, base_dir, cfg, problems);
     if (cfg.server.tls && !cfg.server.tcp_enabled) {
       problems.push_back({"$.server.tls", "TLS is served on the TCP listener: set \"tcp\": true"});
     }
@@ -383,6 +386,8 @@ s::Schema hubSchema() {
                   s::object({s::optional("hub_source", s::string().check(plainName("")), "")}),
                   Json::objectValue),
       s::optional("accounts", accountsSchema(), Json::objectValue),
+      s::optional("hub_name", hubNameSchema()),
+      s::optional("links", linksSchema(), Json::arrayValue),
   });
 }
 

@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -307,6 +308,52 @@ TEST(ConfigTest, EveryProblemIsReportedAtOnce) {
       "test.json: $.modules[0].enabled: expected boolean, got integer\n"
       "test.json: $.modules[1]: needs \"name\" (found on the module search path) or \"path\"\n"
       "test.json: $: unknown key \"extra\"");
+}
+
+TEST(ConfigTest, HubLinksAreReadWithTheirPasswordsFromOutsideTheConfig) {
+  const fs::path dir = fs::temp_directory_path() / ("skrobot-links-" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const fs::path pass = dir / "arm.pass";
+  std::ofstream(pass) << "s3cret\nignored\n";
+  fs::permissions(pass, fs::perms::owner_read | fs::perms::owner_write);
+  ::setenv("SKROBOT_TEST_LINK_PW", "from-env", 1);
+  const std::string ok = R"({"hub_name": "head", "links": [
+      {"name": "arm", "address": "local:/tmp/Arm", "user": "link", "password_file": ")" +
+                         pass.string() + R"("},
+      {"name": "base", "address": "tls:base.lab:9100", "user": "link",
+       "password_env": "SKROBOT_TEST_LINK_PW", "max_channels": 10,
+       "tls": {"ca_file": "ca.pem"}}]})";
+  Result<HubConfig> r = parse(ok);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->hub_name, "head");
+  ASSERT_EQ(r->links.size(), 2u);
+  EXPECT_EQ(r->links[0].password, "s3cret");
+  EXPECT_EQ(r->links[0].max_channels, 4096u);
+  EXPECT_EQ(r->links[1].password, "from-env");
+  EXPECT_EQ(r->links[1].max_channels, 10u);
+  EXPECT_EQ(r->links[1].tls.ca_file, "/etc/robot/ca.pem");
+
+  // A password file others may read, a password in the config, TCP off the machine, a name
+  // twice, this hub's own name, a bad hub name, no password, an unset variable.
+  fs::permissions(pass, fs::perms::group_read, fs::perm_options::add);
+  const std::string msg = errorOf(R"({"hub_name": "head", "links": [
+      {"name": "arm", "address": "local:/tmp/Arm", "user": "l", "password_file": ")" +
+                                  pass.string() + R"("},
+      {"name": "arm", "address": "tcp:10.0.0.2:9000", "user": "l", "password": "x"},
+      {"name": "head", "address": "tcp:127.0.0.1:9000", "user": "l", "password_env": "NOPE_X"},
+      {"name": "a.b", "address": "local:/tmp/x", "user": "l", "password_file": "x",
+       "password_env": "Y"}]})");
+  EXPECT_HAS(msg, "$.links[0].password_file: " + pass.string() + " may be read by others");
+  EXPECT_HAS(msg, "$.links[1]: unknown key \"password\"");
+  EXPECT_HAS(msg, "$.links[1].name: hub arm is linked twice");
+  EXPECT_HAS(msg, "$.links[1].address: a link over TCP to another machine needs TLS");
+  EXPECT_HAS(msg, "$.links[1]: needs one of \"password_file\" and \"password_env\"");
+  EXPECT_HAS(msg, "$.links[2].name: is this hub's own hub_name");
+  EXPECT_HAS(msg, "$.links[2].password_env: the variable NOPE_X is not set");
+  EXPECT_HAS(msg, "$.links[3].name: a hub name is 1 to 64 of A-Z a-z 0-9 _ -, got \"a.b\"");
+  EXPECT_HAS(msg, "$.links[3]: needs one of");
+  EXPECT_HAS(errorOf(R"({"hub_name": "no/slash"})"), "$.hub_name: a hub name is 1 to 64");
+  fs::remove_all(dir);
 }
 
 // The schema on its own, for the parts the hub's config does not exercise.

@@ -294,6 +294,15 @@ void Connection::handleSync(Code code, std::string_view body) {
       }
       return;
     }
+    case Code::hub_link_hello: {
+      SKR_DECODE(msg::HubLinkHello, m);
+      if (auto r = server_.acceptHubLink(*this, m.hub_name); !r) {
+        replyError(toErrorCode(r.error().code), r.error().message);
+      } else {
+        send(msg::HubLinkHelloOk{server_.hub_name});
+      }
+      return;
+    }
     case Code::go_async: {
       if (!body.empty()) return protocolError("GO_ASYNC has a body");
       replyOk();

@@ -399,7 +399,19 @@ void DatabaseStore::onClear(const PairDatabase& db) {
 }
 
 Result<PairDatabase*> DatabaseStore::create(const std::string& name, DatabaseKind kind) {
-  if (Result<void> valid = validateDatabaseName(name); !valid) return valid.error();
+  // "<hub>/<name>": the database of a linked hub's channel, kept here while the link is up.
+  if (const size_t slash = name.find('/'); slash != std::string::npos) {
+    if (kind == DatabaseKind::persistent || !validHubName(name.substr(0, slash))) {
+      return makeError(Errc::invalid_argument,
+                       "database name \"" + name + "\": a \"<hub>/\" prefix names a linked hub's");
+    }
+    if (Result<void> valid = validateDatabaseName(std::string_view(name).substr(slash + 1));
+        !valid) {
+      return valid.error();
+    }
+  } else if (Result<void> valid = validateDatabaseName(name); !valid) {
+    return valid.error();
+  }
   if (dbs_.contains(name)) {
     return makeError(Errc::already_exists, "database \"" + name + "\" exists already");
   }

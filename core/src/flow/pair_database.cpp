@@ -2,6 +2,7 @@
 // database_store.cpp.
 #include <skrobot/flow/pair_database.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <limits>
 
@@ -129,6 +130,14 @@ Result<void> validateDatabaseName(std::string_view name) {
     }
   }
   return {};
+}
+
+bool validHubName(std::string_view name) noexcept {
+  if (name.empty() || name.size() > 64) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-';
+  });
 }
 
 }  // namespace skr::flow

@@ -2,6 +2,8 @@
 // be queued, whose owner vanishes, or that times out, fails with an error to the caller.
 #include "request_table.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <vector>
 
 namespace skr::flow {
@@ -44,7 +46,7 @@ Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t ta
 }
 
 Result<void> RequestTable::respond(Endpoint& from, uint16_t chan_id, uint64_t request,
-                                   const Variant& value) {
+                                   const Variant& value, ErrorCode error) {
   auto it = requests_.find(request);
   if (it == requests_.end()) {
     return makeError(Errc::not_found, "no pending request " + std::to_string(request) +
@@ -56,8 +58,15 @@ Result<void> RequestTable::respond(Endpoint& from, uint16_t chan_id, uint64_t re
                      "request " + std::to_string(request) + " was not made to a channel you own");
   }
   const PendingRequest p = take(it);
-  answer(p, ErrorCode::ok, value);
+  answer(p, error, value);
   return {};
+}
+
+uint32_t RequestTable::remainingMs(uint64_t request, Nanos now) const {
+  auto it = requests_.find(request);
+  if (it == requests_.end()) return 0;
+  const Nanos left = it->second.deadline - now;
+  return left <= kNsPerMs ? 1 : static_cast<uint32_t>(std::min<Nanos>(left / kNsPerMs, UINT32_MAX));
 }
 
 PendingRequest RequestTable::take(Requests::iterator it) {

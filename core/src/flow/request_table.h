@@ -47,9 +47,12 @@ class RequestTable {
                                      uint32_t timeout_ms, const std::string& command,
                                      const Variant& value);
   // The owner's answer to `request`, routed to the requester (if still there). not_found (no
-  // such request pending), permission_denied (not made to a channel `from` owns).
+  // such request pending), permission_denied (not made to a channel `from` owns). A hub link
+  // passes on the far owner's failure as `error` (value: its message).
   [[nodiscard]] Result<void> respond(Endpoint& from, uint16_t chan_id, uint64_t request,
-                                     const Variant& value);
+                                     const Variant& value, ErrorCode error = ErrorCode::ok);
+  // What is left of `request`'s time, in ms (at least 1); 0 when it is not pending.
+  [[nodiscard]] uint32_t remainingMs(uint64_t request, Nanos now) const;
   // Fails every request to `chan_id` with `error` (owner_gone when the channel goes).
   void failChannel(uint16_t chan_id, ErrorCode error, const std::string& why);
   // Fails the requests whose deadline passed with `timeout`, freeing their slots.

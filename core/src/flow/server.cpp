@@ -1,5 +1,6 @@
 // FlowServer: transports, connection lifecycle, output flushing and timeouts (server_impl.h).
 #include "connection.h"
+#include "hub_link.h"
 #include "server_impl.h"
 #include "uv_handle.h"
 
@@ -11,6 +12,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -18,6 +20,19 @@
 
 namespace skr::flow {
 namespace {
+
+// The host's name as a hub name: up to its first '.', other characters than A-Z a-z 0-9 _ -
+// made '-'.
+std::string hostHubName() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0 || host[0] == '\0') return "hub";
+  std::string name(host, std::strcspn(host, "."));
+  for (char& c : name) {
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '-';
+  }
+  if (name.size() > 64) name.resize(64);
+  return name.empty() ? "hub" : name;
+}
 
 // Whether a listening address is reachable from this machine only.
 bool isLoopback(const std::string& address) {
@@ -32,6 +47,7 @@ FlowServer::Impl::Impl(Loop& l, ServerOptions options)
       databases(opt.data_dir),
       requests(endpoints, channels, opt.max_pending_requests, opt.request_timeout_ms) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
+  hub_name = opt.hub_name.empty() ? hostHubName() : opt.hub_name;
   databases.on_props_changed = [this](const std::string& name) {
     if (const Channel* ch = channels.findByName(name)) {
       endpoints.forEachEventReceiver([&](Endpoint& e) { e.onChannelHeader(*ch); });
@@ -115,6 +131,7 @@ Result<void> FlowServer::Impl::start() {
     }
   }
   started = true;
+  startLinks();
   return {};
 }
 
@@ -327,6 +344,7 @@ void FlowServer::Impl::sweep() {
 }
 
 void FlowServer::Impl::stop() noexcept {
+  links.clear();  // their channels go while everyone is still here to be told
   std::vector<Connection*> all;
   for (auto& [id, c] : connections) all.push_back(c);
   for (Connection* c : all) c->close("hub stopping");
@@ -377,6 +395,9 @@ const ServerStats& FlowServer::stats() const noexcept {
 }
 size_t FlowServer::channelCount() const noexcept {
   return impl_->channels.count();
+}
+const std::string& FlowServer::hubName() const noexcept {
+  return impl_->hub_name;
 }
 
 }  // namespace skr::flow

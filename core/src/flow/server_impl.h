@@ -42,6 +42,7 @@
 namespace skr::flow {
 
 class Connection;
+class HubLink;
 
 struct FlowServer::Impl {
   Impl(Loop& loop, ServerOptions options);
@@ -108,6 +109,12 @@ struct FlowServer::Impl {
   Result<Channel*> createChannel(Endpoint& owner, const std::string& short_name, ChannelKind kind,
                                  const std::string& mime, const Variant& props, uint32_t tag,
                                  std::function<void(Result<void>)> stored = {});
+  // The same, named "<user>.<short_name>" for a `user` other than the owner's: a hub link's
+  // remote channels ("<hub>/<user>.<name>").
+  Result<Channel*> createChannelAs(Endpoint& owner, const std::string& user,
+                                   const std::string& short_name, ChannelKind kind,
+                                   const std::string& mime, const Variant& props, uint32_t tag,
+                                   std::function<void(Result<void>)> stored = {});
   // Takes a channel out and tells everyone; a blob channel's files go too.
   void dropChannel(Channel& ch);
   // Only the owner removes a channel: its requests fail with owner_gone, everyone is told.
@@ -129,6 +136,13 @@ struct FlowServer::Impl {
   Result<Channel*> blobChannel(const Endpoint& e, uint16_t id, bool write);
   // Tells the subscribers of channel `id` (if it is still the channel `hash`) of a change.
   void blobChanged(uint16_t id, uint64_t hash, const BlobEvent& event);
+  // --- hub links (hub_links.cpp, docs/hub-links.md)
+  std::string hub_name;                         // opt.hub_name, or the host's name
+  std::vector<std::unique_ptr<HubLink>> links;  // the hubs this one links to
+  void startLinks();
+  // A connection said HUB_LINK_HELLO as hub `name`: invalid_argument (a bad name, or ours),
+  // already_exists (a hub of that name is linked already), or it is marked as that link.
+  Result<void> acceptHubLink(Connection& c, const std::string& name);
   // --- administration (admin.cpp): ADMIN's commands, for administrators only
   Result<Variant> admin(Connection& by, const std::string& command, const Variant& args);
 };

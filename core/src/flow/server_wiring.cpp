@@ -64,10 +64,18 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
                                                  ChannelKind kind, const std::string& mime,
                                                  const Variant& props, uint32_t tag,
                                                  std::function<void(Result<void>)> stored) {
+  return createChannelAs(owner, owner.user, short_name, kind, mime, props, tag, std::move(stored));
+}
+
+Result<Channel*> FlowServer::Impl::createChannelAs(Endpoint& owner, const std::string& user,
+                                                   const std::string& short_name, ChannelKind kind,
+                                                   const std::string& mime, const Variant& props,
+                                                   uint32_t tag,
+                                                   std::function<void(Result<void>)> stored) {
   if (!props.isNull() && !props.isMap()) {
     return makeError(Errc::invalid_argument, "channel properties must be a map");
   }
-  const std::string name = owner.user + "." + short_name;
+  const std::string name = user + "." + short_name;
   if (!owner.access->allows(Action::publish, name)) {
     return accessDenied(owner.user, Action::publish, name);
   }
@@ -83,27 +91,26 @@ Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::str
     }
   }
   // Blob channels whose owner is not connected count too: they are the user's all the same.
-  uint32_t held = endpoints.holdingsOf(owner.user).channels;
+  uint32_t held = endpoints.holdingsOf(user).channels;
   channels.forEach([&](const Channel& ch) {
-    if (ch.owner == nullptr && ch.owner_user == owner.user) ++held;
+    if (ch.owner == nullptr && ch.owner_user == user) ++held;
   });
   if (held >= owner.limits.channels) {
-    return limitReached(owner.user, "channels", owner.limits.channels);
+    return limitReached(user, "channels", owner.limits.channels);
   }
   // A blob channel created from a synchronous connection is owned by nobody connected.
   Endpoint* holder = blob && !owner.receivesEvents() ? nullptr : &owner;
-  auto added = channels.add(holder, owner.user, short_name, kind, mime);
+  auto added = channels.add(holder, user, short_name, kind, mime);
   if (!added) return added;
   Channel* raw = *added;
   const uint16_t id = raw->id;
-  if (auto db = databases.createChannelDb(raw->name, owner.user, holder ? owner.id : 0, props);
-      !db) {
+  if (auto db = databases.createChannelDb(raw->name, user, holder ? owner.id : 0, props); !db) {
     (void)channels.erase(*raw);
     return db.error();
   }
   if (blob) {
     // On disk, on the store's thread; a store that cannot be made takes the channel with it.
-    blobs->create(raw->name, owner.user,
+    blobs->create(raw->name, user,
                   [this, id, hash = raw->hash, owner_id = owner.id, tag,
                    stored = std::move(stored)](Result<void> r) {
                     Channel* ch = channels.find(id);

@@ -7,6 +7,7 @@
 #include <skrobot/core/result.h>
 #include <skrobot/flow/access.h>
 #include <skrobot/flow/pair_database.h>
+#include <skrobot/flow/server.h>
 #include <skrobot/flow/tls.h>
 
 #include <json/value.h>
@@ -66,6 +67,10 @@ struct HubConfig {
   std::vector<std::filesystem::path> module_paths;  // searched before the built-in ones
   std::vector<ModuleEntry> modules;
   ServerConfig server;
+  // Hub links (docs/hub-links.md): this hub's name (empty: the host's) and the hubs it links to,
+  // each with its password read from its file or environment variable.
+  std::string hub_name;
+  std::vector<flow::HubLinkOptions> links;
   std::string sync_hub_source;  // "sync.hub_source": the hub pulses hub.<name> on its fast tick
   std::filesystem::path config_file;  // absolute path of the file loaded
   Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections

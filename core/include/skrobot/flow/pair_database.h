@@ -92,6 +92,9 @@ enum class DatabaseKind {
 // 1..128 characters of [A-Za-z0-9_.-], not starting with '.': a name is also a safe file name.
 // Errc::invalid_argument with the reason.
 [[nodiscard]] Result<void> validateDatabaseName(std::string_view name);
+// A hub's name in a linked network (docs/hub-links.md): 1-64 of A-Z a-z 0-9 _ -. It prefixes
+// the names of that hub's channels and databases elsewhere ("arm/guest.camera").
+[[nodiscard]] bool validHubName(std::string_view name) noexcept;
 
 // When a change of a persistent database is on disk (docs/pair-databases.md, "Durability").
 enum class Durability {

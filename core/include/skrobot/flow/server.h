@@ -26,8 +26,21 @@
 
 namespace skr::flow {
 
+// A hub this one links to (docs/hub-links.md): its channels appear here as
+// "<hub>/<user>.<name>", and data crosses only while someone here subscribes.
+struct HubLinkOptions {
+  std::string name;     // the far hub's hub_name, checked when the link opens
+  std::string address;  // "local:/tmp/<app>", "tcp:host:port" or "tls:host:port"
+  std::string user, password;
+  TlsSettings tls;  // for tls: addresses: ca_file, and cert_file/key_file if the far hub asks
+  uint32_t max_channels = 4096;  // remote channels this link may take of the hub's 32767 ids
+};
+
 struct ServerOptions {
   std::string app_name = "Robot";
+  // This hub's name in a linked network (hub links): unique there. Empty: the host name.
+  std::string hub_name;
+  std::vector<HubLinkOptions> links;
   bool unix_enabled = true;
   std::string unix_path;  // empty: /tmp/<app_name>
   bool tcp_enabled = false;
@@ -114,6 +127,7 @@ class FlowServer {
   [[nodiscard]] uint16_t tcpPort() const noexcept;  // the bound port (useful with port 0)
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
+  [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's
 
   // An in-process satellite (a module) logged in as `user`, with its own flow database, acting
   // under `access` (null: the default rules). Handlers run on the main loop thread. The client

@@ -184,6 +184,10 @@ class HubProcess {
     return "tls:" + host + ":" + text.substr(colon + 1, end - colon - 1);
   }
   [[nodiscard]] const fs::path& socket() const { return socket_; }
+  // Waits until the running hub's log has `text`.
+  [[nodiscard]] bool waitLog(const std::string& text, int timeout_ms = 20000) const {
+    return child_ && child_->waitOutput(text, timeout_ms);
+  }
   [[nodiscard]] std::string log() const { return logs_ + (child_ ? child_->output() : ""); }
   ~HubProcess() { stop(); }
   HubProcess(const HubProcess&) = delete;

@@ -1,0 +1,240 @@
+// A link to another hub (see hub_link.h, docs/hub-links.md).
+#include "hub_link.h"
+
+#include "connection.h"
+#include "server_impl.h"
+
+#include <skrobot/core/log.h>
+#include <skrobot/satellite/satellite.h>
+
+namespace skr::flow {
+
+namespace {
+constexpr const char* kLinkLog = "link";
+}  // namespace
+
+HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
+    : server_(server), opt_(std::move(options)) {
+  user = "hub/" + opt_.name;  // never an account: nobody logs in as it
+  client_name = "hub link " + opt_.name;
+  limits.channels = opt_.max_channels;
+  server_.endpoints.add(*this);
+
+  sat::SatelliteOptions so;
+  so.connection.address = Address::parse(opt_.address).value();  // checked by the config
+  so.connection.user = opt_.user;
+  so.connection.password = opt_.password;
+  so.connection.client_name = "hub " + server_.hub_name;
+  so.connection.tls = opt_.tls;
+  so.connection.max_frame_bytes = server_.opt.max_frame_bytes;
+  so.hub_name = server_.hub_name;
+  sat_ = std::make_unique<sat::Satellite>(server_.loop, std::move(so));
+  sat_->connected.connect(sat_.get(), [this] { opened(); });
+  sat_->disconnected.connect(sat_.get(), [this](const std::string& why) { lost(why); });
+  sat_->channelAdded.connect(sat_.get(), [this](const msg::ChannelInfo& i) { added(i); });
+  sat_->channelRemoved.connect(sat_.get(), [this](const msg::ChannelInfo& i) { removed(i.id); });
+  sat_->channelChanged.connect(sat_.get(), [this](const msg::ChannelInfo& i) { changed(i); });
+  sat_->data.connect(sat_.get(),
+                     [this](uint16_t id, const std::string& payload) { data(id, payload); });
+}
+
+HubLink::~HubLink() {
+  sat_.reset();                   // no handler of it runs any more
+  server_.removeEndpoint(*this);  // its channels go, everyone is told
+}
+
+void HubLink::start() {
+  log::info(kLinkLog, "HUB-LINK",
+            "linking to hub " + opt_.name + " at " + opt_.address + " as " + opt_.user);
+  sat_->start();
+}
+
+bool HubLink::congested() const {
+  return !up_ || sat_->queuedBytes() > sat_->options().max_queued_bytes / 2;
+}
+
+std::string HubLink::describe() const {
+  return "hub link " + opt_.name + " (" + opt_.address + ")";
+}
+
+void HubLink::opened() {
+  if (sat_->linkedHub() != opt_.name) {
+    log::error(kLinkLog, "HUB-LINK-NAME",
+               "the hub at " + opt_.address + " is \"" + sat_->linkedHub() + "\", not \"" +
+                   opt_.name + "\" as links[].name says; the link stays down");
+    sat_->stop();
+    return;
+  }
+  up_ = true;
+  log::info(kLinkLog, "HUB-LINK-UP",
+            "hub " + opt_.name + " linked at " + opt_.address + ", " +
+                std::to_string(sat_->channels().size()) + " channels there");
+  for (const msg::ChannelInfo& info : sat_->channels()) added(info);
+}
+
+void HubLink::lost(const std::string& why) {
+  if (up_) log::warn(kLinkLog, "HUB-LINK-DOWN", "hub " + opt_.name + ": " + why);
+  up_ = false;
+  dropAll();
+}
+
+void HubLink::dropAll() {
+  std::vector<uint16_t> ids;
+  ids.reserve(by_local_.size());
+  for (const auto& [local, r] : by_local_) ids.push_back(local);
+  for (uint16_t local : ids) {
+    auto it = by_local_.find(local);
+    if (it == by_local_.end()) continue;
+    sat_->unsubscribe(it->second.remote_name);
+    by_remote_.erase(it->second.remote_id);
+    by_local_.erase(it);
+    (void)server_.removeChannel(*this, local);
+  }
+}
+
+std::string HubLink::localName(const std::string& remote_name) const {
+  const size_t slash = remote_name.find('/');
+  const size_t dot = remote_name.find('.');
+  if (dot == std::string::npos || dot == 0) return {};
+  if (slash == std::string::npos || slash > dot) return opt_.name + "/" + remote_name;
+  // Another hub's channel, reached through this one: the same name here, unless it is ours.
+  if (remote_name.compare(0, slash, server_.hub_name) == 0 && slash == server_.hub_name.size()) {
+    return {};
+  }
+  return remote_name;
+}
+
+void HubLink::added(const msg::ChannelInfo& info) {
+  if (!up_ || by_remote_.contains(info.id)) return;
+  const auto kind = static_cast<ChannelKind>(info.kind);
+  if (kind != ChannelKind::streaming && kind != ChannelKind::service) return;  // not carried yet
+  const std::string name = localName(info.name);
+  if (name.empty() || server_.channels.findByName(name) != nullptr) return;  // another route
+  if (by_local_.size() >= opt_.max_channels) {
+    if (!limit_logged_) {
+      log::warn(kLinkLog, "HUB-LINK-LIMIT",
+                "hub " + opt_.name + ": more than links[].max_channels = " +
+                    std::to_string(opt_.max_channels) + " channels; the rest are not shown here");
+    }
+    limit_logged_ = true;
+    return;
+  }
+  const size_t dot = name.find('.');
+  auto made = server_.createChannelAs(*this, name.substr(0, dot), name.substr(dot + 1), kind,
+                                      info.mime, info.props, 0);
+  if (!made) {
+    log::warn(kLinkLog, "HUB-LINK-CHANNEL",
+              "hub " + opt_.name + ": " + info.name + " not shown here: " + made.error().message);
+    return;
+  }
+  const Channel* ch = *made;
+  by_remote_[info.id] = ch->id;
+  by_local_[ch->id] = Remote{info.id, ch->hash, info.name};
+}
+
+void HubLink::removed(uint16_t remote_id) {
+  auto it = by_remote_.find(remote_id);
+  if (it == by_remote_.end()) return;
+  const uint16_t local = it->second;
+  by_remote_.erase(it);
+  by_local_.erase(local);
+  (void)server_.removeChannel(*this, local);
+}
+
+void HubLink::changed(const msg::ChannelInfo& info) {
+  auto it = by_remote_.find(info.id);
+  if (it == by_remote_.end()) return;
+  const Channel* ch = server_.channels.find(it->second);
+  const auto* props = info.props.asMap();
+  if (ch == nullptr || props == nullptr) return;
+  Variant::Map update = *props;
+  // Keys the far owner removed go here too.
+  const Variant now = server_.databases.channelProps(ch->name);
+  if (const auto* old = now.asMap()) {
+    for (const auto& [key, value] : *old) {
+      if (!props->contains(key)) update[key] = Variant();
+    }
+  }
+  (void)server_.databases.setChannelProps(ch->name, update);
+}
+
+void HubLink::data(uint16_t remote_id, const std::string& payload) {
+  auto it = by_remote_.find(remote_id);
+  if (it == by_remote_.end()) return;
+  ++traffic.messages_in;
+  traffic.bytes_in += payload.size();
+  (void)server_.channels.publish(*this, it->second, payload);
+}
+
+void HubLink::onSubscribers(const Channel& ch, bool first) {
+  auto it = by_local_.find(ch.id);
+  if (it == by_local_.end()) return;
+  if (first) {
+    sat_->subscribe(it->second.remote_name);
+  } else {
+    sat_->unsubscribe(it->second.remote_name);
+  }
+}
+
+void HubLink::onRequest(const Channel& ch, uint64_t request, const std::string& command,
+                        const std::string& /*requester*/, const Variant& value) {
+  const uint16_t local = ch.id;
+  auto it = by_local_.find(local);
+  const uint32_t timeout_ms = server_.requests.remainingMs(request, monotonicNs());
+  if (it == by_local_.end() || timeout_ms == 0) return;
+  ++traffic.messages_out;
+  auto sent = sat_->request(
+      it->second.remote_id, command, value,
+      [this, local, request](const sat::Response& r) {
+        ++traffic.messages_in;
+        (void)server_.requests.respond(*this, local, request, r.value, r.error);
+      },
+      timeout_ms);
+  if (!sent) {
+    (void)server_.requests.respond(*this, local, request,
+                                   Variant("hub " + opt_.name + ": " + sent.error().message),
+                                   ErrorCode::owner_gone);
+  }
+}
+
+void HubLink::onError(Code command, uint32_t, uint16_t chan_id, ErrorCode error,
+                      const std::string& message) {
+  log::warn(kLinkLog, "HUB-LINK-ERROR",
+            describe() + ": " + std::string(codeName(static_cast<uint8_t>(command))) +
+                " on channel " + std::to_string(chan_id) + ": " +
+                std::string(errorCodeName(error)) + ": " + message);
+}
+
+// --- the server's side -------------------------------------------------------------------------
+
+void FlowServer::Impl::startLinks() {
+  for (const HubLinkOptions& o : opt.links) {
+    links.push_back(std::make_unique<HubLink>(*this, o));
+    links.back()->start();
+  }
+}
+
+Result<void> FlowServer::Impl::acceptHubLink(Connection& c, const std::string& name) {
+  if (!validHubName(name)) {
+    return makeError(Errc::invalid_argument,
+                     "hub name \"" + name + "\": 1 to 64 of A-Z a-z 0-9 _ -");
+  }
+  if (name == hub_name) {
+    return makeError(Errc::invalid_argument, "\"" + name + "\" is this hub's own name");
+  }
+  Endpoint& self = c;
+  bool taken = false;
+  endpoints.forEach([&](const Endpoint& e) {
+    if (&e != &self && e.linked_hub == name) taken = true;
+  });
+  if (taken) {
+    log::warn(kLinkLog, "HUB-LINK-REFUSED",
+              self.describe() + ": a hub named \"" + name + "\" is linked already");
+    return makeError(Errc::already_exists, "a hub named \"" + name + "\" is linked already");
+  }
+  self.linked_hub = name;
+  log::info(kLinkLog, "HUB-LINK-IN", self.describe() + " is hub " + name);
+  return {};
+}
+
+}  // namespace skr::flow

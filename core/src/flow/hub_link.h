@@ -1,0 +1,84 @@
+// HubLink: this hub's link to another (docs/hub-links.md). A satellite of the far hub, on this
+// hub's loop (skr::sat::Satellite: reconnection with backoff, subscriptions by name, request
+// timeouts), and an Endpoint here that owns the far hub's channels as "<hub>/<user>.<name>".
+// Data crosses only while someone here subscribes; service requests are passed on with what is
+// left of their time. Main loop thread only.
+#pragma once
+
+#include "endpoint.h"
+
+#include <skrobot/core/clock.h>
+#include <skrobot/flow/messages.h>
+#include <skrobot/flow/server.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+
+namespace skr::sat {
+class Satellite;
+}  // namespace skr::sat
+
+namespace skr::flow {
+
+class HubLink final : public Endpoint {
+ public:
+  HubLink(FlowServer::Impl& server, HubLinkOptions options);
+  // Removes the remote channels (everyone is told) and closes the connection.
+  ~HubLink() override;
+  HubLink(const HubLink&) = delete;
+  HubLink& operator=(const HubLink&) = delete;
+  HubLink(HubLink&&) = delete;
+  HubLink& operator=(HubLink&&) = delete;
+
+  void start();
+  [[nodiscard]] const HubLinkOptions& options() const noexcept { return opt_; }
+  // Open, and the far hub said it is the one the config names.
+  [[nodiscard]] bool up() const noexcept { return up_; }
+  // The far hub's channels shown here now.
+  [[nodiscard]] size_t remoteChannels() const noexcept { return by_local_.size(); }
+
+  // --- Endpoint: what happens here to the channels it owns
+  [[nodiscard]] bool receivesEvents() const override { return true; }
+  [[nodiscard]] bool congested() const override;
+  [[nodiscard]] std::string describe() const override;
+  void onData(const Channel&, std::string_view) override {}
+  void onSubscribers(const Channel& ch, bool first) override;
+  void onRequest(const Channel& ch, uint64_t request, const std::string& command,
+                 const std::string& requester, const Variant& value) override;
+  void onResponse(uint16_t, uint32_t, bool, ErrorCode, const Variant&) override {}
+  void onChannelAdded(const Channel&, uint32_t) override {}
+  void onChannelRemoved(const Channel&) override {}
+  void onChannelHeader(const Channel&) override {}
+  void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
+               const std::string& message) override;
+  void onDbChanged(const std::string&) override {}
+
+ private:
+  struct Remote {
+    uint16_t remote_id = 0;  // on the far hub
+    uint64_t local_hash = 0;
+    std::string remote_name;
+  };
+  void opened();
+  void lost(const std::string& why);
+  void added(const msg::ChannelInfo& info);
+  void removed(uint16_t remote_id);
+  void changed(const msg::ChannelInfo& info);
+  void data(uint16_t remote_id, const std::string& payload);
+  // The local name of a far channel, or "" when it is not taken over this link (ours, or
+  // already here by another route).
+  [[nodiscard]] std::string localName(const std::string& remote_name) const;
+  void dropAll();
+
+  FlowServer::Impl& server_;
+  HubLinkOptions opt_;
+  std::unique_ptr<sat::Satellite> sat_;
+  bool up_ = false;
+  bool limit_logged_ = false;
+  std::unordered_map<uint16_t, uint16_t> by_remote_;  // far id -> local id
+  std::unordered_map<uint16_t, Remote> by_local_;     // local id -> far channel
+};
+
+}  // namespace skr::flow

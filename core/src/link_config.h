@@ -1,0 +1,20 @@
+// The hub-link part of the config: "hub_name" and "links" (docs/hub-links.md).
+#pragma once
+
+#include <skrobot/core/hub_config.h>
+#include <skrobot/core/json_schema.h>
+
+#include <json/value.h>
+
+#include <filesystem>
+
+namespace skr {
+
+[[nodiscard]] schema::Schema hubNameSchema();
+[[nodiscard]] schema::Schema linksSchema();
+// Fills cfg.hub_name and cfg.links from the document (defaults filled in), reading each link's
+// password from its file or environment variable; what is wrong goes to `problems` with its path.
+void readLinks(const Json::Value& doc, const std::filesystem::path& base_dir, HubConfig& cfg,
+               schema::Problems& problems);
+
+}  // namespace skr

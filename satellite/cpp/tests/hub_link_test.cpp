@@ -1,0 +1,296 @@
+// Hub links (docs/hub-links.md): hubs started as processes on one machine, each with its own app
+// name, socket and data directory; satellites of one use the channels of another by name.
+#include <sys/stat.h>
+
+#include "sat_fixture.h"
+
+namespace skr::sat::test {
+namespace {
+
+using flow::ErrorCode;
+using flow::Variant;
+
+// A hub named `name` in its own directory, linking with the development account to the hubs
+// added by link(); its config is written by start().
+struct NamedHub {
+  explicit NamedHub(std::string hub_name) : name(std::move(hub_name)) {}
+  NamedHub& link(NamedHub& to) {
+    links.push_back(&to);
+    return *this;
+  }
+  [[nodiscard]] std::string address() const {
+    return "local:" + (dir.path() / "hub.sock").string();
+  }
+  bool start() {
+    if (!hub) {
+      std::string keys = R"("hub_name": ")" + name + R"(", "links": [)";
+      for (size_t i = 0; i < links.size(); ++i) {
+        const fs::path pass = dir.path() / (links[i]->name + ".pass");
+        std::ofstream(pass) << "password\n";
+        ::chmod(pass.c_str(), 0600);
+        keys += (i ? ", " : "") + std::string(R"({"name": ")") + links[i]->name +
+                R"(", "address": ")" + links[i]->address() +
+                R"(", "user": "guest", "password_file": ")" + pass.string() + R"("})";
+      }
+      keys += "], ";
+      hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), "", "", keys);
+    }
+    return hub->start();
+  }
+  [[nodiscard]] SatelliteOptions options(const std::string& client) const {
+    SatelliteOptions o;
+    o.connection.address = Address::parse(hub->address()).value();
+    o.connection.client_name = client;
+    return o;
+  }
+  std::unique_ptr<SatOnThread> satellite(const std::string& client) {
+    auto s = std::make_unique<SatOnThread>(options(client));
+    s->start();
+    EXPECT_TRUE(eventually([&] { return s->connected(); })) << hub->log();
+    return s;
+  }
+  TempDir dir;
+  std::string name;
+  std::vector<NamedHub*> links;
+  std::unique_ptr<HubProcess> hub;
+};
+
+bool hasChannel(SatOnThread& s, const std::string& name) {
+  return s.on([&](Satellite& sat) { return sat.channel(name) != nullptr; });
+}
+
+class HubLinks : public ::testing::Test {
+ protected:
+  // B, and A linked to it.
+  void SetUp() override {
+    b = std::make_unique<NamedHub>("bee");
+    ASSERT_TRUE(b->start()) << b->hub->log();
+    a = std::make_unique<NamedHub>("ay");
+    ASSERT_TRUE(a->link(*b).start()) << a->hub->log();
+    ASSERT_TRUE(a->hub->waitLog("HUB-LINK-UP")) << a->hub->log();
+  }
+  [[nodiscard]] std::string logs() const {
+    return "--- A\n" + a->hub->log() + "--- B\n" + b->hub->log();
+  }
+  std::unique_ptr<NamedHub> b, a;
+};
+
+TEST_F(HubLinks, ARemoteChannelIsSubscribedOnDemandAndItsDataCrossesOnce) {
+  auto owner = b->satellite("camera");
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    return s.addChannel(
+        {.name = "counter", .mime = "text/plain", .props = Variant::Map{{"unit", "ticks"}}});
+  }));
+  auto s1 = a->satellite("viewer1");
+  auto s2 = a->satellite("viewer2");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*s1, "bee/guest.counter"); })) << logs();
+  const ChannelInfo info = s1->on([](Satellite& s) { return *s.channel("bee/guest.counter"); });
+  EXPECT_EQ(info.owner, "bee/guest");
+  EXPECT_EQ(info.mime, "text/plain");
+  EXPECT_EQ(*info.props.find("unit"), Variant("ticks"));
+  Child ls({FLOWCTL_BIN, "--address", a->hub->address(), "ls"}, {}, a->dir.path() / "ls.out");
+  ASSERT_EQ(ls.wait(), 0) << ls.output();
+  EXPECT_NE(ls.output().find(" bee bee/guest.counter "), std::string::npos) << ls.output();
+
+  // Nobody on A wants it: the camera on B is not asked to publish.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(owner->events.count("start:guest.counter"), 0u);
+  s1->on([](Satellite& s) { s.subscribe("bee/guest.counter"); });
+  s2->on([](Satellite& s) { s.subscribe("bee/guest.counter"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.counter") == 1; }))
+      << logs();
+  ASSERT_TRUE(eventually([&] {
+    return s1->events.count("subscribed:bee/guest.counter") == 1 &&
+           s2->events.count("subscribed:bee/guest.counter") == 1;
+  }));
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_TRUE(owner->on([i](Satellite& s) { return s.publish("counter", std::to_string(i)); }));
+  }
+  ASSERT_TRUE(eventually([&] {
+    return s1->events.count("data:bee/guest.counter:") == 20 &&
+           s2->events.count("data:bee/guest.counter:") == 20;
+  })) << s1->events.dump();
+  const auto got = s1->events.with("data:bee/guest.counter:");
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(got[i], std::to_string(i));
+  // The link is one subscriber of B's channel, whatever the number behind it.
+  const auto on_b = owner->on(
+      [](Satellite& s) { return s.syncClient().value()->channel("guest.counter").value(); });
+  EXPECT_EQ(on_b.subscribers, 1u);
+
+  // The last subscriber on A leaves: the owner on B hears of it.
+  s1->on([](Satellite& s) { s.unsubscribe("bee/guest.counter"); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(owner->events.count("stop:guest.counter"), 0u);
+  s2->on([](Satellite& s) { s.unsubscribe("bee/guest.counter"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("stop:guest.counter") == 1; })) << logs();
+
+  // Properties follow, and a removed channel goes on A too.
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    return s.setChannelProperties("counter", Variant::Map{{"unit", "frames"}});
+  }));
+  ASSERT_TRUE(eventually([&] {
+    return s1->on([](Satellite& s) {
+      const ChannelInfo* c = s.channel("bee/guest.counter");
+      return c != nullptr && c->props.find("unit") != nullptr &&
+             *c->props.find("unit") == Variant("frames");
+    });
+  })) << s1->events.dump();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.removeChannel("counter"); }));
+  ASSERT_TRUE(eventually([&] { return s1->events.count("removed:bee/guest.counter") == 1; }));
+}
+
+TEST_F(HubLinks, RemoteServicesAnswerWithTheErrorsOfLocalOnes) {
+  auto owner = b->satellite("service");
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    return s.addChannel({.name = "echo", .kind = flow::ChannelKind::service});
+  }));
+  bool answer = true;
+  std::mutex m;
+  owner->on([&](Satellite& s) {
+    s.serviceRequest.connect(&s, [&s, &answer, &m](const Request& r) {
+      std::lock_guard lock(m);
+      if (answer) (void)s.respond(r, Variant::Map{{"command", r.command}, {"value", r.value}});
+    });
+  });
+  auto caller = a->satellite("caller");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*caller, "bee/guest.echo"); })) << logs();
+
+  // Asynchronous and synchronous calls.
+  std::vector<Response> responses;
+  std::mutex rm;
+  const auto keep = [&](const Response& r) {
+    std::lock_guard lock(rm);
+    responses.push_back(r);
+  };
+  ASSERT_TRUE(caller->on([&](Satellite& s) { return s.request("bee/guest.echo", "hi", 7, keep); }));
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(rm);
+    return responses.size() == 1;
+  }));
+  EXPECT_TRUE(responses[0].ok());
+  EXPECT_EQ(*responses[0].value.find("value"), Variant(int64_t{7}));
+  auto called = caller->on([](Satellite& s) { return s.call("bee/guest.echo", "sync", 8); });
+  ASSERT_TRUE(called) << called.error().message;
+  EXPECT_EQ(*called->find("command"), Variant("sync"));
+
+  // The owner does not answer in time: timeout, as on one hub.
+  {
+    std::lock_guard lock(m);
+    answer = false;
+  }
+  ASSERT_TRUE(
+      caller->on([&](Satellite& s) { return s.request("bee/guest.echo", "late", 1, keep, 300); }));
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(rm);
+    return responses.size() == 2;
+  }));
+  EXPECT_EQ(responses[1].error, ErrorCode::timeout) << flow::variantToJsonText(responses[1].value);
+
+  // The owner goes while a request waits: owner_gone.
+  ASSERT_TRUE(caller->on([&](Satellite& s) { return s.request("bee/guest.echo", "x", 1, keep); }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  owner.reset();
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(rm);
+    return responses.size() == 3;
+  })) << logs();
+  EXPECT_EQ(responses[2].error, ErrorCode::owner_gone)
+      << flow::variantToJsonText(responses[2].value);
+}
+
+TEST_F(HubLinks, ADroppedLinkRemovesTheChannelsAndComesBackWithTheSubscriptions) {
+  auto owner = b->satellite("camera");
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.addChannel({.name = "counter"}); }));
+  auto viewer = a->satellite("viewer");
+  viewer->on([](Satellite& s) { s.subscribe("bee/guest.counter"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.counter") == 1; }))
+      << logs();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("counter", "before"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:bee/guest.counter:before"); }));
+
+  ASSERT_EQ(b->hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("removed:bee/guest.counter") == 1; }))
+      << logs();
+  EXPECT_TRUE(viewer->connected());  // its own hub stays
+
+  ASSERT_TRUE(b->start());
+  // The owner comes back by itself, the link too, and the viewer's subscription by name.
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.counter") == 2; }, 20000))
+      << logs() << owner->events.dump();
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("subscribed:bee/guest.counter") == 2; }))
+      << viewer->events.dump();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("counter", "after"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:bee/guest.counter:after"); }))
+      << viewer->events.dump();
+  EXPECT_EQ(viewer->events.count("data:bee/guest.counter:before"), 1u);
+}
+
+TEST(HubLinkChain, TheFarHubsChannelsKeepTheirOwnHubName) {
+  // A -> B -> C.
+  auto c = std::make_unique<NamedHub>("sea");
+  ASSERT_TRUE(c->start());
+  auto b = std::make_unique<NamedHub>("bee");
+  ASSERT_TRUE(b->link(*c).start());
+  auto a = std::make_unique<NamedHub>("ay");
+  ASSERT_TRUE(a->link(*b).start());
+  const auto logs = [&] {
+    return "--- A\n" + a->hub->log() + "--- B\n" + b->hub->log() + "--- C\n" + c->hub->log();
+  };
+
+  auto owner = c->satellite("far");
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.addChannel({.name = "counter"}); }));
+  auto viewer = a->satellite("viewer");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*viewer, "sea/guest.counter"); }, 20000))
+      << logs();
+  EXPECT_FALSE(hasChannel(*viewer, "bee/sea/guest.counter"));
+  viewer->on([](Satellite& s) { s.subscribe("sea/guest.counter"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.counter") == 1; }))
+      << logs();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("counter", "far"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:sea/guest.counter:far") == 1; }));
+}
+
+TEST(HubLinkPair, TwoHubsThatLinkToEachOtherSeeEachOthersChannelsOnce) {
+  NamedHub a("ay");
+  NamedHub b("bee");
+  a.link(b);
+  b.link(a);
+  ASSERT_TRUE(a.start());
+  ASSERT_TRUE(b.start());
+  auto on_a = a.satellite("on-a");
+  auto on_b = b.satellite("on-b");
+  ASSERT_TRUE(on_a->on([](Satellite& s) { return s.addChannel({.name = "x"}); }));
+  ASSERT_TRUE(on_b->on([](Satellite& s) { return s.addChannel({.name = "y"}); }));
+  ASSERT_TRUE(eventually([&] {
+    return hasChannel(*on_a, "bee/guest.y") && hasChannel(*on_b, "ay/guest.x");
+  })) << a.hub->log()
+      << b.hub->log();
+  // Neither takes its own channels back from the other.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_FALSE(hasChannel(*on_a, "ay/guest.x"));
+  EXPECT_FALSE(hasChannel(*on_b, "bee/guest.y"));
+  EXPECT_FALSE(hasChannel(*on_a, "bee/ay/guest.x"));
+  EXPECT_EQ(on_a->on([](Satellite& s) { return s.channels().size(); }),
+            on_b->on([](Satellite& s) { return s.channels().size(); }));
+  on_b->on([](Satellite& s) { s.subscribe("ay/guest.x"); });
+  ASSERT_TRUE(eventually([&] { return on_a->events.count("start:guest.x") == 1; }));
+  ASSERT_TRUE(on_a->on([](Satellite& s) { return s.publish("x", "to-b"); }));
+  ASSERT_TRUE(eventually([&] { return on_b->events.count("data:ay/guest.x:to-b") == 1; }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(on_b->events.count("data:"), 1u);
+}
+
+TEST_F(HubLinks, ASecondHubOfTheSameNameIsRefused) {
+  auto twin = std::make_unique<NamedHub>("ay");
+  ASSERT_TRUE(twin->link(*b).start());
+  ASSERT_TRUE(twin->hub->waitLog("a hub named \"ay\" is linked already")) << twin->hub->log();
+  EXPECT_TRUE(b->hub->waitLog("HUB-LINK-REFUSED"));
+  // The first link is untouched.
+  auto owner = b->satellite("owner");
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.addChannel({.name = "still"}); }));
+  auto viewer = a->satellite("viewer");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*viewer, "bee/guest.still"); })) << logs();
+}
+
+}  // namespace
+}  // namespace skr::sat::test

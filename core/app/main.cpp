@@ -212,6 +212,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.dev_account = s.dev_account;
   o.hub_name = cfg.hub_name;
   o.links = cfg.links;
+  o.link_hops = cfg.link_hops;
   return o;
 }
 

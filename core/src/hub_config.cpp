@@ -388,6 +388,7 @@ s::Schema hubSchema() {
       s::optional("accounts", accountsSchema(), Json::objectValue),
       s::optional("hub_name", hubNameSchema()),
       s::optional("links", linksSchema(), Json::arrayValue),
+      s::optional("link_hops", linkHopsSchema(), 8),
   });
 }
 

@@ -73,6 +73,10 @@ s::Schema hubNameSchema() {
   return s::string().check(hubNameCheck);
 }
 
+s::Schema linkHopsSchema() {
+  return s::integer().range(1, 64);
+}
+
 s::Schema linksSchema() {
   return s::arrayOf(s::object({
       s::required("name", s::string().check(hubNameCheck)),
@@ -90,6 +94,7 @@ s::Schema linksSchema() {
 void readLinks(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg,
                s::Problems& problems) {
   if (d["hub_name"].isString()) cfg.hub_name = d["hub_name"].asString();
+  if (d["link_hops"].isUInt()) cfg.link_hops = d["link_hops"].asUInt();
   const Json::Value& links = d["links"];
   if (!links.isArray()) return;
   std::set<std::string> names;

@@ -70,6 +70,7 @@ int cmdUsers(const Cli& cli);
 int cmdUser(const Cli& cli);
 int cmdBlob(const Cli& cli);
 int cmdSync(const Cli& cli);
+int cmdLink(const Cli& cli);
 
 // Help texts: the overview, or one command's (empty if unknown).
 std::string_view usage();

@@ -29,6 +29,8 @@ Commands:
                               the files of a blob channel (flowctl help blob)
   sync source NAME --hz N | sync follow NAME
                               emit sync pulses, or follow them and measure their period
+  link ls                     this hub's links to other hubs: state, channels, round trip,
+                              clock offset, traffic (docs/hub-links.md)
   users                       the accounts of the users file (administrators)
   user add|del|passwd|role|rule NAME ...
                               change an account; a password is one line on stdin
@@ -245,5 +247,6 @@ int main(int argc, char** argv) {
   if (cli.command == "blob") return cmdBlob(cli);
   if (cli.command == "sync") return cmdSync(cli);
   if (cli.command == "poll") return cmdPoll(cli);
+  if (cli.command == "link") return cmdLink(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

@@ -221,10 +221,10 @@ void Connection::unblock() {
 
 void Connection::handleFrame(uint8_t code, std::string_view body) {
   const bool sync_code = inRange(code, 0x01, 0x3F) || isSyncFamilyRequest(code);
-  const bool async_code = inRange(code, 0x40, 0x7F) || isSyncCommand(code);
-  const bool reserved = code >= 0xC0 && !sync_code && !async_code &&
-                        code != uint8_t(Code::ev_blob_changed) &&
-                        code != uint8_t(Code::ev_sync_pulse);
+  const bool async_code = inRange(code, 0x40, 0x7F) || isFlowFamilyCommand(code);
+  const bool reserved =
+      code >= 0xC0 && !sync_code && !async_code && code != uint8_t(Code::ev_blob_changed) &&
+      code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe);
   if (!sync_code && !async_code && !reserved) {
     protocolError("code 0x" +
                   [&] {

@@ -446,6 +446,12 @@ void Connection::handleAsync(Code code, std::string_view body) {
       check(dbs.delVar(*this, {}, m.name), m.tag, 0);
       return;
     }
+    case Code::time_probe: {
+      SKR_DECODE(msg::TimeProbe, m);
+      const auto now = static_cast<uint64_t>(realtimeNs());
+      send(msg::EvTimeProbe{m.tag, m.t1, now, static_cast<uint64_t>(realtimeNs())});
+      return;
+    }
     case Code::sync_pulse: {
       SKR_DECODE(msg::SyncPulse, m);
       check(server_.syncs.pulse(*this, m.chan_id, m.source_time_ns), 0, m.chan_id);

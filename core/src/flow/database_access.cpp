@@ -52,7 +52,16 @@ void DatabaseAccess::setChannelDbOwner(const std::string& name, uint32_t owner_i
   if (auto it = owners_.find(name); it != owners_.end()) it->second.endpoint = owner_id;
 }
 
-void DatabaseAccess::removeChannelDb(const std::string& name) {
+Result<PairDatabase*> DatabaseAccess::createOwnedDb(const std::string& name,
+                                                    const Endpoint& owner) {
+  auto db = store_.getOrCreate(name, DatabaseKind::transient);
+  if (!db) return db.error();
+  (*db)->clear();
+  owners_[name] = Owner{Owner::Kind::flow, owner.user, owner.id};
+  return *db;
+}
+
+void DatabaseAccess::removeOwnedDb(const std::string& name) {
   owners_.erase(name);
   (void)store_.remove(name);
 }

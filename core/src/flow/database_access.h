@@ -38,7 +38,10 @@ class DatabaseAccess {
   // The channel `name`'s database, owned by `owner`, holding `props` (a map or null).
   [[nodiscard]] Result<void> createChannelDb(const std::string& name, const std::string& owner_user,
                                              uint32_t owner_id, const Variant& props);
-  void removeChannelDb(const std::string& name);
+  // A transient database of the hub's own (a hub link's "_link.<name>"), written by `owner` only.
+  [[nodiscard]] Result<PairDatabase*> createOwnedDb(const std::string& name, const Endpoint& owner);
+  // Removes a channel's database, or one made by createOwnedDb.
+  void removeOwnedDb(const std::string& name);
   // A blob channel's owner connected (its id) or left (0): who writes the channel's database.
   void setChannelDbOwner(const std::string& name, uint32_t owner_id);
   // Sets (or, for null values, removes) the keys of `props` in channel `name`'s database.

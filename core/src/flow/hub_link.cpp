@@ -7,10 +7,25 @@
 #include <skrobot/core/log.h>
 #include <skrobot/satellite/satellite.h>
 
+#include <algorithm>
+
 namespace skr::flow {
 
 namespace {
 constexpr const char* kLinkLog = "link";
+constexpr Nanos kProbeEvery = 2 * kNsPerSec;
+constexpr size_t kSamplesKept = 8;
+
+// The hubs a far channel went through before it reached us ("hub_route" of its properties).
+std::vector<std::string> routeOf(const Variant& props) {
+  std::vector<std::string> route;
+  const Variant* r = props.find("hub_route");
+  if (r == nullptr || r->asList() == nullptr) return route;
+  for (const Variant& hop : *r->asList()) {
+    if (const auto* s = hop.asString()) route.push_back(*s);
+  }
+  return route;
+}
 }  // namespace
 
 HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
@@ -19,9 +34,18 @@ HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
   client_name = "hub link " + opt_.name;
   limits.channels = opt_.max_channels;
   server_.endpoints.add(*this);
+  db_ = "_link." + opt_.name;
+  since_ = utcNowText();
+  if (auto db = server_.databases.createOwnedDb(db_, *this); !db) {
+    log::warn(kLinkLog, "HUB-LINK", db_ + ": " + db.error().message);
+  }
 
   sat::SatelliteOptions so;
-  so.connection.address = Address::parse(opt_.address).value();  // checked by the config
+  if (auto address = Address::parse(opt_.address)) {
+    so.connection.address = *address;
+  } else {
+    state_ = "bad address: " + address.error().message;
+  }
   so.connection.user = opt_.user;
   so.connection.password = opt_.password;
   so.connection.client_name = "hub " + server_.hub_name;
@@ -36,14 +60,29 @@ HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
   sat_->channelChanged.connect(sat_.get(), [this](const msg::ChannelInfo& i) { changed(i); });
   sat_->data.connect(sat_.get(),
                      [this](uint16_t id, const std::string& payload) { data(id, payload); });
+  sat_->timeSample.connect(
+      sat_.get(), [this](const sat::TimeSample& t) { timeSample(t.roundTripNs(), t.offsetNs()); });
+  sat_->error.connect(sat_.get(), [this](const sat::FlowError& e) {
+    if (e.command == uint8_t(Code::login) || e.command == uint8_t(Code::hub_link_hello)) {
+      state_ = "refused: " + e.message;
+      since_ = utcNowText();
+      writeDb();
+    }
+  });
+  writeDb();
 }
 
 HubLink::~HubLink() {
-  sat_.reset();                   // no handler of it runs any more
+  sat_.reset();  // no handler of it runs any more
+  server_.databases.removeOwnedDb(db_);
   server_.removeEndpoint(*this);  // its channels go, everyone is told
 }
 
 void HubLink::start() {
+  if (state_.starts_with("bad address")) {
+    log::error(kLinkLog, "HUB-LINK", "hub " + opt_.name + ": " + state_);
+    return;
+  }
   log::info(kLinkLog, "HUB-LINK",
             "linking to hub " + opt_.name + " at " + opt_.address + " as " + opt_.user);
   sat_->start();
@@ -62,20 +101,42 @@ void HubLink::opened() {
     log::error(kLinkLog, "HUB-LINK-NAME",
                "the hub at " + opt_.address + " is \"" + sat_->linkedHub() + "\", not \"" +
                    opt_.name + "\" as links[].name says; the link stays down");
+    state_ = "wrong hub: " + sat_->linkedHub();
+    since_ = utcNowText();
+    writeDb();
     sat_->stop();
     return;
   }
   up_ = true;
+  state_ = "up";
+  since_ = utcNowText();
+  samples_.clear();
+  next_probe_ = 0;
   log::info(kLinkLog, "HUB-LINK-UP",
             "hub " + opt_.name + " linked at " + opt_.address + ", " +
                 std::to_string(sat_->channels().size()) + " channels there");
-  for (const msg::ChannelInfo& info : sat_->channels()) added(info);
+  offerAgain();
+  everySecond(monotonicNs());  // the first clock probe now
 }
 
 void HubLink::lost(const std::string& why) {
   if (up_) log::warn(kLinkLog, "HUB-LINK-DOWN", "hub " + opt_.name + ": " + why);
+  if (up_ || state_ == "connecting") {
+    state_ = "down: " + why;
+    since_ = utcNowText();
+  }
   up_ = false;
   dropAll();
+  writeDb();
+  // The channels this link took may come another way.
+  for (const auto& other : server_.links) {
+    if (other.get() != this) other->offerAgain();
+  }
+}
+
+void HubLink::offerAgain() {
+  if (!up_) return;
+  for (const msg::ChannelInfo& info : sat_->channels()) added(info);
 }
 
 void HubLink::dropAll() {
@@ -110,6 +171,10 @@ void HubLink::added(const msg::ChannelInfo& info) {
   if (kind != ChannelKind::streaming && kind != ChannelKind::service) return;  // not carried yet
   const std::string name = localName(info.name);
   if (name.empty() || server_.channels.findByName(name) != nullptr) return;  // another route
+  std::vector<std::string> route = routeOf(info.props);
+  route.push_back(opt_.name);
+  if (std::find(route.begin(), route.end(), server_.hub_name) != route.end()) return;  // a loop
+  if (route.size() > server_.opt.link_hops) return;
   if (by_local_.size() >= opt_.max_channels) {
     if (!limit_logged_) {
       log::warn(kLinkLog, "HUB-LINK-LIMIT",
@@ -119,9 +184,13 @@ void HubLink::added(const msg::ChannelInfo& info) {
     limit_logged_ = true;
     return;
   }
+  Variant props = info.props.isMap() ? info.props : Variant(Variant::Map{});
+  Variant::List hops;
+  for (const std::string& hop : route) hops.emplace_back(hop);
+  (*props.asMap())["hub_route"] = Variant(std::move(hops));
   const size_t dot = name.find('.');
   auto made = server_.createChannelAs(*this, name.substr(0, dot), name.substr(dot + 1), kind,
-                                      info.mime, info.props, 0);
+                                      info.mime, props, 0);
   if (!made) {
     log::warn(kLinkLog, "HUB-LINK-CHANNEL",
               "hub " + opt_.name + ": " + info.name + " not shown here: " + made.error().message);
@@ -148,13 +217,14 @@ void HubLink::changed(const msg::ChannelInfo& info) {
   const auto* props = info.props.asMap();
   if (ch == nullptr || props == nullptr) return;
   Variant::Map update = *props;
-  // Keys the far owner removed go here too.
+  // Keys the far owner removed go here too; the route stays ours.
   const Variant now = server_.databases.channelProps(ch->name);
   if (const auto* old = now.asMap()) {
     for (const auto& [key, value] : *old) {
       if (!props->contains(key)) update[key] = Variant();
     }
   }
+  update.erase("hub_route");
   (void)server_.databases.setChannelProps(ch->name, update);
 }
 
@@ -182,11 +252,10 @@ void HubLink::onRequest(const Channel& ch, uint64_t request, const std::string& 
   auto it = by_local_.find(local);
   const uint32_t timeout_ms = server_.requests.remainingMs(request, monotonicNs());
   if (it == by_local_.end() || timeout_ms == 0) return;
-  ++traffic.messages_out;
+  ++requests_;
   auto sent = sat_->request(
       it->second.remote_id, command, value,
       [this, local, request](const sat::Response& r) {
-        ++traffic.messages_in;
         (void)server_.requests.respond(*this, local, request, r.value, r.error);
       },
       timeout_ms);
@@ -203,6 +272,44 @@ void HubLink::onError(Code command, uint32_t, uint16_t chan_id, ErrorCode error,
             describe() + ": " + std::string(codeName(static_cast<uint8_t>(command))) +
                 " on channel " + std::to_string(chan_id) + ": " +
                 std::string(errorCodeName(error)) + ": " + message);
+}
+
+void HubLink::everySecond(Nanos now) {
+  if (up_ && now >= next_probe_) {
+    next_probe_ = now + kProbeEvery;
+    (void)sat_->probeTime();
+  }
+  writeDb();
+}
+
+void HubLink::timeSample(int64_t round_trip_ns, int64_t offset_ns) {
+  samples_.push_back({round_trip_ns, offset_ns});
+  if (samples_.size() > kSamplesKept) samples_.erase(samples_.begin());
+  writeDb();
+}
+
+void HubLink::writeDb() {
+  PairDatabase* db = server_.databases.store().find(db_);
+  if (db == nullptr) return;
+  const auto put = [db](const char* key, Variant v) { (void)db->set(key, std::move(v)); };
+  const auto count = [](uint64_t n) { return Variant(static_cast<int64_t>(n)); };
+  put("hub", Variant(opt_.name));
+  put("address", Variant(opt_.address));
+  put("user", Variant(opt_.user));
+  put("state", Variant(state_));
+  put("since", Variant(since_));
+  put("channels", count(by_local_.size()));
+  put("messages_in", count(traffic.messages_in));
+  put("bytes_in", count(traffic.bytes_in));
+  put("requests", count(requests_));
+  put("dropped", count(sat_ ? sat_->stats().data_dropped : 0));
+  if (!samples_.empty()) {
+    const Sample best = *std::min_element(
+        samples_.begin(), samples_.end(),
+        [](const Sample& a, const Sample& b) { return a.round_trip_ns < b.round_trip_ns; });
+    put("round_trip_us", Variant(static_cast<double>(best.round_trip_ns) / 1000.0));
+    put("clock_offset_us", Variant(static_cast<double>(best.offset_ns) / 1000.0));
+  }
 }
 
 // --- the server's side -------------------------------------------------------------------------

@@ -15,6 +15,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 namespace skr::sat {
 class Satellite;
@@ -34,6 +35,11 @@ class HubLink final : public Endpoint {
 
   void start();
   [[nodiscard]] const HubLinkOptions& options() const noexcept { return opt_; }
+  // Once a second (from the server's sweep): a clock probe every few seconds, and the link's
+  // database "_link.<name>" (state, channels, traffic, round trip, clock offset).
+  void everySecond(Nanos now);
+  // Another link dropped: takes the far channels this one offers that nobody shows any more.
+  void offerAgain();
   // Open, and the far hub said it is the one the config names.
   [[nodiscard]] bool up() const noexcept { return up_; }
   // The far hub's channels shown here now.
@@ -67,6 +73,8 @@ class HubLink final : public Endpoint {
   void removed(uint16_t remote_id);
   void changed(const msg::ChannelInfo& info);
   void data(uint16_t remote_id, const std::string& payload);
+  void timeSample(int64_t round_trip_ns, int64_t offset_ns);
+  void writeDb();
   // The local name of a far channel, or "" when it is not taken over this link (ours, or
   // already here by another route).
   [[nodiscard]] std::string localName(const std::string& remote_name) const;
@@ -77,6 +85,16 @@ class HubLink final : public Endpoint {
   std::unique_ptr<sat::Satellite> sat_;
   bool up_ = false;
   bool limit_logged_ = false;
+  std::string state_ = "connecting";
+  std::string since_;  // UTC of the last change of state
+  std::string db_;     // "_link.<name>"
+  uint64_t requests_ = 0;
+  Nanos next_probe_ = 0;
+  // The best (shortest round trip) of the last clock samples, as NTP's clock filter keeps.
+  struct Sample {
+    int64_t round_trip_ns = 0, offset_ns = 0;
+  };
+  std::vector<Sample> samples_;
   std::unordered_map<uint16_t, uint16_t> by_remote_;  // far id -> local id
   std::unordered_map<uint16_t, Remote> by_local_;     // local id -> far channel
 };

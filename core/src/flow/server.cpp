@@ -340,6 +340,7 @@ void FlowServer::Impl::sweep() {
   if (now >= next_flow_stats) {
     next_flow_stats = now + kNsPerSec;
     writeFlowStats();
+    for (const auto& link : links) link->everySecond(now);
   }
 }
 

@@ -153,7 +153,7 @@ void FlowServer::Impl::dropChannel(Channel& ch) {
   requests.failChannel(id, ErrorCode::owner_gone, "channel " + ch.name + " was removed");
   syncs.dropSource(id);
   std::unique_ptr<Channel> gone = channels.erase(ch);
-  databases.removeChannelDb(gone->name);
+  databases.removeOwnedDb(gone->name);
   if (gone->kind == ChannelKind::blob && blobs) {
     blobs->drop(gone->name, [name = gone->name](Result<void> r) {
       if (!r)

@@ -145,6 +145,10 @@ std::string_view codeName(uint8_t code) noexcept {
       return "REPLICATE_STOP";
     case Code::hub_link_hello:
       return "HUB_LINK_HELLO";
+    case Code::time_probe:
+      return "TIME_PROBE";
+    case Code::ev_time_probe:
+      return "EV_TIME_PROBE";
   }
   return "UNKNOWN";
 }
@@ -178,6 +182,8 @@ uint16_t minorOf(Code code) noexcept {
     case Code::ev_sync_pulse:
       return 4;
     case Code::hub_link_hello:
+    case Code::time_probe:
+    case Code::ev_time_probe:
       return 5;
     default:
       return 0;

@@ -138,6 +138,18 @@ Result<uint32_t> Satellite::syncDatabases() {
   return tag;
 }
 
+Result<uint32_t> Satellite::probeTime() {
+  if (!impl_->flowOpen()) return notConnected();
+  if (impl_->login.minor < flow::minorOf(flow::Code::time_probe)) {
+    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." +
+                                            std::to_string(impl_->login.minor) +
+                                            ") has no clock probe: it needs 1.5");
+  }
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::TimeProbe{tag, static_cast<uint64_t>(realtimeNs())});
+  return tag;
+}
+
 Result<uint32_t> Satellite::selectDatabase(const std::string& name) {
   impl_->wanted_db = name;
   if (!impl_->flowOpen()) return notConnected();

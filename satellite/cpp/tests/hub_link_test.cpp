@@ -2,6 +2,8 @@
 // name, socket and data directory; satellites of one use the channels of another by name.
 #include <sys/stat.h>
 
+#include <cmath>
+
 #include "sat_fixture.h"
 
 namespace skr::sat::test {
@@ -278,6 +280,121 @@ TEST(HubLinkPair, TwoHubsThatLinkToEachOtherSeeEachOthersChannelsOnce) {
   ASSERT_TRUE(eventually([&] { return on_b->events.count("data:ay/guest.x:to-b") == 1; }));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_EQ(on_b->events.count("data:"), 1u);
+}
+
+TEST_F(HubLinks, TheLinkShowsItsStateRoundTripAndClockOffset) {
+  auto viewer = a->satellite("viewer");
+  // The link's database on A, written once a second.
+  const auto link = [&]() {
+    return viewer->on([](Satellite& s) {
+      auto sync = s.syncClient();
+      if (!sync || !(*sync)->selectDatabase("_link.bee")) return Variant::Map{};
+      auto all = (*sync)->getAll();
+      return all ? std::move(all).value() : Variant::Map{};
+    });
+  };
+  ASSERT_TRUE(eventually([&] { return link().contains("round_trip_us"); })) << a->hub->log();
+  Variant::Map m = link();
+  EXPECT_EQ(m["state"], Variant("up"));
+  EXPECT_EQ(m["hub"], Variant("bee"));
+  const double rtt = m["round_trip_us"].asDouble().value_or(-1);
+  const double offset = m["clock_offset_us"].asDouble().value_or(1e9);
+  EXPECT_GT(rtt, 0);
+  EXPECT_LT(rtt, 1e6);
+  // One machine, one clock: the offset is within the round trip.
+  EXPECT_LE(std::abs(offset), rtt);
+  Child ls({FLOWCTL_BIN, "--address", a->hub->address(), "link", "ls"}, {},
+           a->dir.path() / "link.out");
+  ASSERT_EQ(ls.wait(), 0) << ls.output();
+  EXPECT_NE(ls.output().find("bee "), std::string::npos) << ls.output();
+  EXPECT_NE(ls.output().find(" up "), std::string::npos) << ls.output();
+
+  // A satellite probes its own hub's clock the same way.
+  std::vector<TimeSample> samples;
+  std::mutex sm;
+  viewer->on([&](Satellite& s) {
+    s.timeSample.connect(&s, [&](const TimeSample& t) {
+      std::lock_guard lock(sm);
+      samples.push_back(t);
+    });
+  });
+  ASSERT_TRUE(viewer->on([](Satellite& s) { return s.probeTime(); }));
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(sm);
+    return samples.size() == 1;
+  }));
+  EXPECT_GE(samples[0].t2, samples[0].t1 - 1000000);
+  EXPECT_GE(samples[0].t4, samples[0].t1);
+  EXPECT_GT(samples[0].roundTripNs(), 0);
+
+  ASSERT_EQ(b->hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] {
+    const Variant::Map now = link();
+    const Variant* state = now.contains("state") ? &now.at("state") : nullptr;
+    return state != nullptr && state->asString() != nullptr &&
+           state->asString()->starts_with("down");
+  })) << a->hub->log();
+}
+
+TEST(HubLinkRoutes, AChannelReachedTwoWaysComesOnceAndSwitchesWhenItsRouteFails) {
+  // A links to B1 and B2, both link to C, where the channel lives.
+  NamedHub c("sea");
+  NamedHub b1("bee1");
+  NamedHub b2("bee2");
+  NamedHub a("ay");
+  b1.link(c);
+  b2.link(c);
+  a.link(b1).link(b2);
+  ASSERT_TRUE(c.start());
+  ASSERT_TRUE(b1.start());
+  ASSERT_TRUE(b2.start());
+  ASSERT_TRUE(a.start());
+  auto owner = c.satellite("owner");
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.addChannel({.name = "seq"}); }));
+  auto viewer = a.satellite("viewer");
+  viewer->on([](Satellite& s) { s.subscribe("sea/guest.seq"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.seq") == 1; }))
+      << a.hub->log() << b1.hub->log() << b2.hub->log();
+  // One route: the hub it came through is the second of its route.
+  const auto route = [&] {
+    return viewer->on([](Satellite& s) {
+      const ChannelInfo* c = s.channel("sea/guest.seq");
+      const Variant* r = c != nullptr ? c->props.find("hub_route") : nullptr;
+      return r != nullptr ? flow::variantToJsonText(*r) : std::string();
+    });
+  };
+  const std::string first = route();
+  ASSERT_TRUE(first == R"(["sea","bee1"])" || first == R"(["sea","bee2"])") << first;
+  int seq = 0;
+  const auto publish = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      const int k = seq++;
+      ASSERT_TRUE(owner->on([k](Satellite& s) { return s.publish("seq", std::to_string(k)); }));
+    }
+  };
+  publish(10);
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:sea/guest.seq:") == 10; }));
+
+  // The route's middle hub goes: the channel comes back the other way, and the viewer's
+  // subscription with it.
+  NamedHub& via = first == R"(["sea","bee1"])" ? b1 : b2;
+  ASSERT_EQ(via.hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] {
+    const std::string now = route();
+    return !now.empty() && now != first;
+  })) << a.hub->log();
+  ASSERT_TRUE(eventually([&] {
+    return viewer->events.count("subscribed:sea/guest.seq") == 2 &&
+           owner->events.count("start:guest.seq") == 2;
+  })) << viewer->events.dump();
+  publish(10);
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:sea/guest.seq:") == 20; }))
+      << viewer->events.dump();
+  // Nothing twice, nothing lost while a route stood.
+  const auto got = viewer->events.with("data:sea/guest.seq:");
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(got[i], std::to_string(i));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(viewer->events.count("data:"), 20u);
 }
 
 TEST_F(HubLinks, ASecondHubOfTheSameNameIsRefused) {

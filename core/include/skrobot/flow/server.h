@@ -41,6 +41,8 @@ struct ServerOptions {
   // This hub's name in a linked network (hub links): unique there. Empty: the host name.
   std::string hub_name;
   std::vector<HubLinkOptions> links;
+  // A far channel that went through more links than this is not shown (hub links).
+  uint32_t link_hops = 8;
   bool unix_enabled = true;
   std::string unix_path;  // empty: /tmp/<app_name>
   bool tcp_enabled = false;

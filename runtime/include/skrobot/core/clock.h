@@ -15,6 +15,14 @@ inline Nanos monotonicNs() noexcept {
   return static_cast<Nanos>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
+// The wall clock (CLOCK_REALTIME) in nanoseconds since 1970: comparable across machines as far
+// as their clocks agree.
+inline Nanos realtimeNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<Nanos>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
 // CPU time consumed by the calling thread.
 inline Nanos threadCpuNs() noexcept {
   timespec ts{};

@@ -80,6 +80,8 @@ void forEachMessage(F&& f) {
   f(EvSyncPulse{});
   f(HubLinkHello{});
   f(HubLinkHelloOk{});
+  f(TimeProbe{});
+  f(EvTimeProbe{});
 }
 
 }  // namespace skr::flow

@@ -667,4 +667,28 @@ struct HubLinkHelloOk {
   }
 };
 
+// 1.5, on a flow: a clock probe (four timestamps, as NTP takes them). t1 is the sender's wall
+// clock (CLOCK_REALTIME, ns) when it sent the probe; the hub answers at once with t2 (when it read
+// the probe) and t3 (when it answered), on its own wall clock. With t4, the sender's clock when
+// the answer arrived: round trip = (t4 - t1) - (t3 - t2), the hub's clock minus the sender's =
+// ((t2 - t1) + (t3 - t4)) / 2.
+struct TimeProbe {
+  static constexpr Code code = Code::time_probe;
+  uint32_t tag = 0;
+  uint64_t t1 = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(t1);
+  }
+};
+struct EvTimeProbe {
+  static constexpr Code code = Code::ev_time_probe;
+  uint32_t tag = 0;
+  uint64_t t1 = 0, t2 = 0, t3 = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(t1) && f(t2) && f(t3);
+  }
+};
+
 }  // namespace skr::flow::msg

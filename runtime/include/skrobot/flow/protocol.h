@@ -106,6 +106,8 @@ enum class Code : uint8_t {
 
   // 1.5: hub links. A hub that links to another logs in as a satellite and says who it is.
   hub_link_hello = 0xE8,  // synchronous, after LOGIN: the linking hub's name
+  time_probe = 0xE9,      // on a flow: the sender's wall clock, answered at once
+  ev_time_probe = 0xEA,   // the answer: the hub's wall clock when it got and answered the probe
 
   // Reserved and specified; not implemented yet (answered with `unsupported`).
   replicate_channel = 0xE0,
@@ -121,6 +123,10 @@ enum class Code : uint8_t {
 // A synchronous request of a family block: blob channels (1.3), HUB_LINK_HELLO (1.5).
 [[nodiscard]] constexpr bool isSyncFamilyRequest(uint8_t code) noexcept {
   return isBlobRequest(code) || code == 0xE8;
+}
+// A command of a family block sent on a flow: the sync pulse (1.4), TIME_PROBE (1.5).
+[[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
+  return (code >= 0xD0 && code <= 0xD3) || code == 0xE9;
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

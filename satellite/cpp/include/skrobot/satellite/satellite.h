@@ -95,6 +95,16 @@ struct SyncPulse {
   uint32_t dropped = 0;
   Nanos arrival_ns = 0;  // our CLOCK_MONOTONIC when it arrived
 };
+// A clock probe's answer (TIME_PROBE, FlowProtocol 1.5): the hub's wall clock against ours,
+// with four CLOCK_REALTIME timestamps in ns as NTP takes them (t1 sent, t2 the hub got it, t3 the
+// hub answered, t4 the answer arrived).
+struct TimeSample {
+  uint32_t tag = 0;
+  int64_t t1 = 0, t2 = 0, t3 = 0, t4 = 0;
+  [[nodiscard]] int64_t roundTripNs() const noexcept { return (t4 - t1) - (t3 - t2); }
+  // The hub's clock minus ours: add it to one of our wall-clock times to get the hub's.
+  [[nodiscard]] int64_t offsetNs() const noexcept { return ((t2 - t1) + (t3 - t4)) / 2; }
+};
 // A command the hub refused (EV_ERROR: `command` and `tag` name it), a refused login (command
 // LOGIN), or a local failure (command 0): protocol_error when the hub broke the protocol,
 // io_error when the first connection failed and `reconnect` is off.
@@ -218,6 +228,9 @@ class Satellite : public Object {
   // returned tag once every change this flow sent before it is on disk (a failure comes as the
   // `error` signal with the tag). Protocol 1.2; an older hub answers unsupported.
   [[nodiscard]] Result<uint32_t> syncDatabases();
+  // Probes the hub's wall clock: `timeSample` comes with the returned tag. Errc::closed,
+  // Errc::unsupported (a hub older than FlowProtocol 1.5).
+  [[nodiscard]] Result<uint32_t> probeTime();
   // The flow's current database from now on (and after reconnections).
   [[nodiscard]] Result<uint32_t> selectDatabase(const std::string& name);
   // BLOCKING: the synchronous connection itself, opened (or re-opened) as needed; valid until
@@ -238,7 +251,8 @@ class Satellite : public Object {
   Signal<const Request&> serviceRequest{*this};
   Signal<const Response&> serviceResponse{*this};
   Signal<const FlowError&> error{*this};
-  Signal<uint32_t> databasesSynced{*this};  // the tag of syncDatabases()
+  Signal<uint32_t> databasesSynced{*this};      // the tag of syncDatabases()
+  Signal<const TimeSample&> timeSample{*this};  // the answer to probeTime()
   // A file of a blob channel we subscribe to was written or removed (subscribe() by its name);
   // its files are read and written through syncClient() (SyncClient::blobGet, blobPut, ...).
   Signal<const BlobChange&> blobChanged{*this};

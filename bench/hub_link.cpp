@@ -1,0 +1,358 @@
+// Hub links against one hub, in one run (docs/hub-links.md):
+//   - service round trip p50/p99 at 16 B, 1 KB and 64 KB: the caller on the service's hub (one
+//     hub), on a hub linked to it (one link), and on a hub linked to that one (two links);
+//   - 1:1 streaming throughput at the same sizes over the same three paths (messages/s received,
+//     and what the hubs dropped for a subscriber that fell behind);
+//   - a 640x360 RGB video channel at 15 fps on one hub and across one link: frames delivered per
+//     second and the latency from publish to receipt (one machine, one clock).
+// Each hub is a FlowServer on a loop thread of its own; satellites are skr::sat::Satellite on
+// their own loop threads, the caller a SyncClient. Two cores are shared by everything.
+//
+//   hub_link [--quick]
+#include <skrobot/core/clock.h>
+#include <skrobot/core/loop.h>
+#include <skrobot/core/spread.h>
+#include <skrobot/flow/server.h>
+#include <skrobot/satellite.h>
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "temp_dir.h"
+
+namespace {
+
+using namespace skr;
+using flow::Variant;
+
+[[noreturn]] void fail(const std::string& why) {
+  std::fprintf(stderr, "hub_link: %s\n", why.c_str());
+  std::exit(1);
+}
+
+template <class P>
+bool waitFor(P&& ready, int timeout_ms = 10000) {
+  const Nanos end = monotonicNs() + Nanos(timeout_ms) * kNsPerMs;
+  while (!ready()) {
+    if (monotonicNs() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+// A hub named `name` with the development account, linked to `to` (if any).
+class Hub {
+ public:
+  Hub(const std::filesystem::path& dir, const std::string& name, const Hub* to) {
+    flow::ServerOptions so;
+    so.app_name = "skrobot-link-bench-" + name + "-" + std::to_string(::getpid());
+    so.hub_name = name;
+    so.unix_path = (dir / (name + ".sock")).string();
+    so.dev_account = std::make_pair(std::string("guest"), std::string("password"));
+    so.users_file = dir / (name + "-users.json");
+    if (to != nullptr) {
+      flow::HubLinkOptions link;
+      link.name = to->name_;
+      link.address = "local:" + to->path_;
+      link.user = "guest";
+      link.password = "password";
+      so.links.push_back(link);
+    }
+    name_ = name;
+    path_ = so.unix_path;
+    thread_ = std::make_unique<LoopThread>(LoopOptions{.name = "hub " + name});
+    thread_->start();
+    Result<void> r;
+    thread_->loop().invoke([&] {
+      server_ = std::make_unique<flow::FlowServer>(thread_->loop(), so);
+      r = server_->start();
+    });
+    if (!r) fail("hub " + name + ": " + r.error().message);
+  }
+  ~Hub() {
+    thread_->loop().invoke([&] { server_.reset(); });
+    thread_.reset();
+  }
+  Hub(const Hub&) = delete;
+  Hub& operator=(const Hub&) = delete;
+
+  [[nodiscard]] sat::ConnectOptions connect(const std::string& client) const {
+    sat::ConnectOptions o;
+    o.address.kind = flow::Address::Kind::local;
+    o.address.path = path_;
+    o.client_name = client;
+    o.timeout_ms = 30000;
+    return o;
+  }
+
+ private:
+  std::string name_, path_;
+  std::unique_ptr<LoopThread> thread_;
+  std::unique_ptr<flow::FlowServer> server_;
+};
+
+// A Satellite on a loop thread of its own.
+class Sat {
+ public:
+  Sat(const Hub& hub, const std::string& client) : thread_(LoopOptions{.name = client}) {
+    thread_.start();
+    sat::SatelliteOptions o;
+    o.connection = hub.connect(client);
+    o.max_queued_bytes = 32u << 20;
+    thread_.loop().invoke([&] {
+      sat_ = std::make_unique<sat::Satellite>(thread_.loop(), o);
+      sat_->start();
+    });
+    const auto connected = [&] {
+      bool up = false;
+      thread_.loop().invoke([&] { up = sat_->isConnected(); });
+      return up;
+    };
+    if (!waitFor(connected)) {
+      fail(client + " cannot connect");
+    }
+  }
+  ~Sat() {
+    thread_.loop().invoke([&] { sat_.reset(); });
+    thread_.stop();
+  }
+  Sat(const Sat&) = delete;
+  Sat& operator=(const Sat&) = delete;
+
+  template <class F>
+  auto on(F&& f) {
+    using R = decltype(f(std::declval<sat::Satellite&>()));
+    if constexpr (std::is_void_v<R>) {
+      thread_.loop().invoke([&] { f(*sat_); });
+    } else {
+      R r{};
+      thread_.loop().invoke([&] { r = f(*sat_); });
+      return r;
+    }
+  }
+  Loop& loop() { return thread_.loop(); }
+
+ private:
+  LoopThread thread_;
+  std::unique_ptr<sat::Satellite> sat_;
+};
+
+bool sees(Sat& s, const std::string& name) {
+  return s.on([&](sat::Satellite& sat) { return sat.channel(name) != nullptr; });
+}
+
+// --- service round trips ------------------------------------------------------------------------
+
+Spread roundTrips(const Hub& hub, const std::string& service, size_t bytes, int count) {
+  auto c = sat::SyncClient::connect(hub.connect("caller"));
+  if (!c) fail("caller: " + c.error().message);
+  const Variant payload(std::string(bytes, 'x'));
+  std::vector<double> us;
+  for (int i = 0; i < count + count / 10; ++i) {
+    const Nanos t0 = monotonicNs();
+    auto r = c->call(service, "echo", payload, 5000);
+    if (!r) fail("call " + service + ": " + r.error().message);
+    if (i >= count / 10) us.push_back(double(monotonicNs() - t0) / 1000.0);  // after a warm-up
+  }
+  return spreadOf(std::move(us));
+}
+
+// --- streaming ----------------------------------------------------------------------------------
+
+struct Stream {
+  double per_second =
+      0;  // messages received per second, from the first publish to the last receipt
+  uint64_t received = 0;
+  uint64_t dropped = 0;  // sent but not received: dropped by a hub for a subscriber behind
+};
+
+// The publisher sends `total` messages of `bytes` as fast as its queue lets it; the receiver on
+// `sub` counts them until the last arrives (or 20 s pass).
+Stream stream(Sat& pub, Sat& sub, const std::string& name, size_t bytes, uint64_t total) {
+  std::atomic<uint64_t> got{0};
+  std::atomic<Nanos> last{0};
+  skr::Connection conn;
+  sub.on([&](sat::Satellite& s) {
+    conn = s.data.connect(&s, [&](uint16_t, const std::string&) {
+      ++got;
+      last = monotonicNs();
+    });
+    s.subscribe(name);
+  });
+  if (!waitFor([&] { return pub.on([](sat::Satellite& s) { return s.hasSubscribers("load"); }); }))
+    fail("no subscriber for " + name);
+  const std::string payload(bytes, 'p');
+  std::atomic<uint64_t> sent{0};
+  // Publishes until its queue is full, then again on the loop's next turn.
+  std::function<void()> burst = [&] {
+    pub.on([&](sat::Satellite& s) {
+      while (sent < total && s.queuedBytes() < (16u << 20)) {
+        if (!s.publish("load", payload)) break;
+        ++sent;
+      }
+    });
+  };
+  const Nanos first = monotonicNs();
+  const Nanos t_end = first + 20 * kNsPerSec;
+  while (sent < total && monotonicNs() < t_end) {
+    burst();
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  waitFor([&] { return got >= total; }, 5000);
+  const uint64_t dropped = sub.on([](sat::Satellite& s) { return s.stats().data_dropped; });
+  sub.on([&](sat::Satellite& s) {
+    s.unsubscribe(name);
+    conn.disconnect();
+  });
+  waitFor([&] { return !pub.on([](sat::Satellite& s) { return s.hasSubscribers("load"); }); });
+  Stream r;
+  r.received = got;
+  r.dropped = std::max<uint64_t>(dropped, total - std::min<uint64_t>(total, got));
+  const double secs = double(last - first) / 1e9;
+  r.per_second = secs > 0 ? double(got) / secs : 0;
+  return r;
+}
+
+// --- video ------------------------------------------------------------------------------------
+
+struct Video {
+  double fps = 0;
+  Spread latency_us;
+};
+
+Video video(Sat& pub, Sat& sub, const std::string& name, double seconds) {
+  constexpr size_t kFrame = 640 * 360 * 3;
+  std::vector<double> lat;
+  std::mutex m;
+  std::atomic<int> frames{0};
+  skr::Connection conn;
+  sub.on([&](sat::Satellite& s) {
+    conn = s.data.connect(&s, [&](uint16_t, const std::string& payload) {
+      Nanos sent = 0;
+      std::memcpy(&sent, payload.data(), sizeof sent);
+      std::lock_guard lock(m);
+      lat.push_back(double(monotonicNs() - sent) / 1000.0);
+      ++frames;
+    });
+    s.subscribe(name);
+  });
+  if (!waitFor([&] { return pub.on([](sat::Satellite& s) { return s.hasSubscribers("video"); }); }))
+    fail("no subscriber for " + name);
+  std::string frame(kFrame, 'v');
+  const int count = int(seconds * 15);
+  const Nanos t0 = monotonicNs();
+  for (int i = 0; i < count; ++i) {
+    std::this_thread::sleep_until(std::chrono::steady_clock::time_point(
+        std::chrono::nanoseconds(t0 + Nanos(double(i) * 1e9 / 15))));
+    const Nanos now = monotonicNs();
+    std::memcpy(frame.data(), &now, sizeof now);
+    if (!pub.on([&](sat::Satellite& s) { return bool(s.publish("video", frame)); }))
+      fail("video publish");
+  }
+  waitFor([&] { return frames >= count; }, 3000);
+  const double elapsed = double(monotonicNs() - t0) / 1e9;
+  sub.on([&](sat::Satellite& s) {
+    s.unsubscribe(name);
+    conn.disconnect();
+  });
+  std::lock_guard lock(m);
+  return Video{double(frames) / elapsed, spreadOf(lat)};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  log::setLevel(log::Level::warn);
+  skr::test::TempDir dir;
+  // h2 -> h1 -> h0: a caller on h1 is one link away from h0, on h2 two.
+  Hub h0(dir.path(), "h0", nullptr);
+  Hub h1(dir.path(), "h1", &h0);
+  Hub h2(dir.path(), "h2", &h1);
+
+  Sat owner(h0, "owner");
+  if (!owner.on([](sat::Satellite& s) {
+        return bool(s.addChannel({.name = "echo", .kind = flow::ChannelKind::service})) &&
+               bool(s.addChannel({.name = "load"})) && bool(s.addChannel({.name = "video"}));
+      })) {
+    fail("owner channels");
+  }
+  owner.on([](sat::Satellite& s) {
+    s.serviceRequest.connect(&s, [&s](const sat::Request& r) { (void)s.respond(r, r.value); });
+  });
+  Sat on_h0(h0, "sub0");
+  Sat on_h1(h1, "sub1");
+  Sat on_h2(h2, "sub2");
+  if (!waitFor([&] { return sees(on_h2, "h0/guest.load") && sees(on_h1, "h0/guest.echo"); }))
+    fail("the links did not bring h0's channels");
+
+  struct Path {
+    const char* name;
+    const Hub& hub;
+    Sat& sub;
+    std::string prefix;
+  };
+  const Path paths[] = {
+      {"one hub", h0, on_h0, ""}, {"one link", h1, on_h1, "h0/"}, {"two links", h2, on_h2, "h0/"}};
+  const int calls = quick ? 200 : 3000;
+  std::printf("Service round trip (us), %d calls each; ratio: p50 against one hub's\n", calls);
+  std::printf("%-8s %-10s %9s %9s %9s %7s\n", "size", "path", "p50", "p99", "max", "ratio");
+  double worst_rtt_ratio = 0;
+  for (size_t bytes : {size_t(16), size_t(1024), size_t(65536)}) {
+    double base = 0;
+    for (const Path& p : paths) {
+      const Spread s = roundTrips(p.hub, p.prefix + "guest.echo", bytes, calls);
+      if (base == 0) base = s.p50;
+      const double ratio = s.p50 / base;
+      if (std::strcmp(p.name, "one link") == 0) worst_rtt_ratio = std::max(worst_rtt_ratio, ratio);
+      std::printf("%-8zu %-10s %9.1f %9.1f %9.1f %7.2f\n", bytes, p.name, s.p50, s.p99, s.max,
+                  ratio);
+    }
+  }
+
+  std::printf("\n1:1 streaming, received messages/s; ratio against one hub's\n");
+  std::printf("%-8s %-10s %12s %10s %9s %9s %7s\n", "size", "path", "msgs/s", "MB/s", "received",
+              "lost", "ratio");
+  double worst_tput_ratio = 1e9;
+  for (size_t bytes : {size_t(16), size_t(1024), size_t(65536)}) {
+    const uint64_t total = quick ? 2000 : (bytes >= 65536 ? 20000 : 500000);
+    double base = 0;
+    for (const Path& p : paths) {
+      const Stream s = stream(owner, p.sub, p.prefix + "guest.load", bytes, total);
+      if (base == 0) base = s.per_second;
+      const double ratio = s.per_second / base;
+      if (std::strcmp(p.name, "one link") == 0)
+        worst_tput_ratio = std::min(worst_tput_ratio, ratio);
+      std::printf("%-8zu %-10s %12.0f %10.1f %9llu %9llu %7.2f\n", bytes, p.name, s.per_second,
+                  s.per_second * double(bytes) / 1e6, (unsigned long long)s.received,
+                  (unsigned long long)s.dropped, ratio);
+    }
+  }
+
+  const double secs = quick ? 1 : 5;
+  std::printf("\n640x360 RGB video at 15 fps for %.0f s: frames/s delivered, latency (us)\n", secs);
+  std::printf("%-10s %7s %9s %9s %9s\n", "path", "fps", "p50", "p99", "max");
+  for (const Path& p : {paths[0], paths[1]}) {
+    const Video v = video(owner, p.sub, p.prefix + "guest.video", secs);
+    std::printf("%-10s %7.1f %9.0f %9.0f %9.0f\n", p.name, v.fps, v.latency_us.p50,
+                v.latency_us.p99, v.latency_us.max);
+  }
+  std::printf(
+      "\nTargets: one link's round trip p50 within 2x one hub's (worst %.2fx: %s); "
+      "throughput through one link at least 0.5x one hub's (worst %.2fx: %s)\n",
+      worst_rtt_ratio, worst_rtt_ratio <= 2 ? "met" : "NOT met", worst_tput_ratio,
+      worst_tput_ratio >= 0.5 ? "met" : "NOT met");
+  std::fflush(stdout);
+  return 0;
+}

@@ -73,7 +73,8 @@ def waitUntil(cond, timeout=TIMEOUT, step=0.01):
 class Hub(object):
     """A hub on /tmp/<unique app name>, with guest/password and optionally the echo module."""
 
-    def __init__(self, name, echo_module=False):
+    def __init__(self, name, echo_module=False, hub_name=None, links=()):
+        """hub_name and links (other Hub objects, linked with guest/password): hub links."""
         self.dir = tempfile.mkdtemp(prefix="pysat-")
         self.app = "pysat-%s-%d-%d" % (name, os.getpid(), next(_counter))
         self.address = "local:/tmp/" + self.app
@@ -85,6 +86,18 @@ class Hub(object):
         }
         if echo_module:
             cfg["modules"] = [{"path": os.path.join(moduleDir(), "test_channel_echo.so")}]
+        if hub_name:
+            cfg["hub_name"] = hub_name
+            self.hub_name = hub_name
+        if links:
+            cfg["links"] = []
+            for other in links:
+                password_file = os.path.join(self.dir, other.hub_name + ".pass")
+                with open(password_file, "w") as f:
+                    f.write("password\n")
+                os.chmod(password_file, 0o600)
+                cfg["links"].append({"name": other.hub_name, "address": other.address,
+                                     "user": "guest", "password_file": password_file})
         self.config = os.path.join(self.dir, "hub.json")
         with open(self.config, "w") as f:
             json.dump(cfg, f)

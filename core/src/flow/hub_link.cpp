@@ -2,6 +2,7 @@
 #include "hub_link.h"
 
 #include "connection.h"
+#include "hub_route.h"
 #include "server_impl.h"
 
 #include <skrobot/core/log.h>
@@ -16,16 +17,6 @@ constexpr const char* kLinkLog = "link";
 constexpr Nanos kProbeEvery = 2 * kNsPerSec;
 constexpr size_t kSamplesKept = 8;
 
-// The hubs a far channel went through before it reached us ("hub_route" of its properties).
-std::vector<std::string> routeOf(const Variant& props) {
-  std::vector<std::string> route;
-  const Variant* r = props.find("hub_route");
-  if (r == nullptr || r->asList() == nullptr) return route;
-  for (const Variant& hop : *r->asList()) {
-    if (const auto* s = hop.asString()) route.push_back(*s);
-  }
-  return route;
-}
 }  // namespace
 
 HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
@@ -153,28 +144,14 @@ void HubLink::dropAll() {
   }
 }
 
-std::string HubLink::localName(const std::string& remote_name) const {
-  const size_t slash = remote_name.find('/');
-  const size_t dot = remote_name.find('.');
-  if (dot == std::string::npos || dot == 0) return {};
-  if (slash == std::string::npos || slash > dot) return opt_.name + "/" + remote_name;
-  // Another hub's channel, reached through this one: the same name here, unless it is ours.
-  if (remote_name.compare(0, slash, server_.hub_name) == 0 && slash == server_.hub_name.size()) {
-    return {};
-  }
-  return remote_name;
-}
-
 void HubLink::added(const msg::ChannelInfo& info) {
   if (!up_ || by_remote_.contains(info.id)) return;
   const auto kind = static_cast<ChannelKind>(info.kind);
   if (kind != ChannelKind::streaming && kind != ChannelKind::service) return;  // not carried yet
-  const std::string name = localName(info.name);
+  const std::string name = linkedName(info.name, opt_.name, server_.hub_name);
   if (name.empty() || server_.channels.findByName(name) != nullptr) return;  // another route
-  std::vector<std::string> route = routeOf(info.props);
-  route.push_back(opt_.name);
-  if (std::find(route.begin(), route.end(), server_.hub_name) != route.end()) return;  // a loop
-  if (route.size() > server_.opt.link_hops) return;
+  const std::vector<std::string> route = hubRoute(info.props, opt_.name);
+  if (!routeAccepted(route, server_.hub_name, server_.opt.link_hops)) return;
   if (by_local_.size() >= opt_.max_channels) {
     if (!limit_logged_) {
       log::warn(kLinkLog, "HUB-LINK-LIMIT",

@@ -75,9 +75,6 @@ class HubLink final : public Endpoint {
   void data(uint16_t remote_id, const std::string& payload);
   void timeSample(int64_t round_trip_ns, int64_t offset_ns);
   void writeDb();
-  // The local name of a far channel, or "" when it is not taken over this link (ours, or
-  // already here by another route).
-  [[nodiscard]] std::string localName(const std::string& remote_name) const;
   void dropAll();
 
   FlowServer::Impl& server_;

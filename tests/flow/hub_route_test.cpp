@@ -1,0 +1,33 @@
+// A hub link's naming and routing rules (core/src/flow/hub_route.cpp, docs/hub-links.md).
+#include "../../core/src/flow/hub_route.h"
+
+#include <gtest/gtest.h>
+
+namespace skr::flow {
+namespace {
+
+TEST(HubRoute, FarChannelsArePrefixedWithTheLinksHubAndThirdHubsKeepTheirName) {
+  EXPECT_EQ(linkedName("guest.camera", "arm", "head"), "arm/guest.camera");
+  EXPECT_EQ(linkedName("guest.a/b", "arm", "head"), "arm/guest.a/b");  // '/' after the user
+  EXPECT_EQ(linkedName("base/guest.camera", "arm", "head"), "base/guest.camera");
+  EXPECT_EQ(linkedName("head/guest.camera", "arm", "head"), "");  // ours, coming back
+  EXPECT_EQ(linkedName("nodot", "arm", "head"), "");
+  EXPECT_EQ(linkedName(".x", "arm", "head"), "");
+  EXPECT_EQ(linkedName("/guest.x", "arm", "head"), "");
+  EXPECT_EQ(linkedName("base/.x", "arm", "head"), "");
+}
+
+TEST(HubRoute, TheRouteEndsWithTheLinkAndRefusesLoopsAndLongPaths) {
+  EXPECT_EQ(hubRoute(Variant::Map{}, "arm"), std::vector<std::string>{"arm"});
+  const Variant props(Variant::Map{{"hub_route", Variant::List{"base", 3, "mid"}}});
+  EXPECT_EQ(hubRoute(props, "arm"), (std::vector<std::string>{"base", "mid", "arm"}));
+  EXPECT_EQ(hubRoute(Variant::Map{{"hub_route", "base"}}, "arm"),
+            std::vector<std::string>{"arm"});  // not a list: ignored
+  EXPECT_TRUE(routeAccepted({"base", "arm"}, "head", 8));
+  EXPECT_FALSE(routeAccepted({"head", "arm"}, "head", 8));
+  EXPECT_FALSE(routeAccepted({"a", "b", "c"}, "head", 2));
+  EXPECT_TRUE(routeAccepted({"a", "b"}, "head", 2));
+}
+
+}  // namespace
+}  // namespace skr::flow

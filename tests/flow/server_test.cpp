@@ -775,5 +775,46 @@ TEST_F(Server, AsyncCommandOnSyncConnectionAndSyncOnFlowAreErrorsNotKills) {
   EXPECT_EQ(stats().protocol_errors, 0u);
 }
 
+TEST_F(Server, HubLinkHelloNamesTheLinkingHubAndIsRefusedClearly) {
+  flow::ServerOptions o = defaults();
+  o.hub_name = "head";
+  ASSERT_TRUE(startHub(o));
+  TestClient arm = syncClient();
+  auto ok = as<msg::HubLinkHelloOk>(arm.call(msg::HubLinkHello{"arm"}));
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->hub_name, "head");
+  // A second connection claiming the same name, the hub's own name, a malformed name.
+  TestClient twin = syncClient();
+  EXPECT_EQ(errorOf(twin.call(msg::HubLinkHello{"arm"})), uint16_t(ErrorCode::already_exists));
+  EXPECT_EQ(errorOf(twin.call(msg::HubLinkHello{"head"})), uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(errorOf(twin.call(msg::HubLinkHello{"a/b"})), uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(errorOf(twin.call(msg::HubLinkHello{""})), uint16_t(ErrorCode::invalid_argument));
+  // A client of 1.4 cannot link; the clock probe is 1.5 too.
+  TestClient old = olderClient(4);
+  EXPECT_EQ(errorOf(old.call(msg::HubLinkHello{"base"})), uint16_t(ErrorCode::unsupported));
+  // Once the first link is gone, its name is free again.
+  arm = TestClient();
+  ASSERT_TRUE(eventually([&] {
+    TestClient again = syncClient();
+    return bool(as<msg::HubLinkHelloOk>(again.call(msg::HubLinkHello{"arm"})));
+  }));
+  EXPECT_EQ(stats().protocol_errors, 0u);
+}
+
+TEST_F(Server, TimeProbeAnswersWithTheHubsClock) {
+  startHub();
+  TestClient f = flowClient();
+  const auto t1 = static_cast<uint64_t>(realtimeNs());
+  ASSERT_TRUE(f.send(msg::TimeProbe{9, t1}));
+  auto ev = as<msg::EvTimeProbe>(f.waitFor(Code::ev_time_probe));
+  ASSERT_TRUE(ev);
+  const auto t4 = static_cast<uint64_t>(realtimeNs());
+  EXPECT_EQ(ev->tag, 9u);
+  EXPECT_EQ(ev->t1, t1);
+  EXPECT_LE(ev->t2, ev->t3);
+  EXPECT_GE(ev->t2 + 1000000, t1);  // one machine: its clock, within a millisecond of slack
+  EXPECT_LE(ev->t3, t4 + 1000000);
+}
+
 }  // namespace
 }  // namespace skr::test

@@ -213,6 +213,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.hub_name = cfg.hub_name;
   o.links = cfg.links;
   o.link_hops = cfg.link_hops;
+  o.replicas = cfg.replicas;
   return o;
 }
 

@@ -389,6 +389,7 @@ s::Schema hubSchema() {
       s::optional("hub_name", hubNameSchema()),
       s::optional("links", linksSchema(), Json::arrayValue),
       s::optional("link_hops", linkHopsSchema(), 8),
+      s::optional("replicas", replicasSchema(), Json::arrayValue),
   });
 }
 

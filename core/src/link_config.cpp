@@ -73,6 +73,13 @@ s::Schema hubNameSchema() {
   return s::string().check(hubNameCheck);
 }
 
+s::Schema replicasSchema() {
+  return s::arrayOf(s::object({
+      s::required("from", s::string().nonEmpty()),
+      s::required("as", s::string().nonEmpty()),
+  }));
+}
+
 s::Schema linkHopsSchema() {
   return s::integer().range(1, 64);
 }
@@ -95,6 +102,12 @@ void readLinks(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg,
                s::Problems& problems) {
   if (d["hub_name"].isString()) cfg.hub_name = d["hub_name"].asString();
   if (d["link_hops"].isUInt()) cfg.link_hops = d["link_hops"].asUInt();
+  for (Json::ArrayIndex i = 0; d["replicas"].isArray() && i < d["replicas"].size(); ++i) {
+    const Json::Value& r = d["replicas"][i];
+    if (r.isObject() && r["from"].isString() && r["as"].isString()) {
+      cfg.replicas.push_back({r["from"].asString(), r["as"].asString()});
+    }
+  }
   const Json::Value& links = d["links"];
   if (!links.isArray()) return;
   std::set<std::string> names;

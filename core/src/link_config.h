@@ -13,6 +13,7 @@ namespace skr {
 [[nodiscard]] schema::Schema hubNameSchema();
 [[nodiscard]] schema::Schema linksSchema();
 [[nodiscard]] schema::Schema linkHopsSchema();
+[[nodiscard]] schema::Schema replicasSchema();
 // Fills cfg.hub_name and cfg.links from the document (defaults filled in), reading each link's
 // password from its file or environment variable; what is wrong goes to `problems` with its path.
 void readLinks(const Json::Value& doc, const std::filesystem::path& base_dir, HubConfig& cfg,

@@ -765,8 +765,8 @@ TEST_F(Server, AsyncCommandOnSyncConnectionAndSyncOnFlowAreErrorsNotKills) {
   TestClient sync = syncClient();
   EXPECT_EQ(errorOf(sync.call(msg::Subscribe{1, 1})), uint16_t(ErrorCode::invalid_argument));
   EXPECT_EQ(errorOf(sync.call(msg::SyncPulse{1, 0})), uint16_t(ErrorCode::invalid_argument));
-  EXPECT_EQ(errorOf(sync.call(msg::Empty<Code::replicate_channel>{})),
-            uint16_t(ErrorCode::unsupported));  // reserved
+  EXPECT_EQ(errorOf(sync.call(msg::ReplicateChannel{1, "a.b", "c"})),
+            uint16_t(ErrorCode::invalid_argument));  // on a flow only
   TestClient f = flowClient();
   ASSERT_TRUE(f.send(msg::VarGet{"x"}));
   auto e = as<msg::EvError>(f.waitFor(Code::ev_error));

@@ -6,17 +6,14 @@
 #include <algorithm>
 
 namespace skr::flow {
-namespace {
 
-bool validShortName(const std::string& s) {
+bool ChannelTable::validShortName(const std::string& s) {
   if (s.empty() || s.size() > 128 || s.front() == '.') return false;
   return std::all_of(s.begin(), s.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
            c == '-' || c == '.';
   });
 }
-
-}  // namespace
 
 ChannelTable::ChannelTable() : rng_(std::random_device{}()) {
   channels_.resize(kMaxChannels);

@@ -446,6 +446,16 @@ void Connection::handleAsync(Code code, std::string_view body) {
       check(dbs.delVar(*this, {}, m.name), m.tag, 0);
       return;
     }
+    case Code::replicate_channel: {
+      SKR_DECODE(msg::ReplicateChannel, m);
+      check(server_.replicate(user, m.source, m.short_name, this), m.tag, 0);
+      return;
+    }
+    case Code::replicate_stop: {
+      SKR_DECODE(msg::ReplicateStop, m);
+      check(server_.stopReplica(user, m.short_name, id), m.tag, 0);
+      return;
+    }
     case Code::time_probe: {
       SKR_DECODE(msg::TimeProbe, m);
       const auto now = static_cast<uint64_t>(realtimeNs());

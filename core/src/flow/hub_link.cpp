@@ -296,6 +296,12 @@ void FlowServer::Impl::startLinks() {
     links.push_back(std::make_unique<HubLink>(*this, o));
     links.back()->start();
   }
+  for (const ReplicaOptions& r : opt.replicas) {
+    if (auto made = replicate("hub", r.source, r.short_name, nullptr); !made) {
+      log::error(kLinkLog, "FLOW-REPLICA",
+                 "replica hub." + r.short_name + " of " + r.source + ": " + made.error().message);
+    }
+  }
 }
 
 Result<void> FlowServer::Impl::acceptHubLink(Connection& c, const std::string& name) {

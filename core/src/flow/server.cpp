@@ -1,6 +1,7 @@
 // FlowServer: transports, connection lifecycle, output flushing and timeouts (server_impl.h).
 #include "connection.h"
 #include "hub_link.h"
+#include "replica.h"
 #include "server_impl.h"
 #include "uv_handle.h"
 
@@ -345,7 +346,8 @@ void FlowServer::Impl::sweep() {
 }
 
 void FlowServer::Impl::stop() noexcept {
-  links.clear();  // their channels go while everyone is still here to be told
+  replicas.clear();  // their channels go while everyone is still here to be told
+  links.clear();
   std::vector<Connection*> all;
   for (auto& [id, c] : connections) all.push_back(c);
   for (Connection* c : all) c->close("hub stopping");

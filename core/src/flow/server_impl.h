@@ -43,6 +43,7 @@ namespace skr::flow {
 
 class Connection;
 class HubLink;
+class Replica;
 
 struct FlowServer::Impl {
   Impl(Loop& loop, ServerOptions options);
@@ -143,6 +144,17 @@ struct FlowServer::Impl {
   // A connection said HUB_LINK_HELLO as hub `name`: invalid_argument (a bad name, or ours),
   // already_exists (a hub of that name is linked already), or it is marked as that link.
   Result<void> acceptHubLink(Connection& c, const std::string& name);
+  // --- replicas (replica.cpp)
+  std::vector<std::unique_ptr<Replica>> replicas;
+  // Mirrors `source` as "<owner_user>.<short_name>"; asked by `by` (its rules apply, and the
+  // replica goes with it) or by the config (null). permission_denied, already_exists,
+  // invalid_argument (not a streaming channel).
+  Result<void> replicate(const std::string& owner_user, const std::string& source,
+                         const std::string& short_name, const Endpoint* by);
+  // not_found: no replica of that name asked by endpoint `by`.
+  Result<void> stopReplica(const std::string& owner_user, const std::string& short_name,
+                           uint32_t by);
+  void dropReplicasOf(uint32_t requester);
   // --- administration (admin.cpp): ADMIN's commands, for administrators only
   Result<Variant> admin(Connection& by, const std::string& command, const Variant& args);
 };

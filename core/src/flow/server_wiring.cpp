@@ -58,6 +58,7 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   channels.unpollAll(e.id);
   databases.detach(e);
   channels.unwantAll(e.id);
+  dropReplicasOf(e.id);
 }
 
 Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::string& short_name,

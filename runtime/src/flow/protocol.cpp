@@ -182,6 +182,8 @@ uint16_t minorOf(Code code) noexcept {
     case Code::ev_sync_pulse:
       return 4;
     case Code::hub_link_hello:
+    case Code::replicate_channel:
+    case Code::replicate_stop:
     case Code::time_probe:
     case Code::ev_time_probe:
       return 5;

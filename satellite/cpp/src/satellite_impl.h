@@ -114,6 +114,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   std::map<uint32_t, ResponseHandler> pending;           // request tag -> handler
   std::vector<uint32_t> orphan_tags;  // CHAN_ADDs in flight for channels removed meanwhile
   std::string wanted_db;              // selectDatabase(); empty: the user's
+  std::map<std::string, std::string, std::less<>> replicas;  // short name -> source (replicate())
   std::string flow_db;                // the flow's current database, as last asked
   uint32_t next_tag = 1;
   std::optional<SyncClient> sync;

@@ -282,6 +282,9 @@ void Satellite::Impl::onFlowOpen() {
   for (auto& [name, o] : own) {
     if (o.id == 0 && o.tag == 0) sendChanAdd(o);
   }
+  for (const auto& [short_name, source] : replicas) {
+    send(msg::ReplicateChannel{nextTag(), source, short_name});
+  }
   std::vector<std::pair<std::string, uint16_t>> ready;
   for (const auto& [name, id] : subs) {
     if (auto it = by_name.find(name); it != by_name.end() && id == 0)

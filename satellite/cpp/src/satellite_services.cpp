@@ -138,6 +138,29 @@ Result<uint32_t> Satellite::syncDatabases() {
   return tag;
 }
 
+Result<uint32_t> Satellite::replicate(std::string source, std::string short_name) {
+  if (!impl_->flowOpen()) return notConnected();
+  if (impl_->login.minor < flow::minorOf(flow::Code::replicate_channel)) {
+    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." +
+                                            std::to_string(impl_->login.minor) +
+                                            ") has no replicas: it needs 1.5");
+  }
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::ReplicateChannel{tag, source, short_name});
+  impl_->replicas[std::move(short_name)] = std::move(source);
+  return tag;
+}
+
+Result<uint32_t> Satellite::stopReplica(std::string_view short_name) {
+  auto it = impl_->replicas.find(short_name);
+  if (it == impl_->replicas.end()) return makeError(Errc::not_found, "no such replica of ours");
+  impl_->replicas.erase(it);
+  if (!impl_->flowOpen()) return notConnected();
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::ReplicateStop{tag, std::string(short_name)});
+  return tag;
+}
+
 Result<uint32_t> Satellite::probeTime() {
   if (!impl_->flowOpen()) return notConnected();
   if (impl_->login.minor < flow::minorOf(flow::Code::time_probe)) {

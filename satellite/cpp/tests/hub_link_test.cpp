@@ -34,7 +34,7 @@ struct NamedHub {
                 R"(", "address": ")" + links[i]->address() +
                 R"(", "user": "guest", "password_file": ")" + pass.string() + R"("})";
       }
-      keys += "], ";
+      keys += "], " + extra;
       hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), "", "", keys);
     }
     return hub->start();
@@ -53,6 +53,7 @@ struct NamedHub {
   }
   TempDir dir;
   std::string name;
+  std::string extra;  // more top-level keys, each followed by ", "
   std::vector<NamedHub*> links;
   std::unique_ptr<HubProcess> hub;
 };
@@ -395,6 +396,73 @@ TEST(HubLinkRoutes, AChannelReachedTwoWaysComesOnceAndSwitchesWhenItsRouteFails)
   for (int i = 0; i < 20; ++i) EXPECT_EQ(got[i], std::to_string(i));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_EQ(viewer->events.count("data:"), 20u);
+}
+
+TEST_F(HubLinks, ASatellitesReplicaMirrorsARemoteChannelWhileItsFlowLasts) {
+  auto owner = b->satellite("camera");
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    return s.addChannel({.name = "camera", .mime = "image/jpeg",
+                         .props = Variant::Map{{"fps", int64_t{15}}}});
+  }));
+  auto asker = a->satellite("asker");
+  auto viewer = a->satellite("viewer");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*asker, "bee/guest.camera"); })) << logs();
+  ASSERT_TRUE(asker->on([](Satellite& s) { return s.replicate("bee/guest.camera", "cam"); }));
+  ASSERT_TRUE(eventually([&] { return hasChannel(*viewer, "guest.cam"); })) << logs();
+  const ChannelInfo info = viewer->on([](Satellite& s) { return *s.channel("guest.cam"); });
+  EXPECT_EQ(info.mime, "image/jpeg");
+  EXPECT_EQ(*info.props.find("fps"), Variant(int64_t{15}));
+  EXPECT_EQ(*info.props.find("replica_of"), Variant("bee/guest.camera"));
+  // Nobody wants the replica yet: the camera does not run.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(owner->events.count("start:guest.camera"), 0u);
+
+  viewer->on([](Satellite& s) { s.subscribe("guest.cam"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.camera") == 1; }))
+      << logs();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("camera", "f1"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:guest.cam:f1") == 1; }));
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    return s.setChannelProperties("camera", Variant::Map{{"fps", int64_t{30}}});
+  }));
+  ASSERT_TRUE(eventually([&] {
+    return viewer->on([](Satellite& s) {
+      const Variant* fps = s.channel("guest.cam")->props.find("fps");
+      return fps != nullptr && *fps == Variant(int64_t{30});
+    });
+  }));
+  // A second replica of the same name is refused; the asker leaving takes its replica along.
+  ASSERT_TRUE(asker->on([](Satellite& s) { return s.replicate("bee/guest.camera", "cam"); }));
+  ASSERT_TRUE(eventually([&] { return asker->events.count("error:a replica guest.cam exists"); }))
+      << asker->events.dump();
+  asker.reset();
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("removed:guest.cam") == 1; }));
+  ASSERT_TRUE(eventually([&] { return owner->events.count("stop:guest.camera") == 1; }));
+}
+
+TEST(HubLinkReplicas, AReplicaOfTheConfigFollowsItsSourceAcrossLinkFailures) {
+  NamedHub b("bee");
+  NamedHub a("ay");
+  a.extra = R"("replicas": [{"from": "bee/guest.camera", "as": "front"}], )";
+  a.link(b);
+  ASSERT_TRUE(b.start());
+  ASSERT_TRUE(a.start());
+  auto owner = b.satellite("camera");
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.addChannel({.name = "camera"}); }));
+  auto viewer = a.satellite("viewer");
+  viewer->on([](Satellite& s) { s.subscribe("hub.front"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.camera") == 1; }))
+      << a.hub->log();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("camera", "one"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:hub.front:one") == 1; }));
+  // The far hub restarts: the replica goes with its source and comes back with it.
+  ASSERT_EQ(b.hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("removed:hub.front") == 1; }));
+  ASSERT_TRUE(b.start());
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.camera") == 2; }, 20000))
+      << a.hub->log();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("camera", "two"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:hub.front:two") == 1; }));
 }
 
 TEST_F(HubLinks, ASecondHubOfTheSameNameIsRefused) {

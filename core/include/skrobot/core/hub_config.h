@@ -72,6 +72,7 @@ struct HubConfig {
   std::string hub_name;
   std::vector<flow::HubLinkOptions> links;
   uint32_t link_hops = 8;  // a far channel that went through more links is not shown
+  std::vector<flow::ReplicaOptions> replicas;  // "replicas": [{"from", "as"}]
   std::string sync_hub_source;  // "sync.hub_source": the hub pulses hub.<name> on its fast tick
   std::filesystem::path config_file;  // absolute path of the file loaded
   Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections

@@ -36,6 +36,11 @@ struct HubLinkOptions {
   uint32_t max_channels = 4096;  // remote channels this link may take of the hub's 32767 ids
 };
 
+// A replica the config asks for: `source` mirrored as "hub.<short_name>" for the hub's lifetime.
+struct ReplicaOptions {
+  std::string source, short_name;
+};
+
 struct ServerOptions {
   std::string app_name = "Robot";
   // This hub's name in a linked network (hub links): unique there. Empty: the host name.
@@ -43,6 +48,7 @@ struct ServerOptions {
   std::vector<HubLinkOptions> links;
   // A far channel that went through more links than this is not shown (hub links).
   uint32_t link_hops = 8;
+  std::vector<ReplicaOptions> replicas;
   bool unix_enabled = true;
   std::string unix_path;  // empty: /tmp/<app_name>
   bool tcp_enabled = false;

@@ -80,6 +80,8 @@ void forEachMessage(F&& f) {
   f(EvSyncPulse{});
   f(HubLinkHello{});
   f(HubLinkHelloOk{});
+  f(ReplicateChannel{});
+  f(ReplicateStop{});
   f(TimeProbe{});
   f(EvTimeProbe{});
 }

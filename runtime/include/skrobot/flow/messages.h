@@ -667,6 +667,26 @@ struct HubLinkHelloOk {
   }
 };
 
+// 1.5, on a flow: mirror the channel `source` (any streaming channel, a linked hub's included)
+// as "<user>.<short_name>", kept while this flow lasts; a failure comes as EV_ERROR with `tag`.
+struct ReplicateChannel {
+  static constexpr Code code = Code::replicate_channel;
+  uint32_t tag = 0;
+  std::string source, short_name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(source) && f(short_name);
+  }
+};
+struct ReplicateStop {
+  static constexpr Code code = Code::replicate_stop;
+  uint32_t tag = 0;
+  std::string short_name;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(short_name);
+  }
+};
 // 1.5, on a flow: a clock probe (four timestamps, as NTP takes them). t1 is the sender's wall
 // clock (CLOCK_REALTIME, ns) when it sent the probe; the hub answers at once with t2 (when it read
 // the probe) and t3 (when it answered), on its own wall clock. With t4, the sender's clock when

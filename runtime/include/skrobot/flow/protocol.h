@@ -109,9 +109,9 @@ enum class Code : uint8_t {
   time_probe = 0xE9,      // on a flow: the sender's wall clock, answered at once
   ev_time_probe = 0xEA,   // the answer: the hub's wall clock when it got and answered the probe
 
-  // Reserved and specified; not implemented yet (answered with `unsupported`).
-  replicate_channel = 0xE0,
-  replicate_stop = 0xE1,
+  // 1.5: replicas: a channel mirrored as a local one of the caller's name, while its flow lasts.
+  replicate_channel = 0xE0,  // on a flow
+  replicate_stop = 0xE1,     // on a flow
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -124,9 +124,9 @@ enum class Code : uint8_t {
 [[nodiscard]] constexpr bool isSyncFamilyRequest(uint8_t code) noexcept {
   return isBlobRequest(code) || code == 0xE8;
 }
-// A command of a family block sent on a flow: the sync pulse (1.4), TIME_PROBE (1.5).
+// A command of a family block sent on a flow: the sync pulse (1.4), replicas and TIME_PROBE (1.5).
 [[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
-  return (code >= 0xD0 && code <= 0xD3) || code == 0xE9;
+  return (code >= 0xD0 && code <= 0xD3) || code == 0xE0 || code == 0xE1 || code == 0xE9;
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

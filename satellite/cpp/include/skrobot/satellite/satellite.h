@@ -175,6 +175,14 @@ class Satellite : public Object {
   void unsubscribe(std::string_view name);
   [[nodiscard]] bool isSubscribed(std::string_view name) const;  // attached to the channel now
 
+  // Asks the hub to mirror the streaming channel `source` (a linked hub's, typically) as our
+  // channel "<user>.<short_name>" (docs/hub-links.md, "Replicas"): the hub subscribes to the
+  // source while the replica has subscribers and copies its properties. Kept while this
+  // satellite's flow lasts, and asked again after each reconnection; a refusal comes as the
+  // `error` signal with the returned tag. Errc::closed, Errc::unsupported (a hub older than 1.5).
+  [[nodiscard]] Result<uint32_t> replicate(std::string source, std::string short_name);
+  [[nodiscard]] Result<uint32_t> stopReplica(std::string_view short_name);
+
   // --- the sync pulse (FlowProtocol 1.4, docs/sync-pulse.md) ---------------------------------
   // Follows the sync source `name` ("<user>.<name>"), every `every`th pulse: `syncPulse` is
   // emitted for each, and the hub learns that we are done with it when the signal's slots have

@@ -103,6 +103,14 @@ struct Satellite::Impl final : detail::Link::Handler {
   bool stopping = false;  // stop() is closing: no retry
   Nanos last_drop_log_ns = 0;
 
+  // Errc::unsupported ("this hub (FlowProtocol 1.m) <lacks>: it needs 1.n") when the hub's
+  // minor is older than the one that brought `code`.
+  [[nodiscard]] Result<void> needs(flow::Code code, const char* lacks) const {
+    const uint16_t minor = flow::minorOf(code);
+    if (login.minor >= minor) return {};
+    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." + std::to_string(login.minor) +
+                                            ") " + lacks + ": it needs 1." + std::to_string(minor));
+  }
   LoginInfo login;
   std::string linked_hub;  // the far hub's name, when opt.hub_name made this a hub link
   SatelliteStats stats;
@@ -115,7 +123,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   std::vector<uint32_t> orphan_tags;  // CHAN_ADDs in flight for channels removed meanwhile
   std::string wanted_db;              // selectDatabase(); empty: the user's
   std::map<std::string, std::string, std::less<>> replicas;  // short name -> source (replicate())
-  std::string flow_db;                // the flow's current database, as last asked
+  std::string flow_db;  // the flow's current database, as last asked
   uint32_t next_tag = 1;
   std::optional<SyncClient> sync;
   std::optional<Result<flow::TlsContext>> tls_context;  // tls: addresses, made once

@@ -26,11 +26,11 @@ Result<uint32_t> Satellite::request(uint16_t chan_id, const std::string& command
                                     const Variant& value, ResponseHandler done,
                                     uint32_t timeout_ms) {
   if (!impl_->flowOpen()) return notConnected();
-  const uint16_t timed = flow::minorOf(flow::Code::service_request_timed);
-  if (timeout_ms != 0 && impl_->login.minor < timed) {
-    return makeError(Errc::unsupported,
-                     "this hub (FlowProtocol 1." + std::to_string(impl_->login.minor) +
-                         ") does not time requests out: it needs 1." + std::to_string(timed));
+  if (timeout_ms != 0) {
+    if (auto r = impl_->needs(flow::Code::service_request_timed, "does not time requests out");
+        !r) {
+      return r.error();
+    }
   }
   const uint32_t tag = impl_->nextTag();
   impl_->pending[tag] = std::move(done);
@@ -140,11 +140,7 @@ Result<uint32_t> Satellite::syncDatabases() {
 
 Result<uint32_t> Satellite::replicate(std::string source, std::string short_name) {
   if (!impl_->flowOpen()) return notConnected();
-  if (impl_->login.minor < flow::minorOf(flow::Code::replicate_channel)) {
-    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." +
-                                            std::to_string(impl_->login.minor) +
-                                            ") has no replicas: it needs 1.5");
-  }
+  if (auto r = impl_->needs(flow::Code::replicate_channel, "has no replicas"); !r) return r.error();
   const uint32_t tag = impl_->nextTag();
   impl_->send(msg::ReplicateChannel{tag, source, short_name});
   impl_->replicas[std::move(short_name)] = std::move(source);
@@ -163,11 +159,7 @@ Result<uint32_t> Satellite::stopReplica(std::string_view short_name) {
 
 Result<uint32_t> Satellite::probeTime() {
   if (!impl_->flowOpen()) return notConnected();
-  if (impl_->login.minor < flow::minorOf(flow::Code::time_probe)) {
-    return makeError(Errc::unsupported, "this hub (FlowProtocol 1." +
-                                            std::to_string(impl_->login.minor) +
-                                            ") has no clock probe: it needs 1.5");
-  }
+  if (auto r = impl_->needs(flow::Code::time_probe, "has no clock probe"); !r) return r.error();
   const uint32_t tag = impl_->nextTag();
   impl_->send(msg::TimeProbe{tag, static_cast<uint64_t>(realtimeNs())});
   return tag;

@@ -4,13 +4,11 @@
 // twice or out of order, and that data flows again after every restart without any satellite
 // doing anything. Short by default; LINK_SOAK_SATELLITES (default 12), LINK_SOAK_CHANNELS
 // (default 48) and LINK_SOAK_CUTS (default 3) for the issue's full run (50, 200, 10).
-#include <sys/stat.h>
-
 #include <atomic>
 #include <map>
 #include <mutex>
 
-#include "sat_fixture.h"
+#include "named_hub.h"
 
 namespace skr::sat::test {
 namespace {
@@ -19,31 +17,6 @@ int envInt(const char* name, int def) {
   const char* v = std::getenv(name);
   return v != nullptr && *v != '\0' ? std::atoi(v) : def;
 }
-
-// A hub of its own name in its own directory, linked with the development account.
-struct Linked {
-  Linked(const std::string& name, const Linked* to) {
-    std::string keys = R"("hub_name": ")" + name + R"(", )";
-    if (to != nullptr) {
-      const fs::path pass = dir.path() / "link.pass";
-      std::ofstream(pass) << "password\n";
-      ::chmod(pass.c_str(), 0600);
-      keys += R"("links": [{"name": ")" + to->name + R"(", "address": ")" + to->hub->address() +
-              R"(", "user": "guest", "password_file": ")" + pass.string() + R"("}], )";
-    }
-    this->name = name;
-    hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), "", "", keys);
-  }
-  [[nodiscard]] SatelliteOptions options(const std::string& client) const {
-    SatelliteOptions o;
-    o.connection.address = Address::parse(hub->address()).value();
-    o.connection.client_name = client;
-    return o;
-  }
-  TempDir dir;
-  std::string name;
-  std::unique_ptr<HubProcess> hub;
-};
 
 // What one subscriber saw of each channel: the last sequence number, and its faults.
 struct Seen {
@@ -57,12 +30,12 @@ TEST(HubLinkSoak, ChannelsOfTwoHubsSurviveTheMiddleHubRestartingWithoutDuplicate
   const int satellites = std::max(4, envInt("LINK_SOAK_SATELLITES", 12));
   const int channels = std::max(satellites, envInt("LINK_SOAK_CHANNELS", 48));
   const int cuts = envInt("LINK_SOAK_CUTS", 3);
-  Linked sea("sea", nullptr);
-  ASSERT_TRUE(sea.hub->start());
-  Linked bee("bee", &sea);
-  ASSERT_TRUE(bee.hub->start());
-  Linked ay("ay", &bee);
-  ASSERT_TRUE(ay.hub->start());
+  NamedHub sea("sea");
+  NamedHub bee("bee");
+  NamedHub ay("ay");
+  ASSERT_TRUE(sea.start());
+  ASSERT_TRUE(bee.link(sea).start());
+  ASSERT_TRUE(ay.link(bee).start());
   const auto logs = [&] {
     return "--- ay\n" + ay.hub->log() + "--- bee\n" + bee.hub->log() + "--- sea\n" + sea.hub->log();
   };
@@ -174,7 +147,7 @@ TEST(HubLinkSoak, ChannelsOfTwoHubsSurviveTheMiddleHubRestartingWithoutDuplicate
   for (int cut = 0; cut < cuts; ++cut) {
     ASSERT_EQ(bee.hub->stop(), 0) << logs();
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    ASSERT_TRUE(bee.hub->start()) << logs();
+    ASSERT_TRUE(bee.start()) << logs();
     const long restarted_at = seq;
     ASSERT_TRUE(eventually([&] { return allFlowing(restarted_at); }, 30000))
         << "cut " << cut << ": " << missing << "\n"

@@ -1,62 +1,14 @@
 // Hub links (docs/hub-links.md): hubs started as processes on one machine, each with its own app
 // name, socket and data directory; satellites of one use the channels of another by name.
-#include <sys/stat.h>
-
 #include <cmath>
 
-#include "sat_fixture.h"
+#include "named_hub.h"
 
 namespace skr::sat::test {
 namespace {
 
 using flow::ErrorCode;
 using flow::Variant;
-
-// A hub named `name` in its own directory, linking with the development account to the hubs
-// added by link(); its config is written by start().
-struct NamedHub {
-  explicit NamedHub(std::string hub_name) : name(std::move(hub_name)) {}
-  NamedHub& link(NamedHub& to) {
-    links.push_back(&to);
-    return *this;
-  }
-  [[nodiscard]] std::string address() const {
-    return "local:" + (dir.path() / "hub.sock").string();
-  }
-  bool start() {
-    if (!hub) {
-      std::string keys = R"("hub_name": ")" + name + R"(", "links": [)";
-      for (size_t i = 0; i < links.size(); ++i) {
-        const fs::path pass = dir.path() / (links[i]->name + ".pass");
-        std::ofstream(pass) << "password\n";
-        ::chmod(pass.c_str(), 0600);
-        keys += (i ? ", " : "") + std::string(R"({"name": ")") + links[i]->name +
-                R"(", "address": ")" + links[i]->address() +
-                R"(", "user": "guest", "password_file": ")" + pass.string() + R"("})";
-      }
-      keys += "], " + extra;
-      hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), "", "", keys);
-    }
-    return hub->start();
-  }
-  [[nodiscard]] SatelliteOptions options(const std::string& client) const {
-    SatelliteOptions o;
-    o.connection.address = Address::parse(hub->address()).value();
-    o.connection.client_name = client;
-    return o;
-  }
-  std::unique_ptr<SatOnThread> satellite(const std::string& client) {
-    auto s = std::make_unique<SatOnThread>(options(client));
-    s->start();
-    EXPECT_TRUE(eventually([&] { return s->connected(); })) << hub->log();
-    return s;
-  }
-  TempDir dir;
-  std::string name;
-  std::string extra;  // more top-level keys, each followed by ", "
-  std::vector<NamedHub*> links;
-  std::unique_ptr<HubProcess> hub;
-};
 
 bool hasChannel(SatOnThread& s, const std::string& name) {
   return s.on([&](Satellite& sat) { return sat.channel(name) != nullptr; });
@@ -401,8 +353,8 @@ TEST(HubLinkRoutes, AChannelReachedTwoWaysComesOnceAndSwitchesWhenItsRouteFails)
 TEST_F(HubLinks, ASatellitesReplicaMirrorsARemoteChannelWhileItsFlowLasts) {
   auto owner = b->satellite("camera");
   ASSERT_TRUE(owner->on([](Satellite& s) {
-    return s.addChannel({.name = "camera", .mime = "image/jpeg",
-                         .props = Variant::Map{{"fps", int64_t{15}}}});
+    return s.addChannel(
+        {.name = "camera", .mime = "image/jpeg", .props = Variant::Map{{"fps", int64_t{15}}}});
   }));
   auto asker = a->satellite("asker");
   auto viewer = a->satellite("viewer");
@@ -418,8 +370,7 @@ TEST_F(HubLinks, ASatellitesReplicaMirrorsARemoteChannelWhileItsFlowLasts) {
   EXPECT_EQ(owner->events.count("start:guest.camera"), 0u);
 
   viewer->on([](Satellite& s) { s.subscribe("guest.cam"); });
-  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.camera") == 1; }))
-      << logs();
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.camera") == 1; })) << logs();
   ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("camera", "f1"); }));
   ASSERT_TRUE(eventually([&] { return viewer->events.count("data:guest.cam:f1") == 1; }));
   ASSERT_TRUE(owner->on([](Satellite& s) {

@@ -36,7 +36,7 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-PROTOCOL_MINOR = 4  # 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
+PROTOCOL_MINOR = 5  # 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
 
 DEFAULT_PORT = 9000
 DEFAULT_ADDRESS = "local:/tmp/Robot"
@@ -236,6 +236,10 @@ class Code(object):
     SYNC_UNFOLLOW = 0xD2
     SYNC_DONE = 0xD3
     EV_SYNC_PULSE = 0xD8
+
+    # 1.5: replicas and hub links (commands on a flow)
+    REPLICATE_CHANNEL = 0xE0
+    REPLICATE_STOP = 0xE1
 
 
 def codeName(code):

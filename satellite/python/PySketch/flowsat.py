@@ -86,6 +86,7 @@ from PySketch.flowsync import FlowSync
 
 TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
 SYNC_MINOR = 4           # the sync pulse
+REPLICA_MINOR = 5        # REPLICATE_CHANNEL, REPLICATE_STOP
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
@@ -200,6 +201,7 @@ class FlowSat(AbstractFlow):
 
         # The sync pulse (docs/sync-pulse.md): the sources followed, by name -> every Nth pulse.
         self._follows = {}
+        self._replicas = {}                # short name -> source, asked again on reconnection
         self._syncTimeout = None   # seconds without a pulse before the own timer takes over
         self._syncStrict = False   # ... or tick() waits for pulses
         self._pulse = None         # (chanID, seq, sourceTimeNs, dropped) not handed to tick()
@@ -673,6 +675,10 @@ class FlowSat(AbstractFlow):
         fresh = [self._addChannel(info) for info in infos]
         for short in list(self._specs.keys()):
             self._sendChanAdd(short)
+        if self.hubMinor >= REPLICA_MINOR:
+            for short, source in self._replicas.items():
+                self._send(frame(Code.REPLICATE_CHANNEL,
+                                 u32(self._nextTag()) + str16(source) + str16(short)))
         # After the channels: the selected database may be one of theirs.
         if self._selectedDb and self._selectedDb != self.currentDbName:
             self._send(frame(Code.DB_SET_CURRENT, u32(self._nextTag()) + str16(self._selectedDb)))
@@ -1318,6 +1324,31 @@ class FlowSat(AbstractFlow):
 
     def removeDatabase(self, name):
         return self._send(frame(Code.DB_REMOVE_ASYNC, u32(self._nextTag()) + str16(name)))
+
+    def replicate(self, source, shortName):
+        """Asks the hub to mirror the streaming channel `source` (a linked hub's, typically:
+        "arm/guest.camera") as this satellite's channel <user>.<shortName>, subscribed on the
+        source only while it has subscribers (docs/hub-links.md, "Replicas"). Kept while this
+        flow lasts and asked again after a reconnection; a refusal comes to the error callback.
+        Returns the tag, or None when offline; FlowError unsupported from a hub older than 1.5."""
+        if self._state == "online" and self.hubMinor < REPLICA_MINOR:
+            raise FlowError(Error_T.unsupported, "this hub (FlowProtocol 1.%d) has no replicas: "
+                            "it needs 1.%d" % (self.hubMinor, REPLICA_MINOR))
+        self._replicas[shortName] = source
+        tag = self._nextTag()
+        if not self._send(frame(Code.REPLICATE_CHANNEL, u32(tag) + str16(source) +
+                                str16(shortName))):
+            return None
+        return tag
+
+    def stopReplica(self, shortName):
+        """Ends a replica made by replicate(). Returns the tag, or None."""
+        if self._replicas.pop(shortName, None) is None:
+            return None
+        tag = self._nextTag()
+        if not self._send(frame(Code.REPLICATE_STOP, u32(tag) + str16(shortName))):
+            return None
+        return tag
 
     def syncDatabases(self, callback=None):
         """A barrier for the writes above, which have no reply: `callback()` is called once every

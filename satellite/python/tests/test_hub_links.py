@@ -70,5 +70,29 @@ class HubLinks(unittest.TestCase):
             thread.join()
 
 
+    def test_a_replica_mirrors_the_linked_hubs_channel_while_its_flow_lasts(self):
+        owner = self.sat(self.bee)
+        asker = self.sat(self.ay)
+        viewer = self.sat(self.ay)
+        started, stopped, got, removed = [], [], [], []
+        owner.setStartChanPubReqCallBack(started.append)
+        owner.setStopChanPubReqCallBack(stopped.append)
+        viewer.setGrabDataCallBack(lambda chanID, data: got.append(data))
+        viewer.setDelChanCallBack(lambda ch: removed.append(ch.name))
+        self.assertTrue(owner.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY, "camera",
+                                                  "image/jpeg"))
+        self.assertTrue(pump([owner, asker], lambda: asker.channelByName("bee/guest.camera")))
+        self.assertIsNotNone(asker.replicate("bee/guest.camera", "front"))
+        self.assertTrue(pump([owner, asker, viewer], lambda: viewer.channelByName("guest.front")),
+                        self.ay.log())
+        self.assertEqual(viewer.channelByName("guest.front").mime, "image/jpeg")
+        viewer.subscribeChannel("guest.front")
+        self.assertTrue(pump([owner, asker, viewer], lambda: started))
+        owner.publish(owner.channelByName("guest.camera").chanID, b"frame")
+        self.assertTrue(pump([owner, asker, viewer], lambda: got == [b"frame"]))
+        self.assertIsNotNone(asker.stopReplica("front"))
+        self.assertTrue(pump([owner, asker, viewer], lambda: "guest.front" in removed and stopped))
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -416,6 +416,43 @@ TEST(HubLinkReplicas, AReplicaOfTheConfigFollowsItsSourceAcrossLinkFailures) {
   ASSERT_TRUE(eventually([&] { return viewer->events.count("data:hub.front:two") == 1; }));
 }
 
+TEST(HubLinkStar, TenHubsAroundOneSeeEachOthersChannelsThroughTheCentre) {
+  // The centre links to nine leaves, and each leaf to the centre.
+  NamedHub centre("centre");
+  std::vector<std::unique_ptr<NamedHub>> leaves;
+  for (int i = 1; i <= 9; ++i) {
+    leaves.push_back(std::make_unique<NamedHub>("leaf" + std::to_string(i)));
+    centre.link(*leaves.back());
+    leaves.back()->link(centre);
+  }
+  for (auto& leaf : leaves) ASSERT_TRUE(leaf->start());
+  ASSERT_TRUE(centre.start());
+  std::vector<std::unique_ptr<SatOnThread>> owners;
+  for (auto& leaf : leaves) {
+    owners.push_back(leaf->satellite("owner"));
+    ASSERT_TRUE(owners.back()->on([](Satellite& s) { return s.addChannel({.name = "x"}); }));
+  }
+  auto viewer = leaves[0]->satellite("viewer");
+  ASSERT_TRUE(eventually([&] {
+    for (int i = 2; i <= 9; ++i) {
+      if (!hasChannel(*viewer, "leaf" + std::to_string(i) + "/guest.x")) return false;
+    }
+    return hasChannel(*viewer, "guest.x");
+  })) << centre.hub->log();
+  // Its own channel never comes back, and each other leaf's comes once, through the centre.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_FALSE(hasChannel(*viewer, "leaf1/guest.x"));
+  const auto route = viewer->on([](Satellite& s) {
+    return flow::variantToJsonText(*s.channel("leaf9/guest.x")->props.find("hub_route"));
+  });
+  EXPECT_EQ(route, R"(["leaf9","centre"])");
+  viewer->on([](Satellite& s) { s.subscribe("leaf9/guest.x"); });
+  ASSERT_TRUE(eventually([&] { return owners[8]->events.count("start:guest.x") == 1; }))
+      << centre.hub->log();
+  ASSERT_TRUE(owners[8]->on([](Satellite& s) { return s.publish("x", "from-9"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:leaf9/guest.x:from-9") == 1; }));
+}
+
 TEST_F(HubLinks, ASecondHubOfTheSameNameIsRefused) {
   auto twin = std::make_unique<NamedHub>("ay");
   ASSERT_TRUE(twin->link(*b).start());

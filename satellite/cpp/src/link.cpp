@@ -1,7 +1,9 @@
 #include "link.h"
 
 #include <algorithm>
+#include <csignal>
 #include <cstring>
+#include <mutex>
 
 namespace skr::sat::detail {
 namespace {
@@ -15,9 +17,21 @@ std::string uvError(const char* what, int rc) {
 
 }  // namespace
 
+void ignoreSigpipe() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    struct sigaction old {};
+    if (::sigaction(SIGPIPE, nullptr, &old) == 0 && (old.sa_flags & SA_SIGINFO) == 0 &&
+        old.sa_handler == SIG_DFL) {
+      ::signal(SIGPIPE, SIG_IGN);
+    }
+  });
+}
+
 Link::Link(uv_loop_t* loop, const Address& address, const Result<flow::TlsContext>* tls,
            uint32_t max_frame_bytes, Handler& handler)
     : loop_(loop), address_(address), splitter_(max_frame_bytes), handler_(handler) {
+  ignoreSigpipe();
   if (address.kind == Address::Kind::tls) {
     if (tls != nullptr) {
       tls_context_ = *tls;

@@ -24,6 +24,11 @@
 
 namespace skr::sat::detail {
 
+// A hub that closes the connection while we write must not kill the process (SIGPIPE's default
+// action): the write fails with EPIPE and the satellite reconnects. Sets SIGPIPE to ignored once,
+// and only when the process left it at its default. Called by every Link.
+void ignoreSigpipe();
+
 class Link {
  public:
   class Handler {

@@ -7,6 +7,7 @@
 #include <sys/un.h>
 
 #include <atomic>
+#include <csignal>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -243,6 +244,19 @@ TEST_F(Reconnect, SatelliteStartedBeforeTheHubConnectsWhenItComes) {
   auto pub = satellite("later");
   ASSERT_TRUE(pub->on([](Satellite& x) { return x.addChannel({.name = "later"}); }));
   ASSERT_TRUE(eventually([&] { return s->events.count("subscribed:guest.later") == 1; }));
+}
+
+// A hub that closes the connection while the satellite writes must not kill the process: the
+// library ignores SIGPIPE once it opens a connection (unless the process chose otherwise).
+TEST_F(Reconnect, TheFirstConnectionAttemptLeavesSigpipeIgnored) {
+  struct sigaction now {};
+  ASSERT_EQ(::sigaction(SIGPIPE, nullptr, &now), 0);
+  ASSERT_EQ(now.sa_handler, SIG_DFL);  // each test runs in a process of its own
+  auto s = satellite("early", false);  // nobody listens: the attempt is enough
+  EXPECT_TRUE(eventually([&] {
+    ::sigaction(SIGPIPE, nullptr, &now);
+    return now.sa_handler == SIG_IGN;
+  }));
 }
 
 TEST_F(Reconnect, StopMeansNoReconnection) {

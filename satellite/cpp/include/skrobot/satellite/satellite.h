@@ -17,6 +17,10 @@
 // any method, stop() included, but must not destroy the satellite (use skr::deleteLater).
 // Connect slots before start(): connections take effect at the loop's next pulse.
 //
+// SIGPIPE: a hub that closes the connection while the satellite writes would kill the process
+// by SIGPIPE's default action; the library sets SIGPIPE to ignored when its first connection is
+// made, unless the process chose a disposition of its own.
+//
 // Reconnection: when the link drops, the hub restarts, or the hub breaks the protocol, the
 // satellite closes the connection (logging why), emits `disconnected`, and retries with a backoff
 // (100 ms doubling to 2 s). Once logged in again it re-creates its channels (same short names and

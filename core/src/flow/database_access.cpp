@@ -66,6 +66,18 @@ void DatabaseAccess::removeOwnedDb(const std::string& name) {
   (void)store_.remove(name);
 }
 
+Result<void> DatabaseAccess::replaceChannelProps(const std::string& name, Variant::Map props,
+                                                 std::initializer_list<std::string_view> keep) {
+  const Variant now = channelProps(name);
+  if (const auto* old = now.asMap()) {
+    for (const auto& [key, value] : *old) {
+      const bool kept = std::find(keep.begin(), keep.end(), key) != keep.end();
+      if (!kept && !props.contains(key)) props[key] = Variant();
+    }
+  }
+  return setChannelProps(name, props);
+}
+
 Result<void> DatabaseAccess::setChannelProps(const std::string& name, const Variant::Map& props) {
   PairDatabase* db = store_.find(name);
   if (db == nullptr) return noDatabase(name);

@@ -13,7 +13,9 @@
 
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 
 namespace skr::flow {
@@ -46,6 +48,10 @@ class DatabaseAccess {
   void setChannelDbOwner(const std::string& name, uint32_t owner_id);
   // Sets (or, for null values, removes) the keys of `props` in channel `name`'s database.
   [[nodiscard]] Result<void> setChannelProps(const std::string& name, const Variant::Map& props);
+  // Makes channel `name`'s properties `props`: keys set, keys absent from `props` removed, except
+  // those in `keep` (a mirror of another channel's properties: hub links, replicas).
+  [[nodiscard]] Result<void> replaceChannelProps(const std::string& name, Variant::Map props,
+                                                 std::initializer_list<std::string_view> keep = {});
   // The channel `name`'s properties (an empty map when it has none).
   [[nodiscard]] Variant channelProps(const std::string& name) const;
 

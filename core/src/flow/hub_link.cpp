@@ -175,7 +175,7 @@ void HubLink::added(const msg::ChannelInfo& info) {
   }
   const Channel* ch = *made;
   by_remote_[info.id] = ch->id;
-  by_local_[ch->id] = Remote{info.id, ch->hash, info.name};
+  by_local_[ch->id] = Remote{info.id, info.name};
 }
 
 void HubLink::removed(uint16_t remote_id) {
@@ -194,15 +194,8 @@ void HubLink::changed(const msg::ChannelInfo& info) {
   const auto* props = info.props.asMap();
   if (ch == nullptr || props == nullptr) return;
   Variant::Map update = *props;
-  // Keys the far owner removed go here too; the route stays ours.
-  const Variant now = server_.databases.channelProps(ch->name);
-  if (const auto* old = now.asMap()) {
-    for (const auto& [key, value] : *old) {
-      if (!props->contains(key)) update[key] = Variant();
-    }
-  }
-  update.erase("hub_route");
-  (void)server_.databases.setChannelProps(ch->name, update);
+  update.erase("hub_route");  // the route stays ours
+  (void)server_.databases.replaceChannelProps(ch->name, update, {"hub_route"});
 }
 
 void HubLink::data(uint16_t remote_id, const std::string& payload) {

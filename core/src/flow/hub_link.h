@@ -42,8 +42,6 @@ class HubLink final : public Endpoint {
   void offerAgain();
   // Open, and the far hub said it is the one the config names.
   [[nodiscard]] bool up() const noexcept { return up_; }
-  // The far hub's channels shown here now.
-  [[nodiscard]] size_t remoteChannels() const noexcept { return by_local_.size(); }
 
   // --- Endpoint: what happens here to the channels it owns
   [[nodiscard]] bool receivesEvents() const override { return true; }
@@ -64,7 +62,6 @@ class HubLink final : public Endpoint {
  private:
   struct Remote {
     uint16_t remote_id = 0;  // on the far hub
-    uint64_t local_hash = 0;
     std::string remote_name;
   };
   void opened();

@@ -71,14 +71,7 @@ void Replica::onChannelHeader(const Channel& ch) {
   if (ch.id != source_id_ || local_id_ == 0) return;
   const Channel* local = server_.channels.find(local_id_);
   if (local == nullptr) return;
-  Variant::Map update = *propsOf(ch).asMap();
-  const Variant now = server_.databases.channelProps(local->name);
-  if (const auto* old = now.asMap()) {
-    for (const auto& [key, value] : *old) {
-      if (!update.contains(key)) update[key] = Variant();
-    }
-  }
-  (void)server_.databases.setChannelProps(local->name, update);
+  (void)server_.databases.replaceChannelProps(local->name, *propsOf(ch).asMap());
 }
 
 void Replica::onSubscribers(const Channel& ch, bool first) {

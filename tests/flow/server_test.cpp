@@ -816,5 +816,39 @@ TEST_F(Server, TimeProbeAnswersWithTheHubsClock) {
   EXPECT_LE(ev->t3, t4 + 1000000);
 }
 
+TEST_F(Server, DbReadOnAFlowAnswersWithTheTagOrTheError) {
+  startHub();
+  TestClient f = flowClient();
+  ASSERT_TRUE(f.send(msg::VarSetAsync{1, "speed", 3}));
+  ASSERT_TRUE(f.send(msg::DbRead{2, "guest", uint8_t(msg::DbReadWhat::get), "speed"}));
+  auto v = as<msg::EvDbValue>(f.waitFor(Code::ev_db_value));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->tag, 2u);
+  EXPECT_EQ(v->value, Variant(3));
+  ASSERT_TRUE(f.send(msg::DbRead{3, "guest", uint8_t(msg::DbReadWhat::keys), ""}));
+  v = as<msg::EvDbValue>(f.waitFor(Code::ev_db_value));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->value, Variant(Variant::List{Variant("speed")}));
+  // Errors come with the tag; the flow stays.
+  const auto refused = [&](msg::DbRead read) {
+    EXPECT_TRUE(f.send(read));
+    auto e = as<msg::EvError>(f.waitFor(Code::ev_error));
+    EXPECT_TRUE(e);
+    if (e) EXPECT_EQ(e->tag, read.tag);
+    return e ? e->error : uint16_t(0);
+  };
+  EXPECT_EQ(refused({4, "guest", uint8_t(msg::DbReadWhat::get), "nothing"}),
+            uint16_t(ErrorCode::not_found));
+  EXPECT_EQ(refused({5, "nowhere", uint8_t(msg::DbReadWhat::all), ""}),
+            uint16_t(ErrorCode::not_found));
+  EXPECT_EQ(refused({6, "guest", 7, ""}), uint16_t(ErrorCode::invalid_argument));
+  EXPECT_EQ(refused({7, "arm/calib", uint8_t(msg::DbReadWhat::all), ""}),
+            uint16_t(ErrorCode::not_found));  // no hub "arm" is linked
+  // A synchronous connection may not select a linked hub's database that is not there either.
+  TestClient sync = syncClient();
+  EXPECT_EQ(errorOf(sync.call(msg::DbSelect{"arm/calib"})), uint16_t(ErrorCode::not_found));
+  EXPECT_EQ(stats().protocol_errors, 0u);
+}
+
 }  // namespace
 }  // namespace skr::test

@@ -130,6 +130,11 @@ class Connection final : public Endpoint {
   // A callback for the store that finds this connection again, if it is still there.
   std::function<void(Result<void>)> whenDone(
       std::function<void(Connection&, const Result<void>&)> then);
+  // The same for a database read (a linked hub's answers later).
+  std::function<void(Result<Variant>)> whenRead(
+      std::function<void(Connection&, Result<Variant>)> then);
+  // VAR_GET, VAR_GET_ALL or VAR_KEYS in a linked hub's current database.
+  void readLinkedDb(Code code, std::string_view body);
   // Pauses reading until the pending reply is sent (sync requests answer in order).
   void block();
   void unblock();

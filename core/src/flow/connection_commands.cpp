@@ -115,6 +115,14 @@ std::function<void(Result<void>)> Connection::whenDone(
   };
 }
 
+std::function<void(Result<Variant>)> Connection::whenRead(
+    std::function<void(Connection&, Result<Variant>)> then) {
+  return [&server = server_, my_id = id, then = std::move(then)](Result<Variant> r) {
+    auto it = server.connections.find(my_id);
+    if (it != server.connections.end()) then(*it->second, std::move(r));
+  };
+}
+
 void Connection::answerDone(const Result<void>& r) {
   if (r) {
     replyOk();
@@ -136,6 +144,29 @@ void Connection::answerDurably(const Result<void>& r, bool persistent) {
   }
 }
 
+void Connection::readLinkedDb(Code code, std::string_view body) {
+  const DecodeLimits limits = valueLimits(server_.opt);
+  std::string key;
+  if (code == Code::var_get) {
+    SKR_DECODE(msg::VarGet, m);
+    key = std::move(m.key);
+  } else if (!body.empty()) {
+    return protocolError(std::string(codeName(uint8_t(code))) + " has a body");
+  }
+  const auto what = code == Code::var_get       ? msg::DbReadWhat::get
+                    : code == Code::var_get_all ? msg::DbReadWhat::all
+                                                : msg::DbReadWhat::keys;
+  block();  // answered when the link brings the value
+  server_.readDatabase(*this, current_db, what, key, whenRead([](Connection& c, Result<Variant> r) {
+    if (r) {
+      c.send(msg::ReplyValue{std::move(*r)});
+    } else {
+      c.replyError(toErrorCode(r.error().code), r.error().message);
+    }
+    c.unblock();
+  }));
+}
+
 void Connection::handleSync(Code code, std::string_view body) {
   const DecodeLimits limits = valueLimits(server_.opt);
   const auto answer = [&](const Result<void>& r) {
@@ -146,6 +177,8 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
   };
   DatabaseAccess& dbs = server_.databases;
+  const bool read = code == Code::var_get || code == Code::var_get_all || code == Code::var_keys;
+  if (read && dbs.remote(current_db)) return readLinkedDb(code, body);
   switch (code) {
     case Code::db_select: {
       SKR_DECODE(msg::DbSelect, m);
@@ -444,6 +477,24 @@ void Connection::handleAsync(Code code, std::string_view body) {
     case Code::var_del_async: {
       SKR_DECODE(msg::VarDelAsync, m);
       check(dbs.delVar(*this, {}, m.name), m.tag, 0);
+      return;
+    }
+    case Code::db_read: {
+      SKR_DECODE(msg::DbRead, m);
+      if (m.what > uint8_t(msg::DbReadWhat::keys)) {
+        return onError(
+            code, m.tag, 0, ErrorCode::invalid_argument,
+            "DB_READ: what is 0 (get), 1 (all) or 2 (keys), not " + std::to_string(m.what));
+      }
+      server_.readDatabase(*this, m.db, static_cast<msg::DbReadWhat>(m.what), m.key,
+                           whenRead([tag = m.tag](Connection& c, Result<Variant> r) {
+                             if (r) {
+                               c.send(msg::EvDbValue{tag, std::move(*r)});
+                             } else {
+                               c.onError(Code::db_read, tag, 0, toErrorCode(r.error().code),
+                                         r.error().message);
+                             }
+                           }));
       return;
     }
     case Code::replicate_channel: {

@@ -13,6 +13,11 @@ Error noDatabase(const std::string& name) {
   return makeError(Errc::not_found, "no database \"" + name + "\"");
 }
 
+Error readOnly(const std::string& name) {
+  return makeError(Errc::permission_denied,
+                   "database \"" + name + "\" is a linked hub's: it is read here, written there");
+}
+
 }  // namespace
 
 void DatabaseAccess::attach(Endpoint& e) {
@@ -136,10 +141,38 @@ bool DatabaseAccess::canRead(const Endpoint& e, const std::string& db) const {
 }
 
 Result<void> DatabaseAccess::select(Endpoint& e, const std::string& name) {
-  if (store_.find(name) == nullptr) return noDatabase(name);
+  if (remote(name)) {
+    const std::string hub = name.substr(0, name.find('/'));
+    if (!validHubName(hub) || !hub_reachable || !hub_reachable(hub)) {
+      return makeError(Errc::not_found,
+                       "no database \"" + name + "\": no linked hub \"" + hub + "\" is up");
+    }
+  } else if (store_.find(name) == nullptr) {
+    return noDatabase(name);
+  }
   if (!canRead(e, name)) return accessDenied(e.user, Action::db_read, name);
   e.current_db = name;
   return {};
+}
+
+Result<Variant> DatabaseAccess::read(const Endpoint& e, const std::string& name,
+                                     msg::DbReadWhat what, const std::string& key) const {
+  const PairDatabase* db = store_.find(name);
+  if (db == nullptr) return noDatabase(name);
+  if (!canRead(e, name)) return accessDenied(e.user, Action::db_read, name);
+  switch (what) {
+    case msg::DbReadWhat::get:
+      if (const Variant* v = db->get(key)) return *v;
+      return makeError(Errc::not_found, "no variable \"" + key + "\" in database \"" + name + "\"");
+    case msg::DbReadWhat::all:
+      return db->all();
+    case msg::DbReadWhat::keys: {
+      Variant::List keys;
+      for (auto& k : db->keys()) keys.emplace_back(k);
+      return Variant(std::move(keys));
+    }
+  }
+  return makeError(Errc::invalid_argument, "DB_READ: what is 0 (get), 1 (all) or 2 (keys)");
 }
 
 Result<void> DatabaseAccess::create(const Endpoint& e, const std::string& name) {
@@ -161,6 +194,7 @@ Result<void> DatabaseAccess::create(const Endpoint& e, const std::string& name) 
 Result<void> DatabaseAccess::save(const Endpoint& e, const std::string& name,
                                   std::function<void(Result<void>)> done) {
   const std::string& target = name.empty() ? e.current_db : name;
+  if (remote(target)) return readOnly(target);
   const auto kind = store_.kind(target);
   if (!kind) return noDatabase(target);
   if (*kind != DatabaseKind::persistent) {
@@ -188,6 +222,9 @@ Result<void> DatabaseAccess::remove(const Endpoint& e, const std::string& name) 
 
 Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, const std::string& key,
                                     const Variant& value) {
+  if (remote(db_name.empty() ? e.current_db : db_name)) {
+    return readOnly(db_name.empty() ? e.current_db : db_name);
+  }
   PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
   if (db == nullptr) return noDatabase(db_name);
   if (!canWrite(e, db->name())) {
@@ -202,6 +239,9 @@ Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, con
 
 Result<void> DatabaseAccess::delVar(Endpoint& e, const std::string& db_name,
                                     const std::string& key) {
+  if (remote(db_name.empty() ? e.current_db : db_name)) {
+    return readOnly(db_name.empty() ? e.current_db : db_name);
+  }
   PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
   if (db == nullptr) return noDatabase(db_name);
   if (!canWrite(e, db->name())) {

@@ -9,6 +9,7 @@
 #include "endpoint.h"
 
 #include <skrobot/core/result.h>
+#include <skrobot/flow/messages.h>
 #include <skrobot/flow/pair_database.h>
 
 #include <filesystem>
@@ -64,6 +65,17 @@ class DatabaseAccess {
   [[nodiscard]] bool persistent(const std::string& db) const {
     return store_.kind(db) == DatabaseKind::persistent;
   }
+
+  // "<hub>/<name>" with no database of that name here (a linked channel's properties are kept
+  // here): a linked hub's database, read through the link (docs/hub-links.md).
+  [[nodiscard]] bool remote(const std::string& db) const {
+    return db.find('/') != std::string::npos && store_.find(db) == nullptr;
+  }
+  // Whether a hub of that name is reachable (set by the server: its links); for select().
+  std::function<bool(std::string_view hub)> hub_reachable;
+  // A read of a database here (DB_READ): not_found, permission_denied.
+  [[nodiscard]] Result<Variant> read(const Endpoint& e, const std::string& db, msg::DbReadWhat what,
+                                     const std::string& key) const;
 
   // The protocol's database commands. Errors: not_found, permission_denied, invalid_argument,
   // already_exists, unsupported (save without a data directory), io_error.

@@ -236,6 +236,26 @@ void HubLink::onRequest(const Channel& ch, uint64_t request, const std::string& 
   }
 }
 
+bool HubLink::reaches(std::string_view hub) const {
+  if (!up_) return false;
+  if (hub == opt_.name) return true;
+  return std::any_of(by_local_.begin(), by_local_.end(), [hub](const auto& kv) {
+    const std::string& far = kv.second.remote_name;  // "<hub>/<user>.<name>" beyond the far hub
+    return far.size() > hub.size() && far.starts_with(hub) && far[hub.size()] == '/';
+  });
+}
+
+void HubLink::readDatabase(const std::string& db, msg::DbReadWhat what, const std::string& key,
+                           std::function<void(Result<Variant>)> done) {
+  ++requests_;
+  auto sent = sat_->readDatabase(db, what, key, [name = opt_.name, done](const sat::Response& r) {
+    if (r.ok()) return done(r.value);
+    const std::string* why = r.value.asString();
+    done(makeError(toErrc(r.error), "hub " + name + ": " + (why != nullptr ? *why : "")));
+  });
+  if (!sent) done(makeError(Errc::not_found, "hub " + opt_.name + ": " + sent.error().message));
+}
+
 void HubLink::onError(Code command, uint32_t, uint16_t chan_id, ErrorCode error,
                       const std::string& message) {
   log::warn(kLinkLog, "HUB-LINK-ERROR",
@@ -295,6 +315,33 @@ void FlowServer::Impl::startLinks() {
                  "replica hub." + r.short_name + " of " + r.source + ": " + made.error().message);
     }
   }
+}
+
+HubLink* FlowServer::Impl::linkToward(std::string_view hub) {
+  for (const auto& link : links) {
+    if (link->up() && link->options().name == hub) return link.get();
+  }
+  for (const auto& link : links) {
+    if (link->reaches(hub)) return link.get();
+  }
+  return nullptr;
+}
+
+void FlowServer::Impl::readDatabase(const Endpoint& e, const std::string& db, msg::DbReadWhat what,
+                                    const std::string& key,
+                                    std::function<void(Result<Variant>)> done) {
+  if (!databases.remote(db)) return done(databases.read(e, db, what, key));
+  if (!databases.canRead(e, db)) return done(accessDenied(e.user, Action::db_read, db));
+  const size_t slash = db.find('/');
+  const std::string hub = db.substr(0, slash);
+  HubLink* link = linkToward(hub);
+  if (link == nullptr) {
+    return done(makeError(Errc::not_found,
+                          "no database \"" + db + "\": no linked hub \"" + hub + "\" is up"));
+  }
+  // The far hub's own databases lose the prefix; a hub beyond it keeps it.
+  link->readDatabase(hub == link->options().name ? db.substr(slash + 1) : db, what, key,
+                     std::move(done));
 }
 
 Result<void> FlowServer::Impl::acceptHubLink(Connection& c, const std::string& name) {

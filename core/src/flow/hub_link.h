@@ -12,8 +12,10 @@
 #include <skrobot/flow/server.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <vector>
 
@@ -42,6 +44,12 @@ class HubLink final : public Endpoint {
   void offerAgain();
   // Open, and the far hub said it is the one the config names.
   [[nodiscard]] bool up() const noexcept { return up_; }
+  // Up, and `hub` is the far hub or a hub whose channels come through it.
+  [[nodiscard]] bool reaches(std::string_view hub) const;
+  // Reads database `db` of the far hub ("<hub>/<name>" for a hub beyond it) as the link's
+  // account; `done` gets the value or the far hub's error (io_error when the link drops first).
+  void readDatabase(const std::string& db, msg::DbReadWhat what, const std::string& key,
+                    std::function<void(Result<Variant>)> done);
 
   // --- Endpoint: what happens here to the channels it owns
   [[nodiscard]] bool receivesEvents() const override { return true; }

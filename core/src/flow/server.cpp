@@ -54,6 +54,7 @@ FlowServer::Impl::Impl(Loop& l, ServerOptions options)
       endpoints.forEachEventReceiver([&](Endpoint& e) { e.onChannelHeader(*ch); });
     }
   };
+  databases.hub_reachable = [this](std::string_view hub) { return linkToward(hub) != nullptr; };
 }
 
 Result<void> FlowServer::Impl::start() {

@@ -144,6 +144,14 @@ struct FlowServer::Impl {
   // A connection said HUB_LINK_HELLO as hub `name`: invalid_argument (a bad name, or ours),
   // already_exists (a hub of that name is linked already), or it is marked as that link.
   Result<void> acceptHubLink(Connection& c, const std::string& name);
+  // The link that reaches hub `hub`: the link to it, else one that shows its channels. Null when
+  // none is up.
+  HubLink* linkToward(std::string_view hub);
+  // A read of database `db` for `e` (DB_READ, or a synchronous read of a linked hub's current
+  // database): here, or on a linked hub ("<hub>/<name>", through linkToward(); that hub applies
+  // its own rules to the link's account). `done` may be called later (never after the server).
+  void readDatabase(const Endpoint& e, const std::string& db, msg::DbReadWhat what,
+                    const std::string& key, std::function<void(Result<Variant>)> done);
   // --- replicas (replica.cpp)
   std::vector<std::unique_ptr<Replica>> replicas;
   // Mirrors `source` as "<owner_user>.<short_name>"; asked by `by` (its rules apply, and the

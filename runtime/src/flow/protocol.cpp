@@ -149,6 +149,10 @@ std::string_view codeName(uint8_t code) noexcept {
       return "TIME_PROBE";
     case Code::ev_time_probe:
       return "EV_TIME_PROBE";
+    case Code::db_read:
+      return "DB_READ";
+    case Code::ev_db_value:
+      return "EV_DB_VALUE";
   }
   return "UNKNOWN";
 }
@@ -187,6 +191,9 @@ uint16_t minorOf(Code code) noexcept {
     case Code::time_probe:
     case Code::ev_time_probe:
       return 5;
+    case Code::db_read:
+    case Code::ev_db_value:
+      return 6;
     default:
       return 0;
   }

@@ -103,6 +103,15 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       (void)m;
       return;
     }
+    case Code::ev_db_value: {
+      SAT_DECODE(msg::EvDbValue, m);
+      if (auto it = reads.find(m.tag); it != reads.end()) {
+        ResponseHandler handler = std::move(it->second);
+        reads.erase(it);
+        if (handler) handler(Response{0, m.tag, flow::ErrorCode::ok, std::move(m.value)});
+      }
+      return;
+    }
     case Code::ev_db_synced: {
       SAT_DECODE(msg::EvDbSynced, m);
       self.databasesSynced.emit(m.tag);
@@ -194,6 +203,17 @@ void Satellite::Impl::onChanRemoved(const msg::EvChanRemoved& ev) {
 
 void Satellite::Impl::onHubError(const msg::EvError& ev) {
   const auto command = static_cast<Code>(ev.command);
+  if (command == Code::db_read) {  // the reader's handler hears of it
+    if (auto it = reads.find(ev.tag); it != reads.end()) {
+      ResponseHandler handler = std::move(it->second);
+      reads.erase(it);
+      if (handler) {
+        handler(Response{ev.chan_id, ev.tag, static_cast<flow::ErrorCode>(ev.error),
+                         flow::Variant(ev.message)});
+      }
+      return;
+    }
+  }
   std::string what = std::string(flow::codeName(ev.command));
   if (command == Code::chan_add && ev.tag != 0) {
     for (auto& [name, o] : own) {

@@ -120,6 +120,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   std::map<std::string, uint16_t, std::less<>> subs;     // full name -> id attached (0: waiting)
   std::map<std::string, uint32_t, std::less<>> follows;  // sync sources in subs -> every
   std::map<uint32_t, ResponseHandler> pending;           // request tag -> handler
+  std::map<uint32_t, ResponseHandler> reads;             // DB_READ tag -> handler
   std::vector<uint32_t> orphan_tags;  // CHAN_ADDs in flight for channels removed meanwhile
   std::string wanted_db;              // selectDatabase(); empty: the user's
   std::map<std::string, std::string, std::less<>> replicas;  // short name -> source (replicate())

@@ -173,6 +173,8 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
   orphan_tags.clear();
   auto failed = std::move(pending);
   pending.clear();
+  auto failed_reads = std::move(reads);
+  reads.clear();
   if (was_flow && steadyNowNs() - flow_opened_ns >= opt.reconnect_reset_after_ns) {
     backoff_ns = opt.reconnect_min_ns;  // that flow was sound: the hub went away since
   }
@@ -189,6 +191,12 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
                flow::Variant("the connection to the hub was lost")};
     if (handler) handler(r);
     self.serviceResponse.emit(r);
+  }
+  for (auto& [tag, handler] : failed_reads) {
+    if (handler) {
+      handler(Response{0, tag, flow::ErrorCode::io_error,
+                       flow::Variant("the connection to the hub was lost")});
+    }
   }
   if (protocol && gen == generation) {
     self.error.emit(FlowError{0, 0, 0, uint16_t(flow::ErrorCode::protocol_error), why});

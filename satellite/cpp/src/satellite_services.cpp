@@ -157,6 +157,18 @@ Result<uint32_t> Satellite::stopReplica(std::string_view short_name) {
   return tag;
 }
 
+Result<uint32_t> Satellite::readDatabase(const std::string& db, msg::DbReadWhat what,
+                                         const std::string& key, ResponseHandler done) {
+  if (!impl_->flowOpen()) return notConnected();
+  if (auto r = impl_->needs(flow::Code::db_read, "has no database reads on a flow"); !r) {
+    return r.error();
+  }
+  const uint32_t tag = impl_->nextTag();
+  impl_->reads[tag] = std::move(done);
+  impl_->send(msg::DbRead{tag, db, static_cast<uint8_t>(what), key});
+  return tag;
+}
+
 Result<uint32_t> Satellite::probeTime() {
   if (!impl_->flowOpen()) return notConnected();
   if (auto r = impl_->needs(flow::Code::time_probe, "has no clock probe"); !r) return r.error();

@@ -203,6 +203,15 @@ TEST(HubLinkChain, TheFarHubsChannelsKeepTheirOwnHubName) {
       << logs();
   ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("counter", "far"); }));
   ASSERT_TRUE(eventually([&] { return viewer->events.count("data:sea/guest.counter:far") == 1; }));
+
+  // C's databases are read from A through B.
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    auto c = s.syncClient();
+    return c && (*c)->createDatabase("maps") && (*c)->selectDatabase("maps") &&
+           (*c)->set("floor", 2);
+  }));
+  EXPECT_EQ(viewer->on([](Satellite& s) { return s.get("floor", "sea/maps"); }).value(), Variant(2))
+      << logs();
 }
 
 TEST(HubLinkPair, TwoHubsThatLinkToEachOtherSeeEachOthersChannelsOnce) {
@@ -286,6 +295,70 @@ TEST_F(HubLinks, TheLinkShowsItsStateRoundTripAndClockOffset) {
     const Variant* state = now.contains("state") ? &now.at("state") : nullptr;
     return state != nullptr && state->asString() != nullptr &&
            state->asString()->starts_with("down");
+  })) << a->hub->log();
+}
+
+TEST_F(HubLinks, AFarHubsDatabasesAreReadUnderItsNameAndNeverWritten) {
+  auto writer = b->satellite("calibration");
+  ASSERT_TRUE(writer->on([](Satellite& s) {
+    auto c = s.syncClient();
+    return c && (*c)->createDatabase("calib") && (*c)->selectDatabase("calib") &&
+           (*c)->set("focal", 525.5) && (*c)->set("camera", "front");
+  }));
+  auto reader = a->satellite("reader");
+
+  // Blocking reads over the synchronous connection, as for a database here.
+  EXPECT_EQ(reader->on([](Satellite& s) { return s.get("focal", "bee/calib"); }).value(),
+            Variant(525.5));
+  const auto all = reader->on([](Satellite& s) { return s.getAll("bee/calib"); });
+  ASSERT_TRUE(all) << all.error().message;
+  EXPECT_EQ(all->size(), 2u);
+  EXPECT_EQ(reader->on([](Satellite& s) { return s.keys("bee/calib"); }).value(),
+            (std::vector<std::string>{"camera", "focal"}));
+  const auto missing = reader->on([](Satellite& s) { return s.get("nothing", "bee/calib"); });
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().code, Errc::not_found);
+  EXPECT_NE(missing.error().message.find("hub bee: "), std::string::npos);
+  const auto no_hub = reader->on([](Satellite& s) { return s.get("focal", "sea/calib"); });
+  ASSERT_FALSE(no_hub);
+  EXPECT_EQ(no_hub.error().code, Errc::not_found);
+
+  // Read here, written there.
+  const auto written = reader->on([](Satellite& s) -> Result<void> {
+    auto c = s.syncClient();
+    if (!c) return c.error();
+    if (auto r = (*c)->selectDatabase("bee/calib"); !r) return r;
+    return (*c)->set("focal", 1.0);
+  });
+  ASSERT_FALSE(written);
+  EXPECT_EQ(written.error().code, Errc::permission_denied) << written.error().message;
+
+  // On the flow, without blocking.
+  std::map<uint32_t, Response> answers;  // by tag: a read here answers before a far one
+  std::mutex m;
+  const auto keep = [&](const Response& r) {
+    std::lock_guard lock(m);
+    answers[r.tag] = r;
+  };
+  const auto tags = reader->on([&](Satellite& s) {
+    return std::vector<uint32_t>{
+        s.readDatabase("bee/calib", flow::msg::DbReadWhat::get, "camera", keep).value(),
+        s.readDatabase("bee/nowhere", flow::msg::DbReadWhat::all, "", keep).value(),
+        s.readDatabase("guest", flow::msg::DbReadWhat::keys, "", keep).value()};
+  });
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(m);
+    return answers.size() == 3;
+  }));
+  EXPECT_EQ(answers[tags[0]].value, Variant("front"));
+  EXPECT_EQ(answers[tags[1]].error, ErrorCode::not_found);
+  EXPECT_TRUE(answers[tags[2]].ok());  // a database here, the same way
+
+  // The link goes: its hub's databases with it.
+  ASSERT_EQ(b->hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] {
+    auto r = reader->on([](Satellite& s) { return s.get("focal", "bee/calib"); });
+    return !r && r.error().code == Errc::not_found;
   })) << a->hub->log();
 }
 

@@ -93,6 +93,21 @@ class HubLinks(unittest.TestCase):
         self.assertIsNotNone(asker.stopReplica("front"))
         self.assertTrue(pump([owner, asker, viewer], lambda: "guest.front" in removed and stopped))
 
+    def test_a_linked_hubs_database_is_read_under_its_name(self):
+        owner = self.sat(self.bee)
+        viewer = self.sat(self.ay)
+        with owner.newSyncClient() as sync:
+            self.assertTrue(sync.createDatabase("calib"))
+            self.assertTrue(sync.setCurrentDbName("calib"))
+            self.assertTrue(sync.setVariable("focal", 525.5))
+        with viewer.newSyncClient() as sync:
+            self.assertTrue(sync.setCurrentDbName("bee/calib"))
+            self.assertEqual(sync.getVariable("focal"), 525.5)
+            self.assertEqual(sync.variablesKeys(), ["focal"])
+            self.assertEqual(sync.getAllVariables(), {"focal": 525.5})
+            self.assertFalse(sync.setVariable("focal", 1.0))  # written on its own hub only
+            self.assertFalse(sync.setCurrentDbName("sea/calib"))  # no such hub linked
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -59,6 +59,8 @@ void forEachMessage(F&& f) {
   f(EvDropped{});
   f(DbSyncAsync{});
   f(EvDbSynced{});
+  f(DbRead{});
+  f(EvDbValue{});
   f(BlobList{});
   f(BlobGet{});
   f(BlobData{});

@@ -319,6 +319,29 @@ struct DbSyncAsync {
     return f(tag);
   }
 };
+// DB_READ (1.6), on a flow: a read of database `db` (any the user may read; "<hub>/<name>" is
+// read on that linked hub). EV_DB_VALUE answers with the tag; a failure is EV_ERROR with it.
+enum class DbReadWhat : uint8_t { get = 0, all = 1, keys = 2 };
+struct DbRead {
+  static constexpr Code code = Code::db_read;
+  uint32_t tag = 0;
+  std::string db;
+  uint8_t what = 0;  // DbReadWhat
+  std::string key;   // for get
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(db) && f(what) && f(key);
+  }
+};
+struct EvDbValue {
+  static constexpr Code code = Code::ev_db_value;
+  uint32_t tag = 0;
+  Variant value;  // get: the value; all: a map of every pair; keys: a sorted list of strings
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(value);
+  }
+};
 struct VarSetAsync {
   static constexpr Code code = Code::var_set_async;
   uint32_t tag = 0;

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 5;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 6;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -66,6 +66,7 @@ enum class Code : uint8_t {
   chan_set_props = 0x4D,
   db_sync_async = 0x4E,  // 1.2: EV_DB_SYNCED with its tag once the changes before it are on disk
   service_request_timed = 0x4F,  // 1.4: SERVICE_REQUEST with the caller's timeout
+  db_read = 0x50,  // 1.6: a database read on a flow (a linked hub's too); EV_DB_VALUE answers
 
   // Hub -> client.
   reply_ok = 0x80,
@@ -82,6 +83,7 @@ enum class Code : uint8_t {
   ev_error = 0x99,
   ev_dropped = 0x9A,
   ev_db_synced = 0x9B,  // 1.2
+  ev_db_value = 0x9C,   // 1.6: the answer to DB_READ
 
   // 1.3: blob channels. Synchronous requests (REPLY_OK or REPLY_ERROR, on a synchronous
   // connection), and one event to the subscribers of a blob channel.

@@ -240,6 +240,12 @@ class Satellite : public Object {
   // returned tag once every change this flow sent before it is on disk (a failure comes as the
   // `error` signal with the tag). Protocol 1.2; an older hub answers unsupported.
   [[nodiscard]] Result<uint32_t> syncDatabases();
+  // Reads database `db` on the flow, without blocking (FlowProtocol 1.6): any database the user
+  // may read, a linked hub's as "<hub>/<name>". `done` gets the value (get: the key's; all: a
+  // map of every pair; keys: a sorted list) or the error (the value then holds a message); a
+  // lost connection answers io_error. Errc::closed, Errc::unsupported (a hub older than 1.6).
+  [[nodiscard]] Result<uint32_t> readDatabase(const std::string& db, flow::msg::DbReadWhat what,
+                                              const std::string& key, ResponseHandler done);
   // Probes the hub's wall clock: `timeSample` comes with the returned tag. Errc::closed,
   // Errc::unsupported (a hub older than FlowProtocol 1.5).
   [[nodiscard]] Result<uint32_t> probeTime();

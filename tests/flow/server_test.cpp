@@ -816,7 +816,7 @@ TEST_F(Server, TimeProbeAnswersWithTheHubsClock) {
   EXPECT_LE(ev->t3, t4 + 1000000);
 }
 
-TEST_F(Server, DbReadOnAFlowAnswersWithTheTagOrTheError) {
+TEST_F(Server, DbReadAndLinkOfferOnAFlowAnswerWithTheTagOrTheError) {
   startHub();
   TestClient f = flowClient();
   ASSERT_TRUE(f.send(msg::VarSetAsync{1, "speed", 3}));
@@ -844,6 +844,13 @@ TEST_F(Server, DbReadOnAFlowAnswersWithTheTagOrTheError) {
   EXPECT_EQ(refused({6, "guest", 7, ""}), uint16_t(ErrorCode::invalid_argument));
   EXPECT_EQ(refused({7, "arm/calib", uint8_t(msg::DbReadWhat::all), ""}),
             uint16_t(ErrorCode::not_found));  // no hub "arm" is linked
+  // LINK_OFFER is for a connection both hubs list (a shared hub link) only.
+  ASSERT_TRUE(
+      f.send(msg::LinkOffer{8, uint8_t(flow::ChannelKind::streaming), "guest.x", "", Variant()}));
+  auto offer = as<msg::EvError>(f.waitFor(Code::ev_error));
+  ASSERT_TRUE(offer);
+  EXPECT_EQ(offer->tag, 8u);
+  EXPECT_EQ(offer->error, uint16_t(ErrorCode::invalid_argument));
   // A synchronous connection may not select a linked hub's database that is not there either.
   TestClient sync = syncClient();
   EXPECT_EQ(errorOf(sync.call(msg::DbSelect{"arm/calib"})), uint16_t(ErrorCode::not_found));

@@ -224,7 +224,8 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
   const bool async_code = inRange(code, 0x40, 0x7F) || isFlowFamilyCommand(code);
   const bool reserved =
       code >= 0xC0 && !sync_code && !async_code && code != uint8_t(Code::ev_blob_changed) &&
-      code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe);
+      code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe) &&
+      code != uint8_t(Code::ev_link_wanted);
   if (!sync_code && !async_code && !reserved) {
     protocolError("code 0x" +
                   [&] {

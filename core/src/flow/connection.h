@@ -53,6 +53,8 @@ class Connection final : public Endpoint {
   std::string source;
   // Verifies a LOGIN (after the throttle's delay, if any).
   void verifyLogin(msg::Login m);
+  // A shared hub link (docs/hub-links.md): asks the linking hub to offer its channels here.
+  void wantLinkOffers();
 
   // Endpoint
   [[nodiscard]] bool receivesEvents() const override { return state_ == State::flow; }

@@ -115,6 +115,10 @@ std::function<void(Result<void>)> Connection::whenDone(
   };
 }
 
+void Connection::wantLinkOffers() {
+  if (state_ == State::flow) send(msg::EvLinkWanted{server_.hub_name});
+}
+
 std::function<void(Result<Variant>)> Connection::whenRead(
     std::function<void(Connection&, Result<Variant>)> then) {
   return [&server = server_, my_id = id, then = std::move(then)](Result<Variant> r) {
@@ -341,6 +345,7 @@ void Connection::handleSync(Code code, std::string_view body) {
       replyOk();
       state_ = State::flow;
       log::debug(kLogSource, "FLOW-ASYNC", describe() + " is now a flow");
+      if (server_.sharedLink(*this) != nullptr) wantLinkOffers();
       return;
     }
     case Code::ping: {
@@ -477,6 +482,12 @@ void Connection::handleAsync(Code code, std::string_view body) {
     case Code::var_del_async: {
       SKR_DECODE(msg::VarDelAsync, m);
       check(dbs.delVar(*this, {}, m.name), m.tag, 0);
+      return;
+    }
+    case Code::link_offer: {
+      SKR_DECODE(msg::LinkOffer, m);
+      auto made = server_.linkOffer(*this, m);
+      if (!made) check(made.error(), m.tag, 0);
       return;
     }
     case Code::db_read: {

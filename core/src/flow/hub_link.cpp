@@ -23,6 +23,7 @@ HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
     : server_(server), opt_(std::move(options)) {
   user = "hub/" + opt_.name;  // never an account: nobody logs in as it
   client_name = "hub link " + opt_.name;
+  limits = access->limits().orElse(server_.opt.user_limits);  // the far hub's requests, here
   limits.channels = opt_.max_channels;
   server_.endpoints.add(*this);
   db_ = "_link." + opt_.name;
@@ -51,10 +52,16 @@ HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
   sat_->channelChanged.connect(sat_.get(), [this](const msg::ChannelInfo& i) { changed(i); });
   sat_->data.connect(sat_.get(),
                      [this](uint16_t id, const std::string& payload) { data(id, payload); });
+  sat_->linkWanted.connect(sat_.get(), [this](const std::string&) { offerAll(); });
+  sat_->startPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, true); });
+  sat_->stopPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, false); });
+  sat_->serviceRequest.connect(sat_.get(), [this](const sat::Request& r) { farRequest(r); });
   sat_->timeSample.connect(
       sat_.get(), [this](const sat::TimeSample& t) { timeSample(t.roundTripNs(), t.offsetNs()); });
   sat_->error.connect(sat_.get(), [this](const sat::FlowError& e) {
-    if (e.command == uint8_t(Code::login) || e.command == uint8_t(Code::hub_link_hello)) {
+    if (e.command == uint8_t(Code::link_offer)) {  // another route has it there, or it may not
+      std::erase_if(offers_, [&e](const auto& kv) { return kv.second.tag == e.tag; });
+    } else if (e.command == uint8_t(Code::login) || e.command == uint8_t(Code::hub_link_hello)) {
       state_ = "refused: " + e.message;
       since_ = utcNowText();
       writeDb();
@@ -118,6 +125,7 @@ void HubLink::lost(const std::string& why) {
   }
   up_ = false;
   dropAll();
+  stopOffering();
   writeDb();
   // The channels this link took may come another way.
   for (const auto& other : server_.links) {
@@ -126,6 +134,12 @@ void HubLink::lost(const std::string& why) {
 }
 
 void HubLink::offerAgain() {
+  if (shared_ != 0) {  // the far hub offers: ask it to
+    if (auto it = server_.connections.find(shared_); it != server_.connections.end()) {
+      it->second->wantLinkOffers();
+    }
+    return;
+  }
   if (!up_) return;
   for (const msg::ChannelInfo& info : sat_->channels()) added(info);
 }
@@ -145,7 +159,7 @@ void HubLink::dropAll() {
 }
 
 void HubLink::added(const msg::ChannelInfo& info) {
-  if (!up_ || by_remote_.contains(info.id)) return;
+  if (!up_ || by_remote_.contains(info.id) || offered(info)) return;
   const auto kind = static_cast<ChannelKind>(info.kind);
   if (kind != ChannelKind::streaming && kind != ChannelKind::service) return;  // not carried yet
   const std::string name = linkedName(info.name, opt_.name, server_.hub_name);
@@ -161,13 +175,9 @@ void HubLink::added(const msg::ChannelInfo& info) {
     limit_logged_ = true;
     return;
   }
-  Variant props = info.props.isMap() ? info.props : Variant(Variant::Map{});
-  Variant::List hops;
-  for (const std::string& hop : route) hops.emplace_back(hop);
-  (*props.asMap())["hub_route"] = Variant(std::move(hops));
   const size_t dot = name.find('.');
   auto made = server_.createChannelAs(*this, name.substr(0, dot), name.substr(dot + 1), kind,
-                                      info.mime, props, 0);
+                                      info.mime, routedProps(info.props, route), 0);
   if (!made) {
     log::warn(kLinkLog, "HUB-LINK-CHANNEL",
               "hub " + opt_.name + ": " + info.name + " not shown here: " + made.error().message);
@@ -265,6 +275,10 @@ void HubLink::onError(Code command, uint32_t, uint16_t chan_id, ErrorCode error,
 }
 
 void HubLink::everySecond(Nanos now) {
+  if (redial_at_ != 0 && now >= redial_at_ && shared_ == 0) {
+    redial_at_ = 0;
+    sat_->start();
+  }
   if (up_ && now >= next_probe_) {
     next_probe_ = now + kProbeEvery;
     (void)sat_->probeTime();
@@ -288,7 +302,9 @@ void HubLink::writeDb() {
   put("user", Variant(opt_.user));
   put("state", Variant(state_));
   put("since", Variant(since_));
-  put("channels", count(by_local_.size()));
+  const Endpoint* shared = shared_ != 0 ? server_.endpoints.find(shared_) : nullptr;
+  put("channels", count(shared != nullptr ? shared->owned.size() : by_local_.size()));
+  put("shared", Variant(shared_ != 0));
   put("messages_in", count(traffic.messages_in));
   put("bytes_in", count(traffic.bytes_in));
   put("requests", count(requests_));
@@ -361,6 +377,11 @@ Result<void> FlowServer::Impl::acceptHubLink(Connection& c, const std::string& n
     log::warn(kLinkLog, "HUB-LINK-REFUSED",
               self.describe() + ": a hub named \"" + name + "\" is linked already");
     return makeError(Errc::already_exists, "a hub named \"" + name + "\" is linked already");
+  }
+  // A hub this one lists too: one connection for both (hub_link_shared.cpp).
+  for (const auto& link : links) {
+    if (link->options().name != name) continue;
+    if (auto shared = link->adopt(self); !shared) return shared;
   }
   self.linked_hub = name;
   log::info(kLinkLog, "HUB-LINK-IN", self.describe() + " is hub " + name);

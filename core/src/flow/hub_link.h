@@ -44,6 +44,15 @@ class HubLink final : public Endpoint {
   void offerAgain();
   // Open, and the far hub said it is the one the config names.
   [[nodiscard]] bool up() const noexcept { return up_; }
+  // --- one connection for two hubs that list each other (hub_link_shared.cpp)
+  // The far hub linked in on connection `c` (HUB_LINK_HELLO): refused (already_exists) while
+  // this link's own connection is up and this hub's name sorts first; else `c` becomes the link
+  // (this one stops dialling) and the far hub offers its channels on it.
+  [[nodiscard]] Result<void> adopt(const Endpoint& c);
+  [[nodiscard]] uint32_t sharedConnection() const noexcept { return shared_; }
+  // The shared connection closed: dial again (at once when this hub's name sorts first).
+  void released();
+
   // Up, and `hub` is the far hub or a hub whose channels come through it.
   [[nodiscard]] bool reaches(std::string_view hub) const;
   // Reads database `db` of the far hub ("<hub>/<name>" for a hub beyond it) as the link's
@@ -55,14 +64,15 @@ class HubLink final : public Endpoint {
   [[nodiscard]] bool receivesEvents() const override { return true; }
   [[nodiscard]] bool congested() const override;
   [[nodiscard]] std::string describe() const override;
-  void onData(const Channel&, std::string_view) override {}
+  void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,
                  const std::string& requester, const Variant& value) override;
-  void onResponse(uint16_t, uint32_t, bool, ErrorCode, const Variant&) override {}
-  void onChannelAdded(const Channel&, uint32_t) override {}
-  void onChannelRemoved(const Channel&) override {}
-  void onChannelHeader(const Channel&) override {}
+  void onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode error,
+                  const Variant& value) override;
+  void onChannelAdded(const Channel& ch, uint32_t tag) override;
+  void onChannelRemoved(const Channel& ch) override;
+  void onChannelHeader(const Channel& ch) override;
   void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
                const std::string& message) override;
   void onDbChanged(const std::string&) override {}
@@ -81,6 +91,13 @@ class HubLink final : public Endpoint {
   void timeSample(int64_t round_trip_ns, int64_t offset_ns);
   void writeDb();
   void dropAll();
+  // Offering this hub's channels on our connection (the far hub sent EV_LINK_WANTED).
+  void offerAll();
+  void offer(const Channel& ch);
+  [[nodiscard]] bool offered(const msg::ChannelInfo& info);  // made over there: keep its id
+  void farDemand(uint16_t far_id, bool first);
+  void farRequest(const msg::EvServiceRequest& r);
+  void stopOffering();
 
   FlowServer::Impl& server_;
   HubLinkOptions opt_;
@@ -99,6 +116,20 @@ class HubLink final : public Endpoint {
   std::vector<Sample> samples_;
   std::unordered_map<uint16_t, uint16_t> by_remote_;  // far id -> local id
   std::unordered_map<uint16_t, Remote> by_local_;     // local id -> far channel
+  // A shared link: the far hub's connection here (0: none), and when to dial again.
+  uint32_t shared_ = 0;
+  Nanos redial_at_ = 0;
+  // What we offer over there: far name -> local id until it is made, then both ways.
+  bool offering_ = false;
+  struct Offer {
+    uint16_t local = 0;
+    uint32_t tag = 0;
+  };
+  std::unordered_map<std::string, Offer> offers_;
+  std::unordered_map<uint16_t, uint16_t> offered_far_;                // local id -> far id
+  std::unordered_map<uint16_t, uint16_t> offered_;                    // far id -> local id
+  std::unordered_map<uint32_t, msg::EvServiceRequest> far_requests_;  // our tag -> far request
+  uint32_t next_tag_ = 1;
 };
 
 }  // namespace skr::flow

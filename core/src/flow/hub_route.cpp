@@ -30,6 +30,14 @@ std::vector<std::string> hubRoute(const Variant& props, std::string_view link_hu
   return route;
 }
 
+Variant routedProps(const Variant& props, const std::vector<std::string>& route) {
+  Variant routed = props.isMap() ? props : Variant(Variant::Map{});
+  Variant::List hops;
+  for (const std::string& hop : route) hops.emplace_back(hop);
+  (*routed.asMap())["hub_route"] = Variant(std::move(hops));
+  return routed;
+}
+
 bool routeAccepted(const std::vector<std::string>& route, std::string_view own_hub,
                    size_t max_hops) {
   return route.size() <= max_hops && std::find(route.begin(), route.end(), own_hub) == route.end();

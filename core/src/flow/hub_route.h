@@ -21,6 +21,10 @@ namespace skr::flow {
 // strings; anything else in it is skipped), and `link_hub` last.
 [[nodiscard]] std::vector<std::string> hubRoute(const Variant& props, std::string_view link_hub);
 
+// A far channel's properties as this hub shows them: `props` (a map; anything else is taken as
+// none) with "hub_route" set to `route`.
+[[nodiscard]] Variant routedProps(const Variant& props, const std::vector<std::string>& route);
+
 // Whether a channel that came by `route` may be shown on `own_hub`: not when the route names it
 // (a loop), nor when it is longer than `max_hops` links.
 [[nodiscard]] bool routeAccepted(const std::vector<std::string>& route, std::string_view own_hub,

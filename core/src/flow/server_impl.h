@@ -144,6 +144,12 @@ struct FlowServer::Impl {
   // A connection said HUB_LINK_HELLO as hub `name`: invalid_argument (a bad name, or ours),
   // already_exists (a hub of that name is linked already), or it is marked as that link.
   Result<void> acceptHubLink(Connection& c, const std::string& name);
+  // The link of this hub's config that took `c` as their shared connection, if any.
+  HubLink* sharedLink(const Endpoint& c);
+  // LINK_OFFER on a shared link's connection `c`: the linking hub's channel, owned here by `c`.
+  // invalid_argument (not a shared link, a bad name or a route that loops or is too long),
+  // already_exists (another route has it), permission_denied, limit_exceeded.
+  Result<Channel*> linkOffer(Connection& c, const msg::LinkOffer& m);
   // The link that reaches hub `hub`: the link to it, else one that shows its channels. Null when
   // none is up.
   HubLink* linkToward(std::string_view hub);

@@ -1,6 +1,7 @@
 // What crosses the server's parts: endpoints arriving and leaving, and channels created,
 // removed or changed, with their databases, their pending requests and the events everyone gets.
 #include "connection.h"
+#include "hub_link.h"
 #include "server_impl.h"
 
 #include <skrobot/core/log.h>
@@ -39,6 +40,7 @@ void FlowServer::Impl::noteFollowed(const Endpoint& e) {
 
 void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   if (!endpoints.remove(e.id)) return;
+  HubLink* shared = e.linked_hub.empty() ? nullptr : sharedLink(e);
   connections.erase(e.id);
   if (stats.connections_open > 0 && dynamic_cast<Connection*>(&e) != nullptr) {
     --stats.connections_open;
@@ -59,6 +61,7 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   databases.detach(e);
   channels.unwantAll(e.id);
   dropReplicasOf(e.id);
+  if (shared != nullptr) shared->released();
 }
 
 Result<Channel*> FlowServer::Impl::createChannel(Endpoint& owner, const std::string& short_name,

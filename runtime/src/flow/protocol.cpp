@@ -151,6 +151,10 @@ std::string_view codeName(uint8_t code) noexcept {
       return "EV_TIME_PROBE";
     case Code::db_read:
       return "DB_READ";
+    case Code::link_offer:
+      return "LINK_OFFER";
+    case Code::ev_link_wanted:
+      return "EV_LINK_WANTED";
     case Code::ev_db_value:
       return "EV_DB_VALUE";
   }
@@ -193,6 +197,8 @@ uint16_t minorOf(Code code) noexcept {
       return 5;
     case Code::db_read:
     case Code::ev_db_value:
+    case Code::link_offer:
+    case Code::ev_link_wanted:
       return 6;
     default:
       return 0;

@@ -49,6 +49,11 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       if (gen == generation && flowOpen()) send(msg::SyncDone{m.chan_id, m.seq});
       return;
     }
+    case Code::ev_link_wanted: {
+      SAT_DECODE(msg::EvLinkWanted, m);
+      self.linkWanted.emit(m.hub_name);
+      return;
+    }
     case Code::ev_time_probe: {
       SAT_DECODE(msg::EvTimeProbe, m);
       const TimeSample t{m.tag, static_cast<int64_t>(m.t1), static_cast<int64_t>(m.t2),

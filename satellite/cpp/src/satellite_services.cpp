@@ -169,6 +169,26 @@ Result<uint32_t> Satellite::readDatabase(const std::string& db, msg::DbReadWhat 
   return tag;
 }
 
+Result<uint32_t> Satellite::offerChannel(const ChannelInfo& channel) {
+  if (!impl_->flowOpen()) return notConnected();
+  if (auto r = impl_->needs(flow::Code::link_offer, "shares no hub link"); !r) return r.error();
+  const uint32_t tag = impl_->nextTag();
+  impl_->send(msg::LinkOffer{tag, channel.kind, channel.name, channel.mime, channel.props});
+  return tag;
+}
+
+Result<void> Satellite::withdrawChannel(uint16_t chan_id) {
+  if (!impl_->flowOpen()) return notConnected();
+  impl_->send(msg::ChanRemove{impl_->nextTag(), chan_id});
+  return {};
+}
+
+Result<void> Satellite::setChannelProperties(uint16_t chan_id, Variant::Map props) {
+  if (!impl_->flowOpen()) return notConnected();
+  impl_->send(msg::ChanSetProps{impl_->nextTag(), chan_id, Variant(std::move(props))});
+  return {};
+}
+
 Result<uint32_t> Satellite::probeTime() {
   if (!impl_->flowOpen()) return notConnected();
   if (auto r = impl_->needs(flow::Code::time_probe, "has no clock probe"); !r) return r.error();

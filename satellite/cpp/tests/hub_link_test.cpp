@@ -214,7 +214,18 @@ TEST(HubLinkChain, TheFarHubsChannelsKeepTheirOwnHubName) {
       << logs();
 }
 
-TEST(HubLinkPair, TwoHubsThatLinkToEachOtherSeeEachOthersChannelsOnce) {
+// The link databases of two hubs that list each other: {hub's, the other's}.
+std::pair<Variant::Map, Variant::Map> linkDbs(SatOnThread& on_a, SatOnThread& on_b) {
+  const auto read = [](SatOnThread& s, const std::string& db) {
+    return s.on([&](Satellite& sat) {
+      auto all = sat.getAll(db);
+      return all ? std::move(all).value() : Variant::Map{};
+    });
+  };
+  return {read(on_a, "_link.bee"), read(on_b, "_link.ay")};
+}
+
+TEST(HubLinkPair, TwoHubsThatListEachOtherKeepOneConnectionUsedBothWays) {
   NamedHub a("ay");
   NamedHub b("bee");
   a.link(b);
@@ -223,25 +234,118 @@ TEST(HubLinkPair, TwoHubsThatLinkToEachOtherSeeEachOthersChannelsOnce) {
   ASSERT_TRUE(b.start());
   auto on_a = a.satellite("on-a");
   auto on_b = b.satellite("on-b");
-  ASSERT_TRUE(on_a->on([](Satellite& s) { return s.addChannel({.name = "x"}); }));
-  ASSERT_TRUE(on_b->on([](Satellite& s) { return s.addChannel({.name = "y"}); }));
+  const auto logs = [&] { return "--- A\n" + a.hub->log() + "--- B\n" + b.hub->log(); };
+  for (auto* s : {on_a.get(), on_b.get()}) {
+    ASSERT_TRUE(s->on([](Satellite& sat) {
+      return sat.addChannel({.name = "camera"}) &&
+             sat.addChannel({.name = "echo", .kind = flow::ChannelKind::service});
+    }));
+    s->on([s](Satellite& sat) {
+      sat.serviceRequest.connect(&sat, [&sat](const Request& r) {
+        (void)sat.respond(r, Variant(sat.login().connection_id));
+      });
+    });
+  }
+  // One of them took the other's connection: its link says so, the other's is its own.
+  const auto shared = [](const Variant::Map& m) {
+    return m.contains("shared") && m.at("shared") == Variant(true);
+  };
+  ASSERT_TRUE(eventually(
+      [&] {
+        auto [la, lb] = linkDbs(*on_a, *on_b);
+        return shared(la) != shared(lb) && (shared(la) ? lb : la).at("state") == Variant("up");
+      },
+      20000))
+      << logs();
   ASSERT_TRUE(eventually([&] {
-    return hasChannel(*on_a, "bee/guest.y") && hasChannel(*on_b, "ay/guest.x");
-  })) << a.hub->log()
-      << b.hub->log();
+    return hasChannel(*on_a, "bee/guest.camera") && hasChannel(*on_a, "bee/guest.echo") &&
+           hasChannel(*on_b, "ay/guest.camera") && hasChannel(*on_b, "ay/guest.echo");
+  })) << logs();
   // Neither takes its own channels back from the other.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  EXPECT_FALSE(hasChannel(*on_a, "ay/guest.x"));
-  EXPECT_FALSE(hasChannel(*on_b, "bee/guest.y"));
-  EXPECT_FALSE(hasChannel(*on_a, "bee/ay/guest.x"));
-  EXPECT_EQ(on_a->on([](Satellite& s) { return s.channels().size(); }),
-            on_b->on([](Satellite& s) { return s.channels().size(); }));
-  on_b->on([](Satellite& s) { s.subscribe("ay/guest.x"); });
-  ASSERT_TRUE(eventually([&] { return on_a->events.count("start:guest.x") == 1; }));
-  ASSERT_TRUE(on_a->on([](Satellite& s) { return s.publish("x", "to-b"); }));
-  ASSERT_TRUE(eventually([&] { return on_b->events.count("data:ay/guest.x:to-b") == 1; }));
+  EXPECT_FALSE(hasChannel(*on_a, "ay/guest.camera"));
+  EXPECT_FALSE(hasChannel(*on_b, "bee/guest.camera"));
+  EXPECT_FALSE(hasChannel(*on_a, "bee/ay/guest.camera"));
+  EXPECT_EQ(on_a->on([](Satellite& s) { return s.channels().size(); }), 4u);
+  EXPECT_EQ(on_b->on([](Satellite& s) { return s.channels().size(); }), 4u);
+
+  // Both ways: demand, data and service calls, over the one connection.
+  for (auto [here, there, far] : {std::tuple{on_a.get(), on_b.get(), "bee/guest."},
+                                  std::tuple{on_b.get(), on_a.get(), "ay/guest."}}) {
+    const std::string camera = std::string(far) + "camera";
+    EXPECT_EQ(there->events.count("start:guest.camera"), 0u);
+    here->on([&](Satellite& s) { s.subscribe(camera); });
+    ASSERT_TRUE(eventually([&] { return there->events.count("start:guest.camera") == 1; }))
+        << logs();
+    ASSERT_TRUE(eventually([&] { return here->events.count("subscribed:" + camera) == 1; }));
+    ASSERT_TRUE(there->on([](Satellite& s) { return s.publish("camera", "frame"); }));
+    ASSERT_TRUE(eventually([&] { return here->events.count("data:" + camera + ":frame") == 1; }))
+        << logs();
+    const auto answer = here->on(
+        [&](Satellite& s) { return s.call(std::string(far) + "echo", "who", Variant(), 5000); });
+    ASSERT_TRUE(answer) << answer.error().message << logs();
+    EXPECT_EQ(*answer, Variant(there->on([](Satellite& s) { return s.login().connection_id; })));
+    here->on([&](Satellite& s) { s.unsubscribe(camera); });
+    ASSERT_TRUE(eventually([&] { return there->events.count("stop:guest.camera") == 1; }));
+  }
+
+  // The hub that dialled restarts: the link comes back, both ways, still one connection.
+  auto [la, lb] = linkDbs(*on_a, *on_b);
+  NamedHub& dialler = shared(la) ? b : a;
+  auto& its_sat = shared(la) ? on_b : on_a;
+  auto& other_sat = shared(la) ? on_a : on_b;
+  const std::string other_prefix = shared(la) ? "ay/" : "bee/";
+  const std::string its_prefix = shared(la) ? "bee/" : "ay/";
+  ASSERT_EQ(dialler.hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] { return !hasChannel(*other_sat, its_prefix + "guest.echo"); }));
+  ASSERT_TRUE(dialler.start());
+  ASSERT_TRUE(eventually(
+      [&] {
+        return hasChannel(*other_sat, its_prefix + "guest.echo") &&
+               hasChannel(*its_sat, other_prefix + "guest.echo");
+      },
+      20000))
+      << logs();
+  ASSERT_TRUE(eventually([&] {
+    auto [na, nb] = linkDbs(*on_a, *on_b);
+    return shared(na) != shared(nb);
+  })) << logs();
+}
+
+TEST(HubLinkTriangle, ThreeHubsThatAllListEachOtherSeeEveryChannelOnceOverSharedLinks) {
+  NamedHub a("ay"), b("bee"), c("sea");
+  a.link(b).link(c);
+  b.link(a).link(c);
+  c.link(a).link(b);
+  for (NamedHub* h : {&a, &b, &c}) ASSERT_TRUE(h->start());
+  auto on_a = a.satellite("on-a");
+  auto on_b = b.satellite("on-b");
+  auto on_c = c.satellite("on-c");
+  for (auto* s : {on_a.get(), on_b.get(), on_c.get()}) {
+    ASSERT_TRUE(s->on([](Satellite& sat) { return sat.addChannel({.name = "x"}); }));
+  }
+  const auto logs = [&] {
+    return "--- A\n" + a.hub->log() + "--- B\n" + b.hub->log() + "--- C\n" + c.hub->log();
+  };
+  ASSERT_TRUE(eventually(
+      [&] {
+        return hasChannel(*on_a, "bee/guest.x") && hasChannel(*on_a, "sea/guest.x") &&
+               hasChannel(*on_b, "ay/guest.x") && hasChannel(*on_b, "sea/guest.x") &&
+               hasChannel(*on_c, "ay/guest.x") && hasChannel(*on_c, "bee/guest.x");
+      },
+      20000))
+      << logs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  for (auto* s : {on_a.get(), on_b.get(), on_c.get()}) {
+    EXPECT_EQ(s->on([](Satellite& sat) { return sat.channels().size(); }), 3u) << logs();
+  }
+  on_a->on([](Satellite& s) { s.subscribe("sea/guest.x"); });
+  ASSERT_TRUE(eventually([&] { return on_c->events.count("start:guest.x") == 1; })) << logs();
+  ASSERT_TRUE(eventually([&] { return on_a->events.count("subscribed:sea/guest.x") == 1; }));
+  ASSERT_TRUE(on_c->on([](Satellite& s) { return s.publish("x", "once"); }));
+  ASSERT_TRUE(eventually([&] { return on_a->events.count("data:sea/guest.x:once") == 1; }));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  EXPECT_EQ(on_b->events.count("data:"), 1u);
+  EXPECT_EQ(on_a->events.count("data:"), 1u);
 }
 
 TEST_F(HubLinks, TheLinkShowsItsStateRoundTripAndClockOffset) {

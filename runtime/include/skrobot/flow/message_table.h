@@ -86,6 +86,8 @@ void forEachMessage(F&& f) {
   f(ReplicateStop{});
   f(TimeProbe{});
   f(EvTimeProbe{});
+  f(LinkOffer{});
+  f(EvLinkWanted{});
 }
 
 }  // namespace skr::flow

@@ -710,6 +710,30 @@ struct ReplicateStop {
     return f(tag) && f(short_name);
   }
 };
+// 1.6, on a shared link's flow: the linking hub offers one of its channels (its name there: its
+// own as "<user>.<name>", a third hub's as "<hub>/<user>.<name>"; props without this hub in
+// hub_route). The far hub creates it, owned by this flow: EV_CHAN_ADDED with `tag`, or EV_ERROR.
+struct LinkOffer {
+  static constexpr Code code = Code::link_offer;
+  uint32_t tag = 0;
+  uint8_t kind = 0;
+  std::string name, mime;
+  Variant props;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(kind) && f(name) && f(mime) && f(props);
+  }
+};
+// 1.6, to a linking hub's flow: the far hub lists it too, so this connection is their one link;
+// offer your channels here (again: some may have been refused while another route had them).
+struct EvLinkWanted {
+  static constexpr Code code = Code::ev_link_wanted;
+  std::string hub_name;  // the far hub's
+  template <class IO>
+  bool io(IO& f) {
+    return f(hub_name);
+  }
+};
 // 1.5, on a flow: a clock probe (four timestamps, as NTP takes them). t1 is the sender's wall
 // clock (CLOCK_REALTIME, ns) when it sent the probe; the hub answers at once with t2 (when it read
 // the probe) and t3 (when it answered), on its own wall clock. With t4, the sender's clock when

@@ -114,6 +114,11 @@ enum class Code : uint8_t {
   // 1.5: replicas: a channel mirrored as a local one of the caller's name, while its flow lasts.
   replicate_channel = 0xE0,  // on a flow
   replicate_stop = 0xE1,     // on a flow
+
+  // 1.6: a shared link (two hubs that list each other keep one connection): the far hub asks the
+  // linking hub to offer its channels over the connection the linking hub opened.
+  link_offer = 0xE2,      // on a flow: one of the linking hub's channels, owned here by its link
+  ev_link_wanted = 0xEB,  // hub -> linking hub: offer your channels on this connection
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -126,9 +131,10 @@ enum class Code : uint8_t {
 [[nodiscard]] constexpr bool isSyncFamilyRequest(uint8_t code) noexcept {
   return isBlobRequest(code) || code == 0xE8;
 }
-// A command of a family block sent on a flow: the sync pulse (1.4), replicas and TIME_PROBE (1.5).
+// A command of a family block sent on a flow: the sync pulse (1.4), replicas and TIME_PROBE (1.5),
+// LINK_OFFER (1.6).
 [[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
-  return (code >= 0xD0 && code <= 0xD3) || code == 0xE0 || code == 0xE1 || code == 0xE9;
+  return (code >= 0xD0 && code <= 0xD3) || (code >= 0xE0 && code <= 0xE2) || code == 0xE9;
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

@@ -246,6 +246,15 @@ class Satellite : public Object {
   // lost connection answers io_error. Errc::closed, Errc::unsupported (a hub older than 1.6).
   [[nodiscard]] Result<uint32_t> readDatabase(const std::string& db, flow::msg::DbReadWhat what,
                                               const std::string& key, ResponseHandler done);
+  // --- a hub's own link (docs/hub-links.md, "One connection"): FlowProtocol 1.6, on a link whose
+  // far hub sent `linkWanted`. Offers a channel of this hub under its name here ("<user>.<name>",
+  // or "<hub>/<user>.<name>" for a third hub's); the far hub makes it ours (`channelAdded`, owner
+  // our connection), or refuses it (the `error` signal with the returned tag). Our offered
+  // channels are then published, answered, changed (by id) and withdrawn like our own.
+  [[nodiscard]] Result<uint32_t> offerChannel(const ChannelInfo& channel);
+  [[nodiscard]] Result<void> withdrawChannel(uint16_t chan_id);
+  [[nodiscard]] Result<void> setChannelProperties(uint16_t chan_id, flow::Variant::Map props);
+
   // Probes the hub's wall clock: `timeSample` comes with the returned tag. Errc::closed,
   // Errc::unsupported (a hub older than FlowProtocol 1.5).
   [[nodiscard]] Result<uint32_t> probeTime();
@@ -269,8 +278,9 @@ class Satellite : public Object {
   Signal<const Request&> serviceRequest{*this};
   Signal<const Response&> serviceResponse{*this};
   Signal<const FlowError&> error{*this};
-  Signal<uint32_t> databasesSynced{*this};      // the tag of syncDatabases()
-  Signal<const TimeSample&> timeSample{*this};  // the answer to probeTime()
+  Signal<uint32_t> databasesSynced{*this};       // the tag of syncDatabases()
+  Signal<const TimeSample&> timeSample{*this};   // the answer to probeTime()
+  Signal<const std::string&> linkWanted{*this};  // the far hub (its name) wants our offers
   // A file of a blob channel we subscribe to was written or removed (subscribe() by its name);
   // its files are read and written through syncClient() (SyncClient::blobGet, blobPut, ...).
   Signal<const BlobChange&> blobChanged{*this};

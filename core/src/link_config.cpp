@@ -92,6 +92,7 @@ s::Schema linksSchema() {
       s::optional("password_file", s::string().nonEmpty()),
       s::optional("password_env", s::string().nonEmpty()),
       s::optional("max_channels", s::integer().range(1, 32767), 4096),
+      s::optional("account", s::string().nonEmpty()),
       s::optional("tls", s::object({s::optional("ca_file", s::string(), ""),
                                     s::optional("cert_file", s::string(), ""),
                                     s::optional("key_file", s::string(), "")})),
@@ -120,6 +121,7 @@ void readLinks(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg,
     o.address = l["address"].asString();
     o.user = l["user"].asString();
     o.max_channels = l["max_channels"].asUInt();
+    if (l["account"].isString()) o.account = l["account"].asString();
     if (!names.insert(o.name).second) {
       problems.push_back({s::childPath(path, "name"), "hub " + o.name + " is linked twice"});
     }

@@ -23,6 +23,13 @@ HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
     : server_(server), opt_(std::move(options)) {
   user = "hub/" + opt_.name;  // never an account: nobody logs in as it
   client_name = "hub link " + opt_.name;
+  if (!opt_.account.empty()) {  // what the far hub may do here over a shared connection
+    if (server_.auth != nullptr && server_.auth->hasUser(opt_.account)) {
+      access = server_.auth->accessOf(opt_.account);
+    } else {
+      state_ = "bad account: the users file has no \"" + opt_.account + "\" (links[].account)";
+    }
+  }
   limits = access->limits().orElse(server_.opt.user_limits);  // the far hub's requests, here
   limits.channels = opt_.max_channels;
   server_.endpoints.add(*this);
@@ -77,7 +84,7 @@ HubLink::~HubLink() {
 }
 
 void HubLink::start() {
-  if (state_.starts_with("bad address")) {
+  if (state_.starts_with("bad ")) {
     log::error(kLinkLog, "HUB-LINK", "hub " + opt_.name + ": " + state_);
     return;
   }

@@ -110,6 +110,9 @@ void HubLink::offer(const Channel& ch) {
   if (!offering_ || !up_ || ch.owner == this) return;  // the far hub's own, brought by us
   if (ch.kind != ChannelKind::streaming && ch.kind != ChannelKind::service) return;
   if (ch.name.starts_with(opt_.name + "/") || offered_far_.contains(ch.id)) return;
+  // Only what links[].account may use: the far hub does it as that account.
+  const Action use = ch.kind == ChannelKind::streaming ? Action::subscribe : Action::call;
+  if (!access->allows(use, ch.name)) return;
   const std::string far = farName(ch.name, server_.hub_name);
   if (offers_.contains(far)) return;
   msg::ChannelInfo info;

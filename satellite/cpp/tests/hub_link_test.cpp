@@ -312,6 +312,51 @@ TEST(HubLinkPair, TwoHubsThatListEachOtherKeepOneConnectionUsedBothWays) {
   })) << logs();
 }
 
+TEST(HubLinkPair, OverOneConnectionEachHubShowsTheOtherWhatItsLinkAccountMayUse) {
+  NamedHub a("ay");
+  NamedHub b("bee");
+  for (NamedHub* h : {&a, &b}) {
+    h->account = "linker";
+    h->rules = {{"subscribe", {"guest.open"}}, {"call", {"nothing"}}};
+  }
+  a.link(b);
+  b.link(a);
+  ASSERT_TRUE(a.start());
+  ASSERT_TRUE(b.start());
+  auto on_a = a.satellite("on-a");
+  auto on_b = b.satellite("on-b");
+  for (auto* s : {on_a.get(), on_b.get()}) {
+    ASSERT_TRUE(s->on([](Satellite& sat) {
+      return sat.addChannel({.name = "open"}) && sat.addChannel({.name = "secret"}) &&
+             sat.addChannel({.name = "echo", .kind = flow::ChannelKind::service});
+    }));
+  }
+  const auto logs = [&] { return "--- A\n" + a.hub->log() + "--- B\n" + b.hub->log(); };
+  // The hub that dialled logs in as guest over there (every channel of the other comes); the
+  // other sees of the dialler what the dialler's links[].account may use.
+  ASSERT_TRUE(eventually(
+      [&] {
+        auto [la, lb] = linkDbs(*on_a, *on_b);
+        return la.contains("shared") && lb.contains("shared") && la.at("shared") != lb.at("shared");
+      },
+      20000))
+      << logs();
+  auto [la, lb] = linkDbs(*on_a, *on_b);
+  const bool a_dialled = lb.at("shared") == Variant(true);
+  SatOnThread& dialler = a_dialled ? *on_a : *on_b;
+  SatOnThread& dialled = a_dialled ? *on_b : *on_a;
+  const std::string dialler_hub = a_dialled ? "ay/" : "bee/";
+  const std::string dialled_hub = a_dialled ? "bee/" : "ay/";
+  ASSERT_TRUE(eventually([&] {
+    return hasChannel(dialled, dialler_hub + "guest.open") &&
+           hasChannel(dialler, dialled_hub + "guest.secret") &&
+           hasChannel(dialler, dialled_hub + "guest.echo");
+  })) << logs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_FALSE(hasChannel(dialled, dialler_hub + "guest.secret"));
+  EXPECT_FALSE(hasChannel(dialled, dialler_hub + "guest.echo"));
+}
+
 TEST(HubLinkTriangle, ThreeHubsThatAllListEachOtherSeeEveryChannelOnceOverSharedLinks) {
   NamedHub a("ay"), b("bee"), c("sea");
   a.link(b).link(c);

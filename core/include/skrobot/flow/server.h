@@ -34,6 +34,9 @@ struct HubLinkOptions {
   std::string user, password;
   TlsSettings tls;  // for tls: addresses: ca_file, and cert_file/key_file if the far hub asks
   uint32_t max_channels = 4096;  // remote channels this link may take of the hub's 32767 ids
+  // An account of this hub's users file: what the far hub may do here over a shared connection
+  // (its rules and limits; docs/hub-links.md, "One connection"). Empty: the default rules.
+  std::string account;
 };
 
 // A replica the config asks for: `source` mirrored as "hub.<short_name>" for the hub's lifetime.

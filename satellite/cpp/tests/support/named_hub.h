@@ -33,10 +33,18 @@ struct NamedHub {
         ::chmod(pass.c_str(), 0600);
         keys += (i ? ", " : "") + std::string(R"({"name": ")") + links[i]->name +
                 R"(", "address": ")" + links[i]->address() +
-                R"(", "user": "guest", "password_file": ")" + pass.string() + R"("})";
+                R"(", "user": "guest", "password_file": ")" + pass.string() + R"(")" +
+                (account.empty() ? "" : R"(, "account": ")" + account + R"(")") + "}";
       }
       keys += "], " + extra;
-      hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), "", "", keys);
+      hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), account, "", keys);
+      for (const auto& [action, patterns] : rules) {
+        std::vector<std::string> argv{SKROBOT_BIN, "user", "rule", account, action};
+        argv.insert(argv.end(), patterns.begin(), patterns.end());
+        argv.insert(argv.end(), {"--users", (dir.path() / "users.json").string()});
+        Child rule(argv, {}, dir.path() / "user-rule.log");
+        EXPECT_EQ(rule.wait(), 0) << rule.output();
+      }
     }
     return hub->start();
   }
@@ -55,6 +63,10 @@ struct NamedHub {
   TempDir dir;
   std::string name;
   std::string extra;  // more top-level keys, each followed by ", "
+  // An account of this hub (in its users file) that each link names as links[].account, with
+  // these rules ({"subscribe", {"guest.*"}}, ...).
+  std::string account;
+  std::vector<std::pair<std::string, std::vector<std::string>>> rules;
   std::vector<NamedHub*> links;
   std::unique_ptr<HubProcess> hub;
 };

@@ -628,7 +628,7 @@ void BlobStore::put(const std::string& channel, BlobQuota user_quota, const std:
 }
 
 void BlobStore::chunk(const std::string& channel, uint64_t upload_id, uint64_t offset,
-                      std::string data, Done<Written> done) {
+                      SharedBytes data, Done<Written> done) {
   enqueue([=, this, data = std::move(data), done = std::move(done)]() mutable {
     const auto written = [&]() -> Result<Written> {
       State& s = *state_;
@@ -693,7 +693,7 @@ void BlobStore::chunk(const std::string& channel, uint64_t upload_id, uint64_t o
 }
 
 void BlobStore::modify(const std::string& channel, BlobQuota user_quota, const std::string& path,
-                       uint64_t offset, std::string data, Done<Written> done) {
+                       uint64_t offset, SharedBytes data, Done<Written> done) {
   enqueue([=, this, data = std::move(data), done = std::move(done)]() mutable {
     const auto written = [&]() -> Result<Written> {
       State& s = *state_;

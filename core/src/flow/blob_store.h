@@ -39,6 +39,24 @@ class BlobIo {
   [[nodiscard]] virtual Result<void> syncDir(int dir);
 };
 
+// Bytes handed to the store's thread and what keeps them alive: a connection's read buffer given
+// away without a copy (Connection::takeBody), or a string of their own.
+class SharedBytes {
+ public:
+  SharedBytes(std::string s)  // NOLINT(google-explicit-constructor): a string is bytes
+      : owner_(std::make_shared<const std::string>(std::move(s))),
+        view_(*static_cast<const std::string*>(owner_.get())) {}
+  SharedBytes(const char* s) : SharedBytes(std::string(s)) {}  // NOLINT: the tests' literals
+  SharedBytes(std::shared_ptr<const void> owner, std::string_view view)
+      : owner_(std::move(owner)), view_(view) {}
+  operator std::string_view() const noexcept { return view_; }  // NOLINT: a view of them
+  [[nodiscard]] size_t size() const noexcept { return view_.size(); }
+
+ private:
+  std::shared_ptr<const void> owner_;
+  std::string_view view_;
+};
+
 struct BlobQuota {
   uint64_t bytes = 0;  // 0: no limit
   uint64_t files = 0;
@@ -99,10 +117,10 @@ class BlobStore {
                Done<Read> done);
   void put(const std::string& channel, BlobQuota user_quota, const std::string& path,
            uint64_t total_size, uint64_t upload_id, Done<PutAt> done);
-  void chunk(const std::string& channel, uint64_t upload_id, uint64_t offset, std::string data,
+  void chunk(const std::string& channel, uint64_t upload_id, uint64_t offset, SharedBytes data,
              Done<Written> done);
   void modify(const std::string& channel, BlobQuota user_quota, const std::string& path,
-              uint64_t offset, std::string data, Done<Written> done);
+              uint64_t offset, SharedBytes data, Done<Written> done);
   void abort(const std::string& channel, uint64_t upload_id, Done<void> done);
   void mkdir(const std::string& channel, const std::string& path, Done<BlobEvent> done);
   void rmdir(const std::string& channel, const std::string& path, Done<BlobEvent> done);

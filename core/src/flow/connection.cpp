@@ -9,8 +9,9 @@ namespace skr::flow {
 namespace {
 
 constexpr size_t kReadChunk = 64 * 1024;
-constexpr size_t kKeepBuffer = 1 << 20;    // shrink buffers above this once they drain
-constexpr size_t kWriteSlice = 256 << 10;  // queued output is handed to the socket in slices
+constexpr size_t kKeepBuffer = 1 << 20;        // shrink buffers above this once they drain
+constexpr size_t kGiveAwayBytes = 256 * 1024;  // takeBody hands over the buffer from this size
+constexpr size_t kWriteSlice = 256 << 10;      // queued output is handed to the socket in slices
 
 bool inRange(uint8_t code, uint8_t lo, uint8_t hi) {
   return code >= lo && code <= hi;
@@ -69,6 +70,18 @@ void Connection::reserveRead(size_t want) {
     rbuf_ = std::move(bigger);
     rcap_ = cap;
   }
+}
+
+SharedBytes Connection::takeBody(std::string_view part) {
+  if (part.size() < kGiveAwayBytes) return SharedBytes(std::string(part));
+  std::shared_ptr<const char[]> taken(std::move(rbuf_));
+  const size_t have = rend_ - rstart_;
+  rcap_ = std::max(kReadChunk, have);
+  rbuf_ = std::make_unique_for_overwrite<char[]>(rcap_);
+  if (have > 0) std::memcpy(rbuf_.get(), taken.get() + rstart_, have);
+  rstart_ = 0;
+  rend_ = have;
+  return SharedBytes(std::move(taken), part);
 }
 
 void Connection::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {

@@ -135,6 +135,10 @@ class Connection final : public Endpoint {
   // The same for a database read (a linked hub's answers later).
   std::function<void(Result<Variant>)> whenRead(
       std::function<void(Connection&, Result<Variant>)> then);
+  // The bytes `part` of the frame being handled, for the blob store's thread: a large one takes
+  // the read buffer with it (no copy on the loop thread; what follows the frame moves to a new
+  // buffer), a small one is copied.
+  SharedBytes takeBody(std::string_view part);
   // VAR_GET, VAR_GET_ALL or VAR_KEYS in a linked hub's current database.
   void readLinkedDb(Code code, std::string_view body);
   // Pauses reading until the pending reply is sent (sync requests answer in order).

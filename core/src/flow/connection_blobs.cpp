@@ -214,14 +214,14 @@ void Connection::handleBlob(Code code, std::string_view body) {
     case Code::blob_chunk: {
       SKR_BLOB_DECODE(msg::BlobChunk, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, true);
-      store->chunk((*ch)->name, m.upload_id, m.offset, std::string(m.data.bytes),
+      store->chunk((*ch)->name, m.upload_id, m.offset, takeBody(m.data.bytes),
                    written(**ch, m.data.bytes.size()));
       break;
     }
     case Code::blob_modify: {
       SKR_BLOB_DECODE(msg::BlobModify, m);
       SKR_BLOB_CHANNEL(ch, m.chan_id, true);
-      store->modify((*ch)->name, quota, m.path, m.offset, std::string(m.data.bytes),
+      store->modify((*ch)->name, quota, m.path, m.offset, takeBody(m.data.bytes),
                     written(**ch, m.data.bytes.size()));
       break;
     }

@@ -27,6 +27,11 @@ TEST(HubRoute, TheRouteEndsWithTheLinkAndRefusesLoopsAndLongPaths) {
   EXPECT_FALSE(routeAccepted({"head", "arm"}, "head", 8));
   EXPECT_FALSE(routeAccepted({"a", "b", "c"}, "head", 2));
   EXPECT_TRUE(routeAccepted({"a", "b"}, "head", 2));
+  // The length routes compare: a channel of this hub has none.
+  EXPECT_EQ(routeLength(Variant::Map{}), 0u);
+  EXPECT_EQ(routeLength(props), 3u);
+  EXPECT_EQ(routeLength(routedProps(Variant(), {"base", "arm"})), 2u);
+  EXPECT_EQ(*routedProps(Variant::Map{{"unit", "m"}}, {"arm"}).find("unit"), Variant("m"));
 }
 
 }  // namespace

@@ -27,6 +27,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   const auto route = hubRoute(ev->info.props, "bee");
   if (route.empty() || route.back() != "bee") std::abort();
+  // What this hub shows keeps the route it came by, and its length is what routes compare.
+  const Variant shown = routedProps(ev->info.props, route);
+  if (routeLength(shown) != route.size() || hubRoute(shown, "x").size() != route.size() + 1) {
+    std::abort();
+  }
   if (routeAccepted(route, "ay", 8) &&
       (route.size() > 8 || std::find(route.begin(), route.end(), "ay") != route.end())) {
     std::abort();

@@ -170,9 +170,10 @@ void HubLink::added(const msg::ChannelInfo& info) {
   const auto kind = static_cast<ChannelKind>(info.kind);
   if (kind != ChannelKind::streaming && kind != ChannelKind::service) return;  // not carried yet
   const std::string name = linkedName(info.name, opt_.name, server_.hub_name);
-  if (name.empty() || server_.channels.findByName(name) != nullptr) return;  // another route
+  if (name.empty()) return;
   const std::vector<std::string> route = hubRoute(info.props, opt_.name);
   if (!routeAccepted(route, server_.hub_name, server_.opt.link_hops)) return;
+  if (!server_.takeRoute(name, route.size())) return;  // shown already, by a route as short
   if (by_local_.size() >= opt_.max_channels) {
     if (!limit_logged_) {
       log::warn(kLinkLog, "HUB-LINK-LIMIT",
@@ -196,12 +197,27 @@ void HubLink::added(const msg::ChannelInfo& info) {
 }
 
 void HubLink::removed(uint16_t remote_id) {
+  if (auto o = offered_.find(remote_id); o != offered_.end()) {
+    // One we offered: the far hub took a shorter route (it asks again when that one drops).
+    (void)server_.channels.unsubscribe(*this, o->second);
+    offered_far_.erase(o->second);
+    offered_.erase(o);
+    return;
+  }
   auto it = by_remote_.find(remote_id);
   if (it == by_remote_.end()) return;
   const uint16_t local = it->second;
   by_remote_.erase(it);
   by_local_.erase(local);
   (void)server_.removeChannel(*this, local);
+}
+
+void HubLink::forget(uint16_t local) {
+  auto it = by_local_.find(local);
+  if (it == by_local_.end()) return;
+  sat_->unsubscribe(it->second.remote_name);
+  by_remote_.erase(it->second.remote_id);
+  by_local_.erase(it);
 }
 
 void HubLink::changed(const msg::ChannelInfo& info) {
@@ -338,6 +354,20 @@ void FlowServer::Impl::startLinks() {
                  "replica hub." + r.short_name + " of " + r.source + ": " + made.error().message);
     }
   }
+}
+
+bool FlowServer::Impl::takeRoute(const std::string& name, size_t hops) {
+  Channel* ch = channels.findByName(name);
+  if (ch == nullptr) return true;
+  const size_t held = routeLength(databases.channelProps(name));
+  if (held <= hops || ch->owner == nullptr) return false;  // as short, or not a linked one
+  log::info(kLinkLog, "HUB-ROUTE-SWITCH",
+            name + ": a route of " + std::to_string(hops) + " links replaces one of " +
+                std::to_string(held));
+  Endpoint& owner = *ch->owner;
+  if (auto* link = dynamic_cast<HubLink*>(&owner)) link->forget(ch->id);
+  (void)removeChannel(owner, ch->id);
+  return true;
 }
 
 HubLink* FlowServer::Impl::linkToward(std::string_view hub) {

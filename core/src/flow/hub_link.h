@@ -42,6 +42,8 @@ class HubLink final : public Endpoint {
   void everySecond(Nanos now);
   // Another link dropped: takes the far channels this one offers that nobody shows any more.
   void offerAgain();
+  // A shorter route took channel `local` of ours: no more of it comes this way.
+  void forget(uint16_t local);
   // Open, and the far hub said it is the one the config names.
   [[nodiscard]] bool up() const noexcept { return up_; }
   // --- one connection for two hubs that list each other (hub_link_shared.cpp)

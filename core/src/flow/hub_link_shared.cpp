@@ -78,13 +78,13 @@ Result<Channel*> FlowServer::Impl::linkOffer(Connection& c, const msg::LinkOffer
   if (name.empty()) {
     return makeError(Errc::invalid_argument, "\"" + m.name + "\" is not offered here");
   }
-  if (channels.findByName(name) != nullptr) {
-    return makeError(Errc::already_exists, name + " is here already (another route)");
-  }
   const std::vector<std::string> route = hubRoute(m.props, c.linked_hub);
   if (!routeAccepted(route, hub_name, opt.link_hops)) {
     return makeError(Errc::invalid_argument,
                      name + ": its route comes back here or is longer than link_hops");
+  }
+  if (!takeRoute(name, route.size())) {
+    return makeError(Errc::already_exists, name + " is here already, by a route as short");
   }
   if (c.owned.size() >= link->options().max_channels) {
     return makeError(Errc::limit_exceeded, "hub " + c.linked_hub +

@@ -38,6 +38,11 @@ Variant routedProps(const Variant& props, const std::vector<std::string>& route)
   return routed;
 }
 
+size_t routeLength(const Variant& props) {
+  const Variant* r = props.find("hub_route");
+  return r != nullptr && r->asList() != nullptr ? r->asList()->size() : 0;
+}
+
 bool routeAccepted(const std::vector<std::string>& route, std::string_view own_hub,
                    size_t max_hops) {
   return route.size() <= max_hops && std::find(route.begin(), route.end(), own_hub) == route.end();

@@ -25,6 +25,9 @@ namespace skr::flow {
 // none) with "hub_route" set to `route`.
 [[nodiscard]] Variant routedProps(const Variant& props, const std::vector<std::string>& route);
 
+// The number of links in a channel's "hub_route" property (0: not a linked hub's channel).
+[[nodiscard]] size_t routeLength(const Variant& props);
+
 // Whether a channel that came by `route` may be shown on `own_hub`: not when the route names it
 // (a loop), nor when it is longer than `max_hops` links.
 [[nodiscard]] bool routeAccepted(const std::vector<std::string>& route, std::string_view own_hub,

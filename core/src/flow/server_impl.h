@@ -150,6 +150,10 @@ struct FlowServer::Impl {
   // invalid_argument (not a shared link, a bad name or a route that loops or is too long),
   // already_exists (another route has it), permission_denied, limit_exceeded.
   Result<Channel*> linkOffer(Connection& c, const msg::LinkOffer& m);
+  // Whether a linked hub's channel `name` may be shown here by a route of `hops` links: when no
+  // channel has the name, or when the linked one that has it came by a longer route; that one is
+  // dropped then (its subscribers follow the new one by name). docs/hub-links.md, "Routes".
+  bool takeRoute(const std::string& name, size_t hops);
   // The link that reaches hub `hub`: the link to it, else one that shows its channels. Null when
   // none is up.
   HubLink* linkToward(std::string_view hub);

@@ -357,6 +357,47 @@ TEST(HubLinkPair, OverOneConnectionEachHubShowsTheOtherWhatItsLinkAccountMayUse)
   EXPECT_FALSE(hasChannel(dialled, dialler_hub + "guest.echo"));
 }
 
+TEST(HubLinkRoutes, AShorterRouteReplacesALongerOneAndSubscribersFollow) {
+  // C, B linked to C, and A linked to B and to C; A's direct link finds C only later (its
+  // address is a symbolic link made once A shows C's channel through B).
+  NamedHub c("sea"), b("bee"), a("ay");
+  ASSERT_TRUE(c.start());
+  ASSERT_TRUE(b.link(c).start());
+  const fs::path later = a.dir.path() / "sea-later.sock";
+  ASSERT_TRUE(a.link(b).link(c, "local:" + later.string()).start());
+  const auto logs = [&] {
+    return "--- A\n" + a.hub->log() + "--- B\n" + b.hub->log() + "--- C\n" + c.hub->log();
+  };
+  auto owner = c.satellite("owner");
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.addChannel({.name = "x"}); }));
+  auto viewer = a.satellite("viewer");
+  const auto route = [&] {
+    return viewer->on([](Satellite& s) {
+      const ChannelInfo* ch = s.channel("sea/guest.x");
+      const Variant* r = ch != nullptr ? ch->props.find("hub_route") : nullptr;
+      return r != nullptr && r->asList() != nullptr ? r->asList()->size() : size_t(0);
+    });
+  };
+  ASSERT_TRUE(eventually([&] { return route() == 2; }, 20000)) << logs();  // sea, bee
+  viewer->on([](Satellite& s) { s.subscribe("sea/guest.x"); });
+  ASSERT_TRUE(eventually([&] { return owner->events.count("start:guest.x") == 1; })) << logs();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("x", "long"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:sea/guest.x:long") == 1; }));
+
+  fs::create_symlink(c.dir.path() / "hub.sock", later);
+  ASSERT_TRUE(eventually([&] { return route() == 1; }, 20000)) << logs();
+  ASSERT_TRUE(a.hub->waitLog("HUB-ROUTE-SWITCH")) << logs();
+  // The subscriber follows the channel to its new route; nothing comes twice.
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("subscribed:sea/guest.x") == 2; }))
+      << viewer->events.dump();
+  ASSERT_TRUE(owner->on([](Satellite& s) { return s.publish("x", "short"); }));
+  ASSERT_TRUE(eventually([&] { return viewer->events.count("data:sea/guest.x:short") == 1; }))
+      << logs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(viewer->events.count("data:"), 2u);
+  EXPECT_EQ(viewer->on([](Satellite& s) { return s.channels().size(); }), 1u);
+}
+
 TEST(HubLinkTriangle, ThreeHubsThatAllListEachOtherSeeEveryChannelOnceOverSharedLinks) {
   NamedHub a("ay"), b("bee"), c("sea");
   a.link(b).link(c);

@@ -17,8 +17,10 @@ namespace skr::sat::test {
 // added by link(); its config is written by start().
 struct NamedHub {
   explicit NamedHub(std::string hub_name) : name(std::move(hub_name)) {}
-  NamedHub& link(NamedHub& to) {
+  // A link to `to`, at its address or at `via` (a path that leads there later, say).
+  NamedHub& link(NamedHub& to, std::string via = {}) {
     links.push_back(&to);
+    vias.push_back(std::move(via));
     return *this;
   }
   [[nodiscard]] std::string address() const {
@@ -32,7 +34,7 @@ struct NamedHub {
         std::ofstream(pass) << "password\n";
         ::chmod(pass.c_str(), 0600);
         keys += (i ? ", " : "") + std::string(R"({"name": ")") + links[i]->name +
-                R"(", "address": ")" + links[i]->address() +
+                R"(", "address": ")" + (vias[i].empty() ? links[i]->address() : vias[i]) +
                 R"(", "user": "guest", "password_file": ")" + pass.string() + R"(")" +
                 (account.empty() ? "" : R"(, "account": ")" + account + R"(")") + "}";
       }
@@ -68,6 +70,7 @@ struct NamedHub {
   std::string account;
   std::vector<std::pair<std::string, std::vector<std::string>>> rules;
   std::vector<NamedHub*> links;
+  std::vector<std::string> vias;
   std::unique_ptr<HubProcess> hub;
 };
 

@@ -57,8 +57,8 @@ HubLink::HubLink(FlowServer::Impl& server, HubLinkOptions options)
   sat_->channelAdded.connect(sat_.get(), [this](const msg::ChannelInfo& i) { added(i); });
   sat_->channelRemoved.connect(sat_.get(), [this](const msg::ChannelInfo& i) { removed(i.id); });
   sat_->channelChanged.connect(sat_.get(), [this](const msg::ChannelInfo& i) { changed(i); });
-  sat_->data.connect(sat_.get(),
-                     [this](uint16_t id, const std::string& payload) { data(id, payload); });
+  sat_->dataView.connect(sat_.get(),
+                         [this](uint16_t id, std::string_view payload) { data(id, payload); });
   sat_->linkWanted.connect(sat_.get(), [this](const std::string&) { offerAll(); });
   sat_->startPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, true); });
   sat_->stopPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, false); });
@@ -231,7 +231,7 @@ void HubLink::changed(const msg::ChannelInfo& info) {
   (void)server_.databases.replaceChannelProps(ch->name, update, {"hub_route"});
 }
 
-void HubLink::data(uint16_t remote_id, const std::string& payload) {
+void HubLink::data(uint16_t remote_id, std::string_view payload) {
   auto it = by_remote_.find(remote_id);
   if (it == by_remote_.end()) return;
   ++traffic.messages_in;

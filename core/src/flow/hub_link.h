@@ -89,7 +89,7 @@ class HubLink final : public Endpoint {
   void added(const msg::ChannelInfo& info);
   void removed(uint16_t remote_id);
   void changed(const msg::ChannelInfo& info);
-  void data(uint16_t remote_id, const std::string& payload);
+  void data(uint16_t remote_id, std::string_view payload);
   void timeSample(int64_t round_trip_ns, int64_t offset_ns);
   void writeDb();
   void dropAll();

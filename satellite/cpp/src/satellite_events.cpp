@@ -28,7 +28,10 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
   switch (static_cast<Code>(code)) {
     case Code::ev_data: {
       SAT_DECODE(msg::EvData, m);
-      self.data.emit(m.chan_id, std::string(m.payload.bytes));
+      self.dataView.emit(m.chan_id, m.payload.bytes);
+      if (gen == generation && self.data.connectionCount() > 0) {
+        self.data.emit(m.chan_id, std::string(m.payload.bytes));
+      }
       return;
     }
     case Code::ev_chan_added: {

@@ -28,6 +28,13 @@ TEST_F(Satellites, PublishAndSubscribeByNameInBatches) {
   EXPECT_EQ(sub->events.count("subscribed:guest.numbers"), 1u);
   EXPECT_TRUE(sub->on([](Satellite& s) { return s.isSubscribed("guest.numbers"); }));
 
+  // dataView sees each payload in place, before `data` copies it.
+  std::vector<std::string> viewed;  // the sub's loop thread only, read once it is done
+  sub->on([&](Satellite& s) {
+    s.dataView.connect(
+        &s, [&viewed](uint16_t, std::string_view payload) { viewed.emplace_back(payload); });
+  });
+
   // 200 frames queued in one loop iteration leave in a few writes, not 200.
   const uint64_t writes_before = pub->on([](Satellite& s) { return s.stats().writes; });
   pub->on([](Satellite& s) {
@@ -37,6 +44,7 @@ TEST_F(Satellites, PublishAndSubscribeByNameInBatches) {
       << sub->events.count("data:");
   const auto data = sub->events.with("data:guest.numbers:");
   for (int i = 0; i < 200; ++i) EXPECT_EQ(data[i], std::to_string(i));
+  EXPECT_EQ(sub->on([&](Satellite&) { return viewed; }), data);
   const uint64_t writes = pub->on([](Satellite& s) { return s.stats().writes; }) - writes_before;
   EXPECT_LE(writes, 5u) << "frames of one iteration go out together";
 

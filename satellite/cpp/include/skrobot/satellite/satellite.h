@@ -275,6 +275,10 @@ class Satellite : public Object {
   Signal<uint16_t> startPublish{*this};              // first subscriber of one of ours
   Signal<uint16_t> stopPublish{*this};               // last subscriber left
   Signal<uint16_t, const std::string&> data{*this};  // chan_id, payload
+  // The same payload in place, without the copy `data` makes (emitted first; `data` only when
+  // something is connected to it). The view is valid during the slot only: connect directly,
+  // on the satellite's loop thread, never queued to another thread.
+  Signal<uint16_t, std::string_view> dataView{*this};
   Signal<const Request&> serviceRequest{*this};
   Signal<const Response&> serviceResponse{*this};
   Signal<const FlowError&> error{*this};

@@ -516,8 +516,9 @@ bool Connection::writeUrgent() {
 }
 
 void Connection::writeSlice() {
-  // Whole frames of at least kWriteSlice bytes (one larger frame goes whole), so that urgent
-  // frames wait behind one slice at most. TLS output is written whole.
+  // Whole frames of at least kWriteSlice bytes, so that urgent frames wait behind one slice at
+  // most; a larger frame goes in slices of kWriteSlice too, so that no write holds the loop for
+  // long (urgent frames wait for its end: atFrameBoundary). TLS output is written whole.
   size_t end = inflight_.size();
   if (!tls_) {
     while (next_frame_ < inflight_.size() &&
@@ -526,7 +527,7 @@ void Connection::writeSlice() {
       std::memcpy(&len, inflight_.data() + next_frame_, 4);
       next_frame_ += 4 + static_cast<size_t>(len);
     }
-    end = std::min(next_frame_, inflight_.size());
+    end = std::min({next_frame_, inflight_.size(), inflight_off_ + kWriteSlice});
   }
   slice_end_ = end;
   uv_buf_t buf =

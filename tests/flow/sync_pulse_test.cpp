@@ -151,6 +151,39 @@ TEST_F(SyncPulse, APulseGoesAheadOfQueuedData) {
   EXPECT_LT(before, kFrames / 2) << "the pulse waited behind " << before << " of " << kFrames;
 }
 
+// Frames larger than a write slice go to the socket in slices; a pulse still goes between whole
+// frames, never inside one.
+TEST_F(SyncPulse, APulseWaitsForTheEndOfALargeFrameWrittenInSlices) {
+  startHub();
+  TestClient camera = flowClient();
+  const uint16_t video = addChannel(camera, "video");
+  const uint16_t clock = addChannel(camera, "clock", ChannelKind::sync);
+  TestClient target = flowClient();
+  ASSERT_TRUE(target.send(msg::Subscribe{1, video}));
+  ASSERT_TRUE(camera.waitFor(Code::ev_start_publish));
+  follow(target, clock);
+  constexpr int kFrames = 6;  // 6 MiB, below the subscriber queue's 8 MiB: nothing dropped
+  for (int i = 0; i < kFrames; ++i) {
+    const std::string frame((1 << 20) + i, static_cast<char>('a' + i));
+    ASSERT_TRUE(camera.send(msg::Publish{video, msg::Rest{frame}}));
+    if (i == 1) ASSERT_TRUE(camera.send(msg::SyncPulse{clock, 1}));
+  }
+  int frames = 0, pulses = 0;
+  while (frames < kFrames || pulses < 1) {
+    auto f = target.recv();
+    ASSERT_TRUE(f) << "after " << frames << " frames";
+    if (f->kind() == Code::ev_sync_pulse) ++pulses;
+    if (f->kind() != Code::ev_data) continue;
+    auto d = as<msg::EvData>(*f);
+    ASSERT_TRUE(d);
+    const std::string_view payload = d->payload.bytes;
+    ASSERT_EQ(payload.size(), size_t(1 << 20) + size_t(frames));
+    EXPECT_EQ(payload.find_first_not_of(static_cast<char>('a' + frames)), std::string::npos);
+    ++frames;
+  }
+  EXPECT_EQ(pulses, 1);
+}
+
 TEST_F(SyncPulse, RulesAndOlderClients) {
   startHub();
   TestClient source = flowClient();

@@ -521,13 +521,22 @@ void Connection::writeSlice() {
   // long (urgent frames wait for its end: atFrameBoundary). TLS output is written whole.
   size_t end = inflight_.size();
   if (!tls_) {
+    size_t last_start = 0;  // where the last frame added below starts
     while (next_frame_ < inflight_.size() &&
            (next_frame_ <= inflight_off_ || next_frame_ - inflight_off_ < kWriteSlice)) {
+      last_start = next_frame_;
       uint32_t len = 0;
       std::memcpy(&len, inflight_.data() + next_frame_, 4);
       next_frame_ += 4 + static_cast<size_t>(len);
     }
-    end = std::min({next_frame_, inflight_.size(), inflight_off_ + kWriteSlice});
+    end = std::min(next_frame_, inflight_.size());
+    if (end - inflight_off_ > kWriteSlice) {
+      if (last_start > inflight_off_) {
+        end = next_frame_ = last_start;  // the frames before the one that makes it too long
+      } else {
+        end = inflight_off_ + kWriteSlice;  // inside one frame larger than a slice
+      }
+    }
   }
   slice_end_ = end;
   uv_buf_t buf =

@@ -27,7 +27,8 @@ static_assert(offsetof(skr_host_api, channel_create) == 144);  // 1.0 ends here
 static_assert(offsetof(skr_host_api, db_sync) == 224);         // 1.2 ends here
 static_assert(offsetof(skr_host_api, blob_get) == 232);        // 1.3 ends here
 static_assert(offsetof(skr_host_api, sync_pulse) == 264);      // 1.4 ends here
-static_assert(offsetof(skr_host_api, reserved) == 296);
+static_assert(offsetof(skr_host_api, hub_name) == 296);        // 1.5 ends here
+static_assert(offsetof(skr_host_api, reserved) == 344);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -386,6 +387,27 @@ skr_status syncDone(skr_module_ctx* ctx, skr_sub_handle handle, uint64_t seq) no
   return withFlow(ctx, [&](ModuleFlow& f) { return f.syncDone(handle, seq); });
 }
 
+const char* hubName(skr_module_ctx* ctx) noexcept {
+  return ctx != nullptr && ctx->server != nullptr ? ctx->server->hubName().c_str() : "";
+}
+skr_status channelWatch(skr_module_ctx* ctx, skr_channel_fn fn, void* user,
+                        skr_sub_handle* out) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.channelWatch(fn, user, out); });
+}
+skr_status channelUnwatch(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.channelUnwatch(handle); });
+}
+skr_status dbWatch(skr_module_ctx* ctx, const char* db, skr_db_change_fn fn, void* user,
+                   skr_sub_handle* out) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbWatch(db, fn, user, out); });
+}
+skr_status dbUnwatch(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbUnwatch(handle); });
+}
+skr_status dbRemove(skr_module_ctx* ctx, const char* db, const char* key) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbRemove(db, key); });
+}
+
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
     .abi_major = SKR_PLUGIN_ABI_MAJOR,
@@ -426,6 +448,12 @@ const skr_host_api kHostApi = {
     .sync_follow = &syncFollow,
     .sync_unfollow = &syncUnfollow,
     .sync_done = &syncDone,
+    .hub_name = &hubName,
+    .channel_watch = &channelWatch,
+    .channel_unwatch = &channelUnwatch,
+    .db_watch = &dbWatch,
+    .db_unwatch = &dbUnwatch,
+    .db_remove = &dbRemove,
     .reserved = {},
 };
 

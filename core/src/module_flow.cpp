@@ -56,12 +56,21 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
     const std::string json = flow::variantToJsonText(value);
     p.fn(p.user, chan_id, p.tag, toStatus(error), json.c_str());
   };
-  h.on_channel = [this](uint16_t chan_id, const std::string& name, bool added) {
+  h.on_channel = [this](uint16_t chan_id, const std::string& name, flow::ChannelKind kind,
+                        const std::string& mime, bool added) {
     for (Sub& s : subs_) {
       if (s.name == name) s.chan_id = added ? chan_id : 0;
     }
     for (Follow& f : follows_) {
       if (f.name == name) f.chan_id = added ? chan_id : 0;
+    }
+    // Index loop on a copy: a watcher may watch or unwatch from its call.
+    const std::vector<ChannelWatch> watches = channel_watches_;
+    for (const ChannelWatch& w : watches) {
+      if (isWatching(w.handle)) {
+        w.fn(w.user, chan_id, name.c_str(), static_cast<skr_channel_kind>(kind), mime.c_str(),
+             added ? 1 : 0);
+      }
     }
   };
   h.on_sync_pulse = [this](uint16_t chan_id, uint64_t seq, uint64_t source_time_ns,
@@ -185,6 +194,71 @@ skr_status ModuleFlow::dbGet(const char* db, const char* key, char* buf, size_t 
   *len_out = json.size() + 1;
   if (buf == nullptr || cap < json.size() + 1) return SKR_ERR_NO_MEMORY;
   std::memcpy(buf, json.c_str(), json.size() + 1);
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::dbRemove(const char* db, const char* key) {
+  if (db == nullptr || key == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  auto r = client_->removeVariable(db, key);
+  return r ? SKR_OK : fail("db_remove " + std::string(db) + " " + key, r.error());
+}
+
+skr_status ModuleFlow::dbWatch(const char* db, skr_db_change_fn fn, void* user,
+                               skr_sub_handle* handle_out) {
+  if (db == nullptr || fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  auto tell = [fn, user](const flow::PairDatabase& d, std::string_view key,
+                         const flow::Variant* value) {
+    const std::string k(key);
+    if (value == nullptr)
+      return fn(user, d.name().c_str(), key.empty() ? nullptr : k.c_str(), nullptr);
+    const std::string json = flow::variantToJsonText(*value);
+    fn(user, d.name().c_str(), k.c_str(), json.c_str());
+  };
+  auto id = client_->watchDatabase(db, tell);
+  if (!id) return fail("db_watch " + std::string(db), id.error());
+  const skr_sub_handle handle = next_handle_++;
+  db_watches_[handle] = *id;
+  *handle_out = handle;
+  if (const auto pairs = client_->pairsOf(db)) {  // what it holds now
+    for (const auto& [key, value] : *pairs->asMap()) {
+      if (db_watches_.count(handle) == 0) break;  // unwatched from its call
+      const std::string json = flow::variantToJsonText(value);
+      fn(user, db, key.c_str(), json.c_str());
+    }
+  }
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::dbUnwatch(skr_sub_handle handle) {
+  auto it = db_watches_.find(handle);
+  if (it == db_watches_.end()) return SKR_ERR_NOT_FOUND;
+  client_->unwatchDatabase(it->second);
+  db_watches_.erase(it);
+  return SKR_OK;
+}
+
+bool ModuleFlow::isWatching(skr_sub_handle handle) const {
+  return std::any_of(channel_watches_.begin(), channel_watches_.end(),
+                     [handle](const ChannelWatch& w) { return w.handle == handle; });
+}
+
+skr_status ModuleFlow::channelWatch(skr_channel_fn fn, void* user, skr_sub_handle* handle_out) {
+  if (fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  const skr_sub_handle handle = next_handle_++;
+  channel_watches_.push_back(ChannelWatch{handle, fn, user});
+  *handle_out = handle;
+  for (const auto& ch : client_->channels()) {  // what there is now
+    if (!isWatching(handle)) break;
+    fn(user, ch.id, ch.name.c_str(), static_cast<skr_channel_kind>(ch.kind), ch.mime.c_str(), 1);
+  }
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::channelUnwatch(skr_sub_handle handle) {
+  auto it = std::find_if(channel_watches_.begin(), channel_watches_.end(),
+                         [handle](const ChannelWatch& w) { return w.handle == handle; });
+  if (it == channel_watches_.end()) return SKR_ERR_NOT_FOUND;
+  channel_watches_.erase(it);
   return SKR_OK;
 }
 

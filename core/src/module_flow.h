@@ -40,6 +40,11 @@ class ModuleFlow {
   skr_status dbGet(const char* db, const char* key, char* buf, size_t cap, size_t* len_out);
   skr_status dbSet(const char* db, const char* key, const char* value_json);
   skr_status dbSync(skr_done_fn fn, void* user);
+  skr_status dbRemove(const char* db, const char* key);
+  skr_status dbWatch(const char* db, skr_db_change_fn fn, void* user, skr_sub_handle* handle_out);
+  skr_status dbUnwatch(skr_sub_handle handle);
+  skr_status channelWatch(skr_channel_fn fn, void* user, skr_sub_handle* handle_out);
+  skr_status channelUnwatch(skr_sub_handle handle);
   skr_status blobGet(uint16_t chan_id, const char* path, uint64_t max_bytes, skr_blob_fn fn,
                      void* user);
   skr_status blobPut(uint16_t chan_id, const char* path, const void* data, size_t size,
@@ -73,6 +78,11 @@ class ModuleFlow {
     skr_sync_fn fn;
     void* user;
   };
+  struct ChannelWatch {
+    skr_sub_handle handle;
+    skr_channel_fn fn;
+    void* user;
+  };
   struct Pending {
     uint32_t tag;
     skr_response_fn fn;
@@ -80,6 +90,7 @@ class ModuleFlow {
   };
 
   skr_status fail(const std::string& what, const Error& error) const;
+  [[nodiscard]] bool isWatching(skr_sub_handle handle) const;
 
   std::string name_;
   std::unique_ptr<flow::LocalClient> client_;
@@ -87,7 +98,9 @@ class ModuleFlow {
   std::optional<Owned> creating_;  // callbacks of the channel being created
   std::vector<Sub> subs_;
   std::vector<Follow> follows_;
-  std::map<uint32_t, Pending> pending_;  // by the internal tag given to the server
+  std::vector<ChannelWatch> channel_watches_;
+  std::map<skr_sub_handle, uint64_t> db_watches_;  // the LocalClient's watch ids
+  std::map<uint32_t, Pending> pending_;            // by the internal tag given to the server
   uint32_t next_tag_ = 1;
   // Barriers not answered yet, by number; the destructor answers them SKR_ERR_BAD_STATE. The
   // store's answer finds them through `alive_`, which dies with this object.

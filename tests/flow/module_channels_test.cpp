@@ -283,5 +283,51 @@ TEST_F(ModuleSync, AModuleThatFinishesLaterLosesThePulsesThatComeMeanwhile) {
   EXPECT_EQ(nextTick(), "8:2");
 }
 
+// --- watching (ABI 1.6): test_watch_calls reports guest's channels and database "shared" ------
+
+TEST_F(ModuleChannels, AModuleWatchesChannelsAndADatabaseFromWhatThereIsNow) {
+  startHub();
+  TestClient sat = flowClient();
+  TestClient sync = syncClient();
+  ASSERT_EQ(sync.call(msg::DbCreate{"shared"})->kind(), Code::reply_ok);
+  ASSERT_EQ(sync.call(msg::DbSelect{"shared"})->kind(), Code::reply_ok);
+  ASSERT_EQ(sync.call(msg::VarSet{"a", Variant(int64_t{1})})->kind(), Code::reply_ok);
+  const uint16_t cmd = addChannel(sat, "cmd");  // before the module: told as there already
+  startModules("test_watch_calls");
+  auto events =
+      as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_watch_calls.events"}));
+  ASSERT_TRUE(events);
+  ASSERT_TRUE(sat.send(msg::Subscribe{1, events->info.id}));
+  ASSERT_TRUE(sat.send(msg::DbSetCurrent{2, "guest"}));  // a round trip: subscribed now
+  ASSERT_TRUE(sat.waitFor(Code::ev_db_changed));
+  auto next = [&](int timeout_ms = 5000) {
+    auto d = as<msg::EvData>(sat.waitFor(Code::ev_data, timeout_ms));
+    return d ? std::string(d->payload.bytes) : std::string();
+  };
+  ASSERT_EQ(sync.call(msg::DbSelect{"test_watch_calls"})->kind(), Code::reply_ok);
+  auto hub = as<msg::ReplyValue>(sync.call(msg::VarGet{"hub"}));
+  ASSERT_TRUE(hub);
+  EXPECT_EQ(hub->value, Variant(server_->hubName()));
+  ASSERT_EQ(sync.call(msg::DbSelect{"shared"})->kind(), Code::reply_ok);
+
+  // Changes as they come, whoever makes them.
+  const uint16_t cam = addChannel(sat, "cam");
+  EXPECT_EQ(next(), "added guest.cam 1 application/octet-stream");
+  ASSERT_EQ(sync.call(msg::VarSet{"b", Variant("two")})->kind(), Code::reply_ok);
+  EXPECT_EQ(next(), "set b=\"two\"");
+  ASSERT_TRUE(sat.send(msg::Publish{cmd, msg::Rest{"remove b"}}));  // db_remove by the module
+  EXPECT_EQ(next(), "del b");
+  EXPECT_EQ(sync.call(msg::VarGet{"b"})->kind(), Code::reply_error);
+  ASSERT_TRUE(sat.send(msg::ChanRemove{3, cam}));
+  EXPECT_EQ(next(), "removed guest.cam");
+  // Unwatched: nothing more.
+  ASSERT_TRUE(sat.send(msg::Publish{cmd, msg::Rest{"unwatch"}}));
+  ASSERT_TRUE(sat.send(msg::DbSetCurrent{4, "guest"}));  // a round trip: the module read it
+  ASSERT_TRUE(sat.waitFor(Code::ev_db_changed));
+  ASSERT_EQ(sync.call(msg::VarSet{"c", Variant(int64_t{3})})->kind(), Code::reply_ok);
+  EXPECT_NE(addChannel(sat, "late"), 0);
+  EXPECT_EQ(next(300), "");
+}
+
 }  // namespace
 }  // namespace skr::test

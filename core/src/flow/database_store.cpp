@@ -287,6 +287,7 @@ void DatabaseStore::loadOne(const std::string& name, bool has_snapshot, bool has
   }
   db.restoreVersion(db.version());
   entry.db = std::make_unique<PairDatabase>(std::move(db));
+  entry.db->setListener(this);
   dbs_.emplace(name, std::move(entry));
   report.loaded.push_back(name);
 }
@@ -316,9 +317,7 @@ void DatabaseStore::startJournal(Durability durability, uint64_t compact_bytes,
                                          if (auto p = weak.lock()) p->durable(seq, r);
                                        });
   for (auto& [name, entry] : dbs_) {
-    if (entry.kind != DatabaseKind::persistent) continue;
-    entry.db->setListener(this);
-    if (entry.needs_snapshot) compact(name, entry);
+    if (entry.kind == DatabaseKind::persistent && entry.needs_snapshot) compact(name, entry);
   }
 }
 
@@ -347,7 +346,6 @@ Result<void> DatabaseStore::close() {
   }
   journal_->stop();
   journal_.reset();
-  for (auto& [name, entry] : dbs_) entry.db->setListener(nullptr);
   return {};
 }
 
@@ -371,7 +369,7 @@ void DatabaseStore::compact(const std::string& name, Entry& entry,
 
 void DatabaseStore::logged(const std::string& name, std::string records) {
   const auto it = dbs_.find(name);
-  if (it == dbs_.end() || !journal_) return;
+  if (it == dbs_.end() || !journal_ || it->second.kind != DatabaseKind::persistent) return;
   Entry& e = it->second;
   e.log_bytes += records.size();
   pending_->last_seq = journal_->append(name, std::move(records));
@@ -381,21 +379,50 @@ void DatabaseStore::logged(const std::string& name, std::string records) {
 }
 
 void DatabaseStore::onSet(const PairDatabase& db, std::string_view key, const Variant& value) {
-  std::string record;
-  dblog::appendRecord(record, db.version(), dblog::Op::set, key, &value);
-  logged(db.name(), std::move(record));
+  if (journal_) {
+    std::string record;
+    dblog::appendRecord(record, db.version(), dblog::Op::set, key, &value);
+    logged(db.name(), std::move(record));
+  }
+  tell(db, key, &value);
 }
 
 void DatabaseStore::onRemove(const PairDatabase& db, std::string_view key) {
-  std::string record;
-  dblog::appendRecord(record, db.version(), dblog::Op::remove, key, nullptr);
-  logged(db.name(), std::move(record));
+  if (journal_) {
+    std::string record;
+    dblog::appendRecord(record, db.version(), dblog::Op::remove, key, nullptr);
+    logged(db.name(), std::move(record));
+  }
+  tell(db, key, nullptr);
 }
 
 void DatabaseStore::onClear(const PairDatabase& db) {
-  std::string record;
-  dblog::appendRecord(record, db.version(), dblog::Op::clear, {}, nullptr);
-  logged(db.name(), std::move(record));
+  if (journal_) {
+    std::string record;
+    dblog::appendRecord(record, db.version(), dblog::Op::clear, {}, nullptr);
+    logged(db.name(), std::move(record));
+  }
+  tell(db, {}, nullptr);
+}
+
+void DatabaseStore::tell(const PairDatabase& db, std::string_view key, const Variant* value) {
+  if (watchers_.empty()) return;
+  // Copied first: a watcher may unwatch (itself or another) from its call.
+  std::vector<std::shared_ptr<ChangeFn>> told;
+  for (const auto& [id, w] : watchers_) {
+    if (w.name == db.name()) told.push_back(w.fn);
+  }
+  for (const auto& fn : told) (*fn)(db, key, value);
+}
+
+uint64_t DatabaseStore::watch(std::string name, ChangeFn fn) {
+  const uint64_t id = next_watch_++;
+  watchers_.emplace(id, Watcher{std::move(name), std::make_shared<ChangeFn>(std::move(fn))});
+  return id;
+}
+
+void DatabaseStore::unwatch(uint64_t id) noexcept {
+  watchers_.erase(id);
 }
 
 Result<PairDatabase*> DatabaseStore::create(const std::string& name, DatabaseKind kind) {
@@ -418,8 +445,8 @@ Result<PairDatabase*> DatabaseStore::create(const std::string& name, DatabaseKin
   auto db = std::make_unique<PairDatabase>(name);
   PairDatabase* p = db.get();
   dbs_.emplace(name, Entry{std::move(db), kind});
+  p->setListener(this);  // journal (persistent ones) and watchers
   if (kind == DatabaseKind::persistent && journal_) {
-    p->setListener(this);
     pending_->last_seq = journal_->append(name, {});  // its log: the database exists on disk
   }
   return p;

@@ -4,6 +4,7 @@
 
 #include <skrobot/core/log.h>
 
+#include <algorithm>
 #include <unordered_map>
 
 namespace skr::flow {
@@ -19,6 +20,7 @@ struct LocalClient::Impl final : Endpoint {
   FlowServer::Impl& server;
   LocalHandlers handlers;
   std::unordered_map<std::string, uint32_t> follows;  // sync sources by name, and `every`
+  std::vector<uint64_t> watches;                      // database watches, ended with the client
 
   [[nodiscard]] bool receivesEvents() const override { return true; }
   [[nodiscard]] bool congested() const override { return false; }
@@ -50,7 +52,7 @@ struct LocalClient::Impl final : Endpoint {
     if (ch.kind == ChannelKind::sync) {
       if (auto f = follows.find(ch.name); f != follows.end()) followNow(ch, f->second);
     }
-    if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, true);
+    if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, ch.kind, ch.mime, true);
   }
   void onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,
                    uint32_t dropped) override {
@@ -67,7 +69,7 @@ struct LocalClient::Impl final : Endpoint {
     }
   }
   void onChannelRemoved(const Channel& ch) override {
-    if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, false);
+    if (handlers.on_channel) handlers.on_channel(ch.id, ch.name, ch.kind, ch.mime, false);
   }
   void onChannelHeader(const Channel&) override {}
   void onError(Code command, uint32_t, uint16_t chan_id, ErrorCode error,
@@ -113,6 +115,7 @@ std::shared_ptr<const AccessRules> FlowServer::accountAccess(const std::string& 
 LocalClient::LocalClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
 LocalClient::~LocalClient() {
+  for (uint64_t id : impl_->watches) impl_->server.databases.store().unwatch(id);
   impl_->server.removeEndpoint(*impl_);
 }
 
@@ -137,6 +140,14 @@ Result<void> LocalClient::removeChannel(uint16_t chan_id) {
 std::optional<uint16_t> LocalClient::findChannel(const std::string& name) const {
   if (const Channel* ch = impl_->server.channels.findByName(name)) return ch->id;
   return std::nullopt;
+}
+
+std::vector<LocalClient::ChannelInfo> LocalClient::channels() const {
+  std::vector<ChannelInfo> out;
+  impl_->server.channels.forEach([&](const Channel& ch) {
+    out.push_back(ChannelInfo{ch.id, ch.name, ch.kind, ch.mime});
+  });
+  return out;
 }
 
 Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
@@ -201,6 +212,30 @@ std::optional<Variant> LocalClient::getVariable(const std::string& db, const std
 Result<void> LocalClient::setVariable(const std::string& db, const std::string& key,
                                       const Variant& value) {
   return impl_->server.databases.setVar(*impl_, db, key, value);
+}
+
+std::optional<Variant> LocalClient::pairsOf(const std::string& db) const {
+  const PairDatabase* d = impl_->server.databases.store().find(db);
+  if (d == nullptr) return std::nullopt;
+  return d->all();
+}
+
+Result<void> LocalClient::removeVariable(const std::string& db, const std::string& key) {
+  return impl_->server.databases.delVar(*impl_, db, key);
+}
+
+Result<uint64_t> LocalClient::watchDatabase(const std::string& db, DatabaseStore::ChangeFn fn) {
+  DatabaseAccess& dbs = impl_->server.databases;
+  if (!dbs.canRead(*impl_, db)) return accessDenied(impl_->user, Action::db_read, db);
+  const uint64_t id = dbs.store().watch(db, std::move(fn));
+  impl_->watches.push_back(id);
+  return id;
+}
+
+void LocalClient::unwatchDatabase(uint64_t id) noexcept {
+  auto& w = impl_->watches;
+  w.erase(std::remove(w.begin(), w.end(), id), w.end());
+  impl_->server.databases.store().unwatch(id);
 }
 
 void LocalClient::syncDatabases(std::function<void(Result<void>)> done) {

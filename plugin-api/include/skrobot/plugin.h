@@ -48,7 +48,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 5
+#define SKR_PLUGIN_ABI_MINOR 6
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -156,6 +156,17 @@ typedef void (*skr_sync_fn)(void* user, uint16_t chan_id, uint64_t seq, uint64_t
                             uint32_t dropped);
 /* Flags of sync_follow. */
 #define SKR_SYNC_DONE_LATER ((uint32_t)1 << 0) /* the module calls sync_done for each pulse */
+
+/* --- watching channels and databases (ABI 1.6) --- */
+/* A channel was added (added = 1) or removed (added = 0): its full name, kind and mime type,
+ * valid during the call. Local channels and those of linked hubs ("arm/guest.camera") alike. */
+typedef void (*skr_channel_fn)(void* user, uint16_t chan_id, const char* name,
+                               skr_channel_kind kind, const char* mime, int added);
+/* A change of a watched database (`db`, valid during the call like the rest): `key` now holds
+ * `value_json`; value_json NULL: `key` was removed; key NULL (and value_json NULL): the database
+ * was cleared. */
+typedef void (*skr_db_change_fn)(void* user, const char* db, const char* key,
+                                 const char* value_json);
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -295,8 +306,27 @@ typedef struct skr_host_api {
    * A stale seq is ignored. */
   skr_status (*sync_done)(skr_module_ctx* ctx, skr_sub_handle handle, uint64_t seq);
 
+  /* --- watching, and the hub's name (ABI 1.6; loop, as the calls above, but hub_name: any) ---
+   */
+  /* This hub's name in a linked network (its config's hub_name, or the host's name). */
+  const char* (*hub_name)(skr_module_ctx* ctx);
+  /* Calls fn(user, ...) for every channel there is now (added = 1), during this call, then for
+   * each channel added or removed until channel_unwatch. */
+  skr_status (*channel_watch)(skr_module_ctx* ctx, skr_channel_fn fn, void* user,
+                              skr_sub_handle* handle_out);
+  skr_status (*channel_unwatch)(skr_module_ctx* ctx, skr_sub_handle handle);
+  /* Watches a database the module may read (SKR_ERR_INVALID_ARGUMENT otherwise; it need not
+   * exist yet): fn(user, ...) for every pair it holds now, during this call, then right after
+   * each change, whoever made it (the module's own db_set calls too). fn must not change that
+   * database itself; post the change instead. */
+  skr_status (*db_watch)(skr_module_ctx* ctx, const char* db, skr_db_change_fn fn, void* user,
+                         skr_sub_handle* handle_out);
+  skr_status (*db_unwatch)(skr_module_ctx* ctx, skr_sub_handle handle);
+  /* Removes a variable, where db_set may write. SKR_ERR_NOT_FOUND: no such database or key. */
+  skr_status (*db_remove)(skr_module_ctx* ctx, const char* db, const char* key);
+
   /* Later minors fill these; NULL until then. */
-  void (*reserved[13])(void);
+  void (*reserved[7])(void);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

@@ -176,6 +176,16 @@ class DatabaseStore final : private PairDatabase::Listener {
   [[nodiscard]] Result<void> saveAll();
 
   [[nodiscard]] std::vector<std::string> names() const;  // sorted
+
+  // Watchers of one database's changes, told on the loop thread right after each change (after
+  // the journal was given it): `value` is the new value, or null when the key was removed; an
+  // empty key with a null value: the database was cleared. A watcher may remove itself (or
+  // another) from its call; it must not change the database it watches from there. A watch
+  // outlives the database (it is told again when one of that name is created).
+  using ChangeFn =
+      std::function<void(const PairDatabase& db, std::string_view key, const Variant* value)>;
+  [[nodiscard]] uint64_t watch(std::string name, ChangeFn fn);
+  void unwatch(uint64_t id) noexcept;
   [[nodiscard]] const std::filesystem::path& dataDir() const noexcept { return data_dir_; }
   // <data_dir>/db, where the files go.
   [[nodiscard]] std::filesystem::path dbDir() const;
@@ -196,6 +206,7 @@ class DatabaseStore final : private PairDatabase::Listener {
   void onRemove(const PairDatabase& db, std::string_view key) override;
   void onClear(const PairDatabase& db) override;
   void logged(const std::string& name, std::string records);
+  void tell(const PairDatabase& db, std::string_view key, const Variant* value);
   void compact(const std::string& name, Entry& entry,
                std::function<void(Result<void>)> done = nullptr);
   // Loads one database from its snapshot and log (either may be absent).
@@ -208,6 +219,12 @@ class DatabaseStore final : private PairDatabase::Listener {
   uint64_t compact_bytes_ = 0;
   std::shared_ptr<Pending> pending_;
   std::unique_ptr<Journal> journal_;
+  struct Watcher {
+    std::string name;
+    std::shared_ptr<ChangeFn> fn;
+  };
+  std::map<uint64_t, Watcher> watchers_;
+  uint64_t next_watch_ = 1;
 };
 
 }  // namespace skr::flow

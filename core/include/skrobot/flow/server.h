@@ -109,7 +109,10 @@ struct LocalHandlers {
   // The answer to LocalClient::request(). error != ok: the request failed (owner_gone, overflow,
   // ...: the Errc of the wire error a satellite gets, see toErrc) and value holds the message.
   std::function<void(uint16_t chan_id, uint32_t tag, Errc error, const Variant& value)> on_response;
-  std::function<void(uint16_t chan_id, const std::string& name, bool added)> on_channel;
+  // A channel was added (added = true) or removed, with its kind and mime type.
+  std::function<void(uint16_t chan_id, const std::string& name, ChannelKind kind,
+                     const std::string& mime, bool added)>
+      on_channel;
   // A pulse of a source it follows (LocalClient::follow); answer with LocalClient::syncDone.
   std::function<void(uint16_t chan_id, uint64_t seq, uint64_t source_time_ns, uint32_t dropped)>
       on_sync_pulse;
@@ -171,6 +174,14 @@ class LocalClient {
   [[nodiscard]] Result<void> removeChannel(uint16_t chan_id);
   // The channel's current id, if it exists now.
   [[nodiscard]] std::optional<uint16_t> findChannel(const std::string& name) const;
+  struct ChannelInfo {
+    uint16_t id = 0;
+    std::string name;
+    ChannelKind kind = ChannelKind::streaming;
+    std::string mime;
+  };
+  // Every channel there is now (local and linked hubs'), by id.
+  [[nodiscard]] std::vector<ChannelInfo> channels() const;
   // Publishes on an owned streaming channel: in-process subscribers get a view of `payload`
   // (no copy), satellites a frame each.
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
@@ -194,6 +205,13 @@ class LocalClient {
   [[nodiscard]] std::optional<Variant> getVariable(const std::string& db, const std::string& key);
   [[nodiscard]] Result<void> setVariable(const std::string& db, const std::string& key,
                                          const Variant& value);
+  // Every pair of a database (a map), if it exists.
+  [[nodiscard]] std::optional<Variant> pairsOf(const std::string& db) const;
+  [[nodiscard]] Result<void> removeVariable(const std::string& db, const std::string& key);
+  // Watches a database this client may read (it need not exist yet): `fn` is told each change,
+  // as DatabaseStore::watch says. The id for unwatchDatabase(); the watch ends with the client.
+  [[nodiscard]] Result<uint64_t> watchDatabase(const std::string& db, DatabaseStore::ChangeFn fn);
+  void unwatchDatabase(uint64_t id) noexcept;
   // A barrier: `done` runs on the loop thread once every database change made so far is on
   // disk, whatever the durability policy (docs/pair-databases.md). It may run after this client
   // is gone: hold nothing of it there.

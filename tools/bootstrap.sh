@@ -46,6 +46,8 @@ PACKAGES=(
   libvorbis-dev libogg-dev sox
   # websocket-ui and its browser tests
   libwebsockets-dev chromium
+  # nats-bridge (the C client) and its tests and benchmark (a real server on loopback)
+  libnats-dev nats-server
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)
   dpkg-dev iproute2 curl systemd
 )

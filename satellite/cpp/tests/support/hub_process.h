@@ -120,8 +120,10 @@ class HubProcess {
   // "s3cret-pass"), made with `skrobot user add`. `server_keys` go into the "server" object
   // with TCP, e.g. R"(, "tls": {...})"; `top_keys` go into the document, e.g.
   // R"("sync": {"hub_source": "tick"}, )".
+  // `modules` is the config's "modules" array.
   HubProcess(std::string binary, const fs::path& dir, const std::string& tcp_user = {},
-             const std::string& server_keys = {}, const std::string& top_keys = {})
+             const std::string& server_keys = {}, const std::string& top_keys = {},
+             const std::string& modules = "[]")
       : binary_(std::move(binary)), dir_(dir), socket_(dir / "hub.sock") {
     static int counter = 0;
     app_ = "skrobot-sat-" + std::to_string(getpid()) + "-" + std::to_string(++counter);
@@ -142,7 +144,8 @@ class HubProcess {
       "server": {"unix_path": ")" << socket_.string()
                                      << R"(")" << tcp << R"(
         "dev_account": {"user": "guest", "password": "password"}},
-      )" << top_keys << R"("modules": []})";
+      )" << top_keys << R"("modules": )"
+                                     << modules << "}";
   }
 
   // Starts the hub and waits until it accepts satellites.

@@ -39,7 +39,7 @@ struct NamedHub {
                 (account.empty() ? "" : R"(, "account": ")" + account + R"(")") + "}";
       }
       keys += "], " + extra;
-      hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), account, "", keys);
+      hub = std::make_unique<HubProcess>(SKROBOT_BIN, dir.path(), account, "", keys, modules);
       for (const auto& [action, patterns] : rules) {
         std::vector<std::string> argv{SKROBOT_BIN, "user", "rule", account, action};
         argv.insert(argv.end(), patterns.begin(), patterns.end());
@@ -64,7 +64,8 @@ struct NamedHub {
   }
   TempDir dir;
   std::string name;
-  std::string extra;  // more top-level keys, each followed by ", "
+  std::string extra;           // more top-level keys, each followed by ", "
+  std::string modules = "[]";  // the config's "modules" array
   // An account of this hub (in its users file) that each link names as links[].account, with
   // these rules ({"subscribe", {"guest.*"}}, ...).
   std::string account;

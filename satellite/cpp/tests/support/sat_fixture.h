@@ -38,6 +38,10 @@ class Events {
     }
     return out;
   }
+  void clear() {
+    std::lock_guard lock(m_);
+    lines_.clear();
+  }
   [[nodiscard]] std::string dump() const {
     std::lock_guard lock(m_);
     std::string out;

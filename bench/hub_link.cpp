@@ -29,26 +29,20 @@
 #include <thread>
 #include <vector>
 
+#include "bench_satellite.h"
 #include "temp_dir.h"
 
 namespace {
 
 using namespace skr;
+using bench::Sat;
+using bench::sees;
+using bench::waitFor;
 using flow::Variant;
 
 [[noreturn]] void fail(const std::string& why) {
   std::fprintf(stderr, "hub_link: %s\n", why.c_str());
   std::exit(1);
-}
-
-template <class P>
-bool waitFor(P&& ready, int timeout_ms = 10000) {
-  const Nanos end = monotonicNs() + Nanos(timeout_ms) * kNsPerMs;
-  while (!ready()) {
-    if (monotonicNs() > end) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return true;
 }
 
 // A hub named `name` with the development account, linked to `to` (if any).
@@ -101,56 +95,6 @@ class Hub {
   std::unique_ptr<LoopThread> thread_;
   std::unique_ptr<flow::FlowServer> server_;
 };
-
-// A Satellite on a loop thread of its own.
-class Sat {
- public:
-  Sat(const Hub& hub, const std::string& client) : thread_(LoopOptions{.name = client}) {
-    thread_.start();
-    sat::SatelliteOptions o;
-    o.connection = hub.connect(client);
-    o.max_queued_bytes = 32u << 20;
-    thread_.loop().invoke([&] {
-      sat_ = std::make_unique<sat::Satellite>(thread_.loop(), o);
-      sat_->start();
-    });
-    const auto connected = [&] {
-      bool up = false;
-      thread_.loop().invoke([&] { up = sat_->isConnected(); });
-      return up;
-    };
-    if (!waitFor(connected)) {
-      fail(client + " cannot connect");
-    }
-  }
-  ~Sat() {
-    thread_.loop().invoke([&] { sat_.reset(); });
-    thread_.stop();
-  }
-  Sat(const Sat&) = delete;
-  Sat& operator=(const Sat&) = delete;
-
-  template <class F>
-  auto on(F&& f) {
-    using R = decltype(f(std::declval<sat::Satellite&>()));
-    if constexpr (std::is_void_v<R>) {
-      thread_.loop().invoke([&] { f(*sat_); });
-    } else {
-      R r{};
-      thread_.loop().invoke([&] { r = f(*sat_); });
-      return r;
-    }
-  }
-  Loop& loop() { return thread_.loop(); }
-
- private:
-  LoopThread thread_;
-  std::unique_ptr<sat::Satellite> sat_;
-};
-
-bool sees(Sat& s, const std::string& name) {
-  return s.on([&](sat::Satellite& sat) { return sat.channel(name) != nullptr; });
-}
 
 // --- service round trips ------------------------------------------------------------------------
 

@@ -2,6 +2,7 @@
 
 #include "subject_map.h"
 
+#include <algorithm>
 #include <set>
 
 namespace skr::nats_bridge {
@@ -65,12 +66,13 @@ class Reader {
   std::string string(const Json::Value& obj, const std::string& key, const char* member,
                      bool required, const std::string& def = {}) {
     const Json::Value& v = obj[member];
+    const std::string path = (key.empty() ? "" : key + ".") + member;
     if (v.isNull()) {
-      if (required) problem(key + "." + member, "is required");
+      if (required) problem(path, "is required");
       return def;
     }
     if (!v.isString()) {
-      problem(key + "." + member, "must be a string");
+      problem(path, "must be a string");
       return def;
     }
     return v.asString();
@@ -85,34 +87,51 @@ class Reader {
 std::vector<ConfigProblem> readConfig(const Json::Value& config, BridgeConfig& out) {
   std::vector<ConfigProblem> problems;
   Reader r(problems);
+  if (!config.isObject()) {
+    r.problem("", "must be an object");
+    return problems;
+  }
+  // The host checked the declared keys' types; checked again here for callers without a host.
+  auto str = [&](const char* key) { return r.string(config, "", key, false); };
+  auto integer = [&](const char* key, int64_t def) {
+    const Json::Value& v = config[key];
+    if (v.isNull()) return def;
+    if (!v.isIntegral()) {
+      r.problem(key, "must be an integer");
+      return def;
+    }
+    return v.asInt64();
+  };
   ClientOptions& c = out.client;
   c.servers = r.strings(config["servers"], "servers");
   if (c.servers.empty() && problems.empty()) r.problem("servers", "names no server");
   for (size_t i = 0; i < c.servers.size(); ++i) {
     if (c.servers[i].empty()) r.problem("servers[" + std::to_string(i) + "]", "is empty");
   }
-  c.user = config["user"].asString();
-  c.password = config["password"].asString();
-  c.token = config["token"].asString();
-  c.creds_file = config["creds_file"].asString();
-  c.tls_ca = config["tls_ca"].asString();
-  c.tls_cert = config["tls_cert"].asString();
-  c.tls_key = config["tls_key"].asString();
+  c.user = str("user");
+  c.password = str("password");
+  c.token = str("token");
+  c.creds_file = str("creds_file");
+  c.tls_ca = str("tls_ca");
+  c.tls_cert = str("tls_cert");
+  c.tls_key = str("tls_key");
   if (c.tls_cert.empty() != c.tls_key.empty()) {
-    r.problem(c.tls_cert.empty() ? "tls_key" : "tls_cert", "needs tls_cert and tls_key together");
+    r.problem(c.tls_cert.empty() ? "tls_cert" : "tls_key",
+              "is missing: tls_cert and tls_key go together");
   }
   if (!c.user.empty() && !c.token.empty()) r.problem("token", "give a user or a token, not both");
-  c.connect_timeout_ms = config["connect_timeout_ms"].asInt64();
-  c.reconnect_min_ms = config["reconnect_min_ms"].asInt64();
-  c.reconnect_max_ms = config["reconnect_max_ms"].asInt64();
+  c.connect_timeout_ms = integer("connect_timeout_ms", c.connect_timeout_ms);
+  c.reconnect_min_ms = integer("reconnect_min_ms", c.reconnect_min_ms);
+  c.reconnect_max_ms = integer("reconnect_max_ms", c.reconnect_max_ms);
   if (c.reconnect_max_ms < c.reconnect_min_ms) {
     r.problem("reconnect_max_ms", "is less than reconnect_min_ms");
   }
-  c.queue_bytes = static_cast<size_t>(config["queue_bytes"].asInt64());
-  out.request_timeout_ms = config["request_timeout_ms"].asInt64();
-  out.queue_group = config["queue_group"].asString();
+  c.queue_bytes = static_cast<size_t>(
+      std::max<int64_t>(integer("queue_bytes", static_cast<int64_t>(c.queue_bytes)), 0));
+  out.request_timeout_ms = integer("request_timeout_ms", out.request_timeout_ms);
+  out.queue_group = str("queue_group");
 
-  out.prefix = config["prefix"].asString();
+  out.prefix = str("prefix");
   if (!out.prefix.empty()) {
     if (auto bad = badSubject(out.prefix, false))
       r.problem("prefix", "not a NATS subject: " + *bad);
@@ -126,6 +145,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, BridgeConfig& o
   }
 
   const Json::Value& imports = config["import"];
+  if (!imports.isNull() && !imports.isArray()) r.problem("import", "must be an array");
   std::set<std::string> names;
   for (Json::ArrayIndex i = 0; imports.isArray() && i < imports.size(); ++i) {
     const std::string key = "import[" + std::to_string(i) + "]";
@@ -138,7 +158,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, BridgeConfig& o
     if (!item["service"].isNull() && !item["service"].isBool()) {
       r.problem(key + ".service", "must be true or false");
     }
-    im.service = item["service"].asBool();
+    im.service = item["service"].isBool() && item["service"].asBool();
     const Json::Value& t = item["timeout_ms"];
     if (!t.isNull() && (!t.isIntegral() || t.asInt64() < 1 || t.asInt64() > 3'600'000)) {
       r.problem(key + ".timeout_ms", "must be an integer from 1 to 3600000");
@@ -162,6 +182,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, BridgeConfig& o
   }
 
   const Json::Value& kv = config["kv"];
+  if (!kv.isNull() && !kv.isArray()) r.problem("kv", "must be an array");
   std::set<std::string> buckets;
   for (Json::ArrayIndex i = 0; kv.isArray() && i < kv.size(); ++i) {
     const std::string key = "kv[" + std::to_string(i) + "]";

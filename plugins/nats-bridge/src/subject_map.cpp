@@ -101,7 +101,8 @@ std::optional<std::string> subjectChannel(std::string_view prefix, std::string_v
       auto part = unescape(token, '%', [at_start](char c, bool start) {
         return plainTokenByte(c) && !(at_start && start && c == '_');
       });
-      if (!part || part->empty()) return std::nullopt;
+      // One spelling per name: what needed no escape has none, what needed one has it.
+      if (!part || part->empty() || encodeToken(*part, at_start) != token) return std::nullopt;
       name += *part;
     }
     first = false;

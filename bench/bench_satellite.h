@@ -1,0 +1,89 @@
+// For the benchmarks that drive hubs through satellites (hub_link, nats_bridge): polling for a
+// condition, and a skr::sat::Satellite on a loop thread of its own. Header-only; the benchmark
+// process stops (exit 1, a line on stderr) when a satellite cannot connect.
+#pragma once
+
+#include <skrobot/core/clock.h>
+#include <skrobot/core/loop.h>
+#include <skrobot/satellite.h>
+
+#include <errno.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <thread>
+#include <type_traits>
+#include <utility>
+
+namespace skr::bench {
+
+// Polls `ready` every 2 ms for up to timeout_ms; its last answer.
+template <class P>
+bool waitFor(P&& ready, int timeout_ms = 10000) {
+  const Nanos end = monotonicNs() + Nanos(timeout_ms) * kNsPerMs;
+  while (!ready()) {
+    if (monotonicNs() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+// A Satellite on a loop thread of its own, started and connected when constructed. on(f) runs
+// f(satellite) on that thread and returns its result; loop().post() queues work there.
+class Sat {
+ public:
+  explicit Sat(const sat::ConnectOptions& connection, size_t max_queued_bytes = 32u << 20)
+      : thread_(LoopOptions{.name = connection.client_name}) {
+    thread_.start();
+    sat::SatelliteOptions o;
+    o.connection = connection;
+    o.max_queued_bytes = max_queued_bytes;
+    thread_.loop().invoke([&] {
+      sat_ = std::make_unique<sat::Satellite>(thread_.loop(), o);
+      sat_->start();
+    });
+    if (!waitFor([&] { return on([](sat::Satellite& s) { return s.isConnected(); }); }, 30000)) {
+      std::fprintf(stderr, "%s: %s cannot connect\n", program_invocation_short_name,
+                   connection.client_name.c_str());
+      std::exit(1);
+    }
+  }
+  // A satellite named `client` on `hub` (anything with connect(client) -> sat::ConnectOptions).
+  template <class H>
+  Sat(const H& hub, const std::string& client) : Sat(hub.connect(client)) {}
+  ~Sat() {
+    thread_.loop().invoke([&] { sat_.reset(); });
+    thread_.stop();
+  }
+  Sat(const Sat&) = delete;
+  Sat& operator=(const Sat&) = delete;
+  Sat(Sat&&) = delete;
+  Sat& operator=(Sat&&) = delete;
+
+  template <class F>
+  auto on(F&& f) {
+    using R = decltype(f(std::declval<sat::Satellite&>()));
+    if constexpr (std::is_void_v<R>) {
+      thread_.loop().invoke([&] { f(*sat_); });
+    } else {
+      R r{};
+      thread_.loop().invoke([&] { r = f(*sat_); });
+      return r;
+    }
+  }
+  Loop& loop() { return thread_.loop(); }
+
+ private:
+  LoopThread thread_;
+  std::unique_ptr<sat::Satellite> sat_;
+};
+
+// Whether `s` sees a channel of that full name now.
+inline bool sees(Sat& s, const std::string& name) {
+  return s.on([&](sat::Satellite& sat) { return sat.channel(name) != nullptr; });
+}
+
+}  // namespace skr::bench

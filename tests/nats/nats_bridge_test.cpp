@@ -208,6 +208,35 @@ TEST_F(NatsBridge, TwoRobotsShareACameraAndAServiceThroughNatsWithoutAHubLink) {
   EXPECT_EQ(bad->error, "bad_request");
 }
 
+TEST_F(NatsBridge, RequestsFromNatsActAsTheBridgesAccount) {
+  auto robot = std::make_unique<NamedHub>("robot1");
+  robot->account = "fleet";
+  robot->rules = {{"call", {"guest.echo"}}};
+  robot->modules = R"([{"name": "nats-bridge", "account": "fleet", "config": {"servers": )" +
+                   servers({nats.get()}) + R"(, "export": ["guest.**"]}}])";
+  ASSERT_TRUE(robot->start()) << robot->hub->log();
+  ASSERT_TRUE(robot->hub->waitLog("NATS-CONNECTED")) << robot->hub->log();
+  auto owner = robot->satellite("owner");
+  ASSERT_TRUE(owner->on([](Satellite& s) {
+    return s.addChannel({.name = "echo", .kind = flow::ChannelKind::service}) &&
+           s.addChannel({.name = "admin", .kind = flow::ChannelKind::service});
+  }));
+  owner->on([](Satellite& s) {
+    s.serviceRequest.connect(&s, [&s](const Request& r) { (void)s.respond(r, Variant("done")); });
+  });
+  ASSERT_TRUE(robot->hub->waitLog("NATS-EXPORT guest.admin")) << robot->hub->log();
+  RawNats fleet(nats->url());
+  auto allowed = fleet.request("skrobot.robot1.guest.echo", "1");
+  ASSERT_TRUE(allowed);
+  EXPECT_EQ(allowed->error, "");
+  EXPECT_EQ(allowed->data, "\"done\"");
+  auto refused = fleet.request("skrobot.robot1.guest.admin", "1");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->error, "refused") << refused->data;
+  // The refusal is the hub's, told in its log as for any module's call.
+  EXPECT_NE(robot->hub->log().find("service_request"), std::string::npos) << robot->hub->log();
+}
+
 TEST_F(NatsBridge, ANamedDatabaseIsMirroredToAKeyValueBucketBothWays) {
   auto robot = std::make_unique<NamedHub>("robot1");
   robot->modules = bridge(R"({"servers": )" + servers({nats.get()}) +

@@ -112,6 +112,12 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, BridgeConfig& o
   c.password = str("password");
   c.token = str("token");
   c.creds_file = str("creds_file");
+  c.nkey = str("nkey");
+  c.nkey_seed_file = str("nkey_seed_file");
+  if (c.nkey.empty() != c.nkey_seed_file.empty()) {
+    r.problem(c.nkey.empty() ? "nkey" : "nkey_seed_file",
+              "is missing: nkey and nkey_seed_file go together");
+  }
   c.tls_ca = str("tls_ca");
   c.tls_cert = str("tls_cert");
   c.tls_key = str("tls_key");

@@ -226,7 +226,13 @@ class NatsBridge final : public plugin::Module {
                               if (reply.empty() || !client_) return;
                               client_->publish(reply, value_json, {}, {}, ok ? "" : "failed");
                             });
-    if (!sent) fail("not_found", "no service channel " + channel + " now");
+    if (sent) return;
+    uint16_t id = 0;
+    if (host_.api()->channel_find(host_.ctx(), channel.c_str(), &id) != SKR_OK) {
+      return fail("not_found", "no service channel " + channel + " now");
+    }
+    // The hub refused the call: the rules or limits of the account the bridge acts as.
+    fail("refused", "this hub refuses the call of " + channel + " (see its log)");
   }
 
   void onPropsRequest(const Incoming& in) {
@@ -364,6 +370,8 @@ constexpr skr_config_key kConfig[] = {
     config::string("password", "", "password of user"),
     config::string("token", "", "an authentication token"),
     config::string("creds_file", "", "a .creds file (user JWT and nkey seed)"),
+    config::string("nkey", "", "an nkey user's public key, with nkey_seed_file"),
+    config::string("nkey_seed_file", "", "the file holding that nkey's seed"),
     config::string("tls_ca", "", "CA certificates (PEM) to verify the server: turns TLS on"),
     config::string("tls_cert", "", "client certificate chain (PEM), with tls_key"),
     config::string("tls_key", "", "client private key (PEM)"),

@@ -212,6 +212,9 @@ natsOptions* makeOptions(const ClientOptions& o, Shared* shared, std::string& er
     step(natsOptions_SetUserCredentialsFromFiles(opts, o.creds_file.c_str(), nullptr),
          "creds_file");
   }
+  if (!o.nkey.empty()) {
+    step(natsOptions_SetNKeyFromSeed(opts, o.nkey.c_str(), o.nkey_seed_file.c_str()), "nkey");
+  }
   if (!o.tls_ca.empty() || !o.tls_cert.empty()) {
     step(natsOptions_SetSecure(opts, true), "tls");
     if (!o.tls_ca.empty()) {

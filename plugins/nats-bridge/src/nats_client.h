@@ -29,7 +29,7 @@ namespace skr::nats_bridge {
 struct ClientOptions {
   std::vector<std::string> servers;
   std::string name;  // the connection's name on the server
-  std::string user, password, token, creds_file;
+  std::string user, password, token, creds_file, nkey, nkey_seed_file;
   std::string tls_ca, tls_cert, tls_key;
   int64_t connect_timeout_ms = 2000;
   int64_t reconnect_min_ms = 100;

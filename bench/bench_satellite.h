@@ -45,7 +45,12 @@ class Sat {
       sat_ = std::make_unique<sat::Satellite>(thread_.loop(), o);
       sat_->start();
     });
-    if (!waitFor([&] { return on([](sat::Satellite& s) { return s.isConnected(); }); }, 30000)) {
+    const auto connected = [&] {
+      bool up = false;
+      thread_.loop().invoke([&] { up = sat_->isConnected(); });
+      return up;
+    };
+    if (!waitFor(connected, 30000)) {
       std::fprintf(stderr, "%s: %s cannot connect\n", program_invocation_short_name,
                    connection.client_name.c_str());
       std::exit(1);

@@ -712,7 +712,7 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
   // Hub f<i> imports channel c<i % 5> of every other hub; f0 also imports f1's echo service.
   auto hubName = [](int i) { return "f" + std::to_string(i); };
   std::vector<std::unique_ptr<ProcHub>> procs;
-  std::vector<std::vector<std::string>> imports(size_t(hubs));
+  std::vector<std::vector<std::string>> imports(static_cast<size_t>(hubs));
   const Nanos boot0 = monotonicNs();
   for (int i = 0; i < hubs; ++i) {
     std::string list;

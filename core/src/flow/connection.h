@@ -129,18 +129,20 @@ class Connection final : public Endpoint {
   void answerDurably(const Result<void>& r, bool persistent);
   // Replies to a paused request with `r` and resumes reading.
   void answerDone(const Result<void>& r);
-  // A callback for the store that finds this connection again, if it is still there.
-  std::function<void(Result<void>)> whenDone(
-      std::function<void(Connection&, const Result<void>&)> then);
-  // The same for a database read (a linked hub's answers later).
+  // A callback for the store (or a linked hub) that finds this connection again, if it is still
+  // there, and hands it the result; whenDone and whenRead for the two results there are.
+  template <class R>
+  std::function<void(R)> whenAlive(std::function<void(Connection&, R)> then);
+  std::function<void(Result<void>)> whenDone(std::function<void(Connection&, Result<void>)> then);
   std::function<void(Result<Variant>)> whenRead(
       std::function<void(Connection&, Result<Variant>)> then);
   // The bytes `part` of the frame being handled, for the blob store's thread: a large one takes
   // the read buffer with it (no copy on the loop thread; what follows the frame moves to a new
   // buffer), a small one is copied.
   SharedBytes takeBody(std::string_view part);
-  // VAR_GET, VAR_GET_ALL or VAR_KEYS in a linked hub's current database.
-  void readLinkedDb(Code code, std::string_view body);
+  // VAR_GET, VAR_GET_ALL or VAR_KEYS in the current database, here or a linked hub's.
+  void readCurrentDb(Code code, std::string_view body);
+  void replyRead(Result<Variant> r);
   // Pauses reading until the pending reply is sent (sync requests answer in order).
   void block();
   void unblock();

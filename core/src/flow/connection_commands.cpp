@@ -107,24 +107,26 @@ void Connection::verifyLogin(msg::Login m) {
       });
 }
 
-std::function<void(Result<void>)> Connection::whenDone(
-    std::function<void(Connection&, const Result<void>&)> then) {
-  return [&server = server_, my_id = id, then = std::move(then)](Result<void> r) {
+template <class R>
+std::function<void(R)> Connection::whenAlive(std::function<void(Connection&, R)> then) {
+  return [&server = server_, my_id = id, then = std::move(then)](R r) {
     auto it = server.connections.find(my_id);
-    if (it != server.connections.end()) then(*it->second, r);  // else gone meanwhile
+    if (it != server.connections.end()) then(*it->second, std::move(r));  // else gone meanwhile
   };
 }
 
-void Connection::wantLinkOffers() {
-  if (state_ == State::flow) send(msg::EvLinkWanted{server_.hub_name});
+std::function<void(Result<void>)> Connection::whenDone(
+    std::function<void(Connection&, Result<void>)> then) {
+  return whenAlive<Result<void>>(std::move(then));
 }
 
 std::function<void(Result<Variant>)> Connection::whenRead(
     std::function<void(Connection&, Result<Variant>)> then) {
-  return [&server = server_, my_id = id, then = std::move(then)](Result<Variant> r) {
-    auto it = server.connections.find(my_id);
-    if (it != server.connections.end()) then(*it->second, std::move(r));
-  };
+  return whenAlive<Result<Variant>>(std::move(then));
+}
+
+void Connection::wantLinkOffers() {
+  if (state_ == State::flow) send(msg::EvLinkWanted{server_.hub_name});
 }
 
 void Connection::answerDone(const Result<void>& r) {
@@ -148,7 +150,7 @@ void Connection::answerDurably(const Result<void>& r, bool persistent) {
   }
 }
 
-void Connection::readLinkedDb(Code code, std::string_view body) {
+void Connection::readCurrentDb(Code code, std::string_view body) {
   const DecodeLimits limits = valueLimits(server_.opt);
   std::string key;
   if (code == Code::var_get) {
@@ -160,15 +162,24 @@ void Connection::readLinkedDb(Code code, std::string_view body) {
   const auto what = code == Code::var_get       ? msg::DbReadWhat::get
                     : code == Code::var_get_all ? msg::DbReadWhat::all
                                                 : msg::DbReadWhat::keys;
+  DatabaseAccess& dbs = server_.databases;
+  if (!dbs.remote(current_db)) {
+    // Selected (and checked) by DB_SELECT; the flow's own database if it was removed since.
+    return replyRead(DatabaseAccess::readFrom(*dbs.current(*this), what, key, current_db));
+  }
   block();  // answered when the link brings the value
   server_.readDatabase(*this, current_db, what, key, whenRead([](Connection& c, Result<Variant> r) {
-    if (r) {
-      c.send(msg::ReplyValue{std::move(*r)});
-    } else {
-      c.replyError(toErrorCode(r.error().code), r.error().message);
-    }
+    c.replyRead(std::move(r));
     c.unblock();
   }));
+}
+
+void Connection::replyRead(Result<Variant> r) {
+  if (r) {
+    send(msg::ReplyValue{std::move(*r)});
+  } else {
+    replyError(toErrorCode(r.error().code), r.error().message);
+  }
 }
 
 void Connection::handleSync(Code code, std::string_view body) {
@@ -181,8 +192,9 @@ void Connection::handleSync(Code code, std::string_view body) {
     }
   };
   DatabaseAccess& dbs = server_.databases;
-  const bool read = code == Code::var_get || code == Code::var_get_all || code == Code::var_keys;
-  if (read && dbs.remote(current_db)) return readLinkedDb(code, body);
+  if (code == Code::var_get || code == Code::var_get_all || code == Code::var_keys) {
+    return readCurrentDb(code, body);
+  }
   switch (code) {
     case Code::db_select: {
       SKR_DECODE(msg::DbSelect, m);
@@ -217,18 +229,6 @@ void Connection::handleSync(Code code, std::string_view body) {
       dbs.store().barrier(whenDone([](Connection& c, const Result<void>& r) { c.answerDone(r); }));
       return;
     }
-    case Code::var_get: {
-      SKR_DECODE(msg::VarGet, m);
-      const PairDatabase* db = dbs.current(*this);
-      const Variant* v = db != nullptr ? db->get(m.key) : nullptr;
-      if (v == nullptr) {
-        replyError(ErrorCode::not_found,
-                   "no variable \"" + m.key + "\" in database \"" + current_db + "\"");
-      } else {
-        send(msg::ReplyValue{*v});
-      }
-      return;
-    }
     case Code::var_set: {
       SKR_DECODE(msg::VarSet, m);
       answerDurably(dbs.setVar(*this, {}, m.key, m.value), dbs.persistent(current_db));
@@ -237,19 +237,6 @@ void Connection::handleSync(Code code, std::string_view body) {
     case Code::var_del: {
       SKR_DECODE(msg::VarDel, m);
       answerDurably(dbs.delVar(*this, {}, m.key), dbs.persistent(current_db));
-      return;
-    }
-    case Code::var_get_all:
-    case Code::var_keys: {
-      if (!body.empty()) return protocolError(std::string(codeName(uint8_t(code))) + " has a body");
-      const PairDatabase* db = dbs.current(*this);
-      if (code == Code::var_get_all) {
-        send(msg::ReplyValue{db->all()});
-      } else {
-        Variant::List keys;
-        for (auto& k : db->keys()) keys.emplace_back(k);
-        send(msg::ReplyValue{Variant(std::move(keys))});
-      }
       return;
     }
     case Code::db_list: {

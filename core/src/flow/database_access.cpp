@@ -160,15 +160,20 @@ Result<Variant> DatabaseAccess::read(const Endpoint& e, const std::string& name,
   const PairDatabase* db = store_.find(name);
   if (db == nullptr) return noDatabase(name);
   if (!canRead(e, name)) return accessDenied(e.user, Action::db_read, name);
+  return readFrom(*db, what, key, name);
+}
+
+Result<Variant> DatabaseAccess::readFrom(const PairDatabase& db, msg::DbReadWhat what,
+                                         const std::string& key, const std::string& name) {
   switch (what) {
     case msg::DbReadWhat::get:
-      if (const Variant* v = db->get(key)) return *v;
+      if (const Variant* v = db.get(key)) return *v;
       return makeError(Errc::not_found, "no variable \"" + key + "\" in database \"" + name + "\"");
     case msg::DbReadWhat::all:
-      return db->all();
+      return db.all();
     case msg::DbReadWhat::keys: {
       Variant::List keys;
-      for (auto& k : db->keys()) keys.emplace_back(k);
+      for (auto& k : db.keys()) keys.emplace_back(k);
       return Variant(std::move(keys));
     }
   }

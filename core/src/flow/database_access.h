@@ -76,6 +76,9 @@ class DatabaseAccess {
   // A read of a database here (DB_READ): not_found, permission_denied.
   [[nodiscard]] Result<Variant> read(const Endpoint& e, const std::string& db, msg::DbReadWhat what,
                                      const std::string& key) const;
+  // The same on a database at hand, named `name` in the error.
+  [[nodiscard]] static Result<Variant> readFrom(const PairDatabase& db, msg::DbReadWhat what,
+                                                const std::string& key, const std::string& name);
 
   // The protocol's database commands. Errors: not_found, permission_denied, invalid_argument,
   // already_exists, unsupported (save without a data directory), io_error.

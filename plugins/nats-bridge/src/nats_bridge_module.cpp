@@ -88,14 +88,16 @@ class NatsBridge final : public plugin::Module {
     watch_.reset();
     for (auto& m : mirrors_) m->stop();
     if (client_) client_->stop();  // no callback or wake after this
+    for (const auto& [id, p] : pending_) {
+      respondImport(p, R"({"error":"stopped","message":"the bridge stopped"})");
+    }
+    pending_.clear();
     mirrors_.clear();
     exported_.clear();
+    routes_.clear();
     imports_.clear();
     ticks_.reset();
     status_tick_.reset();
-    for (auto& [id, p] : pending_)
-      respondImport(p, R"({"error":"stopped","message":"the bridge stopped"})");
-    pending_.clear();
     requester_.reset();
     status_ = {};
   }

@@ -117,6 +117,9 @@ Json::Value KvMirrorLink::status() const {
 
 namespace {
 struct Bucket {
+  Bucket() = default;
+  Bucket(const Bucket&) = delete;
+  Bucket& operator=(const Bucket&) = delete;
   jsCtx* js = nullptr;
   kvStore* kv = nullptr;
   kvWatcher* watcher = nullptr;
@@ -124,7 +127,9 @@ struct Bucket {
     if (watcher != nullptr) kvWatcher_Destroy(watcher);
     if (kv != nullptr) kvStore_Destroy(kv);
     if (js != nullptr) jsCtx_Destroy(js);
-    *this = Bucket{};
+    watcher = nullptr;
+    kv = nullptr;
+    js = nullptr;
   }
   ~Bucket() { close(); }
 };

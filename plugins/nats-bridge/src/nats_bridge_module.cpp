@@ -13,8 +13,11 @@
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 
+#include <nats/nats.h>
+
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -35,8 +38,18 @@ std::string asJson(const std::string& data) {
   return jsonQuote(data);
 }
 
+// Bridges in this process (a config may load the module more than once, under other names):
+// the last one to go frees the C client's process-wide state (nats_CloseAndWait), so that
+// unloading the module leaves nothing of it behind.
+std::mutex g_library_mutex;
+int g_library_users = 0;
+
 class NatsBridge final : public plugin::Module {
  public:
+  ~NatsBridge() override {
+    std::lock_guard lock(g_library_mutex);
+    if (--g_library_users == 0) nats_CloseAndWait(2000);  // its threads are ours alone by now
+  }
   explicit NatsBridge(plugin::Host& host) : host_(host) {
     auto config = skr::support::parseJsonObject(host.configJson());
     if (!config) throw plugin::Failure(SKR_ERR_CONFIG, config.error().message);
@@ -46,6 +59,8 @@ class NatsBridge final : public plugin::Module {
       throw plugin::Failure(SKR_ERR_CONFIG, std::to_string(problems.size()) +
                                                 " problem(s) in the config (logged above)");
     }
+    std::lock_guard lock(g_library_mutex);
+    ++g_library_users;  // last: a constructor that throws has no destructor
   }
 
   void start() override {

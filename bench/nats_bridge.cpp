@@ -94,6 +94,35 @@ uint64_t cpuTicks(pid_t pid) {
   return utime + stime;
 }
 
+// Time on a CPU of all the threads of `pid` now, in ns (/proc/<pid>/task/*/schedstat).
+Nanos cpuNs(pid_t pid) {
+  Nanos sum = 0;
+  std::error_code ec;
+  for (const auto& t : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
+    std::ifstream in(t.path() / "schedstat");
+    Nanos ns = 0;
+    if (in >> ns) sum += ns;
+  }
+  return sum;
+}
+
+// Context switches of all the threads of `pid` so far, and how many threads it has now.
+std::pair<uint64_t, int> contextSwitches(pid_t pid) {
+  uint64_t sum = 0;
+  int threads = 0;
+  std::error_code ec;
+  for (const auto& t : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
+    ++threads;
+    std::ifstream in(t.path() / "status");
+    for (std::string line; std::getline(in, line);) {
+      if (line.find("ctxt_switches:") != std::string::npos) {
+        sum += std::stoull(line.substr(line.find(':') + 1));
+      }
+    }
+  }
+  return {sum, threads};
+}
+
 // The machine's busy and total jiffies (/proc/stat, all cores).
 std::pair<uint64_t, uint64_t> machineTicks() {
   std::ifstream in("/proc/stat");
@@ -296,7 +325,8 @@ Spread hubRoundTrips(const sat::ConnectOptions& at, const std::string& service, 
 struct Stream {
   double per_second = 0;  // received, from the first publish to the last receipt
   uint64_t sent = 0, received = 0;
-  uint64_t hub_dropped = 0;  // EV_DROPPED: what a hub dropped for the subscriber
+  // What the receiver was told was dropped: EV_DROPPED, or the NATS client's slow-consumer drops.
+  uint64_t dropped = 0;
 };
 
 // Waits until `got` reaches `sent` or stays still for 1 s.
@@ -331,7 +361,8 @@ Stream hubStream(Sat& pub, const std::string& pub_chan, Sat& sub, const std::str
   if (!waitFor([&] { return sub.on([&](sat::Satellite& s) { return s.isSubscribed(sub_name); }); }))
     fail("cannot subscribe to " + sub_name);
   target = sub.on([&](sat::Satellite& s) { return int(s.channelId(sub_name).value_or(0)); });
-  if (!waitFor([&] { return pub.on([&](sat::Satellite& s) { return s.hasSubscribers(pub_chan); }); }))
+  if (!waitFor(
+          [&] { return pub.on([&](sat::Satellite& s) { return s.hasSubscribers(pub_chan); }); }))
     fail("no subscriber for " + pub_chan);
   const std::string payload(bytes, 'p');
   // Until one gets through: an import is subscribed on NATS by the bridge's thread, later.
@@ -363,7 +394,7 @@ Stream hubStream(Sat& pub, const std::string& pub_chan, Sat& sub, const std::str
   Stream r;
   r.sent = sent;
   r.received = got;
-  r.hub_dropped = sub.on([](sat::Satellite& s) { return s.stats().data_dropped; }) - dropped0;
+  r.dropped = sub.on([](sat::Satellite& s) { return s.stats().data_dropped; }) - dropped0;
   r.per_second = last > first ? double(r.received) / (double(last - first) / 1e9) : 0;
   sub.on([&](sat::Satellite& s) {
     s.unsubscribe(sub_name);
@@ -421,7 +452,7 @@ Stream rawStream(const std::string& url, size_t bytes, double secs) {
   r.received = c.got;
   int64_t dropped = 0;
   natsSubscription_GetDropped(s, &dropped);
-  r.hub_dropped = uint64_t(dropped);  // the client's slow-consumer drops
+  r.dropped = uint64_t(dropped);
   r.per_second = c.last > first ? double(r.received) / (double(c.last - first) / 1e9) : 0;
   natsSubscription_Unsubscribe(s);
   natsSubscription_Destroy(s);
@@ -435,7 +466,8 @@ void pointToPoint(const fs::path& dir, bool quick) {
   if (!nats.start()) fail("nats-server:\n" + nats.log());
   // h2 links to h1 directly, and both bridge to the same nats-server: h1 exports its echo
   // service and a stream that h2 imports. The baselines' channels are not exported.
-  ProcHub h1(dir, "h1", "", bridgeModule({nats.url()}, R"("export": ["guest.echo", "guest.bload"])"));
+  ProcHub h1(dir, "h1", "",
+             bridgeModule({nats.url()}, R"("export": ["guest.echo", "guest.bload"])"));
   const fs::path pass = dir / "h1.pass";
   std::ofstream(pass) << "password\n";
   ::chmod(pass.c_str(), 0600);
@@ -459,7 +491,8 @@ void pointToPoint(const fs::path& dir, bool quick) {
   }
   Sat sub1(h1, "sub1");
   Sat sub2(h2, "sub2");
-  if (!waitFor([&] { return bench::sees(sub2, "h1/guest.echo") && bench::sees(sub2, "h1/guest.load"); }))
+  if (!waitFor(
+          [&] { return bench::sees(sub2, "h1/guest.echo") && bench::sees(sub2, "h1/guest.load"); }))
     fail("the link did not bring h1's channels");
   if (!waitFor([&] { return bench::sees(sub2, "nats-bridge.h1-echo"); }))
     fail("no import channel on h2");
@@ -481,19 +514,29 @@ void pointToPoint(const fs::path& dir, bool quick) {
       "   one hub: both satellites on h1; hub link: caller on h2, h2 -> h1 link;\n"
       "   bridge: caller on h2 calls nats-bridge.h1-echo -> NATS -> h1's guest.echo;\n"
       "   NATS asap: raw NATS with a replier that sends at once (natsOptions_SetSendAsap)\n");
-  std::printf("%-7s %-9s %9s %9s %9s %8s %8s\n", "size", "path", "p50", "p99", "max", "x hub",
-              "x NATS");
+  std::printf("   hub CPU: the time both hub processes spent on a CPU, per call (us)\n");
+  std::printf("%-7s %-9s %9s %9s %9s %8s %8s %8s\n", "size", "path", "p50", "p99", "max", "x hub",
+              "x NATS", "hub CPU");
   std::map<size_t, std::array<Spread, 5>> rtt;
   for (size_t bytes : sizes) {
     auto& row = rtt[bytes];
-    row[0] = rawRoundTrips(raw_client, "bench.echo", bytes, calls);
-    row[1] = hubRoundTrips(h1.connect("caller"), "guest.echo", bytes, calls);
-    row[2] = hubRoundTrips(h2.connect("caller"), "h1/guest.echo", bytes, calls);
-    row[3] = hubRoundTrips(h2.connect("caller"), "nats-bridge.h1-echo", bytes, calls);
-    row[4] = rawRoundTrips(raw_client, "bench.echo.asap", bytes, calls);
+    double hub_cpu[5] = {};
+    // Runs `calls` calls (and the warm-up) and notes the hubs' CPU time per call.
+    auto timed = [&](int p, const std::function<Spread()>& run) {
+      const Nanos c0 = cpuNs(h1.pid()) + cpuNs(h2.pid());
+      row[size_t(p)] = run();
+      hub_cpu[p] = double(cpuNs(h1.pid()) + cpuNs(h2.pid()) - c0) / 1e3 / (calls + calls / 10);
+    };
+    timed(0, [&] { return rawRoundTrips(raw_client, "bench.echo", bytes, calls); });
+    timed(1, [&] { return hubRoundTrips(h1.connect("caller"), "guest.echo", bytes, calls); });
+    timed(2, [&] { return hubRoundTrips(h2.connect("caller"), "h1/guest.echo", bytes, calls); });
+    timed(3,
+          [&] { return hubRoundTrips(h2.connect("caller"), "nats-bridge.h1-echo", bytes, calls); });
+    timed(4, [&] { return rawRoundTrips(raw_client, "bench.echo.asap", bytes, calls); });
     for (int p = 0; p < 5; ++p) {
-      std::printf("%-7zu %-9s %9.1f %9.1f %9.1f %8.2f %8.2f\n", bytes, names[p], row[p].p50,
-                  row[p].p99, row[p].max, row[p].p50 / row[1].p50, row[p].p50 / row[0].p50);
+      std::printf("%-7zu %-9s %9.1f %9.1f %9.1f %8.2f %8.2f %8.1f\n", bytes, names[p], row[p].p50,
+                  row[p].p99, row[p].max, row[p].p50 / row[1].p50, row[p].p50 / row[0].p50,
+                  hub_cpu[p]);
     }
   }
   std::printf("Target: bridged p50 <= raw NATS p50 + 2 x one hub p50 (and against NATS asap)\n");
@@ -501,16 +544,18 @@ void pointToPoint(const fs::path& dir, bool quick) {
     const auto& row = rtt[bytes];
     const double bound = row[0].p50 + 2 * row[1].p50;
     const double floor = row[4].p50 + 2 * row[1].p50;
-    std::printf("  %-6zu bridged %8.1f us vs %7.1f + 2 x %7.1f = %8.1f us: %s   (asap: %8.1f us: "
-                "%s)\n",
-                bytes, row[3].p50, row[0].p50, row[1].p50, bound,
-                row[3].p50 <= bound ? "PASS" : "MISS", floor, row[3].p50 <= floor ? "PASS" : "MISS");
+    std::printf(
+        "  %-6zu bridged %8.1f us vs %7.1f + 2 x %7.1f = %8.1f us: %s   (asap: %8.1f us: "
+        "%s)\n",
+        bytes, row[3].p50, row[0].p50, row[1].p50, bound, row[3].p50 <= bound ? "PASS" : "MISS",
+        floor, row[3].p50 <= floor ? "PASS" : "MISS");
   }
 
   const double secs = quick ? 0.5 : 2.0;
-  std::printf("\n2. 1:1 streaming for %.1f s each, as fast as the publisher's queue takes it: "
-              "received messages/s; lost = sent - received; ratio against one hub\n",
-              secs);
+  std::printf(
+      "\n2. 1:1 streaming for %.1f s each, as fast as the publisher's queue takes it: "
+      "received messages/s; lost = sent - received; ratio against one hub\n",
+      secs);
   std::printf("%-7s %-9s %11s %9s %10s %10s %10s %7s\n", "size", "path", "msgs/s", "MB/s", "sent",
               "received", "lost", "ratio");
   std::vector<std::string> notes;
@@ -540,10 +585,9 @@ void pointToPoint(const fs::path& dir, bool quick) {
                   "  %6zu B: raw NATS subscriber's slow-consumer drops %llu; hub drops for sub "
                   "(EV_DROPPED) one hub %llu, link %llu, bridge %llu; bridge h1 out_msgs +%llu "
                   "out_dropped +%llu; h2 in_msgs +%llu in_dropped +%llu",
-                  bytes, (unsigned long long)row[0].hub_dropped,
-                  (unsigned long long)row[1].hub_dropped, (unsigned long long)row[2].hub_dropped,
-                  (unsigned long long)row[3].hub_dropped, delta(s1, e1, "out_msgs"),
-                  delta(s1, e1, "out_dropped"), delta(s2, e2, "in_msgs"),
+                  bytes, (unsigned long long)row[0].dropped, (unsigned long long)row[1].dropped,
+                  (unsigned long long)row[2].dropped, (unsigned long long)row[3].dropped,
+                  delta(s1, e1, "out_msgs"), delta(s1, e1, "out_dropped"), delta(s2, e2, "in_msgs"),
                   delta(s2, e2, "in_dropped"));
     notes.emplace_back(line);
   }
@@ -727,8 +771,7 @@ class CpuMeter {
     std::vector<double> pct;
     for (size_t i = 0; i < pids_.size(); ++i) {
       const uint64_t end = cpuTicks(pids_[i]);
-      pct.push_back(end < start_[i] || end == 0 ? -1
-                                                : double(end - start_[i]) / hz / secs * 100);
+      pct.push_back(end < start_[i] || end == 0 ? -1 : double(end - start_[i]) / hz / secs * 100);
     }
     const auto m = machineTicks();
     const double busy = double(m.first - machine_.first) /
@@ -778,7 +821,8 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
               ".guest." + k + R"(", "as": ")" + as + R"("})";
       imports[size_t(i)].push_back("nats-bridge." + as);
     }
-    if (i == 0) list += R"(, {"subject": "skrobot.f1.guest.echo", "as": "f1-echo", "service": true})";
+    if (i == 0)
+      list += R"(, {"subject": "skrobot.f1.guest.echo", "as": "f1-echo", "service": true})";
     // Each hub lists the three nodes, in an order of its own (the client shuffles it too).
     std::vector<std::string> order{urls[size_t(i % 3)], urls[size_t((i + 1) % 3)],
                                    urls[size_t((i + 2) % 3)]};
@@ -855,11 +899,12 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
   for (auto& n : nodes) {
     const std::string port = std::to_string(n->port());
     pids.push_back(pidWhere([&](const std::vector<std::string>& a) {
-      return !a.empty() && a[0] == NATS_SERVER_BIN && std::find(a.begin(), a.end(), port) != a.end();
+      return !a.empty() && a[0] == NATS_SERVER_BIN &&
+             std::find(a.begin(), a.end(), port) != a.end();
     }));
   }
 
-  struct Result {
+  struct Figures {
     double secs = 0;
     double delivered = 0, expected = 0;
     uint64_t lost = 0;
@@ -875,10 +920,13 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
     std::vector<double> cpu;
     double machine = 0;
     uint64_t out_dropped = 0, in_dropped = 0;
+    double switches_per_s = 0;  // the probe hub's context switches
+    int threads = 0;            // and its threads
   };
   auto measure = [&](const std::function<void()>& midway) {
-    Result r;
+    Figures r;
     CpuMeter cpu(pids);
+    const uint64_t switches0 = contextSwitches(procs[size_t(probe)]->pid()).first;
     for (auto& n : fleet_nodes) n->reset();
     const Nanos t0 = monotonicNs();
     sleepMs(window_s * 500);
@@ -887,6 +935,9 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
     const Nanos t1 = monotonicNs();
     std::tie(r.cpu, r.machine) = cpu.stop();
     r.secs = double(t1 - t0) / 1e9;
+    const auto [switches1, threads] = contextSwitches(procs[size_t(probe)]->pid());
+    r.switches_per_s = double(switches1 - switches0) / r.secs;
+    r.threads = threads;
     std::vector<double> lat;
     std::vector<double> gaps_ms;
     uint64_t published = 0;
@@ -929,23 +980,26 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
     r.rtt = spreadOf(std::move(us));
     return r;
   };
-  auto print = [&](const Result& r) {
+  auto print = [&](const Figures& r) {
     const size_t streams = size_t(hubs) * size_t(hubs - 1);
-    std::printf("   delivered %.0f msgs/s of %.0f expected (%zu streams x %.0f Hz): %.2f%%; "
-                "lost (sequence gaps) %llu\n",
-                r.delivered / r.secs, r.expected / r.secs, streams, kRateHz,
-                r.expected > 0 ? r.delivered / r.expected * 100 : 0, (unsigned long long)r.lost);
-    std::printf("   published %.1f Hz per channel (%llu publishes refused); publish -> receipt "
-                "latency p50 %.0f us, p99 %.0f us, max %.0f us\n",
-                r.published_hz, (unsigned long long)r.publish_failed, r.latency_us.p50,
-                r.latency_us.p99, r.latency_us.max);
-    std::printf("   longest gap in a stream %.0f ms (%s); median stream's longest gap %.0f ms; "
-                "streams with a gap > 500 ms: %d\n",
-                double(r.worst_gap) / 1e6, r.worst_stream.c_str(), r.median_gap_ms,
-                r.streams_gap_500ms);
-    std::printf("   round trip f0 -> NATS -> f1 (16 B, every 20 ms): p50 %.0f us, p99 %.0f us, "
-                "max %.0f us; %zu calls, %zu failed\n",
-                r.rtt.p50, r.rtt.p99, r.rtt.max, r.calls, r.call_errors);
+    std::printf(
+        "   delivered %.0f msgs/s of %.0f expected (%zu streams x %.0f Hz): %.2f%%; "
+        "lost (sequence gaps) %llu\n",
+        r.delivered / r.secs, r.expected / r.secs, streams, kRateHz,
+        r.expected > 0 ? r.delivered / r.expected * 100 : 0, (unsigned long long)r.lost);
+    std::printf(
+        "   published %.1f Hz per channel (%llu publishes refused); publish -> receipt "
+        "latency p50 %.0f us, p99 %.0f us, max %.0f us\n",
+        r.published_hz, (unsigned long long)r.publish_failed, r.latency_us.p50, r.latency_us.p99,
+        r.latency_us.max);
+    std::printf(
+        "   longest gap in a stream %.0f ms (%s); median stream's longest gap %.0f ms; "
+        "streams with a gap > 500 ms: %d\n",
+        double(r.worst_gap) / 1e6, r.worst_stream.c_str(), r.median_gap_ms, r.streams_gap_500ms);
+    std::printf(
+        "   round trip f0 -> NATS -> f1 (16 B, every 20 ms): p50 %.0f us, p99 %.0f us, "
+        "max %.0f us; %zu calls, %zu failed\n",
+        r.rtt.p50, r.rtt.p99, r.rtt.max, r.calls, r.call_errors);
     double sum = 0, top = 0;
     for (int i = 0; i < hubs; ++i) {
       sum += r.cpu[size_t(i)];
@@ -958,22 +1012,31 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
       std::snprintf(one, sizeof one, v < 0 ? " n%zu killed" : " n%zu %.1f%%", k, v);
       servers += one;
     }
-    std::printf("   CPU (%% of one core): hub f%d %.1f%%; hubs mean %.1f%%, max %.1f%%, all %d "
-                "together %.0f%%; nats-server%s; machine %.0f%% of %ld cores busy\n",
-                probe, r.cpu[size_t(probe)], sum / hubs, top, hubs, sum, servers.c_str(),
-                r.machine, ::sysconf(_SC_NPROCESSORS_ONLN));
-    std::printf("   bridge counters summed over the hubs (since start): out_dropped %llu, "
-                "in_dropped %llu\n",
-                (unsigned long long)r.out_dropped, (unsigned long long)r.in_dropped);
+    std::printf(
+        "   CPU (%% of one core): hub f%d %.1f%%; hubs mean %.1f%%, max %.1f%%, all %d "
+        "together %.0f%%; nats-server%s; machine %.0f%% of %ld cores busy\n",
+        probe, r.cpu[size_t(probe)], sum / hubs, top, hubs, sum, servers.c_str(), r.machine,
+        ::sysconf(_SC_NPROCESSORS_ONLN));
+    // The probe hub's channels: each of its 5 goes out once, each of its imports comes in.
+    const double messages = kRateHz * (kChannels + (hubs - 1));
+    std::printf(
+        "   hub f%d: %d threads, %.0f context switches/s (%.1f per message it sends or "
+        "receives, %.0f/s)\n",
+        probe, r.threads, r.switches_per_s, r.switches_per_s / messages, messages);
+    std::printf(
+        "   bridge counters summed over the hubs (since start): out_dropped %llu, "
+        "in_dropped %llu\n",
+        (unsigned long long)r.out_dropped, (unsigned long long)r.in_dropped);
   };
 
-  std::printf("\n3. Fleet: %d hub processes, each with the bridge on a 3-node nats-server cluster; "
-              "each exports %d channels of %zu B at %.0f Hz and imports one channel of every other "
-              "hub\n   (hubs up and connected in %.1f s; every import flowing after %.1f s%s)\n",
-              hubs, kChannels, kFleetPayload, kRateHz, boot_s, flow_s,
-              silent > 0 ? (", " + std::to_string(silent) + " imports still silent").c_str() : "");
+  std::printf(
+      "\n3. Fleet: %d hub processes, each with the bridge on a 3-node nats-server cluster; "
+      "each exports %d channels of %zu B at %.0f Hz and imports one channel of every other "
+      "hub\n   (hubs up and connected in %.1f s; every import flowing after %.1f s%s)\n",
+      hubs, kChannels, kFleetPayload, kRateHz, boot_s, flow_s,
+      silent > 0 ? (", " + std::to_string(silent) + " imports still silent").c_str() : "");
   std::printf(" a) steady, %.0f s\n", window_s);
-  const Result steady = measure([] {});
+  const Figures steady = measure([] {});
   print(steady);
 
   // The node that most hubs are connected to.
@@ -987,10 +1050,12 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
       victim_hubs = on_node[nodes[k]->url()];
     }
   }
-  std::printf(" b) node n%zu killed (SIGKILL) after %.1f s of %.0f s; %d of %d hubs were "
-              "connected to it\n",
-              victim, window_s / 2, window_s, victim_hubs, hubs);
-  const Result killed = measure([&] { nodes[victim]->kill(); });
+  std::printf(
+      " b) node n%zu killed (SIGKILL) after %.1f s of %.0f s; %d of %d hubs were "
+      "connected to it (hubs per node: n0 %d, n1 %d, n2 %d)\n",
+      victim, window_s / 2, window_s, victim_hubs, hubs, on_node[nodes[0]->url()],
+      on_node[nodes[1]->url()], on_node[nodes[2]->url()]);
+  const Figures killed = measure([&] { nodes[victim]->kill(); });
   print(killed);
   sleepMs(1500);  // a status after the window
   int back = 0, elsewhere = 0;
@@ -1016,9 +1081,10 @@ void fleet(const fs::path& dir, bool quick, int hubs) {
     slow += count(log, "Slow Consumer");
     reconnected += count(log, "NATS-RECONNECTED");
   }
-  std::printf("   hub logs: %d LOOP-OVERLOAD, %d NATS-ERROR (%d slow consumer), %d "
-              "NATS-RECONNECTED\n",
-              overload, errors, slow, reconnected);
+  std::printf(
+      "   hub logs: %d LOOP-OVERLOAD, %d NATS-ERROR (%d slow consumer), %d "
+      "NATS-RECONNECTED\n",
+      overload, errors, slow, reconnected);
 
   calling = false;
   caller.join();
@@ -1046,17 +1112,18 @@ int main(int argc, char** argv) {
     }
   }
   if (hubs == 0) hubs = quick ? 4 : 20;
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // in order with the warnings on stderr
   if (hubs < 2) fail("--hubs: at least 2");
-  log::setLevel(log::Level::warn);
+  log::setLevel(log::Level::error);  // not this process's satellites starved of CPU
   const Nanos t0 = monotonicNs();
   {  // what else runs here colours every figure below
     const auto a = machineTicks();
     sleepMs(500);
     const auto b = machineTicks();
-    std::printf("Machine: %ld cores, %.0f%% busy with other work before the start\n\n",
-                ::sysconf(_SC_NPROCESSORS_ONLN),
-                double(b.first - a.first) / double(std::max<uint64_t>(1, b.second - a.second)) *
-                    100);
+    std::printf(
+        "Machine: %ld cores, %.0f%% busy with other work before the start\n\n",
+        ::sysconf(_SC_NPROCESSORS_ONLN),
+        double(b.first - a.first) / double(std::max<uint64_t>(1, b.second - a.second)) * 100);
   }
   skr::test::TempDir dir("skr-natsb");
   pointToPoint(dir.path(), quick);

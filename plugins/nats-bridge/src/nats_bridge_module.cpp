@@ -80,8 +80,8 @@ class NatsBridge final : public plugin::Module {
     status_ = plugin::StreamChannel(host_, "status", "application/json",
                                     R"({"note": "the bridge's state and counters, every second"})");
     requester_ = std::make_unique<plugin::Requester>(host_);
-    client_->subscribe(kReplies, client_->inbox() + ".*");
-    client_->subscribe(kProps, prefix_ + "._props.>");
+    client_->subscribe(Lane::prompt, kReplies, client_->inbox() + ".*");
+    client_->subscribe(Lane::prompt, kProps, prefix_ + "._props.>");
     for (size_t i = 0; i < config_.imports.size(); ++i) addImport(i);
     for (const KvMirror& m : config_.kv) {
       mirrors_.push_back(std::make_unique<KvMirrorLink>(
@@ -157,7 +157,7 @@ class NatsBridge final : public plugin::Module {
           plugin::StreamChannel(host_, im.as, im.mime, props_json, [this, route, i](bool first) {
             // Demand: on NATS only while someone here listens.
             if (first) {
-              client_->subscribe(route, config_.imports[i].subject);
+              client_->subscribe(Lane::bulk, route, config_.imports[i].subject);
             } else {
               client_->unsubscribe(route);
             }
@@ -187,12 +187,12 @@ class NatsBridge final : public plugin::Module {
     if (ev.kind == SKR_CHANNEL_STREAMING) {
       e.data =
           plugin::Subscription(host_, ev.name, [this, subject = e.subject](std::string_view d) {
-            client_->publish(subject, std::string(d));
+            client_->publish(Lane::bulk, subject, std::string(d));
           });
     } else {
       e.route = next_route_++;
       routes_[e.route] = ev.name;
-      client_->subscribe(e.route, e.subject, config_.queue_group);
+      client_->subscribe(Lane::prompt, e.route, e.subject, config_.queue_group);
     }
     const std::string name = ev.name;
     e.props_watch = plugin::DatabaseWatch(
@@ -231,23 +231,24 @@ class NatsBridge final : public plugin::Module {
   // --- services: NATS requests to this hub's exported services -------------------------------
   void onExportedRequest(const std::string& channel, const Incoming& in) {
     auto fail = [&](const char* error, const std::string& message) {
-      if (!in.reply.empty()) client_->publish(in.reply, jsonQuote(message), {}, {}, error);
+      if (!in.reply.empty()) {
+        client_->publish(Lane::prompt, in.reply, jsonQuote(message), {}, {}, error);
+      }
     };
-    if (!skr::support::parseJson(in.data.empty() ? "null" : in.data)) {
-      return fail("bad_request", "the request is not JSON");
-    }
     const std::string reply = in.reply;
-    const bool sent =
-        requester_->request(channel, in.command, in.data.empty() ? "null" : in.data,
-                            [this, reply](bool ok, const std::string& value_json) {
-                              if (reply.empty() || !client_) return;
-                              client_->publish(reply, value_json, {}, {}, ok ? "" : "failed");
-                            });
+    const std::string& value = in.data.empty() ? std::string("null") : in.data;
+    // The hub parses the value once; the bridge looks at it only when the call was refused.
+    const bool sent = requester_->request(
+        channel, in.command, value, [this, reply](bool ok, const std::string& value_json) {
+          if (reply.empty() || !client_) return;
+          client_->publish(Lane::prompt, reply, value_json, {}, {}, ok ? "" : "failed");
+        });
     if (sent) return;
     uint16_t id = 0;
     if (host_.api()->channel_find(host_.ctx(), channel.c_str(), &id) != SKR_OK) {
       return fail("not_found", "no service channel " + channel + " now");
     }
+    if (!skr::support::parseJson(value)) return fail("bad_request", "the request is not JSON");
     // The hub refused the call: the rules or limits of the account the bridge acts as.
     fail("refused", "this hub refuses the call of " + channel + " (see its log)");
   }
@@ -257,10 +258,11 @@ class NatsBridge final : public plugin::Module {
     const auto name = subjectChannel(prefix_ + "._props", in.subject);
     auto it = name ? exported_.find(*name) : exported_.end();
     if (it == exported_.end()) {
-      client_->publish(in.reply, jsonQuote("no exported channel there"), {}, {}, "not_found");
+      client_->publish(Lane::prompt, in.reply, jsonQuote("no exported channel there"), {}, {},
+                       "not_found");
       return;
     }
-    client_->publish(in.reply, propsJson(it->first, it->second));
+    client_->publish(Lane::prompt, in.reply, propsJson(it->first, it->second));
   }
 
   static std::string propsJson(const std::string& name, const Exported& e) {
@@ -278,8 +280,8 @@ class NatsBridge final : public plugin::Module {
     const uint64_t id = next_request_++;
     const int64_t timeout_ms = im.timeout_ms > 0 ? im.timeout_ms : config_.request_timeout_ms;
     Pending p{i, r.id, host_.nowNs() + timeout_ms * 1'000'000};
-    if (!client_->publish(im.subject, r.value_json, client_->inbox() + "." + std::to_string(id),
-                          r.command)) {
+    if (!client_->publish(Lane::prompt, im.subject, r.value_json,
+                          client_->inbox() + "." + std::to_string(id), r.command)) {
       respondImport(p, R"({"error":"overflow","message":"the bridge's queue to NATS is full"})");
       return;
     }
@@ -300,13 +302,15 @@ class NatsBridge final : public plugin::Module {
       respondImport(p,
                     "{\"error\":" + jsonQuote(in.error) + ",\"message\":" + asJson(in.data) + "}");
     } else {
-      respondImport(p, in.data.empty() ? "null" : asJson(in.data));
+      // As it came when it is JSON (the hub parses it), else as a string.
+      if (!respondImport(p, in.data.empty() ? "null" : in.data))
+        respondImport(p, jsonQuote(in.data));
     }
   }
 
-  void respondImport(const Pending& p, const std::string& value_json) {
+  bool respondImport(const Pending& p, const std::string& value_json) {
     auto it = imports_.find(kFirstRoute + p.import);
-    if (it != imports_.end()) it->second.service.respond(p.request, value_json);
+    return it != imports_.end() && it->second.service.respond(p.request, value_json);
   }
 
   void expireRequests() {
@@ -326,7 +330,7 @@ class NatsBridge final : public plugin::Module {
     for (auto& [name, e] : exported_) {
       if (!e.props_dirty || !client_->connected()) continue;
       e.props_dirty = false;
-      client_->publish(channelSubject(prefix_ + "._props", name), propsJson(name, e));
+      client_->publish(Lane::bulk, channelSubject(prefix_ + "._props", name), propsJson(name, e));
     }
   }
 
@@ -355,7 +359,7 @@ class NatsBridge final : public plugin::Module {
     v["last_error"] = s.last_error;
     const std::string json = skr::support::writeJson(v);
     status_.publish(json);
-    if (client_->connected()) client_->publish(prefix_ + "._status", json);
+    if (client_->connected()) client_->publish(Lane::bulk, prefix_ + "._status", json);
   }
 
   plugin::Host& host_;

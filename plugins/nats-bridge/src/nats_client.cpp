@@ -22,9 +22,11 @@ struct NatsClient::Shared {
   std::condition_variable cv;
   std::deque<Incoming> inbox;
   size_t inbox_bytes = 0;
-  bool open = true;     // false after stop(): nothing more is queued or woken
-  int live_subs = 0;    // subscriptions whose completion callback has not run
-  bool closed = false;  // the connection's closed callback ran
+  bool open = true;   // false after stop(): nothing more is queued or woken
+  int live_subs = 0;  // subscriptions whose completion callback has not run
+  int closed = 0;     // connections whose closed callback ran
+  bool up[2] = {false, false};
+  bool ever_up = false;
   std::string state = "connecting";
   std::string server;
   std::string last_error;
@@ -48,18 +50,32 @@ struct NatsClient::Shared {
     inbox.push_back(std::move(in));
     if (was_empty) wake();
   }
-  void setState(natsConnection* nc, const char* s, bool up) {
+  // Connection `lane` went up or down; the client is connected when both are.
+  void setState(natsConnection* nc, int lane, bool is_up) {
     char url[256] = "";
-    if (nc != nullptr && up) natsConnection_GetConnectedUrl(nc, url, sizeof url);
+    if (nc != nullptr && is_up) natsConnection_GetConnectedUrl(nc, url, sizeof url);
+    bool both = false;
     {
       std::lock_guard lock(mutex);
-      state = s;
-      server = url;
-      if (up) ++connects;
-      if (!up && std::string(s) != "closed") ++disconnects;
+      if (lane == 0) {
+        server = url;
+        if (is_up) ++connects;
+        if (!is_up) ++disconnects;
+      }
+      up[lane] = is_up;
+      both = up[0] && up[1];
+      ever_up = ever_up || both;
+      state = both ? "connected" : ever_up ? "reconnecting" : "connecting";
     }
-    connected->store(up);
+    connected->store(both);
   }
+};
+
+// One connection's callbacks' closure.
+struct NatsClient::Link {
+  NatsClient::Shared* shared;
+  int lane;
+  const char* role;
 };
 
 struct NatsClient::Route {
@@ -101,39 +117,42 @@ void onSubscriptionDone(void* closure) {
 }
 
 void onConnected(natsConnection* nc, void* closure) {
-  auto* s = static_cast<Shared*>(closure);
-  s->setState(nc, "connected", true);
+  const auto* l = static_cast<const NatsClient::Link*>(closure);
+  l->shared->setState(nc, l->lane, true);
   char url[256] = "";
   natsConnection_GetConnectedUrl(nc, url, sizeof url);
-  s->log(NatsClient::Level::info, "NATS-CONNECTED", std::string("connected to ") + url);
+  l->shared->log(NatsClient::Level::info, "NATS-CONNECTED",
+                 std::string("connected to ") + url + " (" + l->role + ")");
 }
 
 void onReconnected(natsConnection* nc, void* closure) {
-  auto* s = static_cast<Shared*>(closure);
-  s->setState(nc, "connected", true);
+  const auto* l = static_cast<const NatsClient::Link*>(closure);
+  l->shared->setState(nc, l->lane, true);
   char url[256] = "";
   natsConnection_GetConnectedUrl(nc, url, sizeof url);
-  s->log(NatsClient::Level::info, "NATS-RECONNECTED",
-         std::string("reconnected to ") + url + "; subscriptions restored");
+  l->shared->log(
+      NatsClient::Level::info, "NATS-RECONNECTED",
+      std::string("reconnected to ") + url + " (" + l->role + "); subscriptions restored");
 }
 
 void onDisconnected(natsConnection* nc, void* closure) {
-  auto* s = static_cast<Shared*>(closure);
-  s->setState(nc, "reconnecting", false);
-  s->log(NatsClient::Level::warn, "NATS-DISCONNECTED",
-         "lost the server; retrying (messages published meanwhile wait in the client's buffer)");
+  const auto* l = static_cast<const NatsClient::Link*>(closure);
+  l->shared->setState(nc, l->lane, false);
+  l->shared->log(NatsClient::Level::warn, "NATS-DISCONNECTED",
+                 std::string("lost the server (") + l->role +
+                     "); retrying (messages published meanwhile wait in the client's buffer)");
 }
 
 void onClosed(natsConnection*, void* closure) {
-  auto* s = static_cast<Shared*>(closure);
+  auto* s = static_cast<const NatsClient::Link*>(closure)->shared;
   std::lock_guard lock(s->mutex);
   s->state = "closed";
-  s->closed = true;
+  ++s->closed;
   s->cv.notify_all();
 }
 
 void onError(natsConnection*, natsSubscription*, natsStatus err, void* closure) {
-  auto* s = static_cast<Shared*>(closure);
+  auto* s = static_cast<const NatsClient::Link*>(closure)->shared;
   {
     std::lock_guard lock(s->mutex);
     s->last_error = natsStatus_GetText(err);
@@ -143,7 +162,7 @@ void onError(natsConnection*, natsSubscription*, natsStatus err, void* closure) 
 }
 
 int64_t reconnectDelay(natsConnection*, int attempts, void* closure) {
-  const auto* s = static_cast<const Shared*>(closure);
+  const auto* s = static_cast<const NatsClient::Link*>(closure)->shared;
   const int shift = std::clamp(attempts - 1, 0, 20);
   return std::min(s->reconnect_max_ms, s->reconnect_min_ms << shift);
 }
@@ -187,7 +206,7 @@ NatsClient::~NatsClient() {
 
 namespace {
 // The options of the connection; the reason in `error` when one cannot be applied.
-natsOptions* makeOptions(const ClientOptions& o, Shared* shared, std::string& error) {
+natsOptions* makeOptions(const ClientOptions& o, NatsClient::Link* link, std::string& error) {
   natsOptions* opts = nullptr;
   if (natsOptions_Create(&opts) != NATS_OK) {
     error = "cannot create the client's options";
@@ -203,7 +222,13 @@ natsOptions* makeOptions(const ClientOptions& o, Shared* shared, std::string& er
     }
   };
   if (st != NATS_OK) error = "servers: " + statusText(st);
-  step(natsOptions_SetName(opts, o.name.c_str()), "name");
+  step(natsOptions_SetName(opts, (o.name + " " + link->role).c_str()), "name");
+  if (link->lane == static_cast<int>(Lane::prompt)) {
+    step(natsOptions_SetSendAsap(opts, true), "send asap");
+  } else {
+    // Many streams: the client's shared delivery threads, not one per subscription.
+    step(natsOptions_UseGlobalMessageDelivery(opts, true), "global delivery");
+  }
   if (!o.user.empty()) {
     step(natsOptions_SetUserInfo(opts, o.user.c_str(), o.password.c_str()), "user");
   }
@@ -227,12 +252,12 @@ natsOptions* makeOptions(const ClientOptions& o, Shared* shared, std::string& er
   }
   step(natsOptions_SetTimeout(opts, o.connect_timeout_ms), "connect_timeout_ms");
   step(natsOptions_SetMaxReconnect(opts, -1), "reconnect");
-  step(natsOptions_SetCustomReconnectDelay(opts, &reconnectDelay, shared), "reconnect delay");
-  step(natsOptions_SetRetryOnFailedConnect(opts, true, &onConnected, shared), "retry");
-  step(natsOptions_SetDisconnectedCB(opts, &onDisconnected, shared), "callbacks");
-  step(natsOptions_SetReconnectedCB(opts, &onReconnected, shared), "callbacks");
-  step(natsOptions_SetClosedCB(opts, &onClosed, shared), "callbacks");
-  step(natsOptions_SetErrorHandler(opts, &onError, shared), "callbacks");
+  step(natsOptions_SetCustomReconnectDelay(opts, &reconnectDelay, link), "reconnect delay");
+  step(natsOptions_SetRetryOnFailedConnect(opts, true, &onConnected, link), "retry");
+  step(natsOptions_SetDisconnectedCB(opts, &onDisconnected, link), "callbacks");
+  step(natsOptions_SetReconnectedCB(opts, &onReconnected, link), "callbacks");
+  step(natsOptions_SetClosedCB(opts, &onClosed, link), "callbacks");
+  step(natsOptions_SetErrorHandler(opts, &onError, link), "callbacks");
   if (st != NATS_OK) {
     natsOptions_Destroy(opts);
     return nullptr;
@@ -242,24 +267,34 @@ natsOptions* makeOptions(const ClientOptions& o, Shared* shared, std::string& er
 }  // namespace
 
 bool NatsClient::start(std::string& error) {
-  natsOptions* opts = makeOptions(options_, shared_.get(), error);
-  if (opts == nullptr) return false;
-  auto owned = std::make_shared<Options>();
-  owned->opts = opts;
-  thread_ = std::thread([this, owned] {
-    natsConnection* nc = nullptr;
-    const natsStatus st = natsConnection_Connect(&nc, owned->opts);
-    if (st == NATS_OK) {
-      onConnected(nc, shared_.get());
-    } else if (st == NATS_NOT_YET_CONNECTED) {
-      log_(Level::warn, "NATS-CONNECT-RETRY", "no server answers yet; retrying in the background");
-    } else {
-      log_(Level::error, "NATS-CONNECT-FAILED", statusText(st));
-      std::lock_guard lock(shared_->mutex);
-      shared_->state = "failed";
-      shared_->last_error = statusText(st);
+  std::vector<std::shared_ptr<Options>> opts;
+  for (int lane : {0, 1}) {
+    links_[lane] =
+        std::make_unique<Link>(Link{shared_.get(), lane, lane == 0 ? "streams" : "services"});
+    auto o = std::make_shared<Options>();
+    o->opts = makeOptions(options_, links_[lane].get(), error);
+    if (o->opts == nullptr) return false;
+    opts.push_back(std::move(o));
+  }
+  thread_ = std::thread([this, opts] {
+    for (int lane : {0, 1}) {
+      natsConnection* nc = nullptr;
+      const natsStatus st = natsConnection_Connect(&nc, opts[lane]->opts);
+      if (st == NATS_OK) {
+        onConnected(nc, links_[lane].get());
+      } else if (st == NATS_NOT_YET_CONNECTED) {
+        if (lane == 0) {
+          log_(Level::warn, "NATS-CONNECT-RETRY",
+               "no server answers yet; retrying in the background");
+        }
+      } else {
+        log_(Level::error, "NATS-CONNECT-FAILED", statusText(st));
+        std::lock_guard lock(shared_->mutex);
+        shared_->state = "failed";
+        shared_->last_error = statusText(st);
+      }
+      connections_[lane] = nc;
     }
-    connection_ = nc;
     run();
   });
   return true;
@@ -278,7 +313,7 @@ void NatsClient::stop() {
   shared_->inbox.clear();
 }
 
-bool NatsClient::publish(std::string subject, std::string data, std::string reply,
+bool NatsClient::publish(Lane lane, std::string subject, std::string data, std::string reply,
                          std::string command, std::string error) {
   const size_t size = subject.size() + data.size() + reply.size();
   {
@@ -288,20 +323,20 @@ bool NatsClient::publish(std::string subject, std::string data, std::string repl
       return false;
     }
     ops_bytes_ += size;
-    ops_.push_back(Op{Op::Kind::publish, 0, std::move(subject), std::move(reply), std::move(data),
-                      std::move(command), std::move(error)});
+    ops_.push_back(Op{Op::Kind::publish, lane, 0, std::move(subject), std::move(reply),
+                      std::move(data), std::move(command), std::move(error)});
   }
   cv_.notify_one();
   return true;
 }
 
-void NatsClient::subscribe(uint64_t route, std::string subject, std::string queue) {
+void NatsClient::subscribe(Lane lane, uint64_t route, std::string subject, std::string queue) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return;
     // The queue group travels in `reply`: an Op has no other use for it here.
     ops_.push_back(
-        Op{Op::Kind::subscribe, route, std::move(subject), std::move(queue), {}, {}, {}});
+        Op{Op::Kind::subscribe, lane, route, std::move(subject), std::move(queue), {}, {}, {}});
   }
   cv_.notify_one();
 }
@@ -310,7 +345,7 @@ void NatsClient::unsubscribe(uint64_t route) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return;
-    ops_.push_back(Op{Op::Kind::unsubscribe, route, {}, {}, {}, {}, {}});
+    ops_.push_back(Op{Op::Kind::unsubscribe, Lane::bulk, route, {}, {}, {}, {}, {}});
   }
   cv_.notify_one();
 }
@@ -356,26 +391,34 @@ void NatsClient::run() {
     for (Op& op : batch) apply(op);
   }
   // Closing: unsubscribe everything, close, and wait for the client's last callbacks.
-  auto* nc = static_cast<natsConnection*>(connection_.load());
-  for (auto& [route, sub] : subs_)
+  for (auto& [route, sub] : subs_) {
     natsSubscription_Unsubscribe(static_cast<natsSubscription*>(sub.first));
-  if (nc != nullptr) natsConnection_Close(nc);
+  }
+  int open_connections = 0;
+  for (auto& c : connections_) {
+    if (auto* nc = static_cast<natsConnection*>(c.load())) {
+      natsConnection_Close(nc);
+      ++open_connections;
+    }
+  }
   {
     std::unique_lock lock(shared_->mutex);
     shared_->cv.wait_for(lock, std::chrono::seconds(5), [&] {
-      return shared_->live_subs == 0 && (nc == nullptr || shared_->closed);
+      return shared_->live_subs == 0 && shared_->closed >= open_connections;
     });
   }
-  for (auto& [route, sub] : subs_)
+  for (auto& [route, sub] : subs_) {
     natsSubscription_Destroy(static_cast<natsSubscription*>(sub.first));
+  }
   subs_.clear();
-  if (nc != nullptr) natsConnection_Destroy(nc);
-  connection_ = nullptr;
+  for (auto& c : connections_) {
+    if (auto* nc = static_cast<natsConnection*>(c.exchange(nullptr))) natsConnection_Destroy(nc);
+  }
   connected_ = false;
 }
 
 void NatsClient::apply(Op& op) {
-  auto* nc = static_cast<natsConnection*>(connection_.load());
+  auto* nc = static_cast<natsConnection*>(connections_[static_cast<int>(op.lane)].load());
   if (nc == nullptr) {  // the connect failed for good (logged)
     if (op.kind == Op::Kind::publish) ++shared_->out_dropped;
     return;

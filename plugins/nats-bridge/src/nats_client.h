@@ -1,9 +1,13 @@
 // The bridge's NATS connection, on Debian's C client (libnats). Nothing here touches the hub:
 // the client's threads and the bridge's own thread hand everything over through bounded queues.
 //
-// - Outgoing work (publish, subscribe, unsubscribe, the connect itself) goes through one queue to
-//   the bridge's NATS thread, so that the hub's loop never blocks on the socket or on a connect;
-//   past `queue_bytes` a publish is dropped and counted.
+// - Two connections, two lanes: `bulk` for streams (the client batches what it sends, up to a
+//   millisecond) and `prompt` for services (requests, replies and their subscriptions: each
+//   message goes out at once, natsOptions_SetSendAsap), so that a call does not wait for a
+//   batch at each hop.
+// - Outgoing work (publish, subscribe, unsubscribe, the connects themselves) goes through one
+//   queue to the bridge's NATS thread, so that the hub's loop never blocks on the socket or on a
+//   connect; past `queue_bytes` a publish is dropped and counted.
 // - Incoming messages (the client's delivery threads) go to an inbox that the loop empties with
 //   take(); `wake` is called when it turns non-empty. Past `queue_bytes` they are dropped and
 //   counted.
@@ -40,6 +44,8 @@ struct ClientOptions {
 // Headers the bridge reads and writes (docs/fleet.md).
 inline constexpr const char* kCommandHeader = "Skr-Command";
 inline constexpr const char* kErrorHeader = "Skr-Error";
+
+enum class Lane { bulk = 0, prompt = 1 };
 
 struct Incoming {
   uint64_t route = 0;  // the subscribe() call's route
@@ -78,11 +84,11 @@ class NatsClient {
   void stop();
 
   // Any thread. False when dropped (the queue is full, or stopped).
-  bool publish(std::string subject, std::string data, std::string reply = {},
+  bool publish(Lane lane, std::string subject, std::string data, std::string reply = {},
                std::string command = {}, std::string error = {});
   // Messages on `subject` (wildcards allowed) reach the inbox as `route` until unsubscribe().
   // `queue`: a queue group (one member of the group gets each message).
-  void subscribe(uint64_t route, std::string subject, std::string queue = {});
+  void subscribe(Lane lane, uint64_t route, std::string subject, std::string queue = {});
   void unsubscribe(uint64_t route);
   // What arrived since the last call (loop thread).
   [[nodiscard]] std::deque<Incoming> take();
@@ -90,16 +96,18 @@ class NatsClient {
   [[nodiscard]] const std::string& inbox() const noexcept { return inbox_; }
   [[nodiscard]] ClientStats stats() const;
   [[nodiscard]] bool connected() const noexcept { return connected_.load(); }
-  // The natsConnection* (thread-safe in the client), for the key-value mirrors; null until the
-  // NATS thread has made it, and after stop().
-  [[nodiscard]] void* connection() const noexcept { return connection_.load(); }
+  // The prompt lane's natsConnection* (thread-safe in the client), for the key-value mirrors;
+  // null until the NATS thread has made it, and after stop().
+  [[nodiscard]] void* connection() const noexcept { return connections_[1].load(); }
 
   struct Shared;  // what the client's callbacks reach
   struct Route;   // one subscription's callback closure
+  struct Link;    // one connection's callback closure
 
  private:
   struct Op {
     enum class Kind { publish, subscribe, unsubscribe } kind;
+    Lane lane = Lane::bulk;
     uint64_t route = 0;
     std::string subject, reply, data, command, error;
   };
@@ -112,10 +120,11 @@ class NatsClient {
   std::string inbox_;
   std::shared_ptr<Shared> shared_;
   std::atomic<bool> connected_{false};
-  // The NATS thread's: the connection (a natsConnection*), subscriptions by route (a
+  // The NATS thread's: the connections (natsConnection*, by Lane), subscriptions by route (a
   // natsSubscription* and its closure), and closures of ended ones (a late callback may read
   // them until stop()).
-  std::atomic<void*> connection_{nullptr};
+  std::atomic<void*> connections_[2] = {nullptr, nullptr};
+  std::unique_ptr<Link> links_[2];
   std::map<uint64_t, std::pair<void*, std::unique_ptr<Route>>> subs_;
   std::vector<std::unique_ptr<Route>> retired_;
 

@@ -2,18 +2,11 @@
 #include "channel_table.h"
 
 #include <skrobot/core/log.h>
+#include <skrobot/flow/name_pattern.h>
 
 #include <algorithm>
 
 namespace skr::flow {
-
-bool ChannelTable::validShortName(const std::string& s) {
-  if (s.empty() || s.size() > 128 || s.front() == '.') return false;
-  return std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-           c == '-' || c == '.';
-  });
-}
 
 ChannelTable::ChannelTable() : rng_(std::random_device{}()) {
   channels_.resize(kMaxChannels);
@@ -42,7 +35,7 @@ Result<Channel*> ChannelTable::owned(const Endpoint& e, uint16_t id, const char*
 Result<Channel*> ChannelTable::add(Endpoint* owner, const std::string& user,
                                    const std::string& short_name, ChannelKind kind,
                                    const std::string& mime) {
-  if (!validShortName(short_name)) {
+  if (!flow::validShortName(short_name)) {
     return makeError(Errc::invalid_argument,
                      "channel name \"" + short_name +
                          "\": 1 to 128 of A-Z a-z 0-9 _ - . (not starting with '.')");

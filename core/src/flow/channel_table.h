@@ -47,9 +47,6 @@ class ChannelTable {
  public:
   ChannelTable();
 
-  // A channel's short name: 1 to 128 of A-Z a-z 0-9 _ - . (not starting with '.').
-  [[nodiscard]] static bool validShortName(const std::string& s);
-
   [[nodiscard]] Channel* find(uint16_t id) noexcept {
     return id < channels_.size() ? channels_[id].get() : nullptr;
   }

@@ -4,6 +4,7 @@
 #include "server_impl.h"
 
 #include <skrobot/core/log.h>
+#include <skrobot/flow/name_pattern.h>
 
 #include <algorithm>
 
@@ -97,7 +98,7 @@ void Replica::onData(const Channel& ch, std::string_view payload) {
 Result<void> FlowServer::Impl::replicate(const std::string& owner_user, const std::string& source,
                                          const std::string& short_name, const Endpoint* by) {
   const std::string name = owner_user + "." + short_name;
-  if (!ChannelTable::validShortName(short_name)) {
+  if (!validShortName(short_name)) {
     return makeError(Errc::invalid_argument,
                      "channel name \"" + short_name +
                          "\": 1 to 128 of A-Z a-z 0-9 _ - . (not starting with '.')");

@@ -8,17 +8,6 @@
 namespace skr::nats_bridge {
 namespace {
 
-// A channel's short name, as the hub takes it: 1..128 of A-Z a-z 0-9 _ - . not starting with '.'.
-bool validShortName(const std::string& s) {
-  if (s.empty() || s.size() > 128 || s[0] == '.') return false;
-  for (char c : s) {
-    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-                    c == '_' || c == '-' || c == '.';
-    if (!ok) return false;
-  }
-  return true;
-}
-
 bool validBucket(const std::string& s) {
   if (s.empty() || s.size() > 64) return false;
   for (char c : s) {
@@ -178,7 +167,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, BridgeConfig& o
             "not a NATS subject" + std::string(im.service ? " without wildcards: " : ": ") + *bad);
       }
     }
-    if (!im.as.empty() && !validShortName(im.as)) {
+    if (!im.as.empty() && !flow::validShortName(im.as)) {
       r.problem(key + ".as", "not a channel short name (1-128 of A-Z a-z 0-9 _ - ., not first .)");
     } else if (!im.as.empty() && (im.as == "status" || !names.insert(im.as).second)) {
       r.problem(key + ".as",

@@ -18,6 +18,16 @@ bool forbidden(char c) noexcept {
 
 }  // namespace
 
+bool validShortName(std::string_view name) noexcept {
+  if (name.empty() || name.size() > 128 || name.front() == '.') return false;
+  for (char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '-' || c == '.';
+    if (!ok) return false;
+  }
+  return true;
+}
+
 Result<NamePattern> NamePattern::parse(std::string_view text) {
   if (text.empty()) return makeError(Errc::invalid_argument, "empty pattern");
   NamePattern p;

@@ -1,6 +1,8 @@
 // Satellite's public methods: channels, publishing, services, databases.
 #include "satellite_impl.h"
 
+#include <skrobot/flow/name_pattern.h>
+
 namespace skr::sat {
 
 namespace msg = flow::msg;
@@ -15,16 +17,6 @@ Result<SatelliteOptions> SatelliteOptions::fromEnvironment(std::string client_na
 }
 
 namespace {
-
-bool validShortName(std::string_view name) {
-  if (name.empty() || name.size() > 128 || name[0] == '.') return false;
-  for (char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                    c == '_' || c == '-' || c == '.';
-    if (!ok) return false;
-  }
-  return true;
-}
 
 Error notConnected() {
   return makeError(Errc::closed, "not connected to the hub");
@@ -79,7 +71,7 @@ const Satellite::Impl::Own* Satellite::Impl::findOwn(std::string_view name) cons
 // --- channels -----------------------------------------------------------------------------------
 
 Result<void> Satellite::addChannel(ChannelSpec spec) {
-  if (!validShortName(spec.name)) {
+  if (!flow::validShortName(spec.name)) {
     return makeError(
         Errc::invalid_argument,
         "bad channel name \"" + spec.name + "\": 1-128 of A-Z a-z 0-9 _ - . not starting with '.'");

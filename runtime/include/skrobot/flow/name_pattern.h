@@ -23,6 +23,10 @@
 
 namespace skr::flow {
 
+// A channel's short name (the part after "<user>."): 1 to 128 of A-Z a-z 0-9 _ - . not starting
+// with '.'. The one rule for the hub, the satellite library and modules.
+[[nodiscard]] bool validShortName(std::string_view name) noexcept;
+
 class NamePattern {
  public:
   // Refuses an empty pattern, characters that no channel name may hold (space, control bytes,

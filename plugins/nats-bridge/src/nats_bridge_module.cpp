@@ -120,7 +120,6 @@ class NatsBridge final : public plugin::Module {
  private:
   // An imported subject: a streaming channel fed while it has subscribers, or a service channel.
   struct Imported {
-    size_t index;
     plugin::StreamChannel stream;
     plugin::ServiceChannel service;
   };
@@ -148,7 +147,7 @@ class NatsBridge final : public plugin::Module {
     Json::Value props(Json::objectValue);
     props["nats_subject"] = im.subject;
     const std::string props_json = skr::support::writeJson(props);
-    Imported entry{i, {}, {}};
+    Imported entry;
     if (im.service) {
       entry.service = plugin::ServiceChannel(
           host_, im.as, [this, i](const plugin::ServiceRequest& r) { callNats(i, r); }, props_json);

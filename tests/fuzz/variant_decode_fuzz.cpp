@@ -1,15 +1,19 @@
 // libFuzzer target: arbitrary bytes as a binary Variant. Whatever decodes must re-encode to a
 // value that decodes equal, stay encodable, and survive the JSON mapping (values holding no
 // non-finite float64, which JSON writes as null). The same bytes are also read as the JSON text
-// of the protocol's JSON twin commands; whatever parses must encode and round-trip.
+// of the protocol's JSON twin commands; whatever parses must encode, round-trip, and read the
+// same through jsoncpp and Variant::fromJson().
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/variant_decode_fuzz
 #include <skrobot/flow/variant.h>
+
+#include <json/reader.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -68,6 +72,19 @@ void checkJsonText(const uint8_t* data, size_t size) {
   if (!back || !(back.value() == v)) fail("a value from JSON does not round-trip in binary", v);
   skr::Result<Variant> again = skr::flow::variantFromJsonText(skr::flow::variantToJsonText(v));
   if (!again || !(again.value() == v)) fail("a value from JSON does not round-trip in JSON", v);
+  // The reference: jsoncpp's reader and Variant::fromJson() must accept it and agree (jsoncpp
+  // accepts more: leading zeros, raw control characters; never less).
+  Json::CharReaderBuilder builder;
+  builder["rejectDupKeys"] = true;
+  builder["failIfExtra"] = true;
+  builder["stackLimit"] = 1000;
+  const std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
+  Json::Value root;
+  std::string errors;
+  const char* text = reinterpret_cast<const char*>(data);
+  if (!reader->parse(text, text + size, &root, &errors)) fail("jsoncpp refuses it", v);
+  skr::Result<Variant> reference = Variant::fromJson(root);
+  if (!reference || !(reference.value() == v)) fail("Variant::fromJson() reads it otherwise", v);
 }
 
 }  // namespace

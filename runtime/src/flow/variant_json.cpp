@@ -1,24 +1,20 @@
-// The JSON mapping of Variant (docs/pair-databases.md) and the JSON text of the protocol's
-// "JSON twin" commands.
-#include "json_errors.h"
+// The JSON mapping of Variant (docs/pair-databases.md) to and from a Json::Value. The text of
+// modules' values and the protocol's "JSON twin" commands is read and written without a
+// Json::Value: variant_json_read.cpp, variant_json_write.cpp.
+#include "variant_json_text.h"
 
 #include <skrobot/flow/variant.h>
 
-#include <json/reader.h>
-#include <json/writer.h>
-
 #include <cmath>
-#include <exception>
 #include <limits>
-#include <memory>
 
 namespace skr::flow {
 namespace {
 
 using Type = Variant::Type;
 
-constexpr const char* kBase64Key = "$base64";
-constexpr const char* kMapKey = "$map";
+const std::string kBase64Key(json_keys::kBase64);
+const std::string kMapKey(json_keys::kMap);
 
 Json::Value mapToJson(const Variant::Map& m) {
   Json::Value out(Json::objectValue);
@@ -160,7 +156,7 @@ Json::Value Variant::toJson() const {
     case Type::map: {
       const Map& m = *asMap();
       // A lone "$base64" or "$map" key would read back as bytes or as an escape: escape it.
-      if (m.size() == 1 && (m.begin()->first == kBase64Key || m.begin()->first == kMapKey)) {
+      if (json_keys::needsMapEscape(m)) {
         Json::Value out(Json::objectValue);
         out[kMapKey] = mapToJson(m);
         return out;
@@ -173,49 +169,6 @@ Json::Value Variant::toJson() const {
 
 Result<Variant> Variant::fromJson(const Json::Value& json, size_t max_depth) {
   return FromJson(max_depth).value(json, 1, "$");
-}
-
-std::string variantToJsonText(const Variant& v) {
-  static const Json::StreamWriterBuilder builder = [] {
-    Json::StreamWriterBuilder b;
-    b["indentation"] = "";
-    b["emitUTF8"] = true;
-    return b;
-  }();
-  return Json::writeString(builder, v.toJson());
-}
-
-Result<Variant> variantFromJsonText(std::string_view text, const DecodeLimits& limits) {
-  if (text.size() > limits.max_bytes) {
-    return makeError(Errc::parse_error, "JSON text of " + std::to_string(text.size()) +
-                                            " bytes exceeds the limit of " +
-                                            std::to_string(limits.max_bytes));
-  }
-  Json::CharReaderBuilder builder;
-  builder["allowComments"] = false;
-  builder["allowTrailingCommas"] = false;
-  builder["strictRoot"] = false;
-  builder["allowDroppedNullPlaceholders"] = false;
-  builder["allowNumericKeys"] = false;
-  builder["allowSingleQuotes"] = false;
-  builder["allowSpecialFloats"] = false;
-  builder["failIfExtra"] = true;
-  builder["rejectDupKeys"] = true;
-  // jsoncpp recurses per nesting level. Bytes and "$map" escapes add a JSON level to a Variant
-  // level, so allow twice ours; our own check gives the precise message.
-  builder["stackLimit"] =
-      static_cast<Json::UInt>(std::min<size_t>(2 * limits.max_depth + 4, 10000));
-  const std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
-  Json::Value root;
-  std::string errors;
-  try {
-    if (!reader->parse(text.data(), text.data() + text.size(), &root, &errors)) {
-      return makeError(Errc::parse_error, jsonErrorsOneLine(errors));
-    }
-  } catch (const std::exception& e) {  // jsoncpp throws when nesting exceeds stackLimit
-    return makeError(Errc::parse_error, e.what());
-  }
-  return Variant::fromJson(root, limits.max_depth);
 }
 
 }  // namespace skr::flow

@@ -1,7 +1,8 @@
 // The avatar demo end to end in Debian's chromium: a fake camera showing astronaut.png (left half
 // of the frame) and the fake microphone stream into the hub through websocket-ui; face-detect
 // finds the face; the page draws the box; the avatar's eyes turn toward it; a `say` request to
-// websocket-ui makes speech audio arrive in the page while the mouth moves.
+// websocket-ui makes speech audio arrive in the page while the mouth moves; the agent's answer
+// to what it heard is shown in the page's dialogue and spoken, with its expression.
 import assert from 'node:assert/strict';
 import { execFileSync, spawn } from 'node:child_process';
 import path from 'node:path';
@@ -33,9 +34,12 @@ before(async () => {
   port = await freePort();
   hub = await startHub([
     { name: 'websocket-ui', config: { port, faces: 'face-detect.faces', speech: 'speech.say',
-      voice: 'speech.voice', phonemes: 'speech.phonemes' } },
+      voice: 'speech.voice', phonemes: 'speech.phonemes', dialogue: 'agent.dialogue' } },
     { name: 'face-detect', config: { input: 'websocket-ui.camera' } },
     { name: 'speech', config: {} },
+    // The agent answers what it is told to hear (agent.command), not the faces: the tests above
+    // make the avatar speak on their own.
+    { name: 'agent', config: { faces: '', codes: '', nao: '' } },
   ]);
   chromium = await launchChromium({ y4m });
   page = await chromium.context.newPage();
@@ -129,4 +133,24 @@ test('a say request plays speech in the page and moves the mouth', async () => {
   }, answer.duration_ms + 15000);
   const st = await state();
   assert.ok(st.voiceFramesPlayed > 0);
+});
+
+test('what the agent hears and answers is shown, spoken and smiled', async () => {
+  const before = (await state()).expressions.length;
+  const answer = JSON.parse(await hub.flowctl('--json', 'call', 'agent.command', 'hear',
+    JSON.stringify({ text: 'How are you today?' }), '--timeout-ms', '20000'));
+  assert.equal(answer.intent, 'how_are_you');
+  assert.equal(answer.answer, 'I am fine, thank you.');
+  const shown = await waitFor('the dialogue in the page', async () => {
+    const d = (await state()).dialogue;
+    return d.length > 0 ? d[d.length - 1] : null;
+  }, 10000);
+  assert.deepEqual(shown, { heard: 'How are you today?', event: '', intent: 'how_are_you',
+    answer: 'I am fine, thank you.' });
+  assert.equal(await page.textContent('#dialogue li:last-child .answer'), 'I am fine, thank you.');
+  await waitFor('the answer spoken', async () => (await page.textContent('#caption')) === 'I am fine, thank you.', 20000);
+  const st = await state();
+  assert.ok(st.expressions.length > before && st.expressions[st.expressions.length - 1] === 'happy',
+    `expressions ${st.expressions}`);
+  await page.screenshot({ path: path.join(out, 'avatar-dialogue.png') });
 });

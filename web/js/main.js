@@ -15,7 +15,25 @@ const camera = new Camera($('camera-video'), link);
 const mic = new Microphone(link);
 const voice = new Voice();
 const overlay = new Overlay($('overlay'));
-const counts = { commands: 0, detections: 0, codes: 0, said: 0, closes: [] };
+const counts = { commands: 0, detections: 0, codes: 0, said: 0, closes: [], dialogue: [] };
+
+// What the agent heard and answered (its dialogue channel), newest last, the last six shown.
+function showDialogue(d) {
+  const heard = d.heard ? `“${d.heard}”` : d.event === 'code_seen' ? `code: ${d.code}` : d.event || '';
+  const answer = d.ignored ? `(${d.ignored})` : d.answer || '';
+  counts.dialogue.push({ heard: d.heard || '', event: d.event || '', intent: d.intent ?? null, answer });
+  const li = document.createElement('li');
+  const q = document.createElement('span');
+  q.className = 'heard';
+  q.textContent = heard;
+  const a = document.createElement('span');
+  a.className = 'answer';
+  a.textContent = answer;
+  li.append(q, a);
+  const list = $('dialogue');
+  list.append(li);
+  while (list.children.length > 6) list.firstElementChild.remove();
+}
 
 if (!avatar.hasWebGL) {
   $('avatar').hidden = true;
@@ -47,6 +65,9 @@ link.addEventListener('command', ({ detail: msg }) => {
       break;
     case 'said':
       counts.said++;
+      break;
+    case 'dialogue':
+      showDialogue(msg.data);
       break;
     default:
   }
@@ -84,6 +105,7 @@ function frame(now) {
   const caption = mouth.speaking ? mouth.text : '';
   if ($('caption').textContent !== caption) $('caption').textContent = caption;
   overlay.draw();
+  $('mic-level').value = mic.running ? Math.max(-60, mic.levelDb) : -60;
   if (now - statusAt > 500) {
     statusAt = now;
     const parts = [link.connected ? 'connected' : 'disconnected'];

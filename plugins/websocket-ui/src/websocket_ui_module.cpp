@@ -15,6 +15,7 @@
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <map>
 #include <memory>
@@ -66,6 +67,7 @@ class WebsocketUi final : public skr::plugin::Module {
     speech_ = host.configString("speech");
     voice_ = host.configString("voice");
     phonemes_ = host.configString("phonemes");
+    dialogue_ = host.configString("dialogue");
   }
 
   void start() override {
@@ -83,8 +85,10 @@ class WebsocketUi final : public skr::plugin::Module {
     mic["format"] = "s16le";
     mic_ = StreamChannel(host_, "mic", "audio/L16", writeJson(mic));
     Json::Value say(Json::objectValue);
-    say["commands"] = "say";
-    say["value"] = "{\"text\": string, \"voice\": string}";
+    say["commands"] = "say, expression";
+    say["value"] =
+        "say: {\"text\": string, \"voice\": string}; expression: {\"name\": "
+        "\"happy\"|\"surprised\", \"weight\": 0..1, \"duration_ms\": number}";
     say_ = ServiceChannel(
         host_, "say", [this](const ServiceRequest& r) { onSayRequest(r); }, writeJson(say));
     requester_.emplace(host_);
@@ -92,6 +96,7 @@ class WebsocketUi final : public skr::plugin::Module {
     subscribe(motion_, [this](std::string_view p) { onMotion(p); });
     subscribe(codes_, [this](std::string_view p) { onCodes(p); });
     subscribe(bands_, [this](std::string_view p) { forward("bands", p); });
+    subscribe(dialogue_, [this](std::string_view p) { forward("dialogue", p); });
     subscribe(phonemes_, [this](std::string_view p) { onPhonemes(p); });
     subscribe(voice_, [this](std::string_view p) {
       if (skr::media::parseFrame(p)) server_.send(0, true, std::string(p), false);
@@ -325,6 +330,7 @@ class WebsocketUi final : public skr::plugin::Module {
 
   // Forwards the request to the speech service; its answer, or {"error"}, goes back.
   void onSayRequest(const skr::plugin::ServiceRequest& r) {
+    if (r.command == "expression") return onExpressionRequest(r);
     ++counters_.say_requests;
     const std::uint64_t id = r.id;
     if (speech_.empty()) {
@@ -336,6 +342,22 @@ class WebsocketUi final : public skr::plugin::Module {
           say_.respond(id, ok ? value : errorJson(answerValue(value)));
         });
     if (!sent) say_.respond(id, errorJson("the speech service " + speech_ + " is not running"));
+  }
+
+  // An expression for every page: {"name", "weight" (1), "duration_ms" (2000)}.
+  void onExpressionRequest(const skr::plugin::ServiceRequest& r) {
+    const auto v = skr::support::parseJson(r.value_json, kChannelLimits);
+    if (!v || !v->isObject() || !(*v)["name"].isString()) {
+      say_.respond(r.id, errorJson("expression takes {\"name\", \"weight\", \"duration_ms\"}"));
+      return;
+    }
+    Json::Value msg(Json::objectValue);
+    msg["type"] = "expression";
+    msg["name"] = (*v)["name"];
+    msg["weight"] = std::clamp(v->get("weight", 1.0).asDouble(), 0.0, 1.0);
+    msg["duration_ms"] = std::clamp<Json::Int64>(v->get("duration_ms", 2000).asInt64(), 0, 60000);
+    server_.send(0, false, writeJson(msg));
+    say_.respond(r.id, writeJson(msg));
   }
 
   void sayFromBrowser(std::uint64_t conn, const Say& s) {
@@ -414,7 +436,7 @@ class WebsocketUi final : public skr::plugin::Module {
   InboundLimits limits_;
   int camera_width_ = 640, camera_height_ = 360, camera_fps_ = 15;
   double jpeg_quality_ = 0.7;
-  std::string faces_, motion_, codes_, bands_, speech_, voice_, phonemes_;
+  std::string faces_, motion_, codes_, bands_, speech_, voice_, phonemes_, dialogue_;
 
   AvatarBehaviour avatar_;
   SourceOwner camera_owner_, mic_owner_;  // loop thread
@@ -469,6 +491,7 @@ constexpr skr_config_key kConfig[] = {
     cfg::string("speech", "", "the speech service that say goes to, e.g. speech.say"),
     cfg::string("voice", "", "speech audio played in the page, e.g. speech.voice"),
     cfg::string("phonemes", "", "speech timelines that move the lips, e.g. speech.phonemes"),
+    cfg::string("dialogue", "", "what the agent heard and answered, shown, e.g. agent.dialogue"),
     // The avatar's behaviour.
     cfg::integer("blink_min_ms", "450", "shortest interval between blinks").min(100),
     cfg::integer("blink_max_ms", "4000", "longest interval between blinks (>= blink_min_ms)")

@@ -1,0 +1,533 @@
+// agent: the robot agent's loop (docs/agent.md). It hears the transcripts of every recogniser
+// (channels matching `recognisers`, "<instance>.transcript"), matches them against the intents
+// of its rules file, and acts: the avatar speaks (`say`), shows an expression, the Nao moves,
+// services are called, databases written. It greets a face that appears after a while with
+// none, reads codes aloud, answers "what do you see" from the last detections, hands its command
+// grammar to each recogniser (`<instance>.control`, "set_grammar") and pauses them while the
+// avatar speaks, so that the robot does not hear itself.
+//   <name>.dialogue  stream: one JSON per utterance heard or event, with what it answered
+//   <name>.command   service: "hear" {"text"} (as if heard), "grammar", "state"
+//   database <name>: heard, intent, answer, and what "remember" actions keep
+// Log tags: AGENT-RULES, AGENT-HEARD, AGENT-ACTION, AGENT-RECOGNISER.
+#include "rules.h"
+
+#include <skrobot/flow/name_pattern.h>
+#include <skrobot/plugin_channels.hpp>
+#include <skrobot/plugin_watch.hpp>
+#include <skrobot/support/config.hpp>
+#include <skrobot/support/json.hpp>
+
+#include <cmath>
+#include <ctime>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace {
+
+using skr::plugin::Host;
+using skr::support::writeJson;
+
+// Detections and transcripts are small, flat JSON.
+constexpr skr::support::JsonLimits kMessageLimits{8, 1u << 20};
+constexpr std::int64_t kNsPerMs = 1'000'000;
+
+// The rules the agent uses when its config names no file (plugins/agent/default-rules.json).
+constexpr const char* kDefaultRules =
+#include "default_rules.inc"
+    ;
+
+struct Recogniser {
+  skr::plugin::Subscription transcripts;
+  bool has_control = false;
+  bool grammar_sent = false;
+};
+
+std::string numberText(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+class Agent final : public skr::plugin::Module {
+ public:
+  explicit Agent(Host& host)
+      : host_(host),
+        db_(host.name()),
+        say_(host.configString("say")),
+        expression_(host.configString("expression")),
+        nao_(host.configString("nao")),
+        faces_channel_(host.configString("faces")),
+        codes_channel_(host.configString("codes")),
+        hand_grammar_(host.configBool("hand_grammar")),
+        barge_in_(host.configBool("barge_in")),
+        greet_after_ns_(host.configInt("greet_after_s") * 1000 * kNsPerMs),
+        awake_ns_(host.configInt("awake_s") * 1000 * kNsPerMs),
+        code_repeat_ns_(host.configInt("code_repeat_s") * 1000 * kNsPerMs),
+        speech_tail_ns_(host.configInt("speech_tail_ms") * kNsPerMs) {
+    auto pattern = skr::flow::NamePattern::parse(host.configString("recognisers"));
+    if (!pattern) {
+      host.configError("recognisers", pattern.error().message);
+      throw skr::plugin::Failure(SKR_ERR_CONFIG, "recognisers: " + pattern.error().message);
+    }
+    recognisers_pattern_ = std::move(pattern).value();
+    const std::string file = host.configString("rules");
+    std::string text = kDefaultRules;
+    std::string origin = "the default rules";
+    if (!file.empty()) {
+      std::ifstream in(file);
+      std::ostringstream all;
+      all << in.rdbuf();
+      if (!in) {
+        host.configError("rules", "cannot read " + file);
+        throw skr::plugin::Failure(SKR_ERR_CONFIG, "cannot read the rules file " + file);
+      }
+      text = all.str();
+      origin = file;
+    }
+    auto rules = skr::agent::parseRules(text, origin);
+    if (!rules) {
+      host.configError("rules", rules.error().message);
+      throw skr::plugin::Failure(SKR_ERR_CONFIG, rules.error().message);
+    }
+    rules_ = std::move(rules).value();
+    grammar_ = rules_.grammar();
+  }
+
+  void start() override {
+    using namespace skr::plugin;
+    requester_ = std::make_unique<Requester>(host_);
+    dialogue_ = StreamChannel(host_, "dialogue", "application/json", "{}");
+    command_ = ServiceChannel(
+        host_, "command", [this](const ServiceRequest& r) { onCommand(r); },
+        R"({"commands":["hear","grammar","state"]})");
+    if (!faces_channel_.empty()) {
+      faces_ = Subscription(host_, faces_channel_, [this](std::string_view p) { onFaces(p); });
+    }
+    if (!codes_channel_.empty()) {
+      codes_ = Subscription(host_, codes_channel_, [this](std::string_view p) { onCodes(p); });
+    }
+    watch_ = ChannelWatch(host_, [this](const ChannelEvent& ev) { onChannel(ev); });
+    tick_ = host_.onTick(Tick::fast, [this] { checkSpeaking(); });
+    host_.log.info(
+        "AGENT-RULES", rules_.intents.size(), " intents, wake phrase '", wakePhrase(), "', ",
+        host_.configString("rules").empty() ? "default rules" : host_.configString("rules"));
+  }
+
+  void stop() override {
+    tick_.reset();
+    watch_.reset();
+    recognisers_.clear();
+    faces_.reset();
+    codes_.reset();
+    command_.reset();
+    dialogue_.reset();
+    requester_.reset();
+  }
+
+ private:
+  std::string wakePhrase() const {
+    std::string out;
+    for (const std::string& w : rules_.wake_phrase) out += (out.empty() ? "" : " ") + w;
+    return out;
+  }
+
+  // --- recognisers: "<instance>.transcript" streams, "<instance>.control" services
+  void onChannel(const skr::plugin::ChannelEvent& ev) {
+    const size_t dot = ev.name.rfind('.');
+    if (dot == std::string::npos) return;
+    const std::string instance = ev.name.substr(0, dot);
+    if (ev.kind == SKR_CHANNEL_SERVICE &&
+        ev.name.compare(dot, std::string::npos, ".control") == 0) {
+      controls_[instance] = ev.added;
+      if (auto it = recognisers_.find(instance); it != recognisers_.end()) {
+        it->second.has_control = ev.added;
+        it->second.grammar_sent = false;
+        if (ev.added) handOver(instance, it->second);
+      }
+      return;
+    }
+    if (ev.kind != SKR_CHANNEL_STREAMING || !recognisers_pattern_.matches(ev.name)) return;
+    if (!ev.added) {
+      recognisers_.erase(instance);
+      host_.log.info("AGENT-RECOGNISER", instance, " gone");
+      return;
+    }
+    if (recognisers_.count(instance) != 0) return;
+    Recogniser& r = recognisers_[instance];
+    r.transcripts = skr::plugin::Subscription(
+        host_, ev.name, [this, instance](std::string_view p) { onTranscript(instance, p); });
+    r.has_control = controls_[instance];
+    host_.log.info("AGENT-RECOGNISER", instance, " listening",
+                   r.has_control ? "" : " (no control service yet)");
+    if (r.has_control) handOver(instance, r);
+  }
+
+  void handOver(const std::string& instance, Recogniser& r) {
+    if (!hand_grammar_ || r.grammar_sent) return;
+    r.grammar_sent = true;
+    Json::Value v(Json::objectValue);
+    v["jsgf"] = grammar_;
+    requester_->request(instance + ".control", "set_grammar", writeJson(v),
+                        [this, instance](bool ok, const std::string& answer) {
+                          if (!ok)
+                            host_.log.warn("AGENT-RECOGNISER", instance,
+                                           " refused the grammar: ", answer);
+                        });
+    if (speaking_) requester_->request(instance + ".control", "pause", "{}");
+  }
+
+  void toRecognisers(const char* command) {
+    for (auto& [instance, r] : recognisers_) {
+      if (r.has_control) requester_->request(instance + ".control", command, "{}");
+    }
+  }
+
+  // {"text", "confidence", "start", "end", "rejected", ...}
+  void onTranscript(const std::string& instance, std::string_view payload) {
+    auto v = skr::support::parseJson(payload, kMessageLimits);
+    if (!v || !v->isObject()) {
+      host_.log.warn("AGENT-HEARD", instance, ": a transcript that is not a JSON object");
+      return;
+    }
+    const std::string text = (*v)["text"].asString();
+    if ((*v)["rejected"].asBool() || text.empty()) return;
+    if (speaking_ && !barge_in_) {
+      ++ignored_while_speaking_;
+      host_.log.debug("AGENT-HEARD", instance, " while the avatar spoke, ignored: ", text);
+      return;
+    }
+    // Two recognisers on one microphone hear the same utterance: the first transcript wins.
+    const double start = (*v)["start"].asDouble(), end = (*v)["end"].asDouble();
+    const std::int64_t now = host_.nowNs();
+    if ((*v).isMember("start") && (*v).isMember("end")) {
+      for (const Heard& h : recent_) {
+        if (h.instance != instance && now - h.at_ns < 10'000 * kNsPerMs && start < h.end &&
+            h.start < end) {
+          ++duplicates_;
+          return;
+        }
+      }
+      recent_.push_back({instance, start, end, now});
+      if (recent_.size() > 16) recent_.erase(recent_.begin());
+    }
+    hear(text, instance);
+  }
+
+  // --- what was heard: wake phrase, intent, actions
+  Json::Value hear(const std::string& text, const std::string& source) {
+    std::vector<std::string> words = skr::agent::wordsOf(text);
+    Json::Value said(Json::objectValue);
+    said["heard"] = text;
+    said["instance"] = source;
+    const std::int64_t now = host_.nowNs();
+    const auto& wake = rules_.wake_phrase;
+    if (!wake.empty()) {
+      const bool woken =
+          words.size() >= wake.size() && std::equal(wake.begin(), wake.end(), words.begin());
+      if (woken) {
+        words.erase(words.begin(), words.begin() + static_cast<long>(wake.size()));
+        awake_until_ns_ = now + awake_ns_;
+        if (words.empty()) {
+          said["intent"] = "woken";
+          said["answer"] = run(event("woken"), vars(text, {}), {});
+          return publish(said);
+        }
+      } else if (now > awake_until_ns_) {
+        said["ignored"] = "no wake phrase";
+        return publish(said);
+      }
+      awake_until_ns_ = now + awake_ns_;
+    }
+    host_.log.info("AGENT-HEARD", source, ": ", text);
+    skr::agent::Vars v = vars(text, {});
+    std::map<std::string, double> numbers;
+    Json::Value actions = rules_.fallback;
+    if (auto m = rules_.match(words)) {
+      said["intent"] = m->intent->name;
+      Json::Value slots(Json::objectValue);
+      for (const auto& [name, value] : m->slots) {
+        v[name] = value.number ? numberText(*value.number) : value.text;
+        if (value.number) numbers[name] = *value.number;
+        slots[name] = value.number ? Json::Value(*value.number) : Json::Value(value.text);
+      }
+      said["slots"] = slots;
+      actions = m->intent->actions;
+    } else {
+      said["intent"] = Json::Value();
+    }
+    said["answer"] = run(actions, v, numbers);
+    skr::plugin::dbSet(host_, db_, "heard", writeJson(Json::Value(text)));
+    skr::plugin::dbSet(host_, db_, "intent", writeJson(said["intent"]));
+    skr::plugin::dbSet(host_, db_, "answer", writeJson(said["answer"]));
+    return publish(said);
+  }
+
+  Json::Value publish(const Json::Value& said) {
+    dialogue_.publish(writeJson(said));
+    return said;
+  }
+
+  const Json::Value& event(const std::string& name) const {
+    static const Json::Value none(Json::arrayValue);
+    const auto it = rules_.events.find(name);
+    return it == rules_.events.end() ? none : it->second;
+  }
+
+  skr::agent::Vars vars(const std::string& heard, const std::string& code) {
+    skr::agent::Vars v{{"heard", heard}, {"seen", seen()}, {"code", code}};
+    const std::time_t t = std::time(nullptr);
+    std::tm local{};
+    localtime_r(&t, &local);
+    char hhmm[8];
+    std::strftime(hhmm, sizeof hhmm, "%H:%M", &local);
+    v["time"] = hhmm;
+    for (const auto& [key, value] : memory_) v["memory." + key] = value;
+    return v;
+  }
+
+  // Runs the actions in order; what the avatar says, joined.
+  std::string run(const Json::Value& actions, const skr::agent::Vars& v,
+                  const std::map<std::string, double>& numbers) {
+    std::string answer;
+    for (const Json::Value& a : actions) {
+      const std::string kind = a.getMemberNames()[0];
+      const Json::Value value = skr::agent::fillValue(a[kind], v, numbers);
+      if (kind == "say") {
+        answer += (answer.empty() ? "" : " ") + value.asString();
+        speak(value.asString());
+      } else if (kind == "expression") {
+        Json::Value e(Json::objectValue);
+        e["name"] = value.isString() ? value : value["name"];
+        e["weight"] =
+            value.isObject() && value.isMember("weight") ? value["weight"] : Json::Value(1.0);
+        e["duration_ms"] = value.isObject() && value.isMember("duration_ms") ? value["duration_ms"]
+                                                                             : Json::Value(2000);
+        call(expression_, "expression", e);
+      } else if (kind == "nao") {
+        call(nao_, value["command"].asString(), value.get("value", Json::objectValue));
+      } else if (kind == "call") {
+        call(value["channel"].asString(), value["command"].asString(),
+             value.get("value", Json::Value()));
+      } else if (kind == "remember") {
+        for (const std::string& key : value.getMemberNames()) {
+          memory_[key] = value[key].isString() ? value[key].asString() : writeJson(value[key]);
+          skr::plugin::dbSet(host_, db_, "memory." + key, writeJson(value[key]));
+        }
+      } else if (kind == "db") {
+        if (!skr::plugin::dbSet(host_, value["database"].asString(), value["key"].asString(),
+                                writeJson(value["value"]))) {
+          ++action_failures_;
+        }
+      }
+    }
+    return answer;
+  }
+
+  void call(const std::string& channel, const std::string& command, const Json::Value& value) {
+    if (channel.empty()) return;
+    const bool sent =
+        requester_->request(channel, command, writeJson(value),
+                            [this, channel, command](bool ok, const std::string& answer) {
+                              if (ok && answer.find("\"error\"") == std::string::npos) return;
+                              ++action_failures_;
+                              host_.log.warn("AGENT-ACTION", channel, " ", command, ": ", answer);
+                            });
+    if (!sent) {
+      ++action_failures_;
+      host_.log.warn("AGENT-ACTION", channel, " is not there: ", command, " not sent");
+    }
+  }
+
+  // --- speaking: the recognisers pause until the avatar has finished (unless barge_in)
+  void speak(const std::string& text) {
+    if (say_.empty()) return;
+    if (!speaking_ && !barge_in_) toRecognisers("pause");
+    speaking_ = true;
+    ++says_pending_;
+    Json::Value v(Json::objectValue);
+    v["text"] = text;
+    const bool sent =
+        requester_->request(say_, "say", writeJson(v), [this](bool ok, const std::string& answer) {
+          --says_pending_;
+          auto a = skr::support::parseJson(answer, kMessageLimits);
+          const std::int64_t duration_ms =
+              ok && a && a->isObject() ? (*a)["duration_ms"].asInt64() : 0;
+          if (!ok || duration_ms == 0) {
+            ++action_failures_;
+            host_.log.warn("AGENT-ACTION", say_, " say: ", answer);
+          }
+          const std::int64_t from = std::max(host_.nowNs(), speaking_until_ns_);
+          speaking_until_ns_ = from + duration_ms * kNsPerMs;
+        });
+    if (!sent) {
+      --says_pending_;
+      ++action_failures_;
+      host_.log.warn("AGENT-ACTION", say_, " is not there: nothing said");
+    }
+  }
+
+  void checkSpeaking() {
+    if (!speaking_ || says_pending_ > 0) return;
+    if (host_.nowNs() < speaking_until_ns_ + speech_tail_ns_) return;
+    speaking_ = false;
+    speaking_until_ns_ = 0;
+    if (!barge_in_) toRecognisers("resume");
+  }
+
+  // --- what the robot sees
+  void onFaces(std::string_view payload) {
+    auto v = skr::support::parseJson(payload, kMessageLimits);
+    if (!v || !v->isObject()) return;
+    const std::int64_t now = host_.nowNs();
+    faces_at_ns_ = now;
+    face_count_ = static_cast<int>((*v)["faces"].size());
+    if (face_count_ == 0) return;
+    const bool greet = last_face_ns_ == 0 || now - last_face_ns_ > greet_after_ns_;
+    last_face_ns_ = now;
+    if (!greet || event("face_appeared").empty()) return;
+    Json::Value said(Json::objectValue);
+    said["event"] = "face_appeared";
+    said["answer"] = run(event("face_appeared"), vars("", ""), {});
+    publish(said);
+  }
+
+  void onCodes(std::string_view payload) {
+    auto v = skr::support::parseJson(payload, kMessageLimits);
+    if (!v || !v->isObject()) return;
+    const std::int64_t now = host_.nowNs();
+    codes_seen_.clear();
+    for (const Json::Value& c : (*v)["codes"]) codes_seen_.push_back(c["text"].asString());
+    codes_at_ns_ = now;
+    for (const std::string& code : codes_seen_) {
+      auto it = codes_read_.find(code);
+      if (it != codes_read_.end() && now - it->second < code_repeat_ns_) continue;
+      codes_read_[code] = now;
+      if (event("code_seen").empty()) continue;
+      Json::Value said(Json::objectValue);
+      said["event"] = "code_seen";
+      said["code"] = code;
+      said["answer"] = run(event("code_seen"), vars("", code), {});
+      publish(said);
+    }
+  }
+
+  // "{seen}": the detections of the last two seconds, in words.
+  std::string seen() const {
+    const std::int64_t now = host_.nowNs();
+    const std::int64_t fresh = 2000 * kNsPerMs;
+    std::vector<std::string> parts;
+    if (faces_at_ns_ != 0 && now - faces_at_ns_ < fresh && face_count_ > 0) {
+      parts.push_back(face_count_ == 1 ? "one face" : std::to_string(face_count_) + " faces");
+    }
+    if (codes_at_ns_ != 0 && now - codes_at_ns_ < fresh) {
+      for (const std::string& code : codes_seen_) parts.push_back("a code that says " + code);
+    }
+    if (parts.empty()) return "I don't see anything I know.";
+    std::string out = "I see ";
+    for (size_t i = 0; i < parts.size(); ++i) {
+      out += (i == 0 ? "" : i + 1 == parts.size() ? " and " : ", ") + parts[i];
+    }
+    return out + ".";
+  }
+
+  // --- agent.command
+  void onCommand(const skr::plugin::ServiceRequest& r) {
+    Json::Value answer(Json::objectValue);
+    if (r.command == "hear") {
+      auto v = skr::support::parseJson(r.value_json, kMessageLimits);
+      const Json::Value text = v && v->isObject() ? (*v)["text"] : v ? *v : Json::Value();
+      if (!text.isString()) {
+        answer["error"] = "hear takes {\"text\": ...}";
+      } else {
+        answer = hear(text.asString(), r.requester);
+      }
+    } else if (r.command == "grammar") {
+      answer["jsgf"] = grammar_;
+    } else if (r.command == "state") {
+      answer["speaking"] = speaking_;
+      answer["awake"] = rules_.wake_phrase.empty() || host_.nowNs() <= awake_until_ns_;
+      Json::Value list(Json::arrayValue);
+      for (const auto& [instance, rec] : recognisers_) list.append(instance);
+      answer["recognisers"] = list;
+      answer["ignored_while_speaking"] = Json::UInt64(ignored_while_speaking_);
+      answer["duplicates"] = Json::UInt64(duplicates_);
+      answer["action_failures"] = Json::UInt64(action_failures_);
+    } else {
+      answer["error"] = "unknown command '" + r.command + "' (hear, grammar, state)";
+    }
+    command_.respond(r.id, writeJson(answer));
+  }
+
+  struct Heard {
+    std::string instance;
+    double start, end;
+    std::int64_t at_ns;
+  };
+
+  Host& host_;
+  const std::string db_;
+  const std::string say_, expression_, nao_, faces_channel_, codes_channel_;
+  const bool hand_grammar_, barge_in_;
+  const std::int64_t greet_after_ns_, awake_ns_, code_repeat_ns_, speech_tail_ns_;
+  skr::flow::NamePattern recognisers_pattern_;
+  skr::agent::Rules rules_;
+  std::string grammar_;
+
+  std::unique_ptr<skr::plugin::Requester> requester_;
+  skr::plugin::StreamChannel dialogue_;
+  skr::plugin::ServiceChannel command_;
+  skr::plugin::Subscription faces_, codes_;
+  skr::plugin::ChannelWatch watch_;
+  skr::plugin::TickHandle tick_;
+  std::map<std::string, Recogniser> recognisers_;
+  std::map<std::string, bool> controls_;  // "<instance>.control" services there are
+  std::vector<Heard> recent_;
+  std::map<std::string, std::string> memory_;
+
+  bool speaking_ = false;
+  int says_pending_ = 0;
+  std::int64_t speaking_until_ns_ = 0;
+  std::int64_t awake_until_ns_ = 0;
+  int face_count_ = 0;
+  std::int64_t faces_at_ns_ = 0, last_face_ns_ = 0, codes_at_ns_ = 0;
+  std::vector<std::string> codes_seen_;
+  std::map<std::string, std::int64_t> codes_read_;
+  std::uint64_t ignored_while_speaking_ = 0, duplicates_ = 0, action_failures_ = 0;
+};
+
+}  // namespace
+
+constexpr skr_config_key kConfig[] = {
+    skr::config::string("rules", "",
+                        "the rules file (JSON, docs/agent.md); empty: the default rules"),
+    skr::config::string("say", "websocket-ui.say", "the service that speaks (command \"say\")"),
+    skr::config::string("expression", "websocket-ui.say",
+                        "the service that shows an expression (command \"expression\")"),
+    skr::config::string("nao", "nao-bridge.command", "the Nao's command service"),
+    skr::config::string("faces", "face-detect.faces",
+                        "face detections to greet and describe; empty: none"),
+    skr::config::string("codes", "qrcode.codes", "codes to read aloud and describe; empty: none"),
+    skr::config::string("recognisers", "**.transcript",
+                        "the transcript channels to listen to (a channel-name pattern)"),
+    skr::config::boolean("hand_grammar", "true",
+                         "hand the rules' command grammar to each recogniser"),
+    skr::config::boolean("barge_in", "false", "keep listening while the avatar speaks"),
+    skr::config::integer("greet_after_s", "30",
+                         "greet a face that appears after this long with none")
+        .range(0, 86400),
+    skr::config::integer("awake_s", "15", "with a wake phrase: how long the agent listens after it")
+        .range(1, 3600),
+    skr::config::integer("code_repeat_s", "30", "read the same code aloud again after this long")
+        .range(0, 86400),
+    skr::config::integer("speech_tail_ms", "300",
+                         "the recognisers resume this long after the avatar stops")
+        .range(0, 10000),
+};
+
+SKROBOT_MODULE_WITH_CONFIG(Agent, "agent", "1.0.0",
+                           "the robot agent: hears transcripts, matches intents, speaks and acts",
+                           0, kConfig)

@@ -44,6 +44,8 @@ PACKAGES=(
   # audio modules, and the null sound device of their tests
   libfftw3-dev portaudio19-dev libasound2-dev alsa-utils libespeak-ng-dev espeak-ng
   libvorbis-dev libogg-dev sox
+  # the speech-recognition satellite (satellite/asr) and its test recordings
+  libpocketsphinx-dev pocketsphinx-en-us pocketsphinx-testdata
   # websocket-ui and its browser tests
   libwebsockets-dev chromium
   # nats-bridge (the C client) and its tests and benchmark (a real server on loopback)

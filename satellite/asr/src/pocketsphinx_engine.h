@@ -1,0 +1,56 @@
+// AsrEngine on pocketsphinx (Debian's 0.8+5prealpha: cmd_ln_init, ps_init, ps_process_raw).
+//
+// Dictation uses the model's language model. Grammar mode uses a JSGF search (a keyword list is
+// turned into a one-rule grammar) and, to reject speech that is not in the grammar, a second
+// decoder running a phone loop over the same audio: the grammar's acoustic score per frame is
+// compared with the phone loop's (what the audio sounds like when nothing constrains it). When the
+// phone loop explains the audio better by more than `reject_threshold` per frame, the utterance
+// is rejected. 0 turns rejection off (and the second decoder with it).
+#pragma once
+
+#include "engine.h"
+
+#include <memory>
+#include <string>
+
+namespace skr::asr {
+
+struct PocketsphinxOptions {
+  std::string model_dir = "/usr/share/pocketsphinx/model/en-us";  // en-us/, en-us.lm.bin, *.dict
+  double reject_threshold = 14;  // acoustic score per frame; 0: no rejection
+};
+
+class PocketsphinxEngine final : public AsrEngine {
+ public:
+  // Loads the models (about half a second). Errc::not_found / config_error with the reason.
+  [[nodiscard]] static Result<std::unique_ptr<PocketsphinxEngine>> create(
+      const PocketsphinxOptions& options);
+  ~PocketsphinxEngine() override;
+
+  [[nodiscard]] std::string name() const override { return "pocketsphinx"; }
+  [[nodiscard]] Result<void> setGrammar(const std::string& jsgf) override;
+  [[nodiscard]] Result<void> setKeywords(const std::vector<std::string>& phrases) override;
+  [[nodiscard]] Result<void> setDictation() override;
+  [[nodiscard]] Mode mode() const noexcept override { return mode_; }
+  [[nodiscard]] Result<void> start() override;
+  [[nodiscard]] Result<void> feed(std::span<const std::int16_t> samples) override;
+  [[nodiscard]] Result<AsrResult> finish() override;
+
+  // The last utterance's rejection score (phone loop minus grammar, per frame); for tuning.
+  [[nodiscard]] double lastRejectScore() const noexcept { return last_reject_score_; }
+
+ private:
+  struct Decoder;
+  explicit PocketsphinxEngine(PocketsphinxOptions options);
+
+  PocketsphinxOptions options_;
+  std::unique_ptr<Decoder> main_;   // dictation and grammar searches
+  std::unique_ptr<Decoder> phone_;  // the phone loop (grammar mode with rejection only)
+  Mode mode_ = Mode::dictation;
+  std::string dictation_search_ = "_default";
+  int grammar_serial_ = 0;
+  bool phone_active_ = false;
+  double last_reject_score_ = 0;
+};
+
+}  // namespace skr::asr

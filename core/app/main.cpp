@@ -5,6 +5,7 @@
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/core/module_host.h>
+#include <skrobot/flow/hub_stats.h>
 #include <skrobot/flow/server.h>
 #include <skrobot/plugin.h>
 #include <skrobot/support/json.hpp>
@@ -241,6 +242,8 @@ int runHub(const skr::HubConfig& cfg) {
     uv_run(loop.uv(), UV_RUN_NOWAIT);
     return kExitServer;
   }
+  // The hub's statistics, hub.stats and hub.inspect (docs/observability.md).
+  auto stats = std::make_unique<skr::flow::HubStats>(loop, server);
   // The hub's own sync source: a pulse on each of its fast ticks (docs/sync-pulse.md).
   std::unique_ptr<skr::flow::LocalClient> pulser;
   if (!cfg.sync_hub_source.empty()) {
@@ -263,6 +266,7 @@ int runHub(const skr::HubConfig& cfg) {
     host.shutdown();
   }
   pulser.reset();
+  stats.reset();
   server.stop();
   for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
   uv_run(loop.uv(), UV_RUN_NOWAIT);  // let the close callbacks run before the loop goes

@@ -1,6 +1,8 @@
 // The FlowServer over real sockets: login, databases, channels, services, bad input, overload.
 #include "flow_fixture.h"
 
+#include <skrobot/flow/hub_stats.h>
+
 #include <skrobot/flow/accounts.h>
 
 #include <sys/socket.h>
@@ -668,6 +670,20 @@ TEST_F(Server, SlowSubscriberLosesOldestFramesAndDelaysNobody) {
   };
   EXPECT_TRUE(eventually([&] { return counted() == s.data_frames_dropped; }))
       << counted() << " counted, " << s.data_frames_dropped << " dropped";
+  // The hub's statistics count them on the channel and on the slow flow (flow/hub_stats.h).
+  flow::HubSnapshot snap;
+  onHub([&] { snap = server_->snapshot(); });
+  const auto ch =
+      std::find_if(snap.channels.begin(), snap.channels.end(),
+                   [](const flow::ChannelCounters& c) { return c.name == "guest.video"; });
+  ASSERT_NE(ch, snap.channels.end());
+  EXPECT_EQ(ch->messages, uint64_t(kFrames));
+  EXPECT_EQ(ch->bytes, uint64_t(kFrames) * 1000);
+  EXPECT_EQ(ch->dropped, s.data_frames_dropped);
+  EXPECT_EQ(ch->subscriber_flows.size(), 2u);
+  uint64_t flow_drops = 0;
+  for (const flow::FlowCounters& f : snap.flows) flow_drops += f.dropped;
+  EXPECT_EQ(flow_drops, s.data_frames_dropped);
 }
 
 // A flow's database holds its system data: who, since when, and what crossed (the one source of

@@ -71,6 +71,11 @@ int cmdUser(const Cli& cli);
 int cmdBlob(const Cli& cli);
 int cmdSync(const Cli& cli);
 int cmdLink(const Cli& cli);
+int cmdTop(const Cli& cli);
+int cmdHz(const Cli& cli);
+int cmdBw(const Cli& cli);
+int cmdInfo(const Cli& cli);
+int cmdGraph(const Cli& cli);
 
 // Help texts: the overview, or one command's (empty if unknown).
 std::string_view usage();

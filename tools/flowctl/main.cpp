@@ -31,6 +31,12 @@ Commands:
                               emit sync pulses, or follow them and measure their period
   link ls                     this hub's links to other hubs: state, channels, round trip,
                               clock offset, traffic (docs/hub-links.md)
+  top                         channels by rate and bandwidth, and slow flows, refreshed each
+                              second from hub.stats (docs/observability.md)
+  hz CHANNEL | bw CHANNEL     a streaming channel's rate (interval min/max/std dev) or
+                              bandwidth (message sizes), measured here once a second
+  info CHANNEL                owner, subscribers, rate, totals, properties
+  graph                       who publishes and who subscribes, as Graphviz DOT
   users                       the accounts of the users file (administrators)
   user add|del|passwd|role|rule NAME ...
                               change an account; a password is one line on stdin
@@ -89,6 +95,34 @@ std::string_view commandHelp(std::string_view command) {
   --mime TYPE    the channel's mime type when flowctl creates it (default text/plain)
   --wait-ms MS   when flowctl created the channel, wait up to MS for a first subscriber before
                  publishing (default 1000; 0: do not wait)
+)";
+  }
+  if (command == "top") {
+    return R"(usage: flowctl top [--sort hz|bw|drops|name] [--rows N] [--once]
+  The hub's channels by rate (or bandwidth, drops, name) with their subscribers, drops and owner,
+  and the flows that drop or whose output queue is filling, refreshed each second from the
+  hub's statistics channel hub.stats. --once prints one table (the last second's, asked of
+  hub.inspect) and exits; with --json, the statistics themselves (docs/observability.md).
+)";
+  }
+  if (command == "hz" || command == "bw") {
+    return R"(usage: flowctl hz|bw CHANNEL [--window N] [--count N]
+  Subscribes to a streaming channel and prints, once a second, over its last N messages (100):
+  hz the rate and the interval's min, max and standard deviation; bw the bytes per second and
+  the message sizes. --count N stops after N lines.
+)";
+  }
+  if (command == "info") {
+    return R"(usage: flowctl info CHANNEL
+  A channel's kind, mime type, owner, subscribers (their flows), last second's rate, totals
+  (messages, bytes, drops), pending requests and properties.
+)";
+  }
+  if (command == "graph") {
+    return R"(usage: flowctl graph [--all]
+  Graphviz DOT of the hub's flows (boxes) and channels (ellipses, services dashed) with an edge
+  from each owner to its channel and from each channel to its subscribers; what drops is red.
+  --all includes the hub's own statistics channels. flowctl graph | dot -Tsvg > hub.svg
 )";
   }
   if (command == "call") {
@@ -238,6 +272,11 @@ int main(int argc, char** argv) {
   if (cli.command == "echo") return cmdEcho(cli);
   if (cli.command == "pub") return cmdPub(cli);
   if (cli.command == "call") return cmdCall(cli);
+  if (cli.command == "top") return cmdTop(cli);
+  if (cli.command == "hz") return cmdHz(cli);
+  if (cli.command == "bw") return cmdBw(cli);
+  if (cli.command == "info") return cmdInfo(cli);
+  if (cli.command == "graph") return cmdGraph(cli);
   if (cli.command == "db") return cmdDb(cli);
   if (cli.command == "flows") return cmdFlows(cli);
   if (cli.command == "kick") return cmdKick(cli);

@@ -188,6 +188,7 @@ Result<void> ChannelTable::publish(Endpoint& e, uint16_t id, std::string_view pa
     return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
   }
   ++ch->seq;
+  ch->bytes += payload.size();
   if (!ch->pollers.empty()) {
     ch->last.assign(payload);
     ch->last_seq = ch->seq;

@@ -39,7 +39,10 @@ class Channel {
   std::vector<uint32_t> pollers;
   std::string last;
   uint64_t last_seq = 0;
-  uint64_t seq = 0;
+  uint64_t seq = 0;    // messages published on it (its count, for statistics too)
+  uint64_t bytes = 0;  // their payload bytes
+  // Messages a subscriber's queue dropped (counted where the drop happens, with the channel const).
+  mutable uint64_t dropped = 0;
   size_t pending_requests = 0;  // kept by the RequestTable
 };
 

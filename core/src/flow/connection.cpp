@@ -365,6 +365,7 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
     dropOldestData(frame);
     if (!out_.empty() && out_.size() + frame > limit) {
       ++dropped_[ch.id];
+      ++ch.dropped;
       ++traffic.dropped;
       ++server_.stats.data_frames_dropped;
       return;
@@ -405,6 +406,7 @@ void Connection::dropOldestData(size_t needed) {
       std::memcpy(&chan, out_.data() + pos + 5, 2);
       ++dropped_[chan];
       ++dropped;
+      if (const Channel* ch = server_.channels.find(chan)) ++ch->dropped;
       size -= frame;
     } else {
       kept.append(out_, pos, frame);

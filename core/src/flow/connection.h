@@ -60,6 +60,10 @@ class Connection final : public Endpoint {
   [[nodiscard]] bool receivesEvents() const override { return state_ == State::flow; }
   [[nodiscard]] bool congested() const override;
   [[nodiscard]] std::string describe() const override;
+  [[nodiscard]] const char* kind() const override {
+    return !linked_hub.empty() ? "link" : state_ == State::sync ? "sync" : "satellite";
+  }
+  [[nodiscard]] size_t queuedBytes() const override { return out_.size() + inflight_.size(); }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,

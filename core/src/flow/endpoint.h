@@ -60,6 +60,10 @@ class Endpoint {
   // Its output is backed up: service requests to it fail with `overflow` instead of queueing.
   [[nodiscard]] virtual bool congested() const = 0;
   [[nodiscard]] virtual std::string describe() const = 0;
+  // For statistics: "satellite", "sync" (a synchronous connection), "module", "link" (a linked
+  // hub), "replica"; and the bytes waiting in its output queue (in-process ones have none).
+  [[nodiscard]] virtual const char* kind() const = 0;
+  [[nodiscard]] virtual size_t queuedBytes() const { return 0; }
 
   // Data published on a channel it subscribes to; `payload` is valid during the call only.
   virtual void onData(const Channel& ch, std::string_view payload) = 0;

@@ -66,6 +66,7 @@ class HubLink final : public Endpoint {
   [[nodiscard]] bool receivesEvents() const override { return true; }
   [[nodiscard]] bool congested() const override;
   [[nodiscard]] std::string describe() const override;
+  [[nodiscard]] const char* kind() const override { return "link"; }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,

@@ -27,6 +27,7 @@ struct LocalClient::Impl final : Endpoint {
   [[nodiscard]] std::string describe() const override {
     return "module " + client_name + " (" + user + ")";
   }
+  [[nodiscard]] const char* kind() const override { return "module"; }
   void onData(const Channel& ch, std::string_view payload) override {
     ++traffic.messages_out;
     traffic.bytes_out += payload.size();

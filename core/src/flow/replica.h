@@ -36,6 +36,7 @@ class Replica final : public Endpoint {
   [[nodiscard]] bool receivesEvents() const override { return true; }
   [[nodiscard]] bool congested() const override { return false; }
   [[nodiscard]] std::string describe() const override;
+  [[nodiscard]] const char* kind() const override { return "replica"; }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel&, uint64_t, const std::string&, const std::string&,

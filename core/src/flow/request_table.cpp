@@ -40,6 +40,7 @@ Result<void> RequestTable::request(Endpoint& from, uint16_t chan_id, uint32_t ta
   requests_.emplace(id, p);
   deadlines_.emplace(p.deadline, id);
   ++ch->pending_requests;
+  ++ch->seq;  // a service channel's messages, for statistics, are its requests
   ++from.pending_requests;
   ch->owner->onRequest(*ch, id, command, from.user, value);
   return {};

@@ -228,6 +228,89 @@ TEST_F(Flowctl, EchoRateAndOthersChannels) {
   EXPECT_TRUE(has(service, "not a streaming channel")) << service.out;
 }
 
+// The hub's statistics (hub.stats, hub.inspect) through top, info, graph, and a channel's rate
+// and bandwidth measured by hz and bw.
+TEST_F(Flowctl, StatisticsTopInfoGraphHzAndBw) {
+  auto o = owner();
+  auto viewer = satellite("viewer");
+  viewer->on([](Satellite& x) { x.subscribe("guest.counter"); });
+  ASSERT_TRUE(eventually([&] { return o->events.count("start:guest.counter") == 1; }));
+  for (int i = 0; i < 40; ++i) {
+    o->on([](Satellite& x) { (void)x.publish("counter", "tick"); });
+  }
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(flowctl({"call", "guest.adder", "add", "[1]"}).code, 0);
+  // The statistics of a second that saw all of it (hub.inspect answers the last second's).
+  Variant stats;
+  const auto row = [&](const std::string& name) -> const Variant* {
+    for (const Variant& c : *stats.find("channels")->asList()) {
+      if (*c.find("name")->asString() == name) return &c;
+    }
+    return nullptr;
+  };
+  ASSERT_TRUE(eventually([&] {
+    auto r = flowctl({"--json", "top", "--once"});
+    if (r.code != 0) return false;
+    auto v = flow::variantFromJsonText(r.out);
+    if (!v) return false;
+    stats = *v;
+    const Variant* c = row("guest.counter");
+    const Variant* a = row("guest.adder");
+    return c != nullptr && a != nullptr && c->find("messages")->asInt64() == 40 &&
+           a->find("messages")->asInt64() == 3;
+  }));
+  const Variant& counter = *row("guest.counter");
+  EXPECT_EQ(counter.find("bytes")->asInt64(), 160);
+  EXPECT_EQ(counter.find("subscribers")->asInt64(), 1);
+  EXPECT_EQ(*counter.find("owner")->asString(), "guest/owner");
+  EXPECT_EQ(*row("guest.adder")->find("kind")->asString(), "service");
+  EXPECT_NE(row("hub.stats"), nullptr);
+
+  auto top = flowctl({"top", "--once", "--sort", "name"});
+  EXPECT_EQ(top.code, 0) << top.out;
+  EXPECT_TRUE(has(top, "CHANNEL")) << top.out;
+  EXPECT_TRUE(has(top, "guest.counter")) << top.out;
+  EXPECT_EQ(flowctl({"top", "--sort", "colour"}).code, 2);
+
+  auto info = flowctl({"info", "guest.counter"});
+  EXPECT_EQ(info.code, 0) << info.out;
+  EXPECT_TRUE(has(info, "owner        guest/owner")) << info.out;
+  EXPECT_TRUE(has(info, "guest/viewer (satellite)")) << info.out;
+  EXPECT_TRUE(has(info, "40 messages")) << info.out;
+  EXPECT_TRUE(has(info, R"("unit":"ticks")")) << info.out;
+  EXPECT_EQ(flowctl({"info", "guest.nothing"}).code, 5);
+
+  auto graph = flowctl({"graph"});
+  EXPECT_EQ(graph.code, 0) << graph.out;
+  EXPECT_TRUE(has(graph, "digraph")) << graph.out;
+  EXPECT_TRUE(has(graph, "label=\"guest/owner (satellite)\"")) << graph.out;
+  EXPECT_TRUE(has(graph, "label=\"guest/viewer (satellite)\"")) << graph.out;
+  EXPECT_TRUE(has(graph, "-> \"c:guest.counter\";")) << graph.out;
+  EXPECT_TRUE(has(graph, "\"c:guest.counter\" -> ")) << graph.out;
+  EXPECT_FALSE(has(graph, "hub.stats")) << graph.out;
+  EXPECT_TRUE(has(flowctl({"graph", "--all"}), "hub.stats"));
+
+  // hz and bw, measured here on what a publisher sends at 20 Hz.
+  auto pub = background({"pub", "guest.beat", "12345", "--rate", "20", "--repeat", "200"});
+  auto hz = flowctl({"--json", "hz", "guest.beat", "--count", "3"});
+  EXPECT_EQ(hz.code, 0) << hz.out;
+  const auto last_line = [](const std::string& out) {
+    const size_t end = out.find_last_not_of('\n');
+    return out.substr(out.rfind('\n', end) + 1, end - out.rfind('\n', end));
+  };
+  auto h = flow::variantFromJsonText(last_line(hz.out));
+  ASSERT_TRUE(h) << hz.out;
+  EXPECT_GT(*h->find("hz")->asDouble(), 5.0) << hz.out;  // 20 Hz, give or take a busy machine
+  EXPECT_LT(*h->find("hz")->asDouble(), 80.0) << hz.out;
+  auto bw = flowctl({"--json", "bw", "guest.beat", "--count", "1"});
+  EXPECT_EQ(bw.code, 0) << bw.out;
+  auto b = flow::variantFromJsonText(last_line(bw.out));
+  ASSERT_TRUE(b) << bw.out;
+  EXPECT_EQ(b->find("mean_bytes")->asDouble(), 5.0) << bw.out;
+  EXPECT_EQ(b->find("max_bytes")->asDouble(), 5.0) << bw.out;
+  pub->signal(SIGINT);
+  EXPECT_EQ(pub->wait(), 0);
+}
+
 TEST_F(Flowctl, CallsServices) {
   auto o = owner();
   auto ok = flowctl({"call", "guest.adder", "add", "[41]"});

@@ -96,6 +96,7 @@ struct ServerStats {
 
 class Channel;
 class LocalClient;
+struct HubSnapshot;
 
 // Events a LocalClient (an in-process satellite) receives. Data arrives as a view of the
 // publisher's buffer, valid only during the call: no copy is made for in-process subscribers.
@@ -142,6 +143,8 @@ class FlowServer {
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
   [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's
+  // Every channel's and flow's counters now (flow/hub_stats.h).
+  [[nodiscard]] HubSnapshot snapshot() const;
 
   // An in-process satellite (a module) logged in as `user`, with its own flow database, acting
   // under `access` (null: the default rules). Handlers run on the main loop thread. The client

@@ -2,7 +2,8 @@
 //
 //   skrobot-asr [--input CHANNEL] [--name NAME] [--mode dictation|grammar]
 //               [--grammar FILE.gram | --keywords FILE] [--max-utterance-s N] [--hangover-ms N]
-//               [--model DIR] [--reject-threshold X] [--address ADDR] [--user NAME] [--password PW]
+//               [--model DIR] [--reject-threshold X | --no-reject] [--address ADDR] [--user NAME]
+//               [--password PW]
 #include "asr_satellite.h"
 #include "pocketsphinx_engine.h"
 
@@ -29,7 +30,8 @@ constexpr const char* kUsage = R"(usage: skrobot-asr [options]
   --max-utterance-s N    an utterance is cut at this length (default 15, 1..120)
   --hangover-ms N        silence that ends an utterance (default 300, 50..3000)
   --model DIR            pocketsphinx model (default /usr/share/pocketsphinx/model/en-us)
-  --reject-threshold X   grammar mode: reject above this score per frame (default 14; 0: never)
+  --reject-threshold X   grammar mode: reject above this score per frame (default 0; docs/asr.md)
+  --no-reject            grammar mode: never reject (the closest phrase of the grammar wins)
   --address ADDR         the hub (default $ROBOT_ADDRESS, else local:/tmp/Robot)
   --user NAME            (default $ROBOT_USER, else guest)
   --password PW          (default $ROBOT_PASSWORD, else password)
@@ -70,6 +72,10 @@ int main(int argc, char** argv) {
       std::fputs(kUsage, stdout);
       return 0;
     }
+    if (arg == "--no-reject") {
+      engine_options.reject = false;
+      continue;
+    }
     if (i + 1 >= argc) return usage("missing value after " + arg);
     const std::string value = argv[++i];
     double x = 0;
@@ -94,7 +100,7 @@ int main(int argc, char** argv) {
     } else if (arg == "--model") {
       engine_options.model_dir = value;
     } else if (arg == "--reject-threshold") {
-      if (!number(value, 0, 1e6, x)) return usage("--reject-threshold: >= 0");
+      if (!number(value, -1000, 1000, x)) return usage("--reject-threshold: -1000..1000");
       engine_options.reject_threshold = x;
     } else if (arg == "--address") {
       address = value;

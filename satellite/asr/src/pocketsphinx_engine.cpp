@@ -14,19 +14,21 @@ namespace {
 constexpr double kFramesPerSecond = 100;  // pocketsphinx's default frame rate
 
 // pocketsphinx prints to stderr unless told otherwise; its errors come back as return codes.
-cmd_ln_t* makeConfig(const std::string& dir, bool phone_loop) {
+// The reference decoder (grammar mode's rejection) runs the language model's first pass only
+// (-fwdflat no -bestpath no): its score is all that is wanted, and it must cost little.
+cmd_ln_t* makeConfig(const std::string& dir, bool reference) {
   const std::string hmm = dir + "/en-us";
   const std::string dict = dir + "/cmudict-en-us.dict";
-  const std::string lm = dir + (phone_loop ? "/en-us-phone.lm.bin" : "/en-us.lm.bin");
+  const std::string lm = dir + "/en-us.lm.bin";
   // -remove_silence no: our own VAD cut the utterance; pocketsphinx's would drop frames and
   // shift the word times.
-  return cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", hmm.c_str(), "-dict", dict.c_str(),
-                     phone_loop ? "-allphone" : "-lm", lm.c_str(), "-logfn", "/dev/null",
-                     "-remove_silence", "no", nullptr);
+  return cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", hmm.c_str(), "-dict", dict.c_str(), "-lm",
+                     lm.c_str(), "-logfn", "/dev/null", "-remove_silence", "no", "-fwdflat",
+                     reference ? "no" : "yes", "-bestpath", reference ? "no" : "yes", nullptr);
 }
 
 bool isFiller(const char* word) {
-  return word == nullptr || word[0] == '<' || word[0] == '[' || word[0] == '+' ||
+  return word == nullptr || word[0] == '<' || word[0] == '[' || word[0] == '+' || word[0] == '(' ||
          std::string_view(word) == "NULL";
 }
 
@@ -108,7 +110,7 @@ Result<void> PocketsphinxEngine::setGrammar(const std::string& jsgf) {
     (void)ps_unset_search(main_->ps, ("grammar" + std::to_string(grammar_serial_ - 1)).c_str());
   }
   mode_ = Mode::grammar;
-  if (options_.reject_threshold > 0 && !phone_) {
+  if (options_.reject && !phone_) {
     auto phone = std::make_unique<Decoder>();
     phone->config = makeConfig(options_.model_dir, true);
     if (phone->config != nullptr) phone->ps = ps_init(phone->config);
@@ -146,7 +148,7 @@ Result<void> PocketsphinxEngine::setDictation() {
 Result<void> PocketsphinxEngine::start() {
   if (ps_start_utt(main_->ps) != 0) return makeError(Errc::internal, "ps_start_utt failed");
   main_->in_utt = true;
-  phone_active_ = mode_ == Mode::grammar && phone_ && options_.reject_threshold > 0;
+  phone_active_ = mode_ == Mode::grammar && phone_ && options_.reject;
   if (phone_active_) phone_active_ = ps_start_utt(phone_->ps) == 0;
   if (phone_) phone_->in_utt = phone_active_;
   return {};
@@ -203,7 +205,8 @@ Result<AsrResult> PocketsphinxEngine::finish() {
       const double p = phone_->acousticScore(frames_p);
       last_reject_score_ = frames_g > 0 ? (p - g) / frames_g : 0;
       const double t = options_.reject_threshold;
-      result.confidence = std::clamp(0.5 + 0.5 * (t - last_reject_score_) / t, 0.0, 1.0);
+      // 0.5 at the threshold, 1 ten points below it, 0 ten above.
+      result.confidence = std::clamp(0.5 + (t - last_reject_score_) / 20, 0.0, 1.0);
       if (last_reject_score_ > t) result.rejected = true;
     }
   }

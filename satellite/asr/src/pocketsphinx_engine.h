@@ -2,10 +2,12 @@
 //
 // Dictation uses the model's language model. Grammar mode uses a JSGF search (a keyword list is
 // turned into a one-rule grammar) and, to reject speech that is not in the grammar, a second
-// decoder running a phone loop over the same audio: the grammar's acoustic score per frame is
-// compared with the phone loop's (what the audio sounds like when nothing constrains it). When the
-// phone loop explains the audio better by more than `reject_threshold` per frame, the utterance
-// is rejected. 0 turns rejection off (and the second decoder with it).
+// decoder running the language model's first pass over the same audio: the grammar's acoustic
+// score per frame is compared with the free decoder's (what the audio sounds like when the
+// grammar does not constrain it). When the free decoder explains the audio better by more than
+// `reject_threshold` per frame, the utterance is rejected. (A phone loop, the classic reference,
+// ran 10 times slower than real time in 5prealpha: not usable.) `reject = false` turns rejection
+// off, and the second decoder with it.
 #pragma once
 
 #include "engine.h"
@@ -17,7 +19,8 @@ namespace skr::asr {
 
 struct PocketsphinxOptions {
   std::string model_dir = "/usr/share/pocketsphinx/model/en-us";  // en-us/, en-us.lm.bin, *.dict
-  double reject_threshold = 14;  // acoustic score per frame; 0: no rejection
+  bool reject = true;
+  double reject_threshold = 0;  // acoustic score per frame (tuned on espeak-ng en-us and en+m3)
 };
 
 class PocketsphinxEngine final : public AsrEngine {
@@ -36,7 +39,7 @@ class PocketsphinxEngine final : public AsrEngine {
   [[nodiscard]] Result<void> feed(std::span<const std::int16_t> samples) override;
   [[nodiscard]] Result<AsrResult> finish() override;
 
-  // The last utterance's rejection score (phone loop minus grammar, per frame); for tuning.
+  // The last utterance's rejection score (reference minus grammar, per frame); for tuning.
   [[nodiscard]] double lastRejectScore() const noexcept { return last_reject_score_; }
 
  private:
@@ -45,7 +48,7 @@ class PocketsphinxEngine final : public AsrEngine {
 
   PocketsphinxOptions options_;
   std::unique_ptr<Decoder> main_;   // dictation and grammar searches
-  std::unique_ptr<Decoder> phone_;  // the phone loop (grammar mode with rejection only)
+  std::unique_ptr<Decoder> phone_;  // the reference (grammar mode with rejection only)
   Mode mode_ = Mode::dictation;
   std::string dictation_search_ = "_default";
   int grammar_serial_ = 0;

@@ -1,0 +1,160 @@
+// skrobot-asr against a hub: speech made with espeak-ng (voices and speeds other than the ones
+// the rejection threshold was tuned on: en-us and en+m3 at 150 wpm) and a real recording from
+// pocketsphinx-testdata, streamed as one continuous audio channel with silence between
+// utterances; the transcripts are checked against word-error-rate thresholds per mode.
+#include "asr_test_util.h"
+
+#include <gtest/gtest.h>
+
+namespace skr::asr::test {
+namespace {
+
+struct Said {
+  std::string text;
+  std::string voice;
+  int speed;
+};
+
+std::vector<Clip> make(const TempDir& dir, const std::vector<Said>& said) {
+  std::vector<Clip> clips;
+  for (const auto& s : said)
+    clips.push_back({s.text, speak(dir.path(), s.text, s.voice, s.speed, 22050)});
+  return clips;
+}
+
+// Transcripts matched to clips by time: the one whose speech overlaps the clip most.
+std::vector<const Json::Value*> match(const std::vector<Clip>& clips,
+                                      const std::vector<Json::Value>& transcripts) {
+  std::vector<const Json::Value*> out(clips.size(), nullptr);
+  for (std::size_t i = 0; i < clips.size(); ++i) {
+    double best = 0;
+    for (const auto& t : transcripts) {
+      const double overlap = std::min(clips[i].end_s, t["end"].asDouble()) -
+                             std::max(clips[i].start_s, t["start"].asDouble());
+      if (overlap > best) {
+        best = overlap;
+        out[i] = &t;
+      }
+    }
+  }
+  return out;
+}
+
+double wer(const std::vector<Clip>& clips, const std::vector<const Json::Value*>& heard) {
+  int errors = 0, total = 0;
+  for (std::size_t i = 0; i < clips.size(); ++i) {
+    const std::string hyp = heard[i] ? (*heard[i])["text"].asString() : "";
+    errors += wordErrors(clips[i].text, hyp);
+    total += static_cast<int>(words(clips[i].text).size());
+  }
+  return total > 0 ? static_cast<double>(errors) / total : 0;
+}
+
+const std::vector<Said> kCommands = {
+    {"go forward two meters", "en-us", 170},
+    {"turn left", "en+f2", 130},
+    {"stop", "en", 150},
+    {"what do you see", "en-us", 130},
+    {"move backward one meter", "en+f2", 150},
+    {"look up", "en-us", 170},
+    {"sit down", "en+f2", 170},
+    {"turn right ninety degrees", "en", 130},
+    {"say hello", "en-us", 150},
+    {"wave your hand", "en+f2", 150},
+    {"go forward five meters", "en", 170},
+    {"stand up", "en-us", 130},
+};
+const std::vector<Said> kOutOfGrammar = {
+    {"the weather is lovely this morning", "en-us", 150},
+    {"please bring me a cup of coffee", "en+f2", 150},
+    {"my cat likes to sleep on the sofa", "en", 150},
+};
+
+TEST(AsrRecognition, GrammarModeCommandsAndRejection) {
+  TempDir dir("asr-grammar");
+  const auto gram = dir.write("robot.gram", kCommandGrammar);
+  auto clips = make(dir, kCommands);
+  const std::size_t commands = clips.size();
+  for (auto& c : make(dir, kOutOfGrammar)) clips.push_back(std::move(c));
+  const auto stream = concat(clips, 1.0, 22050);
+
+  AsrHarness h(dir, {"--grammar", gram.string()});
+  ASSERT_TRUE(h.ready()) << h.asrLog();
+  h.stream(stream, 22050, 8);
+  ASSERT_TRUE(h.waitTranscripts(clips.size())) << h.asrLog();
+  h.loop().runFor(500 * kNsPerMs);  // anything extra (a split utterance) shows too
+  EXPECT_EQ(h.transcripts.size(), clips.size()) << h.asrLog();
+
+  const auto heard = match(clips, h.transcripts);
+  const std::vector<Clip> in(clips.begin(), clips.begin() + static_cast<std::ptrdiff_t>(commands));
+  const std::vector<const Json::Value*> in_heard(
+      heard.begin(), heard.begin() + static_cast<std::ptrdiff_t>(commands));
+  for (std::size_t i = 0; i < clips.size(); ++i) {
+    std::printf("  said \"%s\" heard \"%s\"%s\n", clips[i].text.c_str(),
+                heard[i] ? (*heard[i])["text"].asString().c_str() : "(nothing)",
+                heard[i] && (*heard[i])["rejected"].asBool() ? " (rejected)" : "");
+  }
+  const double w = wer(in, in_heard);
+  std::printf("grammar WER %.1f%% over %zu commands\n", 100 * w, commands);
+  // The target is under 5% (issue 19); measured 14.7% here (docs/asr.md: espeak-ng's en+f2 voice
+  // is the hard one). This bound is what the pipeline gives today, so that it cannot get worse.
+  EXPECT_LT(w, 0.20) << h.asrLog();
+  for (std::size_t i = 0; i < clips.size(); ++i) {
+    ASSERT_NE(heard[i], nullptr) << clips[i].text;
+    const auto& t = *heard[i];
+    EXPECT_EQ(t["mode"].asString(), "grammar");
+    EXPECT_EQ(t["instance"].asString(), "asr");
+    EXPECT_FALSE(t["cut"].asBool());
+    // Times on the audio clock: within the clip, give or take the VAD's resolution.
+    EXPECT_NEAR(t["start"].asDouble(), clips[i].start_s, 0.25) << clips[i].text;
+    // espeak-ng's files end with up to half a second of silence.
+    EXPECT_LT(t["end"].asDouble(), clips[i].end_s + 0.25) << clips[i].text;
+    EXPECT_GT(t["end"].asDouble(), clips[i].end_s - 0.7) << clips[i].text;
+    if (i < commands) {
+      EXPECT_FALSE(t["rejected"].asBool()) << clips[i].text;
+      ASSERT_FALSE(t["words"].empty()) << clips[i].text;
+      EXPECT_GE(t["words"][0]["start"].asDouble(), t["start"].asDouble() - 0.25);
+    } else {
+      // Out of the grammar: heard, not understood.
+      EXPECT_TRUE(t["rejected"].asBool()) << clips[i].text << " heard as " << t["text"];
+      EXPECT_EQ(t["text"].asString(), "");
+    }
+  }
+}
+
+TEST(AsrRecognition, DictationOfSentencesAndARealRecording) {
+  TempDir dir("asr-dictation");
+  std::vector<Clip> clips = make(dir, {
+                                          {"go forward ten meters", "en-us", 150},
+                                          {"what time is it", "en+f2", 130},
+                                          {"the robot is in the kitchen", "en", 150},
+                                          {"please open the door", "en-us", 170},
+                                      });
+  // The real recording (16 kHz) at the stream's rate.
+  clips.push_back({"go forward ten meters",
+                   soxTo(dir.path(), POCKETSPHINX_TESTDATA "/goforward.raw", 22050, true)});
+  const auto stream = concat(clips, 1.0, 22050);
+
+  AsrHarness h(dir, {});
+  ASSERT_TRUE(h.ready()) << h.asrLog();
+  h.stream(stream, 22050, 4);
+  ASSERT_TRUE(h.waitTranscripts(clips.size())) << h.asrLog();
+  const auto heard = match(clips, h.transcripts);
+  for (std::size_t i = 0; i < clips.size(); ++i) {
+    std::printf("  said \"%s\" heard \"%s\"\n", clips[i].text.c_str(),
+                heard[i] ? (*heard[i])["text"].asString().c_str() : "(nothing)");
+  }
+  const double w = wer(clips, heard);
+  std::printf("dictation WER %.1f%%\n", 100 * w);
+  // Measured 68% (docs/asr.md): the generic language model on espeak-ng's formant voices is poor,
+  // the real recording is exact. This bound catches a broken pipeline (nothing heard, or
+  // utterances split: 100% and more), and the recording is checked word for word below.
+  EXPECT_LT(w, 0.85) << h.asrLog();
+  ASSERT_NE(heard.back(), nullptr);
+  EXPECT_EQ((*heard.back())["text"].asString(), "go forward ten meters") << h.asrLog();
+  EXPECT_EQ((*heard.back())["mode"].asString(), "dictation");
+  EXPECT_GT((*heard.back())["confidence"].asDouble(), 0.3);
+}
+
+}  // namespace
+}  // namespace skr::asr::test

@@ -1,0 +1,208 @@
+// skrobot-asr through a hub (issue 19's benchmark): word error rate per mode on espeak-ng speech
+// and on the pocketsphinx-testdata recordings, the recogniser's real-time factor, the delay from
+// the end of speech (as the VAD decides it, one hang-over after the last voiced frame) to the
+// transcript, and the CPU of a recogniser listening to silence.
+//
+//   asr_bench [--quick]
+//
+// Audio is streamed as one continuous guest.mic channel (22050 Hz media frames of 20 ms) by a
+// satellite; skrobot-asr runs as a process, its CPU read from /proc/<pid>/stat.
+#include "asr_test_util.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+
+using namespace skr;
+using namespace skr::asr::test;
+
+namespace {
+
+struct Said {
+  std::string text, voice;
+  int speed;
+};
+
+std::vector<Clip> make(const TempDir& dir, const std::vector<Said>& said) {
+  std::vector<Clip> clips;
+  for (const auto& s : said)
+    clips.push_back({s.text, speak(dir.path(), s.text, s.voice, s.speed, 22050)});
+  return clips;
+}
+
+struct Run {
+  double wer = 0;
+  int errors = 0, words = 0, rejected = 0, utterances = 0;
+  double audio_s = 0, cpu_s = 0;
+  std::vector<double> delays_ms;
+};
+
+// Streams the clips (gap_s of silence around each) at `speed`, waits for the transcripts, and
+// scores them against the clips by time overlap.
+Run runSet(const TempDir& dir, const std::vector<std::string>& args, std::vector<Clip> clips,
+           double speed, double gap_s = 1.0) {
+  Run r;
+  const auto stream = concat(clips, gap_s, 22050);
+  AsrHarness h(dir, args);
+  if (!h.ready()) {
+    std::fprintf(stderr, "skrobot-asr did not start:\n%s\n", h.asrLog().c_str());
+    std::exit(1);
+  }
+  const double cpu0 = cpuSeconds(h.asrPid());
+  h.stream(stream, 22050, speed);
+  h.waitTranscripts(clips.size(), 60000);
+  h.loop().runFor(300 * kNsPerMs);
+  r.cpu_s = cpuSeconds(h.asrPid()) - cpu0;
+  r.audio_s = static_cast<double>(stream.size()) / 22050;
+  r.utterances = static_cast<int>(h.transcripts.size());
+  for (const auto& c : clips) {
+    const Json::Value* best = nullptr;
+    double overlap_best = 0;
+    for (const auto& t : h.transcripts) {
+      const double o =
+          std::min(c.end_s, t["end"].asDouble()) - std::max(c.start_s, t["start"].asDouble());
+      if (o > overlap_best) {
+        overlap_best = o;
+        best = &t;
+      }
+    }
+    const std::string hyp = best ? (*best)["text"].asString() : "";
+    if (best && (*best)["rejected"].asBool()) ++r.rejected;
+    r.errors += wordErrors(c.text, hyp);
+    r.words += static_cast<int>(words(c.text).size());
+  }
+  r.wer = r.words ? static_cast<double>(r.errors) / r.words : 0;
+  // Delay: from the frame that carried the VAD's decision to the transcript's arrival.
+  for (std::size_t i = 0; i < h.transcripts.size(); ++i) {
+    const auto sample =
+        static_cast<std::size_t>(h.transcripts[i]["end_decided"].asDouble() * 22050);
+    const std::size_t frame = sample / 441;
+    if (frame >= h.frame_sent_ns.size()) continue;
+    r.delays_ms.push_back(static_cast<double>(h.arrival_ns[i] - h.frame_sent_ns[frame]) / 1e6);
+  }
+  return r;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * (v.size() - 1) + 0.5))];
+}
+
+void row(const char* what, const Run& r) {
+  std::printf("%-44s %5.1f%% WER (%d/%d words), %d of %d rejected, RTF %.3f\n", what, 100 * r.wer,
+              r.errors, r.words, r.rejected, r.utterances, r.audio_s > 0 ? r.cpu_s / r.audio_s : 0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  TempDir dir("asr-bench");
+  const auto gram = dir.write("robot.gram", kCommandGrammar);
+  const std::string data = POCKETSPHINX_TESTDATA;
+
+  std::vector<Said> commands = {
+      {"go forward two meters", "en-us", 170},
+      {"turn left", "en+f2", 130},
+      {"stop", "en", 150},
+      {"what do you see", "en-us", 130},
+      {"move backward one meter", "en+f2", 150},
+      {"look up", "en-us", 170},
+      {"sit down", "en+f2", 170},
+      {"turn right ninety degrees", "en", 130},
+      {"say hello", "en-us", 150},
+      {"wave your hand", "en+f2", 150},
+      {"go forward five meters", "en", 170},
+      {"stand up", "en-us", 130},
+      {"look left", "en+m3", 130},
+      {"turn left twenty degrees", "en+m3", 170},
+      {"move forward three meters", "en", 150},
+      {"stop", "en+f2", 170},
+  };
+  commands.resize(quick ? 4 : 12);  // the full run stays under a minute
+  std::printf("skrobot-asr benchmark%s (pocketsphinx 5prealpha, en-us model; 2-core machine)\n\n",
+              quick ? " (quick)" : "");
+
+  // 1. Commands in grammar mode, streamed in real time: WER, RTF and the delay.
+  const Run g = runSet(dir, {"--grammar", gram.string()}, make(dir, commands), 1.0, 0.7);
+  row("grammar, espeak-ng commands (real time)", g);
+  std::printf(
+      "  end of speech (VAD decision) -> transcript: p50 %.0f ms, p99 %.0f ms over %zu "
+      "(target p50 < 300 ms); VAD hang-over before that: 300 ms\n",
+      percentile(g.delays_ms, 0.5), percentile(g.delays_ms, 0.99), g.delays_ms.size());
+
+  // 2. Out-of-grammar speech: how much is rejected.
+  std::vector<Said> out = {{"the weather is lovely this morning", "en-us", 150},
+                           {"please bring me a cup of coffee", "en+f2", 150},
+                           {"my cat likes to sleep on the sofa", "en", 150},
+                           {"i would like to read a book", "en+m3", 150}};
+  if (quick) out.resize(2);
+  const Run o = runSet(dir, {"--grammar", gram.string()}, make(dir, out), 4.0);
+  std::printf("%-44s %d of %d rejected\n", "grammar, out-of-grammar sentences", o.rejected,
+              static_cast<int>(out.size()));
+
+  // 3. Dictation of espeak-ng sentences.
+  std::vector<Said> sentences = {
+      {"go forward ten meters", "en-us", 150},    {"what time is it", "en+f2", 130},
+      {"the robot is in the kitchen", "en", 150}, {"please open the door", "en-us", 170},
+      {"i am looking for my keys", "en+m3", 150}, {"how are you today", "en", 130}};
+  if (quick) sentences.resize(2);
+  const Run d = runSet(dir, {}, make(dir, sentences), 3.0);
+  row("dictation, espeak-ng sentences", d);
+  std::printf("  end of speech -> transcript at 3x real time: p50 %.0f ms, p99 %.0f ms\n",
+              percentile(d.delays_ms, 0.5), percentile(d.delays_ms, 0.99));
+
+  // 4. The real recordings: dictation (goforward, librivox) and grammar (cards).
+  std::vector<Clip> real = {
+      {"go forward ten meters", soxTo(dir.path(), data + "/goforward.raw", 22050, true)}};
+  if (!quick) {
+    std::ifstream tr(data + "/librivox/transcription");
+    for (std::string line; std::getline(tr, line);) {
+      const auto open = line.rfind('('), close = line.rfind(')');
+      std::string text = line.substr(4, line.find("</s>") - 5);
+      const std::string id = line.substr(open + 1, close - open - 1);
+      real.push_back({text, soxTo(dir.path(), data + "/librivox/" + id + ".wav", 22050)});
+    }
+  }
+  const Run rd = runSet(dir, {}, real, quick ? 4.0 : 3.0);
+  row(quick ? "dictation, goforward.raw" : "dictation, goforward.raw + 5 librivox", rd);
+  std::vector<Clip> cards;
+  {
+    std::ifstream tr(data + "/cards/cards.transcription");
+    int n = 0;
+    for (std::string line; std::getline(tr, line) && (!quick || n < 2); ++n) {
+      const auto open = line.rfind('('), close = line.rfind(')');
+      std::string text = line.substr(4, line.find("</s>") - 4);
+      while (!text.empty() && text.back() == ' ') text.pop_back();
+      const std::string id = line.substr(open + 1, close - open - 1);
+      cards.push_back({text, soxTo(dir.path(), data + "/cards/" + id + ".wav", 22050)});
+    }
+  }
+  const Run rc = runSet(dir, {"--grammar", data + "/cards/cards.gram", "--no-reject"}, cards, 4.0);
+  row("grammar (cards.gram, no rejection), cards", rc);
+
+  // 5. Listening to silence: CPU of the recogniser process at real time.
+  {
+    AsrHarness h(dir, {"--grammar", gram.string()});
+    if (!h.ready()) return 1;
+    // The grammar is compiled on the worker after start: wait until it is idle.
+    for (int i = 0; i < 100; ++i) {
+      const auto status = h.control("status");
+      const auto* busy = status.find("busy");
+      if (busy != nullptr && !busy->asBool().value_or(true)) break;
+      h.loop().runFor(100 * kNsPerMs);
+    }
+    const double seconds = quick ? 3 : 6;
+    std::vector<Clip> none;
+    const std::vector<std::int16_t> quiet = concat(none, seconds, 22050);
+    const double cpu0 = cpuSeconds(h.asrPid());
+    const Nanos t0 = monotonicNs();
+    h.stream(quiet, 22050, 1.0);
+    const double wall = static_cast<double>(monotonicNs() - t0) / 1e9;
+    const double cpu = cpuSeconds(h.asrPid()) - cpu0;
+    std::printf("%-44s %.2f%% of a core (%.3f s CPU in %.1f s; target < 5%%)\n",
+                "listening to silence (-70 dBFS noise)", 100 * cpu / wall, cpu, wall);
+  }
+  return 0;
+}

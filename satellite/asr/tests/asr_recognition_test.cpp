@@ -156,5 +156,44 @@ TEST(AsrRecognition, DictationOfSentencesAndARealRecording) {
   EXPECT_GT((*heard.back())["confidence"].asDouble(), 0.3);
 }
 
+TEST(AsrRecognition, ControlSetsTheGrammarPausesAndResumes) {
+  TempDir dir("asr-control");
+  auto clips = make(dir, {{"turn left", "en-us", 150}});
+  const auto speech = concat(clips, 0.6, 22050);
+  AsrHarness h(dir, {});
+  ASSERT_TRUE(h.ready()) << h.asrLog();
+  auto status = h.control("status");
+  EXPECT_EQ(*status.find("mode")->asString(), "dictation");
+
+  // Keywords hand over a command grammar; a word outside the dictionary is refused.
+  flow::Variant bad = flow::Variant::Map{{"jsgf", flow::Variant("#JSGF V1.0; grammar g; public "
+                                                                "<c> = zzqxj;")}};
+  EXPECT_NE(h.control("set_grammar", bad).find("error"), nullptr);
+  flow::Variant keywords = flow::Variant::Map{
+      {"keywords", flow::Variant::List{flow::Variant("turn left"), flow::Variant("stop")}}};
+  const auto set = h.control("set_grammar", keywords);
+  ASSERT_NE(set.find("mode"), nullptr) << flow::variantToJsonText(set);
+  EXPECT_EQ(*set.find("mode")->asString(), "grammar");
+
+  // Paused: nothing is heard.
+  EXPECT_TRUE(h.control("pause").find("paused")->asBool().value_or(false));
+  h.stream(speech, 22050, 0);
+  EXPECT_FALSE(h.waitTranscripts(1, 1500));
+  EXPECT_EQ(*h.control("status").find("state")->asString(), "paused");
+
+  // Resumed: the same speech is heard, in grammar mode.
+  (void)h.control("resume");
+  h.stream(speech, 22050, 0);
+  ASSERT_TRUE(h.waitTranscripts(1, 10000)) << h.asrLog();
+  EXPECT_EQ(h.transcripts[0]["mode"].asString(), "grammar");
+  EXPECT_EQ(h.transcripts[0]["text"].asString(), "turn left");
+
+  const auto back = h.control("set_mode", flow::Variant::Map{{"mode", flow::Variant("dictation")}});
+  EXPECT_EQ(*back.find("mode")->asString(), "dictation");
+  status = h.control("status");
+  EXPECT_EQ(status.find("utterances")->asInt64().value_or(0), 1);
+  EXPECT_NE(h.control("no_such_command").find("error"), nullptr);
+}
+
 }  // namespace
 }  // namespace skr::asr::test

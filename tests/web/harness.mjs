@@ -96,8 +96,9 @@ export async function startHub(modules) {
   return hub;
 }
 
-// Debian's chromium, headless, with a fake camera (a .y4m file) and microphone.
-export async function launchChromium({ y4m } = {}) {
+// Debian's chromium, headless, with a fake camera (a .y4m file) and microphone (a .wav file,
+// played in a loop; else a beep).
+export async function launchChromium({ y4m, wav } = {}) {
   const { chromium } = webRequire('playwright-core');
   const userData = mkdtempSync(path.join(os.tmpdir(), 'skrobot-chromium-'));
   const args = [
@@ -107,6 +108,7 @@ export async function launchChromium({ y4m } = {}) {
     '--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream',
   ];
   if (y4m) args.push(`--use-file-for-fake-video-capture=${y4m}`);
+  if (wav) args.push(`--use-file-for-fake-audio-capture=${wav}`);
   const browser = await chromium.launch({ executablePath: '/usr/bin/chromium', headless: true, args });
   const context = await browser.newContext({ viewport: { width: 1280, height: 720 } });
   return {

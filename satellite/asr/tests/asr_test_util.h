@@ -122,14 +122,19 @@ inline Json::Value parseJson(const std::string& text) {
   return v;
 }
 
-// A hub, one skrobot-asr, and a satellite that owns guest.mic and reads guest.<name>.transcript.
+inline flow::Variant::Map micProps() {
+  return {{"sample_rate", flow::Variant(std::int64_t{22050})},
+          {"channels", flow::Variant(std::int64_t{1})},
+          {"format", flow::Variant("s16le")}};
+}
+
+// A hub (with the config's `modules`), one skrobot-asr, and a satellite that owns guest.mic and
+// reads guest.<name>.transcript.
 class AsrHarness {
  public:
   AsrHarness(const TempDir& dir, std::vector<std::string> asr_args, std::string name = "asr",
-             flow::Variant::Map mic_props = {{"sample_rate", flow::Variant(std::int64_t{22050})},
-                                             {"channels", flow::Variant(std::int64_t{1})},
-                                             {"format", flow::Variant("s16le")}})
-      : dir_(dir), hub_(SKROBOT_BIN, dir.path()), name_(std::move(name)) {
+             flow::Variant::Map mic_props = micProps(), const std::string& modules = "[]")
+      : dir_(dir), hub_(SKROBOT_BIN, dir.path(), "", "", "", modules), name_(std::move(name)) {
     started_ = hub_.start();
     if (!started_) return;
     std::vector<std::string> argv = {ASR_BIN, "--input",   "guest.mic",   "--name",
@@ -168,6 +173,8 @@ class AsrHarness {
   AsrHarness& operator=(AsrHarness&&) = delete;
 
   [[nodiscard]] bool ready() const { return started_; }
+  [[nodiscard]] std::string address() const { return hub_.address(); }
+  [[nodiscard]] std::string hubLog() const { return hub_.log(); }
   [[nodiscard]] std::string asrLog() const { return asr_ ? asr_->output() : ""; }
   [[nodiscard]] pid_t asrPid() const { return asr_ ? asr_->pid() : -1; }
   Loop& loop() { return loop_; }

@@ -55,20 +55,6 @@ HubSnapshot FlowServer::snapshot() const {
 
 namespace {
 
-const char* kindName(ChannelKind k) {
-  switch (k) {
-    case ChannelKind::streaming:
-      return "streaming";
-    case ChannelKind::service:
-      return "service";
-    case ChannelKind::blob:
-      return "blob";
-    case ChannelKind::sync:
-      return "sync";
-  }
-  return "unknown";
-}
-
 // Per second, of a counter that went from `a` to `b` in `seconds` (a restarted one from zero).
 // Rounded to 0.01: the figures are read by people and pages, and the JSON stays short.
 double rate(uint64_t a, uint64_t b, double seconds) {
@@ -104,7 +90,7 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
     const auto owner = flow_names.find(c.owner_flow);
     channels.emplace_back(Variant::Map{
         {"name", c.name},
-        {"kind", kindName(c.kind)},
+        {"kind", std::string(channelKindName(c.kind))},
         {"mime", c.mime},
         {"owner", owner != flow_names.end() ? owner->second : std::string()},
         {"owner_flow", static_cast<uint64_t>(c.owner_flow)},

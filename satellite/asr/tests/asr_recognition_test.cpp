@@ -9,19 +9,6 @@
 namespace skr::asr::test {
 namespace {
 
-struct Said {
-  std::string text;
-  std::string voice;
-  int speed;
-};
-
-std::vector<Clip> make(const TempDir& dir, const std::vector<Said>& said) {
-  std::vector<Clip> clips;
-  for (const auto& s : said)
-    clips.push_back({s.text, speak(dir.path(), s.text, s.voice, s.speed, 22050)});
-  return clips;
-}
-
 // Transcripts matched to clips by time: the one whose speech overlaps the clip most.
 std::vector<const Json::Value*> match(const std::vector<Clip>& clips,
                                       const std::vector<Json::Value>& transcripts) {
@@ -50,20 +37,6 @@ double wer(const std::vector<Clip>& clips, const std::vector<const Json::Value*>
   return total > 0 ? static_cast<double>(errors) / total : 0;
 }
 
-const std::vector<Said> kCommands = {
-    {"go forward two meters", "en-us", 170},
-    {"turn left", "en+f2", 130},
-    {"stop", "en", 150},
-    {"what do you see", "en-us", 130},
-    {"move backward one meter", "en+f2", 150},
-    {"look up", "en-us", 170},
-    {"sit down", "en+f2", 170},
-    {"turn right ninety degrees", "en", 130},
-    {"say hello", "en-us", 150},
-    {"wave your hand", "en+f2", 150},
-    {"go forward five meters", "en", 170},
-    {"stand up", "en-us", 130},
-};
 const std::vector<Said> kOutOfGrammar = {
     {"the weather is lovely this morning", "en-us", 150},
     {"please bring me a cup of coffee", "en+f2", 150},

@@ -157,3 +157,26 @@ TEST(SupportJson, WriterNonFiniteIsNullAndKeysAreEscaped) {
 }
 
 }  // namespace
+
+namespace skr::support {
+namespace {
+
+// RFC 4648 section 10, in the JSON mapping's spelling of bytes.
+TEST(SupportJson, BytesAreBase64InTheMappingsObject) {
+  const std::pair<const char*, const char*> vectors[] = {
+      {"", ""},
+      {"f", "Zg=="},
+      {"fo", "Zm8="},
+      {"foo", "Zm9v"},
+      {"foob", "Zm9vYg=="},
+      {"fooba", "Zm9vYmE="},
+      {"foobar", "Zm9vYmFy"},
+  };
+  for (const auto& [plain, text] : vectors) {
+    EXPECT_EQ(writeJson(jsonBytes(plain)), std::string(R"({"$base64":")") + text + "\"}");
+  }
+  EXPECT_EQ(jsonBytes(std::string("\xFB\xFF", 2))["$base64"].asString(), "+/8=");
+}
+
+}  // namespace
+}  // namespace skr::support

@@ -4,24 +4,30 @@
 // services are called, databases written. It greets a face that appears after a while with
 // none, reads codes aloud, answers "what do you see" from the last detections, hands its command
 // grammar to each recogniser (`<instance>.control`, "set_grammar") and pauses them while the
-// avatar speaks, so that the robot does not hear itself.
+// avatar speaks, so that the robot does not hear itself. It keeps the last seconds of the
+// microphone (`mic`): when a recogniser that announced an utterance ("started") leaves before its
+// transcript, the utterance's audio goes to another recogniser ("recognise").
 //   <name>.dialogue  stream: one JSON per utterance heard or event, with what it answered
 //   <name>.command   service: "hear" {"text"} (as if heard), "grammar", "state"
 //   database <name>: heard, intent, answer, and what "remember" actions keep
-// Log tags: AGENT-RULES, AGENT-HEARD, AGENT-ACTION, AGENT-RECOGNISER.
+// Log tags: AGENT-RULES, AGENT-HEARD, AGENT-ACTION, AGENT-RECOGNISER, AGENT-REQUEUE.
 #include "rules.h"
 
 #include <skrobot/flow/name_pattern.h>
+#include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/plugin_watch.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <deque>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -44,6 +50,50 @@ struct Recogniser {
   skr::plugin::Subscription transcripts;
   bool has_control = false;
   bool grammar_sent = false;
+  std::optional<double> started;  // an utterance it announced and has not transcribed yet
+};
+
+// The microphone's last seconds, by the recognisers' audio clock (a frame's capture time, else
+// its sample counter over the rate), for an utterance whose recogniser went away.
+class AudioRing {
+ public:
+  explicit AudioRing(double seconds) : seconds_(seconds) {}
+
+  void add(std::string_view message) {
+    const auto frame = skr::media::parseFrame(message);
+    if (!frame || frame->header.format != skr::media::Format::pcm_s16le ||
+        frame->header.channels != 1 || frame->header.sample_rate == 0) {
+      return;
+    }
+    const auto& h = frame->header;
+    const double t = h.capture_ns != 0 ? static_cast<double>(h.capture_ns) * 1e-9
+                                       : static_cast<double>(h.seq) / h.sample_rate;
+    if (!frames_.empty() && frames_.back().rate != h.sample_rate) frames_.clear();
+    frames_.push_back({t, h.sample_rate, std::string(frame->payload)});
+    while (!frames_.empty() && frames_.back().t - frames_.front().t > seconds_) frames_.pop_front();
+  }
+  // The samples from `from` on, at most `seconds` of them, and their rate.
+  std::pair<std::string, std::uint32_t> from(double t0, double seconds) const {
+    std::string pcm;
+    std::uint32_t rate = 0;
+    for (const Frame& f : frames_) {
+      const double end = f.t + static_cast<double>(f.pcm.size() / 2) / f.rate;
+      if (end <= t0 || f.t >= t0 + seconds) continue;
+      pcm += f.pcm;
+      rate = f.rate;
+    }
+    return {std::move(pcm), rate};
+  }
+  [[nodiscard]] double latest() const { return frames_.empty() ? 0 : frames_.back().t; }
+
+ private:
+  struct Frame {
+    double t;
+    std::uint32_t rate;
+    std::string pcm;
+  };
+  double seconds_;
+  std::deque<Frame> frames_;
 };
 
 std::string numberText(double v) {
@@ -62,12 +112,14 @@ class Agent final : public skr::plugin::Module {
         nao_(host.configString("nao")),
         faces_channel_(host.configString("faces")),
         codes_channel_(host.configString("codes")),
+        mic_channel_(host.configString("mic")),
         hand_grammar_(host.configBool("hand_grammar")),
         barge_in_(host.configBool("barge_in")),
         greet_after_ns_(host.configInt("greet_after_s") * 1000 * kNsPerMs),
         awake_ns_(host.configInt("awake_s") * 1000 * kNsPerMs),
         code_repeat_ns_(host.configInt("code_repeat_s") * 1000 * kNsPerMs),
-        speech_tail_ns_(host.configInt("speech_tail_ms") * kNsPerMs) {
+        speech_tail_ns_(host.configInt("speech_tail_ms") * kNsPerMs),
+        requeue_after_ns_(host.configInt("requeue_after_ms") * kNsPerMs) {
     auto pattern = skr::flow::NamePattern::parse(host.configString("recognisers"));
     if (!pattern) {
       host.configError("recognisers", pattern.error().message);
@@ -110,8 +162,14 @@ class Agent final : public skr::plugin::Module {
     if (!codes_channel_.empty()) {
       codes_ = Subscription(host_, codes_channel_, [this](std::string_view p) { onCodes(p); });
     }
+    if (!mic_channel_.empty()) {
+      mic_ = Subscription(host_, mic_channel_, [this](std::string_view p) { ring_.add(p); });
+    }
     watch_ = ChannelWatch(host_, [this](const ChannelEvent& ev) { onChannel(ev); });
-    tick_ = host_.onTick(Tick::fast, [this] { checkSpeaking(); });
+    tick_ = host_.onTick(Tick::fast, [this] {
+      checkSpeaking();
+      requeueDue();
+    });
     host_.log.info(
         "AGENT-RULES", rules_.intents.size(), " intents, wake phrase '", wakePhrase(), "', ",
         host_.configString("rules").empty() ? "default rules" : host_.configString("rules"));
@@ -123,6 +181,7 @@ class Agent final : public skr::plugin::Module {
     recognisers_.clear();
     faces_.reset();
     codes_.reset();
+    mic_.reset();
     command_.reset();
     dialogue_.reset();
     requester_.reset();
@@ -152,7 +211,13 @@ class Agent final : public skr::plugin::Module {
     }
     if (ev.kind != SKR_CHANNEL_STREAMING || !recognisers_pattern_.matches(ev.name)) return;
     if (!ev.added) {
-      recognisers_.erase(instance);
+      auto gone = recognisers_.find(instance);
+      if (gone == recognisers_.end()) return;
+      if (gone->second.started && !mic_channel_.empty()) {
+        // Its utterance, once the speaker has had time to finish it, goes to another one.
+        requeue_.push_back({instance, *gone->second.started, host_.nowNs() + requeue_after_ns_});
+      }
+      recognisers_.erase(gone);
       host_.log.info("AGENT-RECOGNISER", instance, " gone");
       return;
     }
@@ -193,6 +258,13 @@ class Agent final : public skr::plugin::Module {
       host_.log.warn("AGENT-HEARD", instance, ": a transcript that is not a JSON object");
       return;
     }
+    if ((*v)["event"].asString() == "started") {  // an utterance begins: keep its start
+      if (auto it = recognisers_.find(instance); it != recognisers_.end()) {
+        it->second.started = (*v)["start"].asDouble();
+      }
+      return;
+    }
+    if (auto it = recognisers_.find(instance); it != recognisers_.end()) it->second.started.reset();
     const std::string text = (*v)["text"].asString();
     if ((*v)["rejected"].asBool() || text.empty()) return;
     if (speaking_ && !barge_in_) {
@@ -215,6 +287,38 @@ class Agent final : public skr::plugin::Module {
       if (recent_.size() > 16) recent_.erase(recent_.begin());
     }
     hear(text, instance);
+  }
+
+  // An utterance whose recogniser left: its audio (from the ring) to another recogniser.
+  void requeueDue() {
+    const std::int64_t now = host_.nowNs();
+    while (!requeue_.empty() && requeue_.front().due_ns <= now) {
+      const Requeue r = requeue_.front();
+      requeue_.pop_front();
+      auto other = std::find_if(recognisers_.begin(), recognisers_.end(),
+                                [](const auto& e) { return e.second.has_control; });
+      auto [pcm, rate] = ring_.from(r.start - kPreRollS, kMaxRequeueS);
+      if (other == recognisers_.end() || pcm.empty()) {
+        ++requeue_failures_;
+        host_.log.warn("AGENT-REQUEUE", "the utterance at ", r.start, " s of ", r.instance,
+                       other == recognisers_.end() ? ": no other recogniser" : ": no audio kept");
+        continue;
+      }
+      Json::Value v(Json::objectValue);
+      v["audio"] = skr::support::jsonBytes(pcm);
+      v["sample_rate"] = rate;
+      v["start"] = r.start - kPreRollS;
+      const std::string to = other->first;
+      host_.log.info("AGENT-REQUEUE", "the utterance at ", r.start, " s of ", r.instance,
+                     " (gone) to ", to, ": ", pcm.size() / 2, " samples");
+      ++requeued_;
+      requester_->request(to + ".control", "recognise", writeJson(v),
+                          [this, to](bool ok, const std::string& answer) {
+                            if (ok && answer.find("\"error\"") == std::string::npos) return;
+                            ++requeue_failures_;
+                            host_.log.warn("AGENT-REQUEUE", to, " refused: ", answer);
+                          });
+    }
   }
 
   // --- what was heard: wake phrase, intent, actions
@@ -456,6 +560,8 @@ class Agent final : public skr::plugin::Module {
       answer["ignored_while_speaking"] = Json::UInt64(ignored_while_speaking_);
       answer["duplicates"] = Json::UInt64(duplicates_);
       answer["action_failures"] = Json::UInt64(action_failures_);
+      answer["requeued"] = Json::UInt64(requeued_);
+      answer["requeue_failures"] = Json::UInt64(requeue_failures_);
     } else {
       answer["error"] = "unknown command '" + r.command + "' (hear, grammar, state)";
     }
@@ -467,12 +573,20 @@ class Agent final : public skr::plugin::Module {
     double start, end;
     std::int64_t at_ns;
   };
+  struct Requeue {
+    std::string instance;
+    double start;
+    std::int64_t due_ns;
+  };
+  static constexpr double kPreRollS = 0.2;      // audio kept before an utterance's start
+  static constexpr double kMaxRequeueS = 15.0;  // at most this much of it is sent again
 
   Host& host_;
   const std::string db_;
-  const std::string say_, expression_, nao_, faces_channel_, codes_channel_;
+  const std::string say_, expression_, nao_, faces_channel_, codes_channel_, mic_channel_;
   const bool hand_grammar_, barge_in_;
-  const std::int64_t greet_after_ns_, awake_ns_, code_repeat_ns_, speech_tail_ns_;
+  const std::int64_t greet_after_ns_, awake_ns_, code_repeat_ns_, speech_tail_ns_,
+      requeue_after_ns_;
   skr::flow::NamePattern recognisers_pattern_;
   skr::agent::Rules rules_;
   std::string grammar_;
@@ -480,7 +594,9 @@ class Agent final : public skr::plugin::Module {
   std::unique_ptr<skr::plugin::Requester> requester_;
   skr::plugin::StreamChannel dialogue_;
   skr::plugin::ServiceChannel command_;
-  skr::plugin::Subscription faces_, codes_;
+  skr::plugin::Subscription faces_, codes_, mic_;
+  AudioRing ring_{30};
+  std::deque<Requeue> requeue_;
   skr::plugin::ChannelWatch watch_;
   skr::plugin::TickHandle tick_;
   std::map<std::string, Recogniser> recognisers_;
@@ -497,6 +613,7 @@ class Agent final : public skr::plugin::Module {
   std::vector<std::string> codes_seen_;
   std::map<std::string, std::int64_t> codes_read_;
   std::uint64_t ignored_while_speaking_ = 0, duplicates_ = 0, action_failures_ = 0;
+  std::uint64_t requeued_ = 0, requeue_failures_ = 0;
 };
 
 }  // namespace
@@ -523,6 +640,12 @@ constexpr skr_config_key kConfig[] = {
         .range(1, 3600),
     skr::config::integer("code_repeat_s", "30", "read the same code aloud again after this long")
         .range(0, 86400),
+    skr::config::string("mic", "websocket-ui.mic",
+                        "the microphone whose last 30 s are kept for utterances to re-queue; "
+                        "empty: none"),
+    skr::config::integer("requeue_after_ms", "1500",
+                         "how long after a recogniser left its utterance is re-queued")
+        .range(0, 60000),
     skr::config::integer("speech_tail_ms", "300",
                          "the recognisers resume this long after the avatar stops")
         .range(0, 10000),

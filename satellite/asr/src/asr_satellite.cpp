@@ -41,7 +41,11 @@ AsrSatellite::AsrSatellite(Loop& loop, sat::Satellite& sat, AsrOptions options,
       engine_name_(engine->name()),
       segmenter_(options_.segmenter,
                  SegmenterSink{
-                     .start = [this](const UtteranceBounds& b) { recognizer_->begin(b); },
+                     .start =
+                         [this](const UtteranceBounds& b) {
+                           recognizer_->begin(b);
+                           announceStart(b);
+                         },
                      .audio = [this](std::span<const std::int16_t> s) { recognizer_->audio(s); },
                      .end = [this](const UtteranceBounds& b) { recognizer_->end(b); },
                  }) {
@@ -79,7 +83,7 @@ AsrSatellite::AsrSatellite(Loop& loop, sat::Satellite& sat, AsrOptions options,
     log::error(kLog, "ASR-CHANNEL", r.error().message);
   }
   flow::Variant::Map control_props{
-      {"commands", flow::Variant("set_grammar set_mode pause resume status")},
+      {"commands", flow::Variant("set_grammar set_mode pause resume status recognise")},
       {"instance", flow::Variant(options_.name)}};
   if (auto r = sat_.addChannel({.name = control_,
                                 .kind = flow::ChannelKind::service,
@@ -222,15 +226,76 @@ void AsrSatellite::onData(std::uint16_t id, std::string_view payload) {
   segmenter_.push(out16_);
 }
 
+// {"event": "started", ...} on the transcript channel: an utterance begins here (the agent
+// keeps its audio until the transcript comes, docs/agent.md).
+void AsrSatellite::announceStart(const UtteranceBounds& b) {
+  const flow::Variant event = flow::Variant::Map{
+      {"event", flow::Variant("started")},
+      {"instance", flow::Variant(options_.name)},
+      {"utterance", flow::Variant(static_cast<std::int64_t>(recognizer_->lastBegun()))},
+      {"start", flow::Variant(clockAt(b.speech_start))}};
+  if (auto r = sat_.publish(transcript_, flow::variantToJsonText(event)); !r) {
+    log::warn(kLog, "ASR-PUBLISH", r.error().message);
+  }
+}
+
+void AsrSatellite::recogniseGiven(const sat::Request& request, const flow::Variant::Map& value) {
+  const auto field = [&](const char* key) -> const flow::Variant* {
+    auto it = value.find(key);
+    return it == value.end() ? nullptr : &it->second;
+  };
+  const flow::Variant* audio = field("audio");
+  const flow::Variant* rate = field("sample_rate");
+  const flow::Variant* start = field("start");
+  const std::int64_t hz = rate != nullptr ? rate->asInt64().value_or(0) : 0;
+  if (audio == nullptr || audio->asBytes() == nullptr || hz < kMinRateHz || hz > kMaxRateHz) {
+    (void)sat_.respond(request, errorValue("recognise takes {\"audio\": bytes (PCM s16le mono), "
+                                           "\"sample_rate\": 8000..192000, \"start\": s}"));
+    return;
+  }
+  if (segmenter_.inUtterance()) {
+    (void)sat_.respond(request, errorValue("busy: an utterance of the stream is under way"));
+    return;
+  }
+  const std::string& bytes = audio->asBytes()->data;
+  std::vector<std::int16_t> in(bytes.size() / 2), out;
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    in[i] = static_cast<std::int16_t>(b[2 * i] | (b[2 * i + 1] << 8));
+  }
+  Resampler(static_cast<std::uint32_t>(hz), kEngineRateHz).process(in, out);
+  UtteranceBounds bounds;
+  bounds.speech_end = bounds.decided_at = out.size();
+  recognizer_->begin(bounds);
+  const std::uint64_t n = recognizer_->lastBegun();
+  given_[n] = start != nullptr ? start->asDouble().value_or(0) : 0;
+  recognizer_->audio(out);
+  recognizer_->end(bounds);
+  log::info(kLog, "ASR-GIVEN",
+            "utterance " + std::to_string(n) + ": " + std::to_string(out.size()) +
+                " samples handed over by " + request.requester);
+  (void)sat_.respond(
+      request, flow::Variant::Map{{"ok", flow::Variant(true)},
+                                  {"utterance", flow::Variant(static_cast<std::int64_t>(n))}});
+}
+
 void AsrSatellite::onHeard(Heard heard) {
   TranscriptFields t;
   t.instance = options_.name;
   t.mode = modeName(heard.mode);
   t.utterance = heard.utterance;
-  t.start_s = clockAt(heard.bounds.speech_start);
-  t.end_s = clockAt(heard.bounds.speech_end);
-  t.decided_s = clockAt(heard.bounds.decided_at);
-  t.audio_start_s = clockAt(heard.bounds.audio_start);
+  // A handed-over utterance is timed from where its audio started; the stream's by its clock.
+  std::function<double(std::uint64_t)> at = [this](std::uint64_t s) { return clockAt(s); };
+  if (auto given = given_.find(heard.utterance); given != given_.end()) {
+    at = [origin = given->second](std::uint64_t s) {
+      return origin + static_cast<double>(s) / kEngineRateHz;
+    };
+    given_.erase(given);
+  }
+  t.start_s = at(heard.bounds.speech_start);
+  t.end_s = at(heard.bounds.speech_end);
+  t.decided_s = at(heard.bounds.decided_at);
+  t.audio_start_s = at(heard.bounds.audio_start);
   t.cut = heard.bounds.cut;
   t.engine_ms = heard.engine_ms;
   if (heard.bounds.cut) ++counters_.cut;
@@ -298,6 +363,15 @@ void AsrSatellite::onRequest(const sat::Request& request) {
     return;
   }
   const auto value = valueMap(request.value);
+  if (cmd == "recognise") {
+    if (!value) {
+      (void)sat_.respond(request, errorValue("recognise takes {\"audio\", \"sample_rate\", "
+                                             "\"start\"}"));
+      return;
+    }
+    recogniseGiven(request, *value->asMap());
+    return;
+  }
   if (cmd == "set_grammar") {
     if (!value) {
       (void)sat_.respond(request, errorValue("set_grammar takes {\"jsgf\": text} or "
@@ -347,7 +421,8 @@ void AsrSatellite::onRequest(const sat::Request& request) {
     return;
   }
   (void)sat_.respond(request, errorValue("unknown command \"" + cmd +
-                                         "\" (set_grammar, set_mode, pause, resume, status)"));
+                                         "\" (set_grammar, set_mode, pause, resume, status, "
+                                         "recognise)"));
 }
 
 flow::Variant AsrSatellite::status() const {

@@ -16,6 +16,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -62,6 +63,9 @@ class AsrSatellite {
   void onData(std::uint16_t id, std::string_view payload);
   void onRequest(const sat::Request& request);
   void onHeard(Heard heard);  // loop thread
+  void announceStart(const UtteranceBounds& b);
+  // "recognise": given audio, as one utterance, between two of the stream's.
+  void recogniseGiven(const sat::Request& request, const flow::Variant::Map& value);
   void checkProperties(const flow::Variant& props);
   void rebase(std::uint64_t seq, std::uint32_t rate, std::int64_t capture_ns);
   [[nodiscard]] double clockAt(std::uint64_t sample16) const noexcept;
@@ -85,6 +89,8 @@ class AsrSatellite {
   bool props_ok_ = true;
   std::string last_ignored_;
   bool paused_ = false;
+  // Utterances handed over by "recognise", by number: where their audio starts on the clock.
+  std::map<std::uint64_t, double> given_;
   bool have_stream_ = false;
   std::uint64_t expected_seq_ = 0;
   std::uint32_t rate_ = 0;

@@ -55,6 +55,8 @@ class Recognizer {
   // Any thread.
   [[nodiscard]] bool busy() const;  // recognising, or work queued
   [[nodiscard]] std::uint64_t heard() const;
+  // Loop thread: the number of the utterance begun last (0: none yet).
+  [[nodiscard]] std::uint64_t lastBegun() const noexcept { return next_utterance_; }
   [[nodiscard]] std::uint64_t dropped() const;
   [[nodiscard]] std::size_t queuedSamples() const;
 

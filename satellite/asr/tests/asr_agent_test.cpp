@@ -12,6 +12,30 @@ constexpr const char* kModules = R"([{"name": "speech", "config": {"voice": "en"
     {"name": "agent", "config": {"say": "speech.say", "expression": "", "nao": "",
                                  "faces": "", "codes": ""}}])";
 
+// The agent keeping the microphone (the test's guest.mic) for utterances to re-queue.
+constexpr const char* kModulesWithMic = R"([{"name": "speech", "config": {"voice": "en"}},
+    {"name": "agent", "config": {"say": "speech.say", "expression": "", "nao": "",
+                                 "faces": "", "codes": "", "mic": "guest.mic",
+                                 "requeue_after_ms": 1500}}])";
+
+// A request to a service on the harness's satellite, answered within 10 s (null otherwise).
+flow::Variant request(AsrHarness& h, const std::string& service, const std::string& command) {
+  flow::Variant answer;
+  bool done = false;
+  (void)h.satellite().request(service, command, {}, [&](const sat::Response& r) {
+    answer = r.value;
+    done = true;
+  });
+  h.loop().runUntil([&] { return done; }, 10 * kNsPerSec);
+  return answer;
+}
+
+std::string modeOf(AsrHarness& h, const std::string& name) {
+  const flow::Variant answer = request(h, "guest." + name + ".control", "status");
+  const flow::Variant* m = answer.find("mode");
+  return m != nullptr && m->asString() != nullptr ? *m->asString() : std::string();
+}
+
 // The agent's answers among what the harness's satellite received.
 std::vector<Json::Value> answers(const AsrHarness& h) {
   std::vector<Json::Value> out;
@@ -28,21 +52,10 @@ TEST(AsrAgent, TwoRecognisersHearTheAgentsGrammarAndItAnswersEachUtteranceOnce) 
   Child asr2({ASR_BIN, "--input", "guest.mic", "--name", "asr2", "--address", h.address()}, {},
              dir.path() / "asr2.log");
   h.satellite().subscribe("agent.dialogue");
-  const auto mode = [&](const std::string& name) {
-    flow::Variant answer;
-    bool done = false;
-    (void)h.satellite().request("guest." + name + ".control", "status", {},
-                                [&](const sat::Response& r) {
-                                  answer = r.value;
-                                  done = true;
-                                });
-    h.loop().runUntil([&] { return done; }, 10 * kNsPerSec);
-    const flow::Variant* m = answer.find("mode");
-    return m != nullptr && m->asString() != nullptr ? *m->asString() : std::string();
-  };
   // Both recognisers took the agent's grammar (handed over when each appeared).
   ASSERT_TRUE(h.loop().runUntil(
-      [&] { return mode("asr1") == "grammar" && mode("asr2") == "grammar"; }, 30 * kNsPerSec))
+      [&] { return modeOf(h, "asr1") == "grammar" && modeOf(h, "asr2") == "grammar"; },
+      30 * kNsPerSec))
       << h.hubLog() << h.asrLog() << asr2.output();
 
   const auto say = [&](const std::string& text) {
@@ -71,6 +84,44 @@ TEST(AsrAgent, TwoRecognisersHearTheAgentsGrammarAndItAnswersEachUtteranceOnce) 
   EXPECT_EQ(answers(h)[1]["intent"].asString(), "time") << answers(h)[1].toStyledString();
   h.loop().runFor(2 * kNsPerSec);
   EXPECT_EQ(answers(h).size(), 2u);
+  asr2.signal(SIGTERM);
+  EXPECT_EQ(asr2.wait(5000), 0) << asr2.output();
+}
+
+TEST(AsrAgent, AnUtteranceWhoseRecogniserDiesIsRecognisedByAnother) {
+  TempDir dir;
+  AsrHarness h(dir, {}, "asr1", micProps(), kModulesWithMic);
+  ASSERT_TRUE(h.ready()) << h.hubLog() << h.asrLog();
+  Child asr2({ASR_BIN, "--input", "guest.mic", "--name", "asr2", "--address", h.address()}, {},
+             dir.path() / "asr2.log");
+  h.satellite().subscribe("agent.dialogue");
+  ASSERT_TRUE(h.loop().runUntil(
+      [&] { return modeOf(h, "asr1") == "grammar" && modeOf(h, "asr2") == "grammar"; },
+      30 * kNsPerSec))
+      << h.hubLog() << h.asrLog() << asr2.output();
+  // asr2 does not hear this utterance; asr1 starts on it and dies.
+  ASSERT_EQ(request(h, "guest.asr2.control", "pause").find("paused")->asBool(), true);
+  std::vector<Clip> clips{{"how are you", speak(dir.path(), "how are you", "en-us", 150, 22050)}};
+  bool killed = false;
+  h.stream(concat(clips, 1.0, 22050), 22050, 1.0, 20, [&](std::uint64_t) {
+    if (killed) return;
+    for (const auto& v : h.transcripts) {
+      if (v["event"].asString() == "started") {
+        ::kill(h.asrPid(), SIGKILL);
+        killed = true;
+      }
+    }
+  });
+  ASSERT_TRUE(killed) << h.asrLog();
+  // The agent hands the utterance's audio to asr2, and answers what asr2 makes of it.
+  ASSERT_TRUE(h.loop().runUntil([&] { return !answers(h).empty(); }, 30 * kNsPerSec))
+      << h.hubLog() << asr2.output();
+  const Json::Value a = answers(h)[0];
+  EXPECT_EQ(a["instance"].asString(), "guest.asr2");
+  EXPECT_EQ(a["intent"].asString(), "how_are_you") << a.toStyledString();
+  EXPECT_NE(asr2.output().find("ASR-GIVEN"), std::string::npos) << asr2.output();
+  const flow::Variant state = request(h, "agent.command", "state");
+  EXPECT_EQ(state.find("requeued")->asInt64(), 1) << flow::variantToJsonText(state);
   asr2.signal(SIGTERM);
   EXPECT_EQ(asr2.wait(5000), 0) << asr2.output();
 }

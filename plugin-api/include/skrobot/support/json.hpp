@@ -50,6 +50,10 @@ struct JsonLimits {
 // hand-built messages: "{\"error\":" + jsonQuote(message) + "}".
 [[nodiscard]] std::string jsonQuote(std::string_view text);
 
+// Bytes as the JSON mapping of values spells them (docs/pair-databases.md): {"$base64": "..."},
+// standard base64 with padding; the hub hands them on as a bytes value (a service's audio, say).
+[[nodiscard]] Json::Value jsonBytes(std::string_view bytes);
+
 // A Json::Value type as a word for error messages: "null", "integer", "number", "string",
 // "boolean", "array", "object".
 [[nodiscard]] std::string_view jsonTypeName(const Json::Value& value) noexcept;

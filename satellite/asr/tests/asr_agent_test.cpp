@@ -105,7 +105,7 @@ TEST(AsrAgent, AnUtteranceWhoseRecogniserDiesIsRecognisedByAnother) {
   bool killed = false;
   h.stream(concat(clips, 1.0, 22050), 22050, 1.0, 20, [&](std::uint64_t) {
     if (killed) return;
-    for (const auto& v : h.transcripts) {
+    for (const auto& v : h.events) {
       if (v["event"].asString() == "started") {
         ::kill(h.asrPid(), SIGKILL);
         killed = true;

@@ -148,7 +148,12 @@ class AsrHarness {
     (void)sat_->addChannel({.name = "mic", .mime = "audio/L16", .props = mic_props});
     sat_->subscribe("guest." + name_ + ".transcript");
     sat_->data.connect(sat_.get(), [this](std::uint16_t, const std::string& payload) {
-      transcripts.push_back(parseJson(payload));
+      Json::Value v = parseJson(payload);
+      if (v.isMember("event")) {  // {"event": "started", ...}: an utterance begins
+        events.push_back(std::move(v));
+        return;
+      }
+      transcripts.push_back(std::move(v));
       arrival_ns.push_back(monotonicNs());
     });
     sat_->start();
@@ -229,9 +234,10 @@ class AsrHarness {
     return answer;
   }
 
-  std::vector<Json::Value> transcripts;
-  std::vector<Nanos> arrival_ns;     // when each transcript arrived
-  std::vector<Nanos> frame_sent_ns;  // when each 20 ms frame was published
+  std::vector<Json::Value> transcripts;  // and whatever else the satellite subscribed to
+  std::vector<Json::Value> events;       // the recogniser's {"event": ...} objects
+  std::vector<Nanos> arrival_ns;         // when each transcript arrived
+  std::vector<Nanos> frame_sent_ns;      // when each 20 ms frame was published
 
  private:
   const TempDir& dir_;

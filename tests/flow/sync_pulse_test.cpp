@@ -145,7 +145,9 @@ TEST_F(SyncPulse, APulseGoesAheadOfQueuedData) {
     if (f->kind() == Code::ev_sync_pulse) before = frames;
     if (f->kind() == Code::ev_data) ++frames;
   }
-  if (before < 0) ASSERT_TRUE(target.waitFor(Code::ev_sync_pulse, 1000)) << "no pulse at all";
+  if (before < 0) {
+    ASSERT_TRUE(target.waitFor(Code::ev_sync_pulse, 1000)) << "no pulse at all";
+  }
   EXPECT_GE(before, 0) << "the pulse came after every queued frame";
   RecordProperty("frames_before_pulse", before);
   EXPECT_LT(before, kFrames / 2) << "the pulse waited behind " << before << " of " << kFrames;

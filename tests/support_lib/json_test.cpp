@@ -49,10 +49,10 @@ TEST(SupportJson, StrictModeRejectsExtensionsAndTrailingText) {
 
 TEST(SupportJson, RawControlCharactersAreRefused) {
   // jsoncpp alone takes a NUL for the end of the text and copies raw controls into strings.
-  for (const std::string text : {std::string("{\"a\":1}\0garbage", 15), std::string("\"a\x01b\""),
-                                 std::string("[1,\x1f"
-                                             "2]"),
-                                 std::string("\"tab\there\"")}) {
+  for (const std::string& text : {std::string("{\"a\":1}\0garbage", 15), std::string("\"a\x01b\""),
+                                  std::string("[1,\x1f"
+                                              "2]"),
+                                  std::string("\"tab\there\"")}) {
     auto r = parseJson(text);
     ASSERT_FALSE(r.ok()) << text;
     EXPECT_EQ(r.error().code, Errc::parse_error);

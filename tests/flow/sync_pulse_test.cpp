@@ -168,7 +168,9 @@ TEST_F(SyncPulse, APulseWaitsForTheEndOfALargeFrameWrittenInSlices) {
   for (int i = 0; i < kFrames; ++i) {
     const std::string frame((1 << 20) + i, static_cast<char>('a' + i));
     ASSERT_TRUE(camera.send(msg::Publish{video, msg::Rest{frame}}));
-    if (i == 1) ASSERT_TRUE(camera.send(msg::SyncPulse{clock, 1}));
+    if (i == 1) {
+      ASSERT_TRUE(camera.send(msg::SyncPulse{clock, 1}));
+    }
   }
   int frames = 0, pulses = 0;
   while (frames < kFrames || pulses < 1) {

@@ -174,3 +174,19 @@ TEST(AgentRules, BadRulesNameTheFileThePathAndTheReason) {
 
 }  // namespace
 }  // namespace skr::agent
+
+namespace skr::agent {
+namespace {
+
+// Many slots over a long utterance would backtrack for ever: matching gives up, quickly.
+TEST(AgentPatterns, BacktrackingIsBounded) {
+  auto p = PhrasePattern::parse("{a} {b} {c} {d} {e} {f} {g} {h} zebra");
+  ASSERT_TRUE(p);
+  std::string text;
+  for (int i = 0; i < 60; ++i) text += "word ";
+  EXPECT_FALSE(p->match(wordsOf(text)));
+  EXPECT_TRUE(p->match(wordsOf("a b c d e f g h zebra")));
+}
+
+}  // namespace
+}  // namespace skr::agent

@@ -153,6 +153,9 @@ class Matcher {
   Matcher(const std::vector<std::string>& words, Slots& slots) : w_(words), slots_(slots) {}
 
   bool node(const Node& n, size_t pos, const Next& next) {
+    // Slots backtrack: a pattern of many slots over a long utterance could try a great many
+    // splits. Past this many steps the utterance does not match.
+    if (++steps_ > kMaxSteps) return false;
     switch (n.kind) {
       case Node::Kind::word:
         return pos < w_.size() && w_[pos] == n.text && next(pos + 1);
@@ -195,8 +198,10 @@ class Matcher {
     return false;
   }
 
+  static constexpr size_t kMaxSteps = 100'000;
   const std::vector<std::string>& w_;
   Slots& slots_;
+  size_t steps_ = 0;
 };
 
 std::optional<std::string> jsgfOf(const Node& n) {

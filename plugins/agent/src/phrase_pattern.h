@@ -6,7 +6,8 @@
 // Words match words (lower case; transcripts are lowered and stripped of punctuation);
 // (a | b c) is one of the alternatives, [x y] is optional (both nest); {name} is a slot of one to
 // eight words, {name:word} exactly one, {name:number} a number in digits or words ("twenty
-// five"). A pattern matches a whole utterance.
+// five"). A pattern matches a whole utterance; one that would take more than 100 000 matching
+// steps (many slots over a long utterance) does not match.
 #pragma once
 
 #include <map>

@@ -3,11 +3,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <deque>
 #include <map>
-#include <thread>
 
 #include "session.h"
 
@@ -45,7 +43,7 @@ std::string human(double bytes) {
   return buf;
 }
 
-// The hub's statistics of the last second, asked of hub.inspect (waiting out the first second).
+// The hub's statistics asked of hub.inspect (over the time since they were last taken).
 std::optional<Variant> fetchStats(const Cli& cli, int& code) {
   auto sync = connectSync(cli, code);
   if (!sync) return std::nullopt;
@@ -54,17 +52,16 @@ std::optional<Variant> fetchStats(const Cli& cli, int& code) {
     code = fail(kNotFound, "this hub has no hub.inspect service (a hub older than 0.2?)");
     return std::nullopt;
   }
-  for (int attempt = 0; attempt < 3; ++attempt) {
-    auto answer = sync->call(info->id, "stats", Variant(), 5000);
-    if (!answer) {
-      code = fail(exitFor(answer.error()), "hub.inspect: " + answer.error().message);
-      return std::nullopt;
-    }
-    if (at(*answer, "channels").isList()) return std::move(answer).value();
-    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // the hub's first second
+  auto answer = sync->call(info->id, "stats", Variant(), 5000);
+  if (!answer) {
+    code = fail(exitFor(answer.error()), "hub.inspect: " + answer.error().message);
+    return std::nullopt;
   }
-  code = fail(kFailed, "hub.inspect has no statistics yet");
-  return std::nullopt;
+  if (!at(*answer, "channels").isList()) {
+    code = fail(kFailed, "hub.inspect answered no statistics");
+    return std::nullopt;
+  }
+  return std::move(answer).value();
 }
 
 // One table of channels (sorted) and of the flows that are behind.
@@ -216,15 +213,6 @@ int cmdTop(const Cli& cli) {
   }
   double rows = 30;
   if (rows_text && !parseNumber(*rows_text, "--rows", rows)) return kUsage;
-  if (once) {
-    int code = kOk;
-    auto stats = fetchStats(cli, code);
-    if (!stats) return code;
-    const std::string out = cli.json ? skr::flow::variantToJsonText(*stats) + "\n"
-                                     : topTable(*stats, sort, static_cast<size_t>(rows));
-    std::fwrite(out.data(), 1, out.size(), stdout);
-    return kOk;
-  }
   const bool tty = ::isatty(1) == 1;
   Session s(cli, 100 * skr::kNsPerMs);
   s.satellite.data.connect(&s.satellite, [&](uint16_t id, const std::string& payload) {
@@ -233,10 +221,11 @@ int cmdTop(const Cli& cli) {
     if (cli.json) {
       std::printf("%s\n", payload.c_str());
     } else if (auto stats = skr::flow::variantFromJsonText(payload)) {
-      std::printf("%s%s\n", tty ? "\x1b[H\x1b[2J" : "",
+      std::printf("%s%s\n", tty && !once ? "\x1b[H\x1b[2J" : "",
                   topTable(*stats, sort, static_cast<size_t>(rows)).c_str());
     }
     std::fflush(stdout);
+    if (once) s.end(kOk, "");
   });
   s.satellite.subscribe("hub.stats");
   return s.run();
@@ -300,8 +289,8 @@ int cmdInfo(const Cli& cli) {
   std::printf("  subscribers  %zu\n", subscribers.size());
   for (const Variant& s : subscribers) std::printf("    %s\n", s.asString()->c_str());
   if (row != nullptr) {
-    std::printf("  rate         %.1f Hz, %s/s (last second)\n", num(*row, "hz"),
-                human(num(*row, "bytes_per_s")).c_str());
+    std::printf("  rate         %.1f Hz, %s/s (over the last %.1f s)\n", num(*row, "hz"),
+                human(num(*row, "bytes_per_s")).c_str(), num(*stats, "interval_s"));
     std::printf("  total        %.0f messages, %s, %.0f dropped\n", num(*row, "messages"),
                 human(num(*row, "bytes")).c_str(), num(*row, "dropped"));
     if (num(*row, "pending_requests") > 0) {

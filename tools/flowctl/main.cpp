@@ -101,8 +101,8 @@ std::string_view commandHelp(std::string_view command) {
     return R"(usage: flowctl top [--sort hz|bw|drops|name] [--rows N] [--once]
   The hub's channels by rate (or bandwidth, drops, name) with their subscribers, drops and owner,
   and the flows that drop or whose output queue is filling, refreshed each second from the
-  hub's statistics channel hub.stats. --once prints one table (the last second's, asked of
-  hub.inspect) and exits; with --json, the statistics themselves (docs/observability.md).
+  hub's statistics channel hub.stats. --once prints one second's table and exits; with --json,
+  the statistics themselves, one JSON line a second (docs/observability.md).
 )";
   }
   if (command == "hz" || command == "bw") {
@@ -114,8 +114,8 @@ std::string_view commandHelp(std::string_view command) {
   }
   if (command == "info") {
     return R"(usage: flowctl info CHANNEL
-  A channel's kind, mime type, owner, subscribers (their flows), last second's rate, totals
-  (messages, bytes, drops), pending requests and properties.
+  A channel's kind, mime type, owner, subscribers (their flows), rate (since the hub's figures
+  were last taken), totals (messages, bytes, drops), pending requests and properties.
 )";
   }
   if (command == "graph") {

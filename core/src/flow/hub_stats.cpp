@@ -145,9 +145,16 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
 
 HubStats::HubStats(Loop& loop, FlowServer& server) : loop_(loop), server_(server) {
   LocalHandlers h;
+  h.on_subscribers = [this](uint16_t chan, bool first) {
+    if (chan != stats_chan_) return;
+    watched_ = first;
+    if (first) last_ = server_.snapshot();  // the first second published counts from now
+  };
   h.on_request = [this](uint16_t chan, uint64_t request, const std::string& command,
                         const std::string& /*requester*/, const Variant& /*value*/) {
     if (command == "stats") {
+      // Nobody follows hub.stats: the figures since they were last taken.
+      if (!watched_) compute();
       (void)client_->respond(chan, request, current_);
     } else {
       (void)client_->respond(chan, request,
@@ -174,11 +181,18 @@ HubStats::~HubStats() {
   loop_.removeTickHandler(tick_);
 }
 
-void HubStats::everySecond() {
+void HubStats::compute() {
   HubSnapshot now = server_.snapshot();
   current_ = statsBetween(last_, now, server_.hubName());
   last_ = std::move(now);
-  if (stats_chan_ != 0) (void)client_->publish(stats_chan_, variantToJsonText(current_));
+}
+
+// Only while someone follows hub.stats: a hub with thousands of channels and nobody looking
+// spends nothing on them.
+void HubStats::everySecond() {
+  if (!watched_) return;
+  compute();
+  (void)client_->publish(stats_chan_, variantToJsonText(current_));
 }
 
 }  // namespace skr::flow

@@ -1,8 +1,8 @@
-// The hub's statistics as data (docs/observability.md): once a second, per channel its messages,
-// bytes and drops per second and its subscribers, per flow its traffic, output queue and pending
-// requests, published as JSON on the streaming channel `hub.stats` and answered on request by the
-// service `hub.inspect` (command "stats"). Every satellite, page and tool (flowctl top, hz, info,
-// graph) reads the same figures. Main loop thread only.
+// The hub's statistics as data (docs/observability.md): once a second while someone listens, per
+// channel its messages, bytes and drops per second and its subscribers, per flow its traffic,
+// output queue and pending requests, published as JSON on the streaming channel `hub.stats` and
+// answered on request by the service `hub.inspect` (command "stats"). Every satellite, page and
+// tool (flowctl top, hz, info, graph) reads the same figures. Main loop thread only.
 #pragma once
 
 #include <skrobot/core/clock.h>
@@ -64,10 +64,13 @@ class HubStats {
   HubStats(HubStats&&) = delete;
   HubStats& operator=(HubStats&&) = delete;
 
-  // The last second's statistics (empty map before the first second has passed).
+  // The statistics last computed (an empty map before any): each second while hub.stats has a
+  // subscriber, and at each hub.inspect request while it has none (then over the time since the
+  // previous request).
   [[nodiscard]] const Variant& current() const noexcept { return current_; }
 
  private:
+  void compute();
   void everySecond();
 
   Loop& loop_;
@@ -76,6 +79,7 @@ class HubStats {
   uint16_t stats_chan_ = 0, inspect_chan_ = 0;
   HubSnapshot last_;
   Variant current_ = Variant::Map{};
+  bool watched_ = false;  // hub.stats has a subscriber
   TickId tick_{};
 };
 

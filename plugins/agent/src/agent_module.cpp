@@ -242,7 +242,7 @@ class Agent final : public skr::plugin::Module {
                             host_.log.warn("AGENT-RECOGNISER", instance,
                                            " refused the grammar: ", answer);
                         });
-    if (speaking_) requester_->request(instance + ".control", "pause", "{}");
+    if (speaking_ && !barge_in_) requester_->request(instance + ".control", "pause", "{}");
   }
 
   void toRecognisers(const char* command) {

@@ -96,6 +96,13 @@ class AudioRing {
   std::deque<Frame> frames_;
 };
 
+// A service's answer that says it worked: delivered, and not an object with "error".
+bool answered(bool ok, const std::string& answer) {
+  if (!ok) return false;
+  auto v = skr::support::parseJson(answer, kMessageLimits);
+  return !v || !v->isObject() || !v->isMember("error");
+}
+
 std::string numberText(double v) {
   std::ostringstream out;
   out << v;
@@ -314,7 +321,7 @@ class Agent final : public skr::plugin::Module {
       ++requeued_;
       requester_->request(to + ".control", "recognise", writeJson(v),
                           [this, to](bool ok, const std::string& answer) {
-                            if (ok && answer.find("\"error\"") == std::string::npos) return;
+                            if (answered(ok, answer)) return;
                             ++requeue_failures_;
                             host_.log.warn("AGENT-REQUEUE", to, " refused: ", answer);
                           });
@@ -436,7 +443,7 @@ class Agent final : public skr::plugin::Module {
     const bool sent =
         requester_->request(channel, command, writeJson(value),
                             [this, channel, command](bool ok, const std::string& answer) {
-                              if (ok && answer.find("\"error\"") == std::string::npos) return;
+                              if (answered(ok, answer)) return;
                               ++action_failures_;
                               host_.log.warn("AGENT-ACTION", channel, " ", command, ": ", answer);
                             });

@@ -45,18 +45,33 @@ std::vector<Json::Value> answers(const AsrHarness& h) {
   return out;
 }
 
+// A hub with `modules`, skrobot-asr "asr1" (the harness's) and "asr2", both in the agent's grammar,
+// and the harness's satellite following agent.dialogue.
+struct TwoRecognisers {
+  TwoRecognisers(const TempDir& dir, const char* modules)
+      : h(dir, {}, "asr1", micProps(), modules),
+        asr2({ASR_BIN, "--input", "guest.mic", "--name", "asr2", "--address", h.address()}, {},
+             dir.path() / "asr2.log") {
+    if (!h.ready()) return;
+    h.satellite().subscribe("agent.dialogue");
+    // Both took the agent's grammar (handed over when each appeared).
+    ready = h.loop().runUntil(
+        [&] { return modeOf(h, "asr1") == "grammar" && modeOf(h, "asr2") == "grammar"; },
+        30 * kNsPerSec);
+  }
+  [[nodiscard]] std::string logs() const { return h.hubLog() + h.asrLog() + asr2.output(); }
+
+  AsrHarness h;
+  Child asr2;
+  bool ready = false;
+};
+
 TEST(AsrAgent, TwoRecognisersHearTheAgentsGrammarAndItAnswersEachUtteranceOnce) {
   TempDir dir;
-  AsrHarness h(dir, {}, "asr1", micProps(), kModules);
-  ASSERT_TRUE(h.ready()) << h.hubLog() << h.asrLog();
-  Child asr2({ASR_BIN, "--input", "guest.mic", "--name", "asr2", "--address", h.address()}, {},
-             dir.path() / "asr2.log");
-  h.satellite().subscribe("agent.dialogue");
-  // Both recognisers took the agent's grammar (handed over when each appeared).
-  ASSERT_TRUE(h.loop().runUntil(
-      [&] { return modeOf(h, "asr1") == "grammar" && modeOf(h, "asr2") == "grammar"; },
-      30 * kNsPerSec))
-      << h.hubLog() << h.asrLog() << asr2.output();
+  TwoRecognisers t(dir, kModules);
+  ASSERT_TRUE(t.ready) << t.logs();
+  AsrHarness& h = t.h;
+  Child& asr2 = t.asr2;
 
   const auto say = [&](const std::string& text) {
     std::vector<Clip> clips{{text, speak(dir.path(), text, "en-us", 150, 22050)}};
@@ -90,15 +105,10 @@ TEST(AsrAgent, TwoRecognisersHearTheAgentsGrammarAndItAnswersEachUtteranceOnce) 
 
 TEST(AsrAgent, AnUtteranceWhoseRecogniserDiesIsRecognisedByAnother) {
   TempDir dir;
-  AsrHarness h(dir, {}, "asr1", micProps(), kModulesWithMic);
-  ASSERT_TRUE(h.ready()) << h.hubLog() << h.asrLog();
-  Child asr2({ASR_BIN, "--input", "guest.mic", "--name", "asr2", "--address", h.address()}, {},
-             dir.path() / "asr2.log");
-  h.satellite().subscribe("agent.dialogue");
-  ASSERT_TRUE(h.loop().runUntil(
-      [&] { return modeOf(h, "asr1") == "grammar" && modeOf(h, "asr2") == "grammar"; },
-      30 * kNsPerSec))
-      << h.hubLog() << h.asrLog() << asr2.output();
+  TwoRecognisers t(dir, kModulesWithMic);
+  ASSERT_TRUE(t.ready) << t.logs();
+  AsrHarness& h = t.h;
+  Child& asr2 = t.asr2;
   // asr2 does not hear this utterance; asr1 starts on it and dies.
   ASSERT_EQ(request(h, "guest.asr2.control", "pause").find("paused")->asBool(), true);
   std::vector<Clip> clips{{"how are you", speak(dir.path(), "how are you", "en-us", 150, 22050)}};

@@ -50,6 +50,8 @@ PACKAGES=(
   libwebsockets-dev chromium
   # nats-bridge (the C client) and its tests and benchmark (a real server on loopback)
   libnats-dev nats-server
+  # flowctl record/play (MCAP chunks compressed with zstd or lz4)
+  libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)
   dpkg-dev iproute2 curl systemd
 )
@@ -87,7 +89,7 @@ build_preset() {
   cmake --build --preset "$preset" -j "$JOBS"
 }
 
-step "installing the web page's npm packages (three.js, playwright-core, ws) into web/node_modules"
+step "installing the web page's npm packages (three.js, playwright-core, ws, and the MCAP and Foxglove reference implementations) into web/node_modules"
 if [ ! -f web/node_modules/.package-lock.json ] || [ web/package-lock.json -nt web/node_modules/.package-lock.json ]; then
   npm ci --prefix web --no-audit --no-fund --loglevel=error
 else

@@ -8,12 +8,12 @@
 #include "source_owner.h"
 #include "visemes.h"
 #include "web_root.h"
-#include "ws_server.h"
 
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
+#include <skrobot/web/ws_server.h>
 
 #include <algorithm>
 #include <atomic>

@@ -1,4 +1,4 @@
-#include "ws_server.h"
+#include <skrobot/web/ws_server.h>
 
 #include <libwebsockets.h>
 
@@ -39,15 +39,25 @@ struct Posted {  // from other threads to the service thread
   std::string reason;
 };
 
-// libwebsockets logs through one process-wide function; route it to the running server.
+// libwebsockets logs through one process-wide function; route it to the server started first of
+// those running (websocket-ui and foxglove-bridge may both run in one hub).
+struct LogSink {
+  const void* owner;
+  std::string tag;
+  std::function<void(int, const std::string&)> fn;
+};
 std::mutex g_log_mutex;
-std::function<void(int, const std::string&)> g_log;
+std::vector<LogSink> g_logs;
 
 void lwsLog(int level, const char* line) {
   std::string text(line);
   while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
   std::lock_guard lock(g_log_mutex);
-  if (g_log) g_log(level == LLL_ERR ? 3 : level == LLL_WARN ? 2 : 0, "WSUI-LWS " + text);
+  if (g_logs.empty() || !g_logs.front().fn) return;
+  g_logs.front().fn(level == LLL_ERR    ? 3
+                    : level == LLL_WARN ? 2
+                                        : 0,
+                    g_logs.front().tag + "-LWS " + text);
 }
 
 std::string header(lws* wsi, lws_token_indexes token) {
@@ -176,8 +186,8 @@ struct WsServer::Impl {
     if (c.rx.size() + len + announced > opts.max_message_bytes) {
       refuse(c, LWS_CLOSE_STATUS_MESSAGE_TOO_LARGE,
              "message over " + std::to_string(opts.max_message_bytes) + " bytes");
-      log(2, "WSUI-REFUSED browser " + std::to_string(id) + ": message over " +
-                 std::to_string(opts.max_message_bytes) + " bytes");
+      log(2, opts.log_tag + "-REFUSED " + opts.peer_noun + " " + std::to_string(id) +
+                 ": message over " + std::to_string(opts.max_message_bytes) + " bytes");
       return 0;
     }
     c.rx.append(in, len);
@@ -188,7 +198,8 @@ struct WsServer::Impl {
     std::optional<std::string> error;
     if (events.message) error = events.message(id, c.rx_binary, std::move(message), code);
     if (error) {
-      log(2, "WSUI-REFUSED browser " + std::to_string(id) + ": " + *error);
+      log(2,
+          opts.log_tag + "-REFUSED " + opts.peer_noun + " " + std::to_string(id) + ": " + *error);
       refuse(c, code, *error);
     }
     return 0;
@@ -224,7 +235,7 @@ struct WsServer::Impl {
     if (uri != opts.ws_path) return "WebSocket on path '" + uri + "' (only " + opts.ws_path + ")";
     const std::string origin = header(wsi, WSI_TOKEN_ORIGIN);
     const std::string host = header(wsi, WSI_TOKEN_HOST);
-    if (!origin.empty() && originHost(origin) != host) {
+    if (opts.same_origin_only && !origin.empty() && originHost(origin) != host) {
       return "WebSocket from origin '" + origin + "', not a page of this server (" + host + ")";
     }
     return std::nullopt;
@@ -241,7 +252,7 @@ int wsCallback(lws* wsi, lws_callback_reasons reason, void* user, void* in, std:
     case LWS_CALLBACK_FILTER_PROTOCOL_CONNECTION:
       if (auto why = impl->filter(wsi)) {
         impl->countHandshakeRefused();
-        impl->log(2, "WSUI-REFUSED connection: " + *why);
+        impl->log(2, impl->opts.log_tag + "-REFUSED connection: " + *why);
         return 1;
       }
       return 0;
@@ -289,11 +300,16 @@ int httpCallback(lws* wsi, lws_callback_reasons reason, void* user, void* in, st
   if (reason == LWS_CALLBACK_FILTER_PROTOCOL_CONNECTION) {
     auto* impl = static_cast<WsServer::Impl*>(lws_context_user(lws_get_context(wsi)));
     impl->countHandshakeRefused();
-    impl->log(
-        2, "WSUI-REFUSED connection: WebSocket without the subprotocol " + impl->opts.subprotocol);
+    impl->log(2, impl->opts.log_tag + "-REFUSED connection: WebSocket without the subprotocol " +
+                     impl->opts.subprotocol);
     return 1;
   }
   return lws_callback_http_dummy(wsi, reason, user, in, len);
+}
+
+void dropLogSink(const void* owner) {
+  std::lock_guard lock(g_log_mutex);
+  std::erase_if(g_logs, [owner](const LogSink& s) { return s.owner == owner; });
 }
 
 }  // namespace
@@ -308,8 +324,8 @@ std::optional<std::string> WsServer::start(WsServerOptions options, WsServerEven
   m.opts = std::move(options);
   m.events = std::move(events);
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(std::filesystem::path(m.opts.web_root) / "index.html",
-                                        ec)) {
+  if (m.opts.serve_files && !std::filesystem::is_regular_file(
+                                std::filesystem::path(m.opts.web_root) / "index.html", ec)) {
     return "web_root '" + m.opts.web_root + "' has no index.html";
   }
   const bool tls = !m.opts.tls_cert.empty() || !m.opts.tls_key.empty();
@@ -318,7 +334,7 @@ std::optional<std::string> WsServer::start(WsServerOptions options, WsServerEven
   }
   {
     std::lock_guard lock(g_log_mutex);
-    g_log = m.events.log;
+    g_logs.push_back(LogSink{&m, m.opts.log_tag, m.events.log});
   }
   lws_set_log_level(LLL_ERR | LLL_WARN, lwsLog);
 
@@ -361,7 +377,7 @@ std::optional<std::string> WsServer::start(WsServerOptions options, WsServerEven
   info.port = m.opts.port;
   info.iface = m.opts.address.c_str();
   info.protocols = m.protocols;
-  info.mounts = &m.mount;
+  info.mounts = m.opts.serve_files ? &m.mount : nullptr;
   info.headers = m.headers.data();
   info.user = &m;
   info.gid = static_cast<gid_t>(-1);
@@ -374,6 +390,7 @@ std::optional<std::string> WsServer::start(WsServerOptions options, WsServerEven
   }
   m.context = lws_create_context(&info);
   if (m.context == nullptr) {
+    dropLogSink(&m);
     return "cannot listen on " + m.opts.address + ":" + std::to_string(m.opts.port) +
            (tls ? " with TLS (check the certificate and key)" : " (address in use?)");
   }
@@ -397,8 +414,7 @@ void WsServer::stop() noexcept {
   lws_context_destroy(m.context);  // closes the browsers' connections (CLOSED callbacks)
   m.context = nullptr;
   m.conns.clear();
-  std::lock_guard lock(g_log_mutex);
-  g_log = nullptr;
+  dropLogSink(&m);
 }
 
 void WsServer::send(std::uint64_t conn, bool binary, std::string data, bool droppable) {

@@ -1,4 +1,5 @@
-// The HTTP + WebSocket server of websocket-ui: libwebsockets on a thread of its own.
+// The HTTP + WebSocket server of the web modules (websocket-ui, foxglove-bridge): libwebsockets
+// on a thread of its own. A static library (skrobot_ws_server) linked into each module.
 //
 // Threads: start() and stop() on the owner's thread; send() and close() from any thread (they
 // queue and wake the server thread with lws_cancel_service); the Events callbacks run on the
@@ -18,13 +19,19 @@ namespace skr::wsui {
 struct WsServerOptions {
   std::string address = "127.0.0.1";  // the interface address to listen on
   int port = 8080;
-  std::string web_root;  // directory served over HTTP ("/" -> index.html)
-  std::string tls_cert;  // PEM files; both set = HTTPS and WSS only
+  bool serve_files = true;  // false: no HTTP files (web_root unused), only the WebSocket
+  std::string web_root;     // directory served over HTTP ("/" -> index.html)
+  std::string tls_cert;     // PEM files; both set = HTTPS and WSS only
   std::string tls_key;
   std::string ws_path = "/ws";                    // the one WebSocket endpoint
   std::string subprotocol = "skrobot-avatar.v1";  // browsers must ask for it
-  std::size_t max_message_bytes = 1u << 20;       // one browser message, reassembled
-  std::size_t max_queued_bytes = 8u << 20;        // per browser; oldest dropped beyond
+  // true: a client that sends an Origin must come from a page of this server; false: any origin
+  // (apps served elsewhere, e.g. Foxglove's web app)
+  bool same_origin_only = true;
+  std::string log_tag = "WSUI";              // log tags are <log_tag>-REFUSED and <log_tag>-LWS
+  std::string peer_noun = "browser";         // in log lines: "<log_tag>-REFUSED browser 3: ..."
+  std::size_t max_message_bytes = 1u << 20;  // one browser message, reassembled
+  std::size_t max_queued_bytes = 8u << 20;   // per browser; oldest dropped beyond
   std::string content_security_policy =
       "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
       "connect-src 'self'; media-src 'self' blob:; worker-src 'self'; object-src 'none'; "
@@ -39,7 +46,8 @@ struct WsServerEvents {
                                            int& close_code)>
       message;
   std::function<void(std::uint64_t conn, const std::string& why)> closed;
-  // A log line "<TAG> <text>" (WSUI-REFUSED, WSUI-LWS for libwebsockets' own); 0 debug .. 3 error.
+  // A log line "<TAG> <text>" (<log_tag>-REFUSED, <log_tag>-LWS for libwebsockets' own, which
+  // goes to the server started first when several run); 0 debug .. 3 error.
   std::function<void(int level, const std::string& line)> log;
 };
 

@@ -1,0 +1,229 @@
+#include "foxglove_convert.h"
+
+#include <skrobot/media_frame.hpp>
+#include <skrobot/support/json.hpp>
+
+namespace skr::foxglove {
+namespace {
+
+using skr::support::writeJson;
+
+// Detections are small objects; anything deeper or larger is not one.
+constexpr skr::support::JsonLimits kDetectionLimits{16, 4u << 20};
+
+// The foxglove.* schemas, written for the fields this bridge fills (the field names and
+// required lists of @foxglove/schemas 2.1.0; tests/foxglove checks them against it).
+constexpr const char* kTimeSchema =
+    R"({"type":"object","properties":{"sec":{"type":"integer","minimum":0},)"
+    R"("nsec":{"type":"integer","minimum":0,"maximum":999999999}}})";
+constexpr const char* kColorSchema =
+    R"({"type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},)"
+    R"("b":{"type":"number"},"a":{"type":"number"}}})";
+constexpr const char* kPoint2Schema =
+    R"({"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"}}})";
+
+std::string compressedImageSchema() {
+  return std::string(R"({"title":"foxglove.CompressedImage","type":"object","properties":{)") +
+         R"("timestamp":)" + kTimeSchema + R"(,"frame_id":{"type":"string"},)" +
+         R"("data":{"type":"string","contentEncoding":"base64"},"format":{"type":"string"}},)" +
+         R"("required":["timestamp","frame_id","data","format"]})";
+}
+
+std::string imageAnnotationsSchema() {
+  const std::string color = kColorSchema;
+  const std::string point = kPoint2Schema;
+  const std::string time = kTimeSchema;
+  const std::string circle =
+      R"({"type":"object","properties":{"timestamp":)" + time + R"(,"position":)" + point +
+      R"(,"diameter":{"type":"number"},"thickness":{"type":"number"},"fill_color":)" + color +
+      R"(,"outline_color":)" + color +
+      R"(},"required":["timestamp","position","diameter","thickness","fill_color",)"
+      R"("outline_color"]})";
+  const std::string points =
+      R"({"type":"object","properties":{"timestamp":)" + time +
+      R"(,"type":{"type":"integer","enum":[0,1,2,3,4]},"points":{"type":"array","items":)" + point +
+      R"(},"outline_color":)" + color + R"(,"outline_colors":{"type":"array","items":)" + color +
+      R"(},"fill_color":)" + color +
+      R"(,"thickness":{"type":"number"}},"required":["timestamp","type","points",)"
+      R"("outline_color","outline_colors","fill_color","thickness"]})";
+  const std::string text =
+      R"({"type":"object","properties":{"timestamp":)" + time + R"(,"position":)" + point +
+      R"(,"text":{"type":"string"},"font_size":{"type":"number"},"text_color":)" + color +
+      R"(,"background_color":)" + color +
+      R"(},"required":["timestamp","position","text","font_size","text_color",)"
+      R"("background_color"]})";
+  return R"({"title":"foxglove.ImageAnnotations","type":"object","properties":{"circles":)"
+         R"({"type":"array","items":)" +
+         circle + R"(},"points":{"type":"array","items":)" + points +
+         R"(},"texts":{"type":"array","items":)" + text +
+         R"(}},"required":["circles","points","texts"]})";
+}
+
+Json::Value timeOf(std::int64_t ns) {
+  Json::Value t(Json::objectValue);
+  if (ns < 0) ns = 0;
+  t["sec"] = static_cast<Json::UInt64>(ns / 1000000000);
+  t["nsec"] = static_cast<Json::UInt64>(ns % 1000000000);
+  return t;
+}
+
+Json::Value color(double r, double g, double b, double a) {
+  Json::Value c(Json::objectValue);
+  c["r"] = r;
+  c["g"] = g;
+  c["b"] = b;
+  c["a"] = a;
+  return c;
+}
+
+Json::Value point(double x, double y) {
+  Json::Value p(Json::objectValue);
+  p["x"] = x;
+  p["y"] = y;
+  return p;
+}
+
+}  // namespace
+
+std::string base64(std::string_view bytes) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 3 <= bytes.size(); i += 3) {
+    const std::uint32_t v = static_cast<unsigned char>(bytes[i]) << 16 |
+                            static_cast<unsigned char>(bytes[i + 1]) << 8 |
+                            static_cast<unsigned char>(bytes[i + 2]);
+    out.push_back(kAlphabet[v >> 18 & 63]);
+    out.push_back(kAlphabet[v >> 12 & 63]);
+    out.push_back(kAlphabet[v >> 6 & 63]);
+    out.push_back(kAlphabet[v & 63]);
+  }
+  if (const std::size_t rest = bytes.size() - i; rest > 0) {
+    std::uint32_t v = static_cast<unsigned char>(bytes[i]) << 16;
+    if (rest == 2) v |= static_cast<unsigned char>(bytes[i + 1]) << 8;
+    out.push_back(kAlphabet[v >> 18 & 63]);
+    out.push_back(kAlphabet[v >> 12 & 63]);
+    out.push_back(rest == 2 ? kAlphabet[v >> 6 & 63] : '=');
+    out.push_back('=');
+  }
+  return out;
+}
+
+std::string schemaName(Shape shape, const std::string& mime) {
+  switch (shape) {
+    case Shape::image:
+      return "foxglove.CompressedImage";
+    case Shape::annotations:
+      return "foxglove.ImageAnnotations";
+    case Shape::joints:
+      return "skrobot.JointPositions";
+    case Shape::json:
+      break;
+  }
+  return mime;
+}
+
+std::string schemaText(Shape shape) {
+  switch (shape) {
+    case Shape::image:
+      return compressedImageSchema();
+    case Shape::annotations:
+      return imageAnnotationsSchema();
+    case Shape::joints:
+      return R"({"type":"object","properties":{"angles":{"type":"array","items":)"
+             R"({"type":"number"}},"positions":{"type":"object",)"
+             R"("additionalProperties":{"type":"number"}}}})";
+    case Shape::json:
+      break;
+  }
+  return R"({"type":"object"})";
+}
+
+std::optional<Converted> compressedImage(std::string_view message, const std::string& frame_id) {
+  auto frame = skr::media::parseFrame(message);
+  if (!frame || frame->header.format != skr::media::Format::jpeg) return std::nullopt;
+  Json::Value m(Json::objectValue);
+  m["timestamp"] = timeOf(frame->header.capture_ns);
+  m["frame_id"] = frame_id;
+  m["data"] = base64(frame->payload);
+  m["format"] = "jpeg";
+  return Converted{writeJson(m),
+                   static_cast<std::uint64_t>(std::max<std::int64_t>(frame->header.capture_ns, 0))};
+}
+
+std::optional<Converted> imageAnnotations(std::string_view message) {
+  auto parsed = skr::support::parseJsonObject(message, kDetectionLimits);
+  if (!parsed) return std::nullopt;
+  const Json::Value& in = *parsed;
+  const bool faces = in["faces"].isArray();
+  const Json::Value& boxes = faces ? in["faces"] : in["regions"];
+  if (!boxes.isArray()) return std::nullopt;
+  const std::int64_t ns = in["capture_ns"].isIntegral() ? in["capture_ns"].asInt64() : 0;
+  const Json::Value time = timeOf(ns);
+  const Json::Value outline = faces ? color(0.2, 0.9, 0.3, 1.0) : color(1.0, 0.6, 0.1, 1.0);
+  Json::Value out(Json::objectValue);
+  out["circles"] = Json::Value(Json::arrayValue);
+  out["points"] = Json::Value(Json::arrayValue);
+  out["texts"] = Json::Value(Json::arrayValue);
+  for (const Json::Value& b : boxes) {
+    if (!b.isObject() || !b["x"].isNumeric() || !b["y"].isNumeric() || !b["w"].isNumeric() ||
+        !b["h"].isNumeric()) {
+      continue;
+    }
+    const double x = b["x"].asDouble(), y = b["y"].asDouble();
+    const double w = b["w"].asDouble(), h = b["h"].asDouble();
+    Json::Value loop(Json::objectValue);
+    loop["timestamp"] = time;
+    loop["type"] = 2;  // LINE_LOOP
+    loop["points"].append(point(x, y));
+    loop["points"].append(point(x + w, y));
+    loop["points"].append(point(x + w, y + h));
+    loop["points"].append(point(x, y + h));
+    loop["outline_color"] = outline;
+    loop["outline_colors"] = Json::Value(Json::arrayValue);
+    loop["fill_color"] = color(0, 0, 0, 0);
+    loop["thickness"] = 2.0;
+    out["points"].append(std::move(loop));
+    if (b["score"].isNumeric()) {
+      Json::Value t(Json::objectValue);
+      t["timestamp"] = time;
+      t["position"] = point(x, y);
+      char score[32];
+      std::snprintf(score, sizeof score, "%.2f", b["score"].asDouble());
+      t["text"] = score;
+      t["font_size"] = 12.0;
+      t["text_color"] = color(1, 1, 1, 1);
+      t["background_color"] = color(0, 0, 0, 0.6);
+      out["texts"].append(std::move(t));
+    }
+  }
+  if (!faces && in["center"].isObject() && in["center"]["x"].isNumeric() &&
+      in["center"]["y"].isNumeric()) {
+    Json::Value c(Json::objectValue);
+    c["timestamp"] = time;
+    c["position"] = point(in["center"]["x"].asDouble(), in["center"]["y"].asDouble());
+    c["diameter"] = 8.0;
+    c["thickness"] = 2.0;
+    c["fill_color"] = outline;
+    c["outline_color"] = outline;
+    out["circles"].append(std::move(c));
+  }
+  return Converted{writeJson(out), static_cast<std::uint64_t>(std::max<std::int64_t>(ns, 0))};
+}
+
+std::optional<Converted> jointPositions(std::string_view message,
+                                        const std::vector<std::string>& names) {
+  auto parsed = skr::support::parseJsonObject(message, kDetectionLimits);
+  if (!parsed || !(*parsed)["angles"].isArray()) return std::nullopt;
+  Json::Value out = *parsed;
+  Json::Value& positions = out["positions"] = Json::Value(Json::objectValue);
+  const Json::Value& angles = (*parsed)["angles"];
+  for (Json::ArrayIndex i = 0; i < angles.size() && i < names.size(); ++i) {
+    if (angles[i].isNumeric()) positions[names[i]] = angles[i].asDouble();
+  }
+  return Converted{writeJson(out), 0};
+}
+
+}  // namespace skr::foxglove

@@ -1,0 +1,276 @@
+// foxglove-bridge in a real hub, against the reference client @foxglove/ws-protocol 0.8.0 and the
+// schemas of @foxglove/schemas 2.1.0 (web/node_modules): serverInfo, advertised channels and
+// their schemas, data while subscribed (and none after), a service call, parameters backed by
+// databases (a refused set too), the connection graph, and a malformed client closed alone.
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { readFileSync, writeFileSync, mkdtempSync } from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { after, before, test } from 'node:test';
+
+import { env, freePort, sleep, startHub, waitFor, webRequire } from '../web/harness.mjs';
+
+const WebSocket = webRequire('ws');
+const { FoxgloveClient } = webRequire('@foxglove/ws-protocol');
+const schemas = webRequire('@foxglove/schemas/jsonschema');
+
+let hub;
+let port;
+const publishers = [];
+
+function mediaFrame(seq, jpeg) {
+  const h = Buffer.alloc(32);
+  h.write('SKMF', 0, 'latin1');
+  h.writeUInt16LE(32, 4);
+  h.writeUInt8(1, 6);
+  h.writeBigUInt64LE(BigInt(seq), 8);
+  h.writeBigInt64LE(1700000000123456789n, 16);
+  h.writeUInt16LE(128, 24);
+  h.writeUInt16LE(128, 26);
+  return Buffer.concat([h, jpeg]);
+}
+
+// `flowctl pub` at 20 Hz until the test ends.
+function publish(channel, args) {
+  const p = spawn(env.flowctl, ['--address', hub.address, 'pub', channel, ...args, '--rate', '20',
+    '--wait-ms', '0'], { stdio: 'ignore' });
+  publishers.push(p);
+  return p;
+}
+
+// A connected reference client with everything it was told.
+async function connect() {
+  const ws = new WebSocket(`ws://127.0.0.1:${port}/`, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
+  const client = new FoxgloveClient({ ws });
+  const seen = { channels: new Map(), services: new Map(), messages: [], status: [], params: [],
+    graph: [], responses: [], failures: [], closed: null };
+  client.on('serverInfo', (i) => { seen.info = i; });
+  client.on('advertise', (cs) => cs.forEach((c) => seen.channels.set(c.topic, c)));
+  client.on('unadvertise', (ids) => {
+    for (const [t, c] of seen.channels) if (ids.includes(c.id)) seen.channels.delete(t);
+  });
+  client.on('advertiseServices', (ss) => ss.forEach((s) => seen.services.set(s.name, s)));
+  client.on('message', (m) => seen.messages.push(m));
+  client.on('status', (s) => seen.status.push(s));
+  client.on('parameterValues', (p) => seen.params.push(p));
+  client.on('connectionGraphUpdate', (g) => seen.graph.push(g));
+  client.on('serviceCallResponse', (r) => seen.responses.push(r));
+  client.on('serviceCallFailure', (f) => seen.failures.push(f));
+  client.on('close', (e) => { seen.closed = e; });
+  client.on('error', () => {});
+  await waitFor('serverInfo', () => seen.info, 10000);
+  return { client, seen, ws };
+}
+
+const decode = (m) => JSON.parse(Buffer.from(m.data.buffer, m.data.byteOffset, m.data.byteLength).toString());
+
+// Enough of JSON schema for the foxglove schemas: type, properties, required, items, bounds.
+function validate(schema, value, where = '$') {
+  const errors = [];
+  const t = schema.type;
+  const typeOk = {
+    object: () => value !== null && typeof value === 'object' && !Array.isArray(value),
+    array: () => Array.isArray(value),
+    string: () => typeof value === 'string',
+    number: () => typeof value === 'number',
+    integer: () => Number.isInteger(value),
+    boolean: () => typeof value === 'boolean',
+  };
+  if (t && !(Array.isArray(t) ? t : [t]).some((x) => typeOk[x]?.())) {
+    return [`${where}: not ${t}`];
+  }
+  if (schema.enum && !schema.enum.includes(value)) errors.push(`${where}: not in enum`);
+  if (schema.minimum !== undefined && value < schema.minimum) errors.push(`${where}: < minimum`);
+  if (schema.maximum !== undefined && value > schema.maximum) errors.push(`${where}: > maximum`);
+  if (t === 'object') {
+    for (const r of schema.required ?? []) if (!(r in value)) errors.push(`${where}.${r}: missing`);
+    for (const [k, s] of Object.entries(schema.properties ?? {})) {
+      if (k in value) errors.push(...validate(s, value[k], `${where}.${k}`));
+    }
+  }
+  if (t === 'array' && schema.items) value.forEach((v, i) => errors.push(...validate(schema.items, v, `${where}[${i}]`)));
+  return errors;
+}
+
+before(async () => {
+  port = await freePort();
+  hub = await startHub([{ name: 'foxglove-bridge', config: {
+    port, annotations: ['guest.faces'], parameters: ['foxglove-bridge', 'guest'],
+    writable: ['foxglove-bridge'], max_message_bytes: 4096 } }]);
+  const jpeg = readFileSync('/usr/share/doc/opencv-doc/examples/data/HappyFish.jpg');
+  const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-fg-'));
+  writeFileSync(path.join(dir, 'frame'), mediaFrame(1, jpeg));
+  publish('guest.numbers', ['{"n":1,"x":0.5}', '--mime', 'application/json']);
+  publish('guest.camera', ['--file', path.join(dir, 'frame'), '--mime', 'image/jpeg']);
+  publish('guest.faces', ['{"capture_ns":1700000000123456789,"width":128,"height":128,'
+    + '"faces":[{"x":10,"y":20,"w":30,"h":40,"score":0.9}]}', '--mime', 'application/json']);
+  await waitFor('the publishers\' channels', async () => {
+    const ls = await hub.flowctl('ls');
+    return ['guest.numbers', 'guest.camera', 'guest.faces'].every((c) => ls.includes(c));
+  });
+});
+
+after(async () => {
+  for (const p of publishers) p.kill('SIGINT');
+  if (hub) await hub.stop();
+});
+
+test('serverInfo names the capabilities; channels and services are advertised', async () => {
+  const { client, seen } = await connect();
+  assert.equal(seen.info.name, 'skrobot');
+  for (const cap of ['parameters', 'parametersSubscribe', 'services', 'connectionGraph']) {
+    assert.ok(seen.info.capabilities.includes(cap), cap);
+  }
+  await waitFor('advertised channels', () => ['guest.numbers', 'guest.camera', 'guest.faces']
+    .every((t) => seen.channels.has(t)), 10000);
+  const num = seen.channels.get('guest.numbers');
+  assert.equal(num.encoding, 'json');
+  assert.equal(num.schemaEncoding, 'jsonschema');
+  assert.equal(JSON.parse(num.schema).type, 'object');
+  const cam = seen.channels.get('guest.camera');
+  assert.equal(cam.schemaName, 'foxglove.CompressedImage');
+  const faces = seen.channels.get('guest.faces');
+  assert.equal(faces.schemaName, 'foxglove.ImageAnnotations');
+  // The advertised schemas have the reference schemas' required fields.
+  assert.deepEqual(JSON.parse(cam.schema).required, schemas.CompressedImage.required);
+  assert.deepEqual(JSON.parse(faces.schema).required, schemas.ImageAnnotations.required);
+  assert.ok(seen.services.has('hub.inspect'));
+  assert.ok(seen.services.get('hub.inspect').request.schema);
+  client.close();
+});
+
+test('data flows while subscribed, in the reference schemas, and stops after unsubscribe', async () => {
+  const { client, seen } = await connect();
+  await waitFor('channels', () => seen.channels.has('guest.camera') && seen.channels.has('guest.faces'));
+  const subscribers = async (name) => JSON.parse(await hub.flowctl('--json', 'ls'))
+    .find((c) => c.name === name)?.subscribers;
+  assert.equal(await subscribers('guest.numbers'), 0, 'no client: the bridge does not subscribe');
+  const sNum = client.subscribe(seen.channels.get('guest.numbers').id);
+  const sCam = client.subscribe(seen.channels.get('guest.camera').id);
+  const sFaces = client.subscribe(seen.channels.get('guest.faces').id);
+  await waitFor('messages on all three', () => [sNum, sCam, sFaces]
+    .every((s) => seen.messages.some((m) => m.subscriptionId === s)), 10000);
+  assert.equal(await subscribers('guest.numbers'), 1);
+  const num = decode(seen.messages.find((m) => m.subscriptionId === sNum));
+  assert.deepEqual(num, { n: 1, x: 0.5 });
+  const camMsg = seen.messages.find((m) => m.subscriptionId === sCam);
+  assert.equal(camMsg.timestamp, 1700000000123456789n, 'log time = capture time');
+  const cam = decode(camMsg);
+  assert.deepEqual(validate(schemas.CompressedImage, cam), []);
+  assert.equal(cam.format, 'jpeg');
+  const jpeg = Buffer.from(cam.data, 'base64');
+  assert.equal(jpeg.readUInt16BE(0), 0xffd8, 'a JPEG');
+  assert.deepEqual(jpeg, readFileSync('/usr/share/doc/opencv-doc/examples/data/HappyFish.jpg'));
+  const faces = decode(seen.messages.find((m) => m.subscriptionId === sFaces));
+  assert.deepEqual(validate(schemas.ImageAnnotations, faces), []);
+  assert.equal(faces.points.length, 1);
+  assert.deepEqual(faces.points[0].points[2], { x: 40, y: 60 });
+
+  client.unsubscribe(sNum);
+  client.unsubscribe(sCam);
+  client.unsubscribe(sFaces);
+  await waitFor('the bridge lets the channel go', async () => (await subscribers('guest.numbers')) === 0);
+  await sleep(300);
+  const count = seen.messages.length;
+  await sleep(1000);
+  assert.equal(seen.messages.length, count, 'no message after unsubscribe');
+  client.close();
+});
+
+test('a service call goes to the hub service and its answer comes back', async () => {
+  const { client, seen } = await connect();
+  await waitFor('services', () => seen.services.has('hub.inspect'));
+  const id = seen.services.get('hub.inspect').id;
+  client.sendServiceCallRequest({ serviceId: id, callId: 11, encoding: 'json',
+    data: new Uint8Array(Buffer.from('{"command":"stats"}')) });
+  await waitFor('the response', () => seen.responses.length > 0, 10000);
+  const r = seen.responses[0];
+  assert.equal(r.callId, 11);
+  assert.equal(r.encoding, 'json');
+  const stats = JSON.parse(Buffer.from(r.data).toString());
+  assert.ok(stats.channels.some((c) => c.name === 'guest.numbers'));
+  // A call to no service fails, the connection stays.
+  client.sendServiceCallRequest({ serviceId: 99999, callId: 12, encoding: 'json',
+    data: new Uint8Array(Buffer.from('{"command":"stats"}')) });
+  await waitFor('the failure', () => seen.failures.some((f) => f.callId === 12));
+  assert.equal(seen.closed, null);
+  client.close();
+});
+
+test('parameters are database variables: get, set, updates, and a refused set', async () => {
+  await hub.flowctl('db', 'set', '--db', 'guest', 'speed', '2');
+  const { client, seen } = await connect();
+  client.getParameters([], 'all');
+  await waitFor('parameterValues', () => seen.params.find((p) => p.id === 'all'));
+  const all = seen.params.find((p) => p.id === 'all');
+  assert.deepEqual(all.parameters.find((p) => p.name === 'guest/speed'), { name: 'guest/speed', value: 2 });
+
+  client.subscribeParameterUpdates(['foxglove-bridge/gain', 'guest/speed']);
+  await sleep(200);
+  client.setParameters([{ name: 'foxglove-bridge/gain', value: { level: 3 } }], 'set1');
+  await waitFor('the set answer', () => seen.params.find((p) => p.id === 'set1'));
+  assert.deepEqual(seen.params.find((p) => p.id === 'set1').parameters,
+    [{ name: 'foxglove-bridge/gain', value: { level: 3 } }]);
+  assert.deepEqual(await hub.dbGet('foxglove-bridge', 'gain'), { level: 3 });
+  // Another client's change reaches the subscriber.
+  await hub.flowctl('db', 'set', '--db', 'guest', 'speed', '5');
+  await waitFor('the update', () => seen.params.some((p) => p.id === undefined
+    && p.parameters.some((q) => q.name === 'guest/speed' && q.value === 5)));
+  // guest is shown but not writable: refused with a status message, the value stays.
+  client.setParameters([{ name: 'guest/speed', value: 9 }], 'set2');
+  await waitFor('the refusal', () => seen.status.some((s) => /guest\/speed.*read-only/.test(s.message)));
+  await waitFor('the set2 answer', () => seen.params.find((p) => p.id === 'set2'));
+  assert.equal(seen.params.find((p) => p.id === 'set2').parameters[0].value, 5);
+  assert.equal(await hub.dbGet('guest', 'speed'), 5);
+  assert.match(hub.log, /FOXGLOVE-PARAM .*guest\/speed refused/);
+  client.close();
+});
+
+test('the connection graph comes from the hub statistics', async () => {
+  const { client, seen } = await connect();
+  await waitFor('channels', () => seen.channels.has('guest.numbers'));
+  const sub = client.subscribe(seen.channels.get('guest.numbers').id);
+  client.subscribeConnectionGraph();
+  await waitFor('a graph with the publishers', () => seen.graph.some((g) =>
+    g.publishedTopics.some((t) => t.name === 'guest.numbers')), 10000);
+  const first = seen.graph.find((g) => g.publishedTopics.some((t) => t.name === 'guest.numbers'));
+  assert.ok(first.advertisedServices.some((s) => s.name === 'hub.inspect'));
+  await waitFor('the bridge as a subscriber', () => seen.graph.some((g) => g.subscribedTopics.some(
+    (t) => t.name === 'guest.numbers' && t.subscriberIds.some((id) => id.includes('foxglove-bridge')))), 10000);
+  client.unsubscribe(sub);
+  client.close();
+});
+
+test('a malformed message closes only its client, with a reason', async () => {
+  const good = await connect();
+  const bad = new WebSocket(`ws://127.0.0.1:${port}/`, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
+  const closed = new Promise((r) => bad.on('close', (code, reason) => r({ code, reason: reason.toString() })));
+  await new Promise((r) => bad.on('open', r));
+  bad.send('{"op":"subscribe","subscriptions":[{"id":"x"}]}');
+  const c = await closed;
+  assert.equal(c.code, 1007);
+  assert.match(c.reason, /malformed/);
+  // Oversized: refused before it is buffered.
+  const big = new WebSocket(`ws://127.0.0.1:${port}/`, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
+  const bigClosed = new Promise((r) => big.on('close', (code) => r(code)));
+  await new Promise((r) => big.on('open', r));
+  big.send('x'.repeat(10000));
+  assert.equal(await bigClosed, 1009);
+  // A binary message with a lying length.
+  const liar = new WebSocket(`ws://127.0.0.1:${port}/`, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
+  const liarClosed = new Promise((r) => liar.on('close', (code) => r(code)));
+  await new Promise((r) => liar.on('open', r));
+  const b = Buffer.alloc(13);
+  b.writeUInt8(2, 0);
+  b.writeUInt32LE(100, 9);
+  liar.send(b);
+  assert.equal(await liarClosed, 1003);
+  assert.match(hub.log, /FOXGLOVE-REFUSED client \d+: malformed message/);
+  // The good client goes on: a request still gets its answer.
+  good.client.getParameters([], 'still');
+  await waitFor('an answer', () => good.seen.params.find((p) => p.id === 'still'));
+  assert.equal(good.seen.closed, null);
+  assert.ok(hub.alive());
+  good.client.close();
+});

@@ -51,10 +51,21 @@ export async function waitFor(what, fn, timeoutMs = 30000, everyMs = 100) {
 }
 
 // Starts the hub with `modules` (entries of the config's "modules" list, names resolved in the
-// build's module directory). Resolves once it logged HUB-READY.
-export async function startHub(modules) {
+// build's module directory) and `users` ([{name, password, role}], added to its users file first).
+// Resolves once it logged HUB-READY.
+export async function startHub(modules, { users = [] } = {}) {
   const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-web-'));
   const socket = path.join(dir, 'hub.sock');
+  const usersFile = path.join(dir, 'data', 'users.json');
+  for (const u of users) {
+    mkdirSync(path.dirname(usersFile), { recursive: true });
+    await new Promise((resolve, reject) => {
+      const p = execFile(env.skrobot, ['user', 'add', u.name, '--users', usersFile, '--password-stdin'],
+        (e) => (e ? reject(e) : resolve()));
+      p.stdin.end(`${u.password || 'password'}\n`);
+    });
+    if (u.role) await run(env.skrobot, ['user', 'role', u.name, u.role, '--users', usersFile]);
+  }
   const config = {
     app_name: 'WebTest', server: { unix_path: socket }, data_dir: path.join(dir, 'data'),
     accounts: { dev_account: { user: 'guest', password: 'password' } },

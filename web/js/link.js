@@ -2,9 +2,10 @@
 export const SUBPROTOCOL = 'skrobot-avatar.v1';
 
 export class Link extends EventTarget {
-  constructor(url) {
+  constructor(url, page = 'avatar') {
     super();
     this.url = url;
+    this.page = page;
     this.ws = null;
     this.connected = false;
     this.retryMs = 250;
@@ -19,7 +20,7 @@ export class Link extends EventTarget {
     ws.onopen = () => {
       this.connected = true;
       this.retryMs = 250;
-      ws.send(JSON.stringify({ type: 'hello', version: 1, page: 'avatar' }));
+      ws.send(JSON.stringify({ type: 'hello', version: 1, page: this.page }));
       this.dispatchEvent(new Event('open'));
     };
     ws.onmessage = (e) => {

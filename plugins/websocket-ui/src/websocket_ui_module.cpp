@@ -5,20 +5,22 @@
 // handed to the hub's loop thread with host.post; everything touching channels runs on the loop.
 #include "avatar_behaviour.h"
 #include "browser_protocol.h"
+#include "network_pages.h"
 #include "source_owner.h"
 #include "visemes.h"
 #include "web_root.h"
 
+#include <skrobot/web/ws_server.h>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
-#include <skrobot/web/ws_server.h>
 
 #include <algorithm>
 #include <atomic>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 
 namespace skr::wsui {
@@ -51,7 +53,8 @@ class WebsocketUi final : public skr::plugin::Module {
       : host_(host),
         avatar_(readAvatar(host)),
         camera_owner_(host.configInt("handover_ms")),
-        mic_owner_(host.configInt("handover_ms")) {
+        mic_owner_(host.configInt("handover_ms")),
+        network_(host, server_, readNetwork(host)) {
     readServer();
     limits_.mic_sample_rate = static_cast<std::uint32_t>(host.configInt("mic_sample_rate"));
     camera_width_ = static_cast<int>(host.configInt("camera_width"));
@@ -99,7 +102,7 @@ class WebsocketUi final : public skr::plugin::Module {
     subscribe(dialogue_, [this](std::string_view p) { forward("dialogue", p); });
     subscribe(phonemes_, [this](std::string_view p) { onPhonemes(p); });
     subscribe(voice_, [this](std::string_view p) {
-      if (skr::media::parseFrame(p)) server_.send(0, true, std::string(p), false);
+      if (skr::media::parseFrame(p)) broadcast(true, std::string(p), false);
     });
 
     WsServerEvents events;
@@ -111,11 +114,14 @@ class WebsocketUi final : public skr::plugin::Module {
     events.opened = [this](std::uint64_t conn, const std::string& peer) {
       server_.send(conn, false, welcome());
       host_.post([this, conn, peer] {
+        avatar_pages_.insert(conn);
         host_.log.info("WSUI-BROWSER", "browser ", conn, " connected from ", peer);
       });
     };
     events.closed = [this](std::uint64_t conn, const std::string& why) {
       host_.post([this, conn, why] {
+        avatar_pages_.erase(conn);
+        network_.leave(conn);
         mic_expected_.erase(conn);
         camera_owner_.leave(conn);
         mic_owner_.leave(conn);
@@ -132,12 +138,16 @@ class WebsocketUi final : public skr::plugin::Module {
     host_.log.info("WSUI-LISTENING", "avatar page on ",
                    server_opts_.tls_cert.empty() ? "http" : "https", "://", server_opts_.address,
                    ":", server_.port(), "/ (web root ", server_opts_.web_root, ")");
-    fast_ = host_.onTick(skr::plugin::Tick::fast, [this] { behave(); });
+    fast_ = host_.onTick(skr::plugin::Tick::fast, [this] {
+      behave();
+      network_.flush(nowMs());
+    });
     second_ = host_.onTick(skr::plugin::Tick::one_sec, [this] { report(); });
   }
 
   void stop() override {
     server_.stop();  // joins the server thread: no more posts from it
+    network_.stop();
     fast_.reset();
     second_.reset();
     subs_.clear();
@@ -160,6 +170,13 @@ class WebsocketUi final : public skr::plugin::Module {
       host.configError("blink_max_ms", "need blink_min_ms <= blink_max_ms");
       throw Failure(SKR_ERR_CONFIG, "invalid blink_max_ms");
     }
+    return o;
+  }
+
+  static NetworkOptions readNetwork(skr::plugin::Host& host) {
+    NetworkOptions o;
+    o.token = host.configString("network_token");
+    o.preview_hz = host.configDouble("network_preview_hz");
     return o;
   }
 
@@ -200,7 +217,23 @@ class WebsocketUi final : public skr::plugin::Module {
       code = r->close_code;
       return r->reason;
     }
-    if (std::holds_alternative<Hello>(in)) return std::nullopt;
+    if (auto* hello = std::get_if<Hello>(&in)) {
+      // The network page follows the hub's statistics instead of the avatar's messages.
+      if (hello->page == "network") host_.post([this, conn] { joinNetwork(conn); });
+      return std::nullopt;
+    }
+    if (auto* p = std::get_if<Preview>(&in)) {
+      host_.post([this, conn, c = p->channels] { network_.preview(conn, c); });
+      return std::nullopt;
+    }
+    if (auto* w = std::get_if<WatchDatabase>(&in)) {
+      host_.post([this, conn, db = w->db] { network_.watchDatabase(conn, db); });
+      return std::nullopt;
+    }
+    if (auto* set = std::get_if<SetVariable>(&in)) {
+      host_.post([this, conn, r = *set] { network_.setVariable(conn, r); });
+      return std::nullopt;
+    }
     if (auto* say = std::get_if<Say>(&in)) {
       host_.post([this, conn, s = *say] { sayFromBrowser(conn, s); });
       return std::nullopt;
@@ -212,6 +245,16 @@ class WebsocketUi final : public skr::plugin::Module {
       camera ? publishCamera(conn, h, msg) : publishMic(conn, h, msg);
     });
     return std::nullopt;
+  }
+
+  void joinNetwork(std::uint64_t conn) {
+    avatar_pages_.erase(conn);
+    network_.join(conn);
+  }
+
+  // A message for every avatar page (not the network pages).
+  void broadcast(bool binary, const std::string& msg, bool droppable = true) {
+    for (auto conn : avatar_pages_) server_.send(conn, binary, msg, droppable);
   }
 
   // The channel's own frame numbers: browsers come and go, the channel's sequence goes on.
@@ -279,12 +322,12 @@ class WebsocketUi final : public skr::plugin::Module {
   // A channel's JSON message (parsed already, so valid) to the browsers as {"type", "data"},
   // without writing it out again.
   void sendWrapped(const char* type, std::string_view json) {
-    if (server_.stats().connections == 0) return;
+    if (avatar_pages_.empty()) return;
     std::string msg;
     msg.reserve(json.size() + 32);
     msg.append(R"({"type":)").append(skr::support::jsonQuote(type)).append(R"(,"data":)");
     msg.append(json).append("}");
-    server_.send(0, false, std::move(msg));
+    broadcast(false, msg);
   }
 
   // The phoneme timeline of an utterance becomes a viseme timeline, sent before its audio.
@@ -313,7 +356,7 @@ class WebsocketUi final : public skr::plugin::Module {
       e["round"] = tv.viseme.round;
       list.append(e);
     }
-    server_.send(0, false, writeJson(msg), false);
+    broadcast(false, writeJson(msg), false);
   }
 
   // {"error": why}; `why` is a message, or JSON text (a string) from the Requester.
@@ -356,7 +399,7 @@ class WebsocketUi final : public skr::plugin::Module {
     msg["name"] = (*v)["name"];
     msg["weight"] = std::clamp(v->get("weight", 1.0).asDouble(), 0.0, 1.0);
     msg["duration_ms"] = std::clamp<Json::Int64>(v->get("duration_ms", 2000).asInt64(), 0, 60000);
-    server_.send(0, false, writeJson(msg));
+    broadcast(false, writeJson(msg));
     say_.respond(r.id, writeJson(msg));
   }
 
@@ -390,7 +433,7 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["x"] = g->x;
       msg["y"] = g->y;
       msg["source"] = g->source;
-      server_.send(0, false, writeJson(msg));
+      broadcast(false, writeJson(msg));
     }
     if (auto e = avatar_.expressionDue()) {
       Json::Value msg(Json::objectValue);
@@ -398,7 +441,7 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["name"] = e->name;
       msg["weight"] = e->weight;
       msg["duration_ms"] = static_cast<Json::Int64>(e->duration_ms);
-      server_.send(0, false, writeJson(msg));
+      broadcast(false, writeJson(msg));
     }
     if (auto b = avatar_.blinkDue(now)) {
       Json::Value msg(Json::objectValue);
@@ -406,7 +449,7 @@ class WebsocketUi final : public skr::plugin::Module {
       msg["close_ms"] = static_cast<Json::Int64>(b->close_ms);
       msg["hold_ms"] = static_cast<Json::Int64>(b->hold_ms);
       msg["open_ms"] = static_cast<Json::Int64>(b->open_ms);
-      server_.send(0, false, writeJson(msg));
+      broadcast(false, writeJson(msg));
     }
   }
 
@@ -451,6 +494,8 @@ class WebsocketUi final : public skr::plugin::Module {
   std::uint64_t camera_seq_ = 0;
   std::uint64_t mic_seq_ = 0;
   std::map<std::uint64_t, std::uint64_t> mic_expected_;  // browser -> its next sample index
+  std::set<std::uint64_t> avatar_pages_;                 // open, and not network pages
+  NetworkPages network_;
   Counters counters_;
 };
 
@@ -492,6 +537,12 @@ constexpr skr_config_key kConfig[] = {
     cfg::string("voice", "", "speech audio played in the page, e.g. speech.voice"),
     cfg::string("phonemes", "", "speech timelines that move the lips, e.g. speech.phonemes"),
     cfg::string("dialogue", "", "what the agent heard and answered, shown, e.g. agent.dialogue"),
+    // The network page (/network).
+    cfg::string("network_token", "",
+                "token the /network page must give to set database variables; empty: editing "
+                "is off"),
+    cfg::number("network_preview_hz", "5", "previews of a channel per second, at most")
+        .range(0.2, 30),
     // The avatar's behaviour.
     cfg::integer("blink_min_ms", "450", "shortest interval between blinks").min(100),
     cfg::integer("blink_max_ms", "4000", "longest interval between blinks (>= blink_min_ms)")

@@ -1,0 +1,132 @@
+// The network page (/network) in Debian's chromium against a real hub with 200 channels
+// (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
+// table, previews of JSON, JPEG, gray, audio and detections, a channel's properties, and editing a
+// variable with and without the token. Screenshots go to <build>/test-output/network_browser/.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { existsSync } from 'node:fs';
+import path from 'node:path';
+import { env, freePort, launchChromium, outDir, startHub, waitFor } from './harness.mjs';
+
+const CHANNELS = Number(process.env.SKROBOT_NETWORK_CHANNELS || 200);
+const JPEG = '/usr/share/doc/opencv-doc/examples/data/HappyFish.jpg';  // opencv-doc
+const TOKEN = 'open sesame';
+
+test('the network page shows the hub live, previews channels and edits with the token', async (t) => {
+  assert.ok(existsSync(JPEG), `${JPEG} (Debian's opencv-doc) is missing`);
+  const port = await freePort();
+  // Edits from the page act as websocket-ui's account: an administrator may write any database.
+  const hub = await startHub([
+    { name: 'websocket-ui', account: 'netadmin', config: { port, network_token: TOKEN } },
+  ], { users: [{ name: 'netadmin', role: 'admin' }] });
+  t.after(() => hub.stop());
+  const traffic = spawn('python3', [path.join(env.source, 'tests/web/network_traffic.py'),
+    '--channels', String(CHANNELS), '--jpeg', JPEG], {
+    env: { ...process.env, ROBOT_ADDRESS: hub.address, PYTHONPATH: path.join(env.source, 'satellite/python') },
+    stdio: ['ignore', 'pipe', 'pipe'],
+  });
+  let trafficLog = '';
+  traffic.stdout.on('data', (d) => { trafficLog += d; });
+  traffic.stderr.on('data', (d) => { trafficLog += d; });
+  t.after(() => traffic.kill('SIGKILL'));
+  await waitFor('the traffic satellite', () => {
+    if (traffic.exitCode !== null) throw new Error(`traffic exited ${traffic.exitCode}: ${trafficLog}`);
+    return trafficLog.includes('ready');
+  }, 60000);
+
+  const browser = await launchChromium();
+  t.after(() => browser.close());
+  const page = await browser.context.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  const shots = outDir('network_browser');
+  await page.goto(`http://127.0.0.1:${port}/network`);
+
+  // Every channel and both flows of the satellite, with publish and subscribe edges.
+  const want = CHANNELS + 4;
+  await waitFor(`${want} channel nodes`, async () =>
+    (await page.locator('#graph .node.channel').count()) >= want, 30000);
+  assert.equal(await page.locator('#graph .node.channel[data-id^="c:hub."]').count(), 0,
+    "the hub's own channels are hidden by default");
+  assert.ok(await page.locator('#graph .edge.publish').count() >= want);
+  assert.equal(await page.locator('#graph .edge.subscribe').count(), 10, 'the listener follows ten');
+  // Live rates on the edges: the JSON channels at 1 Hz, the camera at 5.
+  await waitFor('rates on the edges', async () => {
+    const c7 = await page.locator('[data-edge="p:guest.c007"]').textContent();
+    const cam = await page.locator('[data-edge="p:guest.camera"]').textContent();
+    return /^(0\.9|1|1\.1) Hz · \d/.test(c7) && /^(4\.\d|5|5\.\d) Hz · [\d.]+ kB\/s/.test(cam);
+  }, 20000);
+  // Still keeping up at this size: three more updates within five seconds.
+  const before = Number(await page.evaluate(() => document.body.dataset.updates));
+  await waitFor('three more updates', async () =>
+    Number(await page.evaluate(() => document.body.dataset.updates)) >= before + 3, 5000);
+  const top = await page.locator('#top tbody tr').evaluateAll((rows) => rows.map((r) => r.dataset.channel));
+  assert.deepEqual(top.slice(0, 2).sort(), ['guest.audio', 'guest.camera'], `the busiest first: ${top}`);
+  await page.screenshot({ path: path.join(shots, 'network-all.png') });
+
+  // Filtering: one channel, its publisher and subscriber; click it.
+  const pick = async (name) => {
+    await page.fill('#filter', name);
+    await waitFor(`${name} alone`, async () =>
+      (await page.locator('#graph .node.channel').count()) === 1, 5000);
+    await page.locator(`#graph .node[data-id="c:${name}"]`).click();
+    await waitFor(`${name}'s details`, async () =>
+      (await page.locator('#details-title').textContent()) === name, 5000);
+  };
+  await pick('guest.c003');
+  assert.equal(await page.locator('#graph .node.flow').count(), 2, 'the owner and the listener');
+  await waitFor('a JSON preview', async () =>
+    /"i": 3,/.test(await page.locator('#preview pre').textContent().catch(() => '')), 10000);
+  await waitFor('the channel properties', async () =>
+    (await page.locator('#db tbody tr[data-key="index"] td').nth(1).textContent().catch(() => '')) === '3', 10000);
+  assert.match(await page.locator('#facts').textContent(), /guest\/.*subscribers.*guest\//s);
+
+  // Editing a variable: refused without the right token, done with it.
+  await page.fill('#set-key', 'gain');
+  await page.fill('#set-value', '2.5');
+  await page.fill('#set-token', 'guess');
+  await page.click('#set-form button');
+  await waitFor('the refusal', async () => /wrong token/.test(await page.locator('#db-status').textContent()), 5000);
+  assert.equal(await hub.dbGet('guest.c003', 'gain'), undefined);
+  await page.fill('#set-token', TOKEN);
+  await page.click('#set-form button');
+  await waitFor('the change', async () => /gain set/.test(await page.locator('#db-status').textContent()), 5000);
+  assert.equal(await hub.dbGet('guest.c003', 'gain'), 2.5);
+  await waitFor('the new row', async () =>
+    (await page.locator('#db tbody tr[data-key="gain"] td').nth(1).textContent().catch(() => '')) === '2.5', 5000);
+
+  // Frames, audio and detections.
+  await pick('guest.camera');
+  await waitFor('the JPEG preview', async () =>
+    (await page.locator('#preview').getAttribute('data-kind')) === 'jpeg', 10000);
+  const size = await page.evaluate(() => {
+    const c = document.querySelector('#preview canvas.frame');
+    return [c.width, c.height];
+  });
+  assert.ok(size[0] > 100 && size[1] > 100, `a decoded frame (${size})`);
+  await pick('guest.gray');
+  await waitFor('the gray preview', async () =>
+    (await page.locator('#preview').getAttribute('data-kind')) === 'gray', 10000);
+  assert.deepEqual(await page.evaluate(() => {
+    const c = document.querySelector('#preview canvas.frame');
+    return [c.width, c.height, [...c.getContext('2d').getImageData(10, 5, 1, 1).data]];
+  }), [64, 48, [30, 30, 30, 255]], 'gray level (x + y) * 2 at (10, 5)');
+  await pick('guest.audio');
+  await waitFor('the audio level', async () => {
+    const level = Number(await page.locator('#preview').getAttribute('data-level'));
+    return level > -16 && level < -13;  // a sine of amplitude 8000: -15.2 dBFS
+  }, 10000);
+  await pick('guest.faces');
+  await waitFor('a face drawn on its camera frame', async () =>
+    (await page.locator('#preview').getAttribute('data-kind')) === 'detections' &&
+    (await page.locator('#preview').getAttribute('data-boxes')) === '1', 10000);
+  await page.screenshot({ path: path.join(shots, 'network-detections.png') });
+
+  // A flow's database.
+  await page.fill('#filter', '');
+  await page.locator('#top tbody tr[data-channel="guest.camera"]').click();
+  assert.equal(await page.locator('#details-title').textContent(), 'guest.camera');
+  assert.deepEqual(errors, [], 'no errors in the page');
+  assert.ok(hub.alive(), hub.log);
+});

@@ -1,0 +1,92 @@
+// The network page's model (web/js/network-model.js) in node: hub.stats to a graph, what is
+// highlighted, the layered layout, detection boxes.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { buildGraph, detectionBoxes, formatRate, layout } from '../../web/js/network-model.js';
+
+const flow = (id, name, extra = {}) => ({
+  id, name, user: name.split('/')[0], client: name.split('/')[1], kind: 'satellite',
+  queue_fill: 0, dropped_per_s: 0, ...extra,
+});
+const channel = (name, owner, subs, extra = {}) => ({
+  name, kind: 'streaming', mime: 'application/json', owner_flow: owner, subscriber_flows: subs,
+  hz: 10, bytes_per_s: 1000, dropped_per_s: 0, ...extra,
+});
+
+const stats = {
+  flows: [flow(1, 'hub/statistics'), flow(2, 'cam/cam'), flow(3, 'det/det'), flow(4, 'ui/ui', { queue_fill: 0.8 }),
+    flow(5, 'flowctl/flowctl')],
+  channels: [
+    channel('hub.stats', 1, [4]),
+    channel('cam.frames', 2, [3, 4], { dropped_per_s: 2, bytes_per_s: 2e6 }),
+    channel('det.faces', 3, [4]),
+    channel('det.cmd', 3, [], { kind: 'service', hz: 0 }),
+    channel('gone.maps', 0, [], { kind: 'blob', hz: 0 }),
+  ],
+};
+
+test('flows and channels become nodes, ownership and subscriptions edges', () => {
+  const g = buildGraph(stats);
+  assert.deepEqual([...g.nodes.keys()].sort(),
+    ['c:cam.frames', 'c:det.cmd', 'c:det.faces', 'c:gone.maps', 'f:2', 'f:3', 'f:4', 'f:5']);
+  assert.deepEqual(g.edges.map((e) => `${e.from}>${e.to}`).sort(),
+    ['c:cam.frames>f:3', 'c:cam.frames>f:4', 'c:det.faces>f:4', 'f:2>c:cam.frames', 'f:3>c:det.cmd', 'f:3>c:det.faces']);
+  const pub = g.edges.find((e) => e.id === 'p:cam.frames');
+  assert.equal(pub.label, '10 Hz · 2.0 MB/s');
+  assert.ok(pub.width > g.edges.find((e) => e.id === 'p:det.faces').width, 'wider for more bytes');
+  assert.equal(g.edges.find((e) => e.id === 'p:det.cmd').service, true);
+});
+
+test('drops, slow subscribers, idle and orphaned channels are marked', () => {
+  const g = buildGraph(stats);
+  assert.ok(g.nodes.get('c:cam.frames').cls.includes('drop'));
+  assert.ok(!g.nodes.get('c:det.faces').cls.includes('drop'));
+  assert.ok(g.nodes.get('f:4').cls.includes('slow'), 'queue 80% full');
+  assert.ok(!g.nodes.get('f:3').cls.includes('slow'));
+  assert.deepEqual(g.edges.filter((e) => e.cls.includes('drop')).map((e) => e.id).sort(),
+    ['p:cam.frames', 's:cam.frames>4'], 'the dropping channel and its slow subscriber');
+  assert.ok(g.nodes.get('c:det.cmd').cls.includes('idle'));
+  assert.ok(g.nodes.get('c:gone.maps').cls.includes('orphan'));
+});
+
+test("the hub's own channels on request; a filter keeps what it touches", () => {
+  assert.ok(buildGraph(stats, { showHub: true }).nodes.has('c:hub.stats'));
+  const g = buildGraph(stats, { filter: 'FACES' });
+  assert.deepEqual([...g.nodes.keys()].sort(), ['c:det.faces', 'f:3', 'f:4']);
+  assert.notEqual(g.topology, buildGraph(stats).topology);
+  assert.equal(buildGraph(stats).topology, buildGraph({ ...stats }).topology);
+});
+
+test('the layout puts publishers left of their channels and nothing on top of anything', () => {
+  const g = buildGraph(stats);
+  const { pos } = layout(g);
+  for (const e of g.edges) assert.ok(pos.get(e.from).x < pos.get(e.to).x, `${e.id} goes right`);
+  const seen = new Set();
+  for (const p of pos.values()) {
+    const key = `${p.x},${p.y}`;
+    assert.ok(!seen.has(key), `two nodes at ${key}`);
+    seen.add(key);
+  }
+});
+
+test('cycles and 1000 channels are laid out', () => {
+  const flows = Array.from({ length: 50 }, (_, i) => flow(i + 10, `s${i}/s${i}`));
+  const channels = Array.from({ length: 1000 }, (_, i) =>
+    channel(`s${i % 50}.c${i}`, 10 + (i % 50), [10 + ((i * 7 + 1) % 50)]));
+  const g = buildGraph({ flows, channels });
+  const { pos, height } = layout(g);
+  assert.equal(pos.size, 1050);
+  assert.ok(height > 0);
+  const ys = new Set([...pos.values()].map((p) => `${p.x},${p.y}`));
+  assert.equal(ys.size, 1050, 'distinct places');
+});
+
+test('detections become boxes in frame pixels', () => {
+  assert.deepEqual(detectionBoxes({ faces: [{ x: 1, y: 2, w: 3, h: 4, score: 0.5 }] }),
+    [{ x: 1, y: 2, w: 3, h: 4, label: 'face 0.50' }]);
+  assert.deepEqual(detectionBoxes({ codes: [{ text: 'hi', corners: [[10, 10], [20, 12], [18, 30], [9, 25]] }] }),
+    [{ x: 9, y: 10, w: 11, h: 20, label: 'hi' }]);
+  assert.deepEqual(detectionBoxes({ regions: [{ x: 'a' }] }), []);
+  assert.deepEqual(detectionBoxes(null), []);
+  assert.equal(formatRate(0.25, 12), '0.3 Hz · 12 B/s');
+});

@@ -1,0 +1,190 @@
+// The network page's model: hub.stats (docs/observability.md) as a graph of flows and channels,
+// and its layered layout. Pure functions, no DOM: tests/web/network_model.test.mjs runs them in node.
+
+// A flow whose output queue is above this fraction of the hub's limit is slow.
+export const SLOW_QUEUE_FILL = 0.5;
+
+export function formatRate(hz, bytesPerS) {
+  const h = hz >= 10 ? Math.round(hz) : Math.round(hz * 10) / 10;
+  return `${h} Hz · ${formatBytes(bytesPerS)}/s`;
+}
+
+export function formatBytes(n) {
+  if (n >= 1e6) return `${(n / 1e6).toFixed(1)} MB`;
+  if (n >= 1e3) return `${(n / 1e3).toFixed(1)} kB`;
+  return `${Math.round(n)} B`;
+}
+
+const isHubOwn = (name) => name.startsWith('hub.');
+
+// {nodes: Map(id -> node), edges: [edge], topology: string}. Node ids are "f:<flow id>" and
+// "c:<channel name>"; a node is {id, type: 'flow'|'channel', label, title, cls: [], data}; an edge
+// is {id, from, to, kind: 'publish'|'subscribe', service, label, width, cls: []}. The hub's own
+// statistics client and channels are left out unless showHub; `filter` keeps the channels and
+// flows whose name contains it, with what they connect to.
+export function buildGraph(stats, { showHub = false, filter = '' } = {}) {
+  const flows = new Map();
+  for (const f of stats.flows || []) {
+    if (!showHub && f.user === 'hub') continue;
+    flows.set(f.id, f);
+  }
+  const needle = filter.trim().toLowerCase();
+  const matches = (s) => !needle || s.toLowerCase().includes(needle);
+  const nodes = new Map();
+  const edges = [];
+  const flowNode = (f) => {
+    const id = `f:${f.id}`;
+    if (!nodes.has(id)) {
+      const slow = f.queue_fill > SLOW_QUEUE_FILL || f.dropped_per_s > 0;
+      nodes.set(id, {
+        id, type: 'flow', label: f.name, title: `${f.name} (${f.kind}, flow ${f.id})`,
+        cls: [f.kind, ...(slow ? ['slow'] : [])], data: f,
+      });
+    }
+    return id;
+  };
+  for (const c of stats.channels || []) {
+    if (!showHub && isHubOwn(c.name)) continue;
+    const owner = flows.get(c.owner_flow);
+    const subs = (c.subscriber_flows || []).map((id) => flows.get(id)).filter(Boolean);
+    if (needle && !matches(c.name) && !(owner && matches(owner.name)) &&
+        !subs.some((f) => matches(f.name))) continue;
+    const id = `c:${c.name}`;
+    const dropping = c.dropped_per_s > 0;
+    const cls = [c.kind];
+    if (dropping) cls.push('drop');
+    if (!(c.hz > 0)) cls.push('idle');
+    if (!owner) cls.push('orphan');
+    nodes.set(id, { id, type: 'channel', label: c.name, title: `${c.name} (${c.kind}, ${c.mime || 'no mime'})`, cls, data: c });
+    const service = c.kind === 'service';
+    if (owner) {
+      edges.push({
+        id: `p:${c.name}`, from: flowNode(owner), to: id, kind: 'publish', service,
+        label: formatRate(c.hz || 0, c.bytes_per_s || 0),
+        width: Math.min(6, 1 + Math.log10(1 + (c.bytes_per_s || 0) / 1000)),
+        cls: dropping ? ['drop'] : [],
+      });
+    }
+    for (const f of subs) {
+      const slow = f.queue_fill > SLOW_QUEUE_FILL || f.dropped_per_s > 0;
+      edges.push({
+        id: `s:${c.name}>${f.id}`, from: id, to: flowNode(f), kind: 'subscribe', service,
+        label: '', width: 1, cls: dropping && slow ? ['drop'] : [],
+      });
+    }
+  }
+  // Flows that own and follow nothing (a flowctl, a sync connection) still show.
+  for (const f of flows.values()) if (!needle || matches(f.name)) flowNode(f);
+  const topology = [...nodes.keys()].sort().join('|') + '#' + edges.map((e) => e.id).sort().join('|');
+  return { nodes, edges, topology };
+}
+
+// Layered layout, left to right: cycles broken at their back edges (depth first), each node one
+// layer right of its farthest predecessor, then the order within layers by the mean position of
+// the neighbours (a few sweeps each way); a layer of more than maxRows nodes (default: about
+// sqrt(8 n), for a landscape page) wraps into columns. {pos: Map(id -> {x, y, layer}),
+// width, height}.
+export function layout(graph, { colWidth = 320, rowHeight = 30, sweeps = 4, maxRows = 0 } = {}) {
+  const ids = [...graph.nodes.keys()].sort();
+  const out = new Map(ids.map((id) => [id, []]));
+  const inn = new Map(ids.map((id) => [id, []]));
+  for (const e of graph.edges) {
+    if (e.from === e.to || !out.has(e.from) || !out.has(e.to)) continue;
+    out.get(e.from).push(e.to);
+    inn.get(e.to).push(e.from);
+  }
+  // Back edges, found iteratively (200+ nodes deep would be fine recursively; a pathological
+  // chain would not).
+  const state = new Map();  // 1 on the stack, 2 done
+  const back = new Set();
+  for (const root of ids) {
+    if (state.has(root)) continue;
+    const stack = [[root, 0]];
+    state.set(root, 1);
+    while (stack.length) {
+      const top = stack[stack.length - 1];
+      const next = out.get(top[0])[top[1]++];
+      if (next === undefined) {
+        state.set(top[0], 2);
+        stack.pop();
+      } else if (state.get(next) === 1) {
+        back.add(`${top[0]}>${next}`);
+      } else if (!state.has(next)) {
+        state.set(next, 1);
+        stack.push([next, 0]);
+      }
+    }
+  }
+  const forward = (from, to) => !back.has(`${from}>${to}`);
+  // Longest path from the sources, in topological order (Kahn).
+  const indeg = new Map(ids.map((id) => [id, inn.get(id).filter((p) => forward(p, id)).length]));
+  const layer = new Map(ids.map((id) => [id, 0]));
+  const queue = ids.filter((id) => indeg.get(id) === 0);
+  for (let i = 0; i < queue.length; i++) {
+    const n = queue[i];
+    for (const m of out.get(n)) {
+      if (!forward(n, m)) continue;
+      layer.set(m, Math.max(layer.get(m), layer.get(n) + 1));
+      indeg.set(m, indeg.get(m) - 1);
+      if (indeg.get(m) === 0) queue.push(m);
+    }
+  }
+  const layers = [];
+  for (const id of ids) {
+    const l = layer.get(id);
+    (layers[l] ||= []).push(id);
+  }
+  for (let l = 0; l < layers.length; l++) layers[l] ||= [];
+  const index = new Map();
+  const renumber = () => layers.forEach((list) => list.forEach((id, i) => index.set(id, i / Math.max(1, list.length - 1))));
+  renumber();
+  const mean = (list, fallback) => (list.length ? list.reduce((a, id) => a + index.get(id), 0) / list.length : fallback);
+  for (let s = 0; s < sweeps; s++) {
+    const down = s % 2 === 0;
+    const order = down ? layers.keys() : [...layers.keys()].reverse();
+    for (const l of order) {
+      const neighbours = (id) => (down ? inn.get(id) : out.get(id)).filter((n) => (down ? layer.get(n) < l : layer.get(n) > l));
+      const key = new Map(layers[l].map((id) => [id, mean(neighbours(id), index.get(id))]));
+      layers[l].sort((a, b) => key.get(a) - key.get(b) || (a < b ? -1 : 1));
+      renumber();
+    }
+  }
+  // A layer taller than maxRows wraps into columns side by side (200 channels of one owner make
+  // a readable block, not a column 6000 pixels tall).
+  const nodes = ids.length;
+  const rows = maxRows || Math.max(12, Math.ceil(Math.sqrt(nodes * 8)));
+  const columns = layers.map((list) => Math.max(1, Math.ceil(list.length / rows)));
+  const tallest = Math.max(1, ...layers.map((list, l) => Math.ceil(list.length / columns[l])));
+  const pos = new Map();
+  let x = 0;
+  layers.forEach((list, l) => {
+    const perColumn = Math.ceil(list.length / columns[l]);
+    const top = ((tallest - perColumn) * rowHeight) / 2;
+    list.forEach((id, i) => {
+      const c = Math.floor(i / perColumn);
+      pos.set(id, { x: x + c * colWidth, y: top + (i % perColumn) * rowHeight, layer: l });
+    });
+    x += columns[l] * colWidth;
+  });
+  return { pos, width: x, height: tallest * rowHeight };
+}
+
+// The boxes of a detector's message, in its frame's pixels: faces and motion regions as
+// {x, y, w, h}, codes as their corners' bounding box, with a label.
+export function detectionBoxes(msg) {
+  const boxes = [];
+  if (!msg || typeof msg !== 'object') return boxes;
+  for (const f of Array.isArray(msg.faces) ? msg.faces : []) {
+    boxes.push({ x: f.x, y: f.y, w: f.w, h: f.h, label: f.score !== undefined ? `face ${Number(f.score).toFixed(2)}` : 'face' });
+  }
+  for (const r of Array.isArray(msg.regions) ? msg.regions : []) boxes.push({ x: r.x, y: r.y, w: r.w, h: r.h, label: 'motion' });
+  for (const c of Array.isArray(msg.codes) ? msg.codes : []) {
+    if (!Array.isArray(c.corners) || !c.corners.length) continue;
+    const xs = c.corners.map((p) => p[0]);
+    const ys = c.corners.map((p) => p[1]);
+    const x = Math.min(...xs);
+    const y = Math.min(...ys);
+    boxes.push({ x, y, w: Math.max(...xs) - x, h: Math.max(...ys) - y, label: String(c.text ?? c.type ?? 'code').slice(0, 40) });
+  }
+  return boxes.filter((b) => [b.x, b.y, b.w, b.h].every(Number.isFinite));
+}

@@ -76,6 +76,9 @@ int cmdHz(const Cli& cli);
 int cmdBw(const Cli& cli);
 int cmdInfo(const Cli& cli);
 int cmdGraph(const Cli& cli);
+int cmdRecord(const Cli& cli);
+int cmdPlay(const Cli& cli);
+int cmdMcap(const Cli& cli);
 
 // Help texts: the overview, or one command's (empty if unknown).
 std::string_view usage();

@@ -37,6 +37,10 @@ Commands:
                               bandwidth (message sizes), measured here once a second
   info CHANNEL                owner, subscribers, rate, totals, properties
   graph                       who publishes and who subscribes, as Graphviz DOT
+  record -o FILE.mcap (CHANNEL... | --all)
+                              record streaming channels to an MCAP file (docs/recording.md)
+  play FILE.mcap              publish a recording again, with its timing, on your channels
+  mcap info|cat FILE.mcap     what an MCAP file holds; its messages as JSON lines
   users                       the accounts of the users file (administrators)
   user add|del|passwd|role|rule NAME ...
                               change an account; a password is one line on stdin
@@ -123,6 +127,43 @@ std::string_view commandHelp(std::string_view command) {
   Graphviz DOT of the hub's flows (boxes) and channels (ellipses, services dashed) with an edge
   from each owner to its channel and from each channel to its subscribers; what drops is red.
   --all includes the hub's own statistics channels. flowctl graph | dot -Tsvg > hub.svg
+)";
+  }
+  if (command == "record") {
+    return R"(usage: flowctl record -o FILE.mcap (CHANNEL... | --all) [options]
+  Subscribes to streaming channels (names or patterns, as for ls; --all: every one, and those
+  that appear later) and writes them to an MCAP file until Ctrl-C or SIGTERM, which finish the
+  file (summary and index). A recorder killed otherwise leaves a file readable up to its last
+  chunk (written at least every --flush-ms). Prints what was recorded, dropped and lost.
+  --compression zstd|lz4|none   chunk compression (default zstd)
+  --chunk-kb N     a chunk is written when it holds N KiB (default 4096)
+  --flush-ms MS    ... or when it is MS old (default 1000)
+  --queue-mb N     memory for messages waiting for the disk; past it they are dropped and
+                   counted (default 256)
+  --duration S     stop after S seconds
+)";
+  }
+  if (command == "play") {
+    return R"(usage: flowctl play FILE.mcap [--rate X] [--loop] [--start S] [--remap FROM=TO]...
+                    [--channels PATTERN,...] [--wait-ms MS]
+  Creates your channel <you>.<name> for each recorded channel <user>.<name> (with its mime type
+  and properties, changed when they changed) and publishes the messages at their recorded times.
+  --rate X        X times as fast (0.5: half speed)
+  --loop          start again at the end, until Ctrl-C
+  --start S       begin S seconds into the recording
+  --remap FROM=TO the recorded channel FROM becomes <you>.TO (TO may be <you>.<name>)
+  --channels P,.. only the recorded channels matching these patterns
+  --wait-ms MS    wait up to MS for every channel to have a subscriber before starting
+                  (default 1000; 0: start at once)
+)";
+  }
+  if (command == "mcap") {
+    return R"(usage: flowctl mcap info FILE.mcap | cat FILE.mcap
+  info  reads the whole file (checking its CRCs and index) and prints its channels, message
+        counts, time range, chunks and compression; a file cut short is read up to its last
+        complete chunk. --json: one JSON document.
+  cat   one JSON line per message: topic, sequence, log_time, publish_time, data (text, or
+        {"$base64": ...} for binary).
 )";
   }
   if (command == "call") {
@@ -268,6 +309,7 @@ int main(int argc, char** argv) {
     return help ? kOk : kUsage;
   }
   if (!env_error.empty() && !address_given) return fail(kUsage, env_error);
+  if (cli.command == "mcap") return cmdMcap(cli);  // reads a file: no hub
   if (cli.command == "ls") return cmdLs(cli);
   if (cli.command == "echo") return cmdEcho(cli);
   if (cli.command == "pub") return cmdPub(cli);
@@ -287,5 +329,7 @@ int main(int argc, char** argv) {
   if (cli.command == "sync") return cmdSync(cli);
   if (cli.command == "poll") return cmdPoll(cli);
   if (cli.command == "link") return cmdLink(cli);
+  if (cli.command == "record") return cmdRecord(cli);
+  if (cli.command == "play") return cmdPlay(cli);
   return fail(kUsage, "unknown command '" + cli.command + "' (see flowctl --help)");
 }

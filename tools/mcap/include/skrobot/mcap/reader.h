@@ -39,11 +39,11 @@ struct Summary {
 // given once (the summary's copies are not). `offset` is the record's place in the file (for a
 // record inside a chunk: the chunk's).
 struct Visitor {
-  std::function<void(const Header&)> header;
-  std::function<void(const Schema&)> schema;
-  std::function<void(const Channel&)> channel;
-  std::function<void(const Message&)> message;
-  std::function<void(const Metadata&, uint64_t offset)> metadata;
+  std::function<void(const Header&)> header = {};
+  std::function<void(const Schema&)> schema = {};
+  std::function<void(const Channel&)> channel = {};
+  std::function<void(const Message&)> message = {};
+  std::function<void(const Metadata&, uint64_t offset)> metadata = {};
 };
 
 // Where a streaming read ended.

@@ -1,7 +1,8 @@
 // The network page (/network) in Debian's chromium against a real hub with 200 channels
 // (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
 // table, previews of JSON, JPEG, gray, audio and detections, a channel's properties, and editing a
-// variable with and without the token. Screenshots go to <build>/test-output/network_browser/.
+// variable with and without the token. Screenshots go to <build>/test-output/network_browser/
+// (docs/images/network-*.jpg are two of them).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
@@ -63,7 +64,7 @@ test('the network page shows the hub live, previews channels and edits with the 
     Number(await page.evaluate(() => document.body.dataset.updates)) >= before + 3, 5000);
   const top = await page.locator('#top tbody tr').evaluateAll((rows) => rows.map((r) => r.dataset.channel));
   assert.deepEqual(top.slice(0, 2).sort(), ['guest.audio', 'guest.camera'], `the busiest first: ${top}`);
-  await page.screenshot({ path: path.join(shots, 'network-all.png') });
+  await page.screenshot({ path: path.join(shots, 'network-all.jpg'), quality: 85 });
 
   // Filtering: one channel, its publisher and subscriber; click it.
   const pick = async (name) => {
@@ -121,7 +122,8 @@ test('the network page shows the hub live, previews channels and edits with the 
   await waitFor('a face drawn on its camera frame', async () =>
     (await page.locator('#preview').getAttribute('data-kind')) === 'detections' &&
     (await page.locator('#preview').getAttribute('data-boxes')) === '1', 10000);
-  await page.screenshot({ path: path.join(shots, 'network-detections.png') });
+  await page.setViewportSize({ width: 1280, height: 1040 });  // the whole panel
+  await page.screenshot({ path: path.join(shots, 'network-detections.jpg'), quality: 85 });
 
   // A flow's database.
   await page.fill('#filter', '');

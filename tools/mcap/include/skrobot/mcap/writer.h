@@ -21,7 +21,7 @@ namespace skr::mcap {
 struct WriterOptions {
   Compression compression = Compression::zstd;
   size_t chunk_bytes = 4u << 20;  // a chunk is written when its records reach this size
-  std::string profile;            // the header's profile ("" : none)
+  std::string profile = {};       // the header's profile ("" : none)
   std::string library = "skrobot-mcap";
 };
 

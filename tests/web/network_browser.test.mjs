@@ -131,4 +131,7 @@ test('the network page shows the hub live, previews channels and edits with the 
   assert.equal(await page.locator('#details-title').textContent(), 'guest.camera');
   assert.deepEqual(errors, [], 'no errors in the page');
   assert.ok(hub.alive(), hub.log);
+  traffic.kill('SIGKILL');
+  const exit = await hub.stop();
+  assert.deepEqual(exit, { code: 0, signal: null }, `the hub stops cleanly (a sanitizer report fails it):\n${hub.log.slice(-4000)}`);
 });

@@ -1,0 +1,250 @@
+// flowctl record, play and mcap against the reference MCAP implementation, @mcap/core (with
+// @mcap/support's zstd and lz4): every file flowctl writes reads with McapIndexedReader, a
+// recorder killed with SIGKILL leaves a file McapStreamReader reads (CRCs checked) up to its last
+// chunk, and flowctl reads what McapWriter writes.
+import assert from 'node:assert/strict';
+import { spawn, execFile } from 'node:child_process';
+import { mkdtempSync, readFileSync, writeFileSync, rmSync } from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { promisify } from 'node:util';
+import { after, before, test } from 'node:test';
+
+import { env, sleep, startHub, waitFor, webRequire } from '../web/harness.mjs';
+
+const run = promisify(execFile);
+const { McapIndexedReader, McapStreamReader, McapWriter } = webRequire('@mcap/core');
+const { loadDecompressHandlers } = webRequire('@mcap/support');
+const zstd = webRequire('@foxglove/wasm-zstd');
+
+let hub;
+let dir;
+let decompressHandlers;
+
+before(async () => {
+  hub = await startHub([]);
+  dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-mcap-'));
+  decompressHandlers = await loadDecompressHandlers();
+  await zstd.isLoaded;
+});
+after(async () => {
+  await hub?.stop();
+  if (dir) rmSync(dir, { recursive: true, force: true });
+});
+
+const flowctl = (...args) => run(env.flowctl, ['--address', hub.address, ...args], { timeout: 30000 });
+
+// Starts flowctl record; resolves once it runs (each `flowctl pub` then waits for it to subscribe).
+async function startRecorder(file, args) {
+  const proc = spawn(env.flowctl, ['--address', hub.address, '--json', 'record', '-o', file, ...args],
+    { stdio: ['ignore', 'pipe', 'pipe'] });
+  let out = '';
+  proc.stdout.on('data', (d) => { out += d; });
+  proc.stderr.on('data', (d) => { out += d; });
+  const exited = new Promise((resolve) => proc.on('exit', (code, signal) => resolve({ code, signal })));
+  await waitFor('the recorder', () => out.includes('recording to'), 10000, 20);
+  return { proc, exited, get out() { return out; } };
+}
+
+// Publishes, in order: 8 runs of `flowctl pub` with 4 distinct JSON messages each on guest.seq
+// (each run re-creates the channel and waits for the recorder), and 6 binary payloads on
+// guest.blob. Returns what each channel carried, in order.
+async function publish() {
+  const seq = [];
+  for (let run = 0; run < 8; run++) {
+    const payload = JSON.stringify({ run, text: `run ${run}` });
+    await flowctl('pub', 'guest.seq', payload, '--repeat', '4', '--mime', 'application/json',
+      '--wait-ms', '5000');
+    for (let i = 0; i < 4; i++) seq.push(payload);
+  }
+  const blob = Buffer.alloc(3000);
+  for (let i = 0; i < blob.length; i++) blob[i] = (i * 7 + 3) & 0xff;
+  const blobFile = path.join(dir, 'blob.bin');
+  writeFileSync(blobFile, blob);
+  await flowctl('pub', 'guest.blob', '--file', blobFile, '--repeat', '6', '--mime',
+    'application/x-test', '--wait-ms', '5000');
+  return { seq, blob: Array(6).fill(blob) };
+}
+
+const readable = (buf) => ({
+  size: async () => BigInt(buf.length),
+  read: async (offset, length) => buf.subarray(Number(offset), Number(offset + length)),
+});
+
+// Every record of `buf` through the streaming reader with CRC checks.
+function streamRecords(buf) {
+  const reader = new McapStreamReader({ decompressHandlers, validateCrcs: true });
+  reader.append(buf);
+  const records = [];
+  for (let r; (r = reader.nextRecord());) records.push(r);
+  return { records, done: reader.done() };
+}
+
+function byTopic(channels, messages) {
+  const out = {};
+  for (const m of messages) {
+    const topic = channels.get(m.channelId).topic;
+    (out[topic] ??= []).push(m);
+  }
+  return out;
+}
+
+for (const compression of ['zstd', 'lz4']) {
+  test(`flowctl record (${compression}): McapIndexedReader reads it all`, async () => {
+    const file = path.join(dir, `run-${compression}.mcap`);
+    const startNs = BigInt(Date.now()) * 1000000n;
+    const rec = await startRecorder(file, ['--compression', compression, '--chunk-kb', '4',
+      'guest.seq', 'guest.blob']);
+    const sent = await publish();
+    await sleep(200);
+    const endNs = BigInt(Date.now()) * 1000000n;
+    rec.proc.kill('SIGINT');
+    assert.equal((await rec.exited).code, 0, rec.out);
+    const summary = JSON.parse(rec.out.slice(rec.out.indexOf('{')));
+    assert.equal(summary.dropped, 0);
+    assert.equal(summary.messages, sent.seq.length + sent.blob.length);
+
+    const buf = readFileSync(file);
+    const reader = await McapIndexedReader.Initialize({ readable: readable(buf), decompressHandlers });
+    assert.equal(reader.header.library, 'skrobot flowctl');
+    assert.ok(reader.chunkIndexes.length >= 2, 'several chunks');
+    for (const c of reader.chunkIndexes) assert.equal(c.compression, compression);
+    const topics = [...reader.channelsById.values()].map((c) => `${c.topic} ${c.messageEncoding}`);
+    assert.deepEqual(topics.sort(), ['guest.blob application/x-test', 'guest.seq json']);
+    const messages = [];
+    for await (const m of reader.readMessages()) messages.push(m);
+    const got = byTopic(reader.channelsById, messages);
+    assert.deepEqual(got['guest.seq'].map((m) => Buffer.from(m.data).toString()), sent.seq);
+    assert.deepEqual(got['guest.blob'].map((m) => Buffer.from(m.data)), sent.blob);
+    let last = 0n;
+    for (const m of messages) {
+      assert.ok(m.logTime >= last, 'log times in order');
+      assert.ok(m.logTime >= startNs && m.logTime <= endNs, 'log time is the receipt time');
+      assert.equal(m.publishTime, m.logTime, 'no capture time: publish time = log time');
+      last = m.logTime;
+    }
+    assert.equal(reader.statistics.messageCount, BigInt(messages.length));
+    assert.equal(reader.statistics.channelMessageCounts.get(
+      [...reader.channelsById.values()].find((c) => c.topic === 'guest.seq').id), 32n);
+    // Properties: one metadata record per (re)subscription of a channel.
+    const metadata = [];
+    for await (const m of reader.readMetadata({ name: 'skrobot.channel_properties' })) metadata.push(m);
+    assert.ok(metadata.filter((m) => m.metadata.get('channel') === 'guest.seq').length >= 8);
+    for (const m of metadata) JSON.parse(m.metadata.get('properties'));
+
+    const { records, done } = streamRecords(buf);
+    assert.ok(done, 'the streaming reader reads to the footer');
+    assert.equal(records.filter((r) => r.type === 'Message').length, messages.length);
+
+    // flowctl reads what it wrote.
+    const info = JSON.parse((await flowctl('--json', 'mcap', 'info', file)).stdout);
+    assert.equal(info.complete, true);
+    assert.equal(info.indexed, true);
+    assert.equal(info.messages, messages.length);
+    assert.deepEqual(Object.keys(info.chunks), [compression]);
+  });
+}
+
+test('a recorder killed with SIGKILL: McapStreamReader reads it up to its last chunk', async () => {
+  const file = path.join(dir, 'killed.mcap');
+  const rec = await startRecorder(file, ['--flush-ms', '100', 'guest.seq', 'guest.blob']);
+  const sent = await publish();
+  await sleep(400);  // a flush after the last message
+  rec.proc.kill('SIGKILL');
+  await rec.exited;
+  const buf = readFileSync(file);
+  await assert.rejects(McapIndexedReader.Initialize({ readable: readable(buf), decompressHandlers }));
+  const { records, done } = streamRecords(buf);
+  assert.equal(done, false);
+  const channels = new Map(records.filter((r) => r.type === 'Channel').map((c) => [c.id, c]));
+  const got = byTopic(channels, records.filter((r) => r.type === 'Message'));
+  assert.deepEqual(got['guest.seq'].map((m) => Buffer.from(m.data).toString()), sent.seq);
+  assert.deepEqual(got['guest.blob'].map((m) => Buffer.from(m.data)), sent.blob);
+
+  // Cut in the middle as well (inside a chunk): what is read is a prefix of what was sent.
+  const whole = records.filter((r) => r.type === 'Message');
+  const part = streamRecords(buf.subarray(0, Math.floor(buf.length * 0.6)));
+  assert.equal(part.done, false);
+  const partMessages = part.records.filter((r) => r.type === 'Message');
+  assert.ok(partMessages.length > 0 && partMessages.length < whole.length,
+    `${partMessages.length} of ${whole.length}`);
+  partMessages.forEach((m, i) => assert.deepEqual(Buffer.from(m.data), Buffer.from(whole[i].data)));
+  // flowctl reads the same.
+  const info = JSON.parse((await flowctl('--json', 'mcap', 'info', file)).stdout);
+  assert.equal(info.complete, false);
+  assert.equal(info.messages, whole.length);
+});
+
+// An MCAP file written by @mcap/core's McapWriter: zstd chunks (or none), a schema, two channels.
+async function writeReference(file, compress) {
+  const parts = [];
+  let size = 0n;
+  const writer = new McapWriter({
+    writable: { write: async (b) => { parts.push(Buffer.from(b)); size += BigInt(b.length); }, position: () => size },
+    chunkSize: 1024,
+    compressChunk: compress
+      ? (data) => ({ compression: 'zstd', compressedData: zstd.compress(data, 3) })
+      : undefined,
+  });
+  await writer.start({ profile: '', library: 'node test' });
+  const schema = await writer.registerSchema({ name: 'Point', encoding: 'jsonschema',
+    data: Buffer.from('{"type":"object"}') });
+  const points = await writer.registerChannel({ topic: 'robot.points', schemaId: schema,
+    messageEncoding: 'json', metadata: new Map() });
+  const raw = await writer.registerChannel({ topic: 'robot.raw', schemaId: 0,
+    messageEncoding: 'application/octet-stream', metadata: new Map([['mime', 'application/x-raw']]) });
+  const sent = [];
+  const t0 = BigInt(Date.now()) * 1000000n;
+  for (let i = 0; i < 40; i++) {
+    const json = i % 2 === 0;
+    const data = json ? Buffer.from(JSON.stringify({ x: i, y: -i })) : Buffer.alloc(50 + i, i);
+    const logTime = t0 + BigInt(i) * 10000000n;  // 10 ms apart
+    await writer.addMessage({ channelId: json ? points : raw, sequence: i, logTime,
+      publishTime: logTime - 1000n, data });
+    sent.push({ topic: json ? 'robot.points' : 'robot.raw', data, logTime });
+  }
+  await writer.addMetadata({ name: 'run', metadata: new Map([['robot', 'nao']]) });
+  await writer.end();
+  writeFileSync(file, Buffer.concat(parts));
+  return sent;
+}
+
+for (const compress of [true, false]) {
+  test(`flowctl reads McapWriter's files (${compress ? 'zstd' : 'uncompressed'})`, async () => {
+    const file = path.join(dir, `reference-${compress}.mcap`);
+    const sent = await writeReference(file, compress);
+    const info = JSON.parse((await flowctl('--json', 'mcap', 'info', file)).stdout);
+    assert.equal(info.complete, true);
+    assert.equal(info.indexed, true);
+    assert.equal(info.library, 'node test');
+    assert.equal(info.messages, sent.length);
+    assert.deepEqual(info.channels.map((c) => [c.topic, c.messages]),
+      [['robot.points', 20], ['robot.raw', 20]]);
+    assert.equal(info.channels[1].mime, 'application/x-raw');
+    const text = (await flowctl('mcap', 'cat', file)).stdout.trim().split('\n');
+    assert.equal(text.length, sent.length);
+    // Times as BigInt from the text (JSON.parse would round them to doubles).
+    const time = (line, key) => BigInt(line.match(new RegExp(`"${key}":(\\d+)`))[1]);
+    text.forEach((line, i) => {
+      const l = JSON.parse(line);
+      assert.equal(l.topic, sent[i].topic);
+      assert.equal(time(line, 'log_time'), sent[i].logTime);
+      assert.equal(time(line, 'publish_time'), sent[i].logTime - 1000n);
+      const data = typeof l.data === 'string' ? Buffer.from(l.data) : Buffer.from(l.data.$base64, 'base64');
+      assert.deepEqual(data, sent[i].data);
+    });
+
+    if (!compress) return;
+    // And plays it: robot.points comes back as guest.points, in order, about 10 ms apart.
+    const echo = spawn(env.flowctl, ['--address', hub.address, 'echo', 'guest.points', '--wait',
+      '--count', '20'], { stdio: ['ignore', 'pipe', 'pipe'] });
+    let echoed = '';
+    echo.stdout.on('data', (d) => { echoed += d; });
+    const echoExit = new Promise((resolve) => echo.on('exit', resolve));
+    const played = JSON.parse((await flowctl('--json', 'play', file, '--wait-ms', '5000')).stdout);
+    assert.equal(played.messages, 40);
+    assert.equal(await Promise.race([echoExit, sleep(10000).then(() => 'timeout')]), 0);
+    assert.deepEqual(echoed.trim().split('\n'),
+      sent.filter((s) => s.topic === 'robot.points').map((s) => s.data.toString()));
+  });
+}

@@ -206,6 +206,29 @@ TEST_F(FlowctlRecord, RecordThenPlayRemapped) {
   EXPECT_EQ(sub->events.count("changed:guest.again:{\"unit\":\"m\"}"), 1u);
 }
 
+// A disk that does not keep up (here: a queue too small for any message) drops, and says so.
+TEST_F(FlowctlRecord, DropsAreCountedAndReported) {
+  auto pub = publisher();
+  const std::string path = (dir_.path() / "drops.mcap").string();
+  auto rec = flowctl({"--json", "record", "-o", path, "guest.video", "--queue-mb", "0.00001"});
+  EXPECT_TRUE(eventually([&] { return pub->events.count("start:guest.video") == 1; }));
+  for (int i = 0; i < 5; ++i)
+    pub->on([&](Satellite& x) { ASSERT_TRUE(x.publish("video", frame(i))); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  rec->signal(SIGTERM);
+  EXPECT_EQ(rec->wait(), 0);
+  EXPECT_NE(rec->output().find("\"dropped\":5"), std::string::npos) << rec->output();
+  EXPECT_NE(rec->output().find("5 messages dropped: the disk did not keep up"), std::string::npos)
+      << rec->output();
+  // The file is complete (SIGTERM finishes it) and holds the channel but no message.
+  auto reader = mcap::Reader::open(path);
+  ASSERT_TRUE(reader);
+  auto summary = reader->readSummary();
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_EQ(summary->channels.size(), 1u);
+  EXPECT_EQ(summary->statistics->message_count, 0u);
+}
+
 TEST_F(FlowctlRecord, UsageErrors) {
   EXPECT_EQ(flowctl({"record", "guest.x"})->wait(), 2);       // no -o
   EXPECT_EQ(flowctl({"record", "-o", "x.mcap"})->wait(), 2);  // no channel

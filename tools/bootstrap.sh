@@ -50,6 +50,8 @@ PACKAGES=(
   libwebsockets-dev chromium
   # nats-bridge (the C client) and its tests and benchmark (a real server on loopback)
   libnats-dev nats-server
+  # bench/peers: the hub beside Redis and Mosquitto (servers and client libraries; NATS above)
+  redis-server libhiredis-dev mosquitto libmosquitto-dev
   # flowctl record/play (MCAP chunks compressed with zstd or lz4)
   libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)

@@ -144,7 +144,8 @@ int cmdPlay(const Cli& cli) {
   std::map<uint16_t, mcap::Channel> channels;
   std::vector<PropertyChange> changes;
   std::optional<Messages> messages;
-  if (auto summary = reader->readSummary()) {
+  auto summary = reader->readSummary();
+  if (summary && !summary->chunks.empty()) {
     channels = summary->channels;
     for (const auto& index : summary->metadata) {
       if (index.name != mcapmap::kPropertiesName) continue;
@@ -153,7 +154,8 @@ int cmdPlay(const Cli& cli) {
       if (auto c = propertyChange(*m)) changes.push_back(std::move(*c));
     }
     messages.emplace(*reader, summary->chunks);
-  } else if (summary.error().code == skr::Errc::not_found) {
+  } else if (summary || summary.error().code == skr::Errc::not_found) {
+    // No index, or messages outside chunks (which no index covers): read it all.
     std::vector<OwnedMessage> owned;
     auto end = reader->scan({.channel = [&](const mcap::Channel& c) { channels[c.id] = c; },
                              .message =
@@ -165,8 +167,10 @@ int cmdPlay(const Cli& cli) {
                                    if (auto c = propertyChange(m)) changes.push_back(std::move(*c));
                                  }});
     if (!end) return fail(kFailed, rest[0] + ": " + end.error().message);
-    std::fprintf(stderr, "flowctl: %s has no index (%s): played as read\n", rest[0].c_str(),
-                 end->stopped.c_str());
+    if (!end->complete) {
+      std::fprintf(stderr, "flowctl: %s has no index (%s): played as read\n", rest[0].c_str(),
+                   end->stopped.c_str());
+    }
     messages.emplace(std::move(owned));
   } else {
     return fail(kFailed, rest[0] + ": " + summary.error().message);

@@ -669,24 +669,29 @@ Throughput peerStream(const Server& server, size_t subscribers, size_t payload, 
   const skr::Nanos start = skr::monotonicNs();
   const skr::Nanos deadline = start + static_cast<skr::Nanos>(seconds * 1e9);
   // A lossy server never lets `seen` reach the window's edge: the wait gives up after a while.
-  for (uint64_t seq = 0;;) {
-    const bool last = skr::monotonicNs() >= deadline;
-    const skr::Nanos wait_start = skr::monotonicNs();
-    while (seq + k > slowest() + window && !anyFailed() &&
-           skr::monotonicNs() - wait_start < skr::Nanos{kTailIdleMs} * 1000000) {
-      std::this_thread::sleep_for(std::chrono::microseconds(50));
+  try {
+    for (uint64_t seq = 0;;) {
+      const bool last = skr::monotonicNs() >= deadline;
+      const skr::Nanos wait_start = skr::monotonicNs();
+      while (seq + k > slowest() + window && !anyFailed() &&
+             skr::monotonicNs() - wait_start < skr::Nanos{kTailIdleMs} * 1000000) {
+        std::this_thread::sleep_for(std::chrono::microseconds(50));
+      }
+      if (anyFailed()) break;
+      for (uint64_t i = 0; i < k; ++i) {
+        stamp(data, seq + i);
+        pub->publish("stream", data);
+      }
+      pub->flush();
+      seq += k;
+      if (last) {
+        total.store(seq, std::memory_order_release);
+        break;
+      }
     }
-    if (anyFailed()) break;
-    for (uint64_t i = 0; i < k; ++i) {
-      stamp(data, seq + i);
-      pub->publish("stream", data);
-    }
-    pub->flush();
-    seq += k;
-    if (last) {
-      total.store(seq, std::memory_order_release);
-      break;
-    }
+  } catch (...) {
+    total.store(0);  // the subscribers stop at once
+    throw;
   }
   if (total.load() == std::numeric_limits<uint64_t>::max()) total.store(0);  // a reader failed
   for (auto& w : workers) w->join("subscriber");
@@ -724,7 +729,8 @@ std::string cellText(const Cell& c, const Cell& ref, bool latency, bool mb) {
   }
   std::string s = rateText(c.tp.total_rate);
   if (mb) s += fmt(" %.0fMB/s", c.tp.mb_s);
-  s += fmt(" %.2fx", c.tp.total_rate / ref.tp.total_rate);
+  const double ratio = c.tp.total_rate / ref.tp.total_rate;
+  s += fmt(ratio < 0.1 ? " %.3fx" : " %.2fx", ratio);
   if (c.tp.dropped > 0) s += " lost " + std::to_string(c.tp.dropped);
   return s;
 }
@@ -759,10 +765,13 @@ int main(int argc, char** argv) {
     skr::test::TempDir dir("skrobot-peers");
     Hub hub(HubOptions{8 * kMiB, 50, true, false});
     std::vector<System> systems;
+    systems.push_back({"hub-tcp",
+                       "hub tcp",
+                       "FlowProtocol on blocking sockets, 256 KB of frames per send()",
+                       Transport::tcp,
+                       {}});
     systems.push_back(
-        {"hub-tcp", "hub tcp", "FlowProtocol, 256 KB per send()", Transport::tcp, {}});
-    systems.push_back(
-        {"hub-unix", "hub unix", "FlowProtocol, 256 KB per send()", Transport::unix_socket, {}});
+        {"hub-unix", "hub unix", "the same, on the hub's Unix socket", Transport::unix_socket, {}});
     const auto addServer = [&](const char* id, const char* title, const char* library,
                                const char* binary, auto make) {
       if (!wantSystem(o, id)) return;
@@ -776,12 +785,23 @@ int main(int argc, char** argv) {
       }
       systems.push_back({id, title, library, Transport::tcp, make()});
     };
-    addServer("redis", "redis", "hiredis, pipelined PUBLISH", REDIS_SERVER_BIN,
-              [&] { return std::make_unique<RedisServer>(dir.path()); });
-    addServer("mosquitto", "mosquitto (QoS 0)", "libmosquitto, a write per packet", MOSQUITTO_BIN,
-              [&] { return std::make_unique<MosquittoServer>(dir.path()); });
-    addServer("nats", "nats", "libnats, buffered (SendAsap for round trips)", NATS_SERVER_BIN,
-              [&] { return std::make_unique<NatsCoreServer>(dir.path()); });
+    int mq_major = 0, mq_minor = 0, mq_rev = 0;
+    mosquitto_lib_version(&mq_major, &mq_minor, &mq_rev);
+    const std::string hiredis = "hiredis " + std::to_string(HIREDIS_MAJOR) + "." +
+                                std::to_string(HIREDIS_MINOR) + "." + std::to_string(HIREDIS_PATCH);
+    const std::string libmosquitto = "libmosquitto " + std::to_string(mq_major) + "." +
+                                     std::to_string(mq_minor) + "." + std::to_string(mq_rev);
+    addServer("redis", "redis",
+              (hiredis + ": PUBLISH pipelined, replies read a batch late").c_str(),
+              REDIS_SERVER_BIN, [&] { return std::make_unique<RedisServer>(dir.path()); });
+    addServer("mosquitto", "mosquitto (QoS 0)",
+              (libmosquitto + ": a write per message, a packet per mosquitto_loop_read").c_str(),
+              MOSQUITTO_BIN, [&] { return std::make_unique<MosquittoServer>(dir.path()); });
+    addServer("nats", "nats",
+              (std::string("libnats ") + nats_GetVersion() +
+               ": publishes buffered by its flusher (sent at once for round trips), NextMsg")
+                  .c_str(),
+              NATS_SERVER_BIN, [&] { return std::make_unique<NatsCoreServer>(dir.path()); });
     std::vector<bool> on;
     for (const auto& s : systems) on.push_back(wantSystem(o, s.id));
 

@@ -116,7 +116,7 @@ after(async () => {
   if (hub) await hub.stop();
 });
 
-test('serverInfo names the capabilities; channels and services are advertised', async () => {
+test('serverInfo names the capabilities; channels and services are advertised', { timeout: 60000 }, async () => {
   const { client, seen } = await connect();
   assert.equal(seen.info.name, 'skrobot');
   for (const cap of ['parameters', 'parametersSubscribe', 'services', 'connectionGraph']) {
@@ -140,7 +140,7 @@ test('serverInfo names the capabilities; channels and services are advertised', 
   client.close();
 });
 
-test('data flows while subscribed, in the reference schemas, and stops after unsubscribe', async () => {
+test('data flows while subscribed, in the reference schemas, and stops after unsubscribe', { timeout: 60000 }, async () => {
   const { client, seen } = await connect();
   await waitFor('channels', () => seen.channels.has('guest.camera') && seen.channels.has('guest.faces'));
   const subscribers = async (name) => JSON.parse(await hub.flowctl('--json', 'ls'))
@@ -178,7 +178,7 @@ test('data flows while subscribed, in the reference schemas, and stops after uns
   client.close();
 });
 
-test('a service call goes to the hub service and its answer comes back', async () => {
+test('a service call goes to the hub service and its answer comes back', { timeout: 60000 }, async () => {
   const { client, seen } = await connect();
   await waitFor('services', () => seen.services.has('hub.inspect'));
   const id = seen.services.get('hub.inspect').id;
@@ -198,7 +198,7 @@ test('a service call goes to the hub service and its answer comes back', async (
   client.close();
 });
 
-test('parameters are database variables: get, set, updates, and a refused set', async () => {
+test('parameters are database variables: get, set, updates, and a refused set', { timeout: 60000 }, async () => {
   await hub.flowctl('db', 'set', '--db', 'guest', 'speed', '2');
   const { client, seen } = await connect();
   client.getParameters([], 'all');
@@ -227,7 +227,7 @@ test('parameters are database variables: get, set, updates, and a refused set', 
   client.close();
 });
 
-test('the connection graph comes from the hub statistics', async () => {
+test('the connection graph comes from the hub statistics', { timeout: 60000 }, async () => {
   const { client, seen } = await connect();
   await waitFor('channels', () => seen.channels.has('guest.numbers'));
   const sub = client.subscribe(seen.channels.get('guest.numbers').id);
@@ -242,7 +242,7 @@ test('the connection graph comes from the hub statistics', async () => {
   client.close();
 });
 
-test('a malformed message closes only its client, with a reason', async () => {
+test('a malformed message closes only its client, with a reason', { timeout: 60000 }, async () => {
   const good = await connect();
   const bad = new WebSocket(`ws://127.0.0.1:${port}/`, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
   const closed = new Promise((r) => bad.on('close', (code, reason) => r({ code, reason: reason.toString() })));

@@ -95,19 +95,23 @@ function validate(schema, value, where = '$') {
 
 before(async () => {
   port = await freePort();
-  hub = await startHub([{ name: 'foxglove-bridge', config: {
+  // The bridge acts as the account "foxglove": it may write its own database only, and may not
+  // subscribe to guest.secret.
+  hub = await startHub([{ name: 'foxglove-bridge', account: 'foxglove', config: {
     port, annotations: ['guest.faces'], parameters: ['foxglove-bridge', 'guest'],
-    writable: ['foxglove-bridge'], max_message_bytes: 4096 } }]);
+    max_message_bytes: 4096 } }], { users: [{ name: 'foxglove', rules: {
+    db_write: ['foxglove-bridge'], subscribe: ['**', '!guest.secret'] } }] });
   const jpeg = readFileSync('/usr/share/doc/opencv-doc/examples/data/HappyFish.jpg');
   const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-fg-'));
   writeFileSync(path.join(dir, 'frame'), mediaFrame(1, jpeg));
   publish('guest.numbers', ['{"n":1,"x":0.5}', '--mime', 'application/json']);
   publish('guest.camera', ['--file', path.join(dir, 'frame'), '--mime', 'image/jpeg']);
+  publish('guest.secret', ['{"pin":1234}', '--mime', 'application/json']);
   publish('guest.faces', ['{"capture_ns":1700000000123456789,"width":128,"height":128,'
     + '"faces":[{"x":10,"y":20,"w":30,"h":40,"score":0.9}]}', '--mime', 'application/json']);
   await waitFor('the publishers\' channels', async () => {
     const ls = await hub.flowctl('ls');
-    return ['guest.numbers', 'guest.camera', 'guest.faces'].every((c) => ls.includes(c));
+    return ['guest.numbers', 'guest.camera', 'guest.faces', 'guest.secret'].every((c) => ls.includes(c));
   });
 });
 
@@ -178,6 +182,17 @@ test('data flows while subscribed, in the reference schemas, and stops after uns
   client.close();
 });
 
+test('a channel the account may not subscribe to is refused with a status', { timeout: 60000 }, async () => {
+  const { client, seen } = await connect();
+  await waitFor('channels', () => seen.channels.has('guest.secret'));
+  client.subscribe(seen.channels.get('guest.secret').id);
+  await waitFor('the refusal', () => seen.status.some((s) => /cannot subscribe to guest\.secret/.test(s.message)));
+  await sleep(500);
+  assert.equal(seen.messages.length, 0);
+  assert.equal(seen.closed, null);
+  client.close();
+});
+
 test('a service call goes to the hub service and its answer comes back', { timeout: 60000 }, async () => {
   const { client, seen } = await connect();
   await waitFor('services', () => seen.services.has('hub.inspect'));
@@ -217,9 +232,10 @@ test('parameters are database variables: get, set, updates, and a refused set', 
   await hub.flowctl('db', 'set', '--db', 'guest', 'speed', '5');
   await waitFor('the update', () => seen.params.some((p) => p.id === undefined
     && p.parameters.some((q) => q.name === 'guest/speed' && q.value === 5)));
-  // guest is shown but not writable: refused with a status message, the value stays.
+  // guest is shown, but the account may not write it: refused with a status message, the value
+  // stays.
   client.setParameters([{ name: 'guest/speed', value: 9 }], 'set2');
-  await waitFor('the refusal', () => seen.status.some((s) => /guest\/speed.*read-only/.test(s.message)));
+  await waitFor('the refusal', () => seen.status.some((s) => /guest\/speed.*refused/.test(s.message)));
   await waitFor('the set2 answer', () => seen.params.find((p) => p.id === 'set2'));
   assert.equal(seen.params.find((p) => p.id === 'set2').parameters[0].value, 5);
   assert.equal(await hub.dbGet('guest', 'speed'), 5);

@@ -51,7 +51,8 @@ export async function waitFor(what, fn, timeoutMs = 30000, everyMs = 100) {
 }
 
 // Starts the hub with `modules` (entries of the config's "modules" list, names resolved in the
-// build's module directory) and `users` ([{name, password, role}], added to its users file first).
+// build's module directory) and `users` ([{name, password, role, rules: {action: [patterns]}}],
+// added to its users file first).
 // Resolves once it logged HUB-READY.
 export async function startHub(modules, { users = [] } = {}) {
   const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-web-'));
@@ -65,6 +66,9 @@ export async function startHub(modules, { users = [] } = {}) {
       p.stdin.end(`${u.password || 'password'}\n`);
     });
     if (u.role) await run(env.skrobot, ['user', 'role', u.name, u.role, '--users', usersFile]);
+    for (const [action, patterns] of Object.entries(u.rules || {})) {
+      await run(env.skrobot, ['user', 'rule', u.name, action, ...patterns, '--users', usersFile]);
+    }
   }
   const config = {
     app_name: 'WebTest', server: { unix_path: socket }, data_dir: path.join(dir, 'data'),

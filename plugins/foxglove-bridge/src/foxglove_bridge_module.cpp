@@ -89,13 +89,6 @@ class FoxgloveBridge final : public skr::plugin::Module {
     annotations_ = stringSet(host, "annotations");
     joints_ = stringSet(host, "joints");
     parameter_dbs_ = stringSet(host, "parameters");
-    writable_dbs_ = stringSet(host, "writable");
-    for (const auto& db : writable_dbs_) {
-      if (parameter_dbs_.count(db) == 0) {
-        host.configError("writable", "'" + db + "' is not among the parameters' databases");
-        throw Failure(SKR_ERR_CONFIG, "writable database '" + db + "' not in parameters");
-      }
-    }
   }
 
   void start() override {
@@ -328,8 +321,12 @@ class FoxgloveBridge final : public skr::plugin::Module {
         warn(conn, "no channel " + std::to_string(chan));
         continue;
       }
+      if (!hold(c->second)) {
+        warn(conn, "cannot subscribe to " + c->second.name +
+                       ": not allowed for the bridge's account (see the hub's log)");
+        continue;
+      }
       client.subs[sub] = chan;
-      hold(c->second);
     }
   }
 
@@ -369,11 +366,10 @@ class FoxgloveBridge final : public skr::plugin::Module {
         refused = "is not <database>/<key>";
       } else if (parameter_dbs_.count(db) == 0) {
         refused = "is not in a database this bridge shows";
-      } else if (writable_dbs_.count(db) == 0) {
-        refused = "is read-only (database '" + db + "' is not writable from Foxglove)";
       } else if (p.value ? !skr::plugin::dbSet(host_, db, key, writeJson(*p.value))
                          : (params_.count(p.name) != 0 && !skr::plugin::dbRemove(host_, db, key))) {
-        refused = "was refused by the hub";
+        // The hub checks the module's account (its config entry's "account") and ownership.
+        refused = "was refused by the hub (the bridge's account may not write '" + db + "')";
       }
       if (!refused.empty()) {
         ++refused_sets_;
@@ -438,16 +434,22 @@ class FoxgloveBridge final : public skr::plugin::Module {
             server_.send(conn, false, serviceCallFailure(service, call, v), false);
           }
         });
-    if (!sent) fail("the service " + s->second + " is not running");
+    if (!sent) {
+      fail("cannot call " + s->second + ": not running, or not allowed for the bridge's account");
+    }
   }
 
   void handle(std::uint64_t conn, Client& /*client*/, const Unsupported& m) {
     warn(conn, "'" + m.op + "' is not supported by this server");
   }
 
-  // A client subscription to channel `id` was added: the first one subscribes the hub channel.
-  void hold(Chan& c) {
-    if (c.subscribers++ > 0) return;
+  // A client subscription to channel `c` is added: the first one subscribes the hub channel.
+  // False when the hub refuses (the account's subscribe rule).
+  bool hold(Chan& c) {
+    if (c.subscribers > 0) {
+      ++c.subscribers;
+      return true;
+    }
     if (c.shape == Shape::joints) {
       c.joint_names.clear();
       if (auto names = skr::plugin::dbGet(host_, c.name, "names")) {
@@ -463,7 +465,10 @@ class FoxgloveBridge final : public skr::plugin::Module {
                                         [this, id](std::string_view p) { onData(id, p); });
     } catch (const std::exception& e) {
       host_.log.warn("FOXGLOVE-SUBSCRIBE", "cannot subscribe to ", c.name, ": ", e.what());
+      return false;
     }
+    c.subscribers = 1;
+    return true;
   }
 
   // The last client subscription to channel `id` went: the hub channel is let go.
@@ -540,7 +545,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
   skr::wsui::WsServerOptions opts_;
   DecodeLimits limits_;
   std::string name_, inspect_, session_;
-  std::set<std::string> annotations_, joints_, parameter_dbs_, writable_dbs_;
+  std::set<std::string> annotations_, joints_, parameter_dbs_;
 
   skr::wsui::WsServer server_;
   std::optional<skr::plugin::Requester> requester_;
@@ -586,7 +591,6 @@ constexpr skr_config_key kConfig[] = {
                "detection channels shown as foxglove.ImageAnnotations, e.g. face-detect.faces"),
     cfg::array("joints", "[]", "joint-angle channels shown by joint name, e.g. nao-bridge.joints"),
     cfg::array("parameters", "[]", "databases whose variables are parameters (<db>/<key>)"),
-    cfg::array("writable", "[]", "of those, the databases clients may set"),
 };
 
 SKROBOT_MODULE_WITH_CONFIG(skr::foxglove::FoxgloveBridge, "foxglove-bridge", "1.0.0",

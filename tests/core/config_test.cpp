@@ -50,7 +50,8 @@ TEST(ConfigTest, DefaultConfigLoads) {
   EXPECT_EQ(names,
             (std::vector<std::string>{"websocket-ui", "video-source", "video-mono", "face-detect",
                                       "motion", "qrcode", "fft-audio", "speech", "audio-io",
-                                      "vorbis", "nao-bridge", "agent", "example"}));
+                                      "vorbis", "nao-bridge", "agent", "foxglove-bridge",
+                                      "example"}));
   const ModuleEntry& ui = r->modules[0];
   EXPECT_TRUE(ui.enabled);
   EXPECT_FALSE(ui.own_thread);

@@ -97,9 +97,10 @@ before(async () => {
   port = await freePort();
   // The bridge acts as the account "foxglove": it may write its own database only, and may not
   // subscribe to guest.secret.
-  hub = await startHub([{ name: 'foxglove-bridge', account: 'foxglove', config: {
-    port, annotations: ['guest.faces'], parameters: ['foxglove-bridge', 'guest'],
-    max_message_bytes: 4096 } }], { users: [{ name: 'foxglove', rules: {
+  hub = await startHub([{ name: 'nao-bridge', config: { backend: 'simulated' } },
+    { name: 'foxglove-bridge', account: 'foxglove', config: {
+      port, annotations: ['guest.faces'], joints: ['nao-bridge.joints'],
+      parameters: ['foxglove-bridge', 'guest'], max_message_bytes: 4096 } }], { users: [{ name: 'foxglove', rules: {
     db_write: ['foxglove-bridge'], subscribe: ['**', '!guest.secret'] } }] });
   const jpeg = readFileSync('/usr/share/doc/opencv-doc/examples/data/HappyFish.jpg');
   const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-fg-'));
@@ -179,6 +180,21 @@ test('data flows while subscribed, in the reference schemas, and stops after uns
   const count = seen.messages.length;
   await sleep(1000);
   assert.equal(seen.messages.length, count, 'no message after unsubscribe');
+  client.close();
+});
+
+test('the Nao\'s joints come by name, to plot', { timeout: 60000 }, async () => {
+  const { client, seen } = await connect();
+  await waitFor('the joints channel', () => seen.channels.has('nao-bridge.joints'));
+  const ch = seen.channels.get('nao-bridge.joints');
+  assert.equal(ch.schemaName, 'skrobot.JointPositions');
+  const sub = client.subscribe(ch.id);
+  await waitFor('joint states', () => seen.messages.some((m) => m.subscriptionId === sub), 10000);
+  const j = decode(seen.messages.find((m) => m.subscriptionId === sub));
+  assert.equal(j.angles.length, 26);
+  assert.equal(Object.keys(j.positions).length, 26);
+  assert.equal(typeof j.positions.HeadYaw, 'number');
+  assert.equal(j.positions.RHand, j.angles[25]);
   client.close();
 });
 

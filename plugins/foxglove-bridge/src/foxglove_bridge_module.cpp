@@ -30,6 +30,10 @@ using skr::support::writeJson;
 constexpr int kCloseUnsupportedData = 1003;
 constexpr int kCloseInvalidPayload = 1007;
 constexpr int kCloseTooBig = 1009;
+// What one client may hold (each message's lists are limited by DecodeLimits, these across
+// messages): subscriptions, and parameter names it follows.
+constexpr std::size_t kMaxSubscriptions = 4096;
+constexpr std::size_t kMaxParameterSubscriptions = 4096;
 
 std::uint64_t wallNs() {
   return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -316,6 +320,10 @@ class FoxgloveBridge final : public skr::plugin::Module {
         warn(conn, "subscription id " + std::to_string(sub) + " is already in use");
         continue;
       }
+      if (client.subs.size() >= kMaxSubscriptions) {
+        warn(conn, "over " + std::to_string(kMaxSubscriptions) + " subscriptions");
+        break;
+      }
       auto c = chans_.find(chan);
       if (c == chans_.end()) {
         warn(conn, "no channel " + std::to_string(chan));
@@ -386,8 +394,13 @@ class FoxgloveBridge final : public skr::plugin::Module {
     if (m.id) server_.send(conn, false, parameterValues(out, m.id), false);
   }
 
-  void handle(std::uint64_t /*conn*/, Client& client, const ParameterUpdates& m) {
+  void handle(std::uint64_t conn, Client& client, const ParameterUpdates& m) {
     for (const auto& name : m.names) {
+      if (m.subscribe && client.param_subs.size() >= kMaxParameterSubscriptions) {
+        warn(conn,
+             "over " + std::to_string(kMaxParameterSubscriptions) + " parameter subscriptions");
+        break;
+      }
       if (m.subscribe) {
         client.param_subs.insert(name);
       } else {

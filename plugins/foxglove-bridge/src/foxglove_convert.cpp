@@ -85,29 +85,34 @@ Json::Value point(double x, double y) {
 
 }  // namespace
 
-std::string base64(std::string_view bytes) {
+void appendBase64(std::string& out, std::string_view bytes) {
   static constexpr char kAlphabet[] =
       "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
+  const std::size_t at = out.size();
+  out.resize(at + (bytes.size() + 2) / 3 * 4);
+  char* o = out.data() + at;
+  const auto* in = reinterpret_cast<const unsigned char*>(bytes.data());
   std::size_t i = 0;
   for (; i + 3 <= bytes.size(); i += 3) {
-    const std::uint32_t v = static_cast<unsigned char>(bytes[i]) << 16 |
-                            static_cast<unsigned char>(bytes[i + 1]) << 8 |
-                            static_cast<unsigned char>(bytes[i + 2]);
-    out.push_back(kAlphabet[v >> 18 & 63]);
-    out.push_back(kAlphabet[v >> 12 & 63]);
-    out.push_back(kAlphabet[v >> 6 & 63]);
-    out.push_back(kAlphabet[v & 63]);
+    const std::uint32_t v = in[i] << 16 | in[i + 1] << 8 | in[i + 2];
+    *o++ = kAlphabet[v >> 18 & 63];
+    *o++ = kAlphabet[v >> 12 & 63];
+    *o++ = kAlphabet[v >> 6 & 63];
+    *o++ = kAlphabet[v & 63];
   }
   if (const std::size_t rest = bytes.size() - i; rest > 0) {
-    std::uint32_t v = static_cast<unsigned char>(bytes[i]) << 16;
-    if (rest == 2) v |= static_cast<unsigned char>(bytes[i + 1]) << 8;
-    out.push_back(kAlphabet[v >> 18 & 63]);
-    out.push_back(kAlphabet[v >> 12 & 63]);
-    out.push_back(rest == 2 ? kAlphabet[v >> 6 & 63] : '=');
-    out.push_back('=');
+    std::uint32_t v = in[i] << 16;
+    if (rest == 2) v |= in[i + 1] << 8;
+    *o++ = kAlphabet[v >> 18 & 63];
+    *o++ = kAlphabet[v >> 12 & 63];
+    *o++ = rest == 2 ? kAlphabet[v >> 6 & 63] : '=';
+    *o++ = '=';
   }
+}
+
+std::string base64(std::string_view bytes) {
+  std::string out;
+  appendBase64(out, bytes);
   return out;
 }
 
@@ -144,13 +149,20 @@ std::string schemaText(Shape shape) {
 std::optional<Converted> compressedImage(std::string_view message, const std::string& frame_id) {
   auto frame = skr::media::parseFrame(message);
   if (!frame || frame->header.format != skr::media::Format::jpeg) return std::nullopt;
-  Json::Value m(Json::objectValue);
-  m["timestamp"] = timeOf(frame->header.capture_ns);
-  m["frame_id"] = frame_id;
-  m["data"] = base64(frame->payload);
-  m["format"] = "jpeg";
-  return Converted{writeJson(m),
-                   static_cast<std::uint64_t>(std::max<std::int64_t>(frame->header.capture_ns, 0))};
+  // Written by hand: base64 needs no escaping, and writeJson checks every byte's UTF-8.
+  const std::int64_t ns = std::max<std::int64_t>(frame->header.capture_ns, 0);
+  std::string out;
+  out.reserve(frame->payload.size() / 3 * 4 + 128 + frame_id.size());
+  out += R"({"data":")";
+  appendBase64(out, frame->payload);
+  out += R"(","format":"jpeg","frame_id":)";
+  out += skr::support::jsonQuote(frame_id);
+  out += R"(,"timestamp":{"nsec":)";
+  out += std::to_string(ns % 1000000000);
+  out += R"(,"sec":)";
+  out += std::to_string(ns / 1000000000);
+  out += "}}";
+  return Converted{std::move(out), static_cast<std::uint64_t>(ns)};
 }
 
 std::optional<Converted> imageAnnotations(std::string_view message) {

@@ -22,6 +22,7 @@ enum class Shape {
 
 // Standard base64 with padding.
 [[nodiscard]] std::string base64(std::string_view bytes);
+void appendBase64(std::string& out, std::string_view bytes);
 
 // The schema name and JSON schema text advertised for a shape (json: a permissive object
 // schema, named after the mime type).

@@ -17,6 +17,7 @@ const schemas = webRequire('@foxglove/schemas/jsonschema');
 
 let hub;
 let port;
+let uiPort;
 const publishers = [];
 
 function mediaFrame(seq, jpeg) {
@@ -95,9 +96,11 @@ function validate(schema, value, where = '$') {
 
 before(async () => {
   port = await freePort();
+  uiPort = await freePort();
   // The bridge acts as the account "foxglove": it may write its own database only, and may not
   // subscribe to guest.secret.
   hub = await startHub([{ name: 'nao-bridge', config: { backend: 'simulated' } },
+    { name: 'websocket-ui', config: { port: uiPort } },
     { name: 'foxglove-bridge', account: 'foxglove', config: {
       port, annotations: ['guest.faces'], joints: ['nao-bridge.joints'],
       parameters: ['foxglove-bridge', 'guest'], max_message_bytes: 4096 } }], { users: [{ name: 'foxglove', rules: {
@@ -305,4 +308,24 @@ test('a malformed message closes only its client, with a reason', { timeout: 600
   assert.equal(good.seen.closed, null);
   assert.ok(hub.alive());
   good.client.close();
+});
+
+test('beside websocket-ui: both listen, the bridge serves no files', { timeout: 60000 }, async () => {
+  const page = await fetch(`http://127.0.0.1:${uiPort}/`);
+  assert.equal(page.status, 200);
+  assert.match(await page.text(), /<html/i);
+  const none = await fetch(`http://127.0.0.1:${port}/`);
+  assert.equal(none.status, 404);
+  await none.text();
+  // Another subprotocol is refused at the handshake.
+  const other = new WebSocket(`ws://127.0.0.1:${port}/`, ['skrobot-avatar.v1']);
+  const refused = await new Promise((r) => {
+    other.on('unexpected-response', (_q, res) => r(res.statusCode));
+    other.on('error', () => r('error'));
+    other.on('open', () => r('open'));
+  });
+  assert.notEqual(refused, 'open');
+  const { client, seen } = await connect();
+  assert.ok(seen.info);
+  client.close();
 });

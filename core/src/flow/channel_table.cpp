@@ -76,6 +76,7 @@ std::unique_ptr<Channel> ChannelTable::erase(Channel& ch) {
   for (Endpoint* s : ch.subscribers) {
     if (s != nullptr) std::erase(s->subscribed, id);
   }
+  for (Endpoint* s : ch.physical) std::erase(s->subscribed, id);
   if (ch.owner != nullptr) std::erase(ch.owner->owned, id);
   std::unique_ptr<Channel> gone = std::move(channels_[id]);
   by_name_.erase(gone->name);
@@ -96,7 +97,8 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   if (!e.access->allows(Action::subscribe, ch->name)) {
     return accessDenied(e.user, Action::subscribe, ch->name);
   }
-  if (std::find(ch->subscribers.begin(), ch->subscribers.end(), &e) != ch->subscribers.end()) {
+  if (std::find(ch->subscribers.begin(), ch->subscribers.end(), &e) != ch->subscribers.end() ||
+      std::find(ch->physical.begin(), ch->physical.end(), &e) != ch->physical.end()) {
     return {};  // already subscribed
   }
   ch->subscribers.push_back(&e);
@@ -112,12 +114,15 @@ Result<void> ChannelTable::unsubscribe(Endpoint& e, uint16_t id) {
   if (!found) return found.error();
   Channel* ch = *found;
   auto it = std::find(ch->subscribers.begin(), ch->subscribers.end(), &e);
-  if (it == ch->subscribers.end()) return {};
-  if (dispatching_ > 0) {
-    *it = nullptr;  // tombstone: a publish is iterating this list
-    tombstoned_.push_back(id);
-  } else {
-    ch->subscribers.erase(it);
+  if (it != ch->subscribers.end()) {
+    if (dispatching_ > 0) {
+      *it = nullptr;  // tombstone: a publish is iterating this list
+      tombstoned_.push_back(id);
+    } else {
+      ch->subscribers.erase(it);
+    }
+  } else if (std::erase(ch->physical, &e) == 0) {
+    return {};
   }
   std::erase(e.subscribed, id);
   if (--ch->subscriber_count == 0 && ch->owner != nullptr && ch->owner != &e &&
@@ -125,6 +130,24 @@ Result<void> ChannelTable::unsubscribe(Endpoint& e, uint16_t id) {
     ch->owner->onSubscribers(*ch, false);
   }
   return {};
+}
+
+void ChannelTable::setPhysical(Endpoint& e, uint16_t id, bool physical) {
+  Channel* ch = find(id);
+  if (ch == nullptr) return;
+  if (physical) {
+    auto it = std::find(ch->subscribers.begin(), ch->subscribers.end(), &e);
+    if (it == ch->subscribers.end()) return;
+    if (dispatching_ > 0) {
+      *it = nullptr;
+      tombstoned_.push_back(id);
+    } else {
+      ch->subscribers.erase(it);
+    }
+    ch->physical.push_back(&e);
+  } else if (std::erase(ch->physical, &e) > 0) {
+    ch->subscribers.push_back(&e);
+  }
 }
 
 namespace {

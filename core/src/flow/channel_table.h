@@ -33,7 +33,9 @@ class Channel {
   std::string owner_user;
   // May hold nullptr tombstones while a publish is being dispatched (see ChannelTable::publish).
   std::vector<Endpoint*> subscribers;
-  size_t subscriber_count = 0;
+  // Subscribers whose physical path works (physical_paths.h): still subscribed, not relayed to.
+  std::vector<Endpoint*> physical;
+  size_t subscriber_count = 0;  // both lists
   // Polling: the endpoints registered; while there are any, the latest payload and its seq
   // (0: none published since the first registered).
   std::vector<uint32_t> pollers;
@@ -80,6 +82,9 @@ class ChannelTable {
   // Subscribes `e` to the streaming or blob channel `id` (ok when it is already); the owner of a
   // streaming channel hears of the first subscriber. not_found, invalid_argument (a service).
   [[nodiscard]] Result<void> subscribe(Endpoint& e, uint16_t id);
+  // Moves the subscriber `e` of `id` out of the relay (its physical path works) or back into it.
+  // Nothing when `e` is not subscribed.
+  void setPhysical(Endpoint& e, uint16_t id, bool physical);
   // ok when `e` was not subscribed; the owner (unless it is `e`) hears of the last one leaving.
   [[nodiscard]] Result<void> unsubscribe(Endpoint& e, uint16_t id);
   // Routes `payload` from the owner `e` to every subscriber of `id` (Endpoint::onData: a frame

@@ -238,7 +238,7 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
   const bool reserved =
       code >= 0xC0 && !sync_code && !async_code && code != uint8_t(Code::ev_blob_changed) &&
       code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe) &&
-      code != uint8_t(Code::ev_link_wanted);
+      code != uint8_t(Code::ev_link_wanted) && !inRange(code, 0xF8, 0xFB);
   if (!sync_code && !async_code && !reserved) {
     protocolError("code 0x" +
                   [&] {
@@ -587,6 +587,19 @@ void Connection::onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_ti
   std::string frame;
   (void)encode(frame, msg::EvSyncPulse{ch.id, seq, source_time_ns, dropped});
   sendUrgent(frame);
+}
+
+void Connection::onPhysical(const msg::EvPhysGrant& m) {
+  if (state_ == State::flow) send(m);
+}
+void Connection::onPhysical(const msg::EvPhysPath& m) {
+  if (state_ == State::flow) send(m);
+}
+void Connection::onPhysical(const msg::EvPhysRevoke& m) {
+  if (state_ == State::flow) send(m);
+}
+void Connection::onPhysical(const msg::EvPhysRelay& m) {
+  if (state_ == State::flow) send(m);
 }
 
 void Connection::sendUrgent(std::string_view frame) {

@@ -75,6 +75,10 @@ class Connection final : public Endpoint {
   void onChannelHeader(const Channel& ch) override;
   void onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,
                    uint32_t dropped) override;
+  void onPhysical(const msg::EvPhysGrant& m) override;
+  void onPhysical(const msg::EvPhysPath& m) override;
+  void onPhysical(const msg::EvPhysRevoke& m) override;
+  void onPhysical(const msg::EvPhysRelay& m) override;
   void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,
                const std::string& message) override;
   void onDbChanged(const std::string& name) override;

@@ -389,12 +389,17 @@ void Connection::handleAsync(Code code, std::string_view body) {
     }
     case Code::subscribe: {
       SKR_DECODE(msg::Subscribe, m);
-      check(server_.channels.subscribe(*this, m.chan_id), m.tag, m.chan_id);
+      auto r = server_.channels.subscribe(*this, m.chan_id);
+      if (r) server_.physical.subscribersChanged(m.chan_id);
+      check(r, m.tag, m.chan_id);
       return;
     }
     case Code::unsubscribe: {
       SKR_DECODE(msg::Unsubscribe, m);
-      check(server_.channels.unsubscribe(*this, m.chan_id), m.tag, m.chan_id);
+      server_.physical.unsubscribed(*this, m.chan_id);
+      auto r = server_.channels.unsubscribe(*this, m.chan_id);
+      if (r) server_.physical.subscribersChanged(m.chan_id);
+      check(r, m.tag, m.chan_id);
       return;
     }
     case Code::service_request:
@@ -533,6 +538,27 @@ void Connection::handleAsync(Code code, std::string_view body) {
     case Code::sync_done: {
       SKR_DECODE(msg::SyncDone, m);
       server_.syncs.done(*this, m.chan_id, m.seq);
+      return;
+    }
+    case Code::phys_offer: {
+      SKR_DECODE(msg::PhysOffer, m);
+      check(server_.physical.offer(*this, m), m.tag, m.chan_id);
+      return;
+    }
+    case Code::phys_request: {
+      SKR_DECODE(msg::PhysRequest, m);
+      check(server_.physical.request(*this, m, transport() == Transport::unix_socket), m.tag,
+            m.chan_id);
+      return;
+    }
+    case Code::phys_state: {
+      SKR_DECODE(msg::PhysState, m);
+      check(server_.physical.state(*this, m), 0, m.chan_id);
+      return;
+    }
+    case Code::phys_count: {
+      SKR_DECODE(msg::PhysCount, m);
+      check(server_.physical.count(*this, m), 0, m.chan_id);
       return;
     }
     case Code::chan_set_props: {

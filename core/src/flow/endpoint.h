@@ -3,6 +3,7 @@
 #pragma once
 
 #include <skrobot/flow/access.h>
+#include <skrobot/flow/messages.h>
 #include <skrobot/flow/protocol.h>
 #include <skrobot/flow/variant.h>
 
@@ -81,6 +82,12 @@ class Endpoint {
   virtual void onDbChanged(const std::string& name) = 0;
   // A file of a blob channel it subscribes to changed (in-process clients ignore it for now).
   virtual void onBlobChanged(const Channel& /*ch*/, const BlobEvent& /*event*/) {}
+  // Physical mode (1.7, physical_paths.h): to a channel's owner (grant, revoke, relay) and to a
+  // subscriber (its path). In-process clients take no paths.
+  virtual void onPhysical(const msg::EvPhysGrant& /*m*/) {}
+  virtual void onPhysical(const msg::EvPhysPath& /*m*/) {}
+  virtual void onPhysical(const msg::EvPhysRevoke& /*m*/) {}
+  virtual void onPhysical(const msg::EvPhysRelay& /*m*/) {}
   // A pulse of a sync source it follows; it answers with SyncPulses::done when its tick is over.
   virtual void onSyncPulse(const Channel& /*ch*/, uint64_t /*seq*/, uint64_t /*source_time_ns*/,
                            uint32_t /*dropped*/) {}

@@ -27,6 +27,7 @@ HubSnapshot FlowServer::snapshot() const {
     for (const Endpoint* e : ch.subscribers) {
       if (e != nullptr) c.subscriber_flows.push_back(e->id);
     }
+    for (const Endpoint* e : ch.physical) c.subscriber_flows.push_back(e->id);  // on a path
     c.messages = ch.seq;
     c.bytes = ch.bytes;
     c.dropped = ch.dropped;

@@ -19,6 +19,7 @@
 #include "database_access.h"
 #include "endpoint.h"
 #include "request_table.h"
+#include "physical_paths.h"
 #include "sync_pulses.h"
 
 #include <skrobot/core/log.h>
@@ -81,6 +82,7 @@ struct FlowServer::Impl {
   ChannelTable channels;
   RequestTable requests;
   SyncPulses syncs{endpoints, channels};
+  PhysicalPaths physical{endpoints, channels};
   // The files of blob channels (blob_wiring.cpp); null without a data directory.
   std::unique_ptr<BlobStore> blobs;
 

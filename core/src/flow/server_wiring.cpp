@@ -45,6 +45,7 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
   if (stats.connections_open > 0 && dynamic_cast<Connection*>(&e) != nullptr) {
     --stats.connections_open;
   }
+  physical.dropEndpoint(e);  // before the lists below: its grants are revoked, its offers go
   for (uint16_t id : std::vector<uint16_t>(e.subscribed)) (void)channels.unsubscribe(e, id);
   for (uint16_t id : std::vector<uint16_t>(e.owned)) {
     Channel* ch = channels.find(id);
@@ -156,6 +157,7 @@ void FlowServer::Impl::dropChannel(Channel& ch) {
   const uint16_t id = ch.id;
   requests.failChannel(id, ErrorCode::owner_gone, "channel " + ch.name + " was removed");
   syncs.dropSource(id);
+  physical.dropChannel(id);
   std::unique_ptr<Channel> gone = channels.erase(ch);
   databases.removeOwnedDb(gone->name);
   if (gone->kind == ChannelKind::blob && blobs) {

@@ -157,6 +157,22 @@ std::string_view codeName(uint8_t code) noexcept {
       return "EV_LINK_WANTED";
     case Code::ev_db_value:
       return "EV_DB_VALUE";
+    case Code::phys_offer:
+      return "PHYS_OFFER";
+    case Code::phys_request:
+      return "PHYS_REQUEST";
+    case Code::phys_state:
+      return "PHYS_STATE";
+    case Code::phys_count:
+      return "PHYS_COUNT";
+    case Code::ev_phys_grant:
+      return "EV_PHYS_GRANT";
+    case Code::ev_phys_path:
+      return "EV_PHYS_PATH";
+    case Code::ev_phys_revoke:
+      return "EV_PHYS_REVOKE";
+    case Code::ev_phys_relay:
+      return "EV_PHYS_RELAY";
   }
   return "UNKNOWN";
 }
@@ -200,6 +216,15 @@ uint16_t minorOf(Code code) noexcept {
     case Code::link_offer:
     case Code::ev_link_wanted:
       return 6;
+    case Code::phys_offer:
+    case Code::phys_request:
+    case Code::phys_state:
+    case Code::phys_count:
+    case Code::ev_phys_grant:
+    case Code::ev_phys_path:
+    case Code::ev_phys_revoke:
+    case Code::ev_phys_relay:
+      return 7;
     default:
       return 0;
   }

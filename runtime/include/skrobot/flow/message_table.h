@@ -80,6 +80,14 @@ void forEachMessage(F&& f) {
   f(SyncUnfollow{});
   f(SyncDone{});
   f(EvSyncPulse{});
+  f(PhysOffer{});
+  f(PhysRequest{});
+  f(PhysState{});
+  f(PhysCount{});
+  f(EvPhysGrant{});
+  f(EvPhysPath{});
+  f(EvPhysRevoke{});
+  f(EvPhysRelay{});
   f(HubLinkHello{});
   f(HubLinkHelloOk{});
   f(ReplicateChannel{});

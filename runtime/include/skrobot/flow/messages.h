@@ -758,4 +758,111 @@ struct EvTimeProbe {
   }
 };
 
+// --- physical mode (1.7, docs/physical-mode.md) -----------------------------------------------
+
+// Path kinds, and their bits in `paths`.
+enum class PhysPath : uint8_t { direct = 1, shm = 2 };
+inline constexpr uint8_t kPhysDirect = 1, kPhysShm = 2;
+
+// Owner -> hub: the paths (bits) it serves for channel `chan_id` and where its direct endpoint
+// listens ("unix:<path>" for both kinds, "tcp:<host>:<port>" for direct only). paths 0 withdraws
+// the offer: every path of the channel is revoked. A failure comes as EV_ERROR with `tag`.
+struct PhysOffer {
+  static constexpr Code code = Code::phys_offer;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  uint8_t paths = 0;
+  std::string endpoint;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(paths) && f(endpoint);
+  }
+};
+// Subscriber -> hub: a path to channel `chan_id`, which it follows, of one of these kinds (bits).
+// Answered with EV_PHYS_PATH, or EV_ERROR with `tag`.
+struct PhysRequest {
+  static constexpr Code code = Code::phys_request;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  uint8_t paths = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(paths);
+  }
+};
+// Subscriber -> hub: its granted path to `chan_id` works (1: the hub stops relaying that channel
+// to it, and says so with EV_PHYS_RELAY 0) or broke (0: relayed again). Switching either way
+// may lose the messages published meanwhile; it never duplicates one.
+struct PhysState {
+  static constexpr Code code = Code::phys_state;
+  uint16_t chan_id = 0;
+  uint8_t active = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(active);
+  }
+};
+// Owner -> hub: messages (and their bytes) of `chan_id` it delivered over paths without
+// publishing them through the hub, since its last count: the hub's statistics include them.
+struct PhysCount {
+  static constexpr Code code = Code::phys_count;
+  uint16_t chan_id = 0;
+  uint64_t messages = 0;
+  uint64_t bytes = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(messages) && f(bytes);
+  }
+};
+// Hub -> owner: accept one connection from `subscriber` (a flow id; `name` "<user>/<client>")
+// presenting `token`, for a path of kind `path`, within the grant's lifetime (docs).
+struct EvPhysGrant {
+  static constexpr Code code = Code::ev_phys_grant;
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  std::string name;
+  uint8_t path = 0;
+  std::string token;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(subscriber) && f(name) && f(path) && f(token);
+  }
+};
+// Hub -> subscriber: the answer to PHYS_REQUEST `tag`: connect to `endpoint` and present `token`.
+struct EvPhysPath {
+  static constexpr Code code = Code::ev_phys_path;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  uint8_t path = 0;
+  std::string endpoint;
+  std::string token;
+  template <class IO>
+  bool io(IO& f) {
+    return f(tag) && f(chan_id) && f(path) && f(endpoint) && f(token);
+  }
+};
+// Hub -> owner: close the path of `subscriber` to `chan_id` (it unsubscribed, left, was kicked).
+struct EvPhysRevoke {
+  static constexpr Code code = Code::ev_phys_revoke;
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(subscriber);
+  }
+};
+// Hub -> owner: whether some subscriber of `chan_id` still gets it through the hub (1), or every
+// one has a path (0: the owner may stop publishing it to the hub and count instead).
+// Hub -> subscriber, needed 0, after its PHYS_STATE 1: the hub relays that channel to it no more;
+// data on the path from here on is not a duplicate of relayed data.
+struct EvPhysRelay {
+  static constexpr Code code = Code::ev_phys_relay;
+  uint16_t chan_id = 0;
+  uint8_t needed = 1;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(needed);
+  }
+};
+
 }  // namespace skr::flow::msg

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 6;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 7;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -119,6 +119,17 @@ enum class Code : uint8_t {
   // linking hub to offer its channels over the connection the linking hub opened.
   link_offer = 0xE2,      // on a flow: one of the linking hub's channels, owned here by its link
   ev_link_wanted = 0xEB,  // hub -> linking hub: offer your channels on this connection
+
+  // 1.7: physical mode (docs/physical-mode.md): the hub grants direct and shared-memory paths
+  // between a channel's owner and its subscribers. Commands on a flow, events to the two ends.
+  phys_offer = 0xF0,      // owner: the paths it serves for a channel, and where
+  phys_request = 0xF1,    // subscriber: a path to a channel it follows
+  phys_state = 0xF2,      // subscriber: its path works (stop relaying to it) or broke
+  phys_count = 0xF3,      // owner: messages it delivered over paths only, for the statistics
+  ev_phys_grant = 0xF8,   // to the owner: accept this subscriber with this token, once
+  ev_phys_path = 0xF9,    // to the subscriber: where to connect, with which token
+  ev_phys_revoke = 0xFA,  // to the owner: close that subscriber's path
+  ev_phys_relay = 0xFB,   // to the owner: whether any subscriber still needs the relay
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -132,9 +143,10 @@ enum class Code : uint8_t {
   return isBlobRequest(code) || code == 0xE8;
 }
 // A command of a family block sent on a flow: the sync pulse (1.4), replicas and TIME_PROBE (1.5),
-// LINK_OFFER (1.6).
+// LINK_OFFER (1.6), physical mode (1.7).
 [[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
-  return (code >= 0xD0 && code <= 0xD3) || (code >= 0xE0 && code <= 0xE2) || code == 0xE9;
+  return (code >= 0xD0 && code <= 0xD3) || (code >= 0xE0 && code <= 0xE2) || code == 0xE9 ||
+         (code >= 0xF0 && code <= 0xF3);
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

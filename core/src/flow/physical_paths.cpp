@@ -1,0 +1,196 @@
+// Physical mode's grants (see physical_paths.h).
+#include "physical_paths.h"
+
+#include <skrobot/core/log.h>
+#include <skrobot/flow/access.h>
+#include <skrobot/flow/accounts.h>
+
+#include <sodium.h>
+
+#include <algorithm>
+
+namespace skr::flow {
+namespace {
+
+// 128 random bits as 32 hex digits: what the subscriber presents to the owner, once.
+std::string newToken() {
+  unsigned char raw[16];
+  (void)sodiumReady();
+  randombytes_buf(raw, sizeof raw);
+  char hex[sizeof raw * 2 + 1];
+  sodium_bin2hex(hex, sizeof hex, raw, sizeof raw);
+  return hex;
+}
+
+bool startsWith(const std::string& s, std::string_view prefix) {
+  return s.compare(0, prefix.size(), prefix) == 0;
+}
+
+}  // namespace
+
+Result<void> PhysicalPaths::offer(Endpoint& e, const msg::PhysOffer& m) {
+  auto owned = channels_.owned(e, m.chan_id, "offers paths to");
+  if (!owned) return owned.error();
+  Channel& ch = **owned;
+  if (ch.kind != ChannelKind::streaming) {
+    return makeError(Errc::invalid_argument, ch.name + " is not a streaming channel");
+  }
+  if (m.paths == 0) {
+    dropChannel(m.chan_id);
+    log::info(kLogSource, "PHYS-OFFER", ch.name + ": paths withdrawn");
+    return {};
+  }
+  if ((m.paths & ~(msg::kPhysDirect | msg::kPhysShm)) != 0) {
+    return makeError(Errc::invalid_argument, "unknown path kinds in PHYS_OFFER");
+  }
+  const bool unix_ep = startsWith(m.endpoint, "unix:") && m.endpoint.size() > 5;
+  const bool tcp_ep = startsWith(m.endpoint, "tcp:") && m.endpoint.size() > 4;
+  if (!unix_ep && !tcp_ep) {
+    return makeError(Errc::invalid_argument,
+                     "a path endpoint is unix:<path> or tcp:<host>:<port>, not '" +
+                         m.endpoint.substr(0, 64) + "'");
+  }
+  if ((m.paths & msg::kPhysShm) != 0 && !unix_ep) {
+    return makeError(Errc::invalid_argument, "shared memory is offered on a unix: endpoint only");
+  }
+  Offer& o = offers_[m.chan_id];
+  o.paths = m.paths;
+  o.endpoint = m.endpoint;
+  log::info(kLogSource, "PHYS-OFFER",
+            ch.name + ": " + ((m.paths & msg::kPhysShm) ? "shared memory " : "") +
+                ((m.paths & msg::kPhysDirect) ? "direct " : "") + "at " + m.endpoint);
+  return {};
+}
+
+Result<void> PhysicalPaths::request(Endpoint& e, const msg::PhysRequest& m, bool local) {
+  auto found = channels_.existing(m.chan_id);
+  if (!found) return found.error();
+  Channel& ch = **found;
+  if (std::find(e.subscribed.begin(), e.subscribed.end(), m.chan_id) == e.subscribed.end()) {
+    return makeError(Errc::invalid_argument, "subscribe to " + ch.name + " before asking a path");
+  }
+  // The subscription passed the subscribe rule when it was made; rules may have changed since.
+  if (!e.access->allows(Action::subscribe, ch.name)) {
+    return accessDenied(e.user, Action::subscribe, ch.name);
+  }
+  auto it = offers_.find(m.chan_id);
+  if (it == offers_.end() || ch.owner == nullptr) {
+    return makeError(Errc::not_found, "the owner of " + ch.name + " offers no path");
+  }
+  Offer& o = it->second;
+  const bool owner_local = startsWith(o.endpoint, "unix:");
+  uint8_t path = 0;
+  if ((m.paths & o.paths & msg::kPhysShm) != 0 && local && owner_local) {
+    path = msg::kPhysShm;
+  } else if ((m.paths & o.paths & msg::kPhysDirect) != 0 && (!owner_local || local)) {
+    path = msg::kPhysDirect;
+  } else {
+    return makeError(Errc::unsupported, "no path to " + ch.name +
+                                            " suits both ends (shared memory and unix: "
+                                            "endpoints need both on this machine's socket)");
+  }
+  // A new grant replaces an old one (a subscriber asking again after its path broke).
+  if (auto g = o.grants.find(e.id); g != o.grants.end()) revoke(o, ch, e.id, true);
+  const std::string token = newToken();
+  o.grants[e.id] = Grant{path, false};
+  ch.owner->onPhysical(msg::EvPhysGrant{ch.id, e.id, e.user + "/" + e.client_name, path, token});
+  e.onPhysical(msg::EvPhysPath{m.tag, ch.id, path, o.endpoint, token});
+  log::info(kLogSource, "PHYS-GRANT",
+            ch.name + " to " + e.user + "/" + e.client_name + " (flow " + std::to_string(e.id) +
+                "): " + (path == msg::kPhysShm ? "shared memory" : "direct"));
+  return {};
+}
+
+Result<void> PhysicalPaths::state(Endpoint& e, const msg::PhysState& m) {
+  auto it = offers_.find(m.chan_id);
+  Channel* ch = channels_.find(m.chan_id);
+  if (it == offers_.end() || ch == nullptr) {
+    return makeError(Errc::not_found, "no path to channel " + std::to_string(m.chan_id));
+  }
+  auto g = it->second.grants.find(e.id);
+  if (g == it->second.grants.end()) {
+    return makeError(Errc::not_found, "no path to " + ch->name + " was granted to this flow");
+  }
+  const bool active = m.active != 0;
+  if (g->second.active == active) return {};
+  g->second.active = active;
+  channels_.setPhysical(e, m.chan_id, active);
+  // The subscriber's marker: nothing of this channel is relayed to it after this event, so what
+  // came on its path before it may have come through the hub too (the library drops it).
+  if (active) e.onPhysical(msg::EvPhysRelay{ch->id, 0});
+  tellRelay(it->second, *ch);
+  return {};
+}
+
+Result<void> PhysicalPaths::count(Endpoint& e, const msg::PhysCount& m) {
+  auto owned = channels_.owned(e, m.chan_id, "counts paths of");
+  if (!owned) return owned.error();
+  (*owned)->seq += m.messages;
+  (*owned)->bytes += m.bytes;
+  return {};
+}
+
+void PhysicalPaths::revoke(Offer& o, Channel& ch, uint32_t subscriber, bool tell_owner) {
+  auto g = o.grants.find(subscriber);
+  if (g == o.grants.end()) return;
+  const bool was_active = g->second.active;
+  o.grants.erase(g);
+  if (was_active) {
+    if (Endpoint* s = endpoints_.find(subscriber)) channels_.setPhysical(*s, ch.id, false);
+  }
+  if (tell_owner && ch.owner != nullptr) ch.owner->onPhysical(msg::EvPhysRevoke{ch.id, subscriber});
+  tellRelay(o, ch);
+}
+
+void PhysicalPaths::tellRelay(Offer& o, Channel& ch) {
+  const bool needed =
+      !ch.subscribers.empty() && std::any_of(ch.subscribers.begin(), ch.subscribers.end(),
+                                             [](const Endpoint* s) { return s != nullptr; });
+  if (needed == o.relay_needed || ch.owner == nullptr) return;
+  o.relay_needed = needed;
+  ch.owner->onPhysical(msg::EvPhysRelay{ch.id, static_cast<uint8_t>(needed ? 1 : 0)});
+}
+
+void PhysicalPaths::subscribersChanged(uint16_t chan_id) {
+  auto it = offers_.find(chan_id);
+  Channel* ch = channels_.find(chan_id);
+  if (it != offers_.end() && ch != nullptr) tellRelay(it->second, *ch);
+}
+
+void PhysicalPaths::unsubscribed(Endpoint& e, uint16_t chan_id) {
+  auto it = offers_.find(chan_id);
+  Channel* ch = channels_.find(chan_id);
+  if (it == offers_.end() || ch == nullptr) return;
+  revoke(it->second, *ch, e.id, true);
+}
+
+void PhysicalPaths::dropEndpoint(Endpoint& e) {
+  for (auto it = offers_.begin(); it != offers_.end();) {
+    Channel* ch = channels_.find(it->first);
+    if (ch == nullptr || ch->owner == &e) {
+      it = offers_.erase(it);  // its owner left: its paths break on their own
+      continue;
+    }
+    revoke(it->second, *ch, e.id, true);
+    ++it;
+  }
+}
+
+void PhysicalPaths::dropChannel(uint16_t chan_id) {
+  auto it = offers_.find(chan_id);
+  if (it == offers_.end()) return;
+  Channel* ch = channels_.find(chan_id);
+  if (ch != nullptr) {
+    for (const auto& [sub, g] : std::map<uint32_t, Grant>(it->second.grants)) {
+      revoke(it->second, *ch, sub, true);
+    }
+  }
+  offers_.erase(chan_id);
+}
+
+size_t PhysicalPaths::grants(uint16_t chan_id) const {
+  auto it = offers_.find(chan_id);
+  return it == offers_.end() ? 0 : it->second.grants.size();
+}
+
+}  // namespace skr::flow

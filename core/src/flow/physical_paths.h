@@ -1,0 +1,68 @@
+// Physical mode (FlowProtocol 1.7, docs/physical-mode.md): the hub decides who may take a direct
+// or shared-memory path to a channel and tells both ends; the bytes then bypass it. It keeps each
+// channel's offer (the owner's endpoint and the kinds it serves) and each grant, moves a
+// subscriber whose path works out of the relay (ChannelTable::setPhysical) and back when the path
+// breaks, and revokes grants when a subscriber unsubscribes or leaves. Main loop thread only.
+#pragma once
+
+#include "channel_table.h"
+#include "endpoint.h"
+
+#include <skrobot/core/result.h>
+#include <skrobot/flow/messages.h>
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+namespace skr::flow {
+
+class PhysicalPaths {
+ public:
+  PhysicalPaths(EndpointTable& endpoints, ChannelTable& channels)
+      : endpoints_(endpoints), channels_(channels) {}
+
+  // PHYS_OFFER from `e`. not_found, permission_denied (not the owner), invalid_argument (not
+  // streaming, no paths known, an endpoint that is not unix:... or tcp:..., shm over tcp).
+  [[nodiscard]] Result<void> offer(Endpoint& e, const msg::PhysOffer& m);
+  // PHYS_REQUEST from `e`: a grant to the owner and the path to `e`. not_found (no channel, no
+  // offer), invalid_argument (not subscribed), unsupported (no kind both sides take: shared
+  // memory needs both on this machine's Unix socket).
+  [[nodiscard]] Result<void> request(Endpoint& e, const msg::PhysRequest& m, bool local);
+  // PHYS_STATE from `e`. not_found (no grant).
+  [[nodiscard]] Result<void> state(Endpoint& e, const msg::PhysState& m);
+  // PHYS_COUNT from the owner. permission_denied.
+  [[nodiscard]] Result<void> count(Endpoint& e, const msg::PhysCount& m);
+
+  // Someone subscribed to `chan_id` or unsubscribed: the owner may have to relay again, or not.
+  void subscribersChanged(uint16_t chan_id);
+  // `e` is about to stop following `chan_id`: its grant is revoked.
+  void unsubscribed(Endpoint& e, uint16_t chan_id);
+  // `e` left: its grants and offers go.
+  void dropEndpoint(Endpoint& e);
+  void dropChannel(uint16_t chan_id);
+
+  // Whether the owner of `chan_id` offers paths, and to whom they were granted (statistics).
+  [[nodiscard]] size_t grants(uint16_t chan_id) const;
+
+ private:
+  struct Grant {
+    uint8_t path = 0;
+    bool active = false;
+  };
+  struct Offer {
+    uint8_t paths = 0;
+    std::string endpoint;
+    bool relay_needed = true;          // as last told to the owner
+    std::map<uint32_t, Grant> grants;  // by subscriber endpoint id
+  };
+
+  void revoke(Offer& o, Channel& ch, uint32_t subscriber, bool tell_owner);
+  void tellRelay(Offer& o, Channel& ch);
+
+  EndpointTable& endpoints_;
+  ChannelTable& channels_;
+  std::map<uint16_t, Offer> offers_;
+};
+
+}  // namespace skr::flow

@@ -1,0 +1,188 @@
+// Physical mode through the hub (protocol 1.7): offers, grants with one-time tokens, the relay
+// skipped for a subscriber whose path works and resumed when it breaks, revocation when a
+// subscriber leaves, counts in the statistics, and refusals.
+#include "flow_fixture.h"
+
+#include <skrobot/flow/hub_stats.h>
+
+namespace skr::test {
+namespace {
+
+using flow::ChannelKind;
+using flow::Code;
+using flow::ErrorCode;
+namespace msg = flow::msg;
+
+class PhysicalPaths : public FlowFixture {
+ protected:
+  static void settle(TestClient& c) {
+    ASSERT_TRUE(c.send(msg::DbSetCurrent{6, "guest"}));
+    ASSERT_TRUE(c.waitFor(Code::ev_db_changed));
+  }
+  static uint16_t error(TestClient& c) {
+    auto e = as<msg::EvError>(c.waitFor(Code::ev_error));
+    return e ? e->error : uint16_t(0);
+  }
+  static void subscribe(TestClient& c, uint16_t id) {
+    ASSERT_TRUE(c.send(msg::Subscribe{1, id}));
+    settle(c);
+  }
+  // Owner and subscriber with an offer of both kinds on a unix: endpoint; the subscriber follows.
+  struct Pair {
+    TestClient owner, sub;
+    uint16_t id = 0;
+  };
+  Pair offered() {
+    Pair p{flowClient(), flowClient(), 0};
+    p.id = addChannel(p.owner, "camera");
+    EXPECT_TRUE(p.owner.send(
+        msg::PhysOffer{2, p.id, msg::kPhysDirect | msg::kPhysShm, "unix:/tmp/skrobot-path-x"}));
+    settle(p.owner);
+    subscribe(p.sub, p.id);
+    return p;
+  }
+};
+
+TEST_F(PhysicalPaths, AGrantGoesToBothEndsWithOneToken) {
+  startHub();
+  Pair p = offered();
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysShm | msg::kPhysDirect}));
+  auto path = as<msg::EvPhysPath>(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(path);
+  EXPECT_EQ(path->tag, 7u);
+  EXPECT_EQ(path->chan_id, p.id);
+  EXPECT_EQ(path->path, msg::kPhysShm) << "both on this machine's socket: shared memory";
+  EXPECT_EQ(path->endpoint, "unix:/tmp/skrobot-path-x");
+  EXPECT_EQ(path->token.size(), 32u);
+  auto grant = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+  ASSERT_TRUE(grant);
+  EXPECT_EQ(grant->token, path->token);
+  EXPECT_EQ(grant->path, msg::kPhysShm);
+  EXPECT_EQ(grant->name.substr(0, 6), "guest/");
+  // Asking again: a new token, and the old grant is revoked at the owner.
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{8, p.id, msg::kPhysDirect}));
+  auto again = as<msg::EvPhysPath>(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->path, msg::kPhysDirect);
+  EXPECT_NE(again->token, path->token);
+  auto revoked = as<msg::EvPhysRevoke>(p.owner.waitFor(Code::ev_phys_revoke));
+  ASSERT_TRUE(revoked);
+  EXPECT_EQ(revoked->subscriber, grant->subscriber);
+}
+
+TEST_F(PhysicalPaths, AWorkingPathTakesTheSubscriberOffTheRelayUntilItBreaks) {
+  startHub();
+  Pair p = offered();
+  TestClient relayed = flowClient();
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  auto marker = as<msg::EvPhysRelay>(p.sub.waitFor(Code::ev_phys_relay));
+  ASSERT_TRUE(marker) << "the subscriber's marker";
+  EXPECT_EQ(marker->needed, 0);
+  auto relay = as<msg::EvPhysRelay>(p.owner.waitFor(Code::ev_phys_relay));
+  ASSERT_TRUE(relay) << "nobody is relayed to any more";
+  EXPECT_EQ(relay->needed, 0);
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"on the path"}}));
+  EXPECT_FALSE(p.sub.waitFor(Code::ev_data, 200)) << "not relayed to a subscriber on a path";
+  // A second subscriber, relayed: the owner must publish again.
+  subscribe(relayed, p.id);
+  relay = as<msg::EvPhysRelay>(p.owner.waitFor(Code::ev_phys_relay));
+  ASSERT_TRUE(relay);
+  EXPECT_EQ(relay->needed, 1);
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"both"}}));
+  EXPECT_TRUE(relayed.waitFor(Code::ev_data));
+  EXPECT_FALSE(p.sub.waitFor(Code::ev_data, 200));
+  // The path broke: relayed again, still subscribed.
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 0}));
+  settle(p.sub);
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"relayed again"}}));
+  auto d = as<msg::EvData>(p.sub.waitFor(Code::ev_data));
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->payload.bytes, "relayed again");
+}
+
+TEST_F(PhysicalPaths, LeavingOrUnsubscribingRevokesTheGrant) {
+  startHub();
+  Pair p = offered();
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  auto grant = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+  ASSERT_TRUE(grant);
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  settle(p.sub);
+  ASSERT_TRUE(p.sub.send(msg::Unsubscribe{3, p.id}));
+  auto revoked = as<msg::EvPhysRevoke>(p.owner.waitFor(Code::ev_phys_revoke));
+  ASSERT_TRUE(revoked);
+  EXPECT_EQ(revoked->subscriber, grant->subscriber);
+  // Another subscriber with a grant leaves: revoked as well.
+  TestClient other = flowClient();
+  subscribe(other, p.id);
+  ASSERT_TRUE(other.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+  ASSERT_TRUE(other.waitFor(Code::ev_phys_path));
+  auto second = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+  ASSERT_TRUE(second);
+  other.close();
+  revoked = as<msg::EvPhysRevoke>(p.owner.waitFor(Code::ev_phys_revoke));
+  ASSERT_TRUE(revoked);
+  EXPECT_EQ(revoked->subscriber, second->subscriber);
+}
+
+TEST_F(PhysicalPaths, TrafficOnPathsIsCounted) {
+  startHub();
+  Pair p = offered();
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"12345"}}));
+  ASSERT_TRUE(p.owner.send(msg::PhysCount{p.id, 10, 1000}));
+  settle(p.owner);
+  flow::HubSnapshot snap;
+  onHub([&] { snap = server_->snapshot(); });
+  bool found = false;
+  for (const auto& c : snap.channels) {
+    if (c.id != p.id) continue;
+    found = true;
+    EXPECT_EQ(c.messages, 11u);
+    EXPECT_EQ(c.bytes, 1005u);
+  }
+  EXPECT_TRUE(found);
+}
+
+TEST_F(PhysicalPaths, Refusals) {
+  startHub();
+  TestClient owner = flowClient();
+  const uint16_t id = addChannel(owner, "camera");
+  TestClient other = flowClient();
+  // Only the owner offers; a bad endpoint; shared memory over TCP; unknown kinds.
+  ASSERT_TRUE(other.send(msg::PhysOffer{1, id, msg::kPhysDirect, "unix:/tmp/x"}));
+  EXPECT_EQ(error(other), uint16_t(ErrorCode::permission_denied));
+  ASSERT_TRUE(owner.send(msg::PhysOffer{1, id, msg::kPhysDirect, "/tmp/x"}));
+  EXPECT_EQ(error(owner), uint16_t(ErrorCode::invalid_argument));
+  ASSERT_TRUE(owner.send(msg::PhysOffer{1, id, msg::kPhysShm, "tcp:127.0.0.1:9"}));
+  EXPECT_EQ(error(owner), uint16_t(ErrorCode::invalid_argument));
+  ASSERT_TRUE(owner.send(msg::PhysOffer{1, id, 0x80, "unix:/tmp/x"}));
+  EXPECT_EQ(error(owner), uint16_t(ErrorCode::invalid_argument));
+  // No offer yet; not subscribed.
+  subscribe(other, id);
+  ASSERT_TRUE(other.send(msg::PhysRequest{2, id, msg::kPhysDirect}));
+  EXPECT_EQ(error(other), uint16_t(ErrorCode::not_found));
+  ASSERT_TRUE(owner.send(msg::PhysOffer{1, id, msg::kPhysShm, "unix:/tmp/x"}));
+  settle(owner);
+  TestClient stranger = flowClient();
+  ASSERT_TRUE(stranger.send(msg::PhysRequest{3, id, msg::kPhysShm}));
+  EXPECT_EQ(error(stranger), uint16_t(ErrorCode::invalid_argument));
+  // A kind the owner does not serve; a state without a grant.
+  ASSERT_TRUE(other.send(msg::PhysRequest{4, id, msg::kPhysDirect}));
+  EXPECT_EQ(error(other), uint16_t(ErrorCode::unsupported));
+  ASSERT_TRUE(stranger.send(msg::PhysState{id, 1}));
+  EXPECT_EQ(error(stranger), uint16_t(ErrorCode::not_found));
+  // Events are the hub's: a satellite that sends one breaks the protocol.
+  ASSERT_TRUE(stranger.send(msg::EvPhysRelay{id, 0}));
+  EXPECT_FALSE(stranger.waitFor(Code::ev_error, 1000)) << "closed, not answered";
+  // A 1.6 client: physical mode is newer than its protocol.
+  TestClient old = olderClient(6);
+  ASSERT_TRUE(old.call(msg::Empty<Code::go_async>{}));
+  ASSERT_TRUE(old.send(msg::PhysRequest{5, id, msg::kPhysShm}));
+  EXPECT_EQ(error(old), uint16_t(ErrorCode::unsupported));
+}
+
+}  // namespace
+}  // namespace skr::test

@@ -109,6 +109,8 @@ int cmdPlay(const Cli& cli) {
   const auto start_text = args.option("--start");
   const auto channels_text = args.option("--channels");
   const auto wait_text = args.option("--wait-ms");
+  const auto sync_name = args.option("--sync");
+  const auto sync_hz_text = args.option("--sync-hz");
   std::vector<std::string> remaps;
   while (auto r = args.option("--remap")) remaps.push_back(*r);
   const auto rest = args.rest();
@@ -119,6 +121,11 @@ int cmdPlay(const Cli& cli) {
   if (start_text && !parseNumber(*start_text, "--start", start_s)) return kUsage;
   if (wait_text && !parseNumber(*wait_text, "--wait-ms", wait_ms)) return kUsage;
   if (!(rate > 0)) return fail(kUsage, "--rate must be above 0");
+  double sync_hz = 0;
+  if (sync_hz_text && !parseNumber(*sync_hz_text, "--sync-hz", sync_hz)) return kUsage;
+  if (sync_name.has_value() != (sync_hz > 0)) {
+    return fail(kUsage, "--sync NAME and --sync-hz HZ (above 0) go together");
+  }
   std::vector<skr::flow::NamePattern> only;
   if (channels_text) {
     std::string_view list = *channels_text;
@@ -237,6 +244,14 @@ int cmdPlay(const Cli& cli) {
       return fail(kUsage, r.error().message);
     }
   }
+  // A sync source pulsing on the recording's clock: HZ pulses per recorded second.
+  if (sync_name) {
+    if (auto r = s.satellite.addChannel({.name = *sync_name, .kind = skr::flow::ChannelKind::sync});
+        !r) {
+      return fail(kUsage, "--sync: " + r.error().message);
+    }
+  }
+  uint64_t pulses = 0, pulse_k = 0;
   size_t ready = 0;
   s.satellite.channelReady.connect(&s.satellite, [&](const sat::ChannelInfo& info) {
     for (auto& [id, p] : played) {
@@ -288,6 +303,11 @@ int cmdPlay(const Cli& cli) {
       if (s.satellite.queuedBytes() == 0) s.loop.stop();
       return;
     }
+    while (sync_name &&
+           wall_start + static_cast<skr::Nanos>(double(pulse_k) * 1e9 / (sync_hz * rate)) <= now) {
+      ++pulse_k;
+      if (s.satellite.pulse(*sync_name)) ++pulses;
+    }
     while (true) {
       if (!pending) {
         if (!loop) {
@@ -300,6 +320,7 @@ int cmdPlay(const Cli& cli) {
         change_at = 0;
         if (!fetch() || !pending) return s.end(kFailed, "nothing to play in " + rest[0]);
         wall_start = now;
+        pulse_k = 0;
       }
       const auto due =
           wall_start + static_cast<skr::Nanos>(static_cast<double>(pending->log_time - t0) / rate);
@@ -343,6 +364,7 @@ int cmdPlay(const Cli& cli) {
                             Variant::Map{{"messages", sent},
                                          {"seconds", seconds},
                                          {"loops", rounds},
+                                         {"pulses", pulses},
                                          {"late_max_ms", static_cast<double>(late_max_ns) / 1e6},
                                          {"channels", std::move(list)}})
                             .c_str());

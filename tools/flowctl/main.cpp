@@ -155,6 +155,9 @@ std::string_view commandHelp(std::string_view command) {
   --channels P,.. only the recorded channels matching these patterns
   --wait-ms MS    wait up to MS for every channel to have a subscriber before starting
                   (default 1000; 0: start at once)
+  --sync NAME --sync-hz HZ
+                  also a sync source <you>.NAME pulsing HZ times per second of the
+                  recording (scaled by --rate), for followers that step with the replay
 )";
   }
   if (command == "mcap") {

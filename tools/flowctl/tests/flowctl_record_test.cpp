@@ -185,9 +185,10 @@ TEST_F(FlowctlRecord, RecordThenPlayRemapped) {
     });
     x.subscribe("guest.again");
     x.subscribe("guest.video");
+    x.follow("guest.clock");
   });
-  auto play =
-      flowctl({"--json", "play", path, "--remap", "guest.numbers=again", "--wait-ms", "5000"});
+  auto play = flowctl({"--json", "play", path, "--remap", "guest.numbers=again", "--wait-ms",
+                       "5000", "--sync", "clock", "--sync-hz", "50"});
   ASSERT_EQ(play->wait(), 0) << play->output();
   ASSERT_TRUE(eventually([&] {
     std::lock_guard lock(m);
@@ -202,6 +203,9 @@ TEST_F(FlowctlRecord, RecordThenPlayRemapped) {
   // The recorded timing, roughly: the span of the run within 40% (and 150 ms).
   const double span_s = double(received.back().at - received.front().at) / 1e9;
   EXPECT_NEAR(span_s, published_s, std::max(0.4 * published_s, 0.15)) << play->output();
+  // The sync source pulsed 50 times per recorded second.
+  const double pulses = double(sub->events.count("pulse:guest.clock:"));
+  EXPECT_NEAR(pulses, 50 * published_s, 0.4 * 50 * published_s + 3) << play->output();
   // The properties changed as they did while recording.
   EXPECT_EQ(sub->events.count("changed:guest.again:{\"unit\":\"m\"}"), 1u);
 }

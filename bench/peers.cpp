@@ -15,8 +15,9 @@
 // its own thread (and, for round trips, sends at once: natsOptions_SetSendAsap); libmosquitto
 // writes each packet as it is published and reads one packet per mosquitto_loop_read(), which is
 // what that library offers. Subscribers run on their own threads. A publisher never runs more
-// than a window (4 MB) ahead of its slowest subscriber, so figures are delivered traffic; what a
-// server still lost (QoS 0 and pub/sub drop silently) is counted from sequence gaps and reported.
+// than a window (4 MB; a fan-out shares it and the batch among its subscribers) ahead of its
+// slowest subscriber, so figures are delivered traffic; what a server still lost (QoS 0 and
+// pub/sub drop silently) is counted from sequence gaps and reported.
 //
 //   peers [--quick] [--seconds S] [--only LIST] [--require-all]
 //
@@ -61,6 +62,7 @@ constexpr size_t kFanOut = 16;
 constexpr int kSilenceMs = 10000;  // a subscriber with nothing for this long: an error
 constexpr int kTailIdleMs = 1500;  // after the last publish: what has not come by then is lost
 constexpr int kServerStartMs = 10000;
+constexpr int kSlowWriteMs = 30000;  // a broker that takes no bytes this long: an error
 
 // --- options -------------------------------------------------------------------------------
 
@@ -326,7 +328,7 @@ class MqttClient final : public PubSub {
   void flush() override {
     while (mosquitto_want_write(mosq_)) {
       pollfd p{mosquitto_socket(mosq_), POLLOUT, 0};
-      if (::poll(&p, 1, kIoTimeoutMs) == 0) fail("mosquitto: socket not writable for 10 s");
+      if (::poll(&p, 1, kSlowWriteMs) == 0) fail("mosquitto: socket not writable for 30 s");
       check(mosquitto_loop_write(mosq_, 1), "write");
     }
   }
@@ -640,7 +642,8 @@ void peerSubscriberLoop(PubSub& c, size_t payload, const std::atomic<uint64_t>& 
   st.lost = total.load() - st.received;
 }
 
-Throughput peerStream(const Server& server, size_t subscribers, size_t payload, double seconds) {
+Throughput peerStream(const Server& server, size_t subscribers, size_t payload, double seconds,
+                      size_t batch_bytes, size_t window_bytes) {
   PubSubPtr pub = server.connect(Mode::throughput);
   std::vector<PubSubPtr> readers;
   for (size_t i = 0; i < subscribers; ++i) {
@@ -655,8 +658,8 @@ Throughput peerStream(const Server& server, size_t subscribers, size_t payload, 
         [&, i] { peerSubscriberLoop(*readers[i], payload, total, subs[i]); }));
   }
   // The same batches and window as the hub's publisher (relay_harness.cpp).
-  const uint64_t k = std::max<size_t>(1, kBatchBytes / (kDataOverhead + payload));
-  const uint64_t window = std::max<uint64_t>(2 * k, kWindowBytes / (kDataOverhead + payload));
+  const uint64_t k = std::max<size_t>(1, batch_bytes / (kDataOverhead + payload));
+  const uint64_t window = std::max<uint64_t>(2 * k, window_bytes / (kDataOverhead + payload));
   const auto slowest = [&] {
     uint64_t m = std::numeric_limits<uint64_t>::max();
     for (const auto& s : subs) m = std::min(m, s.seen.load(std::memory_order_acquire));
@@ -815,7 +818,8 @@ int main(int argc, char** argv) {
       if (on[i]) std::printf("  %-18s %s\n", systems[i].title.c_str(), systems[i].library.c_str());
     }
     std::printf(
-        "  publishers at most %zu MB ahead of the slowest subscriber, %.2f s per figure; "
+        "  publishers at most %zu MB ahead of the slowest subscriber (fan-out: shared), %.2f s per "
+        "figure; "
         "MB = 2^20 bytes of payload;\n  ratios are to the hub on TCP; lost = messages a server "
         "dropped (sequence gaps)\n",
         kWindowBytes / kMiB, o.seconds);
@@ -864,6 +868,10 @@ int main(int argc, char** argv) {
     }
     const auto streams = [&](const char* test, const char* title, size_t subscribers, bool mb) {
       if (!wantTest(o, test)) return;
+      // The same bytes in flight in all: a fan-out's batch and window are shared among its
+      // subscribers (a slow server would otherwise hold a minute of backlog at 16 B).
+      const size_t batch = kBatchBytes / subscribers;
+      const size_t window = kWindowBytes / subscribers;
       Table t;
       for (size_t size : sizes) {
         auto& cells = t[size];
@@ -871,10 +879,10 @@ int main(int argc, char** argv) {
         for (size_t i = 0; i < systems.size(); ++i) {
           if (!on[i]) continue;
           cells[i].measured = true;
-          cells[i].tp =
-              systems[i].server
-                  ? peerStream(*systems[i].server, subscribers, size, o.seconds)
-                  : hubStream(hub, systems[i].hub_transport, subscribers, size, o.seconds);
+          cells[i].tp = systems[i].server ? peerStream(*systems[i].server, subscribers, size,
+                                                       o.seconds, batch, window)
+                                          : hubStream(hub, systems[i].hub_transport, subscribers,
+                                                      size, o.seconds, batch, window);
         }
       }
       printTable(title, "delivered messages/s, ratio: below 1 is slower than the hub", t, systems,

@@ -448,9 +448,9 @@ struct Batch {
   std::vector<size_t> offsets;  // of each frame
 };
 
-Batch makeBatch(uint16_t chan, size_t payload) {
+Batch makeBatch(uint16_t chan, size_t payload, size_t batch_bytes) {
   const size_t frame = kDataOverhead + payload;
-  const size_t frames = std::max<size_t>(1, kBatchBytes / frame);
+  const size_t frames = std::max<size_t>(1, batch_bytes / frame);
   Batch b;
   b.bytes.reserve(frames * frame);
   for (size_t i = 0; i < frames; ++i) {
@@ -469,9 +469,9 @@ uint64_t slowest(const std::vector<SubStats>& subs) {
 // Publishes batches until `seconds` passed; stores `total` before the last batch is sent.
 void publisherLoop(const Stream& s, std::vector<SubStats>& subs, double seconds,
                    std::atomic<uint64_t>& total, const std::vector<std::unique_ptr<Worker>>& ws) {
-  Batch batch = makeBatch(s.chan, s.payload);
+  Batch batch = makeBatch(s.chan, s.payload, s.batch_bytes);
   const uint64_t k = batch.offsets.size();
-  const uint64_t window = std::max<uint64_t>(2 * k, kWindowBytes / (kDataOverhead + s.payload));
+  const uint64_t window = std::max<uint64_t>(2 * k, s.window_bytes / (kDataOverhead + s.payload));
   const Nanos deadline = monotonicNs() + static_cast<Nanos>(seconds * 1e9);
   const auto anyFailed = [&] {
     return std::any_of(ws.begin(), ws.end(), [](const auto& w) { return w->failed(); });
@@ -604,11 +604,13 @@ Throughput rawStream(Transport t, size_t subscribers, size_t payload, double sec
 }
 
 Throughput hubStream(const Hub& hub, Transport t, size_t subscribers, size_t payload,
-                     double seconds) {
+                     double seconds, size_t batch_bytes, size_t window_bytes) {
   PeerPtr pub = loginFlow(hub, t);
   Stream s;
   s.chan = addChannel(*pub, nextChannelName("stream"));
   s.payload = payload;
+  s.batch_bytes = batch_bytes;
+  s.window_bytes = window_bytes;
   s.writers.push_back(pub.get());
   std::vector<PeerPtr> subs;
   for (size_t i = 0; i < subscribers; ++i) {

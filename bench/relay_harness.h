@@ -378,6 +378,8 @@ struct Stream {
   std::vector<Peer*> readers;  // one per subscriber
   uint16_t chan = 0;
   size_t payload = 0;
+  size_t batch_bytes = kBatchBytes;    // frames per send() from the publisher
+  size_t window_bytes = kWindowBytes;  // how far the publisher may run ahead of its slowest reader
 };
 
 struct Throughput {
@@ -392,7 +394,8 @@ struct Throughput {
 Throughput runStream(const Stream& s, double seconds);
 Throughput rawStream(Transport t, size_t subscribers, size_t payload, double seconds);
 Throughput hubStream(const Hub& hub, Transport t, size_t subscribers, size_t payload,
-                     double seconds);
+                     double seconds, size_t batch_bytes = kBatchBytes,
+                     size_t window_bytes = kWindowBytes);
 
 // --- text ----------------------------------------------------------------------------------
 

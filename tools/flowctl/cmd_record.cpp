@@ -51,8 +51,8 @@ class DiskThread {
   // From the loop thread. A message is refused (false) when the queue is full.
   bool push(Item item) {
     std::lock_guard lock(m_);
-    if (item.kind == Item::Kind::message && queued_ + item.data.size() > limit_) return false;
-    queued_ += item.data.size();
+    if (item.kind == Item::Kind::message && queued_ + cost(item) > limit_) return false;
+    queued_ += cost(item);
     peak_ = std::max(peak_, queued_);
     q_.push_back(std::move(item));
     cv_.notify_one();
@@ -79,6 +79,8 @@ class DiskThread {
   [[nodiscard]] uint64_t fileBytes() const { return file_bytes_.load(); }
 
  private:
+  // What an item holds in memory, roughly (so that small messages count too).
+  static size_t cost(const Item& item) { return sizeof(Item) + item.data.size(); }
   void run() {
     auto next_flush = std::chrono::steady_clock::now() + flush_every_;
     std::deque<Item> batch;
@@ -88,7 +90,7 @@ class DiskThread {
         std::unique_lock lock(m_);
         cv_.wait_until(lock, next_flush, [&] { return closing_ || !q_.empty(); });
         batch.swap(q_);
-        for (const auto& i : batch) queued_ -= i.data.size();
+        for (const auto& i : batch) queued_ -= cost(i);
         closing = closing_;
       }
       for (auto& item : batch) write(item);

@@ -165,9 +165,28 @@ void Satellite::unsubscribe(std::string_view name) {
   auto it = impl_->subs.find(name);
   if (it == impl_->subs.end()) return;
   if (it->second != 0 && impl_->flowOpen()) {
+    impl_->paths->onUnsubscribed(it->second);
     impl_->send(msg::Unsubscribe{impl_->nextTag(), it->second});
   }
   impl_->subs.erase(it);
+}
+
+void Satellite::usePaths(std::string name, uint8_t kinds) {
+  impl_->paths->want(name, kinds);
+  auto s = impl_->subs.find(name);
+  if (s != impl_->subs.end() && s->second != 0 && impl_->flowOpen() && impl_->login.minor >= 7) {
+    impl_->paths->onSubscribed(name, s->second);
+  }
+}
+
+void Satellite::resetPaths() {
+  impl_->paths->closeAll("reset by the application");
+}
+
+Satellite::PathStats Satellite::pathStats() const {
+  const auto s = impl_->paths->stats();
+  return PathStats{s.served_direct,         s.served_shm, s.path_messages,
+                   s.dropped_before_marker, s.torn,       s.fallbacks};
 }
 
 void Satellite::follow(std::string name, uint32_t every) {
@@ -221,7 +240,29 @@ Result<void> Satellite::publish(uint16_t chan_id, std::string_view payload) {
                                                std::to_string(impl_->link->pendingBytes()) +
                                                " bytes wait): frame dropped");
   }
+  // Our paths first; the hub only while someone is relayed.
+  if (!impl_->paths->publish(chan_id, payload, 0)) return {};
   impl_->send(msg::Publish{chan_id, msg::Rest{payload}});
+  return {};
+}
+
+std::span<std::byte> Satellite::beginPublish(std::string_view name) {
+  const Impl::Own* o = impl_->findOwn(name);
+  if (o == nullptr || o->id == 0 || !impl_->flowOpen()) return {};
+  return impl_->paths->beginPublish(o->id);
+}
+
+Result<void> Satellite::commitPublish(std::string_view name, size_t size, int64_t capture_ns) {
+  const Impl::Own* o = impl_->findOwn(name);
+  if (o == nullptr || o->id == 0) {
+    if (!impl_->flowOpen()) return notConnected();
+    return makeError(Errc::not_found, "no channel of ours named " + std::string(name) + " yet");
+  }
+  bool relay = true;
+  auto bytes = impl_->paths->commitPublish(o->id, size, capture_ns, relay);
+  if (!bytes)
+    return makeError(Errc::invalid_argument, "commitPublish without a slot from beginPublish");
+  if (relay && impl_->flowOpen()) impl_->send(msg::Publish{o->id, msg::Rest{*bytes}});
   return {};
 }
 

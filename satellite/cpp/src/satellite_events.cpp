@@ -103,7 +103,28 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
     }
     case Code::ev_error: {
       SAT_DECODE(msg::EvError, m);
+      if (m.command == uint8_t(Code::phys_request)) paths->onRefused(m.tag);
       onHubError(m);
+      return;
+    }
+    case Code::ev_phys_grant: {
+      SAT_DECODE(msg::EvPhysGrant, m);
+      paths->onGrant(m);
+      return;
+    }
+    case Code::ev_phys_path: {
+      SAT_DECODE(msg::EvPhysPath, m);
+      paths->onPath(m);
+      return;
+    }
+    case Code::ev_phys_revoke: {
+      SAT_DECODE(msg::EvPhysRevoke, m);
+      paths->onRevoke(m);
+      return;
+    }
+    case Code::ev_phys_relay: {
+      SAT_DECODE(msg::EvPhysRelay, m);
+      paths->onRelay(m);
       return;
     }
     case Code::ev_db_changed: {
@@ -180,6 +201,9 @@ void Satellite::Impl::onChanAdded(msg::EvChanAdded& ev) {
     mine->id = ev.info.id;
     mine->tag = 0;
     mine->retries = 0;
+    if (mine->spec.kind == flow::ChannelKind::streaming && login.minor >= 7) {
+      paths->serve(ev.info.id, ev.info.name, mine->spec.physical);
+    }
     log::debug(kLogSource, "SAT-CHANNEL",
                "channel " + ev.info.name + " is ready (id " + std::to_string(ev.info.id) + ")");
   }
@@ -198,6 +222,7 @@ void Satellite::Impl::onChanRemoved(const msg::EvChanRemoved& ev) {
   auto it = table.find(ev.chan_id);
   if (it == table.end() || it->second.hash != ev.hash) return;  // not the instance we know
   const ChannelInfo info = std::move(it->second);
+  paths->onUnsubscribed(ev.chan_id);
   table.erase(it);
   if (auto n = by_name.find(info.name); n != by_name.end() && n->second == info.id) {
     by_name.erase(n);
@@ -245,6 +270,7 @@ void Satellite::Impl::attach(const std::string& name, uint16_t id) {
   } else {
     send(msg::Subscribe{nextTag(), id});
   }
+  if (login.minor >= 7) paths->onSubscribed(name, id);
   if (auto it = table.find(id); it != table.end()) {
     const ChannelInfo info = it->second;
     self.subscribed.emit(info);

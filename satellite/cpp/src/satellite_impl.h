@@ -8,12 +8,14 @@
 #include <uv.h>
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "link.h"
+#include "paths.h"
 
 namespace skr::sat {
 
@@ -128,6 +130,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   uint32_t next_tag = 1;
   std::optional<SyncClient> sync;
   std::optional<Result<flow::TlsContext>> tls_context;  // tls: addresses, made once
+  std::unique_ptr<detail::Paths> paths;                 // physical mode (paths.h)
 };
 
 }  // namespace skr::sat

@@ -46,9 +46,25 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std
   uv_timer_init(self.loop().uv(), timer);
   timer->data = this;
   login.user = opt.connection.user;
+  detail::Paths::Host h;
+  h.loop = self.loop().uv();
+  h.offer = [this](const flow::msg::PhysOffer& m) { send(m); };
+  h.request = [this](const flow::msg::PhysRequest& m) { send(m); };
+  h.state = [this](const flow::msg::PhysState& m) { send(m); };
+  h.count = [this](const flow::msg::PhysCount& m) { send(m); };
+  h.next_tag = [this] { return nextTag(); };
+  h.deliver = [this](uint16_t chan, std::string_view payload) {
+    const uint64_t gen = generation;
+    self.dataView.emit(chan, payload);
+    if (gen == generation && self.data.connectionCount() > 0) {
+      self.data.emit(chan, std::string(payload));
+    }
+  };
+  paths = std::make_unique<detail::Paths>(std::move(h));
 }
 
 Satellite::Impl::~Impl() {
+  paths.reset();
   if (link != nullptr) link->close();
   link = nullptr;
   uv_timer_stop(timer);
@@ -165,6 +181,7 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
     log::debug(kLogSource, "SAT-RETRY", "hub at " + where + ": " + why);
   }
   uv_timer_stop(timer);
+  paths->reset();
   table.clear();
   by_name.clear();
   for (auto& [name, o] : own) o.id = 0, o.tag = 0, o.subscribers = false, o.retries = 0;
@@ -308,6 +325,7 @@ void Satellite::Impl::onFlowOpen() {
 // are asked for again once a second, a few times.
 void Satellite::Impl::onOneSecond() {
   if (!flowOpen()) return;
+  paths->tick();
   for (auto& [name, o] : own) {
     if (o.id == 0 && o.tag == 0 && o.retries > 0 && o.retries < 10) sendChanAdd(o);
   }

@@ -31,11 +31,13 @@
 #include <skrobot/core/clock.h>
 #include <skrobot/core/object.h>
 #include <skrobot/core/signal.h>
+#include <skrobot/flow/shm_ring.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -62,12 +64,25 @@ struct SatelliteOptions {
   [[nodiscard]] static Result<SatelliteOptions> fromEnvironment(std::string client_name = {});
 };
 
+// Physical mode for one of our streaming channels (docs/physical-mode.md, FlowProtocol 1.7):
+// subscribers the hub allows may read it straight from us, over a socket of ours or, on this
+// machine, from shared memory; the others still get it through the hub.
+struct PhysicalOptions {
+  bool direct = false;  // a Unix socket of ours (the hub hands out one-time tokens)
+  bool shm = false;     // a ring of slots in shared memory (ring.slot_bytes: the largest message)
+  flow::shm::RingGeometry ring;
+};
+
+// Path kinds a subscriber asks for (usePaths).
+inline constexpr uint8_t kPathDirect = 1, kPathShm = 2;
+
 // A channel this satellite owns, "<user>.<name>".
 struct ChannelSpec {  // NOLINT(bugprone-exception-escape): Variant moves do not throw
   std::string name;   // the short name: 1-128 of A-Z a-z 0-9 _ - . (not starting with '.')
   flow::ChannelKind kind = flow::ChannelKind::streaming;
   std::string mime = {};                       // what the payloads are, e.g. "image/jpeg"
   flow::Variant props = flow::Variant::Map{};  // the channel's database (sample rate, size, ...)
+  PhysicalOptions physical = {};               // streaming channels only
 };
 
 // A request to one of our service channels: answer with respond(request, value).
@@ -204,6 +219,28 @@ class Satellite : public Object {
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
   [[nodiscard]] Result<void> publish(std::string_view name, std::string_view payload);
   [[nodiscard]] size_t queuedBytes() const noexcept;  // written soon, or being written
+  // Zero-copy publishing on a channel with a shared-memory ring: the slot to fill in place
+  // (empty when the channel has no ring, or every slot is being read: then publish() instead),
+  // then its commit, which also sends the bytes to direct subscribers and, when someone is
+  // relayed, to the hub. `capture_ns` travels with the message on the paths.
+  [[nodiscard]] std::span<std::byte> beginPublish(std::string_view name);
+  [[nodiscard]] Result<void> commitPublish(std::string_view name, size_t size,
+                                           int64_t capture_ns = 0);
+
+  // Physical mode as a subscriber: ask the hub for a path of these kinds (kPathShm, kPathDirect)
+  // whenever we are subscribed to `name`; data then comes straight from the owner (the same
+  // `data` and `dataView` signals), and through the hub again whenever the path breaks (asked
+  // again with a backoff). 0: relayed only. Needs FlowProtocol 1.7; an older hub relays.
+  void usePaths(std::string name, uint8_t kinds = kPathShm | kPathDirect);
+  struct PathStats {
+    uint64_t served_direct = 0, served_shm = 0;  // subscribers on our paths now
+    uint64_t path_messages = 0;                  // received on paths
+    uint64_t dropped_before_marker = 0, torn = 0, fallbacks = 0;
+  };
+  [[nodiscard]] PathStats pathStats() const;
+  // Closes every path of ours, both sides, as if they broke: subscribers fall back to the relay
+  // and ask again after a second. For tests, and for a process that must let go of its sockets.
+  void resetPaths();
 
   // --- services ------------------------------------------------------------------------------
   // An asynchronous request to a service channel (by name or id). The answer comes as the

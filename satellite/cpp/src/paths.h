@@ -1,0 +1,131 @@
+// Physical mode in a satellite (docs/physical-mode.md): the owner's side (a listener for the
+// subscribers the hub granted a path, a shared-memory ring per channel, direct sockets) and the
+// subscriber's side (a path per channel it asked one for, with fallback to the relay). Internal to
+// the satellite library; runs on the satellite's loop thread.
+//
+// The path socket speaks a reduced framing: u32 length (of what follows), u8 type, body.
+//   HELLO   (subscriber -> owner) u8 version 1, u8 path, str16 channel, str16 token
+//   WELCOME (owner -> subscriber) u16 error (0 ok), str16 message; for shared memory with three
+//           descriptors attached (the ring read-only, the lease page, the eventfd)
+//   DATA    (owner -> subscriber, direct) u64 seq, i64 capture_ns, the payload
+//   BYE     (either) str16 reason
+#pragma once
+
+#include <skrobot/core/clock.h>
+#include <skrobot/flow/messages.h>
+#include <skrobot/flow/shm_ring.h>
+
+#include <uv.h>
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace skr::sat {
+struct PhysicalOptions;
+}
+
+namespace skr::sat::detail {
+
+inline constexpr uint8_t kPathHello = 1, kPathWelcome = 2, kPathData = 3, kPathBye = 4;
+inline constexpr uint32_t kPathMaxControl = 4096;
+inline constexpr Nanos kGrantLifetimeNs = 10 * kNsPerSec;
+
+class Paths {
+ public:
+  // What the satellite gives its paths: sending on the flow, emitting data, naming channels.
+  struct Host {
+    uv_loop_t* loop = nullptr;
+    std::function<void(const flow::msg::PhysOffer&)> offer;
+    std::function<void(const flow::msg::PhysRequest&)> request;
+    std::function<void(const flow::msg::PhysState&)> state;
+    std::function<void(const flow::msg::PhysCount&)> count;
+    std::function<uint32_t()> next_tag;
+    std::function<void(uint16_t chan_id, std::string_view payload)> deliver;
+  };
+  explicit Paths(Host host);
+  ~Paths();
+  Paths(const Paths&) = delete;
+  Paths& operator=(const Paths&) = delete;
+
+  // --- the owner's side ---
+  // One of our channels was created (again) with `options`: offer its paths.
+  void serve(uint16_t chan_id, const std::string& name, const PhysicalOptions& options);
+  void onGrant(const flow::msg::EvPhysGrant& m);
+  void onRevoke(const flow::msg::EvPhysRevoke& m);
+  // Ours: whether the relay is still needed; a channel we follow: the marker.
+  void onRelay(const flow::msg::EvPhysRelay& m);
+  [[nodiscard]] bool serves(uint16_t chan_id) const { return served_.count(chan_id) != 0; }
+  // Delivers on our paths; true when it must also go through the hub (someone is relayed).
+  bool publish(uint16_t chan_id, std::string_view payload, int64_t capture_ns);
+  // The shared-memory slot to fill in place (empty: no ring, or every slot leased), then its
+  // commit, which delivers to the other paths (and says whether the hub needs it) as publish().
+  std::span<std::byte> beginPublish(uint16_t chan_id);
+  std::optional<std::string_view> commitPublish(uint16_t chan_id, size_t size, int64_t capture_ns,
+                                                bool& relay);
+
+  // --- the subscriber's side ---
+  // Paths to ask for `name` whenever we are subscribed to it (0: none).
+  void want(const std::string& name, uint8_t paths);
+  void onSubscribed(const std::string& name, uint16_t chan_id);
+  void onUnsubscribed(uint16_t chan_id);
+  void onPath(const flow::msg::EvPhysPath& m);
+  void onRefused(uint32_t tag);  // EV_ERROR for one of our PHYS_REQUESTs
+
+  // Closes every peer and path as broken (subscribers fall back and ask again).
+  void closeAll(const std::string& why);
+  // Each second: counts, expired grants, leases kept alive, paths asked again.
+  void tick();
+  // The flow closed: paths and grants are void (rings and the listener stay for the next one).
+  void reset();
+
+  struct Stats {
+    uint64_t served_direct = 0, served_shm = 0;  // peers now
+    uint64_t path_messages = 0;                  // received on paths
+    uint64_t dropped_before_marker = 0, torn = 0, fallbacks = 0;
+  };
+  [[nodiscard]] Stats stats() const;
+
+  struct Peer;
+  struct Path;
+  struct Served;
+
+ private:
+  void ensureListener();
+  bool sendDirect(Served& sv, std::string_view payload, int64_t capture_ns);
+  void onAccept();
+  void onPeer(Peer& p, int events);
+  void welcome(Peer& p, std::string_view body);
+  void closePeer(int fd, const std::string& why);
+  void connectPath(Path& p, const std::string& endpoint);
+  void onPathSocket(Path& p, int events);
+  void onPathEvent(Path& p);
+  void pathFrames(Path& p);
+  void failPath(uint16_t chan_id, const std::string& why);
+  void request(Path& p);
+
+  Host host_;
+  int listen_fd_ = -1;
+  uv_poll_t* listen_poll_ = nullptr;
+  std::string listen_path_;
+  std::map<uint16_t, std::unique_ptr<Served>> served_;       // by channel id
+  std::map<std::string, flow::shm::RingWriter> idle_rings_;  // channels not created now
+  struct Grant {
+    uint16_t chan_id = 0;
+    uint32_t subscriber = 0;
+    uint8_t path = 0;
+    Nanos expires = 0;
+  };
+  std::map<std::string, Grant> grants_;                 // by token
+  std::map<int, std::unique_ptr<Peer>> peers_;          // by socket
+  std::map<std::string, uint8_t, std::less<>> wanted_;  // full name -> kinds
+  std::map<uint16_t, std::unique_ptr<Path>> paths_;     // by channel id
+  Stats stats_;
+};
+
+}  // namespace skr::sat::detail

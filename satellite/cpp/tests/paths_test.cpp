@@ -1,0 +1,108 @@
+// Physical mode through the satellite library (docs/physical-mode.md): shared-memory and direct
+// paths granted by a real hub, the relay skipped while a path works, fallback when it breaks
+// (nothing delivered twice), and a subscriber that asks for a kind the owner does not serve.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "eventually.h"
+#include "sat_fixture.h"
+
+namespace skr::sat::test {
+namespace {
+
+class Paths : public SatTest {
+ protected:
+  void SetUp() override { startHub(); }
+  // An owner of guest.frames with the given paths, and a subscriber that asks for `kinds`.
+  void setUp(bool direct, bool shm, uint8_t kinds) {
+    pub = satellite("pub");
+    ChannelSpec spec{.name = "frames"};
+    spec.physical = PhysicalOptions{.direct = direct, .shm = shm, .ring = {4, 1 << 16, 4}};
+    ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
+    sub = satellite("sub");
+    sub->on([&](Satellite& s) {
+      s.usePaths("guest.frames", kinds);
+      s.subscribe("guest.frames");
+    });
+    ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.frames") == 1; }));
+  }
+  // Publishes numbered messages until the subscriber gets them on its path.
+  bool pathWorks() {
+    int i = 0;
+    return eventually([&] {
+      pub->on([&](Satellite& s) { (void)s.publish("frames", "warm-up " + std::to_string(i++)); });
+      return sub->on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
+    });
+  }
+  std::unique_ptr<SatOnThread> pub, sub;
+};
+
+TEST_F(Paths, SharedMemoryDeliversWithoutTheHub) {
+  setUp(true, true, kPathShm);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_shm; }), 1u);
+  // Zero copy on both sides: filled in the slot, read in place.
+  sub->events.clear();
+  const uint64_t before = sub->on([](Satellite& s) { return s.pathStats().path_messages; });
+  pub->on([](Satellite& s) {
+    auto slot = s.beginPublish("frames");
+    ASSERT_GE(slot.size(), 5u);
+    std::memcpy(slot.data(), "hello", 5);
+    ASSERT_TRUE(s.commitPublish("frames", 5, 42));
+  });
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:hello") == 1; }))
+      << sub->events.dump();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(sub->events.count("data:guest.frames:hello"), 1u) << "once: not relayed as well";
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().path_messages; }), before + 1)
+      << "it came by the path, not the hub";
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().torn; }), 0u);
+}
+
+TEST_F(Paths, DirectPathInOrderThenFallbackWithoutDuplicates) {
+  setUp(true, false, kPathDirect | kPathShm);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_direct; }), 1u);
+  sub->events.clear();
+  // 300 numbered messages; the path breaks after the 100th: relayed again, asked again.
+  for (int i = 0; i < 300; ++i) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", std::to_string(i))); });
+    if (i == 100) pub->on([](Satellite& s) { s.resetPaths(); });
+    if (i % 50 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:299") == 1; }))
+      << sub->events.count("data:");
+  const auto got = sub->events.with("data:guest.frames:");
+  std::vector<int> numbers;
+  for (const auto& g : got) numbers.push_back(std::stoi(g));
+  for (size_t k = 1; k < numbers.size(); ++k) {
+    ASSERT_LT(numbers[k - 1], numbers[k]) << "in order, none twice (at " << k << ")";
+  }
+  EXPECT_GE(numbers.size(), 290u) << "a switch loses at most a few";
+  EXPECT_GE(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 1u);
+  // Asked again after a second: the path comes back.
+  ASSERT_TRUE(eventually(
+      [&] {
+        pub->on([](Satellite& s) { (void)s.publish("frames", "again"); });
+        return pub->on([](Satellite& s) { return s.pathStats().served_direct; }) == 1;
+      },
+      10000));
+}
+
+TEST_F(Paths, AKindTheOwnerDoesNotServeIsRelayed) {
+  setUp(true, false, kPathShm);  // shared memory asked, direct offered
+  for (int i = 0; i < 20; ++i) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", "m" + std::to_string(i))); });
+  }
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:m19") == 1; }));
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().path_messages; }), 0u);
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_direct; }), 0u);
+}
+
+}  // namespace
+}  // namespace skr::sat::test

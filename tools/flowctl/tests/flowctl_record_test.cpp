@@ -4,6 +4,7 @@
 #include <skrobot/mcap/reader.h>
 #include <skrobot/media_frame.hpp>
 
+#include <algorithm>
 #include <csignal>
 #include <mutex>
 
@@ -208,6 +209,64 @@ TEST_F(FlowctlRecord, RecordThenPlayRemapped) {
   EXPECT_NEAR(pulses, 50 * published_s, 0.4 * 50 * published_s + 3) << play->output();
   // The properties changed as they did while recording.
   EXPECT_EQ(sub->events.count("changed:guest.again:{\"unit\":\"m\"}"), 1u);
+}
+
+// --rate, --start, --channels and --loop on a recording of 60 messages 10 ms apart.
+TEST_F(FlowctlRecord, PlayOptions) {
+  auto pub = publisher();
+  const std::string path = (dir_.path() / "options.mcap").string();
+  auto rec = flowctl({"record", "-o", path, "guest.numbers", "guest.video"});
+  waitForRecorder(*pub);
+  publish(*pub);
+  rec->signal(SIGINT);
+  ASSERT_EQ(rec->wait(), 0) << rec->output();
+  pub.reset();
+  // The recording's span, from its log times.
+  std::vector<uint64_t> times;
+  {
+    auto reader = mcap::Reader::open(path);
+    ASSERT_TRUE(reader);
+    ASSERT_TRUE(
+        reader->scan({.message = [&](const mcap::Message& m) { times.push_back(m.log_time); }}));
+  }
+  ASSERT_EQ(times.size(), size_t(2 * kMessages));
+  const double span_s = double(times.back() - times.front()) / 1e9;
+  const uint64_t start_ns = times.front() + uint64_t(span_s / 2 * 1e9);
+  const auto second_half = static_cast<size_t>(
+      std::count_if(times.begin(), times.end(), [&](uint64_t t) { return t >= start_ns; }));
+
+  auto sub = satellite("detector");
+  std::mutex m;
+  std::vector<Received> received;
+  sub->on([&](Satellite& x) {
+    x.data.connect(&x, [&x, &m, &received](uint16_t id, const std::string& payload) {
+      std::lock_guard lock(m);
+      received.push_back({x.channel(id)->name, payload, monotonicNs()});
+    });
+    x.subscribe("guest.numbers");
+  });
+  // Twice as fast, from the middle, the numbers only (no subscriber waits for the video).
+  auto play = flowctl({"--json", "play", path, "--rate", "2", "--start", std::to_string(span_s / 2),
+                       "--channels", "*.numbers"});
+  ASSERT_EQ(play->wait(), 0) << play->output();
+  EXPECT_EQ(play->output().find("video"), std::string::npos) << play->output();
+  {
+    std::lock_guard lock(m);
+    // The numbers of the second half (one either way: the cut falls between two messages).
+    EXPECT_NEAR(double(received.size()), double(second_half) / 2, 1.5) << play->output();
+    ASSERT_GE(received.size(), 2u);
+    const double played_s = double(received.back().at - received.front().at) / 1e9;
+    EXPECT_NEAR(played_s, span_s / 4, std::max(0.4 * span_s / 4, 0.1)) << play->output();
+    received.clear();
+  }
+  // --loop: again and again until SIGINT.
+  auto looping = flowctl({"play", path, "--loop", "--rate", "4", "--channels", "guest.numbers"});
+  EXPECT_TRUE(eventually([&] {
+    std::lock_guard lock(m);
+    return received.size() > size_t(2 * kMessages);
+  })) << looping->output();
+  looping->signal(SIGINT);
+  EXPECT_EQ(looping->wait(), 0) << looping->output();
 }
 
 // A disk that does not keep up (here: a queue too small for any message) drops, and says so.

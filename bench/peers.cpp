@@ -153,7 +153,12 @@ using Handler = std::function<void(std::string_view)>;
 // Used by one thread at a time.
 class PubSub {
  public:
+  PubSub() = default;
   virtual ~PubSub() = default;
+  PubSub(const PubSub&) = delete;
+  PubSub& operator=(const PubSub&) = delete;
+  PubSub(PubSub&&) = delete;
+  PubSub& operator=(PubSub&&) = delete;
   // Returns once the server has the subscription.
   virtual void subscribe(const std::string& topic) = 0;
   // May buffer; flush() sends what is buffered.
@@ -463,7 +468,12 @@ bool waitPort(int port, Child& child, int timeout_ms) {
 // A server process of ours on 127.0.0.1:port, killed at the end.
 class Server {
  public:
+  Server() = default;
   virtual ~Server() = default;
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+  Server(Server&&) = delete;
+  Server& operator=(Server&&) = delete;
   [[nodiscard]] virtual PubSubPtr connect(Mode mode) const = 0;
 };
 
@@ -806,6 +816,7 @@ int main(int argc, char** argv) {
                   .c_str(),
               NATS_SERVER_BIN, [&] { return std::make_unique<NatsCoreServer>(dir.path()); });
     std::vector<bool> on;
+    on.reserve(systems.size());
     for (const auto& s : systems) on.push_back(wantSystem(o, s.id));
 
     double load[3] = {0, 0, 0};

@@ -93,6 +93,44 @@ std::string_view writeSome(int fd, std::string_view bytes) {
   return bytes;
 }
 
+// Bytes read from a path socket, received straight into place (no zero-filling, no copy from a
+// bounce buffer): a large frame is read into memory that already has its size.
+class InBuffer {
+ public:
+  [[nodiscard]] std::string_view view() const { return {data_.get() + head_, len_}; }
+  [[nodiscard]] bool empty() const { return len_ == 0; }
+  void append(std::string_view b) {
+    std::memcpy(tail(b.size()), b.data(), b.size()), len_ += b.size();
+  }
+  // Room for `n` more bytes at the end; commit(k) keeps the k read there.
+  char* tail(size_t n) {
+    if (head_ + len_ + n > cap_) {
+      const size_t cap = std::max(cap_ * 2, len_ + n);
+      if (len_ + n <= cap_ && head_ > 0) {
+        std::memmove(data_.get(), data_.get() + head_, len_);
+      } else {
+        std::unique_ptr<char[]> d(new char[cap]);
+        if (len_ > 0) std::memcpy(d.get(), data_.get() + head_, len_);
+        data_ = std::move(d);
+        cap_ = cap;
+      }
+      head_ = 0;
+    }
+    return data_.get() + head_ + len_;
+  }
+  void commit(size_t n) { len_ += n; }
+  void consume(size_t n) {
+    head_ += n;
+    len_ -= n;
+    if (len_ == 0) head_ = 0;
+  }
+  void clear() { head_ = len_ = 0; }
+
+ private:
+  std::unique_ptr<char[]> data_;
+  size_t cap_ = 0, head_ = 0, len_ = 0;
+};
+
 }  // namespace
 
 struct Paths::Served {
@@ -128,7 +166,7 @@ struct Paths::Path {
   uv_poll_t* poll = nullptr;
   uv_poll_t* event_poll = nullptr;
   std::optional<flow::shm::RingReader> reader;
-  std::string in;
+  InBuffer in;
   bool open = false;    // WELCOME came
   bool marker = false;  // the hub relays no more: what comes on the path is ours
   Nanos retry_at = 0;   // 0: not waiting to ask again
@@ -532,7 +570,7 @@ void Paths::onPathSocket(Path& p, int events) {
     }
     p.in.append(got->bytes);
     bool bad = false;
-    auto f = nextFrame(p.in, kPathMaxControl, bad);
+    auto f = nextFrame(std::string(p.in.view()), kPathMaxControl, bad);
     if (bad || (f && f->type != kPathWelcome)) {
       for (int fd : got->fds) ::close(fd);
       return failPath(chan, "the owner did not answer with WELCOME");
@@ -548,7 +586,7 @@ void Paths::onPathSocket(Path& p, int events) {
       for (int fd : got->fds) ::close(fd);
       return failPath(chan, "refused: " + std::string(message));
     }
-    p.in.erase(0, f->size);
+    p.in.consume(f->size);
     if (p.path == msg::kPhysShm) {
       if (got->fds.size() != 3) {
         for (int fd : got->fds) ::close(fd);
@@ -573,16 +611,25 @@ void Paths::onPathSocket(Path& p, int events) {
     if (!p.in.empty()) pathFrames(p);
     return;
   }
-  char buf[64 * 1024];
   for (;;) {
-    const ssize_t n = ::recv(p.fd, buf, sizeof buf, 0);
+    // As much as the frame being read still needs (at least 64 KB), straight into place.
+    size_t want = 64 * 1024;
+    const std::string_view have = p.in.view();
+    if (have.size() >= 4) {
+      uint32_t n = 0;
+      std::memcpy(&n, have.data(), 4);
+      if (n <= kMaxDataFrame && 4 + size_t(n) > have.size()) {
+        want = std::max(want, 4 + size_t(n) - have.size());
+      }
+    }
+    const ssize_t n = ::recv(p.fd, p.in.tail(want), want, 0);
     if (n == 0) return failPath(chan, "the owner closed the path");
     if (n < 0) {
       if (errno == EAGAIN || errno == EINTR) break;
       return failPath(chan, std::strerror(errno));
     }
-    p.in.append(buf, static_cast<size_t>(n));
-    if (static_cast<size_t>(n) < sizeof buf) break;
+    p.in.commit(static_cast<size_t>(n));
+    if (static_cast<size_t>(n) < want) break;
   }
   pathFrames(p);
 }
@@ -591,7 +638,7 @@ void Paths::pathFrames(Path& p) {
   const uint16_t chan = p.chan_id;
   size_t used = 0;
   for (;;) {
-    const std::string_view rest = std::string_view(p.in).substr(used);
+    const std::string_view rest = p.in.view().substr(used);
     if (rest.size() < 5) break;
     uint32_t n = 0;
     std::memcpy(&n, rest.data(), 4);
@@ -611,7 +658,7 @@ void Paths::pathFrames(Path& p) {
     host_.deliver(chan, body.substr(16));
     if (paths_.count(chan) == 0) return;  // a slot unsubscribed
   }
-  p.in.erase(0, used);
+  p.in.consume(used);
 }
 
 void Paths::onPathEvent(Path& p) {

@@ -1,10 +1,12 @@
-// For the benchmarks that drive hubs through satellites (hub_link, nats_bridge): polling for a
-// condition, and a skr::sat::Satellite on a loop thread of its own. Header-only; the benchmark
-// process stops (exit 1, a line on stderr) when a satellite cannot connect.
+// For the benchmarks that drive hubs through satellites (hub_link, nats_bridge, large_payload):
+// polling for a condition, a hub in this process on a loop thread of its own, and a
+// skr::sat::Satellite on a loop thread of its own. Header-only; the benchmark process stops
+// (exit 1, a line on stderr) when a hub cannot start or a satellite cannot connect.
 #pragma once
 
 #include <skrobot/core/clock.h>
 #include <skrobot/core/loop.h>
+#include <skrobot/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include <errno.h>
@@ -12,6 +14,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -30,6 +34,55 @@ bool waitFor(P&& ready, int timeout_ms = 10000) {
   }
   return true;
 }
+
+// A hub in this process on a loop thread of its own, on the Unix socket <dir>/<name>.sock with the
+// development account (guest/password); `configure` adjusts its options first.
+class InProcessHub {
+ public:
+  InProcessHub(const std::filesystem::path& dir, const std::string& name,
+               const std::function<void(flow::ServerOptions&)>& configure = {}) {
+    flow::ServerOptions so;
+    so.app_name = "skrobot-bench-" + name + "-" + std::to_string(::getpid());
+    so.unix_path = (dir / (name + ".sock")).string();
+    so.dev_account = std::make_pair(std::string("guest"), std::string("password"));
+    so.users_file = dir / (name + "-users.json");
+    if (configure) configure(so);
+    path_ = so.unix_path;
+    thread_ = std::make_unique<LoopThread>(LoopOptions{.name = "hub " + name});
+    thread_->start();
+    Result<void> r;
+    thread_->loop().invoke([&] {
+      server_ = std::make_unique<flow::FlowServer>(thread_->loop(), so);
+      r = server_->start();
+    });
+    if (!r) {
+      std::fprintf(stderr, "%s: hub %s: %s\n", program_invocation_short_name, name.c_str(),
+                   r.error().message.c_str());
+      std::exit(1);
+    }
+  }
+  ~InProcessHub() {
+    thread_->loop().invoke([&] { server_.reset(); });
+    thread_.reset();
+  }
+  InProcessHub(const InProcessHub&) = delete;
+  InProcessHub& operator=(const InProcessHub&) = delete;
+
+  [[nodiscard]] const std::string& path() const noexcept { return path_; }
+  [[nodiscard]] sat::ConnectOptions connect(const std::string& client) const {
+    sat::ConnectOptions o;
+    o.address.kind = flow::Address::Kind::local;
+    o.address.path = path_;
+    o.client_name = client;
+    o.timeout_ms = 30000;
+    return o;
+  }
+
+ private:
+  std::string path_;
+  std::unique_ptr<LoopThread> thread_;
+  std::unique_ptr<flow::FlowServer> server_;
+};
 
 // A Satellite on a loop thread of its own, started and connected when constructed. on(f) runs
 // f(satellite) on that thread and returns its result; loop().post() queues work there.

@@ -46,54 +46,24 @@ using flow::Variant;
 }
 
 // A hub named `name` with the development account, linked to `to` (if any).
-class Hub {
+class Hub : public bench::InProcessHub {
  public:
-  Hub(const std::filesystem::path& dir, const std::string& name, const Hub* to) {
-    flow::ServerOptions so;
-    so.app_name = "skrobot-link-bench-" + name + "-" + std::to_string(::getpid());
-    so.hub_name = name;
-    so.unix_path = (dir / (name + ".sock")).string();
-    so.dev_account = std::make_pair(std::string("guest"), std::string("password"));
-    so.users_file = dir / (name + "-users.json");
-    if (to != nullptr) {
-      flow::HubLinkOptions link;
-      link.name = to->name_;
-      link.address = "local:" + to->path_;
-      link.user = "guest";
-      link.password = "password";
-      so.links.push_back(link);
-    }
-    name_ = name;
-    path_ = so.unix_path;
-    thread_ = std::make_unique<LoopThread>(LoopOptions{.name = "hub " + name});
-    thread_->start();
-    Result<void> r;
-    thread_->loop().invoke([&] {
-      server_ = std::make_unique<flow::FlowServer>(thread_->loop(), so);
-      r = server_->start();
-    });
-    if (!r) fail("hub " + name + ": " + r.error().message);
-  }
-  ~Hub() {
-    thread_->loop().invoke([&] { server_.reset(); });
-    thread_.reset();
-  }
-  Hub(const Hub&) = delete;
-  Hub& operator=(const Hub&) = delete;
-
-  [[nodiscard]] sat::ConnectOptions connect(const std::string& client) const {
-    sat::ConnectOptions o;
-    o.address.kind = flow::Address::Kind::local;
-    o.address.path = path_;
-    o.client_name = client;
-    o.timeout_ms = 30000;
-    return o;
-  }
+  Hub(const std::filesystem::path& dir, const std::string& name, const Hub* to)
+      : InProcessHub(dir, name,
+                     [&](flow::ServerOptions& so) {
+                       so.hub_name = name;
+                       if (to == nullptr) return;
+                       flow::HubLinkOptions link;
+                       link.name = to->name_;
+                       link.address = "local:" + to->path();
+                       link.user = "guest";
+                       link.password = "password";
+                       so.links.push_back(link);
+                     }),
+        name_(name) {}
 
  private:
-  std::string name_, path_;
-  std::unique_ptr<LoopThread> thread_;
-  std::unique_ptr<flow::FlowServer> server_;
+  std::string name_;
 };
 
 // --- service round trips ------------------------------------------------------------------------

@@ -48,46 +48,18 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
 }
 
-class Hub {
- public:
-  explicit Hub(const std::filesystem::path& dir) {
-    flow::ServerOptions so;
-    so.app_name = "skrobot-large-" + std::to_string(::getpid());
-    so.unix_path = (dir / "hub.sock").string();
-    so.dev_account = std::make_pair(std::string("guest"), std::string("password"));
-    so.users_file = dir / "users.json";
-    so.max_frame_bytes = 16u << 20;
-    so.subscriber_queue_bytes = 64u << 20;
-    path_ = so.unix_path;
-    thread_ = std::make_unique<LoopThread>(LoopOptions{.name = "hub"});
-    thread_->start();
-    Result<void> r;
-    thread_->loop().invoke([&] {
-      server_ = std::make_unique<flow::FlowServer>(thread_->loop(), so);
-      r = server_->start();
-    });
-    if (!r) fail("hub: " + r.error().message);
-  }
-  ~Hub() {
-    thread_->loop().invoke([&] { server_.reset(); });
-    thread_.reset();
-  }
-  Hub(const Hub&) = delete;
-  Hub& operator=(const Hub&) = delete;
-  [[nodiscard]] sat::ConnectOptions connect(const std::string& client) const {
-    sat::ConnectOptions o;
-    o.address.kind = flow::Address::Kind::local;
-    o.address.path = path_;
-    o.client_name = client;
-    o.max_frame_bytes = 16u << 20;
-    return o;
-  }
+using Hub = bench::InProcessHub;
 
- private:
-  std::string path_;
-  std::unique_ptr<LoopThread> thread_;
-  std::unique_ptr<flow::FlowServer> server_;
-};
+// A hub that takes 6 MB frames and queues a few of them per subscriber.
+void largeFrames(flow::ServerOptions& so) {
+  so.max_frame_bytes = 16u << 20;
+  so.subscriber_queue_bytes = 64u << 20;
+}
+sat::ConnectOptions connectLarge(const Hub& hub, const std::string& client) {
+  sat::ConnectOptions o = hub.connect(client);
+  o.max_frame_bytes = 16u << 20;
+  return o;
+}
 
 struct Figures {
   double one_way_p50 = 0, one_way_p99 = 0, rtt_p50 = 0, mb_s = 0;
@@ -192,7 +164,7 @@ enum class Mode { relay, direct, shm };
 Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double seconds) {
   static int run = 0;
   const std::string suffix = std::to_string(++run);
-  Sat a(hub, "a" + suffix), b(hub, "b" + suffix);
+  Sat a(connectLarge(hub, "a" + suffix)), b(connectLarge(hub, "b" + suffix));
   sat::PhysicalOptions phys;
   phys.direct = mode == Mode::direct;
   phys.shm = mode == Mode::shm;
@@ -324,7 +296,7 @@ int main(int argc, char** argv) {
   const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
   log::setLevel(log::Level::warn);
   test::TempDir dir;
-  Hub hub(dir.path());
+  Hub hub(dir.path(), "large", largeFrames);
   const std::vector<size_t> sizes = quick ? std::vector<size_t>{1024, 64 << 10, 1 << 20}
                                           : std::vector<size_t>{1024, 64 << 10, 1 << 20, 6220800};
   const int rounds = quick ? 50 : 300;

@@ -4,6 +4,7 @@
 #include <skrobot/core/log.h>
 #include <skrobot/flow/bytes.h>
 #include <skrobot/flow/fd_passing.h>
+#include <skrobot/flow/path_framing.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <arpa/inet.h>
@@ -26,7 +27,7 @@ namespace {
 
 namespace msg = flow::msg;
 constexpr const char* kLogSource = "satellite";
-constexpr uint32_t kMaxDataFrame = 64u << 20;
+constexpr uint32_t kMaxDataFrame = flow::path::kMaxDataBytes + 32;
 constexpr size_t kMaxPeerQueue = 16u << 20;  // a direct subscriber's backlog; beyond: drops
 constexpr Nanos kRetryMinNs = kNsPerSec, kRetryMaxNs = 30 * kNsPerSec;
 
@@ -46,38 +47,6 @@ void closePoll(uv_poll_t*& p) {
 void closeFd(int& fd) {
   if (fd >= 0) ::close(fd);
   fd = -1;
-}
-
-std::string frame(uint8_t type, const std::function<void(flow::ByteWriter&)>& body) {
-  std::string out(5, '\0');
-  flow::ByteWriter w(out);
-  body(w);
-  const auto n = static_cast<uint32_t>(out.size() - 4);
-  std::memcpy(out.data(), &n, 4);
-  out[4] = static_cast<char>(type);
-  return out;
-}
-std::string bye(const std::string& why) {
-  return frame(kPathBye, [&](flow::ByteWriter& w) { w.str16(why.substr(0, 200)); });
-}
-
-// The next whole frame at the front of `in`: type and body, or nullopt; `bad` when its length is
-// over `max` (refused before anything is allocated for it).
-struct Frame {
-  uint8_t type;
-  std::string_view body;
-  size_t size;
-};
-std::optional<Frame> nextFrame(const std::string& in, uint32_t max, bool& bad) {
-  if (in.size() < 5) return std::nullopt;
-  uint32_t n = 0;
-  std::memcpy(&n, in.data(), 4);
-  if (n == 0 || n > max) {
-    bad = true;
-    return std::nullopt;
-  }
-  if (in.size() < 4 + size_t(n)) return std::nullopt;
-  return Frame{static_cast<uint8_t>(in[4]), std::string_view(in).substr(5, n - 1), 4 + size_t(n)};
 }
 
 // Writes all of `bytes` on a non-blocking socket, or what fits; the rest is returned.
@@ -297,33 +266,27 @@ void Paths::onPeer(Peer& p, int events) {
   if (n < 0) return;
   if (p.path != 0) return;  // nothing is expected after HELLO but BYE or the close
   p.in.append(buf, static_cast<size_t>(n));
-  bool bad = false;
-  auto f = nextFrame(p.in, kPathMaxControl, bad);
-  if (bad || (f && f->type != kPathHello)) {
+  const auto f = flow::path::next(p.in, flow::path::kMaxControlBytes);
+  if (f.status == flow::path::Next::Status::too_large ||
+      (f.status == flow::path::Next::Status::frame && f.type != uint8_t(flow::path::Type::hello))) {
     closePeer(fd, "not a path HELLO");
     return;
   }
-  if (f) welcome(p, f->body);
+  if (f.status == flow::path::Next::Status::frame) welcome(p, f.body);
 }
 
 void Paths::welcome(Peer& p, std::string_view body) {
-  flow::ByteReader r(body);
-  uint8_t version = 0, path = 0;
-  std::string_view channel, token;
   auto refuse = [&](const std::string& why) {
-    const std::string w = frame(kPathWelcome, [&](flow::ByteWriter& bw) {
-      bw.u16(uint16_t(flow::ErrorCode::permission_denied));
-      bw.str16(why);
-    });
-    (void)writeSome(p.fd, w);
+    (void)writeSome(p.fd, flow::path::encode(flow::path::Welcome{
+                              uint16_t(flow::ErrorCode::permission_denied), why}));
     log::warn(kLogSource, "SAT-PATH-REFUSED", "a path connection: " + why);
     closePeer(p.fd, why);
   };
-  if (!r.u8(version) || !r.u8(path) || !r.str16(channel) || !r.str16(token) || !r.empty() ||
-      version != 1) {
-    return refuse("a malformed HELLO");
-  }
-  auto g = grants_.find(std::string(token));
+  const auto hello = flow::path::decodeHello(body);
+  if (!hello) return refuse("a malformed HELLO");
+  const uint8_t path = hello->path;
+  const std::string& channel = hello->channel;
+  auto g = grants_.find(hello->token);
   if (g == grants_.end() || g->second.expires < monotonicNs() || g->second.path != path) {
     return refuse("no such grant (a token is good once, for 10 s)");
   }
@@ -333,10 +296,7 @@ void Paths::welcome(Peer& p, std::string_view body) {
   if (s == served_.end() || s->second->name != channel) return refuse("not the granted channel");
   p.chan_id = grant.chan_id;
   p.subscriber = grant.subscriber;
-  const std::string ok = frame(kPathWelcome, [](flow::ByteWriter& bw) {
-    bw.u16(0);
-    bw.str16("");
-  });
+  const std::string ok = flow::path::encode(flow::path::Welcome{});
   if (path == msg::kPhysShm) {
     if (!s->second->ring) return refuse("no shared memory here");
     auto fds = s->second->ring->addReader();
@@ -375,7 +335,7 @@ void Paths::closePeer(int fd, const std::string& why) {
     --stats_.served_direct;
   }
   if (p.path != 0) {
-    (void)writeSome(fd, bye(why));
+    (void)writeSome(fd, flow::path::encodeBye(why));
     log::info(kLogSource, "SAT-PATH-CLOSED", "flow " + std::to_string(p.subscriber) + ": " + why);
   }
   closePoll(p.poll);
@@ -398,14 +358,7 @@ bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns)
   std::string head;
   for (auto& [fd, p] : peers_) {
     if (p->chan_id != sv.chan_id || p->path != msg::kPhysDirect) continue;
-    if (head.empty()) {
-      head = frame(kPathData, [&](flow::ByteWriter& w) {
-        w.u64(sv.seq);
-        w.i64(capture_ns);
-      });
-      const auto n = static_cast<uint32_t>(head.size() - 4 + payload.size());
-      std::memcpy(head.data(), &n, 4);
-    }
+    if (head.empty()) head = flow::path::dataHead(sv.seq, capture_ns, payload.size());
     if (p->out.size() + head.size() + payload.size() > kMaxPeerQueue) {
       ++p->dropped;  // a slow direct subscriber: what waits goes first, this one is dropped
       continue;
@@ -512,12 +465,7 @@ void Paths::onPath(const msg::EvPhysPath& m) {
   p.path = m.path;
   connectPath(p, m.endpoint);
   if (p.fd < 0) return failPath(m.chan_id, "cannot connect to " + m.endpoint);
-  const std::string hello = frame(kPathHello, [&](flow::ByteWriter& w) {
-    w.u8(1);
-    w.u8(m.path);
-    w.str16(p.name);
-    w.str16(m.token);
-  });
+  const std::string hello = flow::path::encode(flow::path::Hello{1, m.path, p.name, m.token});
   if (!writeSome(p.fd, hello).empty()) return failPath(m.chan_id, "cannot send HELLO");
   p.poll = newPoll(host_.loop, p.fd, &p);
   uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
@@ -569,24 +517,20 @@ void Paths::onPathSocket(Path& p, int events) {
       return failPath(chan, got ? "the owner closed the path" : got.error().message);
     }
     p.in.append(got->bytes);
-    bool bad = false;
-    auto f = nextFrame(std::string(p.in.view()), kPathMaxControl, bad);
-    if (bad || (f && f->type != kPathWelcome)) {
+    const auto f = flow::path::next(p.in.view(), flow::path::kMaxControlBytes);
+    const auto welcome =
+        f.status == flow::path::Next::Status::frame && f.type == uint8_t(flow::path::Type::welcome)
+            ? flow::path::decodeWelcome(f.body)
+            : std::nullopt;
+    if (!welcome || welcome->error != 0) {
       for (int fd : got->fds) ::close(fd);
-      return failPath(chan, "the owner did not answer with WELCOME");
+      if (f.status == flow::path::Next::Status::need_more) {
+        return failPath(chan, "a WELCOME in pieces");
+      }
+      return failPath(
+          chan, welcome ? "refused: " + welcome->message : "the owner did not answer with WELCOME");
     }
-    if (!f) {
-      for (int fd : got->fds) ::close(fd);
-      return failPath(chan, "a WELCOME in pieces");
-    }
-    flow::ByteReader r(f->body);
-    uint16_t error = 0;
-    std::string_view message;
-    if (!r.u16(error) || !r.str16(message) || error != 0) {
-      for (int fd : got->fds) ::close(fd);
-      return failPath(chan, "refused: " + std::string(message));
-    }
-    p.in.consume(f->size);
+    p.in.consume(f.size);
     if (p.path == msg::kPhysShm) {
       if (got->fds.size() != 3) {
         for (int fd : got->fds) ::close(fd);
@@ -638,24 +582,22 @@ void Paths::pathFrames(Path& p) {
   const uint16_t chan = p.chan_id;
   size_t used = 0;
   for (;;) {
-    const std::string_view rest = p.in.view().substr(used);
-    if (rest.size() < 5) break;
-    uint32_t n = 0;
-    std::memcpy(&n, rest.data(), 4);
-    if (n == 0 || n > kMaxDataFrame)
-      return failPath(chan, "a path frame of " + std::to_string(n) + " bytes");
-    if (rest.size() < 4 + size_t(n)) break;
-    const auto type = static_cast<uint8_t>(rest[4]);
-    const std::string_view body = rest.substr(5, n - 1);
-    used += 4 + size_t(n);
-    if (type == kPathBye) return failPath(chan, "the owner said goodbye");
-    if (type != kPathData || body.size() < 16) return failPath(chan, "an unexpected path frame");
+    const auto f = flow::path::next(p.in.view().substr(used), flow::path::kMaxDataBytes + 32);
+    if (f.status == flow::path::Next::Status::too_large) {
+      return failPath(chan, "a path frame of " + std::to_string(f.announced) + " bytes");
+    }
+    if (f.status == flow::path::Next::Status::need_more) break;
+    used += f.size;
+    if (f.type == uint8_t(flow::path::Type::bye)) return failPath(chan, "the owner said goodbye");
+    const auto data =
+        f.type == uint8_t(flow::path::Type::data) ? flow::path::decodeData(f.body) : std::nullopt;
+    if (!data) return failPath(chan, "an unexpected path frame");
     if (!p.marker) {
       ++stats_.dropped_before_marker;
       continue;
     }
     ++stats_.path_messages;
-    host_.deliver(chan, body.substr(16));
+    host_.deliver(chan, data->payload);
     if (paths_.count(chan) == 0) return;  // a slot unsubscribed
   }
   p.in.consume(used);

@@ -2,13 +2,7 @@
 // subscribers the hub granted a path, a shared-memory ring per channel, direct sockets) and the
 // subscriber's side (a path per channel it asked one for, with fallback to the relay). Internal to
 // the satellite library; runs on the satellite's loop thread.
-//
-// The path socket speaks a reduced framing: u32 length (of what follows), u8 type, body.
-//   HELLO   (subscriber -> owner) u8 version 1, u8 path, str16 channel, str16 token
-//   WELCOME (owner -> subscriber) u16 error (0 ok), str16 message; for shared memory with three
-//           descriptors attached (the ring read-only, the lease page, the eventfd)
-//   DATA    (owner -> subscriber, direct) u64 seq, i64 capture_ns, the payload
-//   BYE     (either) str16 reason
+// The path socket speaks the reduced framing of skrobot/flow/path_framing.h.
 #pragma once
 
 #include <skrobot/core/clock.h>
@@ -32,8 +26,6 @@ struct PhysicalOptions;
 
 namespace skr::sat::detail {
 
-inline constexpr uint8_t kPathHello = 1, kPathWelcome = 2, kPathData = 3, kPathBye = 4;
-inline constexpr uint32_t kPathMaxControl = 4096;
 inline constexpr Nanos kGrantLifetimeNs = 10 * kNsPerSec;
 
 class Paths {

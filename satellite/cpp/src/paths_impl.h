@@ -1,0 +1,140 @@
+// Internals of physical mode in a satellite (paths.h): the state of served channels, peers and
+// paths, and the socket helpers that paths_owner.cpp and paths_subscriber.cpp share.
+#pragma once
+
+#include "paths.h"
+
+#include <skrobot/core/log.h>
+#include <skrobot/flow/path_framing.h>
+
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace skr::sat::detail {
+namespace paths_io {
+
+inline constexpr const char* kLogSource = "satellite";
+inline constexpr uint32_t kMaxDataFrame = flow::path::kMaxDataBytes + 32;
+inline constexpr size_t kMaxPeerQueue = 16u << 20;  // a direct subscriber's backlog; beyond: drops
+inline constexpr Nanos kRetryMinNs = kNsPerSec, kRetryMaxNs = 30 * kNsPerSec;
+
+inline uv_poll_t* newPoll(uv_loop_t* loop, int fd, void* data) {
+  auto* p = new uv_poll_t{};
+  uv_poll_init(loop, p, fd);
+  p->data = data;
+  return p;
+}
+inline void closePoll(uv_poll_t*& p) {
+  if (p == nullptr) return;
+  uv_poll_stop(p);
+  uv_close(reinterpret_cast<uv_handle_t*>(p),
+           [](uv_handle_t* h) { delete reinterpret_cast<uv_poll_t*>(h); });
+  p = nullptr;
+}
+inline void closeFd(int& fd) {
+  if (fd >= 0) ::close(fd);
+  fd = -1;
+}
+
+// Writes all of `bytes` on a non-blocking socket, or what fits; the rest is returned.
+inline std::string_view writeSome(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return bytes;  // EAGAIN, or an error the read side will see
+    }
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+  return bytes;
+}
+
+// Bytes read from a path socket, received straight into place (no zero-filling, no copy from a
+// bounce buffer): a large frame is read into memory that already has its size.
+class InBuffer {
+ public:
+  [[nodiscard]] std::string_view view() const { return {data_.get() + head_, len_}; }
+  [[nodiscard]] bool empty() const { return len_ == 0; }
+  void append(std::string_view b) {
+    std::memcpy(tail(b.size()), b.data(), b.size()), len_ += b.size();
+  }
+  // Room for `n` more bytes at the end; commit(k) keeps the k read there.
+  char* tail(size_t n) {
+    if (head_ + len_ + n > cap_) {
+      const size_t cap = std::max(cap_ * 2, len_ + n);
+      if (len_ + n <= cap_ && head_ > 0) {
+        std::memmove(data_.get(), data_.get() + head_, len_);
+      } else {
+        std::unique_ptr<char[]> d(new char[cap]);
+        if (len_ > 0) std::memcpy(d.get(), data_.get() + head_, len_);
+        data_ = std::move(d);
+        cap_ = cap;
+      }
+      head_ = 0;
+    }
+    return data_.get() + head_ + len_;
+  }
+  void commit(size_t n) { len_ += n; }
+  void consume(size_t n) {
+    head_ += n;
+    len_ -= n;
+    if (len_ == 0) head_ = 0;
+  }
+  void clear() { head_ = len_ = 0; }
+
+ private:
+  std::unique_ptr<char[]> data_;
+  size_t cap_ = 0, head_ = 0, len_ = 0;
+};
+
+}  // namespace paths_io
+
+struct Paths::Served {
+  uint16_t chan_id = 0;
+  std::string name;
+  uint8_t paths = 0;
+  std::optional<flow::shm::RingWriter> ring;
+  bool relay_needed = true;
+  uint64_t seq = 0;
+  uint64_t unrelayed_messages = 0, unrelayed_bytes = 0;  // for PHYS_COUNT
+};
+
+struct Paths::Peer {
+  Paths* owner = nullptr;
+  int fd = -1;
+  uv_poll_t* poll = nullptr;
+  std::string in, out;
+  uint8_t path = 0;  // 0 until WELCOME
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  uint32_t lease = 0;
+  Nanos opened = 0;
+  uint64_t dropped = 0;
+};
+
+struct Paths::Path {
+  Paths* owner = nullptr;
+  std::string name;
+  uint16_t chan_id = 0;
+  uint32_t tag = 0;  // PHYS_REQUEST in flight
+  uint8_t path = 0;
+  int fd = -1;
+  uv_poll_t* poll = nullptr;
+  uv_poll_t* event_poll = nullptr;
+  std::optional<flow::shm::RingReader> reader;
+  paths_io::InBuffer in;
+  bool open = false;    // WELCOME came
+  bool marker = false;  // the hub relays no more: what comes on the path is ours
+  Nanos retry_at = 0;   // 0: not waiting to ask again
+  int failures = 0;
+};
+
+}  // namespace skr::sat::detail

@@ -1,0 +1,272 @@
+// Physical mode, the owner's side (see paths.h): the listener, grants, peers, publishing.
+#include "paths_impl.h"
+
+#include <skrobot/flow/fd_passing.h>
+#include <skrobot/satellite/satellite.h>
+
+#include <sys/stat.h>
+#include <sys/un.h>
+
+#include <array>
+#include <random>
+
+namespace skr::sat::detail {
+
+namespace msg = flow::msg;
+using namespace paths_io;
+
+// --- the owner's side ---------------------------------------------------------------------------
+
+void Paths::ensureListener() {
+  if (listen_fd_ >= 0) return;
+  std::random_device rd;
+  listen_path_ = "/tmp/skrobot-path-" + std::to_string(::getpid()) + "-" + std::to_string(rd());
+  int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  sockaddr_un a{};
+  a.sun_family = AF_UNIX;
+  std::strncpy(a.sun_path, listen_path_.c_str(), sizeof a.sun_path - 1);
+  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
+      ::listen(fd, 64) != 0) {
+    log::warn(kLogSource, "SAT-PATH",
+              "cannot listen at " + listen_path_ + ": " + std::strerror(errno) +
+                  "; paths are not offered");
+    closeFd(fd);
+    listen_path_.clear();
+    return;
+  }
+  // Anyone may connect: what lets a connection in is the token the hub gave its subscriber.
+  ::chmod(listen_path_.c_str(), 0666);
+  listen_fd_ = fd;
+  listen_poll_ = newPoll(host_.loop, fd, this);
+  uv_poll_start(listen_poll_, UV_READABLE,
+                [](uv_poll_t* h, int, int) { static_cast<Paths*>(h->data)->onAccept(); });
+}
+
+void Paths::serve(uint16_t chan_id, const std::string& name, const PhysicalOptions& o) {
+  uint8_t kinds = (o.direct ? msg::kPhysDirect : 0) | (o.shm ? msg::kPhysShm : 0);
+  if (kinds == 0) return;
+  ensureListener();
+  if (listen_fd_ < 0) return;
+  auto s = std::make_unique<Served>();
+  s->chan_id = chan_id;
+  s->name = name;
+  // A channel created again (a reconnection) keeps its ring, and its readers come back to it.
+  if (auto idle = idle_rings_.find(name); idle != idle_rings_.end()) {
+    s->ring = std::move(idle->second);
+    idle_rings_.erase(idle);
+  }
+  if (o.shm && !s->ring) {
+    auto r = flow::shm::RingWriter::create("skrobot:" + name, o.ring);
+    if (r) {
+      s->ring = std::move(*r);
+    } else {
+      log::warn(kLogSource, "SAT-PATH",
+                name + ": no shared memory (" + r.error().message + "); direct only");
+      kinds &= ~msg::kPhysShm;
+    }
+  }
+  s->paths = kinds;
+  served_[chan_id] = std::move(s);
+  if (kinds != 0)
+    host_.offer(msg::PhysOffer{host_.next_tag(), chan_id, kinds, "unix:" + listen_path_});
+}
+
+void Paths::onGrant(const msg::EvPhysGrant& m) {
+  if (served_.count(m.chan_id) == 0) return;
+  grants_[m.token] = Grant{m.chan_id, m.subscriber, m.path, monotonicNs() + kGrantLifetimeNs};
+}
+
+void Paths::onRevoke(const msg::EvPhysRevoke& m) {
+  std::erase_if(grants_, [&](const auto& g) {
+    return g.second.chan_id == m.chan_id && g.second.subscriber == m.subscriber;
+  });
+  std::vector<int> gone;
+  for (auto& [fd, p] : peers_) {
+    if (p->chan_id == m.chan_id && p->subscriber == m.subscriber) gone.push_back(fd);
+  }
+  for (int fd : gone) closePeer(fd, "revoked by the hub");
+}
+
+void Paths::onRelay(const msg::EvPhysRelay& m) {
+  if (auto s = served_.find(m.chan_id); s != served_.end()) {
+    s->second->relay_needed = m.needed != 0;
+    return;
+  }
+  if (auto p = paths_.find(m.chan_id); p != paths_.end() && m.needed == 0) p->second->marker = true;
+}
+
+void Paths::onAccept() {
+  for (;;) {
+    int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) return;
+    auto p = std::make_unique<Peer>();
+    p->owner = this;
+    p->fd = fd;
+    p->opened = monotonicNs();
+    p->poll = newPoll(host_.loop, fd, p.get());
+    uv_poll_start(p->poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
+      auto* peer = static_cast<Peer*>(h->data);
+      peer->owner->onPeer(*peer, status < 0 ? UV_DISCONNECT : events);
+    });
+    peers_[fd] = std::move(p);
+  }
+}
+
+void Paths::onPeer(Peer& p, int events) {
+  const int fd = p.fd;
+  if ((events & UV_WRITABLE) != 0 && !p.out.empty()) {
+    const std::string_view rest = writeSome(fd, p.out);
+    p.out.erase(0, p.out.size() - rest.size());
+    if (p.out.empty()) uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
+  }
+  if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
+  char buf[4096];
+  const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+  if (n == 0 || (n < 0 && errno != EAGAIN && errno != EINTR)) {
+    closePeer(fd, n == 0 ? "the subscriber left" : std::strerror(errno));
+    return;
+  }
+  if (n < 0) return;
+  if (p.path != 0) return;  // nothing is expected after HELLO but BYE or the close
+  p.in.append(buf, static_cast<size_t>(n));
+  const auto f = flow::path::next(p.in, flow::path::kMaxControlBytes);
+  if (f.status == flow::path::Next::Status::too_large ||
+      (f.status == flow::path::Next::Status::frame && f.type != uint8_t(flow::path::Type::hello))) {
+    closePeer(fd, "not a path HELLO");
+    return;
+  }
+  if (f.status == flow::path::Next::Status::frame) welcome(p, f.body);
+}
+
+void Paths::welcome(Peer& p, std::string_view body) {
+  auto refuse = [&](const std::string& why) {
+    (void)writeSome(p.fd, flow::path::encode(flow::path::Welcome{
+                              uint16_t(flow::ErrorCode::permission_denied), why}));
+    log::warn(kLogSource, "SAT-PATH-REFUSED", "a path connection: " + why);
+    closePeer(p.fd, why);
+  };
+  const auto hello = flow::path::decodeHello(body);
+  if (!hello) return refuse("a malformed HELLO");
+  const uint8_t path = hello->path;
+  const std::string& channel = hello->channel;
+  auto g = grants_.find(hello->token);
+  if (g == grants_.end() || g->second.expires < monotonicNs() || g->second.path != path) {
+    return refuse("no such grant (a token is good once, for 10 s)");
+  }
+  const Grant grant = g->second;
+  grants_.erase(g);  // once
+  auto s = served_.find(grant.chan_id);
+  if (s == served_.end() || s->second->name != channel) return refuse("not the granted channel");
+  p.chan_id = grant.chan_id;
+  p.subscriber = grant.subscriber;
+  const std::string ok = flow::path::encode(flow::path::Welcome{});
+  if (path == msg::kPhysShm) {
+    if (!s->second->ring) return refuse("no shared memory here");
+    auto fds = s->second->ring->addReader();
+    if (!fds) return refuse(fds.error().message);
+    const std::array<int, 3> pass{fds->ring, fds->lease_page, fds->event};
+    auto sent = flow::sendWithFds(p.fd, ok, pass);
+    for (int fd : pass) ::close(fd);
+    if (!sent) {
+      s->second->ring->removeReader(fds->lease);
+      closePeer(p.fd, sent.error().message);
+      return;
+    }
+    p.lease = fds->lease;
+    ++stats_.served_shm;
+  } else {
+    if (!writeSome(p.fd, ok).empty()) return closePeer(p.fd, "cannot write WELCOME");
+    ++stats_.served_direct;
+  }
+  p.path = path;
+  p.in.clear();
+  log::info(kLogSource, "SAT-PATH-OPEN",
+            s->second->name + " to flow " + std::to_string(p.subscriber) + " by " +
+                (path == msg::kPhysShm ? "shared memory" : "a direct socket"));
+}
+
+void Paths::closePeer(int fd, const std::string& why) {
+  auto it = peers_.find(fd);
+  if (it == peers_.end()) return;
+  Peer& p = *it->second;
+  if (p.path == msg::kPhysShm) {
+    if (auto s = served_.find(p.chan_id); s != served_.end() && s->second->ring) {
+      s->second->ring->removeReader(p.lease);
+    }
+    --stats_.served_shm;
+  } else if (p.path == msg::kPhysDirect) {
+    --stats_.served_direct;
+  }
+  if (p.path != 0) {
+    (void)writeSome(fd, flow::path::encodeBye(why));
+    log::info(kLogSource, "SAT-PATH-CLOSED", "flow " + std::to_string(p.subscriber) + ": " + why);
+  }
+  closePoll(p.poll);
+  ::close(fd);
+  peers_.erase(it);
+}
+
+bool Paths::publish(uint16_t chan_id, std::string_view payload, int64_t capture_ns) {
+  auto s = served_.find(chan_id);
+  if (s == served_.end()) return true;
+  Served& sv = *s->second;
+  if (sv.ring && sv.ring->readers() > 0) {
+    (void)sv.ring->publish(std::as_bytes(std::span(payload.data(), payload.size())), capture_ns);
+  }
+  return sendDirect(sv, payload, capture_ns);
+}
+
+bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns) {
+  ++sv.seq;
+  std::string head;
+  for (auto& [fd, p] : peers_) {
+    if (p->chan_id != sv.chan_id || p->path != msg::kPhysDirect) continue;
+    if (head.empty()) head = flow::path::dataHead(sv.seq, capture_ns, payload.size());
+    if (p->out.size() + head.size() + payload.size() > kMaxPeerQueue) {
+      ++p->dropped;  // a slow direct subscriber: what waits goes first, this one is dropped
+      continue;
+    }
+    if (p->out.empty()) {
+      // Straight to the socket when nothing waits.
+      const std::string_view head_left = writeSome(fd, head);
+      if (head_left.empty()) {
+        p->out.append(writeSome(fd, payload));
+      } else {
+        p->out.append(head_left).append(payload);
+      }
+    } else {
+      p->out.append(head).append(payload);
+    }
+    if (!p->out.empty()) {
+      uv_poll_start(p->poll, UV_READABLE | UV_WRITABLE | UV_DISCONNECT, p->poll->poll_cb);
+    }
+  }
+  if (!sv.relay_needed) {
+    ++sv.unrelayed_messages;
+    sv.unrelayed_bytes += payload.size();
+  }
+  return sv.relay_needed;
+}
+
+std::span<std::byte> Paths::beginPublish(uint16_t chan_id) {
+  auto s = served_.find(chan_id);
+  if (s == served_.end() || !s->second->ring) return {};
+  return s->second->ring->beginWrite();
+}
+
+std::optional<std::string_view> Paths::commitPublish(uint16_t chan_id, size_t size,
+                                                     int64_t capture_ns, bool& relay) {
+  auto s = served_.find(chan_id);
+  if (s == served_.end() || !s->second->ring) return std::nullopt;
+  auto slot = s->second->ring->beginWrite();  // the same slot, still marked
+  if (slot.empty() || size > slot.size() || !s->second->ring->commit(size, capture_ns)) {
+    return std::nullopt;
+  }
+  // The other paths and the hub get the bytes from the slot, which stays as it is until the next
+  // beginWrite.
+  const std::string_view bytes(reinterpret_cast<const char*>(slot.data()), size);
+  relay = sendDirect(*s->second, bytes, capture_ns);
+  return bytes;
+}
+
+}  // namespace skr::sat::detail

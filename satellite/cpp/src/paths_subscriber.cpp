@@ -1,0 +1,253 @@
+// Physical mode, the subscriber's side (see paths.h): paths asked for, connected, read, and their
+// fallback.
+#include "paths_impl.h"
+
+#include <skrobot/flow/fd_passing.h>
+#include <skrobot/satellite/satellite.h>
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/un.h>
+
+namespace skr::sat::detail {
+
+namespace msg = flow::msg;
+using namespace paths_io;
+
+// --- the subscriber's side
+// ------------------------------------------------------------------------
+
+void Paths::want(const std::string& name, uint8_t paths) {
+  if (paths == 0) {
+    wanted_.erase(name);
+  } else {
+    wanted_[name] = paths;
+  }
+}
+
+void Paths::onSubscribed(const std::string& name, uint16_t chan_id) {
+  auto w = wanted_.find(name);
+  if (w == wanted_.end()) return;
+  auto p = std::make_unique<Path>();
+  p->owner = this;
+  p->name = name;
+  p->chan_id = chan_id;
+  request(*p);
+  paths_[chan_id] = std::move(p);
+}
+
+void Paths::request(Path& p) {
+  auto w = wanted_.find(p.name);
+  if (w == wanted_.end()) return;
+  p.tag = host_.next_tag();
+  p.retry_at = 0;
+  host_.request(msg::PhysRequest{p.tag, p.chan_id, w->second});
+}
+
+void Paths::onRefused(uint32_t tag) {
+  for (auto& [id, p] : paths_) {
+    if (p->tag != tag) continue;
+    p->tag = 0;
+    ++p->failures;
+    p->retry_at = monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::min(p->failures, 5));
+    return;
+  }
+}
+
+void Paths::onUnsubscribed(uint16_t chan_id) {
+  auto it = paths_.find(chan_id);
+  if (it == paths_.end()) return;
+  Path& p = *it->second;
+  closePoll(p.poll);
+  closePoll(p.event_poll);
+  p.reader.reset();
+  closeFd(p.fd);
+  paths_.erase(it);
+}
+
+void Paths::onPath(const msg::EvPhysPath& m) {
+  auto it = paths_.find(m.chan_id);
+  if (it == paths_.end() || it->second->tag != m.tag) return;
+  Path& p = *it->second;
+  p.tag = 0;
+  p.path = m.path;
+  connectPath(p, m.endpoint);
+  if (p.fd < 0) return failPath(m.chan_id, "cannot connect to " + m.endpoint);
+  const std::string hello = flow::path::encode(flow::path::Hello{1, m.path, p.name, m.token});
+  if (!writeSome(p.fd, hello).empty()) return failPath(m.chan_id, "cannot send HELLO");
+  p.poll = newPoll(host_.loop, p.fd, &p);
+  uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
+    auto* path = static_cast<Path*>(h->data);
+    path->owner->onPathSocket(*path, status < 0 ? UV_DISCONNECT : events);
+  });
+}
+
+void Paths::connectPath(Path& p, const std::string& endpoint) {
+  if (endpoint.rfind("unix:", 0) == 0) {
+    const std::string where = endpoint.substr(5);
+    int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    if (fd < 0 || where.size() >= sizeof a.sun_path) return closeFd(fd);
+    std::memcpy(a.sun_path, where.data(), where.size());
+    // A local connect does not wait on the network: done blocking, then made non-blocking.
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return closeFd(fd);
+    ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
+    p.fd = fd;
+    return;
+  }
+  if (endpoint.rfind("tcp:", 0) == 0) {
+    const std::string rest = endpoint.substr(4);
+    const auto colon = rest.rfind(':');
+    if (colon == std::string::npos) return;
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<uint16_t>(std::atoi(rest.c_str() + colon + 1)));
+    // A numeric address only: no name lookup on the loop thread.
+    if (::inet_pton(AF_INET, rest.substr(0, colon).c_str(), &a.sin_addr) != 1) return;
+    int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) return;
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return closeFd(fd);
+    int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
+    p.fd = fd;
+  }
+}
+
+void Paths::onPathSocket(Path& p, int events) {
+  if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
+  const uint16_t chan = p.chan_id;
+  if (!p.open) {
+    auto got = flow::receiveWithFds(p.fd, 64 * 1024);
+    if (!got || got->bytes.empty()) {
+      for (int fd : got ? got->fds : std::vector<int>{}) ::close(fd);
+      return failPath(chan, got ? "the owner closed the path" : got.error().message);
+    }
+    p.in.append(got->bytes);
+    const auto f = flow::path::next(p.in.view(), flow::path::kMaxControlBytes);
+    const auto welcome =
+        f.status == flow::path::Next::Status::frame && f.type == uint8_t(flow::path::Type::welcome)
+            ? flow::path::decodeWelcome(f.body)
+            : std::nullopt;
+    if (!welcome || welcome->error != 0) {
+      for (int fd : got->fds) ::close(fd);
+      if (f.status == flow::path::Next::Status::need_more) {
+        return failPath(chan, "a WELCOME in pieces");
+      }
+      return failPath(
+          chan, welcome ? "refused: " + welcome->message : "the owner did not answer with WELCOME");
+    }
+    p.in.consume(f.size);
+    if (p.path == msg::kPhysShm) {
+      if (got->fds.size() != 3) {
+        for (int fd : got->fds) ::close(fd);
+        return failPath(chan, "a shared-memory WELCOME without its three descriptors");
+      }
+      auto reader = flow::shm::RingReader::open(got->fds[0], got->fds[1], got->fds[2]);
+      if (!reader) return failPath(chan, reader.error().message);
+      p.reader = std::move(*reader);
+      p.event_poll = newPoll(host_.loop, p.reader->eventFd(), &p);
+      uv_poll_start(p.event_poll, UV_READABLE, [](uv_poll_t* h, int, int) {
+        auto* path = static_cast<Path*>(h->data);
+        path->owner->onPathEvent(*path);
+      });
+    } else {
+      for (int fd : got->fds) ::close(fd);
+    }
+    p.open = true;
+    p.failures = 0;
+    host_.state(msg::PhysState{chan, 1});
+    log::info(kLogSource, "SAT-PATH-OPEN",
+              p.name + " by " + (p.path == msg::kPhysShm ? "shared memory" : "a direct socket"));
+    if (!p.in.empty()) pathFrames(p);
+    return;
+  }
+  for (;;) {
+    // As much as the frame being read still needs (at least 64 KB), straight into place.
+    size_t want = 64 * 1024;
+    const std::string_view have = p.in.view();
+    if (have.size() >= 4) {
+      uint32_t n = 0;
+      std::memcpy(&n, have.data(), 4);
+      if (n <= kMaxDataFrame && 4 + size_t(n) > have.size()) {
+        want = std::max(want, 4 + size_t(n) - have.size());
+      }
+    }
+    const ssize_t n = ::recv(p.fd, p.in.tail(want), want, 0);
+    if (n == 0) return failPath(chan, "the owner closed the path");
+    if (n < 0) {
+      if (errno == EAGAIN || errno == EINTR) break;
+      return failPath(chan, std::strerror(errno));
+    }
+    p.in.commit(static_cast<size_t>(n));
+    if (static_cast<size_t>(n) < want) break;
+  }
+  pathFrames(p);
+}
+
+void Paths::pathFrames(Path& p) {
+  const uint16_t chan = p.chan_id;
+  size_t used = 0;
+  for (;;) {
+    const auto f = flow::path::next(p.in.view().substr(used), flow::path::kMaxDataBytes + 32);
+    if (f.status == flow::path::Next::Status::too_large) {
+      return failPath(chan, "a path frame of " + std::to_string(f.announced) + " bytes");
+    }
+    if (f.status == flow::path::Next::Status::need_more) break;
+    used += f.size;
+    if (f.type == uint8_t(flow::path::Type::bye)) return failPath(chan, "the owner said goodbye");
+    const auto data =
+        f.type == uint8_t(flow::path::Type::data) ? flow::path::decodeData(f.body) : std::nullopt;
+    if (!data) return failPath(chan, "an unexpected path frame");
+    if (!p.marker) {
+      ++stats_.dropped_before_marker;
+      continue;
+    }
+    ++stats_.path_messages;
+    host_.deliver(chan, data->payload);
+    if (paths_.count(chan) == 0) return;  // a slot unsubscribed
+  }
+  p.in.consume(used);
+}
+
+void Paths::onPathEvent(Path& p) {
+  if (!p.reader) return;
+  p.reader->drain();
+  const uint16_t chan = p.chan_id;
+  const auto status = p.reader->readLatest([&](std::span<const std::byte> bytes, const auto&) {
+    if (!p.marker) {
+      ++stats_.dropped_before_marker;
+      return;
+    }
+    ++stats_.path_messages;
+    host_.deliver(chan,
+                  std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  });
+  if (status == flow::shm::ReadStatus::torn) ++stats_.torn;
+}
+
+void Paths::failPath(uint16_t chan_id, const std::string& why) {
+  auto it = paths_.find(chan_id);
+  if (it == paths_.end()) return;
+  Path& p = *it->second;
+  const bool was_open = p.open;
+  closePoll(p.poll);
+  closePoll(p.event_poll);
+  p.reader.reset();
+  closeFd(p.fd);
+  p.in.clear();
+  p.open = false;
+  p.marker = false;
+  p.tag = 0;
+  ++p.failures;
+  ++stats_.fallbacks;
+  p.retry_at = monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::min(p.failures, 5));
+  if (was_open) host_.state(msg::PhysState{chan_id, 0});  // relayed again
+  log::warn(kLogSource, "SAT-PATH-FALLBACK",
+            p.name + ": " + why + "; relayed by the hub meanwhile");
+}
+
+}  // namespace skr::sat::detail

@@ -47,11 +47,10 @@ TEST(ConfigTest, DefaultConfigLoads) {
   // The avatar demo: the browser page, vision on the browser's camera, audio, speech, a Nao.
   std::vector<std::string> names;
   for (const ModuleEntry& m : r->modules) names.push_back(m.name);
-  EXPECT_EQ(names,
-            (std::vector<std::string>{"websocket-ui", "video-source", "video-mono", "face-detect",
-                                      "motion", "qrcode", "fft-audio", "speech", "audio-io",
-                                      "vorbis", "nao-bridge", "agent", "foxglove-bridge",
-                                      "example"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"websocket-ui", "video-source", "video-mono",
+                                             "face-detect", "motion", "qrcode", "fft-audio",
+                                             "speech", "audio-io", "vorbis", "nao-bridge", "agent",
+                                             "foxglove-bridge", "example"}));
   const ModuleEntry& ui = r->modules[0];
   EXPECT_TRUE(ui.enabled);
   EXPECT_FALSE(ui.own_thread);

@@ -18,8 +18,8 @@
 #include "channel_table.h"
 #include "database_access.h"
 #include "endpoint.h"
-#include "request_table.h"
 #include "physical_paths.h"
+#include "request_table.h"
 #include "sync_pulses.h"
 
 #include <skrobot/core/log.h>

@@ -94,11 +94,12 @@ class Pinger(threading.Thread):
             time.sleep(0.002)
 
 
-def during(pinger, name, attack):
-    """Runs `attack(stop_event)` in threads for PHASE_SECONDS while the pinger files under `name`."""
+def during(pinger, name, attack, threads=4):
+    """Runs `attack(stop_event)` in `threads` threads for PHASE_SECONDS while the pinger files
+    under `name`."""
     stop = threading.Event()
     pinger.phase = name
-    threads = [threading.Thread(target=attack, args=(stop,), daemon=True) for _ in range(4)]
+    threads = [threading.Thread(target=attack, args=(stop,), daemon=True) for _ in range(threads)]
     for t in threads:
         t.start()
     time.sleep(PHASE_SECONDS)
@@ -185,7 +186,7 @@ def main():
             s.recv(4096)
             s.sendall(frame(GO_ASYNC))
             s.recv(4096)
-            s.settimeout(0.5)
+            s.settimeout(0.2)  # what came back is drained, then the next hundred asked
             n = 0
             while not stop.is_set() and n < 5000:
                 batch = b"".join(frame(CHAN_ADD, u32(n + i) + u8(1) + str16("flood%d_%d" % (
@@ -203,7 +204,9 @@ def main():
         except OSError as e:
             fail("channel flood: %s" % e)
 
-    during(pinger, "channel-flood", channelFlood)
+    # One flow, as the description above says (four made the hub under the sanitizers answer a
+    # ping more than 5 s late once in three runs on a 2-core machine: see the closing note).
+    during(pinger, "channel-flood", channelFlood, threads=1)
     time.sleep(1.0)
     pinger.running = False
     pinger.join(10)

@@ -39,9 +39,11 @@ namespace {
 using bench::Sat;
 using bench::waitFor;
 
+// Without exit's clean-up: the satellites' and the hub's threads are still running.
 [[noreturn]] void fail(const std::string& why) {
   std::fprintf(stderr, "large_payload: %s\n", why.c_str());
-  std::exit(1);
+  std::fflush(stdout);
+  std::_Exit(1);
 }
 
 double percentile(std::vector<double> v, double p) {
@@ -305,6 +307,7 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
 int main(int argc, char** argv) {
   using namespace skr;
   const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // rows show even when a run is killed
   log::setLevel(log::Level::warn);
   test::TempDir dir;
   Hub hub(dir.path(), "large", largeFrames);

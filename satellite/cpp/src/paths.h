@@ -80,6 +80,7 @@ class Paths {
     uint64_t served_direct = 0, served_shm = 0;  // peers now
     uint64_t path_messages = 0;                  // received on paths
     uint64_t dropped_before_marker = 0, torn = 0, fallbacks = 0;
+    uint64_t missed = 0;  // shared memory: published while we were busy, never read (newest wins)
   };
   [[nodiscard]] Stats stats() const;
 

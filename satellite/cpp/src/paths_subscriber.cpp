@@ -217,7 +217,8 @@ void Paths::onPathEvent(Path& p) {
   if (!p.reader) return;
   p.reader->drain();
   const uint16_t chan = p.chan_id;
-  const auto status = p.reader->readLatest([&](std::span<const std::byte> bytes, const auto&) {
+  const auto status = p.reader->readLatest([&](std::span<const std::byte> bytes, const auto& info) {
+    stats_.missed += info.missed;
     if (!p.marker) {
       ++stats_.dropped_before_marker;
       return;

@@ -1,6 +1,7 @@
 // Physical mode through the satellite library (docs/physical-mode.md): shared-memory and direct
 // paths granted by a real hub, the relay skipped while a path works, fallback when it breaks
-// (nothing delivered twice), and a subscriber that asks for a kind the owner does not serve.
+// (nothing delivered twice), a subscriber that asks for a kind the owner does not serve, a slow
+// shared-memory reader, and an owner that goes away.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -102,6 +103,59 @@ TEST_F(Paths, AKindTheOwnerDoesNotServeIsRelayed) {
   ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:m19") == 1; }));
   EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().path_messages; }), 0u);
   EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_direct; }), 0u);
+}
+
+TEST_F(Paths, ASlowSharedMemoryReaderGetsTheNewestAndCountsWhatItMissed) {
+  setUp(false, true, kPathShm);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  sub->on([](Satellite& s) {
+    s.data.connect(&s, [](uint16_t, const std::string&) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    });
+  });
+  sub->events.clear();
+  // 200 messages at once: the owner never waits for the reader, nor fails to publish.
+  for (int i = 0; i < 200; ++i) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", std::to_string(i))); });
+  }
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:199") == 1; }))
+      << sub->events.dump();
+  const auto got = sub->events.with("data:guest.frames:");
+  std::vector<int> numbers;
+  for (const auto& g : got) numbers.push_back(std::stoi(g));
+  for (size_t k = 1; k < numbers.size(); ++k) ASSERT_LT(numbers[k - 1], numbers[k]);
+  EXPECT_LT(numbers.size(), 200u) << "a busy reader skips to the newest";
+  const auto stats = sub->on([](Satellite& s) { return s.pathStats(); });
+  EXPECT_GE(stats.missed, 200 - numbers.size()) << "what it skipped is counted";
+  EXPECT_EQ(stats.torn, 0u);
+  EXPECT_EQ(stats.fallbacks, 0u);
+}
+
+TEST_F(Paths, AnOwnerThatGoesAwayLeavesItsReaderOnTheRelayUntilTheNextOne) {
+  setUp(true, true, kPathShm);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  const uint64_t before = sub->on([](Satellite& s) { return s.pathStats().path_messages; });
+  pub.reset();  // the owner leaves while its reader holds the ring
+  ASSERT_TRUE(eventually([&] { return sub->events.count("removed:guest.frames") == 1; }))
+      << sub->events.dump();
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 1u);
+  // The same owner comes back: the subscription holds, and a new ring is granted.
+  pub = satellite("pub");
+  ChannelSpec spec{.name = "frames"};
+  spec.physical = PhysicalOptions{.shm = true, .ring = {4, 1 << 16, 4}};
+  ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.frames") == 1; }));
+  sub->events.clear();
+  int i = 0;
+  ASSERT_TRUE(eventually(
+      [&] {
+        pub->on([&](Satellite& s) { (void)s.publish("frames", "back " + std::to_string(i++)); });
+        return sub->on([](Satellite& s) { return s.pathStats().path_messages; }) > before;
+      },
+      10000))
+      << sub->events.dump();
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_shm; }), 1u);
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().torn; }), 0u);
 }
 
 }  // namespace

@@ -67,7 +67,8 @@ class Paths {
   void onSubscribed(const std::string& name, uint16_t chan_id);
   void onUnsubscribed(uint16_t chan_id);
   void onPath(const flow::msg::EvPhysPath& m);
-  void onRefused(uint32_t tag);  // EV_ERROR for one of our PHYS_REQUESTs
+  // EV_ERROR for a PHYS_REQUEST: true when it was ours (then it is logged here, not an error).
+  bool onRefused(const flow::msg::EvError& e);
 
   // Closes every peer and path as broken (subscribers fall back and ask again).
   void closeAll(const std::string& why);

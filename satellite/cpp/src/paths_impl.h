@@ -25,6 +25,10 @@ inline constexpr const char* kLogSource = "satellite";
 inline constexpr uint32_t kMaxDataFrame = flow::path::kMaxDataBytes + 32;
 inline constexpr size_t kMaxPeerQueue = 16u << 20;  // a direct subscriber's backlog; beyond: drops
 inline constexpr Nanos kRetryMinNs = kNsPerSec, kRetryMaxNs = 30 * kNsPerSec;
+// When to ask again for a path after `failures` (from 1) in a row: 1 s, doubling to 30 s.
+inline Nanos retryAt(int failures) {
+  return monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::clamp(failures - 1, 0, 5));
+}
 
 inline uv_poll_t* newPoll(uv_loop_t* loop, int fd, void* data) {
   auto* p = new uv_poll_t{};

@@ -46,14 +46,20 @@ void Paths::request(Path& p) {
   host_.request(msg::PhysRequest{p.tag, p.chan_id, w->second});
 }
 
-void Paths::onRefused(uint32_t tag) {
+bool Paths::onRefused(const msg::EvError& e) {
   for (auto& [id, p] : paths_) {
-    if (p->tag != tag) continue;
+    if (p->tag != e.tag) continue;
     p->tag = 0;
     ++p->failures;
-    p->retry_at = monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::min(p->failures, 5));
-    return;
+    p->retry_at = retryAt(p->failures);
+    // Not an error of the application's: it is relayed meanwhile. An owner that has not offered
+    // its paths yet (it has just created the channel) is the usual case.
+    log::info(kLogSource, "SAT-PATH-REFUSED",
+              p->name + ": " + e.message + "; relayed, asking again in " +
+                  std::to_string((p->retry_at - monotonicNs() + kNsPerSec / 2) / kNsPerSec) + " s");
+    return true;
   }
+  return false;
 }
 
 void Paths::onUnsubscribed(uint16_t chan_id) {
@@ -245,7 +251,7 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   p.tag = 0;
   ++p.failures;
   ++stats_.fallbacks;
-  p.retry_at = monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::min(p.failures, 5));
+  p.retry_at = retryAt(p.failures);
   if (was_open) host_.state(msg::PhysState{chan_id, 0});  // relayed again
   log::warn(kLogSource, "SAT-PATH-FALLBACK",
             p.name + ": " + why + "; relayed by the hub meanwhile");

@@ -103,7 +103,7 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
     }
     case Code::ev_error: {
       SAT_DECODE(msg::EvError, m);
-      if (m.command == uint8_t(Code::phys_request)) paths->onRefused(m.tag);
+      if (m.command == uint8_t(Code::phys_request) && paths->onRefused(m)) return;
       onHubError(m);
       return;
     }

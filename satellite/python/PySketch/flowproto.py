@@ -36,7 +36,16 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-PROTOCOL_MINOR = 5  # 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
+# 1.7: physical mode, subscriber side (flowpaths); 1.6 brings nothing PySketch sends or must
+# read (DB_READ, LINK_OFFER: its events answer only those); 1.5: replicas; 1.4: timed requests;
+# 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
+PROTOCOL_MINOR = 7
+PATHS_MINOR = 7  # PHYS_REQUEST, PHYS_STATE and their events
+
+# Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
+# kPathShm) and in PHYS_REQUEST's `paths` bits.
+PATH_DIRECT = 1
+PATH_SHM = 2
 
 DEFAULT_PORT = 9000
 DEFAULT_ADDRESS = "local:/tmp/Robot"
@@ -241,6 +250,16 @@ class Code(object):
     REPLICATE_CHANNEL = 0xE0
     REPLICATE_STOP = 0xE1
 
+    # 1.7: physical mode (docs/flow-protocol.md, "Physical mode")
+    PHYS_OFFER = 0xF0
+    PHYS_REQUEST = 0xF1
+    PHYS_STATE = 0xF2
+    PHYS_COUNT = 0xF3
+    EV_PHYS_GRANT = 0xF8
+    EV_PHYS_PATH = 0xF9
+    EV_PHYS_REVOKE = 0xFA
+    EV_PHYS_RELAY = 0xFB
+
 
 def codeName(code):
     for k, v in Code.__dict__.items():
@@ -351,6 +370,16 @@ def str32(s):
 def frame(code, body=b""):
     """One frame: u32 length (code + body), u8 code, body."""
     return struct.pack("<IB", len(body) + 1, code) + body
+
+
+def physRequest(tag, chanID, paths):
+    """PHYS_REQUEST: a path of one of the kinds `paths` (PATH_DIRECT | PATH_SHM bits)."""
+    return frame(Code.PHYS_REQUEST, struct.pack("<IHB", tag, chanID, paths))
+
+
+def physState(chanID, active):
+    """PHYS_STATE: our granted path works (1: stop relaying to us) or broke (0)."""
+    return frame(Code.PHYS_STATE, struct.pack("<HB", chanID, 1 if active else 0))
 
 
 def _sortKey(item):
@@ -602,6 +631,30 @@ def decodeValue(data):
     v = r.value()
     r.done("value")
     return v
+
+
+def decodePhysPath(body):
+    """EV_PHYS_PATH: (tag, chanID, path, endpoint, token)."""
+    r = Reader(body)
+    out = (r.u32("tag"), r.u16("chan_id"), r.u8("path"), r.str16("endpoint"), r.str16("token"))
+    r.done("EV_PHYS_PATH")
+    return out
+
+
+def decodePhysRelay(body):
+    """EV_PHYS_RELAY: (chanID, needed)."""
+    r = Reader(body)
+    out = (r.u16("chan_id"), r.u8("needed"))
+    r.done("EV_PHYS_RELAY")
+    return out
+
+
+def decodePhysRevoke(body):
+    """EV_PHYS_REVOKE: (chanID, subscriber flow id)."""
+    r = Reader(body)
+    out = (r.u16("chan_id"), r.u32("subscriber"))
+    r.done("EV_PHYS_REVOKE")
+    return out
 
 
 class ChannelInfo(object):

@@ -31,6 +31,9 @@ Callbacks (all run inside tick() or connect()):
     setStartChanPubReqCallBack(f(ch))    an owned streaming channel got its first subscriber
     setStopChanPubReqCallBack(f(ch))     ... and lost its last (ch.isPublishingEnabled follows)
     setGrabDataCallBack(f(chanID, data)) data (bytes) on a subscribed channel
+    setGrabDataViewCallBack(f(chanID, view)) the same data as a read-only memoryview, before
+                                         the bytes callback; from a shared-memory path it is the
+                                         slot in place (no copy), valid only during the call
     setRequestCallBack(f(chanID, hash, cmdName, value))  a request on an owned service channel;
                                          answer with sendServiceResponse(chanID, hash, value)
     setResponseCallBack(f(chanID, value)) the answer to sendServiceRequest (f(value) works too)
@@ -59,6 +62,11 @@ own included when the hub confirms them, so the sketch refreshes its channel ids
 Subscriptions are kept by name in the same way when a publisher goes away and comes back.
 setReconnectEnabled(False) turns this off: isConnected() then becomes False when the hub goes.
 
+Physical mode (FlowProtocol 1.7, flowpaths.py): usePaths(name, PATH_SHM | PATH_DIRECT) asks
+the hub for a shared-memory or direct path to a channel's owner whenever the flow subscribes to
+it; data then comes to the same callbacks, and through the hub again whenever the path breaks.
+pathStats() counts it. Python 3 only: under Python 2.7 the channel stays relayed.
+
 Not thread-safe: call it from the sketch's thread only.
 """
 from __future__ import print_function, division, absolute_import
@@ -78,10 +86,12 @@ from PySketch.abstractflow import (
     AbstractFlow, FlowChannel, enumLookup, openSocket, tlsCheckHost, tlsFailure, validShortName,
     wrapTls)
 from PySketch.elapsedtime import ElapsedTime, now
+from PySketch.flowpaths import Paths, ringArray  # noqa: F401 (ringArray: for sketches)
 from PySketch.flowproto import (
-    ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T, FlowError, ProtocolError, Reader,
-    Variant_T, codeName, encodeValue, errorName, frame, integer_types, str16, text_type,
-    toBytes, u16, u32, u64, utf8)
+    PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T,
+    FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysPath, decodePhysRelay,
+    decodePhysRevoke, encodeValue, errorName, frame, integer_types, str16, text_type, toBytes,
+    u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
 TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
@@ -184,12 +194,14 @@ class FlowSat(AbstractFlow):
         self._selectedDb = None            # what setCurrentDbName asked for
         self._tag = 0
         self._errorsLogged = {}
+        self._paths = Paths(self)          # physical mode, the subscriber's side
 
         self._onNewChan = None
         self._onDelChan = None
         self._onStartPub = None
         self._onStopPub = None
         self._onGrab = None
+        self._onGrabView = None
         self._onRequest = None
         self._onResponse = None
         self._responseArity = None
@@ -253,6 +265,13 @@ class FlowSat(AbstractFlow):
 
     def setGrabDataCallBack(self, f):
         self._onGrab = f
+
+    def setGrabDataViewCallBack(self, f):
+        """f(chanID, view): each message on a subscribed channel as a read-only memoryview,
+        before the grab-data callback (which still gets bytes, when set). From a shared-memory
+        path the view is the ring's slot itself, no copy (ringArray(view) makes a numpy array of
+        it): it is valid only until f returns; copy what you keep (bytes(view))."""
+        self._onGrabView = f
 
     def setRequestCallBack(self, f):
         self._onRequest = f
@@ -414,6 +433,7 @@ class FlowSat(AbstractFlow):
         self._pendingRequests = {}
         self._pendingSyncs = {}
         self._deferred = []
+        self._paths.reset()
         if self._state != "closed":
             self._state = "offline"
 
@@ -476,14 +496,28 @@ class FlowSat(AbstractFlow):
             return
         wlist = [sock] if (self._outbuf or self._state == "connecting" or
                            (self._state == "tls" and self._tlsWants == "write")) else []
+        rlist = [sock] + self._paths.fds()
         try:
-            r, w, _ = select.select([sock], wlist, [], max(0.0, timeout))
+            r, w, _ = select.select(rlist, wlist, [], max(0.0, timeout))
         except (select.error, OSError, ValueError) as e:
             if getattr(e, "args", (None,))[0] == errno.EINTR:
                 return
             self._lost(str(e))
             return
         gen = self._gen
+        if self._state == "online":
+            paths = [x for x in r if x is not sock]
+            r = [x for x in r if x is sock]
+            try:
+                if paths:
+                    self._paths.ready(paths)
+                self._paths.tick()
+            except Exception as e:
+                if e is self._userError:  # a callback's, logged: raised out of tick()
+                    self._userError = None
+                raise
+            if gen != self._gen:
+                return
         if w and self._state == "connecting":
             rc = sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
             if rc != 0:
@@ -711,8 +745,8 @@ class FlowSat(AbstractFlow):
         r = Reader(body)
         if code == Code.EV_DATA:
             chan = r.u16()
-            if self._onGrab is not None:
-                self._call("grab-data", self._onGrab, chan, r.rest())
+            if self._onGrab is not None or self._onGrabView is not None:
+                self._deliverData(chan, r.rest())
         elif code == Code.EV_CHAN_ADDED:
             tag = r.u32()
             info = ChannelInfo.read(r)
@@ -732,6 +766,7 @@ class FlowSat(AbstractFlow):
             elif self._byName.get(ch.name) is ch:
                 del self._byName[ch.name]
             self._subscribedIDs.discard(chan)
+            self._paths.onUnsubscribed(chan)
             ch.isPublishingEnabled = False
             ch.isSubscribed = False
             if self._onDelChan is not None:
@@ -820,6 +855,12 @@ class FlowSat(AbstractFlow):
             count = r.u32()
             self._logOnce(("dropped", chan), "FlowSat: the hub dropped %d frames of channel %d "
                           "(this satellite reads too slowly)" % (count, chan))
+        elif code == Code.EV_PHYS_PATH:
+            self._paths.onPath(*decodePhysPath(body))
+        elif code == Code.EV_PHYS_RELAY:
+            self._paths.onRelay(*decodePhysRelay(body))
+        elif code == Code.EV_PHYS_REVOKE:
+            self._paths.onRevoke(decodePhysRevoke(body)[0])
         # Anything else (a later minor version's events) is ignored.
 
     def _commandFailed(self, command, tag, chan, error, message):
@@ -829,10 +870,28 @@ class FlowSat(AbstractFlow):
                 self._specs.pop(short, None)
         elif command == Code.SUBSCRIBE:
             self._subscribedIDs.discard(chan)
+        elif command == Code.PHYS_REQUEST:
+            self._paths.onRefused(tag)    # relayed; asked again later
+        elif command == Code.PHYS_STATE:
+            self._paths.onStateRefused(chan)
         self._logOnce((command, chan, error), "FlowSat: %s failed: %s: %s"
                       % (codeName(command), errorName(error), message))
         if self._onError is not None:
             self._call("error", self._onError, FlowError(error, message))
+
+    def _deliverData(self, chan, data):
+        """A message of a subscribed channel (bytes), relayed or from a direct path."""
+        if self._onGrabView is not None:
+            view = memoryview(data)
+            try:
+                self._call("grab-data-view", self._onGrabView, chan, view)
+            finally:
+                try:
+                    view.release()
+                except (BufferError, AttributeError):
+                    pass
+        if self._onGrab is not None:
+            self._call("grab-data", self._onGrab, chan, data)
 
     def _call(self, kind, f, *args):
         """Runs a sketch's callback. Its exception is logged as the sketch's, with its
@@ -1140,8 +1199,21 @@ class FlowSat(AbstractFlow):
             return True
         if self._send(frame(Code.SUBSCRIBE, u32(self._nextTag()) + u16(chanID))):
             self._subscribedIDs.add(chanID)
+            self._pathsFor(chanID)
             return True
         return False
+
+    def _pathsFor(self, chanID):
+        """After subscribing: a path to ask for, when usePaths named the channel."""
+        ch = self._channels.get(chanID)
+        if ch is None or not self._paths.wants(ch.name):
+            return
+        if self.hubMinor < PATHS_MINOR:
+            self._logOnce(("paths", self.connectionID), "FlowSat: this hub (FlowProtocol 1.%d) "
+                          "has no paths (1.%d): %s stays relayed" % (self.hubMinor, PATHS_MINOR,
+                                                                     ch.name))
+            return
+        self._paths.onSubscribed(ch.name, chanID)
 
     def subscribeChannel(self, chan):
         """Subscribes to a streaming channel, given its chanID, its name or its FlowChannel.
@@ -1173,7 +1245,44 @@ class FlowSat(AbstractFlow):
             self._wantedSubs.discard(ch.name)
             ch.isSubscribed = False
         self._subscribedIDs.discard(chan)
+        self._paths.onUnsubscribed(chan)
         return self._send(frame(Code.UNSUBSCRIBE, u32(self._nextTag()) + u16(chan)))
+
+    ###########################################################################
+    # Physical mode, as a subscriber (flowpaths.py)
+
+    def usePaths(self, chan, kinds=PATH_SHM | PATH_DIRECT):
+        """Asks the hub for a path of these kinds (PATH_SHM, PATH_DIRECT) to the channel `chan`
+        (its name, chanID or FlowChannel) whenever this flow subscribes to it: its data then
+        comes straight from its owner, to the same callbacks, and through the hub again whenever
+        the path breaks (asked again after 2 s, doubling to 30 s). 0: relayed only. Needs a hub
+        of FlowProtocol 1.7 and Python 3; otherwise logged once, and relayed. Returns bool
+        (False: this Python takes no paths)."""
+        if not isinstance(chan, (str, text_type)):
+            ch = self.channelByID(chan)
+            if ch is None:
+                return False
+            chan = ch.name
+        if not self._paths.want(chan, kinds):
+            return False
+        ch = self._byName.get(chan)
+        if ch is not None and ch.chanID in self._subscribedIDs and self._state == "online":
+            if self._paths.wants(chan):
+                self._pathsFor(ch.chanID)
+            else:
+                self._paths.onSubscribed(chan, ch.chanID)  # drops the path: relayed
+        return True
+
+    def pathStats(self):
+        """The subscriber's path figures, as the C++ library's pathStats(): served_direct and
+        served_shm (always 0: PySketch serves no paths), path_messages (received on paths),
+        dropped_before_marker, torn, fallbacks and missed (shared memory: published while this
+        reader was busy, never read)."""
+        return self._paths.stats()
+
+    def resetPaths(self):
+        """Closes every path as if it broke: relayed again, asked again after the backoff."""
+        self._paths.closeAll("reset by the application")
 
     def channelByID(self, chanID):
         """The FlowChannel this flow knows by that chanID (a name or FlowChannel works too)."""

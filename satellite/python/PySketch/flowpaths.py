@@ -1,0 +1,753 @@
+"""Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7).
+
+A channel's owner (a C++ satellite: PhysicalOptions) may offer to send its messages straight to
+its subscribers, over a Unix socket of its own (a *direct* path) or through a ring of slots in
+shared memory (*shm*), while the hub keeps deciding who may read what. A FlowSat asks for it with
+
+    sat.usePaths("robot.camera", PATH_SHM | PATH_DIRECT)
+    sat.subscribeChannel("robot.camera")
+
+and the data then comes to the same grab-data callback as relayed data (bytes, a copy), or, for
+zero copy, to a grab-data-view callback that gets a read-only `memoryview` of the slot in place:
+
+    def onView(chanID, view):          # valid only during the call: copy what you keep
+        img = ringArray(view, "uint8")   # a numpy view of it (read-only), no copy
+        ...
+    sat.setGrabDataViewCallBack(onView)
+
+Keeping `view` (or an array made from it) after the callback returns is not an error Python can
+catch: the ring stays mapped (nothing crashes), but the slot is rewritten by later messages.
+
+This module mirrors the C++ subscriber (satellite/cpp/src/paths_subscriber.cpp) in what it says
+to the hub and to the owner:
+- on each subscription to a channel it wants paths for, PHYS_REQUEST; the hub answers
+  EV_PHYS_PATH (an endpoint and a one-time token) or EV_ERROR (then asked again later);
+- it connects to the endpoint, sends HELLO, and reads WELCOME (for shared memory with three
+  descriptors: the ring read-only, its lease page, its eventfd); then PHYS_STATE 1, and the hub
+  stops relaying the channel to it and sends the marker EV_PHYS_RELAY 0. What comes on the path
+  before the marker may have been relayed too: it is dropped (counted), so nothing is delivered
+  twice. The path is drained when the marker comes, so that what was on its way before it is
+  dropped as well;
+- any break (the socket closed, a malformed or over-long frame, a refused WELCOME or ring,
+  EV_PHYS_REVOKE) closes the path, sends PHYS_STATE 0 (relayed again) and asks again after
+  2 s, 4 s, ... up to 30 s (the C++ library's backoff).
+
+Shared memory (RingReader) reads the layout of runtime/include/skrobot/flow/shm_ring.h: a 4 KB
+header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
+wins: a busy reader reads the latest message and counts those it missed. A slot is leased while
+it is read, and its sequence number (a seqlock: odd while written) is checked before and after:
+a changed number is a torn read, never delivered to the bytes callback (the view callback has
+already seen it: it is counted). A ring that is not a sealed memfd, whose header does not match
+its size, or whose slot index or length points outside it is refused; nothing an owner writes
+can make Python read outside the mapping or raise out of tick().
+
+Python 2.7 has no socket.recvmsg (descriptor passing) and no monotonic_ns: there usePaths is
+accepted, logged once, and the channel stays relayed.
+
+Limits: the atomics of the ring are read and written as aligned 8-byte words (struct's native
+"Q", one load or store on x86-64); the only fence Python offers is a lock, taken between the
+lease and the check of the slot. The torn check catches what a weaker ordering would let
+through, so a reader on another architecture may see more torn reads, never wrong bytes
+delivered as good.
+"""
+from __future__ import print_function, division, absolute_import
+
+import errno
+import mmap
+import os
+import socket
+import struct
+import sys
+import threading
+import time
+
+from PySketch import log
+from PySketch.flowproto import PATH_DIRECT, PATH_SHM, physRequest, physState, utf8
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX
+    fcntl = None
+
+__all__ = ["PATH_DIRECT", "PATH_SHM", "PATHS_SUPPORTED", "RingReader", "RingRefused", "Paths",
+           "ringArray"]
+
+# Descriptor passing and a monotonic clock in ns: Python 3 on Linux.
+PATHS_SUPPORTED = (sys.version_info[0] >= 3 and hasattr(socket.socket, "recvmsg") and
+                   hasattr(time, "monotonic_ns") and fcntl is not None and
+                   sys.platform.startswith("linux"))
+
+# --- the path socket (runtime/include/skrobot/flow/path_framing.h) --------------------------------
+HELLO, WELCOME, DATA, BYE = 1, 2, 3, 4
+MAX_CONTROL_BYTES = 4096
+MAX_DATA_BYTES = 64 << 20
+MAX_DATA_FRAME = MAX_DATA_BYTES + 32   # what the C++ subscriber accepts (kMaxDataFrame)
+_DATA_HEAD = 16                        # u64 seq, i64 capture_ns
+MAX_PASSED_FDS = 8                     # skrobot/flow/fd_passing.h
+
+# --- the ring (runtime/src/flow/shm_ring.cpp) --------------------------------------------------
+_MAGIC = 0x47524B53  # "SKRG"
+_VERSION = 1
+_PAGE = 4096
+_SLOT_HEADER = 64
+_MAX_SLOTS = 4096
+_MAX_READERS = 64
+_MAX_SLOT_BYTES = 1 << 32
+_SEALS = 0x0002 | 0x0004  # F_SEAL_SHRINK | F_SEAL_GROW
+_F_GET_SEALS = getattr(fcntl, "F_GET_SEALS", 1034)
+_FIXED = struct.Struct("=IHHIIQQq")   # magic, version, header_bytes, slots, max_readers,
+#                                       slot_bytes, slot_stride, lease_timeout_ns
+_LATEST_AT = 64                        # Header::latest, alignas(64)
+_WORD = struct.Struct("@Q")            # one aligned load or store (the atomics)
+_IWORD = struct.Struct("@q")
+_SLOT = struct.Struct("=QQq")          # seq, size, capture_ns
+
+_RETRY_MIN = 1.0   # seconds: kRetryMinNs, shifted by the failures (at most 5) ...
+_RETRY_MAX = 30.0  # ... up to kRetryMaxNs
+_HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
+
+_fenceLock = threading.Lock()
+
+
+def _fence():
+    """A full barrier on x86-64 (a locked instruction), between the lease and the slot check."""
+    _fenceLock.acquire()
+    _fenceLock.release()
+
+
+def _monotonicNs():
+    return time.monotonic_ns()
+
+
+_now = getattr(time, "monotonic", time.time)
+
+
+def _strideFor(slotBytes):
+    return (_SLOT_HEADER + slotBytes + _PAGE - 1) // _PAGE * _PAGE
+
+
+def _closeFd(fd):
+    if fd is not None and fd >= 0:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+
+
+def _release(view):
+    """Ends a memoryview handed to a callback; False when the callback kept something made from
+    it (a numpy array): the mapping then stays alive as long as that does."""
+    try:
+        view.release()
+        return True
+    except (BufferError, AttributeError):
+        return False
+
+
+def ringArray(view, dtype="uint8"):
+    """A numpy array over `view` (the grab-data-view callback's memoryview) without a copy, or
+    None without numpy. Read-only for shared memory; valid only during the callback."""
+    try:
+        import numpy
+    except ImportError:
+        return None
+    return numpy.frombuffer(view, dtype=dtype)
+
+
+class RingRefused(Exception):
+    """A ring (or its descriptors) that the reader will not map."""
+
+
+def _sealedSize(fd, what):
+    try:
+        seals = fcntl.fcntl(fd, _F_GET_SEALS)
+    except (OSError, IOError) as e:
+        raise RingRefused("%s is not a memfd (%s)" % (what, os.strerror(e.errno or 0)))
+    if (seals & _SEALS) != _SEALS:
+        raise RingRefused("%s is not sealed against resizing" % what)
+    return os.fstat(fd).st_size
+
+
+def _isEventFd(fd):
+    try:
+        return os.readlink("/proc/self/fd/%d" % fd) == "anon_inode:[eventfd]"
+    except OSError:
+        return False
+
+
+class _Claim(object):
+    __slots__ = ("slot", "beginSeq", "start", "size", "seq", "captureNs", "missed")
+
+
+class RingReader(object):
+    """The reading end of a shared-memory ring (shm_ring.h's RingReader): maps the ring
+    read-only and its lease page read-write, and reads the newest message in place."""
+
+    def __init__(self):
+        self.eventFd = -1
+        self._ring = None       # mmap, read-only
+        self._view = None       # memoryview of it, for the callbacks' slices
+        self._lease = None      # mmap of our lease page
+        self.size = 0
+        self.slots = self.slotBytes = self.stride = 0
+        self.maxReaders = 0
+        self.leaseTimeoutNs = 0
+        self.lastSeq = 0
+        self.received = self.missed = self.torn = 0
+        self.keptViews = 0      # callbacks that kept something made from their view
+
+    @classmethod
+    def open(cls, ringFd, leaseFd, eventFd):
+        """Maps a ring received from its owner, taking the three descriptors (closed on failure
+        too, the ring's and the lease page's once mapped). RingRefused with the reason."""
+        r = cls()
+        r.eventFd = eventFd
+        try:
+            size = _sealedSize(ringFd, "the ring")
+            leaseSize = _sealedSize(leaseFd, "the lease page")
+            if size < 2 * _PAGE or leaseSize < _PAGE:
+                raise RingRefused("too small")
+            if not _isEventFd(eventFd):
+                raise RingRefused("the wake-up descriptor is not an eventfd")
+            try:
+                r._ring = mmap.mmap(ringFd, size, mmap.MAP_SHARED, mmap.PROT_READ)
+            except (OSError, ValueError, OverflowError) as e:
+                raise RingRefused("cannot map the ring: %s" % e)
+            r.size = size
+            # The header as a copy: the writer may change it under us.
+            (magic, version, headerBytes, slots, maxReaders, slotBytes, stride,
+             leaseTimeout) = _FIXED.unpack_from(r._ring, 0)
+            if magic != _MAGIC or version != _VERSION or headerBytes != _PAGE:
+                raise RingRefused("not a ring of version %d" % _VERSION)
+            if (slots < 2 or slots > _MAX_SLOTS or slotBytes == 0 or slotBytes > _MAX_SLOT_BYTES or
+                    maxReaders == 0 or maxReaders > _MAX_READERS or leaseTimeout <= 0 or
+                    stride != _strideFor(slotBytes) or _PAGE + slots * stride != size):
+                raise RingRefused("its geometry does not add up")
+            r.slots, r.slotBytes, r.stride = slots, slotBytes, stride
+            r.maxReaders, r.leaseTimeoutNs = maxReaders, leaseTimeout
+            try:
+                r._lease = mmap.mmap(leaseFd, _PAGE, mmap.MAP_SHARED,
+                                     mmap.PROT_READ | mmap.PROT_WRITE)
+            except (OSError, ValueError) as e:
+                raise RingRefused("cannot map the lease page: %s" % e)
+            _WORD.pack_into(r._lease, 0, 0)
+            r.heartbeat()
+            r._view = memoryview(r._ring)
+            # Messages before we came are not ours to miss.
+            r.lastSeq = _WORD.unpack_from(r._ring, _LATEST_AT)[0] >> 16
+            fl = fcntl.fcntl(eventFd, fcntl.F_GETFL)
+            fcntl.fcntl(eventFd, fcntl.F_SETFL, fl | os.O_NONBLOCK)
+        except RingRefused:
+            r.close()
+            raise
+        except (OSError, IOError, ValueError, struct.error) as e:
+            r.close()
+            raise RingRefused(str(e))
+        finally:
+            _closeFd(ringFd)
+            _closeFd(leaseFd)
+        return r
+
+    def fileno(self):
+        return self.eventFd
+
+    def drain(self):
+        try:
+            os.read(self.eventFd, 8)
+        except (OSError, IOError):
+            pass
+
+    def heartbeat(self):
+        if self._lease is not None:
+            _IWORD.pack_into(self._lease, 8, _monotonicNs())
+
+    def claim(self):
+        """Leases the newest message not read yet: a _Claim, None (nothing new, or the writer
+        keeps overtaking us: its next wake-up brings us back), or False (torn: counted)."""
+        if self._ring is None:
+            return None
+        ring, lease = self._ring, self._lease
+        for _ in range(4):
+            latest = _WORD.unpack_from(ring, _LATEST_AT)[0]
+            seq, slot = latest >> 16, latest & 0xFFFF
+            if seq == 0 or seq <= self.lastSeq:
+                return None
+            if slot >= self.slots:
+                self.torn += 1
+                self.lastSeq = seq
+                return False
+            _IWORD.pack_into(lease, 8, _monotonicNs())
+            _WORD.pack_into(lease, 0, slot + 1)
+            _fence()
+            head = _PAGE + slot * self.stride
+            begin = _WORD.unpack_from(ring, head)[0]
+            if begin != 2 * seq:
+                # Rewritten already, or being written: look at the newest again.
+                _WORD.pack_into(lease, 0, 0)
+                continue
+            _, size, captureNs = _SLOT.unpack_from(ring, head)
+            if size > self.slotBytes:
+                _WORD.pack_into(lease, 0, 0)
+                self.torn += 1
+                self.lastSeq = seq
+                return False
+            c = _Claim()
+            c.slot, c.beginSeq, c.seq, c.captureNs = slot, begin, seq, captureNs
+            c.start = head + _SLOT_HEADER
+            c.size = size
+            c.missed = seq - self.lastSeq - 1
+            return c
+        return None
+
+    def view(self, c):
+        """The claimed slot's bytes in place (read-only memoryview)."""
+        return self._view[c.start:c.start + c.size]
+
+    def copy(self, c):
+        return self._ring[c.start:c.start + c.size]
+
+    def release(self, c):
+        """Ends a claim: True when the slot did not change during the read, False (torn)."""
+        _fence()
+        end = _WORD.unpack_from(self._ring, _PAGE + c.slot * self.stride)[0]
+        _WORD.pack_into(self._lease, 0, 0)
+        self.lastSeq = c.seq
+        if end != c.beginSeq:
+            self.torn += 1
+            return False
+        self.received += 1
+        self.missed += c.missed
+        return True
+
+    def close(self):
+        """Unmaps (a mapping a callback kept a view of stays until that view goes)."""
+        if self._view is not None:
+            _release(self._view)
+            self._view = None
+        for m in (self._ring, self._lease):
+            if m is not None:
+                try:
+                    m.close()
+                except (BufferError, OSError, ValueError):
+                    pass
+        self._ring = self._lease = None
+        _closeFd(self.eventFd)
+        self.eventFd = -1
+
+
+class _Path(object):
+    """A path we want to one channel we are subscribed to (paths_impl.h's Path)."""
+
+    def __init__(self, name, chanID):
+        self.name = name
+        self.chanID = chanID
+        self.tag = 0          # PHYS_REQUEST in flight
+        self.kind = 0
+        self.sock = None
+        self.ring = None
+        self.inbuf = bytearray()
+        self.open = False     # WELCOME came
+        self.marker = False   # the hub relays no more: what comes on the path is ours
+        self.markersDue = 0   # PHYS_STATE 1 sent, their marker not come yet
+        self.retryAt = 0.0    # 0: not waiting to ask again
+        self.failures = 0
+
+
+class Paths(object):
+    """The subscriber's paths of one FlowSat. Runs inside its tick(): FlowSat calls the on*
+    methods for the hub's events, adds fds() to its select() and calls ready() and tick()."""
+
+    def __init__(self, flow):
+        self._flow = flow
+        self._wanted = {}     # full channel name -> kinds
+        self._paths = {}      # chanID -> _Path
+        self._lastTick = 0.0
+        self._stats = dict(served_direct=0, served_shm=0, path_messages=0,
+                           dropped_before_marker=0, torn=0, fallbacks=0, missed=0)
+        self._said = set()
+
+    # --- what the sketch asks -------------------------------------------------------------------
+
+    def want(self, name, kinds):
+        if not PATHS_SUPPORTED:
+            if "unsupported" not in self._said:
+                self._said.add("unsupported")
+                log.wrn("FlowSat: this Python (%d.%d) cannot take paths (no descriptor passing): "
+                        "%s stays relayed by the hub" % (sys.version_info[0], sys.version_info[1],
+                                                         name))
+            return False
+        kinds = int(kinds) & (PATH_DIRECT | PATH_SHM)
+        if kinds == 0:
+            self._wanted.pop(name, None)
+        else:
+            self._wanted[name] = kinds
+        return True
+
+    def wants(self, name):
+        return name in self._wanted
+
+    def stats(self):
+        return dict(self._stats)
+
+    # --- the flow's events ----------------------------------------------------------------------
+
+    def onSubscribed(self, name, chanID):
+        """Subscribed to `name` (again): ask for a path (a path already there is dropped first)."""
+        old = self._paths.get(chanID)
+        if old is not None:
+            self._dropPath(old, tellHub=True)
+        if name not in self._wanted:
+            return
+        p = _Path(name, chanID)
+        self._paths[chanID] = p
+        self._request(p)
+
+    def onUnsubscribed(self, chanID):
+        p = self._paths.pop(chanID, None)
+        if p is not None:
+            self._closeIo(p)
+
+    def onPath(self, tag, chanID, kind, endpoint, token):
+        p = self._paths.get(chanID)
+        if p is None or p.tag != tag or tag == 0:
+            return
+        p.tag = 0
+        p.kind = kind
+        if kind not in (PATH_DIRECT, PATH_SHM):
+            return self._fail(p, "a path of unknown kind %d" % kind)
+        sock = self._connect(endpoint)
+        if sock is None:
+            return self._fail(p, "cannot connect to %s" % endpoint)
+        p.sock = sock
+        name, tok = utf8(p.name), utf8(token)
+        body = struct.pack("<BBH", 1, kind, len(name)) + name + struct.pack("<H", len(tok)) + tok
+        try:
+            sock.sendall(struct.pack("<IB", len(body) + 1, HELLO) + body)
+        except (socket.error, OSError):
+            return self._fail(p, "cannot send HELLO")
+        sock.setblocking(False)
+
+    def onRefused(self, tag):
+        """EV_ERROR for one of our PHYS_REQUESTs: asked again later."""
+        for p in self._paths.values():
+            if p.tag == tag and tag != 0:
+                p.tag = 0
+                p.failures += 1
+                p.retryAt = _now() + self._backoff(p)
+                return
+
+    def onStateRefused(self, chanID):
+        """EV_ERROR for our PHYS_STATE: no marker comes for it."""
+        p = self._paths.get(chanID)
+        if p is not None and p.markersDue > 0:
+            p.markersDue -= 1
+
+    def onRelay(self, chanID, needed):
+        """EV_PHYS_RELAY: to a subscriber, 0 is the marker after its PHYS_STATE 1."""
+        p = self._paths.get(chanID)
+        if p is None or needed != 0:
+            return
+        if p.markersDue > 0:
+            p.markersDue -= 1
+        if p.markersDue > 0 or not p.open:
+            return  # the marker of a path that broke since: not this one's
+        # What is already on the path was sent before the hub stopped relaying: drop it.
+        self._readPath(p, dropping=True)
+        if self._paths.get(chanID) is p and p.open:
+            p.marker = True
+
+    def onRevoke(self, chanID):
+        p = self._paths.get(chanID)
+        if p is not None and (p.open or p.sock is not None):
+            self._fail(p, "revoked by the hub")
+
+    def reset(self):
+        """The flow closed: paths are void (asked again when subscribed again)."""
+        for p in list(self._paths.values()):
+            self._closeIo(p)
+        self._paths = {}
+
+    def closeAll(self, why):
+        for p in list(self._paths.values()):
+            if p.sock is not None or p.ring is not None:
+                self._fail(p, why)
+
+    # --- the loop -------------------------------------------------------------------------------
+
+    def fds(self):
+        out = []
+        for p in self._paths.values():
+            if p.sock is not None:
+                out.append(p.sock)
+            if p.ring is not None:
+                out.append(p.ring)
+        return out
+
+    def ready(self, ready):
+        """Handles readable path sockets and eventfds (from select())."""
+        for obj in ready:
+            for p in list(self._paths.values()):
+                if obj is p.sock and p.sock is not None:
+                    self._readPath(p, dropping=False, socketOnly=True)
+                elif obj is p.ring and p.ring is not None:
+                    p.ring.drain()
+                    self._readRing(p, dropping=not p.marker)
+
+    def tick(self):
+        """About once a second: leases kept alive, paths asked again."""
+        t = _now()
+        if t - self._lastTick < _HEARTBEAT:
+            return
+        self._lastTick = t
+        for p in list(self._paths.values()):
+            if p.ring is not None:
+                p.ring.heartbeat()
+            if not p.open and p.tag == 0 and p.retryAt and p.retryAt <= t:
+                self._request(p)
+
+    # --- inside ---------------------------------------------------------------------------------
+
+    @staticmethod
+    def _backoff(p):
+        return min(_RETRY_MAX, _RETRY_MIN * (1 << min(p.failures, 5)))
+
+    def _request(self, p):
+        kinds = self._wanted.get(p.name)
+        if not kinds:
+            return
+        p.tag = self._flow._nextTag()
+        p.retryAt = 0.0
+        self._flow._send(physRequest(p.tag, p.chanID, kinds))
+
+    def _connect(self, endpoint):
+        endpoint = endpoint if isinstance(endpoint, str) else endpoint.decode("utf-8", "replace")
+        try:
+            if endpoint.startswith("unix:"):
+                where = endpoint[5:]
+                if not where or len(utf8(where)) >= 108:
+                    return None
+                s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+                family_addr = where
+            elif endpoint.startswith("tcp:"):
+                host, _, port = endpoint[4:].rpartition(":")
+                socket.inet_aton(host)  # a numeric address only: no name lookup in the loop
+                s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+                s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                family_addr = (host, int(port))
+            else:
+                return None
+        except (socket.error, OSError, ValueError):
+            return None
+        try:
+            # A local connect does not wait on the network: done blocking, with a bound.
+            s.settimeout(2.0)
+            s.connect(family_addr)
+            return s
+        except (socket.error, OSError, ValueError):
+            s.close()
+            return None
+
+    def _closeIo(self, p):
+        if p.ring is not None:
+            p.ring.close()
+            p.ring = None
+        if p.sock is not None:
+            try:
+                p.sock.close()
+            except (socket.error, OSError):
+                pass
+            p.sock = None
+        p.inbuf = bytearray()
+
+    def _dropPath(self, p, tellHub):
+        wasOpen = p.open
+        self._closeIo(p)
+        self._paths.pop(p.chanID, None)
+        if wasOpen and tellHub:
+            self._flow._send(physState(p.chanID, False))
+
+    def _fail(self, p, why):
+        """The path broke: relayed again, asked again after the backoff (failPath)."""
+        if self._paths.get(p.chanID) is not p:
+            self._closeIo(p)
+            return
+        wasOpen = p.open
+        self._closeIo(p)
+        p.open = False
+        p.marker = False
+        p.tag = 0
+        p.failures += 1
+        self._stats["fallbacks"] += 1
+        p.retryAt = _now() + self._backoff(p)
+        if wasOpen:
+            self._flow._send(physState(p.chanID, False))  # relayed again
+        log.wrn("FlowSat: SAT-PATH-FALLBACK %s: %s; relayed by the hub meanwhile" % (p.name, why))
+
+    def _welcome(self, p):
+        """The owner's first answer, with its descriptors (one recvmsg, as in C++)."""
+        fds = []
+        try:
+            data, anc, flags, _ = p.sock.recvmsg(
+                64 * 1024, socket.CMSG_SPACE(4 * (MAX_PASSED_FDS + 1)),
+                getattr(socket, "MSG_CMSG_CLOEXEC", 0))
+        except (socket.error, OSError) as e:
+            if e.errno in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
+                return
+            return self._fail(p, str(e))
+        for level, kind, payload in anc:
+            if level == socket.SOL_SOCKET and kind == socket.SCM_RIGHTS:
+                n = len(payload) // 4
+                fds.extend(struct.unpack("=%di" % n, payload[:4 * n]))
+        try:
+            if flags & getattr(socket, "MSG_CTRUNC", 8) or len(fds) > MAX_PASSED_FDS:
+                return self._fail(p, "too many descriptors with WELCOME")
+            if not data:
+                return self._fail(p, "the owner closed the path")
+            p.inbuf.extend(data)
+            buf = p.inbuf
+            n = struct.unpack_from("<I", buf, 0)[0] if len(buf) >= 4 else None
+            if n is not None and (n == 0 or n > MAX_CONTROL_BYTES):
+                return self._fail(p, "the owner did not answer with WELCOME")
+            if n is None or len(buf) < 4 + n:
+                return self._fail(p, "a WELCOME in pieces")
+            if buf[4] != WELCOME or n < 5:
+                return self._fail(p, "the owner did not answer with WELCOME")
+            error, mlen = struct.unpack_from("<HH", buf, 5)
+            if 1 + 4 + mlen != n:
+                return self._fail(p, "the owner did not answer with WELCOME")
+            if error != 0:
+                message = bytes(buf[9:9 + mlen]).decode("utf-8", "replace")
+                return self._fail(p, "refused: " + message)
+            del p.inbuf[:4 + n]
+            if p.kind == PATH_SHM:
+                if len(fds) != 3:
+                    return self._fail(p, "a shared-memory WELCOME without its three descriptors")
+                ringFd, leaseFd, eventFd = fds
+                fds = []
+                try:
+                    p.ring = RingReader.open(ringFd, leaseFd, eventFd)
+                except RingRefused as e:
+                    return self._fail(p, "shared-memory ring refused: %s" % e)
+        finally:
+            for fd in fds:
+                _closeFd(fd)
+        p.open = True
+        p.failures = 0
+        p.markersDue += 1
+        self._flow._send(physState(p.chanID, True))
+        log.msg("FlowSat: SAT-PATH-OPEN %s by %s" % (
+            p.name, "shared memory" if p.kind == PATH_SHM else "a direct socket"))
+        if p.inbuf:
+            self._frames(p, dropping=not p.marker)
+
+    def _readPath(self, p, dropping, socketOnly=False):
+        """Reads what the path has now: its socket (WELCOME, DATA, BYE) and, for shared
+        memory, the newest slot."""
+        if p.sock is not None:
+            if not p.open:
+                self._welcome(p)
+            else:
+                self._recv(p, dropping or not p.marker)
+        if not socketOnly and p.ring is not None and self._paths.get(p.chanID) is p:
+            p.ring.drain()
+            self._readRing(p, dropping)
+
+    def _recv(self, p, dropping):
+        sock = p.sock
+        while self._paths.get(p.chanID) is p and p.sock is sock:
+            want = 64 * 1024
+            have = len(p.inbuf)
+            if have >= 4:
+                n = struct.unpack_from("<I", p.inbuf, 0)[0]
+                if n <= MAX_DATA_FRAME and 4 + n > have:
+                    want = max(want, 4 + n - have)
+            try:
+                chunk = sock.recv(want)
+            except (socket.error, OSError) as e:
+                if e.errno in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
+                    break
+                return self._fail(p, os.strerror(e.errno or 0) or str(e))
+            if not chunk:
+                self._frames(p, dropping)  # what came before the close is still ours
+                if self._paths.get(p.chanID) is p and p.sock is sock:
+                    self._fail(p, "the owner closed the path")
+                return
+            p.inbuf.extend(chunk)
+            if len(chunk) < want:
+                break
+        if self._paths.get(p.chanID) is p and p.sock is sock:
+            self._frames(p, dropping)
+
+    def _frames(self, p, dropping):
+        """DATA frames in the input, delivered (or dropped before the marker)."""
+        buf = p.inbuf
+        used = 0
+        chan = p.chanID
+        try:
+            while True:
+                if len(buf) - used < 4:
+                    break
+                n = struct.unpack_from("<I", buf, used)[0]
+                if n == 0 or n > MAX_DATA_FRAME:
+                    return self._fail(p, "a path frame of %d bytes" % n)
+                if len(buf) - used < 4 + n:
+                    break
+                kind = buf[used + 4]
+                start, end = used + 5, used + 4 + n
+                used = end
+                if kind == BYE:
+                    return self._fail(p, "the owner said goodbye")
+                if kind != DATA or end - start < _DATA_HEAD:
+                    return self._fail(p, "an unexpected path frame")
+                if dropping or not p.marker:
+                    self._stats["dropped_before_marker"] += 1
+                    continue
+                self._stats["path_messages"] += 1
+                self._flow._deliverData(chan, bytes(buf[start + _DATA_HEAD:end]))
+                if self._paths.get(chan) is not p or p.inbuf is not buf:
+                    return  # the callback unsubscribed, or the path closed under it
+        finally:
+            if used and p.inbuf is buf:
+                del buf[:used]
+
+    def _readRing(self, p, dropping):
+        ring = p.ring
+        c = ring.claim()
+        if c is False:
+            self._stats["torn"] += 1
+            return
+        if c is None:
+            return
+        self._stats["missed"] += c.missed
+        if dropping or not p.marker:
+            ring.release(c)
+            self._stats["dropped_before_marker"] += 1
+            return
+        flow = self._flow
+        data = None
+        ok = False
+        try:
+            if flow._onGrabView is not None:
+                view = ring.view(c)
+                try:
+                    flow._call("grab-data-view", flow._onGrabView, p.chanID, view)
+                finally:
+                    if not _release(view):
+                        ring.keptViews += 1
+                        if "kept" not in self._said:
+                            self._said.add("kept")
+                            log.wrn("FlowSat: a grab-data-view callback kept its view of %s "
+                                    "(a numpy array?): it shows later messages; copy instead"
+                                    % p.name)
+            if flow._onGrab is not None:
+                data = ring.copy(c)
+        finally:
+            ok = ring.release(c)
+            if not ok:
+                self._stats["torn"] += 1
+        if not ok:
+            return
+        self._stats["path_messages"] += 1
+        if data is not None:
+            flow._call("grab-data", flow._onGrab, p.chanID, data)
+

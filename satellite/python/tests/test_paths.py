@@ -1,0 +1,634 @@
+"""Physical mode as a PySketch subscriber (PySketch/flowpaths.py, docs/physical-mode.md).
+
+Against a real hub and a C++ owner (satellite/cpp/tests/paths_publisher, given as
+$SKROBOT_PATHS_PUBLISHER, else looked for next to $SKROBOT_BIN): shared-memory delivery with its
+content checked in place (memoryview, numpy), a direct path in order, fallback without
+duplicates when the path breaks mid-stream, a slow reader (newest wins, missed counted), an
+owner killed while its reader reads, a path that cannot be had, and a hub that speaks 1.6.
+Without a hub: the ring reader against rings made here (refused, torn, out of bounds) and a fake
+owner that breaks the path framing, and the marker rule.
+
+Under Python 2.7 (run_py27.sh) only PathsUnderPython2 runs: usePaths is accepted and the channel
+stays relayed. Nothing here depends on speed: every wait has a generous timeout.
+"""
+import os
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+from PySketch.flowproto import PATH_DIRECT, PATH_SHM
+from tests.compat import PY2, monotonic
+from tests.hubtest import TIMEOUT, HubTestCase, pump, tickFor, waitUntil
+
+PATHS = not PY2 and hasattr(socket.socket, "recvmsg") and hasattr(os, "memfd_create")
+LONG = 30.0  # a path asked again after its backoff (2 s, 4 s) on a loaded machine
+
+
+def publisherBin():
+    path = os.environ.get("SKROBOT_PATHS_PUBLISHER")
+    if not path and os.environ.get("SKROBOT_BIN"):
+        path = os.path.join(os.path.dirname(os.environ["SKROBOT_BIN"]), "paths_publisher")
+    if not path or not os.path.exists(path):
+        raise unittest.SkipTest("no paths_publisher (set SKROBOT_PATHS_PUBLISHER)")
+    return path
+
+
+def number(payload):
+    """The message number paths_publisher wrote, after checking its pattern."""
+    b = bytearray(payload)
+    n = struct.unpack_from("<Q", bytes(b[:8]))[0]
+    for i in range(8, len(b)):
+        if b[i] != (n + i) & 0xFF:
+            raise AssertionError("message %d: byte %d is %d, not %d" % (n, i, b[i], (n + i) & 0xFF))
+    return n
+
+
+class Publisher(object):
+    """paths_publisher as a subprocess, driven by commands on its stdin."""
+
+    def __init__(self, hub, kinds, slot=65536, channel="frames"):
+        self.lines = []
+        self.lock = threading.Lock()
+        text = {} if PY2 else {"universal_newlines": True}
+        self.proc = subprocess.Popen([publisherBin(), hub.address, channel, kinds, str(slot)],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, **text)
+        self.reader = threading.Thread(target=self._read)
+        self.reader.daemon = True
+        self.reader.start()
+
+    def _read(self):
+        for line in iter(self.proc.stdout.readline, ""):
+            with self.lock:
+                self.lines.append(line.rstrip("\n"))
+
+    def output(self):
+        with self.lock:
+            return "\n".join(self.lines)
+
+    def count(self, pattern):
+        rx = re.compile(pattern)
+        with self.lock:
+            return len([l for l in self.lines if rx.search(l)])
+
+    def send(self, command):
+        self.proc.stdin.write(command + "\n")
+        self.proc.stdin.flush()
+
+    def do(self, command, answer, sats=(), timeout=TIMEOUT):
+        """Sends a command and waits for its answer, ticking `sats` meanwhile."""
+        before = self.count(answer)
+        self.send(command)
+        ok = pump(sats, lambda: self.count(answer) > before, timeout) if sats else \
+            waitUntil(lambda: self.count(answer) > before, timeout)
+        if not ok:
+            raise AssertionError("no %r after %r:\n%s" % (answer, command, self.output()))
+
+    def kill(self, sig=signal.SIGKILL):
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        self.proc.wait()
+
+    def close(self):
+        if self.proc.poll() is None:
+            try:
+                self.send("quit")
+            except (IOError, OSError):
+                pass
+            if not waitUntil(lambda: self.proc.poll() is not None, TIMEOUT):
+                self.proc.kill()
+        self.proc.wait()
+        self.reader.join(TIMEOUT)
+        for f in (self.proc.stdin, self.proc.stdout):
+            try:
+                f.close()
+            except (IOError, OSError):
+                pass
+
+
+@unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
+class PathsWithAHub(HubTestCase):
+    def publisher(self, kinds, slot=65536):
+        p = Publisher(self.hub, kinds, slot)
+        self.addCleanup(p.close)
+        if not waitUntil(lambda: p.count("^ready ") > 0, TIMEOUT):
+            raise AssertionError("paths_publisher not ready:\n" + p.output())
+        return p
+
+    def subscriber(self, kinds):
+        s = self.connected()
+        s.got = []
+        s.setGrabDataCallBack(lambda chan, data: s.got.append(number(data)))
+        s.usePaths("guest.frames", kinds)
+        s.subscribeChannel("guest.frames")
+        return s
+
+    def onPath(self, pub, s, timeout=LONG):
+        """Publishes until a message comes by the path (the marker came)."""
+        deadline = monotonic() + timeout
+        while monotonic() < deadline:
+            pub.do("pub 1 64", "^published", [s])
+            tickFor([s], 0.05)
+            if s.pathStats()["path_messages"] > 0:
+                return
+        raise AssertionError("no path in %.0f s: %r\n%s" % (timeout, s.pathStats(), pub.output()))
+
+    def test_shared_memory_delivers_in_place(self):
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+        seen = []
+
+        def onView(chan, view):
+            self.assertTrue(view.readonly)
+            seen.append((number(view), len(view), view.nbytes))
+            arr = None
+            try:
+                from PySketch.flowpaths import ringArray
+                arr = ringArray(view)
+            except ImportError:
+                pass
+            if arr is not None:
+                n = seen[-1][0]
+                self.assertFalse(arr.flags.writeable)
+                self.assertEqual(int(arr[100]), (n + 100) & 0xFF)
+                self.assertEqual(len(arr), len(view))
+        s.setGrabDataViewCallBack(onView)
+        before = s.pathStats()["path_messages"]
+        s.got = []
+        # Filled in the slot in place by the owner, read in place here.
+        pub.do("zc 1 40000", "^published", [s])
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in s.got), (s.got, s.pathStats()))
+        tickFor([s], 0.3)
+        self.assertEqual(s.got, [last], "once: not relayed as well")
+        self.assertEqual(seen[-1], (last, 40000, 40000))
+        st = s.pathStats()
+        self.assertEqual(st["path_messages"], before + 1, "it came by the path, not the hub")
+        self.assertEqual(st["torn"], 0)
+        # One at a time, each waited for: every one by the path, none missed.
+        for _ in range(30):
+            pub.do("pub 1 1000", "^published", [s])
+            last = int(pub.lines[-1].split()[1])
+            self.assertTrue(pump([s], lambda: last in s.got))
+        st = s.pathStats()
+        self.assertEqual(st["path_messages"], before + 31)
+        self.assertEqual((st["torn"], st["fallbacks"], st["missed"]), (0, 0, 0))
+        self.assertEqual(s.got, sorted(set(s.got)))
+
+    def test_direct_path_in_order(self):
+        pub = self.publisher("direct")
+        s = self.subscriber(PATH_DIRECT | PATH_SHM)  # the owner serves direct only
+        self.onPath(pub, s)
+        before = s.pathStats()["path_messages"]
+        s.got = []
+        pub.do("pub 300 3000", "^published", [s])
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in s.got), (len(s.got), s.pathStats()))
+        self.assertEqual(s.got, list(range(last - 299, last + 1)), "all, in order, once")
+        self.assertEqual(s.pathStats()["path_messages"], before + 300)
+        pub.do("stats", "^stats", [s])
+        self.assertIn("served_direct=1", pub.lines[-1])
+
+    def fallback(self, kinds, kind):
+        pub = self.publisher(kinds)
+        s = self.subscriber(kind)
+        self.onPath(pub, s)
+        s.got = []
+        first = int(pub.lines[-1].split()[1]) + 1
+        # Numbered messages; the owner breaks every path in the middle: relayed again, asked
+        # again after the backoff, by the path again.
+        pub.do("pub 100 64", "^published", [s])
+        tickFor([s], 0.05)
+        pub.do("reset", "^reset", [s])
+        for _ in range(10):
+            pub.do("pub 20 64", "^published", [s])
+            tickFor([s], 0.02)
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in s.got), (len(s.got), s.pathStats()))
+        got = s.got[:]
+        self.assertEqual(got, sorted(set(got)), "in order, none twice")
+        self.assertTrue(set(got) <= set(range(first, last + 1)))
+        if kind == PATH_DIRECT:
+            self.assertGreaterEqual(len(got), 290, "a switch loses at most a few")
+        st = s.pathStats()
+        self.assertGreaterEqual(st["fallbacks"], 1)
+        # Asked again: the path comes back.
+        paths = st["path_messages"]
+        ok = pump([s], lambda: (pub.do("pub 1 64", "^published", [s]) or True) and
+                  s.pathStats()["path_messages"] > paths, LONG)
+        self.assertTrue(ok, s.pathStats())
+        self.assertEqual(s.got, sorted(set(s.got)), "in order, none twice")
+
+    def test_fallback_without_duplicates_direct(self):
+        self.fallback("direct", PATH_DIRECT)
+
+    def test_fallback_without_duplicates_shm(self):
+        self.fallback("shm", PATH_SHM)
+
+    def test_slow_reader_gets_the_newest(self):
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+
+        def slow(chan, data):
+            s.got.append(number(data))
+            time.sleep(0.02)
+        s.setGrabDataCallBack(slow)
+        s.got = []
+        before = s.pathStats()
+        pub.send("pub 200 64")   # all at once: the owner never waits for the reader
+        self.assertTrue(pump([s], lambda: pub.count("^published") >= 2 and
+                             int(pub.lines[-1].split()[1]) in s.got), (s.got, pub.output()))
+        last = int(pub.lines[-1].split()[1])
+        got = s.got[:]
+        self.assertEqual(got, sorted(set(got)))
+        self.assertTrue(set(got) <= set(range(last - 199, last + 1)))
+        self.assertLess(len(got), 200, "a busy reader skips to the newest")
+        st = s.pathStats()
+        self.assertGreaterEqual(st["missed"] - before["missed"], 200 - len(got))
+        self.assertEqual((st["torn"], st["fallbacks"]), (0, 0))
+
+    def deadOwner(self, kinds, kind):
+        pub = self.publisher(kinds)
+        s = self.subscriber(kind)
+        removed = []
+        s.setDelChanCallBack(lambda ch: removed.append(ch.name))
+        self.onPath(pub, s)
+        pub.send("slow 100000 4000")   # a message per loop, at 200 Hz
+        paths = s.pathStats()["path_messages"]
+        self.assertTrue(pump([s], lambda: s.pathStats()["path_messages"] > paths + 20))
+        pub.kill(signal.SIGKILL)       # while its reader reads
+        self.assertTrue(pump([s], lambda: "guest.frames" in removed), s.pathStats())
+        tickFor([s], 1.0)
+        self.assertTrue(s.isOnline())
+        self.assertEqual(s.got, sorted(set(s.got)))
+        # A new owner of the same channel: subscribed again by name, and by a path again.
+        pub2 = self.publisher(kinds)
+        self.assertTrue(pump([s], lambda: pub2.count("^subscribed") > 0), pub2.output())
+        s.got = []
+        self.onPath(pub2, s)
+        self.assertTrue(s.got)
+
+    def test_owner_killed_while_reading_shm(self):
+        self.deadOwner("shm", PATH_SHM)
+
+    def test_owner_killed_while_reading_direct(self):
+        self.deadOwner("direct", PATH_DIRECT)
+
+    def test_a_path_that_cannot_be_had_stays_relayed(self):
+        pub = self.publisher("direct")  # shared memory asked, direct offered
+        s = self.subscriber(PATH_SHM)
+        self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
+        for _ in range(20):
+            pub.do("pub 1 64", "^published", [s])
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in s.got))
+        self.assertEqual(s.got, list(range(last - len(s.got) + 1, last + 1)))
+        self.assertGreaterEqual(len(s.got), 20)
+        st = s.pathStats()
+        self.assertEqual((st["path_messages"], st["fallbacks"]), (0, 0))
+
+    def test_a_hub_of_1_6_relays(self):
+        import PySketch.abstractflow as af
+        old = af.PROTOCOL_MINOR
+        af.PROTOCOL_MINOR = 6   # this flow says 1.6: the connection's minor is 6
+        try:
+            pub = self.publisher("both")
+            s = self.subscriber(PATH_SHM | PATH_DIRECT)
+        finally:
+            af.PROTOCOL_MINOR = old
+        self.assertEqual(s.hubMinor, 6)
+        self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
+        for _ in range(10):
+            pub.do("pub 1 64", "^published", [s])
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in s.got))
+        self.assertEqual(s.pathStats()["path_messages"], 0)
+        pub.do("stats", "^stats", [s])
+        self.assertIn("served_shm=0 served_direct=0", pub.lines[-1])
+
+
+class PathsUnderPython2(HubTestCase):
+    @unittest.skipUnless(PY2 or not PATHS, "Python 2.7 only (run_py27.sh)")
+    def test_use_paths_is_accepted_and_relayed(self):
+        pub = Publisher(self.hub, "both")
+        self.addCleanup(pub.close)
+        s = self.connected()
+        got = []
+        s.setGrabDataCallBack(lambda chan, data: got.append(number(data)))
+        self.assertFalse(s.usePaths("guest.frames", PATH_SHM | PATH_DIRECT))
+        s.subscribeChannel("guest.frames")
+        self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
+        for _ in range(10):
+            pub.do("pub 1 64", "^published", [s])
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in got))
+        self.assertEqual(s.pathStats()["path_messages"], 0)
+
+
+# --- without a hub: rings and owners made here ----------------------------------------------------
+
+PAGE = 4096
+
+
+def makeRing(slots=4, slotBytes=8192, seal=True, header=None, size=None):
+    """A ring as shm_ring.cpp's writer makes it: (writable mmap, ring fd read-only, lease fd,
+    eventfd, lease mmap)."""
+    import fcntl
+    import mmap
+    stride = (64 + slotBytes + PAGE - 1) // PAGE * PAGE
+    total = size if size is not None else PAGE + slots * stride
+    fd = os.memfd_create("test-ring", os.MFD_ALLOW_SEALING)
+    os.ftruncate(fd, total)
+    m = mmap.mmap(fd, total)
+    struct.pack_into("=IHHIIQQq", m, 0, *(header or (0x47524B53, 1, PAGE, slots, 4, slotBytes,
+                                                     stride, 2000000000)))
+    lease = os.memfd_create("test-lease", os.MFD_ALLOW_SEALING)
+    os.ftruncate(lease, PAGE)
+    if seal:
+        fcntl.fcntl(fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW)
+    fcntl.fcntl(lease, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW)
+    ro = os.open("/proc/self/fd/%d" % fd, os.O_RDONLY)
+    os.close(fd)
+    lm = mmap.mmap(lease, PAGE)
+    ev = os.eventfd(0, os.EFD_NONBLOCK)
+    return m, ro, lease, ev, lm, stride
+
+
+def commit(m, stride, slot, seq, payload):
+    head = PAGE + slot * stride
+    struct.pack_into("=Q", m, head, 2 * seq + 1)
+    m[head + 64:head + 64 + len(payload)] = payload
+    struct.pack_into("=QQq", m, head, 2 * seq, len(payload), 0)
+    struct.pack_into("=Q", m, 64, (seq << 16) | slot)
+
+
+class FakeFlow(object):
+    """What Paths needs of a FlowSat."""
+
+    def __init__(self):
+        self.sent = []
+        self.got = []
+        self.views = []
+        self._tag = 0
+        self._onGrab = lambda chan, data: self.got.append(data)
+        self._onGrabView = None
+
+    def _nextTag(self):
+        self._tag += 1
+        return self._tag
+
+    def _send(self, data):
+        self.sent.append(bytes(data))
+        return True
+
+    def _call(self, kind, f, *args):
+        return f(*args)
+
+    def _deliverData(self, chan, data):
+        self._onGrab(chan, data)
+
+    def codes(self):
+        return [(b[4], b[5:]) for b in self.sent]
+
+
+@unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
+class RingReaderAlone(unittest.TestCase):
+    def setUp(self):
+        from PySketch import flowpaths
+        self.fp = flowpaths
+
+    def test_reads_the_newest_in_place_and_counts_what_it_missed(self):
+        m, ro, lease, ev, lm, stride = makeRing()
+        commit(m, stride, 0, 1, b"before")  # before the reader came: not missed
+        r = self.fp.RingReader.open(ro, lease, ev)
+        self.addCleanup(r.close)
+        self.assertIsNone(r.claim())
+        for seq in range(2, 6):
+            commit(m, stride, seq % 4, seq, b"m%d" % seq)
+        c = r.claim()
+        self.assertEqual(bytes(r.view(c)), b"m5")
+        self.assertEqual(struct.unpack_from("=Q", lm, 0)[0], 5 % 4 + 1, "the slot is leased")
+        self.assertTrue(r.release(c))
+        self.assertEqual(struct.unpack_from("=Q", lm, 0)[0], 0)
+        self.assertEqual((r.received, r.missed, r.torn), (1, 3, 0))
+        self.assertGreater(struct.unpack_from("=q", lm, 8)[0], 0, "a heartbeat")
+
+    def test_a_slot_rewritten_during_the_read_is_torn(self):
+        m, ro, lease, ev, lm, stride = makeRing()
+        r = self.fp.RingReader.open(ro, lease, ev)
+        self.addCleanup(r.close)
+        commit(m, stride, 1, 1, b"first")
+        c = r.claim()
+        commit(m, stride, 1, 2, b"other")  # a writer that ignores the lease
+        self.assertFalse(r.release(c))
+        self.assertEqual(r.torn, 1)
+
+    def test_refuses_rings_that_do_not_add_up(self):
+        cases = {
+            "not sealed": dict(seal=False),
+            "bad magic": dict(header=(0x1234, 1, PAGE, 4, 4, 8192, 3 * PAGE, 1)),
+            "size mismatch": dict(size=PAGE + 4 * 3 * PAGE + PAGE),
+            "stride": dict(header=(0x47524B53, 1, PAGE, 4, 4, 8192, 4 * PAGE, 1)),
+            "huge slots": dict(header=(0x47524B53, 1, PAGE, 1 << 20, 4, 8192, 3 * PAGE, 1)),
+        }
+        for what, kw in cases.items():
+            m, ro, lease, ev, lm, stride = makeRing(**kw)
+            before = len(os.listdir("/proc/self/fd"))
+            with self.assertRaises(self.fp.RingRefused, msg=what):
+                self.fp.RingReader.open(ro, lease, ev)
+            self.assertEqual(len(os.listdir("/proc/self/fd")), before - 3, "all three closed")
+        # Not a memfd at all.
+        with tempfile.TemporaryFile() as f:
+            f.truncate(2 * PAGE)
+            m, ro, lease, ev, lm, stride = makeRing()
+            with self.assertRaises(self.fp.RingRefused):
+                self.fp.RingReader.open(os.dup(f.fileno()), lease, ev)
+            os.close(ro)
+
+    def test_a_malicious_owner_cannot_make_it_read_outside(self):
+        m, ro, lease, ev, lm, stride = makeRing()
+        r = self.fp.RingReader.open(ro, lease, ev)
+        self.addCleanup(r.close)
+        struct.pack_into("=Q", m, 64, (7 << 16) | 4000)      # a slot index outside the ring
+        self.assertIs(r.claim(), False)
+        head = PAGE + 2 * stride
+        struct.pack_into("=QQq", m, head, 16, 1 << 40, 0)      # a length beyond the slot
+        struct.pack_into("=Q", m, 64, (8 << 16) | 2)
+        self.assertIs(r.claim(), False)
+        self.assertEqual(r.torn, 2)
+
+
+@unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
+class PathsWithAFakeOwner(unittest.TestCase):
+    """Paths against an owner written here: the framing, the marker rule, fallback."""
+
+    def setUp(self):
+        from PySketch import flowpaths
+        self.fp = flowpaths
+        self.dir = tempfile.mkdtemp(prefix="pypaths-")
+        self.where = os.path.join(self.dir, "owner")
+        self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.listener.bind(self.where)
+        self.listener.listen(4)
+        self.flow = FakeFlow()
+        self.paths = flowpaths.Paths(self.flow)
+        self.addCleanup(self.cleanup)
+
+    def cleanup(self):
+        self.paths.reset()
+        self.listener.close()
+        os.unlink(self.where)
+        os.rmdir(self.dir)
+
+    def open(self, kind=PATH_DIRECT, fds=None):
+        """Asks, is granted, connects; the owner answers WELCOME. Returns the owner's socket."""
+        self.paths.want("guest.frames", kind)
+        self.paths.onSubscribed("guest.frames", 5)
+        code, body = self.flow.codes()[-1]
+        self.assertEqual(code, 0xF1)
+        tag = struct.unpack_from("<I", body)[0]
+        self.paths.onPath(tag, 5, kind, "unix:" + self.where, "0" * 32)
+        owner, _ = self.listener.accept()
+        hello = owner.recv(4096)
+        self.assertEqual(hello[4], 1)
+        welcome = struct.pack("<IBHH", 5, 2, 0, 0)
+        if fds:
+            owner.sendmsg([welcome], [(socket.SOL_SOCKET, socket.SCM_RIGHTS,
+                                       struct.pack("=%di" % len(fds), *fds))])
+        else:
+            owner.sendall(welcome)
+        self.step()
+        return owner
+
+    def step(self):
+        import select
+        fds = self.paths.fds()
+        if fds:
+            r, _, _ = select.select(fds, [], [], 2.0)
+            self.paths.ready(r)
+
+    def data(self, seq, payload):
+        return struct.pack("<IBQq", 1 + 16 + len(payload), 3, seq, 0) + payload
+
+    def states(self):
+        return [body for code, body in self.flow.codes() if code == 0xF2]
+
+    def test_before_the_marker_nothing_is_delivered(self):
+        owner = self.open()
+        self.assertEqual(self.states(), [struct.pack("<HB", 5, 1)])
+        owner.sendall(self.data(1, b"early"))   # may have been relayed too
+        self.step()
+        self.assertEqual(self.flow.got, [])
+        owner.sendall(self.data(2, b"in flight"))
+        self.paths.onRelay(5, 0)                  # the marker: what is already there is dropped
+        owner.sendall(self.data(3, b"ours"))
+        self.step()
+        self.assertEqual(self.flow.got, [b"ours"])
+        self.assertEqual(self.paths.stats()["dropped_before_marker"], 2)
+        owner.close()
+
+    def test_a_stale_marker_does_not_open_the_next_path(self):
+        owner = self.open()
+        owner.close()                           # breaks before its marker came
+        self.step()
+        self.assertEqual(self.paths.stats()["fallbacks"], 1)
+        self.paths.onRelay(5, 0)                # the marker of the broken path, late
+        self.paths._paths[5].retryAt = 0.001    # ask again now
+        self.paths._lastTick = 0
+        self.paths.tick()
+        code, body = self.flow.codes()[-1]
+        tag = struct.unpack_from("<I", body)[0]
+        self.paths.onPath(tag, 5, PATH_DIRECT, "unix:" + self.where, "1" * 32)
+        owner, _ = self.listener.accept()
+        owner.recv(4096)
+        owner.sendall(struct.pack("<IBHH", 5, 2, 0, 0) + self.data(1, b"relayed too"))
+        self.step()
+        self.step() if not self.paths._paths[5].open else None
+        self.assertEqual(self.flow.got, [], "its marker has not come: it may be a duplicate")
+        self.paths.onRelay(5, 0)
+        owner.sendall(self.data(2, b"ours"))
+        self.step()
+        self.assertEqual(self.flow.got, [b"ours"])
+        owner.close()
+
+    def test_breaks_fall_back_to_the_relay(self):
+        breaks = {
+            "over-long frame": struct.pack("<IB", 0xFFFFFFF0, 3),
+            "zero length": struct.pack("<I", 0),
+            "unknown frame": struct.pack("<IB", 1, 9),
+            "short data": struct.pack("<IBQ", 9, 3, 1),
+            "bye": struct.pack("<IBH", 3, 4, 0),
+        }
+        for n, (what, frame) in enumerate(sorted(breaks.items())):
+            owner = self.open()
+            self.paths.onRelay(5, 0)
+            owner.sendall(self.data(1, b"fine") + frame)
+            self.step()
+            self.assertEqual(self.paths.stats()["fallbacks"], n + 1, what)
+            self.assertEqual(self.states()[-1], struct.pack("<HB", 5, 0), what)
+            self.assertEqual(self.paths.fds(), [], what)
+            owner.close()
+            self.paths.onUnsubscribed(5)
+        self.assertEqual(self.flow.got, [b"fine"] * len(breaks))
+
+    def test_a_refused_welcome_and_a_refused_ring_fall_back(self):
+        self.paths.want("guest.frames", PATH_SHM)
+        # WELCOME with an error.
+        self.paths.onSubscribed("guest.frames", 5)
+        tag = struct.unpack_from("<I", self.flow.codes()[-1][1])[0]
+        self.paths.onPath(tag, 5, PATH_SHM, "unix:" + self.where, "0" * 32)
+        owner, _ = self.listener.accept()
+        owner.recv(4096)
+        owner.sendall(struct.pack("<IBHH", 9, 2, 7, 4) + b"nope")
+        self.step()
+        self.assertEqual(self.paths.stats()["fallbacks"], 1)
+        self.assertEqual(self.states(), [], "never open: no PHYS_STATE")
+        owner.close()
+        # A ring that is not sealed: refused, its descriptors closed.
+        m, ro, lease, ev, lm, stride = makeRing(seal=False)
+        before = len(os.listdir("/proc/self/fd"))
+        owner = self.open(PATH_SHM, [ro, lease, ev])
+        for fd in (ro, lease, ev):
+            os.close(fd)
+        owner.close()
+        self.assertEqual(self.paths.stats()["fallbacks"], 2)
+        self.assertEqual(len(os.listdir("/proc/self/fd")), before - 3, "nothing leaked")
+
+    def test_a_torn_read_is_not_delivered(self):
+        m, ro, lease, ev, lm, stride = makeRing()
+        owner = self.open(PATH_SHM, [ro, lease, ev])
+        for fd in (ro, lease, ev):
+            os.close(fd)
+        self.paths.onRelay(5, 0)
+        views = []
+
+        def rewrite(chan, view):   # a writer that ignores the lease, during the read
+            views.append(bytes(view))
+            commit(m, stride, 1, 2, b"XXXXX")
+        self.flow._onGrabView = rewrite
+        commit(m, stride, 1, 1, b"hello")
+        os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
+        self.step()
+        self.assertEqual(views, [b"hello"])
+        self.assertEqual(self.flow.got, [], "a torn read never reaches the bytes callback")
+        st = self.paths.stats()
+        self.assertEqual((st["torn"], st["path_messages"]), (1, 0))
+        self.flow._onGrabView = None
+        commit(m, stride, 2, 3, b"good")
+        os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
+        self.step()
+        self.assertEqual(self.flow.got, [b"good"])
+        owner.close()
+
+
+if __name__ == "__main__":
+    unittest.main()

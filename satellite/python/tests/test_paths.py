@@ -608,14 +608,19 @@ class PathsWithAFakeOwner(unittest.TestCase):
         owner = self.open(PATH_SHM, [ro, lease, ev])
         for fd in (ro, lease, ev):
             os.close(fd)
+        commit(m, stride, 0, 1, b"early")   # before the marker: may have been relayed too
+        os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
+        self.step()
+        self.assertEqual(self.flow.got, [])
+        self.assertEqual(self.paths.stats()["dropped_before_marker"], 1)
         self.paths.onRelay(5, 0)
         views = []
 
         def rewrite(chan, view):   # a writer that ignores the lease, during the read
             views.append(bytes(view))
-            commit(m, stride, 1, 2, b"XXXXX")
+            commit(m, stride, 1, 3, b"XXXXX")
         self.flow._onGrabView = rewrite
-        commit(m, stride, 1, 1, b"hello")
+        commit(m, stride, 1, 2, b"hello")
         os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
         self.step()
         self.assertEqual(views, [b"hello"])
@@ -623,7 +628,7 @@ class PathsWithAFakeOwner(unittest.TestCase):
         st = self.paths.stats()
         self.assertEqual((st["torn"], st["path_messages"]), (1, 0))
         self.flow._onGrabView = None
-        commit(m, stride, 2, 3, b"good")
+        commit(m, stride, 2, 4, b"good")
         os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
         self.step()
         self.assertEqual(self.flow.got, [b"good"])

@@ -14,6 +14,8 @@
 //   zc N SIZE      the same, each filled in a shared-memory slot in place (beginPublish)
 //                                                  -> "published <last number>" or "zc-failed"
 //   slow N SIZE    N messages, one per loop (RATE_HZ), then         -> "published <last number>"
+//   ts N SIZE      N messages, one per loop, whose bytes 8-15 are CLOCK_MONOTONIC in ns when
+//                  published (for one-way latency on this machine)  -> "published <last number>"
 //   reset          closes every path as broken (resetPaths)         -> "reset"
 //   stats          -> "stats served_shm=<n> served_direct=<n>"
 //   quit           exits 0
@@ -63,7 +65,7 @@ class Publisher : public skr::sat::Sketch {
   void loop() override {
     readCommands();
     if (slow_left_ > 0) {
-      publishOne(slow_size_);
+      publishOne(slow_size_, stamp_);
       if (--slow_left_ == 0) say("published " + std::to_string(number_));
     }
   }
@@ -80,9 +82,13 @@ class Publisher : public skr::sat::Sketch {
   }
 
  private:
-  void publishOne(size_t size) {
+  void publishOne(size_t size, bool stamp = false) {
     std::string payload(size, '\0');
     fill(payload.data(), payload.size(), ++number_);
+    if (stamp && size >= 16) {
+      const int64_t t = skr::monotonicNs();
+      std::memcpy(payload.data() + 8, &t, sizeof t);
+    }
     (void)satellite().publish(channel_, payload);
   }
   void command(const std::string& line) {
@@ -105,9 +111,10 @@ class Publisher : public skr::sat::Sketch {
         }
       }
       say("published " + std::to_string(number_));
-    } else if (what == "slow") {
+    } else if (what == "slow" || what == "ts") {
       slow_left_ = n;
       slow_size_ = size;
+      stamp_ = what == "ts";
     } else if (what == "reset") {
       satellite().resetPaths();
       say("reset");
@@ -141,6 +148,7 @@ class Publisher : public skr::sat::Sketch {
   uint64_t number_ = 0;
   long slow_left_ = 0;
   size_t slow_size_ = 64;
+  bool stamp_ = false;
   std::string pending_;
 };
 

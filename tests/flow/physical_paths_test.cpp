@@ -1,4 +1,4 @@
-// Physical mode through the hub (protocol 1.7): offers, grants with one-time tokens, the relay
+// Physical mode through the hub (protocol 1.7, two endpoints 1.8): offers, grants with one-time tokens, the relay
 // skipped for a subscriber whose path works and resumed when it breaks, revocation when a
 // subscriber leaves, counts in the statistics, and refusals.
 #include "flow_fixture.h"
@@ -27,7 +27,8 @@ class PhysicalPaths : public FlowFixture {
     ASSERT_TRUE(c.send(msg::Subscribe{1, id}));
     settle(c);
   }
-  // Owner and subscriber with an offer of both kinds on a unix: endpoint; the subscriber follows.
+  // Owner and subscriber with an offer of both kinds on a unix: endpoint (and a tcp: one, for
+  // direct paths to other machines); the subscriber follows.
   struct Pair {
     TestClient owner, sub;
     uint16_t id = 0;
@@ -35,8 +36,8 @@ class PhysicalPaths : public FlowFixture {
   Pair offered() {
     Pair p{flowClient(), flowClient(), 0};
     p.id = addChannel(p.owner, "camera");
-    EXPECT_TRUE(p.owner.send(
-        msg::PhysOffer{2, p.id, msg::kPhysDirect | msg::kPhysShm, "unix:/tmp/skrobot-path-x"}));
+    EXPECT_TRUE(p.owner.send(msg::PhysOffer{2, p.id, msg::kPhysDirect | msg::kPhysShm,
+                                            "unix:/tmp/skrobot-path-x tcp:127.0.0.1:9"}));
     settle(p.owner);
     subscribe(p.sub, p.id);
     return p;
@@ -64,6 +65,7 @@ TEST_F(PhysicalPaths, AGrantGoesToBothEndsWithOneToken) {
   auto again = as<msg::EvPhysPath>(p.sub.waitFor(Code::ev_phys_path));
   ASSERT_TRUE(again);
   EXPECT_EQ(again->path, msg::kPhysDirect);
+  EXPECT_EQ(again->endpoint, "unix:/tmp/skrobot-path-x") << "on this machine: its Unix socket";
   EXPECT_NE(again->token, path->token);
   auto revoked = as<msg::EvPhysRevoke>(p.owner.waitFor(Code::ev_phys_revoke));
   ASSERT_TRUE(revoked);
@@ -160,6 +162,12 @@ TEST_F(PhysicalPaths, Refusals) {
   EXPECT_EQ(error(owner), uint16_t(ErrorCode::invalid_argument));
   ASSERT_TRUE(owner.send(msg::PhysOffer{1, id, 0x80, "unix:/tmp/x"}));
   EXPECT_EQ(error(owner), uint16_t(ErrorCode::invalid_argument));
+  // Two endpoints (1.8): one of each kind, separated by one space.
+  for (const char* bad : {"unix:/tmp/x unix:/tmp/y", "tcp:127.0.0.1:9 tcp:127.0.0.1:8",
+                          "unix:/tmp/x  tcp:127.0.0.1:9", "unix:/tmp/x tcp:", "unix:/tmp/x "}) {
+    ASSERT_TRUE(owner.send(msg::PhysOffer{1, id, msg::kPhysDirect, bad}));
+    EXPECT_EQ(error(owner), uint16_t(ErrorCode::invalid_argument)) << bad;
+  }
   // No offer yet; not subscribed.
   subscribe(other, id);
   ASSERT_TRUE(other.send(msg::PhysRequest{2, id, msg::kPhysDirect}));

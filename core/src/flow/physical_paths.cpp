@@ -43,19 +43,31 @@ Result<void> PhysicalPaths::offer(Endpoint& e, const msg::PhysOffer& m) {
   if ((m.paths & ~(msg::kPhysDirect | msg::kPhysShm)) != 0) {
     return makeError(Errc::invalid_argument, "unknown path kinds in PHYS_OFFER");
   }
-  const bool unix_ep = startsWith(m.endpoint, "unix:") && m.endpoint.size() > 5;
-  const bool tcp_ep = startsWith(m.endpoint, "tcp:") && m.endpoint.size() > 4;
-  if (!unix_ep && !tcp_ep) {
-    return makeError(Errc::invalid_argument,
-                     "a path endpoint is unix:<path> or tcp:<host>:<port>, not '" +
-                         m.endpoint.substr(0, 64) + "'");
+  // One endpoint, or (1.8) a unix: and a tcp: endpoint separated by a space.
+  std::string unix_ep, tcp_ep;
+  for (size_t at = 0; at <= m.endpoint.size();) {
+    size_t end = m.endpoint.find(' ', at);
+    if (end == std::string::npos) end = m.endpoint.size();
+    const std::string one = m.endpoint.substr(at, end - at);
+    std::string& slot = startsWith(one, "unix:") ? unix_ep : tcp_ep;
+    const size_t scheme = startsWith(one, "unix:") ? 5 : 4;
+    if ((!startsWith(one, "unix:") && !startsWith(one, "tcp:")) || one.size() <= scheme ||
+        !slot.empty()) {
+      return makeError(Errc::invalid_argument,
+                       "a path endpoint is unix:<path> or tcp:<host>:<port>, or one of each "
+                       "separated by a space (1.8), not '" +
+                           m.endpoint.substr(0, 64) + "'");
+    }
+    slot = one;
+    at = end + 1;
   }
-  if ((m.paths & msg::kPhysShm) != 0 && !unix_ep) {
+  if ((m.paths & msg::kPhysShm) != 0 && unix_ep.empty()) {
     return makeError(Errc::invalid_argument, "shared memory is offered on a unix: endpoint only");
   }
   Offer& o = offers_[m.chan_id];
   o.paths = m.paths;
-  o.endpoint = m.endpoint;
+  o.unix_endpoint = unix_ep;
+  o.tcp_endpoint = tcp_ep;
   log::info(kLogSource, "PHYS-OFFER",
             ch.name + ": " + ((m.paths & msg::kPhysShm) ? "shared memory " : "") +
                 ((m.paths & msg::kPhysDirect) ? "direct " : "") + "at " + m.endpoint);
@@ -78,12 +90,16 @@ Result<void> PhysicalPaths::request(Endpoint& e, const msg::PhysRequest& m, bool
     return makeError(Errc::not_found, "the owner of " + ch.name + " offers no path");
   }
   Offer& o = it->second;
-  const bool owner_local = startsWith(o.endpoint, "unix:");
+  // Shared memory and unix: endpoints need both ends on this machine (the subscriber on the
+  // hub's Unix socket); a tcp: endpoint serves direct paths from anywhere.
   uint8_t path = 0;
-  if ((m.paths & o.paths & msg::kPhysShm) != 0 && local && owner_local) {
-    path = msg::kPhysShm;
-  } else if ((m.paths & o.paths & msg::kPhysDirect) != 0 && (!owner_local || local)) {
-    path = msg::kPhysDirect;
+  const std::string* endpoint = nullptr;
+  if ((m.paths & o.paths & msg::kPhysShm) != 0 && local && !o.unix_endpoint.empty()) {
+    path = msg::kPhysShm, endpoint = &o.unix_endpoint;
+  } else if ((m.paths & o.paths & msg::kPhysDirect) != 0 && local && !o.unix_endpoint.empty()) {
+    path = msg::kPhysDirect, endpoint = &o.unix_endpoint;
+  } else if ((m.paths & o.paths & msg::kPhysDirect) != 0 && !o.tcp_endpoint.empty()) {
+    path = msg::kPhysDirect, endpoint = &o.tcp_endpoint;
   } else {
     return makeError(Errc::unsupported, "no path to " + ch.name +
                                             " suits both ends (shared memory and unix: "
@@ -94,7 +110,7 @@ Result<void> PhysicalPaths::request(Endpoint& e, const msg::PhysRequest& m, bool
   const std::string token = newToken();
   o.grants[e.id] = Grant{path, false};
   ch.owner->onPhysical(msg::EvPhysGrant{ch.id, e.id, e.user + "/" + e.client_name, path, token});
-  e.onPhysical(msg::EvPhysPath{m.tag, ch.id, path, o.endpoint, token});
+  e.onPhysical(msg::EvPhysPath{m.tag, ch.id, path, *endpoint, token});
   log::info(kLogSource, "PHYS-GRANT",
             ch.name + " to " + e.user + "/" + e.client_name + " (flow " + std::to_string(e.id) +
                 "): " + (path == msg::kPhysShm ? "shared memory" : "direct"));

@@ -52,9 +52,9 @@ class PhysicalPaths {
   };
   struct Offer {
     uint8_t paths = 0;
-    std::string endpoint;
-    bool relay_needed = true;          // as last told to the owner
-    std::map<uint32_t, Grant> grants;  // by subscriber endpoint id
+    std::string unix_endpoint, tcp_endpoint;  // "unix:<path>", "tcp:<host>:<port>"; one may be ""
+    bool relay_needed = true;                 // as last told to the owner
+    std::map<uint32_t, Grant> grants;         // by subscriber endpoint id
   };
 
   void revoke(Offer& o, Channel& ch, uint32_t subscriber, bool tell_owner);

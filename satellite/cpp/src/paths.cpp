@@ -17,6 +17,8 @@ Paths::~Paths() {
   closePoll(listen_poll_);
   closeFd(listen_fd_);
   if (!listen_path_.empty()) ::unlink(listen_path_.c_str());
+  closePoll(tcp_poll_);
+  closeFd(tcp_fd_);
 }
 
 // --- both ---------------------------------------------------------------------------------------
@@ -40,10 +42,13 @@ void Paths::tick() {
     s->unrelayed_messages = s->unrelayed_bytes = 0;
   }
   std::erase_if(grants_, [&](const auto& g) { return g.second.expires < now; });
+  std::vector<uint16_t> late;
   for (auto& [id, p] : paths_) {
     if (p->reader) p->reader->heartbeat();
+    if (p->connecting_until != 0 && p->connecting_until <= now) late.push_back(id);
     if (!p->open && p->tag == 0 && p->retry_at != 0 && p->retry_at <= now) request(*p);
   }
+  for (uint16_t id : late) failPath(id, "the owner's TCP endpoint does not answer");
 }
 
 void Paths::reset() {

@@ -39,6 +39,9 @@ class Paths {
     std::function<void(const flow::msg::PhysCount&)> count;
     std::function<uint32_t()> next_tag;
     std::function<void(uint16_t chan_id, std::string_view payload)> deliver;
+    std::function<uint16_t()> hub_minor;  // the flow's protocol minor
+    // "<IPv4>:<port>" to serve direct paths to other machines on too (port 0: any); "": none.
+    std::string tcp_listen;
   };
   explicit Paths(Host host);
   ~Paths();
@@ -91,12 +94,14 @@ class Paths {
 
  private:
   void ensureListener();
+  void ensureTcpListener();
   bool sendDirect(Served& sv, std::string_view payload, int64_t capture_ns);
-  void onAccept();
+  void onAccept(int listen_fd, bool tcp);
   void onPeer(Peer& p, int events);
   void welcome(Peer& p, std::string_view body);
   void closePeer(int fd, const std::string& why);
   void connectPath(Path& p, const std::string& endpoint);
+  bool sendHello(Path& p);  // false: the path failed
   void onPathSocket(Path& p, int events);
   void onPathEvent(Path& p);
   void pathFrames(Path& p);
@@ -107,7 +112,10 @@ class Paths {
   int listen_fd_ = -1;
   uv_poll_t* listen_poll_ = nullptr;
   std::string listen_path_;
-  std::map<uint16_t, std::unique_ptr<Served>> served_;       // by channel id
+  int tcp_fd_ = -1;
+  uv_poll_t* tcp_poll_ = nullptr;
+  std::string tcp_endpoint_;                            // "tcp:<address>:<port>" once listening
+  std::map<uint16_t, std::unique_ptr<Served>> served_;  // by channel id
   std::map<std::string, flow::shm::RingWriter> idle_rings_;  // channels not created now
   struct Grant {
     uint16_t chan_id = 0;

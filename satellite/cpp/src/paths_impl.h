@@ -25,6 +25,7 @@ inline constexpr const char* kLogSource = "satellite";
 inline constexpr uint32_t kMaxDataFrame = flow::path::kMaxDataBytes + 32;
 inline constexpr size_t kMaxPeerQueue = 16u << 20;  // a direct subscriber's backlog; beyond: drops
 inline constexpr Nanos kRetryMinNs = kNsPerSec, kRetryMaxNs = 30 * kNsPerSec;
+inline constexpr Nanos kConnectTimeoutNs = 5 * kNsPerSec;  // a TCP path's connect
 // When to ask again for a path after `failures` (from 1) in a row: 1 s, doubling to 30 s.
 inline Nanos retryAt(int failures) {
   return monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::clamp(failures - 1, 0, 5));
@@ -120,6 +121,7 @@ struct Paths::Peer {
   uint16_t chan_id = 0;
   uint32_t subscriber = 0;
   uint32_t lease = 0;
+  bool tcp = false;  // came through the TCP listener: direct paths only
   Nanos opened = 0;
   uint64_t dropped = 0;
 };
@@ -135,7 +137,9 @@ struct Paths::Path {
   uv_poll_t* event_poll = nullptr;
   std::optional<flow::shm::RingReader> reader;
   paths_io::InBuffer in;
-  bool open = false;    // WELCOME came
+  bool open = false;           // WELCOME came
+  Nanos connecting_until = 0;  // a TCP connect in progress (HELLO waits in `hello`) until then
+  std::string hello;
   bool marker = false;  // the hub relays no more: what comes on the path is ours
   Nanos retry_at = 0;   // 0: not waiting to ask again
   int failures = 0;

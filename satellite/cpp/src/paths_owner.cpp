@@ -4,6 +4,9 @@
 #include <skrobot/flow/fd_passing.h>
 #include <skrobot/satellite/satellite.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/stat.h>
 #include <sys/un.h>
 
@@ -38,8 +41,51 @@ void Paths::ensureListener() {
   ::chmod(listen_path_.c_str(), 0666);
   listen_fd_ = fd;
   listen_poll_ = newPoll(host_.loop, fd, this);
-  uv_poll_start(listen_poll_, UV_READABLE,
-                [](uv_poll_t* h, int, int) { static_cast<Paths*>(h->data)->onAccept(); });
+  uv_poll_start(listen_poll_, UV_READABLE, [](uv_poll_t* h, int, int) {
+    auto* self = static_cast<Paths*>(h->data);
+    self->onAccept(self->listen_fd_, false);
+  });
+}
+
+void Paths::ensureTcpListener() {
+  if (tcp_fd_ >= 0 || host_.tcp_listen.empty()) return;
+  const std::string& where = host_.tcp_listen;
+  const auto colon = where.rfind(':');
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  const std::string address = where.substr(0, colon == std::string::npos ? 0 : colon);
+  const int port = colon == std::string::npos ? -1 : std::atoi(where.c_str() + colon + 1);
+  // Subscribers connect to what we offer: a wildcard address would tell them nothing.
+  if (port < 0 || port > 65535 || ::inet_pton(AF_INET, address.c_str(), &a.sin_addr) != 1 ||
+      a.sin_addr.s_addr == htonl(INADDR_ANY)) {
+    log::warn(kLogSource, "SAT-PATH",
+              "path_tcp '" + where +
+                  "' is not <IPv4 address others reach>:<port>; no direct paths over TCP");
+    host_.tcp_listen.clear();
+    return;
+  }
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  int one = 1;
+  if (fd >= 0) ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  socklen_t len = sizeof a;
+  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
+      ::listen(fd, 64) != 0 || ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
+    log::warn(
+        kLogSource, "SAT-PATH",
+        "cannot listen at " + where + ": " + std::strerror(errno) + "; no direct paths over TCP");
+    closeFd(fd);
+    host_.tcp_listen.clear();
+    return;
+  }
+  tcp_fd_ = fd;
+  tcp_endpoint_ = "tcp:" + address + ":" + std::to_string(ntohs(a.sin_port));
+  tcp_poll_ = newPoll(host_.loop, fd, this);
+  uv_poll_start(tcp_poll_, UV_READABLE, [](uv_poll_t* h, int, int) {
+    auto* self = static_cast<Paths*>(h->data);
+    self->onAccept(self->tcp_fd_, true);
+  });
+  log::info(kLogSource, "SAT-PATH", "direct paths over TCP at " + tcp_endpoint_);
 }
 
 void Paths::serve(uint16_t chan_id, const std::string& name, const PhysicalOptions& o) {
@@ -67,8 +113,14 @@ void Paths::serve(uint16_t chan_id, const std::string& name, const PhysicalOptio
   }
   s->paths = kinds;
   served_[chan_id] = std::move(s);
-  if (kinds != 0)
-    host_.offer(msg::PhysOffer{host_.next_tag(), chan_id, kinds, "unix:" + listen_path_});
+  if (kinds == 0) return;
+  std::string endpoint = "unix:" + listen_path_;
+  // Other machines: direct paths over TCP as well, to a hub that takes two endpoints (1.8).
+  if ((kinds & msg::kPhysDirect) != 0 && host_.hub_minor() >= 8) {
+    ensureTcpListener();
+    if (!tcp_endpoint_.empty()) endpoint += " " + tcp_endpoint_;
+  }
+  host_.offer(msg::PhysOffer{host_.next_tag(), chan_id, kinds, endpoint});
 }
 
 void Paths::onGrant(const msg::EvPhysGrant& m) {
@@ -95,13 +147,18 @@ void Paths::onRelay(const msg::EvPhysRelay& m) {
   if (auto p = paths_.find(m.chan_id); p != paths_.end() && m.needed == 0) p->second->marker = true;
 }
 
-void Paths::onAccept() {
+void Paths::onAccept(int listen_fd, bool tcp) {
   for (;;) {
-    int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) return;
+    if (tcp) {
+      int one = 1;
+      ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
     auto p = std::make_unique<Peer>();
     p->owner = this;
     p->fd = fd;
+    p->tcp = tcp;
     p->opened = monotonicNs();
     p->poll = newPoll(host_.loop, fd, p.get());
     uv_poll_start(p->poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
@@ -161,6 +218,7 @@ void Paths::welcome(Peer& p, std::string_view body) {
   p.subscriber = grant.subscriber;
   const std::string ok = flow::path::encode(flow::path::Welcome{});
   if (path == msg::kPhysShm) {
+    if (p.tcp) return refuse("shared memory is not served over TCP");
     if (!s->second->ring) return refuse("no shared memory here");
     auto fds = s->second->ring->addReader();
     if (!fds) return refuse(fds.error().message);

@@ -81,13 +81,24 @@ void Paths::onPath(const msg::EvPhysPath& m) {
   p.path = m.path;
   connectPath(p, m.endpoint);
   if (p.fd < 0) return failPath(m.chan_id, "cannot connect to " + m.endpoint);
-  const std::string hello = flow::path::encode(flow::path::Hello{1, m.path, p.name, m.token});
-  if (!writeSome(p.fd, hello).empty()) return failPath(m.chan_id, "cannot send HELLO");
+  p.hello = flow::path::encode(flow::path::Hello{1, m.path, p.name, m.token});
   p.poll = newPoll(host_.loop, p.fd, &p);
-  uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
-    auto* path = static_cast<Path*>(h->data);
-    path->owner->onPathSocket(*path, status < 0 ? UV_DISCONNECT : events);
-  });
+  if (p.connecting_until == 0 && !sendHello(p)) return;
+  uv_poll_start(p.poll, (p.connecting_until != 0 ? UV_WRITABLE : UV_READABLE) | UV_DISCONNECT,
+                [](uv_poll_t* h, int status, int events) {
+                  auto* path = static_cast<Path*>(h->data);
+                  path->owner->onPathSocket(*path, status < 0 ? UV_DISCONNECT : events);
+                });
+}
+
+bool Paths::sendHello(Path& p) {
+  p.connecting_until = 0;
+  if (!writeSome(p.fd, p.hello).empty()) {
+    failPath(p.chan_id, "cannot send HELLO");
+    return false;
+  }
+  p.hello.clear();
+  return true;
 }
 
 void Paths::connectPath(Path& p, const std::string& endpoint) {
@@ -113,19 +124,32 @@ void Paths::connectPath(Path& p, const std::string& endpoint) {
     a.sin_port = htons(static_cast<uint16_t>(std::atoi(rest.c_str() + colon + 1)));
     // A numeric address only: no name lookup on the loop thread.
     if (::inet_pton(AF_INET, rest.substr(0, colon).c_str(), &a.sin_addr) != 1) return;
-    int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    // Not blocking: another machine may take its time (or never answer; tick() gives up).
+    int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) return;
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return closeFd(fd);
     int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+      if (errno != EINPROGRESS) return closeFd(fd);
+      p.connecting_until = monotonicNs() + kConnectTimeoutNs;
+    }
     p.fd = fd;
   }
 }
 
 void Paths::onPathSocket(Path& p, int events) {
-  if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
   const uint16_t chan = p.chan_id;
+  if (p.connecting_until != 0) {
+    if ((events & (UV_WRITABLE | UV_DISCONNECT)) == 0) return;
+    int err = 0;
+    socklen_t len = sizeof err;
+    if (::getsockopt(p.fd, SOL_SOCKET, SO_ERROR, &err, &len) != 0) err = errno;
+    if (err != 0) return failPath(chan, std::string("cannot connect: ") + std::strerror(err));
+    if (!sendHello(p)) return;
+    uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
+    return;
+  }
+  if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
   if (!p.open) {
     auto got = flow::receiveWithFds(p.fd, 64 * 1024);
     if (!got || got->bytes.empty()) {
@@ -249,6 +273,8 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   p.open = false;
   p.marker = false;
   p.tag = 0;
+  p.connecting_until = 0;
+  p.hello.clear();
   ++p.failures;
   ++stats_.fallbacks;
   p.retry_at = retryAt(p.failures);

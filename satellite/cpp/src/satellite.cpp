@@ -3,6 +3,8 @@
 
 #include <skrobot/flow/name_pattern.h>
 
+#include <cstdlib>
+
 namespace skr::sat {
 
 namespace msg = flow::msg;
@@ -13,6 +15,7 @@ Result<SatelliteOptions> SatelliteOptions::fromEnvironment(std::string client_na
   if (!c) return c.error();
   SatelliteOptions o;
   o.connection = std::move(c).value();
+  if (const char* tcp = std::getenv("ROBOT_PATH_TCP"); tcp != nullptr) o.path_tcp = tcp;
   return o;
 }
 

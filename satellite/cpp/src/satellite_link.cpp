@@ -53,6 +53,8 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std
   h.state = [this](const flow::msg::PhysState& m) { send(m); };
   h.count = [this](const flow::msg::PhysCount& m) { send(m); };
   h.next_tag = [this] { return nextTag(); };
+  h.hub_minor = [this] { return login.minor; };
+  h.tcp_listen = opt.path_tcp;
   h.deliver = [this](uint16_t chan, std::string_view payload) {
     const uint64_t gen = generation;
     self.dataView.emit(chan, payload);

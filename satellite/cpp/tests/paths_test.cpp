@@ -1,7 +1,8 @@
 // Physical mode through the satellite library (docs/physical-mode.md): shared-memory and direct
 // paths granted by a real hub, the relay skipped while a path works, fallback when it breaks
 // (nothing delivered twice), a subscriber that asks for a kind the owner does not serve, a slow
-// shared-memory reader, and an owner that goes away.
+// shared-memory reader, an owner that goes away, and a direct path over TCP to a subscriber that
+// is not on the hub's machine (as far as the hub can tell: it came over TCP).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -156,6 +157,72 @@ TEST_F(Paths, AnOwnerThatGoesAwayLeavesItsReaderOnTheRelayUntilTheNextOne) {
       << sub->events.dump();
   EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_shm; }), 1u);
   EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().torn; }), 0u);
+}
+
+class PathsOverTcp : public SatTest {
+ protected:
+  // alice's satellite on the hub's Unix socket, or over TCP.
+  SatelliteOptions alice(const std::string& name, bool tcp) {
+    SatelliteOptions o = options(name);
+    if (tcp) o.connection.address = Address::parse(hub_->tcpAddress()).value();
+    o.connection.user = "alice";
+    o.connection.password = "s3cret-pass";
+    return o;
+  }
+  static std::unique_ptr<SatOnThread> started(SatelliteOptions o) {
+    auto s = std::make_unique<SatOnThread>(std::move(o));
+    s->start();
+    return s;
+  }
+};
+
+TEST_F(PathsOverTcp, ADirectPathReachesASubscriberOnAnotherMachine) {
+  startHub("alice");
+  ASSERT_FALSE(hub_->tcpAddress().empty()) << hubLog();
+  SatelliteOptions owner = alice("pub", false);
+  owner.path_tcp = "127.0.0.1:0";
+  auto pub = started(owner);
+  auto plain = started(alice("plain", false));  // offers direct paths on its Unix socket only
+  ChannelSpec spec{.name = "frames"};
+  spec.physical = PhysicalOptions{.direct = true, .shm = true, .ring = {4, 1 << 16, 4}};
+  ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
+  spec.name = "local-only";
+  ASSERT_TRUE(plain->on([&](Satellite& s) { return s.addChannel(spec); }));
+  auto sub = started(alice("sub", true));
+  sub->on([](Satellite& s) {
+    s.usePaths("alice.frames", kPathShm | kPathDirect);
+    s.subscribe("alice.frames");
+    s.usePaths("alice.local-only", kPathShm | kPathDirect);
+    s.subscribe("alice.local-only");
+  });
+  ASSERT_TRUE(eventually([&] { return plain->events.count("start:alice.local-only") == 1; }))
+      << hubLog();
+  int i = 0;
+  ASSERT_TRUE(eventually([&] {
+    pub->on([&](Satellite& s) { (void)s.publish("frames", "warm-up " + std::to_string(i++)); });
+    return sub->on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
+  })) << sub->events.dump()
+      << hubLog();
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_direct; }), 1u);
+  EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_shm; }), 0u);
+  EXPECT_NE(hubLog().find("tcp:127.0.0.1:"), std::string::npos) << "offered on TCP as well";
+  // Every message, in order, once, by the path.
+  sub->events.clear();
+  const uint64_t before = sub->on([](Satellite& s) { return s.pathStats().path_messages; });
+  for (int k = 0; k < 100; ++k) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", std::to_string(k))); });
+    plain->on([&](Satellite& s) { ASSERT_TRUE(s.publish("local-only", std::to_string(k))); });
+  }
+  ASSERT_TRUE(eventually([&] {
+    return sub->events.count("data:alice.frames:99") == 1 &&
+           sub->events.count("data:alice.local-only:99") == 1;
+  })) << sub->events.dump();
+  const auto got = sub->events.with("data:alice.frames:");
+  ASSERT_EQ(got.size(), 100u);
+  for (int k = 0; k < 100; ++k) EXPECT_EQ(got[size_t(k)], std::to_string(k));
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().path_messages; }), before + 100)
+      << "alice.frames came by its path; alice.local-only, which has no TCP endpoint, relayed";
+  EXPECT_EQ(plain->on([](Satellite& s) { return s.pathStats().served_direct; }), 0u);
 }
 
 }  // namespace

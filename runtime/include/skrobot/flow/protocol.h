@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 7;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 8;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -130,6 +130,7 @@ enum class Code : uint8_t {
   ev_phys_path = 0xF9,    // to the subscriber: where to connect, with which token
   ev_phys_revoke = 0xFA,  // to the owner: close that subscriber's path
   ev_phys_relay = 0xFB,   // to the owner: whether any subscriber still needs the relay
+  // 1.8: PHYS_OFFER's endpoint may name a unix: and a tcp: endpoint, separated by a space.
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;

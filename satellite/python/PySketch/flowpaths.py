@@ -105,6 +105,7 @@ _SLOT = struct.Struct("=QQq")          # seq, size, capture_ns
 _RETRY_MIN = 1.0   # seconds: kRetryMinNs, shifted by the failures (at most 5) ...
 _RETRY_MAX = 30.0  # ... up to kRetryMaxNs
 _HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
+_SCRATCH_BYTES = 256 * 1024  # what one recv() of a direct path reads at most
 
 _fenceLock = threading.Lock()
 
@@ -365,6 +366,7 @@ class Paths(object):
         self._stats = dict(served_direct=0, served_shm=0, path_messages=0,
                            dropped_before_marker=0, torn=0, fallbacks=0, missed=0)
         self._said = set()
+        self._scratch = self._scratchView = None  # what _recv reads into
 
     # --- what the sketch asks -------------------------------------------------------------------
 
@@ -654,26 +656,25 @@ class Paths(object):
 
     def _recv(self, p, dropping):
         sock = p.sock
+        if self._scratch is None:
+            self._scratch = bytearray(_SCRATCH_BYTES)
+            self._scratchView = memoryview(self._scratch)
         while self._paths.get(p.chanID) is p and p.sock is sock:
-            want = 64 * 1024
-            have = len(p.inbuf)
-            if have >= 4:
-                n = struct.unpack_from("<I", p.inbuf, 0)[0]
-                if n <= MAX_DATA_FRAME and 4 + n > have:
-                    want = max(want, 4 + n - have)
+            # Into one buffer that is reused, then appended: a large frame costs one copy here
+            # and no allocation of its size per read.
             try:
-                chunk = sock.recv(want)
+                got = sock.recv_into(self._scratch)
             except (socket.error, OSError) as e:
                 if e.errno in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
                     break
                 return self._fail(p, os.strerror(e.errno or 0) or str(e))
-            if not chunk:
+            if not got:
                 self._frames(p, dropping)  # what came before the close is still ours
                 if self._paths.get(p.chanID) is p and p.sock is sock:
                     self._fail(p, "the owner closed the path")
                 return
-            p.inbuf.extend(chunk)
-            if len(chunk) < want:
+            p.inbuf += self._scratchView[:got]
+            if got < _SCRATCH_BYTES:
                 break
         if self._paths.get(p.chanID) is p and p.sock is sock:
             self._frames(p, dropping)
@@ -703,7 +704,9 @@ class Paths(object):
                     self._stats["dropped_before_marker"] += 1
                     continue
                 self._stats["path_messages"] += 1
-                self._flow._deliverData(chan, bytes(buf[start + _DATA_HEAD:end]))
+                with memoryview(buf) as whole:  # released before buf is resized
+                    payload = whole[start + _DATA_HEAD:end].tobytes()
+                self._flow._deliverData(chan, payload)
                 if self._paths.get(chan) is not p or p.inbuf is not buf:
                     return  # the callback unsubscribed, or the path closed under it
         finally:

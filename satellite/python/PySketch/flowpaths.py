@@ -305,10 +305,16 @@ class RingReader(object):
         return self._view[c.start:c.start + c.size]
 
     def copy(self, c):
+        """The claimed slot's bytes (a copy), or None when the ring was closed meanwhile."""
+        if self._ring is None:
+            return None
         return self._ring[c.start:c.start + c.size]
 
     def release(self, c):
-        """Ends a claim: True when the slot did not change during the read, False (torn)."""
+        """Ends a claim: True when the slot did not change during the read, False (torn, or the
+        ring was closed meanwhile: a callback unsubscribed)."""
+        if self._ring is None:
+            return False
         _fence()
         end = _WORD.unpack_from(self._ring, _PAGE + c.slot * self.stride)[0]
         _WORD.pack_into(self._lease, 0, 0)
@@ -745,8 +751,9 @@ class Paths(object):
             if flow._onGrab is not None:
                 data = ring.copy(c)
         finally:
+            closed = ring._ring is None  # the view callback unsubscribed, or reset the paths
             ok = ring.release(c)
-            if not ok:
+            if not ok and not closed:
                 self._stats["torn"] += 1
         if not ok:
             return

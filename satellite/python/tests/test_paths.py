@@ -634,6 +634,28 @@ class PathsWithAFakeOwner(unittest.TestCase):
         self.assertEqual(self.flow.got, [b"good"])
         owner.close()
 
+    def test_a_callback_may_unsubscribe_while_it_reads_the_ring(self):
+        m, ro, lease, ev, lm, stride = makeRing()
+        owner = self.open(PATH_SHM, [ro, lease, ev])
+        for fd in (ro, lease, ev):
+            os.close(fd)
+        self.paths.onRelay(5, 0)
+        kept = []
+
+        def leave(chan, view):
+            kept.append(ringArray(view) if ringArray(view) is not None else view)
+            self.paths.onUnsubscribed(5)     # the path and its ring go away under the view
+            self.assertEqual(bytes(view), b"bye")
+        from PySketch.flowpaths import ringArray
+        self.flow._onGrabView = leave
+        commit(m, stride, 0, 1, b"bye")
+        os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
+        self.step()
+        self.assertEqual(self.paths.fds(), [])
+        self.assertEqual(self.flow.got, [])
+        self.assertEqual(bytes(bytearray(kept[0])), b"bye", "still mapped while it is kept")
+        owner.close()
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -30,7 +30,8 @@ to the hub and to the owner:
   dropped as well;
 - any break (the socket closed, a malformed or over-long frame, a refused WELCOME or ring,
   EV_PHYS_REVOKE) closes the path, sends PHYS_STATE 0 (relayed again) and asks again after
-  2 s, 4 s, ... up to 30 s (the C++ library's backoff).
+  1 s, 2 s, 4 s, ... up to 30 s (the C++ library's backoff); a refused PHYS_REQUEST is logged
+  (SAT-PATH-REFUSED), not handed to the error callback.
 
 Shared memory (RingReader) reads the layout of runtime/include/skrobot/flow/shm_ring.h: a 4 KB
 header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
@@ -102,7 +103,7 @@ _WORD = struct.Struct("@Q")            # one aligned load or store (the atomics)
 _IWORD = struct.Struct("@q")
 _SLOT = struct.Struct("=QQq")          # seq, size, capture_ns
 
-_RETRY_MIN = 1.0   # seconds: kRetryMinNs, shifted by the failures (at most 5) ...
+_RETRY_MIN = 1.0   # seconds: kRetryMinNs, doubled for each failure after the first (5 at most) ...
 _RETRY_MAX = 30.0  # ... up to kRetryMaxNs
 _HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
 _SCRATCH_BYTES = 256 * 1024  # what one recv() of a direct path reads at most
@@ -435,14 +436,19 @@ class Paths(object):
             return self._fail(p, "cannot send HELLO")
         sock.setblocking(False)
 
-    def onRefused(self, tag):
-        """EV_ERROR for one of our PHYS_REQUESTs: asked again later."""
+    def onRefused(self, tag, message=""):
+        """EV_ERROR for a PHYS_REQUEST: True when it was ours (relayed, asked again later; not
+        an error of the sketch's: an owner that has not offered its paths yet is the usual
+        case)."""
         for p in self._paths.values():
             if p.tag == tag and tag != 0:
                 p.tag = 0
                 p.failures += 1
                 p.retryAt = _now() + self._backoff(p)
-                return
+                log.msg("FlowSat: SAT-PATH-REFUSED %s: %s; relayed, asking again in %d s"
+                        % (p.name, message, int(self._backoff(p) + 0.5)))
+                return True
+        return False
 
     def onStateRefused(self, chanID):
         """EV_ERROR for our PHYS_STATE: no marker comes for it."""
@@ -517,7 +523,8 @@ class Paths(object):
 
     @staticmethod
     def _backoff(p):
-        return min(_RETRY_MAX, _RETRY_MIN * (1 << min(p.failures, 5)))
+        """After `failures` (from 1) in a row: 1 s, doubling to 30 s (paths_impl.h retryAt)."""
+        return min(_RETRY_MAX, _RETRY_MIN * (1 << max(0, min(p.failures - 1, 5))))
 
     def _request(self, p):
         kinds = self._wanted.get(p.name)

@@ -864,14 +864,14 @@ class FlowSat(AbstractFlow):
         # Anything else (a later minor version's events) is ignored.
 
     def _commandFailed(self, command, tag, chan, error, message):
+        if command == Code.PHYS_REQUEST and self._paths.onRefused(tag, message):
+            return  # relayed meanwhile, asked again later: logged there, not a sketch's error
         if command == Code.CHAN_ADD:
             short = self._pendingAdds.pop(tag, None)
             if short is not None:
                 self._specs.pop(short, None)
         elif command == Code.SUBSCRIBE:
             self._subscribedIDs.discard(chan)
-        elif command == Code.PHYS_REQUEST:
-            self._paths.onRefused(tag)    # relayed; asked again later
         elif command == Code.PHYS_STATE:
             self._paths.onStateRefused(chan)
         self._logOnce((command, chan, error), "FlowSat: %s failed: %s: %s"
@@ -1255,7 +1255,7 @@ class FlowSat(AbstractFlow):
         """Asks the hub for a path of these kinds (PATH_SHM, PATH_DIRECT) to the channel `chan`
         (its name, chanID or FlowChannel) whenever this flow subscribes to it: its data then
         comes straight from its owner, to the same callbacks, and through the hub again whenever
-        the path breaks (asked again after 2 s, doubling to 30 s). 0: relayed only. Needs a hub
+        the path breaks (asked again after 1 s, doubling to 30 s). 0: relayed only. Needs a hub
         of FlowProtocol 1.7 and Python 3; otherwise logged once, and relayed. Returns bool
         (False: this Python takes no paths)."""
         if not isinstance(chan, (str, text_type)):

@@ -28,7 +28,7 @@ from tests.compat import PY2, monotonic
 from tests.hubtest import TIMEOUT, HubTestCase, pump, tickFor, waitUntil
 
 PATHS = not PY2 and hasattr(socket.socket, "recvmsg") and hasattr(os, "memfd_create")
-LONG = 30.0  # a path asked again after its backoff (2 s, 4 s) on a loaded machine
+LONG = 30.0  # a path asked again after its backoff (1 s, 2 s, 4 s) on a loaded machine
 
 
 def publisherBin():
@@ -286,6 +286,8 @@ class PathsWithAHub(HubTestCase):
     def test_a_path_that_cannot_be_had_stays_relayed(self):
         pub = self.publisher("direct")  # shared memory asked, direct offered
         s = self.subscriber(PATH_SHM)
+        errors = []
+        s.setErrorCallBack(errors.append)
         self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
         for _ in range(20):
             pub.do("pub 1 64", "^published", [s])
@@ -295,6 +297,7 @@ class PathsWithAHub(HubTestCase):
         self.assertGreaterEqual(len(s.got), 20)
         st = s.pathStats()
         self.assertEqual((st["path_messages"], st["fallbacks"]), (0, 0))
+        self.assertEqual(errors, [], "a refused path is not the sketch's error")
 
     def test_a_hub_of_1_6_relays(self):
         import PySketch.abstractflow as af

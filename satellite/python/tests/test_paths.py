@@ -309,6 +309,9 @@ class PathsWithAHub(HubTestCase):
         finally:
             af.PROTOCOL_MINOR = old
         self.assertEqual(s.hubMinor, 6)
+        sent = []
+        send = s._send
+        s._send = lambda data: sent.append(bytes(data[4:5])) or send(data)
         self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
         for _ in range(10):
             pub.do("pub 1 64", "^published", [s])
@@ -317,6 +320,9 @@ class PathsWithAHub(HubTestCase):
         self.assertEqual(s.pathStats()["path_messages"], 0)
         pub.do("stats", "^stats", [s])
         self.assertIn("served_shm=0 served_direct=0", pub.lines[-1])
+        s.usePaths("guest.frames", PATH_SHM)   # asked again while subscribed: still nothing
+        tickFor([s], 0.2)
+        self.assertNotIn(b"\xf1", sent, "no PHYS_REQUEST on a 1.6 connection")
 
 
 class PathsUnderPython2(HubTestCase):

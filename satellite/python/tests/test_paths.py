@@ -643,6 +643,17 @@ class PathsWithAFakeOwner(unittest.TestCase):
         self.assertEqual(self.flow.got, [b"good"])
         owner.close()
 
+    def test_paths_given_up_while_open_go_back_to_the_relay(self):
+        owner = self.open()
+        self.paths.onRelay(5, 0)
+        self.paths.want("guest.frames", 0)           # what FlowSat.usePaths(name, 0) does
+        self.paths.onSubscribed("guest.frames", 5)
+        self.assertEqual(self.states()[-1], struct.pack("<HB", 5, 0), "relayed again")
+        self.assertEqual(self.paths.fds(), [])
+        self.assertEqual(self.flow.codes()[-1][0], 0xF2, "and no new PHYS_REQUEST")
+        self.assertEqual(self.paths.stats()["fallbacks"], 0, "not a break")
+        owner.close()
+
     def test_a_callback_may_unsubscribe_while_it_reads_the_ring(self):
         m, ro, lease, ev, lm, stride = makeRing()
         owner = self.open(PATH_SHM, [ro, lease, ev])

@@ -122,12 +122,17 @@ class PathsWithAHub(HubTestCase):
             raise AssertionError("paths_publisher not ready:\n" + p.output())
         return p
 
-    def subscriber(self, kinds):
+    def subscriber(self, kinds, pathsFirst=True):
         s = self.connected()
         s.got = []
         s.setGrabDataCallBack(lambda chan, data: s.got.append(number(data)))
-        s.usePaths("guest.frames", kinds)
+        if pathsFirst:
+            s.usePaths("guest.frames", kinds)
         s.subscribeChannel("guest.frames")
+        if not pathsFirst:
+            self.assertTrue(pump([s], lambda: s.channelByName("guest.frames") is not None and
+                                 s.channelByName("guest.frames").isSubscribed))
+            s.usePaths("guest.frames", kinds)
         return s
 
     def onPath(self, pub, s, timeout=LONG):
@@ -185,7 +190,7 @@ class PathsWithAHub(HubTestCase):
 
     def test_direct_path_in_order(self):
         pub = self.publisher("direct")
-        s = self.subscriber(PATH_DIRECT | PATH_SHM)  # the owner serves direct only
+        s = self.subscriber(PATH_DIRECT | PATH_SHM, pathsFirst=False)  # the owner: direct only
         self.onPath(pub, s)
         before = s.pathStats()["path_messages"]
         s.got = []
@@ -282,6 +287,22 @@ class PathsWithAHub(HubTestCase):
 
     def test_owner_killed_while_reading_direct(self):
         self.deadOwner("direct", PATH_DIRECT)
+
+    def test_paths_again_after_the_hub_restarts(self):
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+        self.hub.stop()   # the owner closes its paths too (it lost the hub)
+        self.assertTrue(pump([s], lambda: not s.isOnline()))
+        self.hub.start()
+        self.assertTrue(pump([s], lambda: s.isOnline(), LONG))
+        self.assertTrue(pump([s], lambda: pub.count("^subscribed") >= 2, LONG), pub.output())
+        paths = s.pathStats()["path_messages"]
+        s.got = []
+        ok = pump([s], lambda: (pub.do("pub 1 64", "^published", [s]) or True) and
+                  s.pathStats()["path_messages"] > paths, LONG)
+        self.assertTrue(ok, (s.pathStats(), pub.output()))
+        self.assertEqual(s.got, sorted(set(s.got)), "in order, none twice")
 
     def test_a_path_that_cannot_be_had_stays_relayed(self):
         pub = self.publisher("direct")  # shared memory asked, direct offered

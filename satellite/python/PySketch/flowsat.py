@@ -86,7 +86,7 @@ from PySketch.abstractflow import (
     AbstractFlow, FlowChannel, enumLookup, openSocket, tlsCheckHost, tlsFailure, validShortName,
     wrapTls)
 from PySketch.elapsedtime import ElapsedTime, now
-from PySketch.flowpaths import Paths, ringArray  # noqa: F401 (ringArray: for sketches)
+from PySketch.flowpaths import Paths
 from PySketch.flowproto import (
     PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T,
     FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysPath, decodePhysRelay,

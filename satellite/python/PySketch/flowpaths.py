@@ -106,7 +106,8 @@ _SLOT = struct.Struct("=QQq")          # seq, size, capture_ns
 _RETRY_MIN = 1.0   # seconds: kRetryMinNs, doubled for each failure after the first (5 at most) ...
 _RETRY_MAX = 30.0  # ... up to kRetryMaxNs
 _HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
-_SCRATCH_BYTES = 256 * 1024  # what one recv() of a direct path reads at most
+_SCRATCH_BYTES = 256 * 1024  # what one recv() of a direct path reads at most ...
+_MAX_READS = 64              # ... and how many of them at a time (16 MB)
 
 _fenceLock = threading.Lock()
 
@@ -672,14 +673,14 @@ class Paths(object):
         if self._scratch is None:
             self._scratch = bytearray(_SCRATCH_BYTES)
             self._scratchView = memoryview(self._scratch)
-        while self._paths.get(p.chanID) is p and p.sock is sock:
+        for _ in range(_MAX_READS):
             # Into one buffer that is reused, then appended: a large frame costs one copy here
             # and no allocation of its size per read.
             try:
                 got = sock.recv_into(self._scratch)
             except (socket.error, OSError) as e:
                 if e.errno in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
-                    break
+                    return
                 return self._fail(p, os.strerror(e.errno or 0) or str(e))
             if not got:
                 self._frames(p, dropping)  # what came before the close is still ours
@@ -687,10 +688,12 @@ class Paths(object):
                     self._fail(p, "the owner closed the path")
                 return
             p.inbuf += self._scratchView[:got]
-            if got < _SCRATCH_BYTES:
-                break
-        if self._paths.get(p.chanID) is p and p.sock is sock:
+            # Each read's frames at once: a length over the limit ends the path before more
+            # is read, and what is buffered stays one frame and a read.
             self._frames(p, dropping)
+            if self._paths.get(p.chanID) is not p or p.sock is not sock or got < _SCRATCH_BYTES:
+                return
+        # More is waiting: select() says so again, after the hub's socket had its turn.
 
     def _frames(self, p, dropping):
         """DATA frames in the input, delivered (or dropped before the marker)."""

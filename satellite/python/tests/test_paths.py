@@ -366,6 +366,7 @@ class PathsUnderPython2(HubTestCase):
 # --- without a hub: rings and owners made here ----------------------------------------------------
 
 PAGE = 4096
+MAX_FRAME = (64 << 20) + 32  # a DATA frame's length at most (paths_impl.h kMaxDataFrame)
 
 
 def makeRing(slots=4, slotBytes=8192, seal=True, header=None, size=None):
@@ -608,6 +609,26 @@ class PathsWithAFakeOwner(unittest.TestCase):
             owner.close()
             self.paths.onUnsubscribed(5)
         self.assertEqual(self.flow.got, [b"fine"] * len(breaks))
+
+    def test_an_over_long_frame_is_refused_before_its_bytes_are_read(self):
+        owner = self.open()
+        self.paths.onRelay(5, 0)
+        sent = []
+
+        def flood():   # a length over the limit, then more than the reader may ever buffer
+            try:
+                owner.sendall(struct.pack("<IB", MAX_FRAME + 1, 3) + b"x" * (64 << 20))
+                sent.append("all")
+            except (socket.error, OSError):
+                sent.append("refused")
+        t = threading.Thread(target=flood)
+        t.start()
+        self.step()
+        self.assertEqual(self.paths.stats()["fallbacks"], 1)
+        self.assertEqual(self.paths.fds(), [])
+        t.join(TIMEOUT)
+        self.assertEqual(sent, ["refused"], "the path closed before the 64 MB were read")
+        owner.close()
 
     def test_a_refused_welcome_and_a_refused_ring_fall_back(self):
         self.paths.want("guest.frames", PATH_SHM)

@@ -46,7 +46,10 @@ void FlowServer::Impl::removeEndpoint(Endpoint& e) {
     --stats.connections_open;
   }
   physical.dropEndpoint(e);  // before the lists below: its grants are revoked, its offers go
-  for (uint16_t id : std::vector<uint16_t>(e.subscribed)) (void)channels.unsubscribe(e, id);
+  for (uint16_t id : std::vector<uint16_t>(e.subscribed)) {
+    // The last relayed subscriber leaving: an owner serving paths may stop publishing to us.
+    if (channels.unsubscribe(e, id)) physical.subscribersChanged(id);
+  }
   for (uint16_t id : std::vector<uint16_t>(e.owned)) {
     Channel* ch = channels.find(id);
     if (ch != nullptr && ch->kind == ChannelKind::blob) {

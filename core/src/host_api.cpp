@@ -28,7 +28,9 @@ static_assert(offsetof(skr_host_api, db_sync) == 224);         // 1.2 ends here
 static_assert(offsetof(skr_host_api, blob_get) == 232);        // 1.3 ends here
 static_assert(offsetof(skr_host_api, sync_pulse) == 264);      // 1.4 ends here
 static_assert(offsetof(skr_host_api, hub_name) == 296);        // 1.5 ends here
-static_assert(offsetof(skr_host_api, reserved) == 344);
+static_assert(offsetof(skr_host_api, channel_paths) == 344);   // 1.6 ends here
+static_assert(offsetof(skr_host_api, reserved) == 368);
+static_assert(sizeof(skr_path_options) == 24);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -408,6 +410,20 @@ skr_status dbRemove(skr_module_ctx* ctx, const char* db, const char* key) noexce
   return withFlow(ctx, [&](ModuleFlow& f) { return f.dbRemove(db, key); });
 }
 
+skr_status channelPaths(skr_module_ctx* ctx, uint16_t chan_id,
+                        const skr_path_options* options) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.offerPaths(*ctx->loop, chan_id, options); });
+}
+skr_status publishBegin(skr_module_ctx* ctx, uint16_t chan_id, void** slot_out,
+                        size_t* capacity_out) noexcept {
+  return withFlow(ctx,
+                  [&](ModuleFlow& f) { return f.publishBegin(chan_id, slot_out, capacity_out); });
+}
+skr_status publishCommit(skr_module_ctx* ctx, uint16_t chan_id, size_t size,
+                         int64_t capture_ns) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.publishCommit(chan_id, size, capture_ns); });
+}
+
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
     .abi_major = SKR_PLUGIN_ABI_MAJOR,
@@ -454,6 +470,9 @@ const skr_host_api kHostApi = {
     .db_watch = &dbWatch,
     .db_unwatch = &dbUnwatch,
     .db_remove = &dbRemove,
+    .channel_paths = &channelPaths,
+    .publish_begin = &publishBegin,
+    .publish_commit = &publishCommit,
     .reserved = {},
 };
 

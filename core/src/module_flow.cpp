@@ -1,9 +1,11 @@
 #include "module_flow.h"
 
 #include "module_record.h"
+#include "paths.h"  // the satellite library's owner side of physical mode
 
 #include <skrobot/core/log.h>
 #include <skrobot/flow/variant.h>
+#include <skrobot/satellite/satellite.h>
 
 #include <algorithm>
 #include <cstring>
@@ -82,10 +84,23 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
     f.fn(f.user, chan_id, seq, source_time_ns, dropped);
     if ((f.flags & SKR_SYNC_DONE_LATER) == 0) client_->syncDone(chan_id, seq);
   };
+  h.on_phys_grant = [this](const flow::msg::EvPhysGrant& m) {
+    if (paths_) paths_->onGrant(m);
+  };
+  h.on_phys_revoke = [this](const flow::msg::EvPhysRevoke& m) {
+    if (paths_) paths_->onRevoke(m);
+  };
+  h.on_phys_relay = [this](const flow::msg::EvPhysRelay& m) {
+    if (paths_) paths_->onRelay(m);
+  };
   client_ = server.attachLocal(module_name, module_name, std::move(h), std::move(access));
 }
 
 ModuleFlow::~ModuleFlow() {
+  // Paths first: their peers are told BYE and their subscribers fall back to the relay before
+  // the channels go with the client.
+  if (paths_loop_ != nullptr) paths_loop_->removeTickHandler(paths_tick_);
+  paths_.reset();
   // The module stops before its barriers and blob calls were answered: each gets its one call.
   for (const auto& [id, done] : std::exchange(syncs_, {}))
     done.first(done.second, SKR_ERR_BAD_STATE);
@@ -121,6 +136,8 @@ skr_status ModuleFlow::removeChannel(uint16_t chan_id) {
   auto r = client_->removeChannel(chan_id);
   if (!r) return fail("channel_remove", r.error());
   owned_.erase(chan_id);
+  begun_.erase(chan_id);
+  if (paths_) paths_->unserve(chan_id);
   return SKR_OK;
 }
 
@@ -134,9 +151,104 @@ skr_status ModuleFlow::findChannel(const char* name, uint16_t* chan_id_out) cons
 
 skr_status ModuleFlow::publish(uint16_t chan_id, const void* data, size_t size) {
   if (data == nullptr && size > 0) return SKR_ERR_INVALID_ARGUMENT;
-  auto r = client_->publish(
-      chan_id, std::string_view(static_cast<const char*>(data), data != nullptr ? size : 0));
+  const std::string_view payload(static_cast<const char*>(data), data != nullptr ? size : 0);
+  if (paths_ && paths_->serves(chan_id)) {
+    begun_.erase(chan_id);  // the ring's next slot may be the one publish_begin gave
+    // Copied into a slot and onto direct sockets; the hub only while someone is relayed (what
+    // it does not get is counted by the paths' PHYS_COUNT each second).
+    if (!paths_->publish(chan_id, payload, 0)) return SKR_OK;
+  }
+  auto r = client_->publish(chan_id, payload);
   return r ? SKR_OK : fail("publish", r.error());
+}
+
+// --- physical mode (ABI 1.7) ------------------------------------------------------------------
+
+skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_options* options) {
+  if (options == nullptr || options->struct_size < offsetof(skr_path_options, ring_slots)) {
+    return SKR_ERR_INVALID_ARGUMENT;
+  }
+  skr_path_options o{};  // a module built with a shorter struct gets the defaults for the rest
+  std::memcpy(&o, options, std::min<size_t>(options->struct_size, sizeof o));
+  if ((o.kinds & (SKR_PATH_DIRECT | SKR_PATH_SHM)) == 0 ||
+      (o.kinds & ~uint32_t(SKR_PATH_DIRECT | SKR_PATH_SHM)) != 0) {
+    return fail("channel_paths", makeError(Errc::invalid_argument,
+                                           "kinds must be SKR_PATH_DIRECT and/or SKR_PATH_SHM"));
+  }
+  if (owned_.find(chan_id) == owned_.end()) {
+    return fail("channel_paths", makeError(Errc::not_found, "not a channel of this module"));
+  }
+  if (paths_ && paths_->serves(chan_id)) {
+    return fail("channel_paths", makeError(Errc::invalid_argument, "paths offered already"));
+  }
+  std::string name;
+  for (const auto& ch : client_->channels()) {
+    if (ch.id == chan_id) name = ch.name;
+  }
+  if (!paths_) {
+    sat::detail::Paths::Host h;
+    h.loop = loop.uv();
+    h.offer = [this](const flow::msg::PhysOffer& m) {
+      auto r = client_->offerPaths(m);
+      offered_ = true;
+      if (!r) offer_error_ = r.error();
+    };
+    h.count = [this](const flow::msg::PhysCount& m) {
+      if (auto r = client_->countPaths(m); !r) (void)fail("paths", r.error());
+    };
+    // A module takes no paths as a subscriber: these are never called.
+    h.request = [](const flow::msg::PhysRequest&) {};
+    h.state = [](const flow::msg::PhysState&) {};
+    h.deliver = [](uint16_t, std::string_view) {};
+    h.next_tag = [this] { return next_path_tag_++; };
+    h.hub_minor = [] { return flow::kProtocolMinor; };  // no TCP endpoint (tcp_listen is "")
+    paths_ = std::make_unique<sat::detail::Paths>(std::move(h));
+    paths_loop_ = &loop;
+    paths_tick_ = loop.addTickHandler(Tick::one_sec, [this] { paths_->tick(); });
+  }
+  sat::PhysicalOptions po;
+  po.direct = (o.kinds & SKR_PATH_DIRECT) != 0;
+  po.shm = (o.kinds & SKR_PATH_SHM) != 0;
+  if (o.ring_slots != 0) po.ring.slots = o.ring_slots;
+  if (o.ring_readers != 0) po.ring.max_readers = o.ring_readers;
+  if (o.slot_bytes != 0) po.ring.slot_bytes = o.slot_bytes;
+  offered_ = false;
+  offer_error_.reset();
+  paths_->serve(chan_id, name, po);
+  if (offer_error_) {
+    paths_->unserve(chan_id);
+    return fail("channel_paths " + name, *offer_error_);
+  }
+  if (!offered_) {
+    paths_->unserve(chan_id);
+    return fail("channel_paths " + name,
+                makeError(Errc::unsupported, "no path can be served (see SAT-PATH above)"));
+  }
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::publishBegin(uint16_t chan_id, void** slot_out, size_t* capacity_out) {
+  if (slot_out == nullptr || capacity_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  if (!paths_ || !paths_->hasRing(chan_id)) return SKR_ERR_NOT_FOUND;
+  const auto slot = paths_->beginPublish(chan_id);
+  if (slot.empty()) return SKR_ERR_BAD_STATE;  // every slot is being read
+  begun_[chan_id] = slot.size();
+  *slot_out = slot.data();
+  *capacity_out = slot.size();
+  return SKR_OK;
+}
+
+skr_status ModuleFlow::publishCommit(uint16_t chan_id, size_t size, int64_t capture_ns) {
+  auto b = begun_.find(chan_id);
+  if (b == begun_.end() || !paths_) return SKR_ERR_BAD_STATE;
+  if (size > b->second) return SKR_ERR_INVALID_ARGUMENT;
+  begun_.erase(b);
+  bool relay = false;
+  const auto bytes = paths_->commitPublish(chan_id, size, capture_ns, relay);
+  if (!bytes) return SKR_ERR_FAILED;
+  if (!relay) return SKR_OK;
+  auto r = client_->publish(chan_id, *bytes);
+  return r ? SKR_OK : fail("publish_commit", r.error());
 }
 
 skr_status ModuleFlow::subscribe(const char* name, skr_data_fn fn, void* user,

@@ -1,8 +1,12 @@
 // A module's satellite in the hub: the ABI 1.1 channel and database calls of one module, on top
 // of a flow::LocalClient. Created by the module's first such call, destroyed when it stops (its
 // channels and subscriptions go with it). Main loop thread only.
+// Physical mode (ABI 1.7): the channels a module offers paths for are served by the satellite
+// library's owner side (satellite/cpp/src/paths.h), its Host bridged in-process to the hub's
+// PhysicalPaths through the LocalClient instead of frames on a flow.
 #pragma once
 
+#include <skrobot/core/loop.h>
 #include <skrobot/flow/server.h>
 #include <skrobot/plugin.h>
 
@@ -13,6 +17,10 @@
 #include <string>
 #include <unordered_map>
 #include <vector>
+
+namespace skr::sat::detail {
+class Paths;
+}
 
 namespace skr {
 
@@ -56,6 +64,10 @@ class ModuleFlow {
                         void* user, skr_sub_handle* handle_out);
   skr_status syncUnfollow(skr_sub_handle handle);
   skr_status syncDone(skr_sub_handle handle, uint64_t seq);
+  // Physical mode (ABI 1.7); `loop` is the hub's main loop (the paths' sockets and ticks).
+  skr_status offerPaths(Loop& loop, uint16_t chan_id, const skr_path_options* options);
+  skr_status publishBegin(uint16_t chan_id, void** slot_out, size_t* capacity_out);
+  skr_status publishCommit(uint16_t chan_id, size_t size, int64_t capture_ns);
 
  private:
   struct Owned {
@@ -119,6 +131,14 @@ class ModuleFlow {
   // The status for an immediate refusal, after the registered answer is dropped.
   skr_status refuseBlob(const BlobAnswer& a, const std::string& what, const Error& error);
   std::shared_ptr<ModuleFlow*> alive_ = std::make_shared<ModuleFlow*>(this);
+  // Physical mode: made by the first offerPaths, ticked each second on `paths_loop_`.
+  std::unique_ptr<sat::detail::Paths> paths_;
+  Loop* paths_loop_ = nullptr;
+  TickId paths_tick_ = 0;
+  uint32_t next_path_tag_ = 1;
+  bool offered_ = false;              // the last serve() reached the hub
+  std::optional<Error> offer_error_;  // and what the hub said
+  std::map<uint16_t, size_t> begun_;  // publish_begin's slot size, by channel
   skr_sub_handle next_handle_ = 1;
 };
 

@@ -12,7 +12,7 @@ namespace {
 
 constexpr size_t kHeader = 8;  // struct_size, abi_major, abi_minor
 constexpr size_t kPtr = sizeof(void (*)(void));
-// 1.0, 1.1 and 1.3 to 1.6 named functions, then the reserved slots: 49 function pointers in all.
+// 1.0, 1.1 and 1.3 to 1.7 named functions, then the reserved slots: 49 function pointers in all.
 constexpr size_t kFunctionSlots = 49;
 
 TEST(PluginAbi, HostTableKeepsItsSizeWhileReservedSlotsLast) {
@@ -43,6 +43,9 @@ TEST(PluginAbi, FunctionsOfReleasedMinorsStayWhereTheyWere) {
   // 1.6: watching and the hub's name.
   EXPECT_EQ(offsetof(skr_host_api, hub_name), kHeader + 36 * kPtr);
   EXPECT_EQ(offsetof(skr_host_api, db_remove), kHeader + 41 * kPtr);
+  // 1.7: physical paths.
+  EXPECT_EQ(offsetof(skr_host_api, channel_paths), kHeader + 42 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, publish_commit), kHeader + 44 * kPtr);
 }
 
 TEST(PluginAbi, DescriptorStartsWithItsVersionedHeader) {

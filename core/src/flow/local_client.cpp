@@ -81,6 +81,15 @@ struct LocalClient::Impl final : Endpoint {
                   std::string(errorCodeName(error)) + ": " + message);
   }
   void onDbChanged(const std::string&) override {}
+  void onPhysical(const msg::EvPhysGrant& m) override {
+    if (handlers.on_phys_grant) handlers.on_phys_grant(m);
+  }
+  void onPhysical(const msg::EvPhysRevoke& m) override {
+    if (handlers.on_phys_revoke) handlers.on_phys_revoke(m);
+  }
+  void onPhysical(const msg::EvPhysRelay& m) override {
+    if (handlers.on_phys_relay) handlers.on_phys_relay(m);
+  }
   void onBlobChanged(const Channel& ch, const BlobEvent& ev) override {
     static constexpr const char* kChanges[] = {"", "written", "removed", "dir_added",
                                                "dir_removed"};
@@ -157,6 +166,14 @@ Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
   return impl_->server.channels.publish(*impl_, chan_id, payload);
 }
 
+Result<void> LocalClient::offerPaths(const msg::PhysOffer& m) {
+  return impl_->server.physical.offer(*impl_, m);
+}
+
+Result<void> LocalClient::countPaths(const msg::PhysCount& m) {
+  return impl_->server.physical.count(*impl_, m);
+}
+
 Result<void> LocalClient::pulse(uint16_t chan_id) {
   return impl_->server.syncs.pulse(*impl_, chan_id, static_cast<uint64_t>(monotonicNs()));
 }
@@ -184,14 +201,23 @@ void LocalClient::syncDone(uint16_t chan_id, uint64_t seq) {
 Result<void> LocalClient::subscribe(const std::string& name) {
   ChannelTable& channels = impl_->server.channels;
   channels.want(name, impl_->id);
-  if (const Channel* ch = channels.findByName(name)) return channels.subscribe(*impl_, ch->id);
+  if (const Channel* ch = channels.findByName(name)) {
+    const uint16_t id = ch->id;
+    auto r = channels.subscribe(*impl_, id);
+    // A module is relayed: an owner that served only paths must publish to the hub again.
+    if (r) impl_->server.physical.subscribersChanged(id);
+    return r;
+  }
   return {};  // waits for the channel
 }
 
 void LocalClient::unsubscribe(const std::string& name) {
   ChannelTable& channels = impl_->server.channels;
   channels.unwant(name, impl_->id);
-  if (const Channel* ch = channels.findByName(name)) (void)channels.unsubscribe(*impl_, ch->id);
+  if (const Channel* ch = channels.findByName(name)) {
+    const uint16_t id = ch->id;
+    if (channels.unsubscribe(*impl_, id)) impl_->server.physical.subscribersChanged(id);
+  }
 }
 
 Result<void> LocalClient::request(uint16_t chan_id, uint32_t tag, const std::string& command,

@@ -48,7 +48,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 6
+#define SKR_PLUGIN_ABI_MINOR 7
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -167,6 +167,20 @@ typedef void (*skr_channel_fn)(void* user, uint16_t chan_id, const char* name,
  * was cleared. */
 typedef void (*skr_db_change_fn)(void* user, const char* db, const char* key,
                                  const char* value_json);
+
+/* --- physical mode (ABI 1.7; docs/physical-mode.md) --- */
+/* Path kinds a streaming channel may offer its subscribers besides the hub's relay. */
+#define SKR_PATH_DIRECT ((uint32_t)1 << 0) /* a Unix socket of the hub's, one per module */
+#define SKR_PATH_SHM ((uint32_t)1 << 1)    /* a ring of slots in shared memory (a sealed memfd) */
+
+/* What channel_paths offers. Zeroed fields take the defaults. */
+typedef struct skr_path_options {
+  uint32_t struct_size;  /* sizeof(skr_path_options) the module was built with */
+  uint32_t kinds;        /* SKR_PATH_DIRECT | SKR_PATH_SHM, at least one */
+  uint32_t ring_slots;   /* shared memory: slots in the ring (0: 4) */
+  uint32_t ring_readers; /* shared memory: readers at once, at most 64 (0: 4) */
+  uint64_t slot_bytes;   /* shared memory: the largest message (0: 1 MB) */
+} skr_path_options;
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -325,8 +339,31 @@ typedef struct skr_host_api {
   /* Removes a variable, where db_set may write. SKR_ERR_NOT_FOUND: no such database or key. */
   skr_status (*db_remove)(skr_module_ctx* ctx, const char* db, const char* key);
 
+  /* --- physical mode (ABI 1.7; loop, as the calls above; docs/physical-mode.md) ---
+   * The hub serves an owned streaming channel's subscribers that ask for a path (satellites of
+   * this machine) directly: through shared memory, or a socket of its own, instead of relaying
+   * each message; plain publish keeps working (copied into a slot and onto direct sockets, and
+   * relayed only while some subscriber is relayed). The paths go with the channel. */
+  /* Offers paths for `chan_id` (owned, streaming). Call once, after channel_create.
+   * SKR_ERR_NOT_FOUND: not an owned streaming channel; SKR_ERR_INVALID_ARGUMENT: no kind;
+   * SKR_ERR_FAILED: none can be served (logged; a ring that cannot be made leaves direct). */
+  skr_status (*channel_paths)(skr_module_ctx* ctx, uint16_t chan_id,
+                              const skr_path_options* options);
+  /* A shared-memory slot to fill in place: *slot_out (*capacity_out bytes, slot_bytes), valid
+   * until publish_commit or the next publish_begin or publish on this channel. SKR_ERR_NOT_FOUND:
+   * the channel offers no shared memory; SKR_ERR_BAD_STATE: every slot is being read (publish a
+   * copy instead, or drop the message). */
+  skr_status (*publish_begin)(skr_module_ctx* ctx, uint16_t chan_id, void** slot_out,
+                              size_t* capacity_out);
+  /* Publishes the first `size` bytes of the slot publish_begin gave: readers of the ring get it
+   * in place, direct subscribers and relayed ones a copy. `capture_ns`: the message's own time
+   * (e.g. a frame's capture, monotonic clock), or 0. SKR_ERR_BAD_STATE: no publish_begin before;
+   * SKR_ERR_INVALID_ARGUMENT: size over the capacity. */
+  skr_status (*publish_commit)(skr_module_ctx* ctx, uint16_t chan_id, size_t size,
+                               int64_t capture_ns);
+
   /* Later minors fill these; NULL until then. */
-  void (*reserved[7])(void);
+  void (*reserved[4])(void);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

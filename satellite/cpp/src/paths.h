@@ -56,6 +56,10 @@ class Paths {
   // Ours: whether the relay is still needed; a channel we follow: the marker.
   void onRelay(const flow::msg::EvPhysRelay& m);
   [[nodiscard]] bool serves(uint16_t chan_id) const { return served_.count(chan_id) != 0; }
+  [[nodiscard]] bool hasRing(uint16_t chan_id) const;
+  // One of our channels is gone (not the flow): its peers are closed, its grants dropped; its
+  // ring waits for a channel of the same name, as after reset().
+  void unserve(uint16_t chan_id);
   // Delivers on our paths; true when it must also go through the hub (someone is relayed).
   bool publish(uint16_t chan_id, std::string_view payload, int64_t capture_ns);
   // The shared-memory slot to fill in place (empty: no ring, or every slot leased), then its

@@ -123,6 +123,24 @@ void Paths::serve(uint16_t chan_id, const std::string& name, const PhysicalOptio
   host_.offer(msg::PhysOffer{host_.next_tag(), chan_id, kinds, endpoint});
 }
 
+bool Paths::hasRing(uint16_t chan_id) const {
+  auto s = served_.find(chan_id);
+  return s != served_.end() && s->second->ring.has_value();
+}
+
+void Paths::unserve(uint16_t chan_id) {
+  auto s = served_.find(chan_id);
+  if (s == served_.end()) return;
+  std::erase_if(grants_, [&](const auto& g) { return g.second.chan_id == chan_id; });
+  std::vector<int> gone;
+  for (auto& [fd, p] : peers_) {
+    if (p->chan_id == chan_id) gone.push_back(fd);
+  }
+  for (int fd : gone) closePeer(fd, "the channel was removed");
+  if (s->second->ring) idle_rings_.emplace(s->second->name, std::move(*s->second->ring));
+  served_.erase(s);
+}
+
 void Paths::onGrant(const msg::EvPhysGrant& m) {
   if (served_.count(m.chan_id) == 0) return;
   grants_[m.token] = Grant{m.chan_id, m.subscriber, m.path, monotonicNs() + kGrantLifetimeNs};

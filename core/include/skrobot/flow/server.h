@@ -10,6 +10,7 @@
 #include <skrobot/core/loop.h>
 #include <skrobot/core/result.h>
 #include <skrobot/flow/access.h>
+#include <skrobot/flow/messages.h>
 #include <skrobot/flow/pair_database.h>
 #include <skrobot/flow/protocol.h>
 #include <skrobot/flow/tls.h>
@@ -117,6 +118,11 @@ struct LocalHandlers {
   // A pulse of a source it follows (LocalClient::follow); answer with LocalClient::syncDone.
   std::function<void(uint16_t chan_id, uint64_t seq, uint64_t source_time_ns, uint32_t dropped)>
       on_sync_pulse;
+  // Physical mode (docs/physical-mode.md), to the owner of a channel it offered paths for
+  // (LocalClient::offerPaths): a subscriber's grant, its revocation, whether the relay is needed.
+  std::function<void(const msg::EvPhysGrant&)> on_phys_grant;
+  std::function<void(const msg::EvPhysRevoke&)> on_phys_revoke;
+  std::function<void(const msg::EvPhysRelay&)> on_phys_relay;
 };
 
 class FlowServer {
@@ -188,6 +194,10 @@ class LocalClient {
   // Publishes on an owned streaming channel: in-process subscribers get a view of `payload`
   // (no copy), satellites a frame each.
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
+  // Physical mode: offers paths to an owned streaming channel (PHYS_OFFER, as a satellite's
+  // library sends it), and counts what its paths delivered while nobody was relayed (PHYS_COUNT).
+  [[nodiscard]] Result<void> offerPaths(const msg::PhysOffer& m);
+  [[nodiscard]] Result<void> countPaths(const msg::PhysCount& m);
   // A pulse of an owned sync source (docs/sync-pulse.md), stamped with the monotonic clock.
   [[nodiscard]] Result<void> pulse(uint16_t chan_id);
   // Follows a sync source by name, every `every`th pulse; like subscribe() it waits for a source

@@ -73,8 +73,9 @@ def waitUntil(cond, timeout=TIMEOUT, step=0.01):
 class Hub(object):
     """A hub on /tmp/<unique app name>, with guest/password and optionally the echo module."""
 
-    def __init__(self, name, echo_module=False, hub_name=None, links=()):
-        """hub_name and links (other Hub objects, linked with guest/password): hub links."""
+    def __init__(self, name, echo_module=False, hub_name=None, links=(), modules=()):
+        """hub_name and links (other Hub objects, linked with guest/password): hub links;
+        modules: names of more test modules (<name>.so in SKROBOT_TEST_MODULE_DIR) to load."""
         self.dir = tempfile.mkdtemp(prefix="pysat-")
         self.app = "pysat-%s-%d-%d" % (name, os.getpid(), next(_counter))
         self.address = "local:/tmp/" + self.app
@@ -86,6 +87,8 @@ class Hub(object):
         }
         if echo_module:
             cfg["modules"] = [{"path": os.path.join(moduleDir(), "test_channel_echo.so")}]
+        for m in modules:
+            cfg.setdefault("modules", []).append({"path": os.path.join(moduleDir(), m + ".so")})
         if hub_name:
             cfg["hub_name"] = hub_name
             self.hub_name = hub_name
@@ -226,10 +229,11 @@ def tickFor(sats, seconds):
 class HubTestCase(unittest.TestCase):
     """Starts a hub before each test and stops it after; satellites made with sat() are closed."""
     echo_module = False
+    modules = ()  # more test modules to load (Hub's modules)
 
     def setUp(self):
         self.hub = Hub(self.id().split(".")[-1][5:20].replace("_", "-") or "t",
-                       self.echo_module)
+                       self.echo_module, modules=self.modules)
         self.addCleanup(self.hub.close)
         self.hub.start()
         self._sats = []

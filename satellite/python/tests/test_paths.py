@@ -345,6 +345,45 @@ class PathsWithAHub(HubTestCase):
         self.assertNotIn(b"\xf1", sent, "no PHYS_REQUEST on a 1.6 connection")
 
 
+@unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
+class PathsFromAModule(HubTestCase):
+    """A module as the owner (plugin ABI 1.7): tests/modules/paths_camera.c publishes
+    "frame <n> " and 2000 bytes of chr(97 + n % 26) on each fast tick while subscribed, every
+    other frame filled in a shared-memory slot in place."""
+    modules = ("test_paths_camera",)
+    CHANNEL = "test_paths_camera.frames"
+
+    @staticmethod
+    def frameNumber(view):
+        b = bytes(view)
+        head, _, fill = b.partition(b" ")[2].partition(b" ")
+        n = int(head)
+        if fill != bytes([97 + n % 26]) * 2000:
+            raise AssertionError("frame %d: wrong content %r" % (n, b[:40]))
+        return n
+
+    def test_shared_memory_from_a_module(self):
+        s = self.connected()
+        viewed, got = [], []
+        s.setGrabDataViewCallBack(lambda chan, view: viewed.append(
+            (self.frameNumber(view), view.readonly)))
+        s.setGrabDataCallBack(lambda chan, data: got.append(self.frameNumber(data)))
+        s.usePaths(self.CHANNEL, PATH_SHM)
+        s.subscribeChannel(self.CHANNEL)
+        self.assertTrue(pump([s], lambda: s.pathStats()["path_messages"] > 0, LONG),
+                        (s.pathStats(), self.hub.log()[-3000:]))
+        before = s.pathStats()["path_messages"]
+        del viewed[:], got[:]
+        tickFor([s], 1.0)
+        st = s.pathStats()
+        self.assertGreater(len(got), 10, st)
+        self.assertGreaterEqual(st["path_messages"] - before, len(got), "by the path")
+        self.assertEqual(got, sorted(set(got)), "in order, none twice")
+        self.assertEqual([n for n, _ in viewed], got, "each one viewed in place, then copied")
+        self.assertTrue(all(ro for _, ro in viewed))
+        self.assertEqual((st["torn"], st["fallbacks"]), (0, 0))
+
+
 class PathsUnderPython2(HubTestCase):
     @unittest.skipUnless(PY2 or not PATHS, "Python 2.7 only (run_py27.sh)")
     def test_use_paths_is_accepted_and_relayed(self):

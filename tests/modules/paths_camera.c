@@ -3,7 +3,8 @@
  *                             each fast tick while it has subscribers, one frame
  *                             "frame <n> " followed by 2000 bytes of the letter 'a' + n % 26.
  * Even frames are filled in place (publish_begin / publish_commit), odd ones published as a copy
- * (publish); when no slot is free, the even ones are published as a copy too. */
+ * (publish); when no slot is free, the even ones are published as a copy too. At start it
+ * checks the refusals of the calls (PATHS-CHECKS in the log). */
 #include <skrobot/plugin.h>
 
 #include <stdio.h>
@@ -63,6 +64,51 @@ static skr_status camera_init(const skr_host_api* host, skr_module_ctx* ctx, voi
   return SKR_OK;
 }
 
+/* The refusals of the ABI 1.7 calls, and a channel whose paths go with it: logs PATHS-CHECKS ok,
+ * or the first one that did not hold. */
+static void check_calls(camera* c, const skr_path_options* paths) {
+  const skr_host_api* h = c->host;
+  const char* wrong = NULL;
+  skr_path_options none = *paths;
+  uint16_t svc = 0, spare = 0;
+  void* slot = NULL;
+  size_t cap = 0;
+  none.kinds = 0;
+  if (h->channel_paths(c->ctx, c->frames, paths) != SKR_ERR_INVALID_ARGUMENT) {
+    wrong = "paths offered twice";
+  } else if (h->channel_paths(c->ctx, 0, paths) != SKR_ERR_NOT_FOUND) {
+    wrong = "paths for a channel of nobody's";
+  } else if (h->channel_create(c->ctx, "svc", SKR_CHANNEL_SERVICE, "", NULL, NULL, NULL, c, &svc) !=
+                 SKR_OK ||
+             h->channel_paths(c->ctx, svc, paths) == SKR_OK) {
+    wrong = "paths for a service channel";
+  } else if (h->channel_create(c->ctx, "spare", SKR_CHANNEL_STREAMING, "", NULL, NULL, NULL, c,
+                               &spare) != SKR_OK ||
+             h->channel_paths(c->ctx, spare, &none) != SKR_ERR_INVALID_ARGUMENT) {
+    wrong = "no kinds";
+  } else if (h->publish_commit(c->ctx, spare, 1, 0) != SKR_ERR_BAD_STATE) {
+    wrong = "a commit without a slot";
+  } else if (h->publish_begin(c->ctx, spare, &slot, &cap) != SKR_ERR_NOT_FOUND) {
+    wrong = "a slot of a channel without paths";
+  } else if (h->channel_paths(c->ctx, spare, paths) != SKR_OK ||
+             h->publish_begin(c->ctx, spare, &slot, &cap) != SKR_OK || cap != paths->slot_bytes ||
+             h->publish_commit(c->ctx, spare, cap + 1, 0) != SKR_ERR_INVALID_ARGUMENT ||
+             h->publish_commit(c->ctx, spare, 3, 0) != SKR_OK) {
+    wrong = "a slot filled in place";
+  } else if (h->channel_remove(c->ctx, spare) != SKR_OK ||
+             h->publish_begin(c->ctx, spare, &slot, &cap) != SKR_ERR_NOT_FOUND) {
+    wrong = "paths after channel_remove";
+  } else if (h->channel_create(c->ctx, "spare", SKR_CHANNEL_STREAMING, "", NULL, NULL, NULL, c,
+                               &spare) != SKR_OK ||
+             h->channel_paths(c->ctx, spare, paths) != SKR_OK ||
+             h->channel_remove(c->ctx, spare) != SKR_OK) {
+    wrong = "paths for a channel created again";
+  }
+  h->channel_remove(c->ctx, svc);
+  h->log(c->ctx, wrong == NULL ? SKR_LOG_INFO : SKR_LOG_ERROR, "PATHS-CHECKS",
+         wrong == NULL ? "ok" : wrong);
+}
+
 static skr_status camera_start(void* instance) {
   camera* c = (camera*)instance;
   const skr_host_api* h = c->host;
@@ -75,6 +121,7 @@ static skr_status camera_start(void* instance) {
   paths.ring_slots = 4;
   paths.slot_bytes = 1 << 16;
   if (r == SKR_OK) r = h->channel_paths(c->ctx, c->frames, &paths);
+  if (r == SKR_OK) check_calls(c, &paths);
   if (r == SKR_OK) r = h->tick_add(c->ctx, SKR_TICK_FAST, on_tick, c, &c->tick);
   return r;
 }

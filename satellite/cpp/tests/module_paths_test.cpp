@@ -25,6 +25,8 @@ class ModulePaths : public SatTest {
         std::string(R"("module_paths": [")") + SKROBOT_TEST_MODULE_DIR + R"("], )",
         R"([{"name": "test_paths_camera"}])");
     ASSERT_TRUE(hub_->start()) << hub_->log();
+    // The module's checks of the calls' refusals (paths_camera.c, check_calls).
+    EXPECT_NE(hub_->log().find("PATHS-CHECKS ok"), std::string::npos) << hub_->log();
   }
   std::unique_ptr<SatOnThread> subscriber(const std::string& name, uint8_t kinds) {
     auto s = satellite(name);
@@ -70,7 +72,9 @@ class ModulePaths : public SatTest {
       const uint64_t n = std::stoull(f.substr(6, space - 6));
       EXPECT_TRUE(f.substr(space + 1) == std::string(2000, char('a' + n % 26)))
           << "frame " << n << ": wrong content " << f.substr(0, 40);
-      if (!numbers.empty()) EXPECT_LT(numbers.back(), n) << "in order, none twice";
+      if (!numbers.empty()) {
+        EXPECT_LT(numbers.back(), n) << "in order, none twice";
+      }
       numbers.push_back(n);
     }
     return numbers;

@@ -19,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -81,6 +82,41 @@ class StreamChannel {
     return state_->host.api()->publish(state_->host.ctx(), state_->id, data, size) == SKR_OK;
   }
   bool publish(std::string_view data) noexcept { return publish(data.data(), data.size()); }
+
+  // Physical mode (ABI 1.7; docs/physical-mode.md, "Modules"): the hub serves this channel's
+  // subscribers on its machine by shared memory (SKR_PATH_SHM: a ring of `slots` slots of
+  // `slot_bytes`, the largest message) and/or a direct socket (SKR_PATH_DIRECT); publish() keeps
+  // working. Once per channel. Throws Failure (SKR_ERR_UNSUPPORTED from a hub older than 1.7).
+  void offerPaths(std::uint32_t kinds, std::uint64_t slot_bytes, std::uint32_t slots = 4) {
+    if (!state_) throw Failure(SKR_ERR_BAD_STATE, "offerPaths on an empty StreamChannel");
+    const Host& host = state_->host;
+    detail::requireAbi(host, 7, host.api()->channel_paths != nullptr, "physical paths");
+    skr_path_options o{};
+    o.struct_size = sizeof o;
+    o.kinds = kinds;
+    o.ring_slots = slots;
+    o.slot_bytes = slot_bytes;
+    detail::check(host, host.api()->channel_paths(host.ctx(), state_->id, &o),
+                  "channel_paths " + name_);
+  }
+  // A shared-memory slot to fill in place, then commitPublish(size) it; empty when there is
+  // none (no ring, a hub older than 1.7, every slot being read): publish() a copy instead.
+  [[nodiscard]] std::span<std::byte> beginPublish() noexcept {
+    if (!state_ || state_->host.api()->abi_minor < 7) return {};
+    void* slot = nullptr;
+    std::size_t cap = 0;
+    if (state_->host.api()->publish_begin(state_->host.ctx(), state_->id, &slot, &cap) != SKR_OK) {
+      return {};
+    }
+    return {static_cast<std::byte*>(slot), cap};
+  }
+  // Publishes the first `size` bytes of the slot beginPublish gave; `capture_ns`: the message's
+  // own time (monotonic), or 0.
+  bool commitPublish(std::size_t size, std::int64_t capture_ns = 0) noexcept {
+    if (!state_ || state_->host.api()->abi_minor < 7) return false;
+    return state_->host.api()->publish_commit(state_->host.ctx(), state_->id, size, capture_ns) ==
+           SKR_OK;
+  }
 
   // Number of subscribers as far as the first/last notifications tell: 0 or 1 ("some").
   [[nodiscard]] bool hasSubscribers() const noexcept { return state_ && state_->subscribed != 0; }

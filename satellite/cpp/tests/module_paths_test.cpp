@@ -4,6 +4,7 @@
 // relayed satellite beside them; each gets correct frames, in order, none twice.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <string>
 #include <thread>
@@ -23,16 +24,17 @@ class ModulePaths : public SatTest {
     hub_ = std::make_unique<HubProcess>(
         SKROBOT_BIN, dir_.path(), "", "",
         std::string(R"("module_paths": [")") + SKROBOT_TEST_MODULE_DIR + R"("], )",
-        R"([{"name": "test_paths_camera"}])");
+        R"([{"name": "test_paths_camera"}, {"name": "test_paths_camera_cpp"}])");
     ASSERT_TRUE(hub_->start()) << hub_->log();
     // The module's checks of the calls' refusals (paths_camera.c, check_calls).
     EXPECT_NE(hub_->log().find("PATHS-CHECKS ok"), std::string::npos) << hub_->log();
   }
-  std::unique_ptr<SatOnThread> subscriber(const std::string& name, uint8_t kinds) {
+  std::unique_ptr<SatOnThread> subscriber(const std::string& name, uint8_t kinds,
+                                          const std::string& channel = kChannel) {
     auto s = satellite(name);
     s->on([&](Satellite& sat) {
-      if (kinds != 0) sat.usePaths(kChannel, kinds);
-      sat.subscribe(kChannel);
+      if (kinds != 0) sat.usePaths(channel, kinds);
+      sat.subscribe(channel);
     });
     return s;
   }
@@ -63,9 +65,9 @@ class ModulePaths : public SatTest {
   }
   // The frames `s` got since its events were cleared: each must be what the module rendered,
   // in increasing order, none twice. Returns their numbers.
-  static std::vector<uint64_t> checkFrames(SatOnThread& s) {
+  static std::vector<uint64_t> checkFrames(SatOnThread& s, const std::string& channel = kChannel) {
     std::vector<uint64_t> numbers;
-    for (const auto& f : s.events.with(std::string("data:") + kChannel + ":")) {
+    for (const auto& f : s.events.with("data:" + channel + ":")) {
       const size_t space = f.find(' ', 6);
       EXPECT_EQ(f.compare(0, 6, "frame "), 0) << f.substr(0, 32);
       if (space == std::string::npos) continue;
@@ -131,6 +133,31 @@ TEST_F(ModulePaths, SharedMemoryAndDirectFromAModuleBesideTheRelay) {
   ASSERT_GE(a.to_hub, 0) << hubLog();
   EXPECT_GT(b.channel, a.channel + 20) << "path messages counted on the channel";
   EXPECT_LE(b.to_hub, a.to_hub + 2) << "the module's frames no longer go through the relay";
+}
+
+TEST_F(ModulePaths, TheCppHelperFillsSlotsInPlace) {
+  // test_paths_camera_cpp: the same frames through StreamChannel::offerPaths, beginPublish and
+  // commitPublish (plugin_channels.hpp).
+  const std::string channel = "test_paths_camera_cpp.frames";
+  auto shm = subscriber("shm", kPathShm, channel);
+  auto direct = subscriber("direct", kPathDirect, channel);
+  ASSERT_TRUE(
+      eventually([&] { return pathMessages(*shm) > 0 && pathMessages(*direct) > 0; }, 20000))
+      << hubLog();
+  shm->events.clear();
+  direct->events.clear();
+  const uint64_t before = pathMessages(*shm);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  const auto by_shm = checkFrames(*shm, channel);
+  const auto by_direct = checkFrames(*direct, channel);
+  EXPECT_GT(by_shm.size(), 10u);
+  EXPECT_GE(pathMessages(*shm) - before, by_shm.size());
+  for (size_t k = 1; k < by_direct.size(); ++k) {
+    ASSERT_EQ(by_direct[k], by_direct[k - 1] + 1) << "direct: none missing (at " << k << ")";
+  }
+  // Even frames were filled in a slot in place: both kinds arrive.
+  EXPECT_TRUE(std::any_of(by_shm.begin(), by_shm.end(), [](uint64_t n) { return n % 2 == 0; }));
+  EXPECT_TRUE(std::any_of(by_shm.begin(), by_shm.end(), [](uint64_t n) { return n % 2 == 1; }));
 }
 
 }  // namespace

@@ -183,7 +183,10 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
   }
   std::string name;
   for (const auto& ch : client_->channels()) {
-    if (ch.id == chan_id) name = ch.name;
+    if (ch.id == chan_id && ch.kind == flow::ChannelKind::streaming) name = ch.name;
+  }
+  if (name.empty()) {  // checked before a ring or a listener is made for it
+    return fail("channel_paths", makeError(Errc::invalid_argument, "not a streaming channel"));
   }
   if (!paths_) {
     sat::detail::Paths::Host h;

@@ -345,8 +345,9 @@ typedef struct skr_host_api {
    * each message; plain publish keeps working (copied into a slot and onto direct sockets, and
    * relayed only while some subscriber is relayed). The paths go with the channel. */
   /* Offers paths for `chan_id` (owned, streaming). Call once, after channel_create.
-   * SKR_ERR_NOT_FOUND: not an owned streaming channel; SKR_ERR_INVALID_ARGUMENT: no kind;
-   * SKR_ERR_FAILED: none can be served (logged; a ring that cannot be made leaves direct). */
+   * SKR_ERR_NOT_FOUND: not a channel of this module; SKR_ERR_INVALID_ARGUMENT: not streaming,
+   * no kind, or offered already; SKR_ERR_FAILED: none can be served (logged; a ring that cannot
+   * be made leaves direct). */
   skr_status (*channel_paths)(skr_module_ctx* ctx, uint16_t chan_id,
                               const skr_path_options* options);
   /* A shared-memory slot to fill in place: *slot_out (*capacity_out bytes, slot_bytes), valid

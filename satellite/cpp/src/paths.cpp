@@ -56,12 +56,7 @@ void Paths::reset() {
   for (auto& [fd, p] : peers_) fds.push_back(fd);
   for (int fd : fds) closePeer(fd, "the owner lost the hub");
   grants_.clear();
-  for (auto& [id, p] : paths_) {
-    closePoll(p->poll);
-    closePoll(p->event_poll);
-    p->reader.reset();
-    closeFd(p->fd);
-  }
+  for (auto& [id, p] : paths_) closePath(*p);
   paths_.clear();
   // Ids change with the next flow: our channels are offered again when created; rings wait.
   for (auto& [id, sv] : served_) {

@@ -38,7 +38,11 @@ class Paths {
     std::function<void(const flow::msg::PhysState&)> state;
     std::function<void(const flow::msg::PhysCount&)> count;
     std::function<uint32_t()> next_tag;
-    std::function<void(uint16_t chan_id, std::string_view payload)> deliver;
+    std::function<void(uint16_t chan_id, std::string_view payload)> deliver;  // view, then copy
+    // Shared memory: the view (in place), then the copy, only if the read was not torn.
+    std::function<void(uint16_t chan_id, std::string_view payload)> deliver_view;
+    std::function<bool()> wants_copy;
+    std::function<void(uint16_t chan_id, std::string payload)> deliver_copy;
     std::function<uint16_t()> hub_minor;  // the flow's protocol minor
     // "<IPv4>:<port>" to serve direct paths to other machines on too (port 0: any); "": none.
     std::string tcp_listen;
@@ -110,6 +114,11 @@ class Paths {
   void onPathEvent(Path& p);
   void pathFrames(Path& p);
   void failPath(uint16_t chan_id, const std::string& why);
+  // Closes p's socket, polls and ring; a ring being read by a callback goes when it returns.
+  void closePath(Path& p);
+  // Whether `p` is still the path of `chan_id` (a callback may have unsubscribed or reset it).
+  [[nodiscard]] bool alive(uint16_t chan_id, const Path* p) const;
+  void onMarker(Path& p);
   void request(Path& p);
 
   Host host_;
@@ -132,6 +141,8 @@ class Paths {
   std::map<std::string, uint8_t, std::less<>> wanted_;  // full name -> kinds
   std::map<uint16_t, std::unique_ptr<Path>> paths_;     // by channel id
   Stats stats_;
+  const Path* reading_ = nullptr;                          // a ring callback runs for it
+  std::unique_ptr<flow::shm::RingReader> retired_reader_;  // closed during that callback
 };
 
 }  // namespace skr::sat::detail

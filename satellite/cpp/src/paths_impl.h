@@ -135,13 +135,14 @@ struct Paths::Path {
   int fd = -1;
   uv_poll_t* poll = nullptr;
   uv_poll_t* event_poll = nullptr;
-  std::optional<flow::shm::RingReader> reader;
+  std::unique_ptr<flow::shm::RingReader> reader;  // kept in place while a callback reads
   paths_io::InBuffer in;
   bool open = false;           // WELCOME came
   Nanos connecting_until = 0;  // a TCP connect in progress (HELLO waits in `hello`) until then
   std::string hello;
-  bool marker = false;  // the hub relays no more: what comes on the path is ours
-  Nanos retry_at = 0;   // 0: not waiting to ask again
+  bool marker = false;        // the hub relays no more: what comes on the path is ours
+  bool drop_partial = false;  // the direct frame being read began before the marker
+  Nanos retry_at = 0;         // 0: not waiting to ask again
   int failures = 0;
 };
 

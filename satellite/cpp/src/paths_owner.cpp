@@ -162,7 +162,7 @@ void Paths::onRelay(const msg::EvPhysRelay& m) {
     s->second->relay_needed = m.needed != 0;
     return;
   }
-  if (auto p = paths_.find(m.chan_id); p != paths_.end() && m.needed == 0) p->second->marker = true;
+  if (auto p = paths_.find(m.chan_id); p != paths_.end() && m.needed == 0) onMarker(*p->second);
 }
 
 void Paths::onAccept(int listen_fd, bool tcp) {

@@ -30,6 +30,7 @@ void Paths::want(const std::string& name, uint8_t paths) {
 void Paths::onSubscribed(const std::string& name, uint16_t chan_id) {
   auto w = wanted_.find(name);
   if (w == wanted_.end()) return;
+  onUnsubscribed(chan_id);  // asked again (usePaths on a followed channel): a new path
   auto p = std::make_unique<Path>();
   p->owner = this;
   p->name = name;
@@ -65,12 +66,39 @@ bool Paths::onRefused(const msg::EvError& e) {
 void Paths::onUnsubscribed(uint16_t chan_id) {
   auto it = paths_.find(chan_id);
   if (it == paths_.end()) return;
-  Path& p = *it->second;
+  closePath(*it->second);
+  paths_.erase(it);
+}
+
+void Paths::closePath(Path& p) {
   closePoll(p.poll);
   closePoll(p.event_poll);
-  p.reader.reset();
+  if (&p == reading_) {
+    retired_reader_ = std::move(p.reader);
+  } else {
+    p.reader.reset();
+  }
   closeFd(p.fd);
-  paths_.erase(it);
+}
+
+bool Paths::alive(uint16_t chan_id, const Path* p) const {
+  auto it = paths_.find(chan_id);
+  return it != paths_.end() && it->second.get() == p && p->fd >= 0;
+}
+
+// The hub relays no more. What is already waiting on the path may have been relayed as well:
+// read and drop it first (a direct frame half read is dropped when complete), then take the rest.
+void Paths::onMarker(Path& p) {
+  if (!p.open || p.marker) return;  // a marker for a path that broke since
+  const uint16_t chan = p.chan_id;
+  if (p.reader) {
+    onPathEvent(p);
+  } else {
+    onPathSocket(p, UV_READABLE);
+  }
+  if (!alive(chan, &p)) return;
+  p.drop_partial = !p.in.empty();
+  p.marker = true;
 }
 
 void Paths::onPath(const msg::EvPhysPath& m) {
@@ -178,7 +206,7 @@ void Paths::onPathSocket(Path& p, int events) {
       }
       auto reader = flow::shm::RingReader::open(got->fds[0], got->fds[1], got->fds[2]);
       if (!reader) return failPath(chan, reader.error().message);
-      p.reader = std::move(*reader);
+      p.reader = std::make_unique<flow::shm::RingReader>(std::move(*reader));
       p.event_poll = newPoll(host_.loop, p.reader->eventFd(), &p);
       uv_poll_start(p.event_poll, UV_READABLE, [](uv_poll_t* h, int, int) {
         auto* path = static_cast<Path*>(h->data);
@@ -232,13 +260,14 @@ void Paths::pathFrames(Path& p) {
     const auto data =
         f.type == uint8_t(flow::path::Type::data) ? flow::path::decodeData(f.body) : std::nullopt;
     if (!data) return failPath(chan, "an unexpected path frame");
-    if (!p.marker) {
+    if (!p.marker || p.drop_partial) {
+      p.drop_partial = false;
       ++stats_.dropped_before_marker;
       continue;
     }
     ++stats_.path_messages;
     host_.deliver(chan, data->payload);
-    if (paths_.count(chan) == 0) return;  // a slot unsubscribed
+    if (!alive(chan, &p)) return;  // a slot unsubscribed, or reset the paths
   }
   p.in.consume(used);
 }
@@ -247,17 +276,30 @@ void Paths::onPathEvent(Path& p) {
   if (!p.reader) return;
   p.reader->drain();
   const uint16_t chan = p.chan_id;
-  const auto status = p.reader->readLatest([&](std::span<const std::byte> bytes, const auto& info) {
+  // The view is the slot itself; the copy for `data` is taken under the same lease and given
+  // only when the read was not torn.
+  std::string copy;
+  bool copied = false;
+  reading_ = &p;
+  flow::shm::RingReader* reader = p.reader.get();
+  const auto status = reader->readLatest([&](std::span<const std::byte> bytes, const auto& info) {
     stats_.missed += info.missed;
     if (!p.marker) {
       ++stats_.dropped_before_marker;
       return;
     }
     ++stats_.path_messages;
-    host_.deliver(chan,
-                  std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    const std::string_view view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    host_.deliver_view(chan, view);
+    if (alive(chan, &p) && host_.wants_copy()) copy.assign(view), copied = true;
   });
-  if (status == flow::shm::ReadStatus::torn) ++stats_.torn;
+  reading_ = nullptr;
+  retired_reader_.reset();
+  if (status == flow::shm::ReadStatus::torn) {
+    ++stats_.torn;
+  } else if (copied) {
+    host_.deliver_copy(chan, std::move(copy));
+  }
 }
 
 void Paths::failPath(uint16_t chan_id, const std::string& why) {
@@ -265,13 +307,11 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   if (it == paths_.end()) return;
   Path& p = *it->second;
   const bool was_open = p.open;
-  closePoll(p.poll);
-  closePoll(p.event_poll);
-  p.reader.reset();
-  closeFd(p.fd);
+  closePath(p);
   p.in.clear();
   p.open = false;
   p.marker = false;
+  p.drop_partial = false;
   p.tag = 0;
   p.connecting_until = 0;
   p.hello.clear();

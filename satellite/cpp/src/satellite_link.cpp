@@ -62,6 +62,13 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std
       self.data.emit(chan, std::string(payload));
     }
   };
+  h.deliver_view = [this](uint16_t chan, std::string_view payload) {
+    self.dataView.emit(chan, payload);
+  };
+  h.wants_copy = [this] { return self.data.connectionCount() > 0; };
+  h.deliver_copy = [this](uint16_t chan, const std::string& payload) {
+    self.data.emit(chan, payload);
+  };
   paths = std::make_unique<detail::Paths>(std::move(h));
 }
 

@@ -159,6 +159,63 @@ TEST_F(Paths, AnOwnerThatGoesAwayLeavesItsReaderOnTheRelayUntilTheNextOne) {
   EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().torn; }), 0u);
 }
 
+TEST_F(Paths, ACallbackMayResetOrLeaveThePathItIsCalledFrom) {
+  // Direct: a reset in the middle of a burst of frames already read.
+  setUp(true, false, kPathDirect);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  sub->on([](Satellite& s) {
+    s.data.connect(&s, [&s](uint16_t, const std::string& m) {
+      if (m == "reset") s.resetPaths();
+    });
+  });
+  pub->on([](Satellite& s) {
+    for (const char* m : {"a", "reset", "b", "c"}) ASSERT_TRUE(s.publish("frames", m));
+  });
+  ASSERT_TRUE(eventually(
+      [&] { return sub->on([](Satellite& s) { return s.pathStats(); }).fallbacks == 1; }));
+  // Shared memory: leaving the channel from inside the view of the slot being read.
+  auto reader = satellite("reader");
+  ChannelSpec spec{.name = "ring"};
+  spec.physical = PhysicalOptions{.shm = true, .ring = {4, 1 << 16, 4}};
+  ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
+  reader->on([](Satellite& s) {
+    s.usePaths("guest.ring", kPathShm);
+    s.subscribe("guest.ring");
+    s.dataView.connect(&s, [&s](uint16_t, std::string_view m) {
+      if (m == "leave") s.unsubscribe("guest.ring");
+    });
+  });
+  int i = 0;
+  ASSERT_TRUE(eventually([&] {
+    pub->on([&](Satellite& s) { (void)s.publish("ring", "warm-up " + std::to_string(i++)); });
+    return reader->on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
+  })) << reader->events.dump();
+  const auto read = [](Satellite& s) { return s.pathStats().path_messages; };
+  const uint64_t before = reader->on(read);
+  pub->on([](Satellite& s) { ASSERT_TRUE(s.publish("ring", "leave")); });
+  ASSERT_TRUE(eventually([&] { return reader->on(read) == before + 1; }));
+  EXPECT_EQ(reader->events.count("data:guest.ring:leave"), 0u) << "left in the view: no copy";
+  // Asking for paths again on a followed channel replaces its path (the old one is closed).
+  const auto served = [](Satellite& s) { return s.pathStats().served_direct; };
+  ASSERT_TRUE(eventually(
+      [&] {
+        pub->on([&](Satellite& s) { (void)s.publish("frames", "x" + std::to_string(i++)); });
+        return pub->on(served) == 1;
+      },
+      10000));
+  const uint64_t got = sub->on(read);
+  sub->on([](Satellite& s) { s.usePaths("guest.frames", kPathDirect); });
+  ASSERT_TRUE(eventually(
+      [&] {
+        pub->on([&](Satellite& s) { (void)s.publish("frames", "y" + std::to_string(i++)); });
+        return sub->on(read) > got + 1;
+      },
+      10000));
+  EXPECT_EQ(pub->on(served), 1u) << "the old path is gone";
+  EXPECT_TRUE(sub->connected());
+  EXPECT_TRUE(reader->connected());
+}
+
 class PathsOverTcp : public SatTest {
  protected:
   // alice's satellite on the hub's Unix socket, or over TCP.

@@ -29,6 +29,10 @@ class ModulePaths : public SatTest {
     // The module's checks of the calls' refusals (paths_camera.c, check_calls).
     EXPECT_NE(hub_->log().find("PATHS-CHECKS ok"), std::string::npos) << hub_->log();
   }
+  // A clean exit (and no sanitizer report in a sanitizer build).
+  void TearDown() override {
+    if (hub_) EXPECT_EQ(hub_->stop(), 0) << hub_->log();
+  }
   std::unique_ptr<SatOnThread> subscriber(const std::string& name, uint8_t kinds,
                                           const std::string& channel = kChannel) {
     auto s = satellite(name);
@@ -158,6 +162,9 @@ TEST_F(ModulePaths, TheCppHelperFillsSlotsInPlace) {
   // Even frames were filled in a slot in place: both kinds arrive.
   EXPECT_TRUE(std::any_of(by_shm.begin(), by_shm.end(), [](uint64_t n) { return n % 2 == 0; }));
   EXPECT_TRUE(std::any_of(by_shm.begin(), by_shm.end(), [](uint64_t n) { return n % 2 == 1; }));
+  // The hub stops, and its modules with it, while their paths are open: a clean exit.
+  EXPECT_EQ(hub_->stop(), 0) << hub_->log();
+  EXPECT_NE(hub_->log().find("SAT-PATH-CLOSED"), std::string::npos) << hub_->log();
 }
 
 }  // namespace

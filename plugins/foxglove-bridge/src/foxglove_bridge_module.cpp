@@ -3,8 +3,11 @@
 //
 // Threads: libwebsockets runs on the WsServer's thread, where client messages are decoded (a
 // malformed one closes that client there) and handed to the hub's loop thread with host.post;
-// channels, subscriptions, requests and databases are touched on the loop thread only. A hub
+// channels, subscriptions, requests and databases are touched on the loop thread only. Camera
+// frames, annotations and joints are converted on a ConvertWorker thread (newest wins per
+// channel), which sends them itself (WsServer::send may be called from any thread). A hub
 // channel is subscribed only while some client subscribes to it.
+#include "convert_worker.h"
 #include "foxglove_convert.h"
 #include "foxglove_protocol.h"
 
@@ -15,11 +18,15 @@
 #include <skrobot/support/json.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace skr::foxglove {
 namespace {
@@ -106,6 +113,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
           });
     }
     session_ = std::to_string(wallNs());
+    worker_.start();
 
     skr::wsui::WsServerEvents events;
     events.log = [this](int level, const std::string& line) {
@@ -142,6 +150,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
   }
 
   void stop() override {
+    worker_.stop();  // before the server: the worker sends
     server_.stop();  // joins the server thread: no more posts from it
     second_.reset();
     for (auto& [id, c] : chans_) c.sub.reset();
@@ -218,30 +227,37 @@ class FoxgloveBridge final : public skr::plugin::Module {
     auto it = chans_.find(id);
     if (it == chans_.end()) return;
     Chan& c = it->second;
-    std::optional<Converted> out;
-    switch (c.shape) {
-      case Shape::image:
-        out = compressedImage(payload, c.name);
-        break;
-      case Shape::annotations:
-        out = imageAnnotations(payload);
-        break;
-      case Shape::joints:
-        out = jointPositions(payload, c.joint_names);
-        break;
-      case Shape::json:
-        out = Converted{std::string(payload), 0};
-        break;
-    }
-    if (!out) {
-      ++skipped_;
-      return;
-    }
-    const std::uint64_t time = out->time_ns != 0 ? out->time_ns : wallNs();
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> to;  // (connection, subscription)
     for (auto& [conn, client] : clients_) {
       for (const auto& [sub, chan] : client.subs) {
-        if (chan == id) server_.send(conn, true, messageData(sub, time, out->json), true);
+        if (chan == id) to.emplace_back(conn, sub);
       }
+    }
+    if (to.empty()) return;
+    if (c.shape == Shape::json) {
+      send(to, Converted{std::string(payload), 0});
+      return;
+    }
+    auto job = [this, shape = c.shape, name = c.name, joints = c.joint_names,
+                message = std::string(payload), to = std::move(to)] {
+      std::optional<Converted> out;
+      if (shape == Shape::image) out = compressedImage(message, name);
+      if (shape == Shape::annotations) out = imageAnnotations(message);
+      if (shape == Shape::joints) out = jointPositions(message, joints);
+      if (!out) {
+        ++skipped_;
+        return;
+      }
+      send(to, *out);
+    };
+    if (!worker_.submit(id, std::move(job))) ++replaced_;
+  }
+
+  // Loop thread or worker.
+  void send(const std::vector<std::pair<std::uint64_t, std::uint32_t>>& to, const Converted& out) {
+    const std::uint64_t time = out.time_ns != 0 ? out.time_ns : wallNs();
+    for (const auto& [conn, sub] : to) {
+      server_.send(conn, true, messageData(sub, time, out.json), true);
     }
     ++forwarded_;
   }
@@ -576,7 +592,10 @@ class FoxgloveBridge final : public skr::plugin::Module {
   std::map<std::string, Json::Value> params_;  // "<db>/<key>" -> value
   std::optional<Graph> graph_;
   bool inspecting_ = false;
-  std::uint64_t forwarded_ = 0, skipped_ = 0, refused_sets_ = 0;
+  std::uint64_t refused_sets_ = 0;
+  // Any thread.
+  std::atomic<std::uint64_t> forwarded_ = 0, skipped_ = 0, replaced_ = 0;
+  ConvertWorker worker_;  // last: stopped (joined) before the members its jobs use go
 };
 
 }  // namespace

@@ -106,6 +106,7 @@ _SLOT = struct.Struct("=QQq")          # seq, size, capture_ns
 _RETRY_MIN = 1.0   # seconds: kRetryMinNs, doubled for each failure after the first (5 at most) ...
 _RETRY_MAX = 30.0  # ... up to kRetryMaxNs
 _HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
+_CONNECT_TIMEOUT = 5.0  # seconds a TCP path's connect may take (kConnectTimeoutNs)
 _SCRATCH_BYTES = 256 * 1024  # what one recv() of a direct path reads at most ...
 _MAX_READS = 64              # ... and how many of them at a time (16 MB)
 
@@ -360,6 +361,8 @@ class _Path(object):
         self.markersDue = 0   # PHYS_STATE 1 sent, their marker not come yet
         self.retryAt = 0.0    # 0: not waiting to ask again
         self.failures = 0
+        self.connectingUntil = 0.0  # a TCP connect in progress (HELLO waits in `hello`)
+        self.hello = b""
 
 
 class Paths(object):
@@ -425,17 +428,27 @@ class Paths(object):
         p.kind = kind
         if kind not in (PATH_DIRECT, PATH_SHM):
             return self._fail(p, "a path of unknown kind %d" % kind)
-        sock = self._connect(endpoint)
+        sock, pending = self._connect(endpoint)
         if sock is None:
             return self._fail(p, "cannot connect to %s" % endpoint)
         p.sock = sock
         name, tok = utf8(p.name), utf8(token)
         body = struct.pack("<BBH", 1, kind, len(name)) + name + struct.pack("<H", len(tok)) + tok
+        p.hello = struct.pack("<IB", len(body) + 1, HELLO) + body
+        if pending:  # another machine: HELLO once select() says the socket is writable
+            p.connectingUntil = _now() + _CONNECT_TIMEOUT
+            return
+        self._sendHello(p)
+
+    def _sendHello(self, p):
+        p.connectingUntil = 0.0
         try:
-            sock.sendall(struct.pack("<IB", len(body) + 1, HELLO) + body)
+            p.sock.setblocking(True)  # a HELLO is small: it fits in a fresh socket's buffer
+            p.sock.sendall(p.hello)
+            p.sock.setblocking(False)
         except (socket.error, OSError):
             return self._fail(p, "cannot send HELLO")
-        sock.setblocking(False)
+        p.hello = b""
 
     def onRefused(self, tag, message=""):
         """EV_ERROR for a PHYS_REQUEST: True when it was ours (relayed, asked again later; not
@@ -492,11 +505,26 @@ class Paths(object):
     def fds(self):
         out = []
         for p in self._paths.values():
-            if p.sock is not None:
+            if p.sock is not None and not p.connectingUntil:
                 out.append(p.sock)
             if p.ring is not None:
                 out.append(p.ring)
         return out
+
+    def connecting(self):
+        """Path sockets whose TCP connect is in progress: select() them for writing."""
+        return [p.sock for p in self._paths.values() if p.sock is not None and p.connectingUntil]
+
+    def writable(self, ready):
+        """A TCP connect finished (from select()): HELLO, or the path fails."""
+        for obj in ready:
+            for p in list(self._paths.values()):
+                if obj is p.sock and p.sock is not None and p.connectingUntil:
+                    rc = p.sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+                    if rc != 0:
+                        self._fail(p, "cannot connect: %s" % os.strerror(rc))
+                    else:
+                        self._sendHello(p)
 
     def ready(self, ready):
         """Handles readable path sockets and eventfds (from select())."""
@@ -515,6 +543,8 @@ class Paths(object):
             return
         self._lastTick = t
         for p in list(self._paths.values()):
+            if p.connectingUntil and p.connectingUntil <= t:
+                self._fail(p, "the owner's TCP endpoint does not answer")
             if p.ring is not None:
                 p.ring.heartbeat()
             if not p.open and p.tag == 0 and p.retryAt and p.retryAt <= t:
@@ -536,12 +566,14 @@ class Paths(object):
         self._flow._send(physRequest(p.tag, p.chanID, kinds))
 
     def _connect(self, endpoint):
+        """(socket, pending): a Unix socket connected; a TCP one connecting without blocking
+        (pending: wait for it to be writable); (None, False) when it cannot be."""
         endpoint = endpoint if isinstance(endpoint, str) else endpoint.decode("utf-8", "replace")
         try:
             if endpoint.startswith("unix:"):
                 where = endpoint[5:]
                 if not where or len(utf8(where)) >= 108:
-                    return None
+                    return None, False
                 s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
                 family_addr = where
             elif endpoint.startswith("tcp:"):
@@ -551,19 +583,30 @@ class Paths(object):
                 s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 family_addr = (host, int(port))
             else:
-                return None
+                return None, False
         except (socket.error, OSError, ValueError):
-            return None
+            return None, False
         try:
+            if isinstance(family_addr, tuple):  # TCP
+                s.setblocking(False)
+                rc = s.connect_ex(family_addr)
+                if rc == 0:
+                    return s, False
+                if rc in (errno.EINPROGRESS, errno.EWOULDBLOCK, errno.EAGAIN):
+                    return s, True
+                s.close()
+                return None, False
             # A local connect does not wait on the network: done blocking, with a bound.
             s.settimeout(2.0)
             s.connect(family_addr)
-            return s
+            return s, False
         except (socket.error, OSError, ValueError):
             s.close()
-            return None
+            return None, False
 
     def _closeIo(self, p):
+        p.connectingUntil = 0.0
+        p.hello = b""
         if p.ring is not None:
             p.ring.close()
             p.ring = None

@@ -497,6 +497,7 @@ class FlowSat(AbstractFlow):
         wlist = [sock] if (self._outbuf or self._state == "connecting" or
                            (self._state == "tls" and self._tlsWants == "write")) else []
         rlist = [sock] + self._paths.fds()
+        wlist += self._paths.connecting()
         try:
             r, w, _ = select.select(rlist, wlist, [], max(0.0, timeout))
         except (select.error, OSError, ValueError) as e:
@@ -508,7 +509,11 @@ class FlowSat(AbstractFlow):
         if self._state == "online":
             paths = [x for x in r if x is not sock]
             r = [x for x in r if x is sock]
+            connected = [x for x in w if x is not sock]
+            w = [x for x in w if x is sock]
             try:
+                if connected:
+                    self._paths.writable(connected)
                 if paths:
                     self._paths.ready(paths)
                 self._paths.tick()

@@ -346,6 +346,49 @@ class PathsWithAHub(HubTestCase):
 
 
 @unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
+class PathsOverTcp(unittest.TestCase):
+    """A subscriber that comes over TCP (another machine, as far as the hub can tell) gets the
+    owner's TCP endpoint (ROBOT_PATH_TCP) and connects to it without blocking its loop."""
+
+    def test_a_direct_path_over_tcp(self):
+        from PySketch.flowsat import FlowSat
+        from tests.test_tls import PASSWORD, USER, TlsHub
+        hub = TlsHub("paths-tcp", None, tls=False).start()
+        self.addCleanup(hub.close)
+        os.environ["ROBOT_PATH_TCP"] = "127.0.0.1:0"
+        try:
+            pub = Publisher(hub, "both")
+        finally:
+            del os.environ["ROBOT_PATH_TCP"]
+        self.addCleanup(pub.close)
+        self.assertTrue(waitUntil(lambda: pub.count("^ready ") > 0, TIMEOUT), pub.output())
+        s = FlowSat()
+        s.setLogin(USER, PASSWORD)
+        s.setTickTimer(0.005)
+        self.assertTrue(s.connect("tcp:127.0.0.1:%d" % hub.port()), hub.log()[-2000:])
+        self.addCleanup(s.close)
+        got = []
+        s.setGrabDataCallBack(lambda chan, data: got.append(number(data)))
+        s.usePaths("guest.frames", PATH_SHM | PATH_DIRECT)
+        s.subscribeChannel("guest.frames")
+        deadline = monotonic() + LONG
+        while s.pathStats()["path_messages"] == 0 and monotonic() < deadline:
+            pub.do("pub 1 64", "^published", [s])
+            tickFor([s], 0.05)
+        self.assertGreater(s.pathStats()["path_messages"], 0, (s.pathStats(), pub.output()))
+        self.assertIn("tcp:127.0.0.1:", hub.log(), "offered on TCP as well")
+        before = s.pathStats()["path_messages"]
+        del got[:]
+        pub.do("pub 100 3000", "^published", [s])
+        last = int(pub.lines[-1].split()[1])
+        self.assertTrue(pump([s], lambda: last in got), (len(got), s.pathStats()))
+        self.assertEqual(got, list(range(last - 99, last + 1)), "all, in order, once")
+        self.assertEqual(s.pathStats()["path_messages"], before + 100)
+        pub.do("stats", "^stats", [s])
+        self.assertIn("served_shm=0 served_direct=1", pub.lines[-1])
+
+
+@unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
 class PathsFromAModule(HubTestCase):
     """A module as the owner (plugin ABI 1.7): tests/modules/paths_camera.c publishes
     "frame <n> " and 2000 bytes of chr(97 + n % 26) on each fast tick while subscribed, every

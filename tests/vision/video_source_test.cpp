@@ -104,6 +104,36 @@ TEST_F(VideoSource, ReadsNothingWithoutSubscribers) {
   EXPECT_GE(waitDb("src", "frames", 1), 1);
 }
 
+TEST_F(VideoSource, OffersPathsWhenAsked) {
+  // "paths": the hub grants a subscriber on its Unix socket shared memory to src.video (read
+  // through the satellite libraries: satellite/cpp/tests/module_paths_test.cpp). A frame every
+  // 5 s: waiting for an answer gives up after 3 s without one.
+  ASSERT_TRUE(startModule("src",
+                          std::string(R"({"file":")") + kVtest + R"(","fps":0.2,"paths":"shm"})",
+                          false, "video-source")
+                  .empty());
+  auto info = channelInfo("src.video");
+  ASSERT_TRUE(info);
+  TestClient sub = subscribe("src.video");
+  ASSERT_TRUE(sub.send(flow::msg::PhysRequest{7, info->id, flow::msg::kPhysShm}));
+  auto path = as<flow::msg::EvPhysPath>(sub.waitFor(flow::Code::ev_phys_path, 3000));
+  ASSERT_TRUE(path);
+  EXPECT_EQ(path->tag, 7u);
+  EXPECT_EQ(path->path, flow::msg::kPhysShm);
+  EXPECT_EQ(path->endpoint.rfind("unix:", 0), 0u) << path->endpoint;
+  // Without "paths" it offers none: the same request is refused.
+  ASSERT_TRUE(startModule("plain", std::string(R"({"file":")") + kVtest + R"(","fps":0.2})", false,
+                          "video-source")
+                  .empty());
+  auto plain = channelInfo("plain.video");
+  ASSERT_TRUE(plain);
+  TestClient other = subscribe("plain.video");
+  ASSERT_TRUE(other.send(flow::msg::PhysRequest{8, plain->id, flow::msg::kPhysShm}));
+  auto refused = as<flow::msg::EvError>(other.waitFor(flow::Code::ev_error, 3000));
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->tag, 8u);
+}
+
 TEST_F(VideoSource, BadConfigFailsInit) {
   std::string why = startFailure("s1", R"({"file":"/nonexistent/clip.avi"})", "video-source");
   EXPECT_NE(why.find("file: no such file '/nonexistent/clip.avi'"), std::string::npos) << why;

@@ -54,6 +54,7 @@ class VideoSource final : public skr::plugin::Module {
                                         }
                                         wake_.notify_all();
                                       });
+    offerPaths();
     db_ = std::string(host_.name());
     skr::plugin::dbSet(host_, db_, "frames", "0");
     skr::plugin::dbSet(host_, db_, "loops", "0");
@@ -90,6 +91,18 @@ class VideoSource final : public skr::plugin::Module {
     p.loop = host.configBool("loop");
     p.jpeg_quality = static_cast<int>(host.configInt("jpeg_quality"));
     return p;
+  }
+
+  // Config "paths" (plugin ABI 1.7): satellites on this machine may read the frames by shared
+  // memory and/or a direct socket instead of the hub's relay. A slot holds a raw frame's worth
+  // (4 bytes a pixel), more than any JPEG of it; a larger frame skips the ring, not the others.
+  void offerPaths() {
+    const std::string paths = host_.configString("paths");
+    const std::uint32_t kinds = (paths.find("shm") != std::string::npos ? SKR_PATH_SHM : 0u) |
+                                (paths.find("direct") != std::string::npos ? SKR_PATH_DIRECT : 0u);
+    if (kinds == 0) return;
+    const auto slot = static_cast<std::uint64_t>(params_.width) * params_.height * 4 + 4096;
+    out_.offerPaths(kinds, slot);
   }
 
   // "device" may be a path ("/dev/video0") or an index (0 or "0"): declared as any value, so it
@@ -178,6 +191,10 @@ constexpr skr_config_key kConfig[] = {
     cfg::number("fps", "15", "frames per second, > 0").range(0, 240),
     cfg::boolean("loop", "true", "play the file again from the start when it ends"),
     cfg::integer("jpeg_quality", "80", "JPEG quality of the frames published").range(1, 100),
+    cfg::string("paths", "none",
+                "physical paths for satellites on this machine (docs/physical-mode.md): "
+                "shared memory, a direct socket, both, or only the relay")
+        .oneOf("none|shm|direct|shm+direct"),
 };
 
 SKROBOT_MODULE_WITH_CONFIG(VideoSource, "video-source", "1.0.0",

@@ -31,7 +31,9 @@ class ModulePaths : public SatTest {
   }
   // A clean exit (and no sanitizer report in a sanitizer build).
   void TearDown() override {
-    if (hub_) EXPECT_EQ(hub_->stop(), 0) << hub_->log();
+    if (hub_) {
+      EXPECT_EQ(hub_->stop(), 0) << hub_->log();
+    }
   }
   std::unique_ptr<SatOnThread> subscriber(const std::string& name, uint8_t kinds,
                                           const std::string& channel = kChannel) {

@@ -5,6 +5,8 @@
 //     place) to the subscriber's callback, from a timestamp in the payload's first 8 bytes, one
 //     message at a time with nothing echoed
 //   round trip p50: ping and pong channels, each echoed at once (relay, direct, raw socket)
+//   shm-0: shared memory one way with the slot not filled (only the timestamp written): the
+//     ring's delivery alone, without a producer's fill evicting the caches its wake-up needs
 //   throughput: delivered MB/s with at most two messages in flight (one for shared memory, where
 //     the newest wins), the producer filling each message, beside memcpy's bandwidth
 // The driver thread waits for latencies by sleeping 20 us at a time, so that on a small machine it
@@ -161,7 +163,9 @@ Figures rawSocket(size_t size, int rounds, double seconds) {
   return f;
 }
 
-enum class Mode { relay, direct, shm };
+// shm_unfilled: shared memory with only the timestamp written into the slot before the commit,
+// one way only: the ring's own delivery, without the cost of a producer's fill on the caches.
+enum class Mode { relay, direct, shm, shm_unfilled };
 
 // Through the hub: `ping` from A to B and `pong` back, each on the path of `mode`.
 Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double seconds) {
@@ -170,11 +174,10 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   Sat a(connectLarge(hub, "a" + suffix)), b(connectLarge(hub, "b" + suffix));
   sat::PhysicalOptions phys;
   phys.direct = mode == Mode::direct;
-  phys.shm = mode == Mode::shm;
+  const bool shm = mode == Mode::shm || mode == Mode::shm_unfilled;
+  phys.shm = shm;
   phys.ring = flow::shm::RingGeometry{4, size, 2};
-  const uint8_t kinds = mode == Mode::direct ? sat::kPathDirect
-                        : mode == Mode::shm  ? sat::kPathShm
-                                             : 0;
+  const uint8_t kinds = mode == Mode::direct ? sat::kPathDirect : shm ? sat::kPathShm : 0;
   const std::string ping = "ping" + suffix, pong = "pong" + suffix;
   std::vector<double> one_way, rtt;
   std::atomic<uint64_t> got_ping{0}, got_pong{0};
@@ -217,10 +220,10 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
     sat::Satellite& s = *sat_a;
     {
       const Nanos e = echo ? 1 : 0;
-      if (mode == Mode::shm) {
+      if (shm) {
         auto slot = s.beginPublish(ping);
         if (slot.size() >= size) {
-          std::memcpy(slot.data(), payload.data(), size);  // the producer fills the slot
+          if (mode == Mode::shm) std::memcpy(slot.data(), payload.data(), size);  // the fill
           std::memcpy(slot.data() + 8, &e, 8);
           const Nanos t = monotonicNs();
           std::memcpy(slot.data(), &t, 8);
@@ -266,6 +269,14 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
     f.one_way_p50 = percentile(one_way, 0.5);
     f.one_way_p99 = percentile(one_way, 0.99);
   });
+  const auto done = [&] {
+    b.on([](sat::Satellite& s) { s.dataView.disconnectAll(); });
+    a.on([](sat::Satellite& s) { s.dataView.disconnectAll(); });
+  };
+  if (mode == Mode::shm_unfilled) {
+    done();
+    return f;
+  }
   // Round trips: the whole message echoed.
   a.on([&](sat::Satellite&) { rtt.clear(); });
   for (int i = 0; i < rounds; ++i) {
@@ -296,8 +307,7 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   (void)waitFor([&] { return got_ping.load() - base >= sent; }, 2000);
   f.mb_s = static_cast<double>((got_ping.load() - base) * size) / 1e6 /
            (static_cast<double>(monotonicNs() - start) / 1e9);
-  b.on([](sat::Satellite& s) { s.dataView.disconnectAll(); });
-  a.on([](sat::Satellite& s) { s.dataView.disconnectAll(); });
+  done();
   return f;
 }
 
@@ -325,6 +335,7 @@ int main(int argc, char** argv) {
     const Figures relay = throughHub(hub, Mode::relay, size, rounds, seconds);
     const Figures direct = throughHub(hub, Mode::direct, size, rounds, seconds);
     const Figures shm = throughHub(hub, Mode::shm, size, rounds, seconds);
+    const Figures unfilled = throughHub(hub, Mode::shm_unfilled, size, rounds, seconds);
     const auto row = [&](const char* name, const Figures& f) {
       std::printf("%-9zu %-7s %8.1fus %8.1fus %8.1fus %10.0f %8.2f\n", size, name, f.one_way_p50,
                   f.one_way_p99, f.rtt_p50, f.mb_s, f.mb_s / copy);
@@ -334,6 +345,8 @@ int main(int argc, char** argv) {
     row("relay", relay);
     row("direct", direct);
     row("shm", shm);
+    std::printf("%-9zu %-7s %8.1fus %8.1fus   (slot not filled: the ring's delivery alone)\n", size,
+                "shm-0", unfilled.one_way_p50, unfilled.one_way_p99);
     std::printf(
         "%-9zu targets: shm p50 %.1f us (< 20: %s); shm %.2fx memcpy (>= 0.5: %s); "
         "direct rtt %.2fx socket (<= 1.3: %s)\n",

@@ -42,6 +42,15 @@ void Paths::tick() {
     s->unrelayed_messages = s->unrelayed_bytes = 0;
   }
   std::erase_if(grants_, [&](const auto& g) { return g.second.expires < now; });
+  std::vector<int> late_hellos;
+  for (auto& [fd, peer] : peers_) {
+    if (!peer->pending_hello.empty() && peer->pending_until <= now) late_hellos.push_back(fd);
+  }
+  for (int fd : late_hellos) {
+    if (auto it = peers_.find(fd); it != peers_.end()) {
+      refusePeer(*it->second, "no such grant (a token is good once, for 10 s)");
+    }
+  }
   std::vector<uint16_t> late;
   for (auto& [id, p] : paths_) {
     if (p->reader) p->reader->heartbeat();

@@ -27,6 +27,8 @@ struct PhysicalOptions;
 namespace skr::sat::detail {
 
 inline constexpr Nanos kGrantLifetimeNs = 10 * kNsPerSec;
+// How long a HELLO waits for its grant, which the hub sent us when it sent the subscriber its path.
+inline constexpr Nanos kHelloWaitNs = 2 * kNsPerSec;
 
 class Paths {
  public:
@@ -107,6 +109,7 @@ class Paths {
   void onAccept(int listen_fd, bool tcp);
   void onPeer(Peer& p, int events);
   void welcome(Peer& p, std::string_view body);
+  void refusePeer(Peer& p, const std::string& why);
   void closePeer(int fd, const std::string& why);
   void connectPath(Path& p, const std::string& endpoint);
   bool sendHello(Path& p);  // false: the path failed

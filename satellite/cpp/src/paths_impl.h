@@ -121,7 +121,9 @@ struct Paths::Peer {
   uint16_t chan_id = 0;
   uint32_t subscriber = 0;
   uint32_t lease = 0;
-  bool tcp = false;  // came through the TCP listener: direct paths only
+  bool tcp = false;           // came through the TCP listener: direct paths only
+  std::string pending_hello;  // a HELLO whose grant has not come yet, until pending_until
+  Nanos pending_until = 0;
   Nanos opened = 0;
   uint64_t dropped = 0;
 };

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <random>
+#include <utility>
 
 namespace skr::sat::detail {
 
@@ -144,6 +145,17 @@ void Paths::unserve(uint16_t chan_id) {
 void Paths::onGrant(const msg::EvPhysGrant& m) {
   if (served_.count(m.chan_id) == 0) return;
   grants_[m.token] = Grant{m.chan_id, m.subscriber, m.path, monotonicNs() + kGrantLifetimeNs};
+  // The hub tells both ends at once: the subscriber's HELLO may have come first.
+  std::vector<int> waiting;
+  for (auto& [fd, peer] : peers_) {
+    if (!peer->pending_hello.empty()) waiting.push_back(fd);
+  }
+  for (int fd : waiting) {
+    auto it = peers_.find(fd);
+    if (it == peers_.end()) continue;
+    const std::string hello = std::exchange(it->second->pending_hello, {});
+    welcome(*it->second, hello);
+  }
 }
 
 void Paths::onRevoke(const msg::EvPhysRevoke& m) {
@@ -177,6 +189,10 @@ void Paths::onAccept(int listen_fd, bool tcp) {
     p->owner = this;
     p->fd = fd;
     p->tcp = tcp;
+    // Room for a large frame in the kernel (capped at net.core.wmem_max x 2): fewer trips
+    // through the loop per frame than the default 208 KB.
+    const int sndbuf = 8 << 20;
+    ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof sndbuf);
     p->opened = monotonicNs();
     p->poll = newPoll(host_.loop, fd, p.get());
     uv_poll_start(p->poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
@@ -202,7 +218,8 @@ void Paths::onPeer(Peer& p, int events) {
     return;
   }
   if (n < 0) return;
-  if (p.path != 0) return;  // nothing is expected after HELLO but BYE or the close
+  // Nothing is expected after HELLO but BYE or the close.
+  if (p.path != 0 || !p.pending_hello.empty()) return;
   p.in.append(buf, static_cast<size_t>(n));
   const auto f = flow::path::next(p.in, flow::path::kMaxControlBytes);
   if (f.status == flow::path::Next::Status::too_large ||
@@ -213,18 +230,26 @@ void Paths::onPeer(Peer& p, int events) {
   if (f.status == flow::path::Next::Status::frame) welcome(p, f.body);
 }
 
+void Paths::refusePeer(Peer& p, const std::string& why) {
+  (void)writeSome(p.fd, flow::path::encode(flow::path::Welcome{
+                            uint16_t(flow::ErrorCode::permission_denied), why}));
+  log::warn(kLogSource, "SAT-PATH-REFUSED", "a path connection: " + why);
+  closePeer(p.fd, why);
+}
+
 void Paths::welcome(Peer& p, std::string_view body) {
-  auto refuse = [&](const std::string& why) {
-    (void)writeSome(p.fd, flow::path::encode(flow::path::Welcome{
-                              uint16_t(flow::ErrorCode::permission_denied), why}));
-    log::warn(kLogSource, "SAT-PATH-REFUSED", "a path connection: " + why);
-    closePeer(p.fd, why);
-  };
+  const auto refuse = [&](const std::string& why) { refusePeer(p, why); };
   const auto hello = flow::path::decodeHello(body);
   if (!hello) return refuse("a malformed HELLO");
   const uint8_t path = hello->path;
   const std::string& channel = hello->channel;
   auto g = grants_.find(hello->token);
+  if (g == grants_.end() && p.pending_until == 0) {
+    // Its grant may still be on its way to us (the hub sends both at once): wait for it a while.
+    p.pending_hello = std::string(body);
+    p.pending_until = monotonicNs() + kHelloWaitNs;
+    return;
+  }
   if (g == grants_.end() || g->second.expires < monotonicNs() || g->second.path != path) {
     return refuse("no such grant (a token is good once, for 10 s)");
   }

@@ -216,6 +216,34 @@ TEST_F(Paths, ACallbackMayResetOrLeaveThePathItIsCalledFrom) {
   EXPECT_TRUE(reader->connected());
 }
 
+TEST_F(Paths, AHelloThatComesBeforeItsGrantWaitsForIt) {
+  // The hub tells the owner and the subscriber at once; the owner's grant waits behind 32 MB the
+  // hub relays to it while its loop is busy, so the subscriber's HELLO comes first.
+  pub = satellite("pub");
+  ChannelSpec spec{.name = "frames"};
+  spec.physical = PhysicalOptions{.direct = true};
+  ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
+  auto big = satellite("big");
+  ASSERT_TRUE(big->on([](Satellite& s) { return s.addChannel({.name = "big"}); }));
+  pub->on([](Satellite& s) { s.subscribe("guest.big"); });
+  ASSERT_TRUE(eventually([&] { return big->events.count("start:guest.big") == 1; }));
+  std::thread busy([&] {
+    pub->on([](Satellite&) { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); });
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const std::string mb(1 << 20, 'b');
+  for (int i = 0; i < 32; ++i) big->on([&](Satellite& s) { (void)s.publish("big", mb); });
+  sub = satellite("sub");
+  sub->on([](Satellite& s) {
+    s.usePaths("guest.frames", kPathDirect);
+    s.subscribe("guest.frames");
+  });
+  busy.join();
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u)
+      << "the first HELLO was taken, not refused";
+}
+
 class PathsOverTcp : public SatTest {
  protected:
   // alice's satellite on the hub's Unix socket, or over TCP.

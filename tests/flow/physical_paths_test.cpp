@@ -1,6 +1,6 @@
-// Physical mode through the hub (protocol 1.7, two endpoints 1.8): offers, grants with one-time tokens, the relay
-// skipped for a subscriber whose path works and resumed when it breaks, revocation when a
-// subscriber leaves, counts in the statistics, and refusals.
+// Physical mode through the hub (protocol 1.7, two endpoints 1.8): offers, grants with one-time
+// tokens, the relay skipped for a subscriber whose path works and resumed when it breaks,
+// revocation when a subscriber leaves, counts in the statistics, and refusals.
 #include "flow_fixture.h"
 
 #include <skrobot/flow/hub_stats.h>

@@ -202,7 +202,9 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     // A module takes no paths as a subscriber: these are never called.
     h.request = [](const flow::msg::PhysRequest&) {};
     h.state = [](const flow::msg::PhysState&) {};
-    h.deliver = [](uint16_t, std::string_view) {};
+    h.deliver_view = [](uint16_t, std::string_view) {};
+    h.wants_copy = [] { return false; };
+    h.deliver_copy = [](uint16_t, std::string) {};
     h.next_tag = [this] { return next_path_tag_++; };
     h.hub_minor = [] { return flow::kProtocolMinor; };  // no TCP endpoint (tcp_listen is "")
     paths_ = std::make_unique<sat::detail::Paths>(std::move(h));

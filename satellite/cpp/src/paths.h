@@ -40,8 +40,8 @@ class Paths {
     std::function<void(const flow::msg::PhysState&)> state;
     std::function<void(const flow::msg::PhysCount&)> count;
     std::function<uint32_t()> next_tag;
-    std::function<void(uint16_t chan_id, std::string_view payload)> deliver;  // view, then copy
-    // Shared memory: the view (in place), then the copy, only if the read was not torn.
+    // Data from a path: the view (for shared memory, the slot in place), then, when someone
+    // wants one, the copy (for shared memory only if the read was not torn).
     std::function<void(uint16_t chan_id, std::string_view payload)> deliver_view;
     std::function<bool()> wants_copy;
     std::function<void(uint16_t chan_id, std::string payload)> deliver_copy;

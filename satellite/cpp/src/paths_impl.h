@@ -123,6 +123,7 @@ struct Paths::Peer {
   uint32_t lease = 0;
   bool tcp = false;           // came through the TCP listener: direct paths only
   std::string pending_hello;  // a HELLO whose grant has not come yet, until pending_until
+  std::string pending_token;  // its token
   Nanos pending_until = 0;
   Nanos opened = 0;
   uint64_t dropped = 0;

@@ -146,15 +146,12 @@ void Paths::onGrant(const msg::EvPhysGrant& m) {
   if (served_.count(m.chan_id) == 0) return;
   grants_[m.token] = Grant{m.chan_id, m.subscriber, m.path, monotonicNs() + kGrantLifetimeNs};
   // The hub tells both ends at once: the subscriber's HELLO may have come first.
-  std::vector<int> waiting;
   for (auto& [fd, peer] : peers_) {
-    if (!peer->pending_hello.empty()) waiting.push_back(fd);
-  }
-  for (int fd : waiting) {
-    auto it = peers_.find(fd);
-    if (it == peers_.end()) continue;
-    const std::string hello = std::exchange(it->second->pending_hello, {});
-    welcome(*it->second, hello);
+    if (peer->pending_token != m.token) continue;
+    const std::string hello = std::exchange(peer->pending_hello, {});
+    peer->pending_token.clear();
+    welcome(*peer, hello);  // may close the peer: stop iterating
+    return;
   }
 }
 
@@ -247,6 +244,7 @@ void Paths::welcome(Peer& p, std::string_view body) {
   if (g == grants_.end() && p.pending_until == 0) {
     // Its grant may still be on its way to us (the hub sends both at once): wait for it a while.
     p.pending_hello = std::string(body);
+    p.pending_token = hello->token;
     p.pending_until = monotonicNs() + kHelloWaitNs;
     return;
   }

@@ -266,8 +266,12 @@ void Paths::pathFrames(Path& p) {
       continue;
     }
     ++stats_.path_messages;
-    host_.deliver(chan, data->payload);
+    host_.deliver_view(chan, data->payload);
     if (!alive(chan, &p)) return;  // a slot unsubscribed, or reset the paths
+    if (host_.wants_copy()) {
+      host_.deliver_copy(chan, std::string(data->payload));
+      if (!alive(chan, &p)) return;
+    }
   }
   p.in.consume(used);
 }

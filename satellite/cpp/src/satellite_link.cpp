@@ -55,13 +55,6 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std
   h.next_tag = [this] { return nextTag(); };
   h.hub_minor = [this] { return login.minor; };
   h.tcp_listen = opt.path_tcp;
-  h.deliver = [this](uint16_t chan, std::string_view payload) {
-    const uint64_t gen = generation;
-    self.dataView.emit(chan, payload);
-    if (gen == generation && self.data.connectionCount() > 0) {
-      self.data.emit(chan, std::string(payload));
-    }
-  };
   h.deliver_view = [this](uint16_t chan, std::string_view payload) {
     self.dataView.emit(chan, payload);
   };

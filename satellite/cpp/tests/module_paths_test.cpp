@@ -99,10 +99,12 @@ TEST_F(ModulePaths, SharedMemoryAndDirectFromAModuleBesideTheRelay) {
   // Now a relayed one joins: the module publishes to the hub again, the others stay on paths.
   auto relayed = subscriber("relayed", 0);
   ASSERT_TRUE(eventually([&] { return relayed->events.count("data:") > 0; })) << hubLog();
+  // Counts first, then the events: a message landing between the two is counted but not
+  // listed, never the other way round.
+  const uint64_t shm_before = pathMessages(*shm), direct_before = pathMessages(*direct);
   shm->events.clear();
   direct->events.clear();
   relayed->events.clear();
-  const uint64_t shm_before = pathMessages(*shm), direct_before = pathMessages(*direct);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   const auto by_shm = checkFrames(*shm);
   const auto by_direct = checkFrames(*direct);
@@ -150,9 +152,9 @@ TEST_F(ModulePaths, TheCppHelperFillsSlotsInPlace) {
   ASSERT_TRUE(
       eventually([&] { return pathMessages(*shm) > 0 && pathMessages(*direct) > 0; }, 20000))
       << hubLog();
+  const uint64_t before = pathMessages(*shm);  // counts first, as above
   shm->events.clear();
   direct->events.clear();
-  const uint64_t before = pathMessages(*shm);
   std::this_thread::sleep_for(std::chrono::milliseconds(1000));
   const auto by_shm = checkFrames(*shm, channel);
   const auto by_direct = checkFrames(*direct, channel);

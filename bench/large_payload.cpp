@@ -7,8 +7,12 @@
 //   round trip p50: ping and pong channels, each echoed at once (relay, direct, raw socket)
 //   shm-0: shared memory one way with the slot not filled (only the timestamp written): the
 //     ring's delivery alone, without a producer's fill evicting the caches its wake-up needs
-//   throughput: delivered MB/s with at most two messages in flight (one for shared memory, where
-//     the newest wins), the producer filling each message, beside memcpy's bandwidth
+//   wake: the floor under shm, with no ring and no library: one thread fills the same bytes and
+//     wakes another blocked in epoll through an eventfd, paced the same way
+//   throughput: delivered MB/s, the producer filling each message, beside memcpy's bandwidth
+//     (memcpy4: into four buffers in turn, as the producer fills a ring of four slots);
+//     relay and direct with at most two messages in flight, shared memory with the producer
+//     unpaced by its reader (newest wins: the frames the reader skipped are printed)
 // The driver thread waits for latencies by sleeping 20 us at a time, so that on a small machine it
 // does not take a core from the loops it measures (figures come from timestamps taken on those
 // loops); for throughput it yields, so that its own wake-ups do not bound the rate.
@@ -24,6 +28,8 @@
 #include "bench_satellite.h"
 #include "temp_dir.h"
 
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -69,17 +75,22 @@ sat::ConnectOptions connectLarge(const Hub& hub, const std::string& client) {
 
 struct Figures {
   double one_way_p50 = 0, one_way_p99 = 0, rtt_p50 = 0, mb_s = 0;
+  uint64_t sent = 0, missed = 0;  // throughput: published, and skipped by a shm reader
 };
 
-// memcpy of `size` bytes, repeatedly: MB/s.
-double memcpyBandwidth(size_t size, double seconds) {
-  std::vector<char> a(size, 1), b(size);
-  uint64_t bytes = 0;
+// memcpy of `size` bytes, repeatedly, into `destinations` buffers in turn: MB/s. One destination
+// is the baseline of the targets; four are what the producer does with a ring of four slots (at
+// 6 MB they no longer fit in the caches together).
+double memcpyBandwidth(size_t size, double seconds, size_t destinations = 1) {
+  std::vector<char> a(size, 1);
+  std::vector<std::vector<char>> b(destinations, std::vector<char>(size));
+  uint64_t bytes = 0, n = 0;
   const Nanos end = monotonicNs() + static_cast<Nanos>(seconds * 1e9);
   const Nanos start = monotonicNs();
   while (monotonicNs() < end) {
-    std::memcpy(b.data(), a.data(), size);
-    a[bytes % size] = b[(bytes + 1) % size];  // keep the copy from being optimised out
+    std::vector<char>& to = b[n++ % destinations];
+    std::memcpy(to.data(), a.data(), size);
+    a[bytes % size] = to[(bytes + 1) % size];  // keep the copy from being optimised out
     bytes += size;
   }
   return static_cast<double>(bytes) / 1e6 / (static_cast<double>(monotonicNs() - start) / 1e9);
@@ -163,6 +174,47 @@ Figures rawSocket(size_t size, int rounds, double seconds) {
   return f;
 }
 
+// The floor under the shared-memory path: this thread fills `size` bytes and, after the fill,
+// stamps the time and wakes a reader blocked in epoll_wait on an eventfd; the reader notes the
+// delay. Paced like the one-way rounds through the hub (polled every 20 us).
+Figures bareWake(size_t size, int rounds) {
+  const int efd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  const int ep = ::epoll_create1(EPOLL_CLOEXEC);
+  if (efd < 0 || ep < 0) fail("eventfd/epoll");
+  epoll_event ev{};
+  ev.events = EPOLLIN;
+  if (::epoll_ctl(ep, EPOLL_CTL_ADD, efd, &ev) != 0) fail("epoll_ctl");
+  std::vector<char> src(size, 'x'), slot(size);
+  std::atomic<Nanos> stamp{0};
+  std::atomic<int> got{0};
+  std::vector<double> delay;
+  std::thread reader([&] {
+    for (int i = 0; i < rounds; ++i) {
+      epoll_event e;
+      while (::epoll_wait(ep, &e, 1, -1) < 1) {
+      }
+      uint64_t v;
+      (void)!::read(efd, &v, sizeof v);
+      delay.push_back(static_cast<double>(monotonicNs() - stamp.load()) / 1e3);
+      got.fetch_add(1);
+    }
+  });
+  for (int i = 0; i < rounds; ++i) {
+    std::memcpy(slot.data(), src.data(), size);
+    stamp = monotonicNs();
+    const uint64_t one = 1;
+    (void)!::write(efd, &one, sizeof one);
+    while (got.load() <= i) std::this_thread::sleep_for(std::chrono::microseconds(20));
+  }
+  reader.join();
+  ::close(ep);
+  ::close(efd);
+  Figures f;
+  f.one_way_p50 = percentile(delay, 0.5);
+  f.one_way_p99 = percentile(delay, 0.99);
+  return f;
+}
+
 // shm_unfilled: shared memory with only the timestamp written into the slot before the commit,
 // one way only: the ring's own delivery, without the cost of a producer's fill on the caches.
 enum class Mode { relay, direct, shm, shm_unfilled };
@@ -179,6 +231,10 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   phys.ring = flow::shm::RingGeometry{4, size, 2};
   const uint8_t kinds = mode == Mode::direct ? sat::kPathDirect : shm ? sat::kPathShm : 0;
   const std::string ping = "ping" + suffix, pong = "pong" + suffix;
+  const char* mode_name[] = {"relay", "direct", "shm", "shm-0"};
+  const auto failHere = [&](const std::string& why) {
+    fail(why + " (" + mode_name[static_cast<int>(mode)] + ", " + std::to_string(size) + " bytes)");
+  };
   std::vector<double> one_way, rtt;
   std::atomic<uint64_t> got_ping{0}, got_pong{0};
   b.on([&](sat::Satellite& s) {
@@ -250,17 +306,17 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
              return s.pathStats().served_direct + s.pathStats().served_shm;
            }) > 0;
   };
-  if (!waitFor(ready, 20000)) fail("no path came up");
+  if (!waitFor(ready, 20000)) failHere("no path came up");
   // pong has to be followed as well.
   (void)waitFor([&] { return b.on([&](sat::Satellite& s) { return s.hasSubscribers(pong); }); });
   // One way: one message at a time, nothing echoed (so that the subscriber is idle when it comes).
   b.on([&](sat::Satellite&) { one_way.clear(); });
   for (int i = 0; i < rounds; ++i) {
     const uint64_t before = got_ping.load();
-    if (!send(false)) fail("publish refused");
+    if (!send(false)) failHere("publish refused");
     const Nanos until = monotonicNs() + 5 * kNsPerSec;
     while (got_ping.load() == before) {
-      if (monotonicNs() > until) fail("a message was lost");
+      if (monotonicNs() > until) failHere("a message was lost");
       std::this_thread::sleep_for(std::chrono::microseconds(20));
     }
   }
@@ -281,30 +337,41 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   a.on([&](sat::Satellite&) { rtt.clear(); });
   for (int i = 0; i < rounds; ++i) {
     const uint64_t before = got_pong.load();
-    if (!send(true)) fail("publish refused");
+    if (!send(true)) failHere("publish refused");
     const Nanos until = monotonicNs() + 5 * kNsPerSec;
     while (got_pong.load() == before) {
-      if (monotonicNs() > until) fail("a round trip was lost");
+      if (monotonicNs() > until) failHere("a round trip was lost");
       std::this_thread::sleep_for(std::chrono::microseconds(20));
     }
   }
   a.on([&](sat::Satellite&) { f.rtt_p50 = percentile(rtt, 0.5); });
-  // Throughput, at most two in flight.
+  // Throughput. Relay and direct: at most two in flight, paced by the subscriber. Shared memory:
+  // the producer is never paced by its reader (the newest wins, skipped frames are counted), so
+  // it fills slots as fast as it can, two fills queued at most, and what the reader got counts.
   const uint64_t base = got_ping.load();
+  const auto missedNow = [&] {
+    return b.on([](sat::Satellite& s) { return s.pathStats().missed; });
+  };
+  const uint64_t missed_base = missedNow();
+  std::atomic<uint64_t> filled{0};
   uint64_t sent = 0;
   const Nanos start = monotonicNs();
   const Nanos end = start + static_cast<Nanos>(seconds * 1e9);
   while (monotonicNs() < end) {
-    // Newest wins in shared memory: a second message in flight may replace the first.
-    while (sent - (got_ping.load() - base) >= (mode == Mode::shm ? 1u : 2u)) {
+    while (sent - (mode == Mode::shm ? filled.load() : got_ping.load() - base) >= 2) {
       if (monotonicNs() > end + kNsPerSec) break;
       std::this_thread::yield();
     }
     // Queued to A's loop without waiting for it: the driver's cost stays off the figures.
-    a.loop().post([&] { (void)sendOnLoop(false); });
+    a.loop().post([&] {
+      (void)sendOnLoop(false);
+      filled.fetch_add(1);
+    });
     ++sent;
   }
-  (void)waitFor([&] { return got_ping.load() - base >= sent; }, 2000);
+  (void)waitFor([&] { return got_ping.load() - base + missedNow() - missed_base >= sent; }, 2000);
+  f.missed = missedNow() - missed_base;
+  f.sent = sent;
   f.mb_s = static_cast<double>((got_ping.load() - base) * size) / 1e6 /
            (static_cast<double>(monotonicNs() - start) / 1e9);
   done();
@@ -331,26 +398,38 @@ int main(int argc, char** argv) {
               "rtt p50", "MB/s", "x memcpy");
   for (size_t size : sizes) {
     const double copy = memcpyBandwidth(size, seconds / 2);
+    const double copy4 = memcpyBandwidth(size, seconds / 2, 4);
     const Figures raw = rawSocket(size, rounds, seconds);
     const Figures relay = throughHub(hub, Mode::relay, size, rounds, seconds);
     const Figures direct = throughHub(hub, Mode::direct, size, rounds, seconds);
     const Figures shm = throughHub(hub, Mode::shm, size, rounds, seconds);
     const Figures unfilled = throughHub(hub, Mode::shm_unfilled, size, rounds, seconds);
+    const Figures wake = bareWake(size, rounds);
     const auto row = [&](const char* name, const Figures& f) {
       std::printf("%-9zu %-7s %8.1fus %8.1fus %8.1fus %10.0f %8.2f\n", size, name, f.one_way_p50,
                   f.one_way_p99, f.rtt_p50, f.mb_s, f.mb_s / copy);
     };
     std::printf("%-9zu %-7s %10s %10s %10s %10.0f %8.2f\n", size, "memcpy", "", "", "", copy, 1.0);
+    std::printf(
+        "%-9zu %-7s %10s %10s %10s %10.0f %8.2f   (into 4 buffers in turn, as in the ring)\n", size,
+        "memcpy4", "", "", "", copy4, copy4 / copy);
     row("socket", raw);
     row("relay", relay);
     row("direct", direct);
     row("shm", shm);
+    std::printf("%-9zu %-7s %llu of %llu frames skipped by the reader (newest wins)\n", size, "",
+                static_cast<unsigned long long>(shm.missed),
+                static_cast<unsigned long long>(shm.sent));
     std::printf("%-9zu %-7s %8.1fus %8.1fus   (slot not filled: the ring's delivery alone)\n", size,
                 "shm-0", unfilled.one_way_p50, unfilled.one_way_p99);
+    std::printf("%-9zu %-7s %8.1fus %8.1fus   (no ring: a thread's fill, then an eventfd wake)\n",
+                size, "wake", wake.one_way_p50, wake.one_way_p99);
     std::printf(
-        "%-9zu targets: shm p50 %.1f us (< 20: %s); shm %.2fx memcpy (>= 0.5: %s); "
+        "%-9zu targets: shm p50 %.1f us (< 20: %s; %.2fx the bare wake); shm %.2fx memcpy (>= 0.5: "
+        "%s); "
         "direct rtt %.2fx socket (<= 1.3: %s)\n",
-        size, shm.one_way_p50, shm.one_way_p50 < 20 ? "met" : "missed", shm.mb_s / copy,
+        size, shm.one_way_p50, shm.one_way_p50 < 20 ? "met" : "missed",
+        shm.one_way_p50 / wake.one_way_p50, shm.mb_s / copy,
         shm.mb_s / copy >= 0.5 ? "met" : "missed", direct.rtt_p50 / raw.rtt_p50,
         direct.rtt_p50 / raw.rtt_p50 <= 1.3 ? "met" : "missed");
   }

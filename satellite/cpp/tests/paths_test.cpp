@@ -33,12 +33,13 @@ class Paths : public SatTest {
     });
     ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.frames") == 1; }));
   }
-  // Publishes numbered messages until the subscriber gets them on its path.
-  bool pathWorks() {
+  // Publishes numbered messages until the subscriber (`sub` unless named) gets them on its path.
+  bool pathWorks(SatOnThread* subscriber = nullptr) {
     int i = 0;
+    SatOnThread& to = subscriber ? *subscriber : *sub;
     return eventually([&] {
       pub->on([&](Satellite& s) { (void)s.publish("frames", "warm-up " + std::to_string(i++)); });
-      return sub->on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
+      return to.on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
     });
   }
   std::unique_ptr<SatOnThread> pub, sub;
@@ -242,6 +243,40 @@ TEST_F(Paths, AHelloThatComesBeforeItsGrantWaitsForIt) {
   ASSERT_TRUE(pathWorks()) << sub->events.dump();
   EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u)
       << "the first HELLO was taken, not refused";
+}
+
+TEST_F(Paths, TwoHellosWaitingForTheirGrantsAreEachWokenByTheirOwn) {
+  // As above, with two subscribers whose HELLOs both wait: the first grant must wake only the
+  // HELLO that carries its token, not refuse the other.
+  pub = satellite("pub");
+  ChannelSpec spec{.name = "frames"};
+  spec.physical = PhysicalOptions{.direct = true};
+  ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
+  auto big = satellite("big");
+  ASSERT_TRUE(big->on([](Satellite& s) { return s.addChannel({.name = "big"}); }));
+  pub->on([](Satellite& s) { s.subscribe("guest.big"); });
+  ASSERT_TRUE(eventually([&] { return big->events.count("start:guest.big") == 1; }));
+  std::thread busy([&] {
+    pub->on([](Satellite&) { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); });
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const std::string mb(1 << 20, 'b');
+  for (int i = 0; i < 32; ++i) big->on([&](Satellite& s) { (void)s.publish("big", mb); });
+  sub = satellite("sub");
+  auto sub2 = satellite("sub2");
+  for (auto* s : {sub.get(), sub2.get()}) {
+    s->on([](Satellite& sat) {
+      sat.usePaths("guest.frames", kPathDirect);
+      sat.subscribe("guest.frames");
+    });
+  }
+  busy.join();
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  ASSERT_TRUE(pathWorks(sub2.get())) << sub2->events.dump();
+  for (auto* s : {sub.get(), sub2.get()}) {
+    EXPECT_EQ(s->on([](Satellite& sat) { return sat.pathStats().fallbacks; }), 0u)
+        << "both first HELLOs were taken, none refused";
+  }
 }
 
 class PathsOverTcp : public SatTest {

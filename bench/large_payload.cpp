@@ -148,7 +148,12 @@ Figures rawSocket(size_t size, int rounds, double seconds) {
     if (!writeAll(sv[0], out.data(), size) || !readAll(sv[0], in.data(), size)) fail("raw socket");
     rtt.push_back(static_cast<double>(monotonicNs() - t) / 1e3);
   }
-  // Throughput: timestamp 0 (no echo), two in flight.
+  // Throughput: timestamp 0 (no echo), two in flight. The far end counts a message after echoing
+  // it, so the last round trip may not be counted yet: wait for it, or the count runs ahead of
+  // what is sent here (which hung this loop once).
+  while (received.load() < static_cast<uint64_t>(rounds)) {
+    std::this_thread::sleep_for(std::chrono::microseconds(20));
+  }
   const Nanos zero = 0;
   std::memcpy(out.data(), &zero, sizeof zero);
   const uint64_t base = received.load();
@@ -358,7 +363,10 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   const Nanos start = monotonicNs();
   const Nanos end = start + static_cast<Nanos>(seconds * 1e9);
   while (monotonicNs() < end) {
-    while (sent - (mode == Mode::shm ? filled.load() : got_ping.load() - base) >= 2) {
+    // (Signed: a late warm-up message may make the count run ahead of `sent`.)
+    while (static_cast<int64_t>(sent) -
+               static_cast<int64_t>(mode == Mode::shm ? filled.load() : got_ping.load() - base) >=
+           2) {
       if (monotonicNs() > end + kNsPerSec) break;
       std::this_thread::yield();
     }

@@ -45,6 +45,7 @@ TEST(HubStats, RatesBetweenTwoSnapshots) {
   camera.mime = "image/jpeg";
   camera.owner_flow = 1;
   camera.subscriber_flows = {2, 9};
+  camera.subscriber_paths = {"relay", "shm"};
   camera.dropped = 4;
   b.channels = {camera, channel(6, "guest.new", 10),
                 channel(8, "guest.again", 6)};  // re-created: a new id
@@ -65,6 +66,7 @@ TEST(HubStats, RatesBetweenTwoSnapshots) {
   EXPECT_EQ(field(cam_channel, "bytes_per_s"), Variant(300.0));
   EXPECT_EQ(field(cam_channel, "dropped_per_s"), Variant(2.0));
   EXPECT_EQ(field(cam_channel, "subscribers"), Variant(2u));
+  EXPECT_EQ(field(cam_channel, "subscriber_paths"), Variant(Variant::List{"relay", "shm"}));
   EXPECT_EQ(field(cam_channel, "owner"), Variant("guest/cam"));
   EXPECT_EQ(field(cam_channel, "mime"), Variant("image/jpeg"));
   EXPECT_EQ(field(cam_channel, "kind"), Variant("streaming"));

@@ -5,6 +5,8 @@
 
 #include <skrobot/flow/hub_stats.h>
 
+#include <algorithm>
+
 namespace skr::test {
 namespace {
 
@@ -26,6 +28,19 @@ class PhysicalPaths : public FlowFixture {
   static void subscribe(TestClient& c, uint16_t id) {
     ASSERT_TRUE(c.send(msg::Subscribe{1, id}));
     settle(c);
+  }
+  // The subscriber_paths of channel `id` in the hub's snapshot, sorted.
+  std::vector<std::string> paths(uint16_t id) {
+    flow::HubSnapshot snap;
+    onHub([&] { snap = server_->snapshot(); });
+    for (const auto& c : snap.channels) {
+      if (c.id != id) continue;
+      EXPECT_EQ(c.subscriber_paths.size(), c.subscriber_flows.size());
+      std::vector<std::string> out = c.subscriber_paths;
+      std::sort(out.begin(), out.end());
+      return out;
+    }
+    return {};
   }
   // Owner and subscriber with an offer of both kinds on a unix: endpoint (and a tcp: one, for
   // direct paths to other machines); the subscriber follows.
@@ -60,6 +75,9 @@ TEST_F(PhysicalPaths, AGrantGoesToBothEndsWithOneToken) {
   EXPECT_EQ(grant->token, path->token);
   EXPECT_EQ(grant->path, msg::kPhysShm);
   EXPECT_EQ(grant->name.substr(0, 6), "guest/");
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  settle(p.sub);
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"shm"}));
   // Asking again: a new token, and the old grant is revoked at the owner.
   ASSERT_TRUE(p.sub.send(msg::PhysRequest{8, p.id, msg::kPhysDirect}));
   auto again = as<msg::EvPhysPath>(p.sub.waitFor(Code::ev_phys_path));
@@ -95,9 +113,12 @@ TEST_F(PhysicalPaths, AWorkingPathTakesTheSubscriberOffTheRelayUntilItBreaks) {
   ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"both"}}));
   EXPECT_TRUE(relayed.waitFor(Code::ev_data));
   EXPECT_FALSE(p.sub.waitFor(Code::ev_data, 200));
+  // The statistics say which subscriber takes which path (the network page draws it).
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"direct", "relay"}));
   // The path broke: relayed again, still subscribed.
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 0}));
   settle(p.sub);
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"relay", "relay"}));
   ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"relayed again"}}));
   auto d = as<msg::EvData>(p.sub.waitFor(Code::ev_data));
   ASSERT_TRUE(d);

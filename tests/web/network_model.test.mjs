@@ -49,6 +49,21 @@ test('drops, slow subscribers, idle and orphaned channels are marked', () => {
   assert.ok(g.nodes.get('c:gone.maps').cls.includes('orphan'));
 });
 
+test('subscribers on a direct or shared-memory path are drawn as such', () => {
+  const g = buildGraph({
+    ...stats,
+    channels: [channel('cam.frames', 2, [3, 4, 5], { subscriber_paths: ['shm', 'relay', 'direct'] })],
+  });
+  const edge = (to) => g.edges.find((e) => e.id === `s:cam.frames>${to}`);
+  assert.ok(edge(3).cls.includes('path-shm'));
+  assert.equal(edge(3).label, 'shared memory');
+  assert.deepEqual(edge(4).cls, []);
+  assert.equal(edge(4).label, '');
+  assert.ok(edge(5).cls.includes('path-direct'));
+  // A hub older than subscriber_paths: every subscriber relayed.
+  assert.ok(buildGraph(stats).edges.every((e) => !e.cls.some((c) => c.startsWith('path-'))));
+});
+
 test("the hub's own channels on request; a filter keeps what it touches", () => {
   assert.ok(buildGraph(stats, { showHub: true }).nodes.has('c:hub.stats'));
   const g = buildGraph(stats, { filter: 'FACES' });

@@ -261,8 +261,14 @@ int cmdInfo(const Cli& cli) {
   }
   Variant::List subscribers;
   if (row != nullptr) {
-    for (const Variant& id : list(*row, "subscriber_flows")) {
-      subscribers.emplace_back(flow_names[id.asUint64().value_or(0)]);
+    const auto& ids = list(*row, "subscriber_flows");
+    const auto& paths = list(*row, "subscriber_paths");  // relay, direct or shm (hubs since 1.8)
+    for (size_t k = 0; k < ids.size(); ++k) {
+      const std::string* path = k < paths.size() ? paths[k].asString() : nullptr;
+      std::string name = flow_names[ids[k].asUint64().value_or(0)];
+      if (path != nullptr && *path == "direct") name += " by a direct path";
+      if (path != nullptr && *path == "shm") name += " by shared memory";
+      subscribers.emplace_back(std::move(name));
     }
   }
   Variant out = Variant::Map{
@@ -331,10 +337,17 @@ int cmdGraph(const Cli& cli) {
       used[owner] = true;
       edges += "  " + dotId("f:" + std::to_string(owner)) + " -> " + dotId("c:" + name) + ";\n";
     }
-    for (const Variant& id : list(c, "subscriber_flows")) {
-      const uint64_t f = id.asUint64().value_or(0);
+    const auto& subscribers = list(c, "subscriber_flows");
+    const auto& paths = list(c, "subscriber_paths");  // relay, direct or shm (hubs since 1.8)
+    for (size_t k = 0; k < subscribers.size(); ++k) {
+      const uint64_t f = subscribers[k].asUint64().value_or(0);
       used[f] = true;
-      edges += "  " + dotId("c:" + name) + " -> " + dotId("f:" + std::to_string(f)) + ";\n";
+      const std::string* path_p = k < paths.size() ? paths[k].asString() : nullptr;
+      const std::string path = path_p != nullptr ? *path_p : std::string();
+      const std::string style = path == "shm"      ? " [style=dotted, label=\"shared memory\"]"
+                                : path == "direct" ? " [style=dashed, label=\"direct\"]"
+                                                   : "";
+      edges += "  " + dotId("c:" + name) + " -> " + dotId("f:" + std::to_string(f)) + style + ";\n";
     }
   }
   for (const auto& [id, f] : flows) {

@@ -65,11 +65,17 @@ export function buildGraph(stats, { showHub = false, filter = '' } = {}) {
         cls: dropping ? ['drop'] : [],
       });
     }
+    // subscriber_paths, one per subscriber_flows: relay, or the direct or shared-memory path
+    // (physical mode) a subscriber takes past the hub.
+    const pathOf = new Map((c.subscriber_flows || []).map((fid, i) => [fid, (c.subscriber_paths || [])[i] || 'relay']));
     for (const f of subs) {
       const slow = f.queue_fill > SLOW_QUEUE_FILL || f.dropped_per_s > 0;
+      const path = pathOf.get(f.id);
+      const cls = dropping && slow ? ['drop'] : [];
+      if (path === 'direct' || path === 'shm') cls.push(`path-${path}`);
       edges.push({
         id: `s:${c.name}>${f.id}`, from: id, to: flowNode(f), kind: 'subscribe', service,
-        label: '', width: 1, cls: dropping && slow ? ['drop'] : [],
+        label: path === 'shm' ? 'shared memory' : path === 'direct' ? 'direct' : '', width: 1, cls,
       });
     }
   }

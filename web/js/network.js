@@ -238,7 +238,11 @@ function renderDetails() {
   if (c) {
     $('details-title').textContent = c.name;
     facts.push(['kind', c.kind], ['mime', c.mime || '—'], ['owner', c.owner || '(offline)'],
-      ['subscribers', (c.subscriber_flows || []).map((i) => names.get(i) || `flow ${i}`).join(', ') || 'none'],
+      ['subscribers', (c.subscriber_flows || []).map((i, k) => {
+        const path = (c.subscriber_paths || [])[k];
+        const name = names.get(i) || `flow ${i}`;
+        return path === 'shm' ? `${name} (shared memory)` : path === 'direct' ? `${name} (direct)` : name;
+      }).join(', ') || 'none'],
       ['rate', formatRate(c.hz, c.bytes_per_s)], ['messages', String(c.messages)],
       ['bytes', formatBytes(c.bytes)], ['dropped', `${c.dropped} (${c.dropped_per_s}/s)`]);
     if (c.kind === 'service') facts.push(['pending requests', String(c.pending_requests)]);

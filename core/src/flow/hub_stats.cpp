@@ -25,9 +25,15 @@ HubSnapshot FlowServer::snapshot() const {
     c.mime = ch.mime;
     c.owner_flow = ch.owner != nullptr ? ch.owner->id : 0;
     for (const Endpoint* e : ch.subscribers) {
-      if (e != nullptr) c.subscriber_flows.push_back(e->id);
+      if (e == nullptr) continue;
+      c.subscriber_flows.push_back(e->id);
+      c.subscriber_paths.emplace_back("relay");
     }
-    for (const Endpoint* e : ch.physical) c.subscriber_flows.push_back(e->id);  // on a path
+    for (const Endpoint* e : ch.physical) {  // on a path
+      c.subscriber_flows.push_back(e->id);
+      c.subscriber_paths.emplace_back(
+          s.physical.activePath(ch.id, e->id) == msg::kPhysShm ? "shm" : "direct");
+    }
     c.messages = ch.seq;
     c.bytes = ch.bytes;
     c.dropped = ch.dropped;
@@ -88,6 +94,8 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
         it != old_channels.end() && it->second->id == c.id ? *it->second : kNone;
     Variant::List subscribers;
     for (uint32_t id : c.subscriber_flows) subscribers.emplace_back(static_cast<uint64_t>(id));
+    Variant::List paths;
+    for (const auto& p : c.subscriber_paths) paths.emplace_back(p);
     const auto owner = flow_names.find(c.owner_flow);
     channels.emplace_back(Variant::Map{
         {"name", c.name},
@@ -97,6 +105,7 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
         {"owner_flow", static_cast<uint64_t>(c.owner_flow)},
         {"subscribers", static_cast<uint64_t>(c.subscriber_flows.size())},
         {"subscriber_flows", std::move(subscribers)},
+        {"subscriber_paths", std::move(paths)},
         {"messages", c.messages},
         {"bytes", c.bytes},
         {"dropped", c.dropped},

@@ -209,4 +209,11 @@ size_t PhysicalPaths::grants(uint16_t chan_id) const {
   return it == offers_.end() ? 0 : it->second.grants.size();
 }
 
+uint8_t PhysicalPaths::activePath(uint16_t chan_id, uint32_t subscriber) const {
+  auto it = offers_.find(chan_id);
+  if (it == offers_.end()) return 0;
+  auto g = it->second.grants.find(subscriber);
+  return g != it->second.grants.end() && g->second.active ? g->second.path : 0;
+}
+
 }  // namespace skr::flow

@@ -44,6 +44,8 @@ class PhysicalPaths {
 
   // Whether the owner of `chan_id` offers paths, and to whom they were granted (statistics).
   [[nodiscard]] size_t grants(uint16_t chan_id) const;
+  // The working path `subscriber` takes to `chan_id`: msg::kPhysDirect or kPhysShm, 0 none.
+  [[nodiscard]] uint8_t activePath(uint16_t chan_id, uint32_t subscriber) const;
 
  private:
   struct Grant {

@@ -229,6 +229,36 @@ TEST_F(Flowctl, EchoRateAndOthersChannels) {
   EXPECT_TRUE(has(service, "not a streaming channel")) << service.out;
 }
 
+// A subscriber on a direct path (physical mode): graph draws its edge dashed, info says so.
+TEST_F(Flowctl, GraphAndInfoShowWhichSubscriberTakesAPath) {
+  auto camera = satellite("camera");
+  ChannelSpec spec{.name = "frames"};
+  spec.physical = PhysicalOptions{.direct = true};
+  ASSERT_TRUE(camera->on([&](Satellite& s) { return s.addChannel(spec); }));
+  auto viewer = satellite("viewer");
+  viewer->on([](Satellite& x) {
+    x.usePaths("guest.frames", kPathDirect);
+    x.subscribe("guest.frames");
+  });
+  auto plain = satellite("plain");
+  plain->on([](Satellite& x) { x.subscribe("guest.frames"); });
+  int i = 0;
+  ASSERT_TRUE(eventually([&] {
+    camera->on([&](Satellite& s) { (void)s.publish("frames", "f" + std::to_string(i++)); });
+    return viewer->on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
+  }));
+  // hub.inspect answers with the last second's statistics.
+  Ran graph, info;
+  EXPECT_TRUE(eventually([&] {
+    graph = flowctl({"graph"});
+    info = flowctl({"info", "guest.frames"});
+    return has(graph, "[style=dashed, label=\"direct\"]") &&
+           has(info, "guest/viewer (satellite) by a direct path");
+  })) << graph.out
+      << info.out;
+  EXPECT_TRUE(has(info, "guest/plain (satellite)\n")) << info.out;
+}
+
 // The hub's statistics (hub.stats, hub.inspect) through top, info, graph, and a channel's rate
 // and bandwidth measured by hz and bw.
 TEST_F(Flowctl, StatisticsTopInfoGraphHzAndBw) {

@@ -24,6 +24,7 @@ struct ChannelCounters {
   std::string mime;
   uint32_t owner_flow = 0;  // 0: nobody connected (a blob channel kept for its owner)
   std::vector<uint32_t> subscriber_flows;
+  std::vector<std::string> subscriber_paths;  // one per subscriber_flows: relay, direct or shm
   uint64_t messages = 0, bytes = 0, dropped = 0;
   uint32_t pending_requests = 0;
 };
@@ -44,8 +45,9 @@ struct HubSnapshot {
 
 // The statistics of the interval between two snapshots, as hub.stats carries them: a map of
 //   hub, time_ms (wall clock), interval_s,
-//   channels: [{name, kind, mime, owner, owner_flow, subscribers, subscriber_flows, messages,
-//               bytes, dropped, hz, bytes_per_s, dropped_per_s, pending_requests}],
+//   channels: [{name, kind, mime, owner, owner_flow, subscribers, subscriber_flows,
+//               subscriber_paths ("relay", "direct" or "shm", one per subscriber_flows),
+//               messages, bytes, dropped, hz, bytes_per_s, dropped_per_s, pending_requests}],
 //   flows: [{id, name ("<user>/<client>"), user, client, kind, messages_in, bytes_in,
 //            messages_out, bytes_out, dropped, in_hz, out_hz, in_bytes_per_s, out_bytes_per_s,
 //            dropped_per_s, queued_bytes, queue_fill, pending_requests}]

@@ -42,6 +42,7 @@ class Paths : public SatTest {
       return to.on([](Satellite& s) { return s.pathStats().path_messages; }) > 0;
     });
   }
+  void helloBeforeGrant(const std::vector<SatOnThread*>& subscribers);
   std::unique_ptr<SatOnThread> pub, sub;
 };
 
@@ -217,9 +218,10 @@ TEST_F(Paths, ACallbackMayResetOrLeaveThePathItIsCalledFrom) {
   EXPECT_TRUE(reader->connected());
 }
 
-TEST_F(Paths, AHelloThatComesBeforeItsGrantWaitsForIt) {
-  // The hub tells the owner and the subscriber at once; the owner's grant waits behind 32 MB the
-  // hub relays to it while its loop is busy, so the subscriber's HELLO comes first.
+// The hub tells the owner and each subscriber at once; the owner's grants wait behind 32 MB the
+// hub relays to it while its loop is busy, so the subscribers' HELLOs come first. Each of
+// `subscribers` asks for a direct path to guest.frames in that window.
+void Paths::helloBeforeGrant(const std::vector<SatOnThread*>& subscribers) {
   pub = satellite("pub");
   ChannelSpec spec{.name = "frames"};
   spec.physical = PhysicalOptions{.direct = true};
@@ -234,43 +236,28 @@ TEST_F(Paths, AHelloThatComesBeforeItsGrantWaitsForIt) {
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   const std::string mb(1 << 20, 'b');
   for (int i = 0; i < 32; ++i) big->on([&](Satellite& s) { (void)s.publish("big", mb); });
-  sub = satellite("sub");
-  sub->on([](Satellite& s) {
-    s.usePaths("guest.frames", kPathDirect);
-    s.subscribe("guest.frames");
-  });
-  busy.join();
-  ASSERT_TRUE(pathWorks()) << sub->events.dump();
-  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u)
-      << "the first HELLO was taken, not refused";
-}
-
-TEST_F(Paths, TwoHellosWaitingForTheirGrantsAreEachWokenByTheirOwn) {
-  // As above, with two subscribers whose HELLOs both wait: the first grant must wake only the
-  // HELLO that carries its token, not refuse the other.
-  pub = satellite("pub");
-  ChannelSpec spec{.name = "frames"};
-  spec.physical = PhysicalOptions{.direct = true};
-  ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); }));
-  auto big = satellite("big");
-  ASSERT_TRUE(big->on([](Satellite& s) { return s.addChannel({.name = "big"}); }));
-  pub->on([](Satellite& s) { s.subscribe("guest.big"); });
-  ASSERT_TRUE(eventually([&] { return big->events.count("start:guest.big") == 1; }));
-  std::thread busy([&] {
-    pub->on([](Satellite&) { std::this_thread::sleep_for(std::chrono::milliseconds(1500)); });
-  });
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  const std::string mb(1 << 20, 'b');
-  for (int i = 0; i < 32; ++i) big->on([&](Satellite& s) { (void)s.publish("big", mb); });
-  sub = satellite("sub");
-  auto sub2 = satellite("sub2");
-  for (auto* s : {sub.get(), sub2.get()}) {
+  for (auto* s : subscribers) {
     s->on([](Satellite& sat) {
       sat.usePaths("guest.frames", kPathDirect);
       sat.subscribe("guest.frames");
     });
   }
   busy.join();
+}
+
+TEST_F(Paths, AHelloThatComesBeforeItsGrantWaitsForIt) {
+  sub = satellite("sub");
+  helloBeforeGrant({sub.get()});
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u)
+      << "the first HELLO was taken, not refused";
+}
+
+TEST_F(Paths, TwoHellosWaitingForTheirGrantsAreEachWokenByTheirOwn) {
+  // The first grant must wake only the HELLO that carries its token, not refuse the other.
+  sub = satellite("sub");
+  auto sub2 = satellite("sub2");
+  helloBeforeGrant({sub.get(), sub2.get()});
   ASSERT_TRUE(pathWorks()) << sub->events.dump();
   ASSERT_TRUE(pathWorks(sub2.get())) << sub2->events.dump();
   for (auto* s : {sub.get(), sub2.get()}) {

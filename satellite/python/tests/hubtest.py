@@ -156,12 +156,13 @@ class Hub(object):
 class Sketch(object):
     """A subprocess whose output lines are collected (with their arrival time) by a thread."""
 
-    def __init__(self, argv, env, cwd=None):
+    def __init__(self, argv, env, cwd=None, stdin=False):
         self.argv = argv
         self.lines = []          # (monotonic time, text)
         self.lock = threading.Lock()
         text = {} if PY2 else {"encoding": "utf-8", "errors": "replace"}
         self.proc = subprocess.Popen(argv, env=env, cwd=cwd, stdout=subprocess.PIPE,
+                                     stdin=subprocess.PIPE if stdin else None,
                                      stderr=subprocess.STDOUT, **text)
         self.reader = threading.Thread(target=self._read)
         self.reader.daemon = True
@@ -176,6 +177,16 @@ class Sketch(object):
     def output(self):
         with self.lock:
             return "\n".join(text for _, text in self.lines)
+
+    def last(self):
+        """The last line so far ("" before the first)."""
+        with self.lock:
+            return self.lines[-1][1] if self.lines else ""
+
+    def send(self, line):
+        """A line to the process's stdin (made with stdin=True)."""
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
 
     def matching(self, pattern, since=0.0):
         rx = re.compile(pattern)

@@ -12,11 +12,9 @@ Under Python 2.7 (run_py27.sh) only PathsUnderPython2 runs: usePaths is accepted
 stays relayed. Nothing here depends on speed: every wait has a generous timeout.
 """
 import os
-import re
 import signal
 import socket
 import struct
-import subprocess
 import tempfile
 import threading
 import time
@@ -24,7 +22,7 @@ import unittest
 
 from PySketch.flowproto import PATH_DIRECT, PATH_SHM
 from tests.compat import PY2, monotonic
-from tests.hubtest import TIMEOUT, HubTestCase, pump, tickFor, waitUntil
+from tests.hubtest import TIMEOUT, HubTestCase, Sketch, pump, tickFor, waitUntil
 
 PATHS = not PY2 and hasattr(socket.socket, "recvmsg") and hasattr(os, "memfd_create")
 LONG = 30.0  # a path asked again after its backoff (1 s, 2 s, 4 s) on a loaded machine
@@ -49,37 +47,15 @@ def number(payload):
     return n
 
 
-class Publisher(object):
+class Publisher(Sketch):
     """paths_publisher as a subprocess, driven by commands on its stdin."""
 
     def __init__(self, hub, kinds, slot=65536, channel="frames"):
-        self.lines = []
-        self.lock = threading.Lock()
-        text = {} if PY2 else {"universal_newlines": True}
-        self.proc = subprocess.Popen([publisherBin(), hub.address, channel, kinds, str(slot)],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, **text)
-        self.reader = threading.Thread(target=self._read)
-        self.reader.daemon = True
-        self.reader.start()
-
-    def _read(self):
-        for line in iter(self.proc.stdout.readline, ""):
-            with self.lock:
-                self.lines.append(line.rstrip("\n"))
-
-    def output(self):
-        with self.lock:
-            return "\n".join(self.lines)
+        Sketch.__init__(self, [publisherBin(), hub.address, channel, kinds, str(slot)],
+                        env=None, stdin=True)
 
     def count(self, pattern):
-        rx = re.compile(pattern)
-        with self.lock:
-            return len([l for l in self.lines if rx.search(l)])
-
-    def send(self, command):
-        self.proc.stdin.write(command + "\n")
-        self.proc.stdin.flush()
+        return len(self.matching(pattern))
 
     def do(self, command, answer, sats=(), timeout=TIMEOUT):
         """Sends a command and waits for its answer, ticking `sats` meanwhile."""
@@ -169,7 +145,7 @@ class PathsWithAHub(HubTestCase):
         s.got = []
         # Filled in the slot in place by the owner, read in place here.
         pub.do("zc 1 40000", "^published", [s])
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in s.got), (s.got, s.pathStats()))
         tickFor([s], 0.3)
         self.assertEqual(s.got, [last], "once: not relayed as well")
@@ -180,7 +156,7 @@ class PathsWithAHub(HubTestCase):
         # One at a time, each waited for: every one by the path, none missed.
         for _ in range(30):
             pub.do("pub 1 1000", "^published", [s])
-            last = int(pub.lines[-1].split()[1])
+            last = int(pub.last().split()[1])
             self.assertTrue(pump([s], lambda: last in s.got))
         st = s.pathStats()
         self.assertEqual(st["path_messages"], before + 31)
@@ -194,19 +170,19 @@ class PathsWithAHub(HubTestCase):
         before = s.pathStats()["path_messages"]
         s.got = []
         pub.do("pub 300 3000", "^published", [s])
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in s.got), (len(s.got), s.pathStats()))
         self.assertEqual(s.got, list(range(last - 299, last + 1)), "all, in order, once")
         self.assertEqual(s.pathStats()["path_messages"], before + 300)
         pub.do("stats", "^stats", [s])
-        self.assertIn("served_direct=1", pub.lines[-1])
+        self.assertIn("served_direct=1", pub.last())
 
     def fallback(self, kinds, kind):
         pub = self.publisher(kinds)
         s = self.subscriber(kind)
         self.onPath(pub, s)
         s.got = []
-        first = int(pub.lines[-1].split()[1]) + 1
+        first = int(pub.last().split()[1]) + 1
         # Numbered messages; the owner breaks every path in the middle: relayed again, asked
         # again after the backoff, by the path again.
         pub.do("pub 100 64", "^published", [s])
@@ -215,7 +191,7 @@ class PathsWithAHub(HubTestCase):
         for _ in range(10):
             pub.do("pub 20 64", "^published", [s])
             tickFor([s], 0.02)
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in s.got), (len(s.got), s.pathStats()))
         got = s.got[:]
         self.assertEqual(got, sorted(set(got)), "in order, none twice")
@@ -250,8 +226,8 @@ class PathsWithAHub(HubTestCase):
         before = s.pathStats()
         pub.send("pub 200 64")   # all at once: the owner never waits for the reader
         self.assertTrue(pump([s], lambda: pub.count("^published") >= 2 and
-                             int(pub.lines[-1].split()[1]) in s.got), (s.got, pub.output()))
-        last = int(pub.lines[-1].split()[1])
+                             int(pub.last().split()[1]) in s.got), (s.got, pub.output()))
+        last = int(pub.last().split()[1])
         got = s.got[:]
         self.assertEqual(got, sorted(set(got)))
         self.assertTrue(set(got) <= set(range(last - 199, last + 1)))
@@ -311,7 +287,7 @@ class PathsWithAHub(HubTestCase):
         self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
         for _ in range(20):
             pub.do("pub 1 64", "^published", [s])
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in s.got))
         self.assertEqual(s.got, list(range(last - len(s.got) + 1, last + 1)))
         self.assertGreaterEqual(len(s.got), 20)
@@ -335,11 +311,11 @@ class PathsWithAHub(HubTestCase):
         self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
         for _ in range(10):
             pub.do("pub 1 64", "^published", [s])
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in s.got))
         self.assertEqual(s.pathStats()["path_messages"], 0)
         pub.do("stats", "^stats", [s])
-        self.assertIn("served_shm=0 served_direct=0", pub.lines[-1])
+        self.assertIn("served_shm=0 served_direct=0", pub.last())
         s.usePaths("guest.frames", PATH_SHM)   # asked again while subscribed: still nothing
         tickFor([s], 0.2)
         self.assertNotIn(b"\xf1", sent, "no PHYS_REQUEST on a 1.6 connection")
@@ -380,12 +356,12 @@ class PathsOverTcp(unittest.TestCase):
         before = s.pathStats()["path_messages"]
         del got[:]
         pub.do("pub 100 3000", "^published", [s])
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in got), (len(got), s.pathStats()))
         self.assertEqual(got, list(range(last - 99, last + 1)), "all, in order, once")
         self.assertEqual(s.pathStats()["path_messages"], before + 100)
         pub.do("stats", "^stats", [s])
-        self.assertIn("served_shm=0 served_direct=1", pub.lines[-1])
+        self.assertIn("served_shm=0 served_direct=1", pub.last())
 
 
 @unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
@@ -440,7 +416,7 @@ class PathsUnderPython2(HubTestCase):
         self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
         for _ in range(10):
             pub.do("pub 1 64", "^published", [s])
-        last = int(pub.lines[-1].split()[1])
+        last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in got))
         self.assertEqual(s.pathStats()["path_messages"], 0)
 

@@ -33,6 +33,13 @@ const Variant::List& list(const Variant& v, std::string_view key) {
   const Variant::List* l = at(v, key).asList();
   return l != nullptr ? *l : kEmpty;
 }
+// The path the k-th of a channel's subscriber_flows takes: relay, direct or shm ("" from a hub
+// that does not say).
+std::string subscriberPath(const Variant& channel, size_t k) {
+  const auto& paths = list(channel, "subscriber_paths");
+  const std::string* p = k < paths.size() ? paths[k].asString() : nullptr;
+  return p != nullptr ? *p : std::string();
+}
 
 std::string human(double bytes) {
   const char* units[] = {"B", "KiB", "MiB", "GiB"};
@@ -262,12 +269,11 @@ int cmdInfo(const Cli& cli) {
   Variant::List subscribers;
   if (row != nullptr) {
     const auto& ids = list(*row, "subscriber_flows");
-    const auto& paths = list(*row, "subscriber_paths");  // relay, direct or shm (hubs since 1.8)
     for (size_t k = 0; k < ids.size(); ++k) {
-      const std::string* path = k < paths.size() ? paths[k].asString() : nullptr;
+      const std::string path = subscriberPath(*row, k);
       std::string name = flow_names[ids[k].asUint64().value_or(0)];
-      if (path != nullptr && *path == "direct") name += " by a direct path";
-      if (path != nullptr && *path == "shm") name += " by shared memory";
+      if (path == "direct") name += " by a direct path";
+      if (path == "shm") name += " by shared memory";
       subscribers.emplace_back(std::move(name));
     }
   }
@@ -338,12 +344,10 @@ int cmdGraph(const Cli& cli) {
       edges += "  " + dotId("f:" + std::to_string(owner)) + " -> " + dotId("c:" + name) + ";\n";
     }
     const auto& subscribers = list(c, "subscriber_flows");
-    const auto& paths = list(c, "subscriber_paths");  // relay, direct or shm (hubs since 1.8)
     for (size_t k = 0; k < subscribers.size(); ++k) {
       const uint64_t f = subscribers[k].asUint64().value_or(0);
       used[f] = true;
-      const std::string* path_p = k < paths.size() ? paths[k].asString() : nullptr;
-      const std::string path = path_p != nullptr ? *path_p : std::string();
+      const std::string path = subscriberPath(c, k);
       const std::string style = path == "shm"      ? " [style=dotted, label=\"shared memory\"]"
                                 : path == "direct" ? " [style=dashed, label=\"direct\"]"
                                                    : "";

@@ -17,6 +17,16 @@ export function formatBytes(n) {
 
 const isHubOwn = (name) => name.startsWith('hub.');
 
+// The path the i-th of a channel's subscriber_flows takes (subscriber_paths): 'relay' through the
+// hub, or the 'direct' or 'shm' path of physical mode; 'relay' from a hub that does not say.
+export function subscriberPath(channel, i) {
+  const p = (channel.subscriber_paths || [])[i];
+  return p === 'direct' || p === 'shm' ? p : 'relay';
+}
+export function pathLabel(path) {
+  return path === 'shm' ? 'shared memory' : path === 'direct' ? 'direct' : '';
+}
+
 // {nodes: Map(id -> node), edges: [edge], topology: string}. Node ids are "f:<flow id>" and
 // "c:<channel name>"; a node is {id, type: 'flow'|'channel', label, title, cls: [], data}; an edge
 // is {id, from, to, kind: 'publish'|'subscribe', service, label, width, cls: []}. The hub's own
@@ -65,17 +75,15 @@ export function buildGraph(stats, { showHub = false, filter = '' } = {}) {
         cls: dropping ? ['drop'] : [],
       });
     }
-    // subscriber_paths, one per subscriber_flows: relay, or the direct or shared-memory path
-    // (physical mode) a subscriber takes past the hub.
-    const pathOf = new Map((c.subscriber_flows || []).map((fid, i) => [fid, (c.subscriber_paths || [])[i] || 'relay']));
+    const pathOf = new Map((c.subscriber_flows || []).map((fid, i) => [fid, subscriberPath(c, i)]));
     for (const f of subs) {
       const slow = f.queue_fill > SLOW_QUEUE_FILL || f.dropped_per_s > 0;
       const path = pathOf.get(f.id);
       const cls = dropping && slow ? ['drop'] : [];
-      if (path === 'direct' || path === 'shm') cls.push(`path-${path}`);
+      if (path !== 'relay') cls.push(`path-${path}`);
       edges.push({
         id: `s:${c.name}>${f.id}`, from: id, to: flowNode(f), kind: 'subscribe', service,
-        label: path === 'shm' ? 'shared memory' : path === 'direct' ? 'direct' : '', width: 1, cls,
+        label: pathLabel(path), width: 1, cls,
       });
     }
   }

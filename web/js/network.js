@@ -3,7 +3,7 @@
 // properties and databases (editable with the token websocket-ui's config names), a preview.
 import { Link } from './link.js';
 import { NetworkGraph } from './network-graph.js';
-import { buildGraph, formatBytes, formatRate } from './network-model.js';
+import { buildGraph, formatBytes, formatRate, pathLabel, subscriberPath } from './network-model.js';
 import { Preview, splitPreview } from './network-preview.js';
 
 const HISTORY = 120;  // seconds of rates kept per channel
@@ -239,9 +239,9 @@ function renderDetails() {
     $('details-title').textContent = c.name;
     facts.push(['kind', c.kind], ['mime', c.mime || '—'], ['owner', c.owner || '(offline)'],
       ['subscribers', (c.subscriber_flows || []).map((i, k) => {
-        const path = (c.subscriber_paths || [])[k];
         const name = names.get(i) || `flow ${i}`;
-        return path === 'shm' ? `${name} (shared memory)` : path === 'direct' ? `${name} (direct)` : name;
+        const path = pathLabel(subscriberPath(c, k));
+        return path ? `${name} (${path})` : name;
       }).join(', ') || 'none'],
       ['rate', formatRate(c.hz, c.bytes_per_s)], ['messages', String(c.messages)],
       ['bytes', formatBytes(c.bytes)], ['dropped', `${c.dropped} (${c.dropped_per_s}/s)`]);

@@ -301,19 +301,19 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
     return a.on([&](sat::Satellite&) { return sendOnLoop(echo); });
   };
   // Until the paths work (and both subscriptions are there): warm-up messages.
+  // Warm-up messages, echoed, until both channels are on their paths: a path's switch-over (the
+  // subscriber's marker) is not measured, and a message published while a subscriber switches
+  // can be lost (docs/physical-mode.md, "Not there yet").
   const auto ready = [&] {
-    (void)send(false);
+    (void)send(true);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    if (got_ping.load() == 0) return false;
+    if (got_ping.load() == 0 || got_pong.load() == 0) return false;
     if (mode == Mode::relay) return true;
     return b.on([](sat::Satellite& s) { return s.pathStats().path_messages; }) > 0 &&
-           a.on([](sat::Satellite& s) {
-             return s.pathStats().served_direct + s.pathStats().served_shm;
-           }) > 0;
+           a.on([](sat::Satellite& s) { return s.pathStats().path_messages; }) > 0;
   };
   if (!waitFor(ready, 20000)) failHere("no path came up");
-  // pong has to be followed as well.
-  (void)waitFor([&] { return b.on([&](sat::Satellite& s) { return s.hasSubscribers(pong); }); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the last echo lands
   // One way: one message at a time, nothing echoed (so that the subscriber is idle when it comes).
   b.on([&](sat::Satellite&) { one_way.clear(); });
   for (int i = 0; i < rounds; ++i) {

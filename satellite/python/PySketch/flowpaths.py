@@ -1,4 +1,5 @@
-"""Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7).
+"""Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7;
+its marker of 1.9).
 
 A channel's owner (a C++ satellite: PhysicalOptions) may offer to send its messages straight to
 its subscribers, over a Unix socket of its own (a *direct* path) or through a ring of slots in
@@ -24,10 +25,22 @@ to the hub and to the owner:
   EV_PHYS_PATH (an endpoint and a one-time token) or EV_ERROR (then asked again later);
 - it connects to the endpoint, sends HELLO, and reads WELCOME (for shared memory with three
   descriptors: the ring read-only, its lease page, its eventfd); then PHYS_STATE 1, and the hub
-  stops relaying the channel to it and sends the marker EV_PHYS_RELAY 0. What comes on the path
-  before the marker may have been relayed too: it is dropped (counted), so nothing is delivered
-  twice. The path is drained when the marker comes, so that what was on its way before it is
-  dropped as well;
+  stops relaying the channel to it and sends a marker. Until the marker the path is not
+  consumed: a direct socket is read ahead (16 MB at most, then it waits in the socket; a
+  hang-up meanwhile is noticed within a second) but its frames are left alone, a ring's eventfd
+  is drained but no slot is read;
+- the marker EV_PHYS_MARKER (1.9: a hub and an owner of 1.9) carries `seq`, the owner's last
+  message relayed: nothing of the channel is relayed after it. The path's messages numbered
+  up to `seq` (a DATA frame's `seq`, a ring slot's sequence number) came through the hub too:
+  they are dropped (counted in dropped_before_marker); those after it are delivered in order,
+  the frames read ahead first. For shared memory the newest slot is read then, and delivered
+  when its number is past `seq`. So nothing is delivered twice, and on a direct path nothing
+  is lost at the switch (shared memory: newest wins, as ever);
+- the marker EV_PHYS_RELAY 0 (a hub before 1.9, or an owner older than 1.9) has no number:
+  everything waiting on the path when it comes is dropped (a direct frame half read is dropped
+  once complete), what comes after it is delivered; a message published during the switch can
+  be lost (neither relayed nor delivered). Either marker counts only when it answers the
+  latest PHYS_STATE 1 of a path still open;
 - any break (the socket closed, a malformed or over-long frame, a refused WELCOME or ring,
   EV_PHYS_REVOKE) closes the path, sends PHYS_STATE 0 (relayed again) and asks again after
   1 s, 2 s, 4 s, ... up to 30 s (the C++ library's backoff); a refused PHYS_REQUEST is logged
@@ -56,6 +69,7 @@ from __future__ import print_function, division, absolute_import
 import errno
 import mmap
 import os
+import select
 import socket
 import struct
 import sys
@@ -109,6 +123,8 @@ _HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
 _CONNECT_TIMEOUT = 5.0  # seconds a TCP path's connect may take (kConnectTimeoutNs)
 _SCRATCH_BYTES = 256 * 1024  # what one recv() of a direct path reads at most ...
 _MAX_READS = 64              # ... and how many of them at a time (16 MB)
+_MAX_BEFORE_MARKER = 16 << 20  # what a direct path reads ahead before its marker (kMaxBeforeMarker)
+_ALL = 1 << 64               # `after` of EV_PHYS_RELAY 0: every message waiting was relayed
 
 _fenceLock = threading.Lock()
 
@@ -128,6 +144,16 @@ _now = getattr(time, "monotonic", time.time)
 
 def _strideFor(slotBytes):
     return (_SLOT_HEADER + slotBytes + _PAGE - 1) // _PAGE * _PAGE
+
+
+def _hungUp(sock):
+    """Whether the peer of a socket we do not read closed it (data may still wait in it)."""
+    try:
+        poller = select.poll()
+        poller.register(sock, select.POLLRDHUP | select.POLLHUP | select.POLLERR)
+        return bool(poller.poll(0))
+    except (AttributeError, OSError, ValueError, select.error):
+        return False
 
 
 def _closeFd(fd):
@@ -359,6 +385,9 @@ class _Path(object):
         self.open = False     # WELCOME came
         self.marker = False   # the hub relays no more: what comes on the path is ours
         self.markersDue = 0   # PHYS_STATE 1 sent, their marker not come yet
+        self.after = 0        # from the marker: path messages up to this number were relayed
+        self.dropPartial = False  # the direct frame being read began before EV_PHYS_RELAY 0
+        self.paused = False   # before the marker, _MAX_BEFORE_MARKER read: reading waits for it
         self.retryAt = 0.0    # 0: not waiting to ask again
         self.failures = 0
         self.connectingUntil = 0.0  # a TCP connect in progress (HELLO waits in `hello`)
@@ -426,6 +455,10 @@ class Paths(object):
             return
         p.tag = 0
         p.kind = kind
+        # The hub answers in order: a marker for an earlier PHYS_STATE 1 of this channel came
+        # before this grant, or never comes (1.9: a switch PHYS_STATE 0 cancelled, a grant
+        # replaced).
+        p.markersDue = 0
         if kind not in (PATH_DIRECT, PATH_SHM):
             return self._fail(p, "a path of unknown kind %d" % kind)
         sock, pending = self._connect(endpoint)
@@ -471,18 +504,44 @@ class Paths(object):
             p.markersDue -= 1
 
     def onRelay(self, chanID, needed):
-        """EV_PHYS_RELAY: to a subscriber, 0 is the marker after its PHYS_STATE 1."""
+        """EV_PHYS_RELAY: to a subscriber, 0 is the marker after its PHYS_STATE 1, from a hub
+        before 1.9 or an owner older than 1.9."""
+        if needed == 0:
+            self._marker(chanID, None)
+
+    def onMarker(self, chanID, seq):
+        """EV_PHYS_MARKER (1.9): the marker, with the owner's last message relayed."""
+        self._marker(chanID, seq)
+
+    def _marker(self, chanID, after):
+        """The hub relays no more. Until now the path was left waiting (a direct socket read
+        ahead, a ring not read). With `after`, the path's copies of what was relayed (up to
+        that message number) are dropped and the rest delivered; without it (None), what waits
+        on the path may have been relayed as well: it is all dropped (a direct frame half read
+        is dropped when complete), then the rest is taken, and a message published during the
+        switch can be lost."""
         p = self._paths.get(chanID)
-        if p is None or needed != 0:
+        if p is None:
             return
         if p.markersDue > 0:
             p.markersDue -= 1
-        if p.markersDue > 0 or not p.open:
+        if p.markersDue > 0 or not p.open or p.marker:
             return  # the marker of a path that broke since: not this one's
-        # What is already on the path was sent before the hub stopped relaying: drop it.
-        self._readPath(p, dropping=True)
-        if self._paths.get(chanID) is p and p.open:
-            p.marker = True
+        p.marker = True
+        p.after = _ALL if after is None else after
+        p.paused = False
+        sock = p.sock
+        if sock is not None:
+            self._frames(p)   # what was read ahead
+            if self._paths.get(chanID) is p and p.sock is sock:
+                self._recv(p)  # and what waits in the socket
+        if p.ring is not None and self._paths.get(chanID) is p:
+            p.ring.drain()
+            self._readRing(p)
+        if self._paths.get(chanID) is not p or not p.open or after is not None:
+            return
+        p.dropPartial = bool(p.inbuf)
+        p.after = 0
 
     def onRevoke(self, chanID):
         p = self._paths.get(chanID)
@@ -505,7 +564,7 @@ class Paths(object):
     def fds(self):
         out = []
         for p in self._paths.values():
-            if p.sock is not None and not p.connectingUntil:
+            if p.sock is not None and not p.connectingUntil and not p.paused:
                 out.append(p.sock)
             if p.ring is not None:
                 out.append(p.ring)
@@ -531,13 +590,17 @@ class Paths(object):
         for obj in ready:
             for p in list(self._paths.values()):
                 if obj is p.sock and p.sock is not None:
-                    self._readPath(p, dropping=False, socketOnly=True)
+                    if not p.open:
+                        self._welcome(p)
+                    else:
+                        self._recv(p)
                 elif obj is p.ring and p.ring is not None:
                     p.ring.drain()
-                    self._readRing(p, dropping=not p.marker)
+                    if p.marker:  # before it, the latest slot is read when it comes
+                        self._readRing(p)
 
     def tick(self):
-        """About once a second: leases kept alive, paths asked again."""
+        """About once a second: leases kept alive, paths asked again, paused paths checked."""
         t = _now()
         if t - self._lastTick < _HEARTBEAT:
             return
@@ -545,6 +608,8 @@ class Paths(object):
         for p in list(self._paths.values()):
             if p.connectingUntil and p.connectingUntil <= t:
                 self._fail(p, "the owner's TCP endpoint does not answer")
+            if p.paused and p.sock is not None and _hungUp(p.sock):
+                self._fail(p, "the owner closed the path")
             if p.ring is not None:
                 p.ring.heartbeat()
             if not p.open and p.tag == 0 and p.retryAt and p.retryAt <= t:
@@ -606,6 +671,7 @@ class Paths(object):
 
     def _closeIo(self, p):
         p.connectingUntil = 0.0
+        p.paused = False
         p.hello = b""
         if p.ring is not None:
             p.ring.close()
@@ -634,6 +700,8 @@ class Paths(object):
         self._closeIo(p)
         p.open = False
         p.marker = False
+        p.after = 0
+        p.dropPartial = False
         p.tag = 0
         p.failures += 1
         self._stats["fallbacks"] += 1
@@ -696,22 +764,12 @@ class Paths(object):
         self._flow._send(physState(p.chanID, True))
         log.msg("FlowSat: SAT-PATH-OPEN %s by %s" % (
             p.name, "shared memory" if p.kind == PATH_SHM else "a direct socket"))
-        if p.inbuf:
-            self._frames(p, dropping=not p.marker)
+        # What came with WELCOME waits for the marker.
 
-    def _readPath(self, p, dropping, socketOnly=False):
-        """Reads what the path has now: its socket (WELCOME, DATA, BYE) and, for shared
-        memory, the newest slot."""
-        if p.sock is not None:
-            if not p.open:
-                self._welcome(p)
-            else:
-                self._recv(p, dropping or not p.marker)
-        if not socketOnly and p.ring is not None and self._paths.get(p.chanID) is p:
-            p.ring.drain()
-            self._readRing(p, dropping)
-
-    def _recv(self, p, dropping):
+    def _recv(self, p):
+        """Reads what the path's socket has now; its frames are taken once the marker came.
+        Before it, at most _MAX_BEFORE_MARKER is read ahead, then reading waits for it (a
+        hang-up meanwhile is seen by tick())."""
         sock = p.sock
         if self._scratch is None:
             self._scratch = bytearray(_SCRATCH_BYTES)
@@ -726,20 +784,29 @@ class Paths(object):
                     return
                 return self._fail(p, os.strerror(e.errno or 0) or str(e))
             if not got:
-                self._frames(p, dropping)  # what came before the close is still ours
+                self._frames(p)  # what came before the close is ours, after the marker
                 if self._paths.get(p.chanID) is p and p.sock is sock:
                     self._fail(p, "the owner closed the path")
                 return
             p.inbuf += self._scratchView[:got]
-            # Each read's frames at once: a length over the limit ends the path before more
-            # is read, and what is buffered stays one frame and a read.
-            self._frames(p, dropping)
+            if not p.marker:
+                if len(p.inbuf) >= _MAX_BEFORE_MARKER:
+                    p.paused = True  # the rest waits in the socket (then at the owner)
+                    return
+            else:
+                # Each read's frames at once: a length over the limit ends the path before
+                # more is read, and what is buffered stays one frame and a read.
+                self._frames(p)
             if self._paths.get(p.chanID) is not p or p.sock is not sock or got < _SCRATCH_BYTES:
                 return
         # More is waiting: select() says so again, after the hub's socket had its turn.
 
-    def _frames(self, p, dropping):
-        """DATA frames in the input, delivered (or dropped before the marker)."""
+    def _frames(self, p):
+        """DATA frames in the input, once the marker came: those the hub relayed too (their
+        number up to the marker's, or all that waited at EV_PHYS_RELAY 0) dropped, the rest
+        delivered in order."""
+        if not p.marker:
+            return  # the hub may still relay what comes here
         buf = p.inbuf
         used = 0
         chan = p.chanID
@@ -759,7 +826,8 @@ class Paths(object):
                     return self._fail(p, "the owner said goodbye")
                 if kind != DATA or end - start < _DATA_HEAD:
                     return self._fail(p, "an unexpected path frame")
-                if dropping or not p.marker:
+                if p.dropPartial or struct.unpack_from("<Q", buf, start)[0] <= p.after:
+                    p.dropPartial = False
                     self._stats["dropped_before_marker"] += 1
                     continue
                 self._stats["path_messages"] += 1
@@ -772,7 +840,9 @@ class Paths(object):
             if used and p.inbuf is buf:
                 del buf[:used]
 
-    def _readRing(self, p, dropping):
+    def _readRing(self, p):
+        """The newest slot, once the marker came: delivered when its number is past the
+        marker's, else dropped (relayed too)."""
         ring = p.ring
         c = ring.claim()
         if c is False:
@@ -781,7 +851,7 @@ class Paths(object):
         if c is None:
             return
         self._stats["missed"] += c.missed
-        if dropping or not p.marker:
+        if c.seq <= p.after:
             ring.release(c)
             self._stats["dropped_before_marker"] += 1
             return

@@ -36,10 +36,11 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-# 1.7: physical mode, subscriber side (flowpaths); 1.6 brings nothing PySketch sends or must
-# read (DB_READ, LINK_OFFER: its events answer only those); 1.5: replicas; 1.4: timed requests;
-# 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
-PROTOCOL_MINOR = 7
+# 1.9: EV_PHYS_MARKER, the subscriber's marker with the owner's message number (flowpaths);
+# 1.8 changes only PHYS_OFFER, which PySketch never sends; 1.7: physical mode, subscriber side;
+# 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
+# those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
+PROTOCOL_MINOR = 9
 PATHS_MINOR = 7  # PHYS_REQUEST, PHYS_STATE and their events
 
 # Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
@@ -259,6 +260,10 @@ class Code(object):
     EV_PHYS_PATH = 0xF9
     EV_PHYS_REVOKE = 0xFA
     EV_PHYS_RELAY = 0xFB
+    # 1.9: the switch to a path at a point of the owner's choosing (docs/physical-mode.md)
+    PHYS_SWITCHED = 0xF4   # owner: the subscriber leaves the relay after message `seq`
+    EV_PHYS_SWITCH = 0xFC  # to the owner (PySketch offers no paths: never to it)
+    EV_PHYS_MARKER = 0xFD  # to the subscriber: relayed up to `seq`, the rest on the path only
 
 
 def codeName(code):
@@ -646,6 +651,14 @@ def decodePhysRelay(body):
     r = Reader(body)
     out = (r.u16("chan_id"), r.u8("needed"))
     r.done("EV_PHYS_RELAY")
+    return out
+
+
+def decodePhysMarker(body):
+    """EV_PHYS_MARKER (1.9): (chanID, seq), the owner's last message relayed."""
+    r = Reader(body)
+    out = (r.u16("chan_id"), r.u64("seq"))
+    r.done("EV_PHYS_MARKER")
     return out
 
 

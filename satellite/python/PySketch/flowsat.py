@@ -65,7 +65,9 @@ setReconnectEnabled(False) turns this off: isConnected() then becomes False when
 Physical mode (FlowProtocol 1.7, flowpaths.py): usePaths(name, PATH_SHM | PATH_DIRECT) asks
 the hub for a shared-memory or direct path to a channel's owner whenever the flow subscribes to
 it; data then comes to the same callbacks, and through the hub again whenever the path breaks.
-pathStats() counts it. Python 3 only: under Python 2.7 the channel stays relayed.
+With a hub and an owner of 1.9, nothing published while the subscriber switches to its path is
+lost (EV_PHYS_MARKER). pathStats() counts it. Python 3 only: under Python 2.7 the channel stays
+relayed.
 
 Not thread-safe: call it from the sketch's thread only.
 """
@@ -89,9 +91,9 @@ from PySketch.elapsedtime import ElapsedTime, now
 from PySketch.flowpaths import Paths
 from PySketch.flowproto import (
     PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T,
-    FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysPath, decodePhysRelay,
-    decodePhysRevoke, encodeValue, errorName, frame, integer_types, str16, text_type, toBytes,
-    u16, u32, u64, utf8)
+    FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysMarker, decodePhysPath,
+    decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame, integer_types, str16,
+    text_type, toBytes, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
 TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
@@ -864,6 +866,8 @@ class FlowSat(AbstractFlow):
             self._paths.onPath(*decodePhysPath(body))
         elif code == Code.EV_PHYS_RELAY:
             self._paths.onRelay(*decodePhysRelay(body))
+        elif code == Code.EV_PHYS_MARKER:
+            self._paths.onMarker(*decodePhysMarker(body))
         elif code == Code.EV_PHYS_REVOKE:
             self._paths.onRevoke(decodePhysRevoke(body)[0])
         # Anything else (a later minor version's events) is ignored.

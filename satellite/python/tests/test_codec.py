@@ -18,8 +18,8 @@ from PySketch.abstractflow import FlowChannel, parseAddress, robotAddress, valid
 from PySketch.databuffer import DataBuffer
 from PySketch.elapsedtime import ElapsedTime
 from PySketch.flowproto import (
-    ChannelInfo, Code, FlowChanID, Flow_T, ProtocolError, Reader, Variant_T, decodeValue,
-    decodeVariant, encodeValue, encodeVariant, frame)
+    ChannelInfo, Code, FlowChanID, Flow_T, ProtocolError, Reader, Variant_T, codeName,
+    decodePhysMarker, decodeValue, decodeVariant, encodeValue, encodeVariant, frame)
 from PySketch import log
 
 
@@ -145,8 +145,17 @@ class Frames(unittest.TestCase):
         s = FlowSat()
         s.setLogin("guest", "pw")
         s.setNodeName("n")
-        body = h("01 00 07 00 00") + b"\x05\x00guest" + b"\x02\x00pw" + b"\x01\x00n"  # 1.7, binary
+        body = h("01 00 09 00 00") + b"\x05\x00guest" + b"\x02\x00pw" + b"\x01\x00n"  # 1.9, binary
         self.assertEqual(s._loginFrame(), struct.pack("<I", len(body) + 1) + b"\x01" + body)
+
+    def test_phys_marker(self):
+        # EV_PHYS_MARKER (1.9): u16 chan_id, u64 seq, little-endian.
+        self.assertEqual(codeName(0xFD), "EV_PHYS_MARKER")
+        self.assertEqual((Code.PHYS_SWITCHED, Code.EV_PHYS_SWITCH), (0xF4, 0xFC))
+        self.assertEqual(decodePhysMarker(h("05 00 03 00 00 00 00 01 00 00")), (5, (1 << 40) + 3))
+        for bad in ("05 00 03 00 00 00 00 01 00", "05 00 03 00 00 00 00 01 00 00 00"):
+            with self.assertRaises(ProtocolError, msg=bad):
+                decodePhysMarker(h(bad))
 
     def test_channel_info(self):
         body = (struct.pack("<HQB", 7, 99, 1) + b"\x09\x00guest.cam" + b"\x05\x00guest" +

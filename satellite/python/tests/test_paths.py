@@ -4,9 +4,11 @@ Against a real hub and a C++ owner (satellite/cpp/tests/paths_publisher, given a
 $SKROBOT_PATHS_PUBLISHER, else looked for next to $SKROBOT_BIN): shared-memory delivery with its
 content checked in place (memoryview, numpy), a direct path in order, fallback without
 duplicates when the path breaks mid-stream, a slow reader (newest wins, missed counted), an
-owner killed while its reader reads, a path that cannot be had, and a hub that speaks 1.6.
+owner killed while its reader reads, a path that cannot be had, a hub that speaks 1.6, and
+subscribers that switch to their paths while the owner publishes without pause (nothing lost).
 Without a hub: the ring reader against rings made here (refused, torn, out of bounds) and a fake
-owner that breaks the path framing, and the marker rule.
+owner that breaks the path framing, and the marker rules (EV_PHYS_MARKER's number, the old
+EV_PHYS_RELAY 0, a switch cancelled by a break, the read-ahead before the marker).
 
 Under Python 2.7 (run_py27.sh) only PathsUnderPython2 runs: usePaths is accepted and the channel
 stays relayed. Nothing here depends on speed: every wait has a generous timeout.
@@ -50,9 +52,10 @@ def number(payload):
 class Publisher(Sketch):
     """paths_publisher as a subprocess, driven by commands on its stdin."""
 
-    def __init__(self, hub, kinds, slot=65536, channel="frames"):
-        Sketch.__init__(self, [publisherBin(), hub.address, channel, kinds, str(slot)],
-                        env=None, stdin=True)
+    def __init__(self, hub, kinds, slot=65536, channel="frames", rate=None):
+        """rate: its loop's frequency (Hz; 200 by default), that of `slow`."""
+        Sketch.__init__(self, [publisherBin(), hub.address, channel, kinds, str(slot)] +
+                        ([str(rate)] if rate else []), env=None, stdin=True)
 
     def count(self, pattern):
         return len(self.matching(pattern))
@@ -90,8 +93,8 @@ class Publisher(Sketch):
 
 @unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
 class PathsWithAHub(HubTestCase):
-    def publisher(self, kinds, slot=65536):
-        p = Publisher(self.hub, kinds, slot)
+    def publisher(self, kinds, slot=65536, rate=None):
+        p = Publisher(self.hub, kinds, slot, rate=rate)
         self.addCleanup(p.close)
         if not waitUntil(lambda: p.count("^ready ") > 0, TIMEOUT):
             raise AssertionError("paths_publisher not ready:\n" + p.output())
@@ -176,6 +179,45 @@ class PathsWithAHub(HubTestCase):
         self.assertEqual(s.pathStats()["path_messages"], before + 300)
         pub.do("stats", "^stats", [s])
         self.assertIn("served_direct=1", pub.last())
+
+    @staticmethod
+    def busyAfterPhysState(send, seconds):
+        def sendThenWait(data):
+            ok = send(data)
+            if bytes(data[4:5]) == b"\xf2" and bytes(data[7:8]) == b"\x01":  # PHYS_STATE 1
+                time.sleep(seconds)
+            return ok
+        return sendThenWait
+
+    def test_switching_to_a_direct_path_loses_nothing(self):
+        # The owner publishes without pause while subscribers switch to their paths, each at
+        # another point of the stream: from its first message on, each gets every message once,
+        # in order (EV_PHYS_MARKER; paths_test.cpp SwitchingToADirectPathLosesNothing).
+        pub = self.publisher("direct", rate=1000)
+        pub.send("slow 1000000000 64")   # a message per loop (1 kHz) until told otherwise
+        subs = []
+        for k in range(5):
+            s = self.subscriber(PATH_DIRECT)
+            subs.append(s)
+            # Once its path is open (PHYS_STATE 1 sent) it is busy for a while, as a sketch may
+            # be: the owner's messages after the switch wait on the path, the marker with them.
+            s._send = self.busyAfterPhysState(s._send, 0.02 * k)
+            tickFor(subs, 0.2)
+        ok = pump(subs, lambda: all(s.pathStats()["path_messages"] > 100 for s in subs), LONG)
+        self.assertTrue(ok, [s.pathStats() for s in subs])
+        pub.send("slow 1 64")            # one more, then it stops and says which
+        self.assertTrue(pump(subs, lambda: pub.count("^published") > 0), pub.output())
+        last = int(pub.matching("^published")[-1].split()[1])
+        self.assertTrue(pump(subs, lambda: all(last in s.got for s in subs)),
+                        [(s.got[-3:], s.pathStats()) for s in subs])
+        for k, s in enumerate(subs):
+            got = s.got[:]
+            self.assertEqual(got, list(range(got[0], last + 1)),
+                             "subscriber %d: every message once, in order (%d of %d-%d)"
+                             % (k, len(got), got[0], last))
+            st = s.pathStats()
+            self.assertEqual(st["fallbacks"], 0, (k, st))
+            self.assertGreater(st["path_messages"], 100, (k, st))
 
     def fallback(self, kinds, kind):
         pub = self.publisher(kinds)
@@ -624,29 +666,148 @@ class PathsWithAFakeOwner(unittest.TestCase):
         self.assertEqual(self.paths.stats()["dropped_before_marker"], 2)
         owner.close()
 
+    def again(self, first=b""):
+        """After a break: asked again now, granted, connected; the owner answers WELCOME and
+        `first`. Returns the owner's socket."""
+        self.paths._paths[5].retryAt = 0.001
+        self.paths._lastTick = 0
+        self.paths.tick()
+        code, body = self.flow.codes()[-1]
+        self.assertEqual(code, 0xF1)
+        tag = struct.unpack_from("<I", body)[0]
+        self.paths.onPath(tag, 5, PATH_DIRECT, "unix:" + self.where, "1" * 32)
+        owner, _ = self.listener.accept()
+        owner.recv(4096)
+        owner.sendall(struct.pack("<IBHH", 5, 2, 0, 0) + first)
+        self.step()
+        self.step() if not self.paths._paths[5].open else None
+        self.assertTrue(self.paths._paths[5].open)
+        return owner
+
     def test_a_stale_marker_does_not_open_the_next_path(self):
         owner = self.open()
         owner.close()                           # breaks before its marker came
         self.step()
         self.assertEqual(self.paths.stats()["fallbacks"], 1)
         self.paths.onRelay(5, 0)                # the marker of the broken path, late
-        self.paths._paths[5].retryAt = 0.001    # ask again now
-        self.paths._lastTick = 0
-        self.paths.tick()
-        code, body = self.flow.codes()[-1]
-        tag = struct.unpack_from("<I", body)[0]
-        self.paths.onPath(tag, 5, PATH_DIRECT, "unix:" + self.where, "1" * 32)
-        owner, _ = self.listener.accept()
-        owner.recv(4096)
-        owner.sendall(struct.pack("<IBHH", 5, 2, 0, 0) + self.data(1, b"relayed too"))
-        self.step()
-        self.step() if not self.paths._paths[5].open else None
+        owner = self.again(self.data(1, b"relayed too"))
         self.assertEqual(self.flow.got, [], "its marker has not come: it may be a duplicate")
         self.paths.onRelay(5, 0)
         owner.sendall(self.data(2, b"ours"))
         self.step()
         self.assertEqual(self.flow.got, [b"ours"])
         owner.close()
+
+    def test_a_numbered_marker_drops_what_was_relayed_and_delivers_the_rest(self):
+        owner = self.open()
+        m = [self.data(n, b"m%d" % n) for n in range(8)]
+        owner.sendall(m[1] + m[2] + m[3][:10])   # before the marker: read ahead, left alone
+        self.step()
+        self.assertEqual(len(self.paths._paths[5].inbuf), len(m[1] + m[2]) + 10)
+        owner.sendall(m[3][10:] + m[4] + m[5] + m[6][:10])   # waits in the socket
+        self.assertEqual((self.flow.got, self.paths.stats()["dropped_before_marker"]), ([], 0))
+        self.paths.onMarker(5, 3)                # relayed up to message 3; the rest is ours
+        self.assertEqual(self.flow.got, [b"m4", b"m5"])
+        self.assertEqual(self.paths.stats()["dropped_before_marker"], 3)
+        owner.sendall(m[6][10:] + m[7])
+        self.step()
+        self.assertEqual(self.flow.got, [b"m4", b"m5", b"m6", b"m7"],
+                         "the frame half read at the marker is ours too")
+        st = self.paths.stats()
+        self.assertEqual((st["path_messages"], st["dropped_before_marker"]), (4, 3))
+        owner.close()
+
+    def test_the_old_marker_drops_everything_that_waits(self):
+        owner = self.open()
+        m = [self.data(n, b"m%d" % n) for n in range(7)]
+        owner.sendall(m[1] + m[2] + m[3][:10])
+        self.step()
+        owner.sendall(m[3][10:] + m[4] + m[5][:10])
+        self.paths.onRelay(5, 0)    # a hub or an owner before 1.9: no number
+        self.assertEqual(self.flow.got, [])
+        self.assertEqual(self.paths.stats()["dropped_before_marker"], 4)
+        owner.sendall(m[5][10:] + m[6])
+        self.step()
+        self.assertEqual(self.flow.got, [b"m6"], "a frame begun before the marker is dropped")
+        self.assertEqual(self.paths.stats()["dropped_before_marker"], 5)
+        owner.close()
+
+    def test_a_numbered_marker_on_shared_memory(self):
+        for after, expected, dropped in ((1, [b"m2", b"m3"], 0), (2, [b"m3"], 1)):
+            m, ro, lease, ev, lm, stride = makeRing()
+            owner = self.open(PATH_SHM, [ro, lease, ev])
+            for fd in (ro, lease, ev):
+                os.close(fd)
+            del self.flow.got[:]
+            before = self.paths.stats()["dropped_before_marker"]
+            commit(m, stride, 0, 1, b"m1")
+            os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
+            self.step()
+            commit(m, stride, 1, 2, b"m2")
+            self.assertEqual(self.flow.got, [], "no slot read before the marker")
+            self.paths.onMarker(5, after)        # the newest (2) is read now
+            commit(m, stride, 2, 3, b"m3")
+            os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
+            self.step()
+            self.assertEqual(self.flow.got, expected, after)
+            self.assertEqual(self.paths.stats()["dropped_before_marker"] - before, dropped,
+                             "the newest at the marker, when it was relayed too")
+            owner.close()
+            self.paths.onUnsubscribed(5)
+
+    def test_a_switch_cancelled_by_a_break_does_not_hold_up_the_next_path(self):
+        owner = self.open()     # PHYS_STATE 1: a hub of 1.9 asks the owner to switch
+        owner.close()           # broken before it answered: PHYS_STATE 0 cancels it, no marker
+        self.step()
+        self.assertEqual(self.states(), [struct.pack("<HB", 5, 1), struct.pack("<HB", 5, 0)])
+        owner = self.again(self.data(1, b"relayed too") + self.data(2, b"ours"))
+        self.assertEqual(self.states()[-1], struct.pack("<HB", 5, 1))
+        self.paths.onMarker(5, 1)   # the new path's marker: the only one that comes
+        self.assertEqual(self.flow.got, [b"ours"])
+        owner.close()
+
+    def test_reads_ahead_at_most_16_mb_before_the_marker(self):
+        owner = self.open()
+        p = self.paths._paths[5]
+        frames = [self.data(n, struct.pack("<Q", n) + b"x" * (1 << 20)) for n in range(1, 21)]
+        t = threading.Thread(target=owner.sendall, args=(b"".join(frames),))
+        t.start()
+        deadline = monotonic() + TIMEOUT
+        while not p.paused and monotonic() < deadline:
+            self.step()
+        self.assertTrue(p.paused, len(p.inbuf))
+        self.assertTrue(16 << 20 <= len(p.inbuf) <= (16 << 20) + 256 * 1024, len(p.inbuf))
+        self.assertEqual(self.paths.fds(), [], "the rest waits in the socket")
+        self.assertEqual(self.flow.got, [])
+        self.paths.onMarker(5, 2)
+        while len(self.flow.got) < 18 and monotonic() < deadline:
+            self.step()
+        t.join(TIMEOUT)
+        self.assertEqual([struct.unpack_from("<Q", g)[0] for g in self.flow.got],
+                         list(range(3, 21)), "all after the marker's, in order")
+        self.assertEqual(self.paths.stats()["fallbacks"], 0)
+        owner.close()
+
+    def test_a_hang_up_while_the_read_ahead_waits_falls_back(self):
+        owner = self.open()
+        p = self.paths._paths[5]
+
+        def send():   # one frame beyond the read-ahead, then gone
+            owner.sendall(self.data(1, b"x" * ((16 << 20) + 1000)))
+            owner.close()
+        t = threading.Thread(target=send)
+        t.start()
+        deadline = monotonic() + TIMEOUT
+        while not p.paused and monotonic() < deadline:
+            self.step()
+        t.join(TIMEOUT)
+        self.assertTrue(p.paused)
+        self.assertEqual(self.paths.stats()["fallbacks"], 0)
+        self.paths._lastTick = 0
+        self.paths.tick()      # not read, but watched for a hang-up
+        self.assertEqual(self.paths.stats()["fallbacks"], 1)
+        self.assertEqual(self.states()[-1], struct.pack("<HB", 5, 0), "relayed again")
+        self.assertEqual(self.paths.fds(), [])
 
     def test_breaks_fall_back_to_the_relay(self):
         breaks = {
@@ -720,8 +881,9 @@ class PathsWithAFakeOwner(unittest.TestCase):
         os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
         self.step()
         self.assertEqual(self.flow.got, [])
+        self.assertEqual(self.paths.stats()["dropped_before_marker"], 0, "not read before it")
+        self.paths.onRelay(5, 0)                 # no number: the newest waiting is dropped
         self.assertEqual(self.paths.stats()["dropped_before_marker"], 1)
-        self.paths.onRelay(5, 0)
         views = []
 
         def rewrite(chan, view):   # a writer that ignores the lease, during the read

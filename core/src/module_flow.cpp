@@ -93,6 +93,9 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
   h.on_phys_relay = [this](const flow::msg::EvPhysRelay& m) {
     if (paths_) paths_->onRelay(m);
   };
+  h.on_phys_switch = [this](const flow::msg::EvPhysSwitch& m) {
+    if (paths_) paths_->onSwitch(m);
+  };
   client_ = server.attachLocal(module_name, module_name, std::move(h), std::move(access));
 }
 
@@ -198,6 +201,9 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     };
     h.count = [this](const flow::msg::PhysCount& m) {
       if (auto r = client_->countPaths(m); !r) (void)fail("paths", r.error());
+    };
+    h.switched = [this](const flow::msg::PhysSwitched& m) {
+      if (auto r = client_->switchedPaths(m); !r) (void)fail("paths", r.error());
     };
     // A module takes no paths as a subscriber: these are never called.
     h.request = [](const flow::msg::PhysRequest&) {};

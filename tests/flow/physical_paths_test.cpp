@@ -1,11 +1,13 @@
-// Physical mode through the hub (protocol 1.7, two endpoints 1.8): offers, grants with one-time
-// tokens, the relay skipped for a subscriber whose path works and resumed when it breaks,
-// revocation when a subscriber leaves, counts in the statistics, and refusals.
+// Physical mode through the hub (protocol 1.7, two endpoints 1.8, the owner's switch 1.9):
+// offers, grants with one-time tokens, the relay skipped for a subscriber whose path works (from
+// the point the owner picks) and resumed when it breaks, revocation when a subscriber leaves,
+// counts in the statistics, and refusals.
 #include "flow_fixture.h"
 
 #include <skrobot/flow/hub_stats.h>
 
 #include <algorithm>
+#include <optional>
 
 namespace skr::test {
 namespace {
@@ -48,8 +50,23 @@ class PhysicalPaths : public FlowFixture {
     TestClient owner, sub;
     uint16_t id = 0;
   };
-  Pair offered() {
-    Pair p{flowClient(), flowClient(), 0};
+  // A flow of a client that speaks protocol 1.<minor>.
+  TestClient olderFlow(uint16_t minor) {
+    TestClient c = olderClient(minor);
+    EXPECT_TRUE(c.call(msg::Empty<Code::go_async>{}));
+    return c;
+  }
+  // The owner answers the hub's EV_PHYS_SWITCH with `seq`; the subscriber gets its marker.
+  static void switchOver(Pair& p, uint64_t seq) {
+    auto sw = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
+    ASSERT_TRUE(sw) << "the owner is asked where the switch goes";
+    ASSERT_TRUE(p.owner.send(msg::PhysSwitched{p.id, sw->subscriber, sw->switch_id, seq}));
+    auto marker = as<msg::EvPhysMarker>(p.sub.waitFor(Code::ev_phys_marker));
+    ASSERT_TRUE(marker) << "the subscriber's marker";
+    EXPECT_EQ(marker->seq, seq);
+  }
+  Pair offered(std::optional<TestClient> owner = {}, std::optional<TestClient> sub = {}) {
+    Pair p{owner ? std::move(*owner) : flowClient(), sub ? std::move(*sub) : flowClient(), 0};
     p.id = addChannel(p.owner, "camera");
     EXPECT_TRUE(p.owner.send(msg::PhysOffer{2, p.id, msg::kPhysDirect | msg::kPhysShm,
                                             "unix:/tmp/skrobot-path-x tcp:127.0.0.1:9"}));
@@ -76,7 +93,7 @@ TEST_F(PhysicalPaths, AGrantGoesToBothEndsWithOneToken) {
   EXPECT_EQ(grant->path, msg::kPhysShm);
   EXPECT_EQ(grant->name.substr(0, 6), "guest/");
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
-  settle(p.sub);
+  switchOver(p, 0);
   EXPECT_EQ(paths(p.id), (std::vector<std::string>{"shm"}));
   // Asking again: a new token, and the old grant is revoked at the owner.
   ASSERT_TRUE(p.sub.send(msg::PhysRequest{8, p.id, msg::kPhysDirect}));
@@ -97,9 +114,7 @@ TEST_F(PhysicalPaths, AWorkingPathTakesTheSubscriberOffTheRelayUntilItBreaks) {
   ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
   ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
-  auto marker = as<msg::EvPhysRelay>(p.sub.waitFor(Code::ev_phys_relay));
-  ASSERT_TRUE(marker) << "the subscriber's marker";
-  EXPECT_EQ(marker->needed, 0);
+  switchOver(p, 0);
   auto relay = as<msg::EvPhysRelay>(p.owner.waitFor(Code::ev_phys_relay));
   ASSERT_TRUE(relay) << "nobody is relayed to any more";
   EXPECT_EQ(relay->needed, 0);
@@ -123,6 +138,82 @@ TEST_F(PhysicalPaths, AWorkingPathTakesTheSubscriberOffTheRelayUntilItBreaks) {
   auto d = as<msg::EvData>(p.sub.waitFor(Code::ev_data));
   ASSERT_TRUE(d);
   EXPECT_EQ(d->payload.bytes, "relayed again");
+}
+
+// 1.9: the subscriber leaves the relay where the owner says, so that the marker names the last
+// message relayed; an answer to a switch given up since changes nothing.
+TEST_F(PhysicalPaths, TheOwnerPicksWhereTheSubscriberLeavesTheRelay) {
+  startHub();
+  Pair p = offered();
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  auto grant = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+  ASSERT_TRUE(grant);
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  auto sw = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
+  ASSERT_TRUE(sw);
+  EXPECT_EQ(sw->chan_id, p.id);
+  EXPECT_EQ(sw->subscriber, grant->subscriber);
+  // Until the owner answers, the subscriber is relayed.
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"before"}}));
+  auto d = as<msg::EvData>(p.sub.waitFor(Code::ev_data));
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->payload.bytes, "before");
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"relay"}));
+  // An answer to another switch, and one from someone else, change nothing.
+  ASSERT_TRUE(p.owner.send(msg::PhysSwitched{p.id, sw->subscriber, sw->switch_id + 1, 5}));
+  ASSERT_TRUE(p.sub.send(msg::PhysSwitched{p.id, sw->subscriber, sw->switch_id, 5}));
+  EXPECT_EQ(error(p.sub), uint16_t(ErrorCode::permission_denied));
+  settle(p.owner);
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"relay"}));
+  // The answer: relayed up to message 41, the rest on the path.
+  ASSERT_TRUE(p.owner.send(msg::PhysSwitched{p.id, sw->subscriber, sw->switch_id, 41}));
+  auto marker = as<msg::EvPhysMarker>(p.sub.waitFor(Code::ev_phys_marker));
+  ASSERT_TRUE(marker);
+  EXPECT_EQ(marker->chan_id, p.id);
+  EXPECT_EQ(marker->seq, 41u);
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"direct"}));
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"after"}}));
+  EXPECT_FALSE(p.sub.waitFor(Code::ev_data, 200)) << "not relayed after the owner's point";
+  // Broken while a switch waits for its answer: the late answer is ignored.
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 0}));
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  auto second = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
+  ASSERT_TRUE(second);
+  EXPECT_NE(second->switch_id, sw->switch_id);
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 0}));
+  settle(p.sub);
+  ASSERT_TRUE(p.owner.send(msg::PhysSwitched{p.id, sw->subscriber, second->switch_id, 50}));
+  settle(p.owner);
+  EXPECT_FALSE(p.sub.waitFor(Code::ev_phys_marker, 200));
+  EXPECT_EQ(paths(p.id), (std::vector<std::string>{"relay"}));
+}
+
+// An owner older than 1.9 is not asked: the subscriber leaves the relay at once, and its marker
+// is EV_PHYS_RELAY 0. A subscriber older than 1.9 gets that marker from a newer owner's switch.
+TEST_F(PhysicalPaths, OlderOwnersAndSubscribersGetTheMarkerOf18) {
+  startHub();
+  {
+    Pair p = offered(olderFlow(8));
+    ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+    ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+    ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+    auto marker = as<msg::EvPhysRelay>(p.sub.waitFor(Code::ev_phys_relay));
+    ASSERT_TRUE(marker);
+    EXPECT_EQ(marker->needed, 0);
+    EXPECT_FALSE(p.owner.waitFor(Code::ev_phys_switch, 200));
+  }
+  Pair p = offered(flowClient(), olderFlow(8));
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  auto sw = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
+  ASSERT_TRUE(sw);
+  EXPECT_FALSE(p.sub.waitFor(Code::ev_phys_relay, 200)) << "not before the owner's answer";
+  ASSERT_TRUE(p.owner.send(msg::PhysSwitched{p.id, sw->subscriber, sw->switch_id, 3}));
+  auto marker = as<msg::EvPhysRelay>(p.sub.waitFor(Code::ev_phys_relay));
+  ASSERT_TRUE(marker);
+  EXPECT_EQ(marker->needed, 0);
 }
 
 TEST_F(PhysicalPaths, LeavingOrUnsubscribingRevokesTheGrant) {

@@ -238,7 +238,7 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
   const bool reserved =
       code >= 0xC0 && !sync_code && !async_code && code != uint8_t(Code::ev_blob_changed) &&
       code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe) &&
-      code != uint8_t(Code::ev_link_wanted) && !inRange(code, 0xF8, 0xFB);
+      code != uint8_t(Code::ev_link_wanted) && !inRange(code, 0xF8, 0xFD);
   if (!sync_code && !async_code && !reserved) {
     protocolError("code 0x" +
                   [&] {
@@ -599,6 +599,12 @@ void Connection::onPhysical(const msg::EvPhysRevoke& m) {
   if (state_ == State::flow) send(m);
 }
 void Connection::onPhysical(const msg::EvPhysRelay& m) {
+  if (state_ == State::flow) send(m);
+}
+void Connection::onPhysical(const msg::EvPhysSwitch& m) {
+  if (state_ == State::flow) send(m);
+}
+void Connection::onPhysical(const msg::EvPhysMarker& m) {
   if (state_ == State::flow) send(m);
 }
 

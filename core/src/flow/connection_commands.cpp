@@ -556,6 +556,11 @@ void Connection::handleAsync(Code code, std::string_view body) {
       check(server_.physical.state(*this, m), 0, m.chan_id);
       return;
     }
+    case Code::phys_switched: {
+      SKR_DECODE(msg::PhysSwitched, m);
+      check(server_.physical.switched(*this, m), 0, m.chan_id);
+      return;
+    }
     case Code::phys_count: {
       SKR_DECODE(msg::PhysCount, m);
       check(server_.physical.count(*this, m), 0, m.chan_id);

@@ -88,6 +88,10 @@ class Endpoint {
   virtual void onPhysical(const msg::EvPhysPath& /*m*/) {}
   virtual void onPhysical(const msg::EvPhysRevoke& /*m*/) {}
   virtual void onPhysical(const msg::EvPhysRelay& /*m*/) {}
+  virtual void onPhysical(const msg::EvPhysSwitch& /*m*/) {}
+  virtual void onPhysical(const msg::EvPhysMarker& /*m*/) {}
+  // The protocol minor it speaks: a connection's is the lower of its client's and ours.
+  [[nodiscard]] virtual uint16_t protocolMinor() const { return kProtocolMinor; }
   // A pulse of a sync source it follows; it answers with SyncPulses::done when its tick is over.
   virtual void onSyncPulse(const Channel& /*ch*/, uint64_t /*seq*/, uint64_t /*source_time_ns*/,
                            uint32_t /*dropped*/) {}

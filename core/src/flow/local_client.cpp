@@ -90,6 +90,9 @@ struct LocalClient::Impl final : Endpoint {
   void onPhysical(const msg::EvPhysRelay& m) override {
     if (handlers.on_phys_relay) handlers.on_phys_relay(m);
   }
+  void onPhysical(const msg::EvPhysSwitch& m) override {
+    if (handlers.on_phys_switch) handlers.on_phys_switch(m);
+  }
   void onBlobChanged(const Channel& ch, const BlobEvent& ev) override {
     static constexpr const char* kChanges[] = {"", "written", "removed", "dir_added",
                                                "dir_removed"};
@@ -172,6 +175,10 @@ Result<void> LocalClient::offerPaths(const msg::PhysOffer& m) {
 
 Result<void> LocalClient::countPaths(const msg::PhysCount& m) {
   return impl_->server.physical.count(*impl_, m);
+}
+
+Result<void> LocalClient::switchedPaths(const msg::PhysSwitched& m) {
+  return impl_->server.physical.switched(*impl_, m);
 }
 
 Result<void> LocalClient::pulse(uint16_t chan_id) {

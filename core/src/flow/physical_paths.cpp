@@ -123,19 +123,62 @@ Result<void> PhysicalPaths::state(Endpoint& e, const msg::PhysState& m) {
   if (it == offers_.end() || ch == nullptr) {
     return makeError(Errc::not_found, "no path to channel " + std::to_string(m.chan_id));
   }
-  auto g = it->second.grants.find(e.id);
-  if (g == it->second.grants.end()) {
+  auto found = it->second.grants.find(e.id);
+  if (found == it->second.grants.end()) {
     return makeError(Errc::not_found, "no path to " + ch->name + " was granted to this flow");
   }
-  const bool active = m.active != 0;
-  if (g->second.active == active) return {};
-  g->second.active = active;
-  channels_.setPhysical(e, m.chan_id, active);
-  // The subscriber's marker: nothing of this channel is relayed to it after this event, so what
-  // came on its path before it may have come through the hub too (the library drops it).
-  if (active) e.onPhysical(msg::EvPhysRelay{ch->id, 0});
-  tellRelay(it->second, *ch);
+  Grant& g = found->second;
+  if (m.active == 0) {
+    g.switching = 0;  // an answer still on its way is ignored
+    if (!g.active) return {};
+    g.active = false;
+    channels_.setPhysical(e, m.chan_id, false);
+    tellRelay(it->second, *ch);
+    return {};
+  }
+  if (g.active || g.switching != 0) return {};
+  if (ch->owner != nullptr && ch->owner->protocolMinor() >= 9) {
+    // The owner picks the point: it answers before publishing anything else, so every message
+    // before its answer is relayed and every one after it goes on the path.
+    if (++next_switch_ == 0) next_switch_ = 1;
+    g.switching = next_switch_;
+    ch->owner->onPhysical(msg::EvPhysSwitch{ch->id, e.id, g.switching});
+    return {};
+  }
+  activate(it->second, *ch, e, g, std::nullopt);
   return {};
+}
+
+Result<void> PhysicalPaths::switched(Endpoint& e, const msg::PhysSwitched& m) {
+  auto owned = channels_.owned(e, m.chan_id, "switches paths of");
+  if (!owned) return owned.error();
+  auto it = offers_.find(m.chan_id);
+  if (it == offers_.end()) return {};
+  auto g = it->second.grants.find(m.subscriber);
+  Endpoint* subscriber = endpoints_.find(m.subscriber);
+  if (g == it->second.grants.end() || subscriber == nullptr || g->second.switching == 0 ||
+      g->second.switching != m.switch_id) {
+    return {};  // revoked, broken or asked again since
+  }
+  g->second.switching = 0;
+  activate(it->second, **owned, *subscriber, g->second, m.seq);
+  return {};
+}
+
+void PhysicalPaths::activate(Offer& o, Channel& ch, Endpoint& subscriber, Grant& g,
+                             std::optional<uint64_t> last_relayed) {
+  g.active = true;
+  channels_.setPhysical(subscriber, ch.id, true);
+  // The subscriber's marker: nothing of this channel is relayed to it after this event. With the
+  // owner's message number it drops only the path's copies of what was relayed; without it (an
+  // owner older than 1.9, or a subscriber that does not know the marker) it drops what came on
+  // its path before the marker.
+  if (last_relayed && subscriber.protocolMinor() >= 9) {
+    subscriber.onPhysical(msg::EvPhysMarker{ch.id, *last_relayed});
+  } else {
+    subscriber.onPhysical(msg::EvPhysRelay{ch.id, 0});
+  }
+  tellRelay(o, ch);
 }
 
 Result<void> PhysicalPaths::count(Endpoint& e, const msg::PhysCount& m) {

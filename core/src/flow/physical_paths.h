@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 
 namespace skr::flow {
@@ -29,8 +30,12 @@ class PhysicalPaths {
   // offer), invalid_argument (not subscribed), unsupported (no kind both sides take: shared
   // memory needs both on this machine's Unix socket).
   [[nodiscard]] Result<void> request(Endpoint& e, const msg::PhysRequest& m, bool local);
-  // PHYS_STATE from `e`. not_found (no grant).
+  // PHYS_STATE from `e`. not_found (no grant). A working path moves `e` out of the relay at
+  // once for an owner older than 1.9; a newer owner is asked where (EV_PHYS_SWITCH) first.
   [[nodiscard]] Result<void> state(Endpoint& e, const msg::PhysState& m);
+  // PHYS_SWITCHED from the owner: the subscriber leaves the relay here, and gets its marker.
+  // permission_denied (not the owner); an answer to a switch given up since is ignored.
+  [[nodiscard]] Result<void> switched(Endpoint& e, const msg::PhysSwitched& m);
   // PHYS_COUNT from the owner. permission_denied.
   [[nodiscard]] Result<void> count(Endpoint& e, const msg::PhysCount& m);
 
@@ -51,6 +56,7 @@ class PhysicalPaths {
   struct Grant {
     uint8_t path = 0;
     bool active = false;
+    uint32_t switching = 0;  // the EV_PHYS_SWITCH the owner has not answered yet (0: none)
   };
   struct Offer {
     uint8_t paths = 0;
@@ -61,10 +67,14 @@ class PhysicalPaths {
 
   void revoke(Offer& o, Channel& ch, uint32_t subscriber, bool tell_owner);
   void tellRelay(Offer& o, Channel& ch);
+  // `subscriber` leaves the relay; its marker names the owner's last message relayed, if known.
+  void activate(Offer& o, Channel& ch, Endpoint& subscriber, Grant& g,
+                std::optional<uint64_t> last_relayed);
 
   EndpointTable& endpoints_;
   ChannelTable& channels_;
   std::map<uint16_t, Offer> offers_;
+  uint32_t next_switch_ = 0;
 };
 
 }  // namespace skr::flow

@@ -173,6 +173,12 @@ std::string_view codeName(uint8_t code) noexcept {
       return "EV_PHYS_REVOKE";
     case Code::ev_phys_relay:
       return "EV_PHYS_RELAY";
+    case Code::phys_switched:
+      return "PHYS_SWITCHED";
+    case Code::ev_phys_switch:
+      return "EV_PHYS_SWITCH";
+    case Code::ev_phys_marker:
+      return "EV_PHYS_MARKER";
   }
   return "UNKNOWN";
 }
@@ -225,6 +231,10 @@ uint16_t minorOf(Code code) noexcept {
     case Code::ev_phys_revoke:
     case Code::ev_phys_relay:
       return 7;
+    case Code::phys_switched:
+    case Code::ev_phys_switch:
+    case Code::ev_phys_marker:
+      return 9;
     default:
       return 0;
   }

@@ -39,6 +39,7 @@ class Paths {
     std::function<void(const flow::msg::PhysRequest&)> request;
     std::function<void(const flow::msg::PhysState&)> state;
     std::function<void(const flow::msg::PhysCount&)> count;
+    std::function<void(const flow::msg::PhysSwitched&)> switched;
     std::function<uint32_t()> next_tag;
     // Data from a path: the view (for shared memory, the slot in place), then, when someone
     // wants one, the copy (for shared memory only if the read was not torn).
@@ -59,8 +60,11 @@ class Paths {
   void serve(uint16_t chan_id, const std::string& name, const PhysicalOptions& options);
   void onGrant(const flow::msg::EvPhysGrant& m);
   void onRevoke(const flow::msg::EvPhysRevoke& m);
-  // Ours: whether the relay is still needed; a channel we follow: the marker.
+  // Ours: whether the relay is still needed; a channel we follow: the marker of a 1.8 hub, or of
+  // an owner that does not answer EV_PHYS_SWITCH.
   void onRelay(const flow::msg::EvPhysRelay& m);
+  // A subscriber's path works (1.9): tell the hub our last message number, before publishing on.
+  void onSwitch(const flow::msg::EvPhysSwitch& m);
   [[nodiscard]] bool serves(uint16_t chan_id) const { return served_.count(chan_id) != 0; }
   [[nodiscard]] bool hasRing(uint16_t chan_id) const;
   // One of our channels is gone (not the flow): its peers are closed, its grants dropped; its
@@ -80,6 +84,8 @@ class Paths {
   void onSubscribed(const std::string& name, uint16_t chan_id);
   void onUnsubscribed(uint16_t chan_id);
   void onPath(const flow::msg::EvPhysPath& m);
+  // The hub relays a channel we follow no more after message `seq` of its owner (1.9).
+  void onMarker(const flow::msg::EvPhysMarker& m);
   // EV_ERROR for a PHYS_REQUEST: true when it was ours (then it is logged here, not an error).
   bool onRefused(const flow::msg::EvError& e);
 
@@ -121,7 +127,8 @@ class Paths {
   void closePath(Path& p);
   // Whether `p` is still the path of `chan_id` (a callback may have unsubscribed or reset it).
   [[nodiscard]] bool alive(uint16_t chan_id, const Path* p) const;
-  void onMarker(Path& p);
+  // `after`: the owner's last message relayed; none: drop what waits on the path (1.8).
+  void onMarker(Path& p, std::optional<uint64_t> after);
   void request(Path& p);
 
   Host host_;

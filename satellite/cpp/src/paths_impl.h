@@ -24,6 +24,8 @@ namespace paths_io {
 inline constexpr const char* kLogSource = "satellite";
 inline constexpr uint32_t kMaxDataFrame = flow::path::kMaxDataBytes + 32;
 inline constexpr size_t kMaxPeerQueue = 16u << 20;  // a direct subscriber's backlog; beyond: drops
+// What a direct subscriber reads ahead while its marker is on its way; then the socket waits.
+inline constexpr size_t kMaxBeforeMarker = 16u << 20;
 inline constexpr Nanos kRetryMinNs = kNsPerSec, kRetryMaxNs = 30 * kNsPerSec;
 inline constexpr Nanos kConnectTimeoutNs = 5 * kNsPerSec;  // a TCP path's connect
 // When to ask again for a path after `failures` (from 1) in a row: 1 s, doubling to 30 s.
@@ -144,7 +146,9 @@ struct Paths::Path {
   Nanos connecting_until = 0;  // a TCP connect in progress (HELLO waits in `hello`) until then
   std::string hello;
   bool marker = false;        // the hub relays no more: what comes on the path is ours
-  bool drop_partial = false;  // the direct frame being read began before the marker
+  uint64_t after = 0;         // from the marker: path messages up to this one were relayed
+  bool drop_partial = false;  // the direct frame being read began before a marker without `after`
+  bool paused = false;        // before the marker, kMaxBeforeMarker read: reading waits for it
   Nanos retry_at = 0;         // 0: not waiting to ask again
   int failures = 0;
 };

@@ -171,7 +171,23 @@ void Paths::onRelay(const msg::EvPhysRelay& m) {
     s->second->relay_needed = m.needed != 0;
     return;
   }
-  if (auto p = paths_.find(m.chan_id); p != paths_.end() && m.needed == 0) onMarker(*p->second);
+  if (auto p = paths_.find(m.chan_id); p != paths_.end() && m.needed == 0) {
+    onMarker(*p->second, std::nullopt);
+  }
+}
+
+void Paths::onSwitch(const msg::EvPhysSwitch& m) {
+  auto s = served_.find(m.chan_id);
+  if (s == served_.end()) return;
+  for (auto& [fd, p] : peers_) {
+    if (p->chan_id != m.chan_id || p->subscriber != m.subscriber || p->path == 0) continue;
+    // The numbering of that subscriber's path: the ring's, or the direct frames'.
+    const Served& sv = *s->second;
+    const uint64_t seq = p->path == msg::kPhysShm && sv.ring ? sv.ring->published() : sv.seq;
+    host_.switched(msg::PhysSwitched{m.chan_id, m.subscriber, m.switch_id, seq});
+    return;
+  }
+  // No such peer (it left since): its subscriber falls back, and the hub drops the switch.
 }
 
 void Paths::onAccept(int listen_fd, bool tcp) {

@@ -86,19 +86,30 @@ bool Paths::alive(uint16_t chan_id, const Path* p) const {
   return it != paths_.end() && it->second.get() == p && p->fd >= 0;
 }
 
-// The hub relays no more. What is already waiting on the path may have been relayed as well:
-// read and drop it first (a direct frame half read is dropped when complete), then take the rest.
-void Paths::onMarker(Path& p) {
+void Paths::onMarker(const msg::EvPhysMarker& m) {
+  if (auto p = paths_.find(m.chan_id); p != paths_.end()) onMarker(*p->second, m.seq);
+}
+
+// The hub relays no more. Until now the path was left waiting (a direct socket read ahead, a
+// ring not read). With the owner's message number, the path's copies of what was relayed are
+// dropped and the rest delivered. Without it, what is already waiting may have been relayed as
+// well: it is all dropped (a direct frame half read is dropped when complete), then the rest is
+// taken; a message published during the switch can be lost that way.
+void Paths::onMarker(Path& p, std::optional<uint64_t> after) {
   if (!p.open || p.marker) return;  // a marker for a path that broke since
   const uint16_t chan = p.chan_id;
+  p.marker = true;
+  p.after = after.value_or(UINT64_MAX);
   if (p.reader) {
     onPathEvent(p);
   } else {
+    if (p.paused) uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
+    p.paused = false;
     onPathSocket(p, UV_READABLE);
   }
-  if (!alive(chan, &p)) return;
+  if (!alive(chan, &p) || after) return;
   p.drop_partial = !p.in.empty();
-  p.marker = true;
+  p.after = 0;
 }
 
 void Paths::onPath(const msg::EvPhysPath& m) {
@@ -178,6 +189,8 @@ void Paths::onPathSocket(Path& p, int events) {
     return;
   }
   if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
+  // Waiting for the marker with enough read ahead: only a hang-up wakes us.
+  if (p.paused) return failPath(chan, "the owner closed the path");
   if (!p.open) {
     auto got = flow::receiveWithFds(p.fd, 64 * 1024);
     if (!got || got->bytes.empty()) {
@@ -241,6 +254,11 @@ void Paths::onPathSocket(Path& p, int events) {
       return failPath(chan, std::strerror(errno));
     }
     p.in.commit(static_cast<size_t>(n));
+    if (!p.marker && p.in.view().size() >= kMaxBeforeMarker) {
+      p.paused = true;  // the rest waits in the socket (and then at the owner) for the marker
+      uv_poll_start(p.poll, UV_DISCONNECT, p.poll->poll_cb);
+      break;
+    }
     if (static_cast<size_t>(n) < want) break;
   }
   pathFrames(p);
@@ -249,7 +267,8 @@ void Paths::onPathSocket(Path& p, int events) {
 void Paths::pathFrames(Path& p) {
   const uint16_t chan = p.chan_id;
   size_t used = 0;
-  for (;;) {
+  // Before the marker nothing is taken: the hub may still relay what comes here.
+  while (p.marker) {
     const auto f = flow::path::next(p.in.view().substr(used), flow::path::kMaxDataBytes + 32);
     if (f.status == flow::path::Next::Status::too_large) {
       return failPath(chan, "a path frame of " + std::to_string(f.announced) + " bytes");
@@ -260,7 +279,7 @@ void Paths::pathFrames(Path& p) {
     const auto data =
         f.type == uint8_t(flow::path::Type::data) ? flow::path::decodeData(f.body) : std::nullopt;
     if (!data) return failPath(chan, "an unexpected path frame");
-    if (!p.marker || p.drop_partial) {
+    if (p.drop_partial || data->seq <= p.after) {
       p.drop_partial = false;
       ++stats_.dropped_before_marker;
       continue;
@@ -279,6 +298,7 @@ void Paths::pathFrames(Path& p) {
 void Paths::onPathEvent(Path& p) {
   if (!p.reader) return;
   p.reader->drain();
+  if (!p.marker) return;  // the latest slot is read when the marker comes
   const uint16_t chan = p.chan_id;
   // The view is the slot itself; the copy for `data` is taken under the same lease and given
   // only when the read was not torn.
@@ -287,8 +307,9 @@ void Paths::onPathEvent(Path& p) {
   reading_ = &p;
   flow::shm::RingReader* reader = p.reader.get();
   const auto status = reader->readLatest([&](std::span<const std::byte> bytes, const auto& info) {
-    stats_.missed += info.missed;
-    if (!p.marker) {
+    // Skipped since the last read, or since the marker: those up to it were relayed.
+    stats_.missed += info.seq > p.after ? std::min(info.missed, info.seq - 1 - p.after) : 0;
+    if (info.seq <= p.after) {
       ++stats_.dropped_before_marker;
       return;
     }
@@ -315,7 +336,9 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   p.in.clear();
   p.open = false;
   p.marker = false;
+  p.after = 0;
   p.drop_partial = false;
+  p.paused = false;
   p.tag = 0;
   p.connecting_until = 0;
   p.hello.clear();

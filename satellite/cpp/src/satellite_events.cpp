@@ -127,6 +127,16 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       paths->onRelay(m);
       return;
     }
+    case Code::ev_phys_switch: {
+      SAT_DECODE(msg::EvPhysSwitch, m);
+      paths->onSwitch(m);
+      return;
+    }
+    case Code::ev_phys_marker: {
+      SAT_DECODE(msg::EvPhysMarker, m);
+      paths->onMarker(m);
+      return;
+    }
     case Code::ev_db_changed: {
       SAT_DECODE(msg::EvDbChanged, m);  // flow_db follows what we asked, in flow order
       (void)m;

@@ -5,6 +5,8 @@
 // is not on the hub's machine (as far as the hub can tell: it came over TCP).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <string>
@@ -96,6 +98,53 @@ TEST_F(Paths, DirectPathInOrderThenFallbackWithoutDuplicates) {
         return pub->on([](Satellite& s) { return s.pathStats().served_direct; }) == 1;
       },
       10000));
+}
+
+// Subscribers move from the relay to their direct paths while the owner publishes as fast as it
+// can: from its first message on, each gets every message once, in order (1.9: the owner picks
+// the point of the switch, and the marker names the last message relayed).
+TEST_F(Paths, SwitchingToADirectPathLosesNothing) {
+  setUp(true, false, kPathDirect);
+  std::atomic<bool> stop{false};
+  std::atomic<int> sent{0};
+  std::thread publisher([&] {
+    while (!stop) {
+      const int i = sent.load();
+      pub->on([&](Satellite& s) { (void)s.publish("frames", std::to_string(i)); });
+      sent = i + 1;
+    }
+  });
+  std::vector<std::unique_ptr<SatOnThread>> subs;
+  subs.push_back(std::move(sub));
+  for (int k = 0; k < 5; ++k) {  // each switches at another point of the stream
+    subs.push_back(satellite("late" + std::to_string(k)));
+    subs.back()->on([](Satellite& s) {
+      s.usePaths("guest.frames", kPathDirect);
+      s.subscribe("guest.frames");
+    });
+  }
+  const bool onPaths = eventually([&] {
+    return std::all_of(subs.begin(), subs.end(), [](auto& s) {
+      return s->on([](Satellite& sat) { return sat.pathStats().path_messages; }) > 100;
+    });
+  });
+  stop = true;
+  publisher.join();
+  ASSERT_TRUE(onPaths);
+  const std::string last = std::to_string(sent - 1);
+  for (size_t k = 0; k < subs.size(); ++k) {
+    ASSERT_TRUE(eventually([&] { return subs[k]->events.count("data:guest.frames:" + last) > 0; }))
+        << "subscriber " << k;
+    std::vector<int> numbers;
+    for (const auto& g : subs[k]->events.with("data:guest.frames:"))
+      numbers.push_back(std::stoi(g));
+    for (size_t i = 1; i < numbers.size(); ++i) {
+      ASSERT_EQ(numbers[i], numbers[i - 1] + 1)
+          << "subscriber " << k << ": every message once, in order (at " << i << " of "
+          << numbers.size() << ")";
+    }
+    EXPECT_EQ(subs[k]->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u);
+  }
 }
 
 TEST_F(Paths, AKindTheOwnerDoesNotServeIsRelayed) {

@@ -123,6 +123,8 @@ struct LocalHandlers {
   std::function<void(const msg::EvPhysGrant&)> on_phys_grant;
   std::function<void(const msg::EvPhysRevoke&)> on_phys_revoke;
   std::function<void(const msg::EvPhysRelay&)> on_phys_relay;
+  // A subscriber's path works: answer with LocalClient::switchedPaths before publishing again.
+  std::function<void(const msg::EvPhysSwitch&)> on_phys_switch;
 };
 
 class FlowServer {
@@ -198,6 +200,7 @@ class LocalClient {
   // library sends it), and counts what its paths delivered while nobody was relayed (PHYS_COUNT).
   [[nodiscard]] Result<void> offerPaths(const msg::PhysOffer& m);
   [[nodiscard]] Result<void> countPaths(const msg::PhysCount& m);
+  [[nodiscard]] Result<void> switchedPaths(const msg::PhysSwitched& m);
   // A pulse of an owned sync source (docs/sync-pulse.md), stamped with the monotonic clock.
   [[nodiscard]] Result<void> pulse(uint16_t chan_id);
   // Follows a sync source by name, every `every`th pulse; like subscribe() it waits for a source

@@ -88,6 +88,9 @@ void forEachMessage(F&& f) {
   f(EvPhysPath{});
   f(EvPhysRevoke{});
   f(EvPhysRelay{});
+  f(PhysSwitched{});
+  f(EvPhysSwitch{});
+  f(EvPhysMarker{});
   f(HubLinkHello{});
   f(HubLinkHelloOk{});
   f(ReplicateChannel{});

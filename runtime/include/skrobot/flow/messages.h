@@ -791,8 +791,9 @@ struct PhysRequest {
   }
 };
 // Subscriber -> hub: its granted path to `chan_id` works (1: the hub stops relaying that channel
-// to it, and says so with EV_PHYS_RELAY 0) or broke (0: relayed again). Switching either way
-// may lose the messages published meanwhile; it never duplicates one.
+// to it, at the point the owner picks (EV_PHYS_SWITCH, 1.9) and says so with EV_PHYS_MARKER, or
+// at once with EV_PHYS_RELAY 0 for an owner older than 1.9) or broke (0: relayed again).
+// Falling back may lose the messages published meanwhile; neither way duplicates one.
 struct PhysState {
   static constexpr Code code = Code::phys_state;
   uint16_t chan_id = 0;
@@ -862,6 +863,46 @@ struct EvPhysRelay {
   template <class IO>
   bool io(IO& f) {
     return f(chan_id) && f(needed);
+  }
+};
+// Hub -> owner (1.9), after a subscriber's PHYS_STATE 1: answer with PHYS_SWITCHED and the same
+// `switch_id` before publishing anything else, so that the hub moves the subscriber out of the
+// relay at that point of the owner's messages.
+struct EvPhysSwitch {
+  static constexpr Code code = Code::ev_phys_switch;
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  uint32_t switch_id = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(subscriber) && f(switch_id);
+  }
+};
+// Owner -> hub (1.9): the answer to EV_PHYS_SWITCH. `seq` is the number of the last message
+// the owner published before it (the numbering of that subscriber's path: the direct frames'
+// `seq`, or the ring's): what it published to the hub until then is relayed to the subscriber,
+// what follows comes on the path only.
+struct PhysSwitched {
+  static constexpr Code code = Code::phys_switched;
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  uint32_t switch_id = 0;
+  uint64_t seq = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(subscriber) && f(switch_id) && f(seq);
+  }
+};
+// Hub -> subscriber (1.9), the marker that replaces EV_PHYS_RELAY 0 when the owner answered
+// EV_PHYS_SWITCH: nothing of `chan_id` is relayed after it; path messages up to `seq` were
+// relayed (duplicates), those after it come on the path only.
+struct EvPhysMarker {
+  static constexpr Code code = Code::ev_phys_marker;
+  uint16_t chan_id = 0;
+  uint64_t seq = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(seq);
   }
 };
 

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 8;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 9;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -131,6 +131,11 @@ enum class Code : uint8_t {
   ev_phys_revoke = 0xFA,  // to the owner: close that subscriber's path
   ev_phys_relay = 0xFB,   // to the owner: whether any subscriber still needs the relay
   // 1.8: PHYS_OFFER's endpoint may name a unix: and a tcp: endpoint, separated by a space.
+  // 1.9: a subscriber moves to its path at a point of the owner's choosing, so that nothing
+  // published meanwhile is lost: the hub asks the owner, which answers with its message number.
+  phys_switched = 0xF4,   // owner: the subscriber may leave the relay after message `seq`
+  ev_phys_switch = 0xFC,  // to the owner: a subscriber's path works; answer with PHYS_SWITCHED
+  ev_phys_marker = 0xFD,  // to the subscriber: relayed up to `seq`; the rest comes on the path
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -144,10 +149,10 @@ enum class Code : uint8_t {
   return isBlobRequest(code) || code == 0xE8;
 }
 // A command of a family block sent on a flow: the sync pulse (1.4), replicas and TIME_PROBE (1.5),
-// LINK_OFFER (1.6), physical mode (1.7).
+// LINK_OFFER (1.6), physical mode (1.7, 1.9).
 [[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
   return (code >= 0xD0 && code <= 0xD3) || (code >= 0xE0 && code <= 0xE2) || code == 0xE9 ||
-         (code >= 0xF0 && code <= 0xF3);
+         (code >= 0xF0 && code <= 0xF4);
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

@@ -294,6 +294,9 @@ TEST_F(PhysicalPaths, Refusals) {
   EXPECT_EQ(error(other), uint16_t(ErrorCode::unsupported));
   ASSERT_TRUE(stranger.send(msg::PhysState{id, 1}));
   EXPECT_EQ(error(stranger), uint16_t(ErrorCode::not_found));
+  // A path that broke after its grant went (the owner left, a revocation): nothing to refuse.
+  ASSERT_TRUE(stranger.send(msg::PhysState{id, 0}));
+  EXPECT_FALSE(stranger.waitFor(Code::ev_error, 200));
   // Events are the hub's: a satellite that sends one breaks the protocol.
   ASSERT_TRUE(stranger.send(msg::EvPhysRelay{id, 0}));
   EXPECT_FALSE(stranger.waitFor(Code::ev_error, 1000)) << "closed, not answered";

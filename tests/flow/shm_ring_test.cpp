@@ -54,10 +54,12 @@ TEST(ShmRing, DeliversInPlaceAndWakesTheReader) {
   RingWriter w = makeWriter();
   RingReader r = attach(w);
   EXPECT_FALSE(readable(r.eventFd()));
+  EXPECT_FALSE(r.hasNew());
   EXPECT_EQ(r.readLatest([](auto, auto) { FAIL() << "nothing was published"; }),
             ReadStatus::nothing_new);
   ASSERT_TRUE(w.publish(bytes("hello"), 42));
   EXPECT_TRUE(readable(r.eventFd()));
+  EXPECT_TRUE(r.hasNew());
   r.drain();
   EXPECT_FALSE(readable(r.eventFd()));
   std::string got;
@@ -68,6 +70,7 @@ TEST(ShmRing, DeliversInPlaceAndWakesTheReader) {
   }),
             ReadStatus::ok);
   EXPECT_EQ(got, "hello");
+  EXPECT_FALSE(r.hasNew()) << "read: nothing new for a reader that polls";
   EXPECT_EQ(info.seq, 1u);
   EXPECT_EQ(info.capture_ns, 42);
   EXPECT_EQ(info.missed, 0u);

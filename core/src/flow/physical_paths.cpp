@@ -120,6 +120,9 @@ Result<void> PhysicalPaths::request(Endpoint& e, const msg::PhysRequest& m, bool
 Result<void> PhysicalPaths::state(Endpoint& e, const msg::PhysState& m) {
   auto it = offers_.find(m.chan_id);
   Channel* ch = channels_.find(m.chan_id);
+  const bool granted = it != offers_.end() && it->second.grants.count(e.id) != 0;
+  // A path that broke because its owner or its grant went away: nothing is left to undo.
+  if (m.active == 0 && !granted) return {};
   if (it == offers_.end() || ch == nullptr) {
     return makeError(Errc::not_found, "no path to channel " + std::to_string(m.chan_id));
   }

@@ -371,6 +371,12 @@ void RingReader::drain() noexcept {
   (void)!::read(eventfd_, &n, sizeof n);
 }
 
+bool RingReader::hasNew() const noexcept {
+  if (base_ == nullptr) return false;
+  const auto* h = std::launder(reinterpret_cast<const Header*>(base_));
+  return (h->latest.load(std::memory_order_acquire) >> 16) > last_seq_;
+}
+
 void RingReader::heartbeat() noexcept {
   if (lease_page_ != nullptr) {
     leaseOf(lease_page_)->heartbeat_ns.store(monotonicNs(), std::memory_order_relaxed);

@@ -67,6 +67,7 @@ void Paths::reset() {
   grants_.clear();
   for (auto& [id, p] : paths_) closePath(*p);
   paths_.clear();
+  updateSpin();
   // Ids change with the next flow: our channels are offered again when created; rings wait.
   for (auto& [id, sv] : served_) {
     if (sv->ring) idle_rings_.emplace(sv->name, std::move(*sv->ring));

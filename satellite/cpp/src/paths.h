@@ -79,8 +79,9 @@ class Paths {
                                                 bool& relay);
 
   // --- the subscriber's side ---
-  // Paths to ask for `name` whenever we are subscribed to it (0: none).
-  void want(const std::string& name, uint8_t paths);
+  // Paths to ask for `name` whenever we are subscribed to it (0: none); `spin`: a shared-memory
+  // one is polled on each turn of the loop instead of waiting for its eventfd.
+  void want(const std::string& name, uint8_t paths, bool spin = false);
   void onSubscribed(const std::string& name, uint16_t chan_id);
   void onUnsubscribed(uint16_t chan_id);
   void onPath(const flow::msg::EvPhysPath& m);
@@ -129,6 +130,10 @@ class Paths {
   [[nodiscard]] bool alive(uint16_t chan_id, const Path* p) const;
   // `after`: the owner's last message relayed; none: drop what waits on the path (1.8).
   void onMarker(Path& p, std::optional<uint64_t> after);
+  void readRing(Path& p);
+  // Polls spinning rings from an idle handle while one works (the loop then never sleeps).
+  void updateSpin();
+  void spinOnce();
   void request(Path& p);
 
   Host host_;
@@ -146,11 +151,16 @@ class Paths {
     uint8_t path = 0;
     Nanos expires = 0;
   };
-  std::map<std::string, Grant> grants_;                 // by token
-  std::map<int, std::unique_ptr<Peer>> peers_;          // by socket
-  std::map<std::string, uint8_t, std::less<>> wanted_;  // full name -> kinds
-  std::map<uint16_t, std::unique_ptr<Path>> paths_;     // by channel id
+  std::map<std::string, Grant> grants_;         // by token
+  std::map<int, std::unique_ptr<Peer>> peers_;  // by socket
+  struct Wanted {
+    uint8_t kinds = 0;
+    bool spin = false;
+  };
+  std::map<std::string, Wanted, std::less<>> wanted_;  // by full name
+  std::map<uint16_t, std::unique_ptr<Path>> paths_;    // by channel id
   Stats stats_;
+  uv_idle_t* spin_ = nullptr;
   const Path* reading_ = nullptr;                          // a ring callback runs for it
   std::unique_ptr<flow::shm::RingReader> retired_reader_;  // closed during that callback
 };

@@ -149,6 +149,7 @@ struct Paths::Path {
   uint64_t after = 0;         // from the marker: path messages up to this one were relayed
   bool drop_partial = false;  // the direct frame being read began before a marker without `after`
   bool paused = false;        // before the marker, kMaxBeforeMarker read: reading waits for it
+  bool spin = false;          // a ring polled on each turn of the loop (PathWait::spin)
   Nanos retry_at = 0;         // 0: not waiting to ask again
   int failures = 0;
 };

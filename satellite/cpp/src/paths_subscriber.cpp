@@ -19,11 +19,11 @@ using namespace paths_io;
 // --- the subscriber's side
 // ------------------------------------------------------------------------
 
-void Paths::want(const std::string& name, uint8_t paths) {
+void Paths::want(const std::string& name, uint8_t paths, bool spin) {
   if (paths == 0) {
     wanted_.erase(name);
   } else {
-    wanted_[name] = paths;
+    wanted_[name] = Wanted{paths, spin};
   }
 }
 
@@ -35,6 +35,7 @@ void Paths::onSubscribed(const std::string& name, uint16_t chan_id) {
   p->owner = this;
   p->name = name;
   p->chan_id = chan_id;
+  p->spin = w->second.spin;
   request(*p);
   paths_[chan_id] = std::move(p);
 }
@@ -44,7 +45,7 @@ void Paths::request(Path& p) {
   if (w == wanted_.end()) return;
   p.tag = host_.next_tag();
   p.retry_at = 0;
-  host_.request(msg::PhysRequest{p.tag, p.chan_id, w->second});
+  host_.request(msg::PhysRequest{p.tag, p.chan_id, w->second.kinds});
 }
 
 bool Paths::onRefused(const msg::EvError& e) {
@@ -79,6 +80,7 @@ void Paths::closePath(Path& p) {
     p.reader.reset();
   }
   closeFd(p.fd);
+  updateSpin();
 }
 
 bool Paths::alive(uint16_t chan_id, const Path* p) const {
@@ -102,6 +104,7 @@ void Paths::onMarker(Path& p, std::optional<uint64_t> after) {
   p.after = after.value_or(UINT64_MAX);
   if (p.reader) {
     onPathEvent(p);
+    if (alive(chan, &p)) updateSpin();
   } else {
     if (p.paused) uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
     p.paused = false;
@@ -298,6 +301,39 @@ void Paths::pathFrames(Path& p) {
 void Paths::onPathEvent(Path& p) {
   if (!p.reader) return;
   p.reader->drain();
+  readRing(p);
+}
+
+void Paths::updateSpin() {
+  const bool any = std::any_of(paths_.begin(), paths_.end(), [](const auto& e) {
+    return e.second->spin && e.second->reader && e.second->marker;
+  });
+  if (any && spin_ == nullptr) {
+    spin_ = new uv_idle_t{};
+    uv_idle_init(host_.loop, spin_);
+    spin_->data = this;
+    uv_idle_start(spin_, [](uv_idle_t* h) { static_cast<Paths*>(h->data)->spinOnce(); });
+  } else if (!any && spin_ != nullptr) {
+    uv_idle_stop(spin_);
+    uv_close(reinterpret_cast<uv_handle_t*>(spin_),
+             [](uv_handle_t* h) { delete reinterpret_cast<uv_idle_t*>(h); });
+    spin_ = nullptr;
+  }
+}
+
+// A turn of the loop with a spinning ring: what is new is read without waiting for the eventfd
+// (which stays watched, and is drained when it fires).
+void Paths::spinOnce() {
+  std::vector<uint16_t> ready;
+  for (auto& [id, p] : paths_) {
+    if (p->spin && p->reader && p->marker && p->reader->hasNew()) ready.push_back(id);
+  }
+  for (uint16_t id : ready) {  // a callback may close any of them
+    if (auto it = paths_.find(id); it != paths_.end() && it->second->reader) readRing(*it->second);
+  }
+}
+
+void Paths::readRing(Path& p) {
   if (!p.marker) return;  // the latest slot is read when the marker comes
   const uint16_t chan = p.chan_id;
   // The view is the slot itself; the copy for `data` is taken under the same lease and given

@@ -174,8 +174,8 @@ void Satellite::unsubscribe(std::string_view name) {
   impl_->subs.erase(it);
 }
 
-void Satellite::usePaths(std::string name, uint8_t kinds) {
-  impl_->paths->want(name, kinds);
+void Satellite::usePaths(std::string name, uint8_t kinds, PathWait wait) {
+  impl_->paths->want(name, kinds, wait == PathWait::spin);
   auto s = impl_->subs.find(name);
   if (s != impl_->subs.end() && s->second != 0 && impl_->flowOpen() && impl_->login.minor >= 7) {
     impl_->paths->onSubscribed(name, s->second);

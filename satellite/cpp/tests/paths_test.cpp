@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <ctime>
 #include <string>
 #include <thread>
 #include <vector>
@@ -145,6 +146,42 @@ TEST_F(Paths, SwitchingToADirectPathLosesNothing) {
     }
     EXPECT_EQ(subs[k]->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u);
   }
+}
+
+// PathWait::spin: the subscriber's loop polls the ring instead of sleeping, for as long as the
+// path works, and only then (its thread's CPU time tells).
+TEST_F(Paths, ASpinningReaderPollsItsRingOnlyWhileThePathWorks) {
+  setUp(false, true, 0);
+  sub->on([](Satellite& s) { s.usePaths("guest.frames", kPathShm, PathWait::spin); });
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  const auto cpuMs = [&] {
+    return sub->on([](Satellite&) {
+      timespec t{};
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+      return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+    });
+  };
+  const auto busyOver300Ms = [&] {
+    const double before = cpuMs();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    return cpuMs() - before;
+  };
+  EXPECT_GT(busyOver300Ms(), 100) << "the loop spins while the path works";
+  sub->events.clear();
+  for (int i = 0; i < 100; ++i) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", std::to_string(i))); });
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:99") == 1; }));
+  std::vector<int> numbers;
+  for (const auto& g : sub->events.with("data:guest.frames:")) numbers.push_back(std::stoi(g));
+  for (size_t k = 1; k < numbers.size(); ++k) ASSERT_LT(numbers[k - 1], numbers[k]);
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().torn; }), 0u);
+  // Unsubscribed: the path is closed and the loop sleeps again.
+  sub->on([](Satellite& s) { s.unsubscribe("guest.frames"); });
+  ASSERT_TRUE(eventually(
+      [&] { return pub->on([](Satellite& s) { return s.pathStats().served_shm; }) == 0; }));
+  EXPECT_LT(busyOver300Ms(), 50) << "no spinning without a path";
 }
 
 TEST_F(Paths, AKindTheOwnerDoesNotServeIsRelayed) {

@@ -137,6 +137,9 @@ class RingReader {
   }
   // Keeps the lease alive while nothing is read (readLatest renews it too).
   void heartbeat() noexcept;
+  // Whether a message newer than the last one read was committed: one load of shared memory, no
+  // system call (for a reader that polls instead of waiting for the eventfd).
+  [[nodiscard]] bool hasNew() const noexcept;
 
   [[nodiscard]] const RingGeometry& geometry() const noexcept { return geometry_; }
   [[nodiscard]] uint64_t received() const noexcept { return received_; }

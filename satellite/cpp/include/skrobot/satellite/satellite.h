@@ -80,6 +80,11 @@ struct PhysicalOptions {
 
 // Path kinds a subscriber asks for (usePaths).
 inline constexpr uint8_t kPathDirect = 1, kPathShm = 2;
+// How a subscriber waits for its shared-memory path (usePaths). wake: the owner's eventfd wakes
+// its loop (which sleeps meanwhile). spin: while such a path works the loop never sleeps and
+// looks at the ring on each turn, so that a message does not wait for a wake-up (docs/
+// physical-mode.md has the figures); it costs a core for as long. Direct paths are always woken.
+enum class PathWait : uint8_t { wake, spin };
 
 // A channel this satellite owns, "<user>.<name>".
 struct ChannelSpec {  // NOLINT(bugprone-exception-escape): Variant moves do not throw
@@ -236,7 +241,8 @@ class Satellite : public Object {
   // whenever we are subscribed to `name`; data then comes straight from the owner (the same
   // `data` and `dataView` signals), and through the hub again whenever the path breaks (asked
   // again with a backoff). 0: relayed only. Needs FlowProtocol 1.7; an older hub relays.
-  void usePaths(std::string name, uint8_t kinds = kPathShm | kPathDirect);
+  void usePaths(std::string name, uint8_t kinds = kPathShm | kPathDirect,
+                PathWait wait = PathWait::wake);
   struct PathStats {
     uint64_t served_direct = 0, served_shm = 0;  // subscribers on our paths now
     uint64_t path_messages = 0;                  // received on paths

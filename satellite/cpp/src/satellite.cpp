@@ -174,6 +174,10 @@ void Satellite::unsubscribe(std::string_view name) {
   impl_->subs.erase(it);
 }
 
+void Satellite::usePaths(std::string name, uint8_t kinds) {
+  usePaths(std::move(name), kinds, PathWait::wake);
+}
+
 void Satellite::usePaths(std::string name, uint8_t kinds, PathWait wait) {
   impl_->paths->want(name, kinds, wait == PathWait::spin);
   auto s = impl_->subs.find(name);

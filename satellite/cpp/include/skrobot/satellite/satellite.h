@@ -241,8 +241,9 @@ class Satellite : public Object {
   // whenever we are subscribed to `name`; data then comes straight from the owner (the same
   // `data` and `dataView` signals), and through the hub again whenever the path breaks (asked
   // again with a backoff). 0: relayed only. Needs FlowProtocol 1.7; an older hub relays.
-  void usePaths(std::string name, uint8_t kinds = kPathShm | kPathDirect,
-                PathWait wait = PathWait::wake);
+  void usePaths(std::string name, uint8_t kinds = kPathShm | kPathDirect);
+  // The same, saying how a shared-memory path is waited for (PathWait; the above wakes).
+  void usePaths(std::string name, uint8_t kinds, PathWait wait);
   struct PathStats {
     uint64_t served_direct = 0, served_shm = 0;  // subscribers on our paths now
     uint64_t path_messages = 0;                  // received on paths

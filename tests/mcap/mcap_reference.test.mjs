@@ -49,7 +49,9 @@ async function startRecorder(file, args) {
 // Publishes, in order: 8 runs of `flowctl pub` with 4 distinct JSON messages each on guest.seq
 // (each run re-creates the channel and waits for the recorder), and 6 binary payloads on
 // guest.blob. Returns what each channel carried, in order.
-async function publish() {
+// `gapMs`: a pause between the two channels' messages (a recorder flushing more often then
+// writes them in separate chunks).
+async function publish(gapMs = 0) {
   const seq = [];
   for (let run = 0; run < 8; run++) {
     const payload = JSON.stringify({ run, text: `run ${run}` });
@@ -57,6 +59,7 @@ async function publish() {
       '--wait-ms', '5000');
     for (let i = 0; i < 4; i++) seq.push(payload);
   }
+  await sleep(gapMs);
   const blob = Buffer.alloc(3000);
   for (let i = 0; i < blob.length; i++) blob[i] = (i * 7 + 3) & 0xff;
   const blobFile = path.join(dir, 'blob.bin');
@@ -64,6 +67,18 @@ async function publish() {
   await flowctl('pub', 'guest.blob', '--file', blobFile, '--repeat', '6', '--mime',
     'application/x-test', '--wait-ms', '5000');
   return { seq, blob: Array(6).fill(blob) };
+}
+
+// Where each whole Chunk record (opcode 0x06) of an MCAP file begins and ends.
+function chunks(buf) {
+  const out = [];
+  for (let at = 8; at + 9 <= buf.length;) {
+    const end = at + 9 + Number(buf.readBigUInt64LE(at + 1));
+    if (end > buf.length) break;
+    if (buf[at] === 0x06) out.push({ at, end });
+    at = end;
+  }
+  return out;
 }
 
 const readable = (buf) => ({
@@ -148,7 +163,7 @@ for (const compression of ['zstd', 'lz4']) {
 test('a recorder killed with SIGKILL: McapStreamReader reads it up to its last chunk', async () => {
   const file = path.join(dir, 'killed.mcap');
   const rec = await startRecorder(file, ['--flush-ms', '100', 'guest.seq', 'guest.blob']);
-  const sent = await publish();
+  const sent = await publish(300);  // two chunks at least
   await sleep(400);  // a flush after the last message
   rec.proc.kill('SIGKILL');
   await rec.exited;
@@ -161,9 +176,12 @@ test('a recorder killed with SIGKILL: McapStreamReader reads it up to its last c
   assert.deepEqual(got['guest.seq'].map((m) => Buffer.from(m.data).toString()), sent.seq);
   assert.deepEqual(got['guest.blob'].map((m) => Buffer.from(m.data)), sent.blob);
 
-  // Cut in the middle as well (inside a chunk): what is read is a prefix of what was sent.
+  // Cut in the middle of the last chunk as well: what is read is a prefix of what was sent.
   const whole = records.filter((r) => r.type === 'Message');
-  const part = streamRecords(buf.subarray(0, Math.floor(buf.length * 0.6)));
+  const written = chunks(buf);
+  assert.ok(written.length >= 2, `${written.length} chunks`);
+  const last = written[written.length - 1];
+  const part = streamRecords(buf.subarray(0, Math.floor((last.at + last.end) / 2)));
   assert.equal(part.done, false);
   const partMessages = part.records.filter((r) => r.type === 'Message');
   assert.ok(partMessages.length > 0 && partMessages.length < whole.length,

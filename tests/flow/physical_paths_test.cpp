@@ -56,6 +56,14 @@ class PhysicalPaths : public FlowFixture {
     EXPECT_TRUE(c.call(msg::Empty<Code::go_async>{}));
     return c;
   }
+  // The subscriber asks for a direct path and gets one: the owner's grant.
+  static std::optional<msg::EvPhysGrant> directPath(Pair& p) {
+    EXPECT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
+    EXPECT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+    auto grant = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+    if (!grant) return std::nullopt;
+    return *grant;
+  }
   // The owner answers the hub's EV_PHYS_SWITCH with `seq`; the subscriber gets its marker.
   static void switchOver(Pair& p, uint64_t seq) {
     auto sw = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
@@ -111,8 +119,7 @@ TEST_F(PhysicalPaths, AWorkingPathTakesTheSubscriberOffTheRelayUntilItBreaks) {
   startHub();
   Pair p = offered();
   TestClient relayed = flowClient();
-  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
-  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(directPath(p));
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
   switchOver(p, 0);
   auto relay = as<msg::EvPhysRelay>(p.owner.waitFor(Code::ev_phys_relay));
@@ -145,9 +152,7 @@ TEST_F(PhysicalPaths, AWorkingPathTakesTheSubscriberOffTheRelayUntilItBreaks) {
 TEST_F(PhysicalPaths, TheOwnerPicksWhereTheSubscriberLeavesTheRelay) {
   startHub();
   Pair p = offered();
-  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
-  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
-  auto grant = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+  auto grant = directPath(p);
   ASSERT_TRUE(grant);
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
   auto sw = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
@@ -195,8 +200,7 @@ TEST_F(PhysicalPaths, OlderOwnersAndSubscribersGetTheMarkerOf18) {
   startHub();
   {
     Pair p = offered(olderFlow(8));
-    ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
-    ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+    ASSERT_TRUE(directPath(p));
     ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
     auto marker = as<msg::EvPhysRelay>(p.sub.waitFor(Code::ev_phys_relay));
     ASSERT_TRUE(marker);
@@ -204,8 +208,7 @@ TEST_F(PhysicalPaths, OlderOwnersAndSubscribersGetTheMarkerOf18) {
     EXPECT_FALSE(p.owner.waitFor(Code::ev_phys_switch, 200));
   }
   Pair p = offered(flowClient(), olderFlow(8));
-  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
-  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(directPath(p));
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
   auto sw = as<msg::EvPhysSwitch>(p.owner.waitFor(Code::ev_phys_switch));
   ASSERT_TRUE(sw);
@@ -219,9 +222,7 @@ TEST_F(PhysicalPaths, OlderOwnersAndSubscribersGetTheMarkerOf18) {
 TEST_F(PhysicalPaths, LeavingOrUnsubscribingRevokesTheGrant) {
   startHub();
   Pair p = offered();
-  ASSERT_TRUE(p.sub.send(msg::PhysRequest{7, p.id, msg::kPhysDirect}));
-  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
-  auto grant = as<msg::EvPhysGrant>(p.owner.waitFor(Code::ev_phys_grant));
+  auto grant = directPath(p);
   ASSERT_TRUE(grant);
   ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
   settle(p.sub);

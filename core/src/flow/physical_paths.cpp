@@ -120,17 +120,17 @@ Result<void> PhysicalPaths::request(Endpoint& e, const msg::PhysRequest& m, bool
 Result<void> PhysicalPaths::state(Endpoint& e, const msg::PhysState& m) {
   auto it = offers_.find(m.chan_id);
   Channel* ch = channels_.find(m.chan_id);
-  const bool granted = it != offers_.end() && it->second.grants.count(e.id) != 0;
-  // A path that broke because its owner or its grant went away: nothing is left to undo.
-  if (m.active == 0 && !granted) return {};
-  if (it == offers_.end() || ch == nullptr) {
-    return makeError(Errc::not_found, "no path to channel " + std::to_string(m.chan_id));
+  Grant* grant = nullptr;
+  if (it != offers_.end() && ch != nullptr) {
+    if (auto f = it->second.grants.find(e.id); f != it->second.grants.end()) grant = &f->second;
   }
-  auto found = it->second.grants.find(e.id);
-  if (found == it->second.grants.end()) {
-    return makeError(Errc::not_found, "no path to " + ch->name + " was granted to this flow");
+  if (grant == nullptr) {
+    // A path that broke because its owner or its grant went away: nothing is left to undo.
+    if (m.active == 0) return {};
+    return makeError(Errc::not_found, "no path to channel " + std::to_string(m.chan_id) +
+                                          " was granted to this flow");
   }
-  Grant& g = found->second;
+  Grant& g = *grant;
   if (m.active == 0) {
     g.switching = 0;  // an answer still on its way is ignored
     if (!g.active) return {};

@@ -14,10 +14,12 @@
 //   throughput: delivered MB/s, the producer filling each message, beside memcpy's bandwidth
 //     (memcpy4: into four buffers in turn, as the producer fills a ring of four slots);
 //     relay and direct with at most two messages in flight, shared memory with the producer
-//     unpaced by its reader (newest wins: the frames the reader skipped are printed)
+//     publishing back to back on its own loop, unpaced by its reader (newest wins: the frames
+//     the reader skipped are printed)
 // The driver thread waits for latencies by sleeping 20 us at a time, so that on a small machine it
 // does not take a core from the loops it measures (figures come from timestamps taken on those
-// loops); for throughput it yields, so that its own wake-ups do not bound the rate.
+// loops); for relay and direct throughput it yields, so that its own wake-ups do not bound the
+// rate, and for shared memory it sleeps.
 // Targets (issue 21): shared-memory latency flat from 1 KB to 6 MB with p50 under 20 us;
 // throughput at least 0.5x memcpy; direct round trip within 1.3x the raw socket's.
 //
@@ -39,6 +41,7 @@
 #include <atomic>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -352,32 +355,43 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
     }
   }
   a.on([&](sat::Satellite&) { f.rtt_p50 = percentile(rtt, 0.5); });
-  // Throughput. Relay and direct: at most two in flight, paced by the subscriber. Shared memory:
-  // the producer is never paced by its reader (the newest wins, skipped frames are counted), so
-  // it fills slots as fast as it can, two fills queued at most, and what the reader got counts.
+  // Throughput. Relay and direct: at most two in flight, paced by the subscriber, the driver
+  // posting each message. Shared memory: the producer is never paced by its reader (the newest
+  // wins, skipped frames are counted), so it publishes back to back on its own loop, in bursts of
+  // at most 1 ms so that the loop still turns, while the driver sleeps; what the reader got counts.
   const uint64_t base = got_ping.load();
   const auto missedNow = [&] {
     return b.on([](sat::Satellite& s) { return s.pathStats().missed; });
   };
   const uint64_t missed_base = missedNow();
-  std::atomic<uint64_t> filled{0};
   uint64_t sent = 0;
   const Nanos start = monotonicNs();
   const Nanos end = start + static_cast<Nanos>(seconds * 1e9);
-  while (monotonicNs() < end) {
-    // (Signed: a late warm-up message may make the count run ahead of `sent`.)
-    while (static_cast<int64_t>(sent) -
-               static_cast<int64_t>(filled_slots ? filled.load() : got_ping.load() - base) >=
-           2) {
-      if (monotonicNs() > end + kNsPerSec) break;
-      std::this_thread::yield();
+  if (filled_slots) {
+    std::atomic<bool> stop{false};
+    std::function<void()> burst = [&] {
+      const Nanos until = std::min(end, monotonicNs() + kNsPerMs);
+      while (!stop.load(std::memory_order_relaxed) && monotonicNs() < until) {
+        (void)sendOnLoop(false);
+        ++sent;  // only on A's loop until it is read after the flush below
+      }
+      if (monotonicNs() < end) a.loop().post(burst);
+    };
+    a.loop().post(burst);
+    std::this_thread::sleep_for(std::chrono::nanoseconds(end - monotonicNs()));
+    stop = true;
+    a.on([](sat::Satellite&) {});  // after the last burst (none is posted after `end`)
+  } else {
+    while (monotonicNs() < end) {
+      // (Signed: a late warm-up message may make the count run ahead of `sent`.)
+      while (static_cast<int64_t>(sent) - static_cast<int64_t>(got_ping.load() - base) >= 2) {
+        if (monotonicNs() > end + kNsPerSec) break;
+        std::this_thread::yield();
+      }
+      // Queued to A's loop without waiting for it: the driver's cost stays off the figures.
+      a.loop().post([&] { (void)sendOnLoop(false); });
+      ++sent;
     }
-    // Queued to A's loop without waiting for it: the driver's cost stays off the figures.
-    a.loop().post([&] {
-      (void)sendOnLoop(false);
-      filled.fetch_add(1);
-    });
-    ++sent;
   }
   (void)waitFor([&] { return got_ping.load() - base + missedNow() - missed_base >= sent; }, 2000);
   f.missed = missedNow() - missed_base;

@@ -183,6 +183,26 @@ TEST(ShmRing, ARemovedReaderIsWokenNoMore) {
   EXPECT_FALSE(readable(r->eventFd()));
 }
 
+TEST(ShmRing, AReaderThatPollsIsNotWokenUntilItStops) {
+  RingWriter w = makeWriter();
+  RingReader polling = attach(w), woken = attach(w);
+  polling.setPolling(true);
+  ASSERT_TRUE(w.publish(bytes("one")));
+  EXPECT_FALSE(readable(polling.eventFd())) << "no system call for a reader that polls";
+  EXPECT_TRUE(readable(woken.eventFd()));
+  EXPECT_TRUE(polling.hasNew());
+  EXPECT_EQ(polling.readLatest([](auto, auto) {}), ReadStatus::ok);
+  polling.setPolling(false);
+  EXPECT_FALSE(readable(polling.eventFd())) << "nothing new when it stopped polling";
+  polling.setPolling(true);
+  ASSERT_TRUE(w.publish(bytes("two")));
+  polling.setPolling(false);
+  EXPECT_TRUE(readable(polling.eventFd())) << "what came while it polled wakes it when it stops";
+  polling.drain();
+  ASSERT_TRUE(w.publish(bytes("three")));
+  EXPECT_TRUE(readable(polling.eventFd())) << "woken again";
+}
+
 TEST(ShmRing, ReadersAreCounted) {
   RingWriter w = makeWriter({4, 16, 2});
   auto a = w.addReader();

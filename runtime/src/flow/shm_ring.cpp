@@ -47,6 +47,9 @@ struct SlotHeader {
 struct Lease {
   std::atomic<uint64_t> slot_plus1;  // the slot being read + 1; 0: none
   std::atomic<int64_t> heartbeat_ns;
+  // 1 while the reader polls the ring itself (RingReader::setPolling): the writer does not write
+  // its eventfd. 0 on a new page, and for readers that predate it: always woken.
+  std::atomic<uint32_t> polling;
 };
 static_assert(std::atomic<uint64_t>::is_always_lock_free);
 static_assert(sizeof(Header) <= kPage && sizeof(SlotHeader) <= kSlotHeader);
@@ -264,11 +267,16 @@ bool RingWriter::commit(std::size_t size, int64_t capture_ns) noexcept {
   sh->size = size;
   sh->capture_ns = capture_ns;
   sh->seq.store(2 * n, std::memory_order_release);
+  // Published, then each reader's polling flag read (both sequentially consistent): a reader
+  // that stops polling sets its flag, then looks for news, so one of the two sees the other.
   std::launder(reinterpret_cast<Header*>(base_))
-      ->latest.store((n << 16) | s, std::memory_order_release);
+      ->latest.store((n << 16) | s, std::memory_order_seq_cst);
   const uint64_t one = 1;
   for (uint32_t i = 0; i < kMaxReaders; ++i) {
-    if ((reader_mask_ >> i) & 1u) (void)!::write(readers_[i].event, &one, sizeof one);
+    if (!((reader_mask_ >> i) & 1u)) continue;
+    if (leaseOf(readers_[i].lease_page)->polling.load(std::memory_order_seq_cst) == 0) {
+      (void)!::write(readers_[i].event, &one, sizeof one);
+    }
   }
   return true;
 }
@@ -307,6 +315,7 @@ RingReader& RingReader::operator=(RingReader&& other) noexcept {
   geometry_ = other.geometry_;
   slot_stride_ = other.slot_stride_;
   last_seq_ = other.last_seq_;
+  polling_ = std::exchange(other.polling_, false);
   received_ = other.received_;
   missed_ = other.missed_;
   torn_ = other.torn_;
@@ -375,6 +384,17 @@ bool RingReader::hasNew() const noexcept {
   if (base_ == nullptr) return false;
   const auto* h = std::launder(reinterpret_cast<const Header*>(base_));
   return (h->latest.load(std::memory_order_acquire) >> 16) > last_seq_;
+}
+
+void RingReader::setPolling(bool on) noexcept {
+  if (lease_page_ == nullptr || on == polling_) return;
+  polling_ = on;
+  leaseOf(lease_page_)->polling.store(on ? 1 : 0, std::memory_order_seq_cst);
+  if (!on && hasNew()) {
+    // Committed while the writer thought we polled: wake ourselves, as it would have.
+    const uint64_t one = 1;
+    (void)!::write(eventfd_, &one, sizeof one);
+  }
 }
 
 void RingReader::heartbeat() noexcept {

@@ -305,9 +305,12 @@ void Paths::onPathEvent(Path& p) {
 }
 
 void Paths::updateSpin() {
-  const bool any = std::any_of(paths_.begin(), paths_.end(), [](const auto& e) {
-    return e.second->spin && e.second->reader && e.second->marker;
-  });
+  bool any = false;
+  for (auto& [id, p] : paths_) {
+    const bool spins = p->spin && p->reader && p->marker;
+    if (p->reader) p->reader->setPolling(spins);  // a spinning reader is not woken: no write
+    any = any || spins;
+  }
   if (any && spin_ == nullptr) {
     spin_ = new uv_idle_t{};
     uv_idle_init(host_.loop, spin_);

@@ -18,7 +18,7 @@
 //
 // Layout (the machine's byte order): page 0 the header, then `slots` slots of `slot_stride` bytes
 // (a 64-byte slot header, then the payload; page-aligned). A lease page holds the slot its reader
-// reads (+1; 0 none) and the reader's heartbeat.
+// reads (+1; 0 none), the reader's heartbeat, and whether it polls (then it is not woken).
 //
 // Threads: a RingWriter and a RingReader are each used by one thread at a time.
 #pragma once
@@ -140,6 +140,10 @@ class RingReader {
   // Whether a message newer than the last one read was committed: one load of shared memory, no
   // system call (for a reader that polls instead of waiting for the eventfd).
   [[nodiscard]] bool hasNew() const noexcept;
+  // While on, the writer leaves this reader's eventfd alone (it saves a system call per message):
+  // for a reader that calls hasNew() often enough by itself. Turning it off wakes the reader
+  // through its eventfd if a message came meanwhile.
+  void setPolling(bool on) noexcept;
 
   [[nodiscard]] const RingGeometry& geometry() const noexcept { return geometry_; }
   [[nodiscard]] uint64_t received() const noexcept { return received_; }
@@ -166,6 +170,7 @@ class RingReader {
   RingGeometry geometry_;
   uint64_t slot_stride_ = 0;
   uint64_t last_seq_ = 0;
+  bool polling_ = false;
   uint64_t received_ = 0, missed_ = 0, torn_ = 0;
 };
 

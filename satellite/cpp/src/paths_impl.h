@@ -8,6 +8,7 @@
 #include <skrobot/flow/path_framing.h>
 
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -62,6 +63,30 @@ inline std::string_view writeSome(int fd, std::string_view bytes) {
     bytes.remove_prefix(static_cast<size_t>(n));
   }
   return bytes;
+}
+
+// Writes `head` then `body` with one system call where they fit (a frame's reader is woken once,
+// not once for its header and again for its payload), or what fits: how many of their bytes went.
+inline size_t writeSome(int fd, std::string_view head, std::string_view body) {
+  const size_t total = head.size() + body.size();
+  size_t done = 0;
+  while (done < total) {
+    iovec iov[2];
+    int n = 0;
+    if (done < head.size()) iov[n++] = {const_cast<char*>(head.data()) + done, head.size() - done};
+    const size_t in_body = done > head.size() ? done - head.size() : 0;
+    iov[n++] = {const_cast<char*>(body.data()) + in_body, body.size() - in_body};
+    msghdr m{};
+    m.msg_iov = iov;
+    m.msg_iovlen = static_cast<size_t>(n);
+    const ssize_t w = ::sendmsg(fd, &m, MSG_NOSIGNAL);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      break;  // EAGAIN, or an error the read side will see
+    }
+    done += static_cast<size_t>(w);
+  }
+  return done;
 }
 
 // Bytes read from a path socket, received straight into place (no zero-filling, no copy from a

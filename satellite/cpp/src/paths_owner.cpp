@@ -343,11 +343,11 @@ bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns)
     }
     if (p->out.empty()) {
       // Straight to the socket when nothing waits.
-      const std::string_view head_left = writeSome(fd, head);
-      if (head_left.empty()) {
-        p->out.append(writeSome(fd, payload));
+      const size_t done = writeSome(fd, head, payload);
+      if (done < head.size()) {
+        p->out.append(std::string_view(head).substr(done)).append(payload);
       } else {
-        p->out.append(head_left).append(payload);
+        p->out.append(payload.substr(done - head.size()));
       }
     } else {
       p->out.append(head).append(payload);

@@ -148,6 +148,53 @@ TEST_F(Paths, SwitchingToADirectPathLosesNothing) {
   }
 }
 
+// Large messages published back to back fill the owner's socket: each frame's header and
+// payload go out in one call where they fit, the rest waits in the owner's queue, and the
+// subscriber gets every message whole, in order.
+TEST_F(Paths, LargeMessagesBehindAFullSocketArriveWholeAndInOrder) {
+  setUp(true, false, kPathDirect);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  // Message k (150-550 KB): its number in 4 bytes, then (k * 31 + i) % 251 for each byte i after.
+  const auto message = [](uint32_t k) {
+    std::string m((150u << 10) + (k * 104729u) % (400u << 10), '\0');
+    std::memcpy(m.data(), &k, 4);
+    for (size_t i = 4; i < m.size(); ++i) m[i] = static_cast<char>((k * 31 + i) % 251);
+    return m;
+  };
+  constexpr uint32_t kMessages = 36;  // about 12 MB: under the 16 MB a subscriber may lag
+  std::vector<std::string> got;
+  sub->on([&](Satellite& s) {
+    s.dataView.connect(&s, [&](uint16_t, std::string_view p) {
+      if (p.size() >= 4 && p.substr(0, 4) != "warm") got.emplace_back(p);
+    });
+  });
+  // The subscriber's loop is held while the owner publishes: its socket fills (8 MB at most).
+  std::atomic<bool> held{false}, release{false};
+  std::thread holder([&] {
+    sub->on([&](Satellite&) {
+      held = true;
+      while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    });
+  });
+  while (!held) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  pub->on([&](Satellite& s) {
+    for (uint32_t k = 0; k < kMessages; ++k) ASSERT_TRUE(s.publish("frames", message(k)));
+  });
+  release = true;
+  holder.join();
+  ASSERT_TRUE(eventually([&] {
+    return sub->on([&](Satellite&) { return got.size(); }) >= kMessages;
+  })) << sub->on([&](Satellite&) { return got.size(); });
+  sub->on([&](Satellite& s) {
+    s.dataView.disconnectAll();
+    ASSERT_EQ(got.size(), kMessages);
+    for (uint32_t k = 0; k < kMessages; ++k) {
+      EXPECT_TRUE(got[k] == message(k)) << "message " << k << " (" << got[k].size() << " bytes)";
+    }
+  });
+  EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().fallbacks; }), 0u);
+}
+
 // PathWait::spin: the subscriber's loop polls the ring instead of sleeping, for as long as the
 // path works, and only then (its thread's CPU time tells).
 TEST_F(Paths, ASpinningReaderPollsItsRingOnlyWhileThePathWorks) {

@@ -228,6 +228,21 @@ Figures bareWake(size_t size, int rounds) {
 // shm_unfilled: shared memory with only the timestamp written into the slot before the commit,
 // one way only: the ring's own delivery, without the cost of a producer's fill on the caches.
 enum class Mode { relay, direct, shm, shm_unfilled, shm_spin };
+const char* modeName(Mode mode) {
+  switch (mode) {
+    case Mode::relay:
+      return "relay";
+    case Mode::direct:
+      return "direct";
+    case Mode::shm:
+      return "shm";
+    case Mode::shm_unfilled:
+      return "shm-0";
+    case Mode::shm_spin:
+      return "shm-spin";
+  }
+  return "?";
+}
 
 // Through the hub: `ping` from A to B and `pong` back, each on the path of `mode`.
 Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double seconds) {
@@ -242,9 +257,8 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   phys.ring = flow::shm::RingGeometry{4, size, 2};
   const uint8_t kinds = mode == Mode::direct ? sat::kPathDirect : shm ? sat::kPathShm : 0;
   const std::string ping = "ping" + suffix, pong = "pong" + suffix;
-  const char* mode_name[] = {"relay", "direct", "shm", "shm-0", "shm-spin"};
   const auto failHere = [&](const std::string& why) {
-    fail(why + " (" + mode_name[static_cast<int>(mode)] + ", " + std::to_string(size) + " bytes)");
+    fail(why + " (" + modeName(mode) + ", " + std::to_string(size) + " bytes)");
   };
   std::vector<double> one_way, rtt;
   std::atomic<uint64_t> got_ping{0}, got_pong{0};

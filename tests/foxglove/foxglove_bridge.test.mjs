@@ -184,6 +184,9 @@ test('data flows while subscribed, in the reference schemas, and stops after uns
   await sleep(1000);
   assert.equal(seen.messages.length, count, 'no message after unsubscribe');
   client.close();
+  // The log counts what the bridge forwarded (the camera's frames are converted on its thread).
+  await waitFor('the counts in the log', () =>
+    /FOXGLOVE-CLIENT client \d+ left: .*; [1-9]\d* messages forwarded, \d+ that could not be converted skipped, \d+ replaced/.test(hub.log));
 });
 
 test('the Nao\'s joints come by name, to plot', { timeout: 60000 }, async () => {

@@ -152,6 +152,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
   void stop() override {
     worker_.stop();  // before the server: the worker sends
     server_.stop();  // joins the server thread: no more posts from it
+    host_.log.info("FOXGLOVE-STOP", counts());
     second_.reset();
     for (auto& [id, c] : chans_) c.sub.reset();
     db_watches_.clear();
@@ -316,7 +317,14 @@ class FoxgloveBridge final : public skr::plugin::Module {
     if (it == clients_.end()) return;
     for (const auto& [sub, chan] : it->second.subs) release(chan);
     clients_.erase(it);
-    host_.log.info("FOXGLOVE-CLIENT", "client ", conn, " left: ", why);
+    host_.log.info("FOXGLOVE-CLIENT", "client ", conn, " left: ", why, "; ", counts());
+  }
+
+  // What the bridge has done since it started, for the log.
+  std::string counts() const {
+    return std::to_string(forwarded_.load()) + " messages forwarded, " +
+           std::to_string(skipped_.load()) + " that could not be converted skipped, " +
+           std::to_string(replaced_.load()) + " replaced by a newer one before conversion";
   }
 
   void onMessage(std::uint64_t conn, const ClientMessage& msg) {

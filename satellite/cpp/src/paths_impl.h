@@ -52,19 +52,6 @@ inline void closeFd(int& fd) {
   fd = -1;
 }
 
-// Writes all of `bytes` on a non-blocking socket, or what fits; the rest is returned.
-inline std::string_view writeSome(int fd, std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return bytes;  // EAGAIN, or an error the read side will see
-    }
-    bytes.remove_prefix(static_cast<size_t>(n));
-  }
-  return bytes;
-}
-
 // Writes `head` then `body` with one system call where they fit (a frame's reader is woken once,
 // not once for its header and again for its payload), or what fits: how many of their bytes went.
 inline size_t writeSome(int fd, std::string_view head, std::string_view body) {
@@ -87,6 +74,11 @@ inline size_t writeSome(int fd, std::string_view head, std::string_view body) {
     done += static_cast<size_t>(w);
   }
   return done;
+}
+
+// Writes all of `bytes` on a non-blocking socket, or what fits; the rest is returned.
+inline std::string_view writeSome(int fd, std::string_view bytes) {
+  return bytes.substr(writeSome(fd, {}, bytes));
 }
 
 // Bytes read from a path socket, received straight into place (no zero-filling, no copy from a

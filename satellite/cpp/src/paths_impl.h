@@ -7,6 +7,8 @@
 #include <skrobot/core/log.h>
 #include <skrobot/flow/path_framing.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
 #include <unistd.h>
@@ -18,6 +20,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace skr::sat::detail {
 namespace paths_io {
@@ -50,6 +53,53 @@ inline void closePoll(uv_poll_t*& p) {
 inline void closeFd(int& fd) {
   if (fd >= 0) ::close(fd);
   fd = -1;
+}
+
+// A numeric IPv4 or IPv6 address and a port as a socket address (no name lookup: callers are on
+// the loop thread). False when `host` is not numeric.
+inline bool numericAddress(const std::string& host, uint16_t port, sockaddr_storage& out,
+                           socklen_t& len) {
+  out = {};
+  auto* v4 = reinterpret_cast<sockaddr_in*>(&out);
+  auto* v6 = reinterpret_cast<sockaddr_in6*>(&out);
+  if (::inet_pton(AF_INET, host.c_str(), &v4->sin_addr) == 1) {
+    v4->sin_family = AF_INET;
+    v4->sin_port = htons(port);
+    len = sizeof *v4;
+    return true;
+  }
+  if (::inet_pton(AF_INET6, host.c_str(), &v6->sin6_addr) == 1) {
+    v6->sin6_family = AF_INET6;
+    v6->sin6_port = htons(port);
+    len = sizeof *v6;
+    return true;
+  }
+  return false;
+}
+
+// "<host>:<port>" or "[<IPv6 host>]:<port>" (brackets required, so that the port is not read from
+// the address): the host without brackets and the port, or nullopt.
+inline std::optional<std::pair<std::string, uint16_t>> splitHostPort(std::string_view text) {
+  std::string_view host, port;
+  if (text.starts_with("[")) {
+    const auto close = text.find("]:");
+    if (close == std::string_view::npos) return std::nullopt;
+    host = text.substr(1, close - 1);
+    port = text.substr(close + 2);
+  } else {
+    const auto colon = text.rfind(':');
+    if (colon == std::string_view::npos) return std::nullopt;
+    host = text.substr(0, colon);
+    port = text.substr(colon + 1);
+    if (host.find(':') != std::string_view::npos) return std::nullopt;  // IPv6 needs brackets
+  }
+  if (host.empty() || port.empty() || port.size() > 5 ||
+      port.find_first_not_of("0123456789") != std::string_view::npos) {
+    return std::nullopt;
+  }
+  const int n = std::stoi(std::string(port));
+  if (n > 65535) return std::nullopt;
+  return std::pair{std::string(host), static_cast<uint16_t>(n)};
 }
 
 // Writes `head` then `body` with one system call where they fit (a frame's reader is woken once,

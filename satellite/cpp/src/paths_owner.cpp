@@ -51,27 +51,29 @@ void Paths::ensureListener() {
 void Paths::ensureTcpListener() {
   if (tcp_fd_ >= 0 || host_.tcp_listen.empty()) return;
   const std::string& where = host_.tcp_listen;
-  const auto colon = where.rfind(':');
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  const std::string address = where.substr(0, colon == std::string::npos ? 0 : colon);
-  const int port = colon == std::string::npos ? -1 : std::atoi(where.c_str() + colon + 1);
+  const auto split = splitHostPort(where);
+  sockaddr_storage a{};
+  socklen_t len = 0;
   // Subscribers connect to what we offer: a wildcard address would tell them nothing.
-  if (port < 0 || port > 65535 || ::inet_pton(AF_INET, address.c_str(), &a.sin_addr) != 1 ||
-      a.sin_addr.s_addr == htonl(INADDR_ANY)) {
+  const auto wildcard = [&] {
+    if (a.ss_family == AF_INET) {
+      return reinterpret_cast<sockaddr_in*>(&a)->sin_addr.s_addr == htonl(INADDR_ANY);
+    }
+    return IN6_IS_ADDR_UNSPECIFIED(&reinterpret_cast<sockaddr_in6*>(&a)->sin6_addr);
+  };
+  if (!split || !numericAddress(split->first, split->second, a, len) || wildcard()) {
     log::warn(kLogSource, "SAT-PATH",
               "path_tcp '" + where +
-                  "' is not <IPv4 address others reach>:<port>; no direct paths over TCP");
+                  "' is not <address others reach>:<port> (IPv4, or [IPv6]); no direct paths "
+                  "over TCP");
     host_.tcp_listen.clear();
     return;
   }
-  a.sin_port = htons(static_cast<uint16_t>(port));
-  int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  int fd = ::socket(a.ss_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   int one = 1;
   if (fd >= 0) ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-  socklen_t len = sizeof a;
-  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
-      ::listen(fd, 64) != 0 || ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
+  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), len) != 0 || ::listen(fd, 64) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
     log::warn(
         kLogSource, "SAT-PATH",
         "cannot listen at " + where + ": " + std::strerror(errno) + "; no direct paths over TCP");
@@ -79,8 +81,12 @@ void Paths::ensureTcpListener() {
     host_.tcp_listen.clear();
     return;
   }
+  const uint16_t port =
+      ntohs(a.ss_family == AF_INET ? reinterpret_cast<sockaddr_in*>(&a)->sin_port
+                                   : reinterpret_cast<sockaddr_in6*>(&a)->sin6_port);
   tcp_fd_ = fd;
-  tcp_endpoint_ = "tcp:" + address + ":" + std::to_string(ntohs(a.sin_port));
+  tcp_endpoint_ = "tcp:" + (a.ss_family == AF_INET6 ? "[" + split->first + "]" : split->first) +
+                  ":" + std::to_string(port);
   tcp_poll_ = newPoll(host_.loop, fd, this);
   uv_poll_start(tcp_poll_, UV_READABLE, [](uv_poll_t* h, int, int) {
     auto* self = static_cast<Paths*>(h->data);

@@ -158,20 +158,17 @@ void Paths::connectPath(Path& p, const std::string& endpoint) {
     return;
   }
   if (endpoint.rfind("tcp:", 0) == 0) {
-    const std::string rest = endpoint.substr(4);
-    const auto colon = rest.rfind(':');
-    if (colon == std::string::npos) return;
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(static_cast<uint16_t>(std::atoi(rest.c_str() + colon + 1)));
     // A numeric address only: no name lookup on the loop thread.
-    if (::inet_pton(AF_INET, rest.substr(0, colon).c_str(), &a.sin_addr) != 1) return;
+    const auto split = splitHostPort(std::string_view(endpoint).substr(4));
+    sockaddr_storage a{};
+    socklen_t len = 0;
+    if (!split || !numericAddress(split->first, split->second, a, len)) return;
     // Not blocking: another machine may take its time (or never answer; tick() gives up).
-    int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    int fd = ::socket(a.ss_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) return;
     int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), len) != 0) {
       if (errno != EINPROGRESS) return closeFd(fd);
       p.connecting_until = monotonicNs() + kConnectTimeoutNs;
     }

@@ -409,6 +409,7 @@ class PathsOverTcp : public SatTest {
     o.connection.password = "s3cret-pass";
     return o;
   }
+  void reachesAnotherMachine(const std::string& path_tcp, const std::string& offered);
   static std::unique_ptr<SatOnThread> started(SatelliteOptions o) {
     auto s = std::make_unique<SatOnThread>(std::move(o));
     s->start();
@@ -416,11 +417,12 @@ class PathsOverTcp : public SatTest {
   }
 };
 
-TEST_F(PathsOverTcp, ADirectPathReachesASubscriberOnAnotherMachine) {
+// The owner listens at `path_tcp` and the hub offers "tcp:<offered>:<port>" to the subscriber.
+void PathsOverTcp::reachesAnotherMachine(const std::string& path_tcp, const std::string& offered) {
   startHub("alice");
   ASSERT_FALSE(hub_->tcpAddress().empty()) << hubLog();
   SatelliteOptions owner = alice("pub", false);
-  owner.path_tcp = "127.0.0.1:0";
+  owner.path_tcp = path_tcp;
   auto pub = started(owner);
   auto plain = started(alice("plain", false));  // offers direct paths on its Unix socket only
   ChannelSpec spec{.name = "frames"};
@@ -445,7 +447,7 @@ TEST_F(PathsOverTcp, ADirectPathReachesASubscriberOnAnotherMachine) {
       << hubLog();
   EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_direct; }), 1u);
   EXPECT_EQ(pub->on([](Satellite& s) { return s.pathStats().served_shm; }), 0u);
-  EXPECT_NE(hubLog().find("tcp:127.0.0.1:"), std::string::npos) << "offered on TCP as well";
+  EXPECT_NE(hubLog().find("tcp:" + offered + ":"), std::string::npos) << "offered on TCP as well";
   // Every message, in order, once, by the path.
   sub->events.clear();
   const uint64_t before = sub->on([](Satellite& s) { return s.pathStats().path_messages; });
@@ -463,6 +465,39 @@ TEST_F(PathsOverTcp, ADirectPathReachesASubscriberOnAnotherMachine) {
   EXPECT_EQ(sub->on([](Satellite& s) { return s.pathStats().path_messages; }), before + 100)
       << "alice.frames came by its path; alice.local-only, which has no TCP endpoint, relayed";
   EXPECT_EQ(plain->on([](Satellite& s) { return s.pathStats().served_direct; }), 0u);
+}
+
+TEST_F(PathsOverTcp, ADirectPathReachesASubscriberOnAnotherMachine) {
+  reachesAnotherMachine("127.0.0.1:0", "127.0.0.1");
+}
+
+TEST_F(PathsOverTcp, ADirectPathOverIPv6) {
+  reachesAnotherMachine("[::1]:0", "[::1]");
+}
+
+// A wildcard, a name, no port, a bad port, IPv6 without brackets: the owner offers its Unix
+// socket only (and says why in its log).
+TEST_F(PathsOverTcp, APathTcpThatIsNotAnAddressOthersReachIsNotOffered) {
+  startHub("alice");
+  int i = 0;
+  for (const char* bad : {"0.0.0.0:0", "[::]:0", "::1:0", "robot.local:0", "127.0.0.1", "[::1]",
+                          "127.0.0.1:70000", "127.0.0.1:x", "[::1]x:0"}) {
+    const std::string name = "frames" + std::to_string(i++);
+    SatelliteOptions o = alice("pub-" + name, false);
+    o.path_tcp = bad;
+    auto pub = started(o);
+    ChannelSpec spec{.name = name};
+    spec.physical = PhysicalOptions{.direct = true, .shm = false, .ring = {}};
+    ASSERT_TRUE(eventually([&] { return pub->on([&](Satellite& s) { return s.isConnected(); }); }));
+    ASSERT_TRUE(pub->on([&](Satellite& s) { return s.addChannel(spec); })) << bad;
+    const std::string offer = "alice." + name + ": direct at ";
+    ASSERT_TRUE(eventually([&] { return hubLog().find(offer) != std::string::npos; })) << bad;
+    const std::string log = hubLog();
+    const std::string line =
+        log.substr(log.find(offer), log.find('\n', log.find(offer)) - log.find(offer));
+    EXPECT_EQ(line.find("tcp:"), std::string::npos) << bad << ": " << line;
+    EXPECT_NE(line.find("unix:"), std::string::npos) << bad << ": " << line;
+  }
 }
 
 }  // namespace

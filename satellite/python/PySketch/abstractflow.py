@@ -195,14 +195,19 @@ class TlsSettings(object):
         return ctx
 
 
-def _isIpAddress(host):
+def ipFamily(host):
+    """AF_INET or AF_INET6 for a numeric address, None for anything else (a name)."""
     for family in (socket.AF_INET, socket.AF_INET6):
         try:
             socket.inet_pton(family, host)
-            return True
+            return family
         except (socket.error, OSError, ValueError):
             pass
-    return False
+    return None
+
+
+def _isIpAddress(host):
+    return ipFamily(host) is not None
 
 
 # Python 2.7's hostname check knows DNS names only: numeric hosts are checked by tlsCheckHost.

@@ -77,6 +77,7 @@ import threading
 import time
 
 from PySketch import log
+from PySketch.abstractflow import ipFamily, parseAddress
 from PySketch.flowproto import PATH_DIRECT, PATH_SHM, physRequest, physState, utf8
 
 try:
@@ -642,11 +643,13 @@ class Paths(object):
                 s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
                 family_addr = where
             elif endpoint.startswith("tcp:"):
-                host, _, port = endpoint[4:].rpartition(":")
-                socket.inet_aton(host)  # a numeric address only: no name lookup in the loop
-                s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+                _, (host, port) = parseAddress(endpoint)  # tcp:host:port, tcp:[v6]:port
+                family = ipFamily(host)  # a numeric address: no name lookup in the loop
+                if family is None:
+                    return None, False
+                s = socket.socket(family, socket.SOCK_STREAM)
                 s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                family_addr = (host, int(port))
+                family_addr = (host, port)
             else:
                 return None, False
         except (socket.error, OSError, ValueError):

@@ -369,11 +369,17 @@ class PathsOverTcp(unittest.TestCase):
     owner's TCP endpoint (ROBOT_PATH_TCP) and connects to it without blocking its loop."""
 
     def test_a_direct_path_over_tcp(self):
+        self.directPathAt("127.0.0.1:0", "127.0.0.1", "paths-tcp")
+
+    def test_a_direct_path_over_ipv6(self):
+        self.directPathAt("[::1]:0", "[::1]", "paths-tcp6")
+
+    def directPathAt(self, pathTcp, offered, name):
         from PySketch.flowsat import FlowSat
         from tests.test_tls import PASSWORD, USER, TlsHub
-        hub = TlsHub("paths-tcp", None, tls=False).start()
+        hub = TlsHub(name, None, tls=False).start()
         self.addCleanup(hub.close)
-        os.environ["ROBOT_PATH_TCP"] = "127.0.0.1:0"
+        os.environ["ROBOT_PATH_TCP"] = pathTcp
         try:
             pub = Publisher(hub, "both")
         finally:
@@ -394,7 +400,7 @@ class PathsOverTcp(unittest.TestCase):
             pub.do("pub 1 64", "^published", [s])
             tickFor([s], 0.05)
         self.assertGreater(s.pathStats()["path_messages"], 0, (s.pathStats(), pub.output()))
-        self.assertIn("tcp:127.0.0.1:", hub.log(), "offered on TCP as well")
+        self.assertIn("tcp:%s:" % offered, hub.log(), "offered on TCP as well")
         before = s.pathStats()["path_messages"]
         del got[:]
         pub.do("pub 100 3000", "^published", [s])

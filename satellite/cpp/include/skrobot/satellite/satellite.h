@@ -57,9 +57,9 @@ struct SatelliteOptions {
   Nanos handshake_timeout_ns = 10 * kNsPerSec;  // connect + login + GO_ASYNC
   size_t max_queued_bytes = 8u << 20;  // outgoing bytes waiting; publish() fails beyond this
   // Physical mode's direct paths to subscribers on other machines (docs/physical-mode.md):
-  // "<IPv4 address they reach us at>:<port>" (port 0: any free one) to listen on besides our
-  // Unix socket. Unencrypted, like the data it carries: for a trusted network. fromEnvironment()
-  // reads ROBOT_PATH_TCP.
+  // "<address they reach us at>:<port>" (IPv4, or IPv6 in brackets: "[fd00::20]:0"; port 0:
+  // any free one) to listen on besides our Unix socket. Unencrypted, like the data it carries:
+  // for a trusted network. fromEnvironment() reads ROBOT_PATH_TCP.
   std::string path_tcp;
   // Set only by a hub that links to another (docs/hub-links.md): its own hub name, said in
   // HUB_LINK_HELLO after each login (FlowProtocol 1.5). A refusal is a refused login.

@@ -4,6 +4,9 @@
 // shared-memory reader, an owner that goes away, and a direct path over TCP to a subscriber that
 // is not on the hub's machine (as far as the hub can tell: it came over TCP).
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -471,7 +474,19 @@ TEST_F(PathsOverTcp, ADirectPathReachesASubscriberOnAnotherMachine) {
   reachesAnotherMachine("127.0.0.1:0", "127.0.0.1");
 }
 
+// Whether this machine has IPv6 loopback (containers may have it disabled).
+bool hasIPv6Loopback() {
+  const int fd = ::socket(AF_INET6, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in6 a{};
+  a.sin6_family = AF_INET6;
+  a.sin6_addr = in6addr_loopback;
+  const bool ok = fd >= 0 && ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  if (fd >= 0) ::close(fd);
+  return ok;
+}
+
 TEST_F(PathsOverTcp, ADirectPathOverIPv6) {
+  if (!hasIPv6Loopback()) GTEST_SKIP() << "no IPv6 loopback on this machine";
   reachesAnotherMachine("[::1]:0", "[::1]");
 }
 

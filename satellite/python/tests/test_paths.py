@@ -372,6 +372,12 @@ class PathsOverTcp(unittest.TestCase):
         self.directPathAt("127.0.0.1:0", "127.0.0.1", "paths-tcp")
 
     def test_a_direct_path_over_ipv6(self):
+        try:
+            probe = socket.socket(socket.AF_INET6, socket.SOCK_STREAM)
+            probe.bind(("::1", 0))
+            probe.close()
+        except (socket.error, OSError):
+            self.skipTest("no IPv6 loopback on this machine")
         self.directPathAt("[::1]:0", "[::1]", "paths-tcp6")
 
     def directPathAt(self, pathTcp, offered, name):

@@ -77,31 +77,6 @@ inline bool numericAddress(const std::string& host, uint16_t port, sockaddr_stor
   return false;
 }
 
-// "<host>:<port>" or "[<IPv6 host>]:<port>" (brackets required, so that the port is not read from
-// the address): the host without brackets and the port, or nullopt.
-inline std::optional<std::pair<std::string, uint16_t>> splitHostPort(std::string_view text) {
-  std::string_view host, port;
-  if (text.starts_with("[")) {
-    const auto close = text.find("]:");
-    if (close == std::string_view::npos) return std::nullopt;
-    host = text.substr(1, close - 1);
-    port = text.substr(close + 2);
-  } else {
-    const auto colon = text.rfind(':');
-    if (colon == std::string_view::npos) return std::nullopt;
-    host = text.substr(0, colon);
-    port = text.substr(colon + 1);
-    if (host.find(':') != std::string_view::npos) return std::nullopt;  // IPv6 needs brackets
-  }
-  if (host.empty() || port.empty() || port.size() > 5 ||
-      port.find_first_not_of("0123456789") != std::string_view::npos) {
-    return std::nullopt;
-  }
-  const int n = std::stoi(std::string(port));
-  if (n > 65535) return std::nullopt;
-  return std::pair{std::string(host), static_cast<uint16_t>(n)};
-}
-
 // Writes `head` then `body` with one system call where they fit (a frame's reader is woken once,
 // not once for its header and again for its payload), or what fits: how many of their bytes went.
 inline size_t writeSome(int fd, std::string_view head, std::string_view body) {

@@ -1,6 +1,7 @@
 // Physical mode, the owner's side (see paths.h): the listener, grants, peers, publishing.
 #include "paths_impl.h"
 
+#include <skrobot/flow/address.h>
 #include <skrobot/flow/fd_passing.h>
 #include <skrobot/satellite/satellite.h>
 
@@ -48,6 +49,36 @@ void Paths::ensureListener() {
   });
 }
 
+namespace {
+
+// path_tcp: "<host>:<port>" or "[<IPv6 host>]:<port>", the port written (0: any free one) and
+// brackets required (so that the port is not read from the address): host and port, or nullopt.
+// (flow::Address reads a hub's address, where the port may be left out and 0 is not one.)
+std::optional<std::pair<std::string, uint16_t>> splitHostPort(std::string_view text) {
+  std::string_view host, port;
+  if (text.starts_with("[")) {
+    const auto close = text.find("]:");
+    if (close == std::string_view::npos) return std::nullopt;
+    host = text.substr(1, close - 1);
+    port = text.substr(close + 2);
+  } else {
+    const auto colon = text.rfind(':');
+    if (colon == std::string_view::npos) return std::nullopt;
+    host = text.substr(0, colon);
+    port = text.substr(colon + 1);
+    if (host.find(':') != std::string_view::npos) return std::nullopt;  // IPv6 needs brackets
+  }
+  if (host.empty() || port.empty() || port.size() > 5 ||
+      port.find_first_not_of("0123456789") != std::string_view::npos) {
+    return std::nullopt;
+  }
+  const int n = std::stoi(std::string(port));
+  if (n > 65535) return std::nullopt;
+  return std::pair{std::string(host), static_cast<uint16_t>(n)};
+}
+
+}  // namespace
+
 void Paths::ensureTcpListener() {
   if (tcp_fd_ >= 0 || host_.tcp_listen.empty()) return;
   const std::string& where = host_.tcp_listen;
@@ -85,8 +116,9 @@ void Paths::ensureTcpListener() {
       ntohs(a.ss_family == AF_INET ? reinterpret_cast<sockaddr_in*>(&a)->sin_port
                                    : reinterpret_cast<sockaddr_in6*>(&a)->sin6_port);
   tcp_fd_ = fd;
-  tcp_endpoint_ = "tcp:" + (a.ss_family == AF_INET6 ? "[" + split->first + "]" : split->first) +
-                  ":" + std::to_string(port);
+  tcp_endpoint_ =
+      flow::Address{.kind = flow::Address::Kind::tcp, .host = split->first, .port = port}
+          .toString();
   tcp_poll_ = newPoll(host_.loop, fd, this);
   uv_poll_start(tcp_poll_, UV_READABLE, [](uv_poll_t* h, int, int) {
     auto* self = static_cast<Paths*>(h->data);

@@ -2,6 +2,7 @@
 // fallback.
 #include "paths_impl.h"
 
+#include <skrobot/flow/address.h>
 #include <skrobot/flow/fd_passing.h>
 #include <skrobot/satellite/satellite.h>
 
@@ -158,11 +159,12 @@ void Paths::connectPath(Path& p, const std::string& endpoint) {
     return;
   }
   if (endpoint.rfind("tcp:", 0) == 0) {
-    // A numeric address only: no name lookup on the loop thread.
-    const auto split = splitHostPort(std::string_view(endpoint).substr(4));
+    // "tcp:host:port" or "tcp:[v6]:port", as a hub address is written; a numeric host only: no
+    // name lookup on the loop thread.
+    const auto where = flow::Address::parse(endpoint);
     sockaddr_storage a{};
     socklen_t len = 0;
-    if (!split || !numericAddress(split->first, split->second, a, len)) return;
+    if (!where || !numericAddress(where->host, where->port, a, len)) return;
     // Not blocking: another machine may take its time (or never answer; tick() gives up).
     int fd = ::socket(a.ss_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) return;

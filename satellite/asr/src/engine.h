@@ -34,6 +34,10 @@ struct AsrResult {
   double confidence = 0;  // 0..1
   bool rejected = false;  // grammar mode: heard, but not a phrase of the grammar
   std::vector<WordTime> words;
+  // Grammar mode with rejection: what the decision was made on (engine-specific; for tuning).
+  bool scored = false;
+  double reject_score = 0;  // the reference's acoustic score per frame minus the grammar's
+  double unplaced = 0;      // share of the speech the grammar's words leave out
 };
 
 class AsrEngine {

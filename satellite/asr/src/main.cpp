@@ -2,8 +2,8 @@
 //
 //   skrobot-asr [--input CHANNEL] [--name NAME] [--mode dictation|grammar]
 //               [--grammar FILE.gram | --keywords FILE] [--max-utterance-s N] [--hangover-ms N]
-//               [--model DIR] [--reject-threshold X | --no-reject] [--address ADDR] [--user NAME]
-//               [--password PW]
+//               [--model DIR] [--reject-threshold X] [--max-unplaced X] [--no-reject]
+//               [--address ADDR] [--user NAME] [--password PW]
 #include "asr_satellite.h"
 #include "pocketsphinx_engine.h"
 
@@ -30,7 +30,9 @@ constexpr const char* kUsage = R"(usage: skrobot-asr [options]
   --max-utterance-s N    an utterance is cut at this length (default 15, 1..120)
   --hangover-ms N        silence that ends an utterance (default 300, 50..3000)
   --model DIR            pocketsphinx model (default /usr/share/pocketsphinx/model/en-us)
-  --reject-threshold X   grammar mode: reject above this score per frame (default 0; docs/asr.md)
+  --reject-threshold X   grammar mode: reject above this score per frame (default 5; docs/asr.md)
+  --max-unplaced X       grammar mode: reject when more of the speech than this share (0..1)
+                         fits no word of the grammar (default 0.4; docs/asr.md)
   --no-reject            grammar mode: never reject (the closest phrase of the grammar wins)
   --address ADDR         the hub (default $ROBOT_ADDRESS, else local:/tmp/Robot)
   --user NAME            (default $ROBOT_USER, else guest)
@@ -109,6 +111,9 @@ int main(int argc, char** argv) {
     } else if (arg == "--reject-threshold") {
       if (!number(value, -1000, 1000, x)) return usage("--reject-threshold: -1000..1000");
       engine_options.reject_threshold = x;
+    } else if (arg == "--max-unplaced") {
+      if (!number(value, 0, 1, x)) return usage("--max-unplaced: 0..1");
+      engine_options.max_unplaced = x;
     } else if (arg == "--address") {
       address = value;
     } else if (arg == "--user") {

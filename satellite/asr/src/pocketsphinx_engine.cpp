@@ -48,6 +48,21 @@ struct PocketsphinxEngine::Decoder {
     if (ps != nullptr) ps_free(ps);
     if (config != nullptr) cmd_ln_free_r(config);
   }
+  // The frames of the utterance that fall in words (not silence or fillers), from its first frame.
+  std::vector<bool> wordFrames() const {
+    std::vector<bool> in_word;
+    int origin = -1;
+    for (ps_seg_t* s = ps_seg_iter(ps); s != nullptr; s = ps_seg_next(s)) {
+      int sf = 0, ef = 0;
+      ps_seg_frames(s, &sf, &ef);
+      if (origin < 0) origin = sf;
+      if (isFiller(ps_seg_word(s)) || ef < sf) continue;
+      if (in_word.size() < static_cast<std::size_t>(ef - origin + 1))
+        in_word.resize(ef - origin + 1);
+      for (int f = sf; f <= ef; ++f) in_word[f - origin] = true;
+    }
+    return in_word;
+  }
   // The sum of acoustic scores over the segments and the utterance's frames.
   double acousticScore(int& frames) const {
     double sum = 0;
@@ -98,7 +113,20 @@ Result<void> PocketsphinxEngine::setGrammar(const std::string& jsgf) {
   if (main_->in_utt) return makeError(Errc::invalid_argument, "an utterance is in progress");
   // A new search name each time: pocketsphinx keeps searches by name.
   const std::string name = "grammar" + std::to_string(++grammar_serial_);
-  if (ps_set_jsgf_string(main_->ps, name.c_str(), jsgf.c_str()) != 0) {
+  // The grammar search reads its beams from the decoder's configuration when it is made; the
+  // language model's search keeps its own. The defaults (1e-48, word 7e-29) pruned the right
+  // phrase of a short grammar for some voices ("move backward one meter" heard "look left").
+  const double beam = cmd_ln_float64_r(main_->config, "-beam");
+  const double pbeam = cmd_ln_float64_r(main_->config, "-pbeam");
+  const double wbeam = cmd_ln_float64_r(main_->config, "-wbeam");
+  cmd_ln_set_float64_r(main_->config, "-beam", 1e-80);
+  cmd_ln_set_float64_r(main_->config, "-pbeam", 1e-80);
+  cmd_ln_set_float64_r(main_->config, "-wbeam", 1e-60);
+  const int compiled = ps_set_jsgf_string(main_->ps, name.c_str(), jsgf.c_str());
+  cmd_ln_set_float64_r(main_->config, "-beam", beam);
+  cmd_ln_set_float64_r(main_->config, "-pbeam", pbeam);
+  cmd_ln_set_float64_r(main_->config, "-wbeam", wbeam);
+  if (compiled != 0) {
     return makeError(Errc::invalid_argument,
                      "the grammar does not compile (JSGF syntax, a public rule, every word in "
                      "the dictionary)");
@@ -195,7 +223,6 @@ Result<AsrResult> PocketsphinxEngine::finish() {
   // for a grammar search, so the confidence comes from the rejection score below.
   result.confidence = counted > 0 ? posterior_sum / counted : 0;
 
-  last_reject_score_ = 0;
   if (phone_active_) {
     phone_active_ = false;
     phone_->in_utt = false;
@@ -203,11 +230,28 @@ Result<AsrResult> PocketsphinxEngine::finish() {
       int frames_g = 0, frames_p = 0;
       const double g = main_->acousticScore(frames_g);
       const double p = phone_->acousticScore(frames_p);
-      last_reject_score_ = frames_g > 0 ? (p - g) / frames_g : 0;
+      result.scored = true;
+      result.reject_score = frames_g > 0 ? (p - g) / frames_g : 0;
       const double t = options_.reject_threshold;
       // 0.5 at the threshold, 1 ten points below it, 0 ten above.
-      result.confidence = std::clamp(0.5 + (t - last_reject_score_) / 20, 0.0, 1.0);
-      if (last_reject_score_ > t) result.rejected = true;
+      result.confidence = std::clamp(0.5 + (t - result.reject_score) / 20, 0.0, 1.0);
+      if (result.reject_score > t) result.rejected = true;
+      // Speech the grammar could not place: the reference decoder hears words where the
+      // grammar's best path has only silence or fillers (out-of-grammar speech ends up there).
+      const auto speech = phone_->wordFrames();
+      const auto placed = main_->wordFrames();
+      int heard = 0, unplaced = 0;
+      for (std::size_t f = 0; f < speech.size(); ++f) {
+        if (!speech[f]) continue;
+        ++heard;
+        if (f >= placed.size() || !placed[f]) ++unplaced;
+      }
+      result.unplaced = heard > 0 ? static_cast<double>(unplaced) / heard : 0;
+      const double m = options_.max_unplaced;
+      if (result.unplaced > m) result.rejected = true;
+      // Likewise 0.5 at the limit, 1 with every frame placed; the lower of the two.
+      if (m > 0) result.confidence = std::min(result.confidence, 1 - result.unplaced / (2 * m));
+      result.confidence = std::max(result.confidence, 0.0);
     }
   }
   if (mode_ == Mode::grammar && result.words.empty()) result.rejected = true;

@@ -2,25 +2,30 @@
 //
 // Dictation uses the model's language model. Grammar mode uses a JSGF search (a keyword list is
 // turned into a one-rule grammar) and, to reject speech that is not in the grammar, a second
-// decoder running the language model's first pass over the same audio: the grammar's acoustic
-// score per frame is compared with the free decoder's (what the audio sounds like when the
-// grammar does not constrain it). When the free decoder explains the audio better by more than
-// `reject_threshold` per frame, the utterance is rejected. (A phone loop, the classic reference,
-// ran 10 times slower than real time in 5prealpha: not usable.) `reject = false` turns rejection
-// off, and the second decoder with it.
+// decoder running the language model's first pass over the same audio (what the audio sounds like
+// when the grammar does not constrain it). An utterance is rejected when either
+//  - the free decoder's acoustic score per frame beats the grammar's by more than
+//    `reject_threshold`, or
+//  - more than `max_unplaced` of the frames the free decoder hears as words fall in silence or
+//    fillers on the grammar's path: out-of-grammar speech mostly ends up there, with one short
+//    phrase of the grammar beside it.
+// (A phone loop, the classic reference, ran 10 times slower than real time in 5prealpha: not
+// usable.) `reject = false` turns rejection off, and the second decoder with it.
 #pragma once
 
 #include "engine.h"
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace skr::asr {
 
 struct PocketsphinxOptions {
   std::string model_dir = "/usr/share/pocketsphinx/model/en-us";  // en-us/, en-us.lm.bin, *.dict
   bool reject = true;
-  double reject_threshold = 0;  // acoustic score per frame (tuned on espeak-ng en-us and en+m3)
+  double reject_threshold = 5;  // acoustic score per frame
+  double max_unplaced = 0.4;    // share of the reference's speech frames the grammar leaves out
 };
 
 class PocketsphinxEngine final : public AsrEngine {
@@ -39,9 +44,6 @@ class PocketsphinxEngine final : public AsrEngine {
   [[nodiscard]] Result<void> feed(std::span<const std::int16_t> samples) override;
   [[nodiscard]] Result<AsrResult> finish() override;
 
-  // The last utterance's rejection score (reference minus grammar, per frame); for tuning.
-  [[nodiscard]] double lastRejectScore() const noexcept { return last_reject_score_; }
-
  private:
   struct Decoder;
   explicit PocketsphinxEngine(PocketsphinxOptions options);
@@ -53,7 +55,6 @@ class PocketsphinxEngine final : public AsrEngine {
   std::string dictation_search_ = "_default";
   int grammar_serial_ = 0;
   bool phone_active_ = false;
-  double last_reject_score_ = 0;
 };
 
 }  // namespace skr::asr

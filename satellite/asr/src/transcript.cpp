@@ -34,6 +34,10 @@ std::string transcriptJson(const TranscriptFields& t) {
   v["utterance"] = Json::UInt64(t.utterance);
   v["end_decided"] = ms(t.decided_s);
   v["engine_ms"] = std::round(t.engine_ms * 10) / 10;
+  if (t.result.scored) {
+    v["reject_score"] = std::round(t.result.reject_score * 100) / 100;
+    v["unplaced"] = std::round(t.result.unplaced * 100) / 100;
+  }
   if (t.dropped) v["dropped"] = true;
   if (!t.error.empty()) v["error"] = t.error;
   Json::StreamWriterBuilder b;

@@ -289,8 +289,8 @@ inline std::vector<Clip> make(const TempDir& dir, const std::vector<Said>& said)
   return clips;
 }
 
-// Commands of the grammar below in voices and speeds other than the ones the rejection
-// threshold was tuned on (en-us and en+m3 at 150 wpm); the tests and the benchmark share them.
+// Commands of the grammar below in three voices and speeds; the tests and the benchmark share them
+// (the benchmark's other sets are other voices: docs/asr.md, Figures).
 inline const std::vector<Said> kCommands = {
     {"go forward two meters", "en-us", 170},
     {"turn left", "en+f2", 130},

@@ -138,25 +138,8 @@ int main(int argc, char** argv) {
     const Run o = runSet(dir, {"--grammar", gram.string()}, make(dir, other_voices), 1.0, 0.7);
     row("grammar, the commands in four other voices", o);
 
-    // 1c. Four more voices, chosen after the rejection was last tuned and run once before being
-    // added here: the tuning has seen none of them.
-    const std::vector<Said> fresh = {{"turn left", "en+m4", 120},
-                                     {"go forward three meters", "en+m6", 160},
-                                     {"look down", "en+f1", 180},
-                                     {"sit down", "en-us+m7", 150},
-                                     {"what do you see", "en+m4", 170},
-                                     {"move backward two meters", "en+f1", 130},
-                                     {"stand up", "en+m6", 140},
-                                     {"say hello", "en-us+m7", 120},
-                                     {"turn right twenty degrees", "en+m4", 150},
-                                     {"stop", "en+f1", 160},
-                                     {"wave your hand", "en+m6", 180},
-                                     {"look left", "en-us+m7", 170},
-                                     {"go backward one meter", "en+m4", 140},
-                                     {"look up", "en+m6", 130},
-                                     {"turn left ninety degrees", "en+f1", 150},
-                                     {"move forward six meters", "en-us+m7", 160}};
-    const Run f = runSet(dir, {"--grammar", gram.string()}, make(dir, fresh), 4.0, 0.7);
+    // 1c. Four more voices, which the rejection's limits were not chosen on (the tests use them).
+    const Run f = runSet(dir, {"--grammar", gram.string()}, make(dir, kUnseenCommands), 4.0, 0.7);
     row("grammar, the commands in four more voices", f);
   }
 

@@ -43,12 +43,15 @@ const std::vector<Said> kOutOfGrammar = {
     {"my cat likes to sleep on the sofa", "en", 150},
 };
 
-// The commands, then the sentences outside the grammar, streamed at 8x real time into
-// skrobot-asr started with `extra` options: commands heard, the rest rejected.
+// The benchmark's command set, the commands in voices the rejection's limits were not chosen on,
+// then the sentences outside the grammar, streamed at 8x real time into skrobot-asr started with
+// `extra` options: commands heard, the rest rejected.
 void grammarRun(const std::vector<std::string>& extra) {
   TempDir dir("asr-grammar");
   const auto gram = dir.write("robot.gram", kCommandGrammar);
   auto clips = make(dir, kCommands);
+  const auto first = static_cast<std::ptrdiff_t>(clips.size());
+  for (auto& c : make(dir, kUnseenCommands)) clips.push_back(std::move(c));
   const std::size_t commands = clips.size();
   for (auto& c : make(dir, kOutOfGrammar)) clips.push_back(std::move(c));
   const auto stream = concat(clips, 1.0, 22050);
@@ -63,9 +66,11 @@ void grammarRun(const std::vector<std::string>& extra) {
   EXPECT_EQ(h.transcripts.size(), clips.size()) << h.asrLog();
 
   const auto heard = match(clips, h.transcripts);
-  const std::vector<Clip> in(clips.begin(), clips.begin() + static_cast<std::ptrdiff_t>(commands));
-  const std::vector<const Json::Value*> in_heard(
-      heard.begin(), heard.begin() + static_cast<std::ptrdiff_t>(commands));
+  const auto all = static_cast<std::ptrdiff_t>(commands);
+  const std::vector<Clip> set(clips.begin(), clips.begin() + first);
+  const std::vector<const Json::Value*> set_heard(heard.begin(), heard.begin() + first);
+  const std::vector<Clip> unseen(clips.begin() + first, clips.begin() + all);
+  const std::vector<const Json::Value*> unseen_heard(heard.begin() + first, heard.begin() + all);
   for (std::size_t i = 0; i < clips.size(); ++i) {
     std::printf("  said \"%s\" heard \"%s\"%s (score %.2f, unplaced %.2f)\n", clips[i].text.c_str(),
                 heard[i] ? (*heard[i])["text"].asString().c_str() : "(nothing)",
@@ -73,10 +78,15 @@ void grammarRun(const std::vector<std::string>& extra) {
                 heard[i] ? (*heard[i])["reject_score"].asDouble() : 0,
                 heard[i] ? (*heard[i])["unplaced"].asDouble() : 0);
   }
-  const double w = wer(in, in_heard);
-  std::printf("grammar WER %.1f%% over %zu commands\n", 100 * w, commands);
-  // The target (issue 19): under 5%. Measured 0% here (docs/asr.md).
+  const double w = wer(set, set_heard), wu = wer(unseen, unseen_heard);
+  std::printf("grammar WER %.1f%% over the command set, %.1f%% in the unseen voices\n", 100 * w,
+              100 * wu);
+  // The target (issue 19) on the command set: under 5%; measured 2.9% (14.7% with pocketsphinx's
+  // default beams). The unseen voices: 4.3% here, after the set; 10.9% when a fresh recogniser
+  // starts with them (its live cepstral mean not yet adapted). A bound, so that it cannot get
+  // worse.
   EXPECT_LT(w, 0.05) << h.asrLog();
+  EXPECT_LT(wu, 0.15) << h.asrLog();
   for (std::size_t i = 0; i < clips.size(); ++i) {
     ASSERT_NE(heard[i], nullptr) << clips[i].text;
     const auto& t = *heard[i];
@@ -92,6 +102,8 @@ void grammarRun(const std::vector<std::string>& extra) {
     EXPECT_TRUE(t.isMember("reject_score")) << clips[i].text;
     EXPECT_TRUE(t.isMember("unplaced")) << clips[i].text;
     if (i < commands) {
+      // A rejected command of the unseen voices counts in their WER.
+      if (i >= static_cast<std::size_t>(first) && t["rejected"].asBool()) continue;
       EXPECT_FALSE(t["rejected"].asBool()) << clips[i].text;
       ASSERT_FALSE(t["words"].empty()) << clips[i].text;
       EXPECT_GE(t["words"][0]["start"].asDouble(), t["start"].asDouble() - 0.25);

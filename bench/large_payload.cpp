@@ -444,6 +444,23 @@ int main(int argc, char** argv) {
     const Figures unfilled = throughHub(hub, Mode::shm_unfilled, size, rounds, seconds);
     const Figures spin = throughHub(hub, Mode::shm_spin, size, rounds, seconds);
     const Figures wake = bareWake(size, rounds);
+    // The socket's round trip varies by half from one measurement to the next on a shared VM
+    // (198-293 us at 1 MB in three runs): the direct path's ratio is the median of three pairs
+    // measured in turn, so that both sides of each pair see the same machine.
+    std::vector<double> rtt_ratios{direct.rtt_p50 / raw.rtt_p50};
+    for (int k = 0; !quick && k < 2; ++k) {
+      const Figures r = rawSocket(size, rounds, 0.2);
+      const Figures d = throughHub(hub, Mode::direct, size, rounds, 0.2);
+      rtt_ratios.push_back(d.rtt_p50 / r.rtt_p50);
+    }
+    std::string ratios;
+    for (double r : rtt_ratios) {
+      char one[16];
+      std::snprintf(one, sizeof one, "%.2f", r);
+      ratios += (ratios.empty() ? "" : ", ") + std::string(one);
+    }
+    std::sort(rtt_ratios.begin(), rtt_ratios.end());
+    const double rtt_ratio = rtt_ratios[rtt_ratios.size() / 2];
     const auto row = [&](const char* name, const Figures& f) {
       std::printf("%-9zu %-7s %8.1fus %8.1fus %8.1fus %10.0f %8.2f\n", size, name, f.one_way_p50,
                   f.one_way_p99, f.rtt_p50, f.mb_s, f.mb_s / copy);
@@ -471,13 +488,13 @@ int main(int argc, char** argv) {
     std::printf(
         "%-9zu targets: shm p50 %.1f us (< 20: %s; %.2fx the bare wake), spinning %.1f us (%s); "
         "shm %.2fx memcpy (>= 0.5: %s), spinning %.2fx (%s); direct rtt %.2fx socket (<= 1.3: "
-        "%s)\n",
+        "%s; %s %s)\n",
         size, shm.one_way_p50, shm.one_way_p50 < 20 ? "met" : "missed",
         shm.one_way_p50 / wake.one_way_p50, spin.one_way_p50,
         spin.one_way_p50 < 20 ? "met" : "missed", shm.mb_s / copy,
         shm.mb_s / copy >= 0.5 ? "met" : "missed", spin.mb_s / copy,
-        spin.mb_s / copy >= 0.5 ? "met" : "missed", direct.rtt_p50 / raw.rtt_p50,
-        direct.rtt_p50 / raw.rtt_p50 <= 1.3 ? "met" : "missed");
+        spin.mb_s / copy >= 0.5 ? "met" : "missed", rtt_ratio, rtt_ratio <= 1.3 ? "met" : "missed",
+        rtt_ratios.size() > 1 ? "the median of" : "one pair:", ratios.c_str());
   }
   return 0;
 }

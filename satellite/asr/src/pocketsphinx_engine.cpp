@@ -116,16 +116,16 @@ Result<void> PocketsphinxEngine::setGrammar(const std::string& jsgf) {
   // The grammar search reads its beams from the decoder's configuration when it is made; the
   // language model's search keeps its own. The defaults (1e-48, word 7e-29) pruned the right
   // phrase of a short grammar for some voices ("move backward one meter" heard "look left").
-  const double beam = cmd_ln_float64_r(main_->config, "-beam");
-  const double pbeam = cmd_ln_float64_r(main_->config, "-pbeam");
-  const double wbeam = cmd_ln_float64_r(main_->config, "-wbeam");
-  cmd_ln_set_float64_r(main_->config, "-beam", 1e-80);
-  cmd_ln_set_float64_r(main_->config, "-pbeam", 1e-80);
-  cmd_ln_set_float64_r(main_->config, "-wbeam", 1e-60);
+  struct Beam {
+    const char* name;
+    double grammar, before = 0;
+  } beams[] = {{"-beam", 1e-80}, {"-pbeam", 1e-80}, {"-wbeam", 1e-60}};
+  for (auto& b : beams) {
+    b.before = cmd_ln_float64_r(main_->config, b.name);
+    cmd_ln_set_float64_r(main_->config, b.name, b.grammar);
+  }
   const int compiled = ps_set_jsgf_string(main_->ps, name.c_str(), jsgf.c_str());
-  cmd_ln_set_float64_r(main_->config, "-beam", beam);
-  cmd_ln_set_float64_r(main_->config, "-pbeam", pbeam);
-  cmd_ln_set_float64_r(main_->config, "-wbeam", wbeam);
+  for (const auto& b : beams) cmd_ln_set_float64_r(main_->config, b.name, b.before);
   if (compiled != 0) {
     return makeError(Errc::invalid_argument,
                      "the grammar does not compile (JSGF syntax, a public rule, every word in "
@@ -220,7 +220,7 @@ Result<AsrResult> PocketsphinxEngine::finish() {
   for (const auto& w : result.words) result.text += (result.text.empty() ? "" : " ") + w.word;
   (void)hyp;
   // Dictation: the mean of the words' posteriors. Grammar: pocketsphinx gives no posteriors
-  // for a grammar search, so the confidence comes from the rejection score below.
+  // for a grammar search, so the confidence comes from the two rejection measures below.
   result.confidence = counted > 0 ? posterior_sum / counted : 0;
 
   if (phone_active_) {

@@ -208,6 +208,7 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     // A module takes no paths as a subscriber: these are never called.
     h.request = [](const flow::msg::PhysRequest&) {};
     h.state = [](const flow::msg::PhysState&) {};
+    h.received = [](const flow::msg::PhysReceived&) {};
     h.deliver_view = [](uint16_t, std::string_view) {};
     h.wants_copy = [] { return false; };
     h.deliver_copy = [](uint16_t, std::string) {};

@@ -1,7 +1,7 @@
-// Physical mode through the hub (protocol 1.7, two endpoints 1.8, the owner's switch 1.9):
-// offers, grants with one-time tokens, the relay skipped for a subscriber whose path works (from
-// the point the owner picks) and resumed when it breaks, revocation when a subscriber leaves,
-// counts in the statistics, and refusals.
+// Physical mode through the hub (protocol 1.7, two endpoints 1.8, the owner's switch 1.9, the
+// subscribers' reports 1.10): offers, grants with one-time tokens, the relay skipped for a
+// subscriber whose path works (from the point the owner picks) and resumed when it breaks,
+// revocation when a subscriber leaves, counts in the statistics, and refusals.
 #include "flow_fixture.h"
 
 #include <skrobot/flow/hub_stats.h>
@@ -259,6 +259,40 @@ TEST_F(PhysicalPaths, TrafficOnPathsIsCounted) {
     EXPECT_EQ(c.bytes, 1005u);
   }
   EXPECT_TRUE(found);
+}
+
+// PHYS_RECEIVED (1.10): what a subscriber with a grant got on its path counts in its flow's
+// traffic and what it skipped in the channel's drops; from one without a grant it is ignored.
+TEST_F(PhysicalPaths, WhatASubscriberGetsOnItsPathCountsInItsFlow) {
+  startHub();
+  Pair p = offered();
+  TestClient stranger = flowClient();
+  subscribe(stranger, p.id);
+  ASSERT_TRUE(stranger.send(msg::PhysReceived{p.id, 50, 5000, 50}));  // no grant: ignored
+  EXPECT_FALSE(stranger.waitFor(Code::ev_error, 200));
+  const auto grant = directPath(p);
+  ASSERT_TRUE(grant);
+  ASSERT_TRUE(p.sub.send(msg::PhysReceived{p.id, 10, 1000, 3}));
+  ASSERT_TRUE(p.sub.send(msg::PhysReceived{p.id, 2, 200, 0}));
+  ASSERT_TRUE(p.sub.send(msg::PhysReceived{999, 1, 1, 0}));
+  EXPECT_EQ(error(p.sub), uint16_t(ErrorCode::not_found));
+  flow::HubSnapshot snap;
+  onHub([&] { snap = server_->snapshot(); });
+  uint64_t path_messages = 0, dropped = 0;  // in every flow: the stranger's report is not there
+  for (const auto& f : snap.flows) {
+    path_messages += f.path_messages;
+    dropped += f.dropped;
+    if (f.id != grant->subscriber) continue;
+    EXPECT_EQ(f.path_messages, 12u);
+    EXPECT_EQ(f.path_bytes, 1200u);
+    EXPECT_GE(f.messages_out, 12u);
+    EXPECT_EQ(f.dropped, 3u);
+  }
+  EXPECT_EQ(path_messages, 12u);
+  EXPECT_EQ(dropped, 3u);
+  for (const auto& c : snap.channels) {
+    if (c.id == p.id) EXPECT_EQ(c.dropped, 3u);
+  }
 }
 
 TEST_F(PhysicalPaths, Refusals) {

@@ -566,6 +566,11 @@ void Connection::handleAsync(Code code, std::string_view body) {
       check(server_.physical.count(*this, m), 0, m.chan_id);
       return;
     }
+    case Code::phys_received: {
+      SKR_DECODE(msg::PhysReceived, m);
+      check(server_.physical.received(*this, m), 0, m.chan_id);
+      return;
+    }
     case Code::chan_set_props: {
       SKR_DECODE(msg::ChanSetProps, m);
       check(server_.setProps(*this, m.chan_id, m.props), m.tag, m.chan_id);

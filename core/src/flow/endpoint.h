@@ -52,6 +52,7 @@ class Endpoint {
   struct Traffic {
     uint64_t messages_in = 0, bytes_in = 0, messages_out = 0, bytes_out = 0, dropped = 0;
     uint64_t sync_pulses = 0, sync_dropped = 0;  // pulses it got, and dropped while it was busy
+    uint64_t path_messages = 0, path_bytes = 0;  // of those out: on its paths (PHYS_RECEIVED)
   } traffic;
   std::vector<uint16_t> owned;       // channels it owns
   std::vector<uint16_t> subscribed;  // channels it is subscribed to

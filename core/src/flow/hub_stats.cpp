@@ -51,6 +51,8 @@ HubSnapshot FlowServer::snapshot() const {
     f.messages_out = e.traffic.messages_out;
     f.bytes_out = e.traffic.bytes_out;
     f.dropped = e.traffic.dropped;
+    f.path_messages = e.traffic.path_messages;
+    f.path_bytes = e.traffic.path_bytes;
     f.queued_bytes = e.queuedBytes();
     f.pending_requests = e.pending_requests;
     out.flows.push_back(std::move(f));
@@ -137,6 +139,9 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
         {"in_bytes_per_s", rate(o.bytes_in, f.bytes_in, seconds)},
         {"out_bytes_per_s", rate(o.bytes_out, f.bytes_out, seconds)},
         {"dropped_per_s", rate(o.dropped, f.dropped, seconds)},
+        {"path_messages", f.path_messages},
+        {"path_bytes", f.path_bytes},
+        {"path_hz", rate(o.path_messages, f.path_messages, seconds)},
         {"queued_bytes", f.queued_bytes},
         {"queue_fill", queued && now.queue_limit > 0
                            ? std::round(static_cast<double>(f.queued_bytes) * 1000 /

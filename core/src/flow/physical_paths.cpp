@@ -192,6 +192,20 @@ Result<void> PhysicalPaths::count(Endpoint& e, const msg::PhysCount& m) {
   return {};
 }
 
+Result<void> PhysicalPaths::received(Endpoint& e, const msg::PhysReceived& m) {
+  Channel* ch = channels_.find(m.chan_id);
+  if (ch == nullptr) return makeError(Errc::not_found, "no channel " + std::to_string(m.chan_id));
+  const auto o = offers_.find(m.chan_id);
+  if (o == offers_.end() || o->second.grants.count(e.id) == 0) return {};
+  e.traffic.messages_out += m.messages;
+  e.traffic.bytes_out += m.bytes;
+  e.traffic.path_messages += m.messages;
+  e.traffic.path_bytes += m.bytes;
+  e.traffic.dropped += m.missed;
+  ch->dropped += m.missed;
+  return {};
+}
+
 void PhysicalPaths::revoke(Offer& o, Channel& ch, uint32_t subscriber, bool tell_owner) {
   auto g = o.grants.find(subscriber);
   if (g == o.grants.end()) return;

@@ -179,6 +179,8 @@ std::string_view codeName(uint8_t code) noexcept {
       return "EV_PHYS_SWITCH";
     case Code::ev_phys_marker:
       return "EV_PHYS_MARKER";
+    case Code::phys_received:
+      return "PHYS_RECEIVED";
   }
   return "UNKNOWN";
 }
@@ -235,6 +237,8 @@ uint16_t minorOf(Code code) noexcept {
     case Code::ev_phys_switch:
     case Code::ev_phys_marker:
       return 9;
+    case Code::phys_received:
+      return 10;
     default:
       return 0;
   }

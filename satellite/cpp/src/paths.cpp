@@ -53,6 +53,7 @@ void Paths::tick() {
   }
   std::vector<uint16_t> late;
   for (auto& [id, p] : paths_) {
+    report(*p);
     if (p->reader) p->reader->heartbeat();
     if (p->connecting_until != 0 && p->connecting_until <= now) late.push_back(id);
     if (!p->open && p->tag == 0 && p->retry_at != 0 && p->retry_at <= now) request(*p);

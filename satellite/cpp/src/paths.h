@@ -39,6 +39,7 @@ class Paths {
     std::function<void(const flow::msg::PhysRequest&)> request;
     std::function<void(const flow::msg::PhysState&)> state;
     std::function<void(const flow::msg::PhysCount&)> count;
+    std::function<void(const flow::msg::PhysReceived&)> received;
     std::function<void(const flow::msg::PhysSwitched&)> switched;
     std::function<uint32_t()> next_tag;
     // Data from a path: the view (for shared memory, the slot in place), then, when someone
@@ -92,7 +93,8 @@ class Paths {
 
   // Closes every peer and path as broken (subscribers fall back and ask again).
   void closeAll(const std::string& why);
-  // Each second: counts, expired grants, leases kept alive, paths asked again.
+  // Each second: counts (ours and what came on our paths), expired grants, leases kept alive, paths
+  // asked again.
   void tick();
   // The flow closed: paths and grants are void (rings and the listener stay for the next one).
   void reset();
@@ -124,6 +126,8 @@ class Paths {
   void onPathEvent(Path& p);
   void pathFrames(Path& p);
   void failPath(uint16_t chan_id, const std::string& why);
+  // Tells the hub what came on `p` since the last report (PHYS_RECEIVED, a 1.10 hub).
+  void report(Path& p);
   // Closes p's socket, polls and ring; a ring being read by a callback goes when it returns.
   void closePath(Path& p);
   // Whether `p` is still the path of `chan_id` (a callback may have unsubscribed or reset it).

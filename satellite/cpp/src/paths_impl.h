@@ -194,6 +194,7 @@ struct Paths::Path {
   bool spin = false;          // a ring polled on each turn of the loop (PathWait::spin)
   Nanos retry_at = 0;         // 0: not waiting to ask again
   int failures = 0;
+  uint64_t new_messages = 0, new_bytes = 0, new_missed = 0;  // not reported yet (PHYS_RECEIVED)
 };
 
 }  // namespace skr::sat::detail

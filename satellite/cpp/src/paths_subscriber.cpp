@@ -287,6 +287,8 @@ void Paths::pathFrames(Path& p) {
       continue;
     }
     ++stats_.path_messages;
+    ++p.new_messages;
+    p.new_bytes += data->payload.size();
     host_.deliver_view(chan, data->payload);
     if (!alive(chan, &p)) return;  // a slot unsubscribed, or reset the paths
     if (host_.wants_copy()) {
@@ -346,12 +348,16 @@ void Paths::readRing(Path& p) {
   flow::shm::RingReader* reader = p.reader.get();
   const auto status = reader->readLatest([&](std::span<const std::byte> bytes, const auto& info) {
     // Skipped since the last read, or since the marker: those up to it were relayed.
-    stats_.missed += info.seq > p.after ? std::min(info.missed, info.seq - 1 - p.after) : 0;
+    const uint64_t missed = info.seq > p.after ? std::min(info.missed, info.seq - 1 - p.after) : 0;
+    stats_.missed += missed;
+    p.new_missed += missed;
     if (info.seq <= p.after) {
       ++stats_.dropped_before_marker;
       return;
     }
     ++stats_.path_messages;
+    ++p.new_messages;
+    p.new_bytes += bytes.size();
     const std::string_view view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
     host_.deliver_view(chan, view);
     if (alive(chan, &p) && host_.wants_copy()) copy.assign(view), copied = true;
@@ -365,11 +371,20 @@ void Paths::readRing(Path& p) {
   }
 }
 
+void Paths::report(Path& p) {
+  if (p.new_messages == 0 && p.new_missed == 0) return;
+  if (host_.hub_minor() >= 10) {
+    host_.received(msg::PhysReceived{p.chan_id, p.new_messages, p.new_bytes, p.new_missed});
+  }
+  p.new_messages = p.new_bytes = p.new_missed = 0;
+}
+
 void Paths::failPath(uint16_t chan_id, const std::string& why) {
   auto it = paths_.find(chan_id);
   if (it == paths_.end()) return;
   Path& p = *it->second;
   const bool was_open = p.open;
+  report(p);
   closePath(p);
   p.in.clear();
   p.open = false;

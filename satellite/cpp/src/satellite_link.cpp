@@ -52,6 +52,7 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std
   h.request = [this](const flow::msg::PhysRequest& m) { send(m); };
   h.state = [this](const flow::msg::PhysState& m) { send(m); };
   h.count = [this](const flow::msg::PhysCount& m) { send(m); };
+  h.received = [this](const flow::msg::PhysReceived& m) { send(m); };
   h.switched = [this](const flow::msg::PhysSwitched& m) { send(m); };
   h.next_tag = [this] { return nextTag(); };
   h.hub_minor = [this] { return login.minor; };

@@ -5,6 +5,7 @@
 // is not on the hub's machine (as far as the hub can tell: it came over TCP).
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <skrobot/satellite/sync_client.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -268,6 +269,68 @@ TEST_F(Paths, ASlowSharedMemoryReaderGetsTheNewestAndCountsWhatItMissed) {
   EXPECT_GE(stats.missed, 200 - numbers.size()) << "what it skipped is counted";
   EXPECT_EQ(stats.torn, 0u);
   EXPECT_EQ(stats.fallbacks, 0u);
+}
+
+// What a subscriber gets on its path counts in the hub's statistics of its flow (1.10,
+// PHYS_RECEIVED): messages and bytes out, the part that came on paths, and what a shared-memory
+// reader skipped as drops.
+TEST_F(Paths, TheHubCountsWhatEachSubscriberGetsOnItsPath) {
+  setUp(true, true, kPathShm);
+  auto direct = satellite("direct");
+  direct->on([&](Satellite& s) {
+    s.usePaths("guest.frames", kPathDirect);
+    s.subscribe("guest.frames");
+  });
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  ASSERT_TRUE(pathWorks(direct.get())) << direct->events.dump();
+  sub->on([](Satellite& s) {
+    s.data.connect(&s, [](uint16_t, const std::string&) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    });
+  });
+  for (int i = 0; i < 200; ++i) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", std::to_string(i))); });
+  }
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:199") == 1; }));
+  ASSERT_TRUE(eventually([&] { return direct->events.count("data:guest.frames:199") == 1; }));
+  struct Flow {
+    uint64_t out = 0, bytes_out = 0, path = 0, path_bytes = 0, dropped = 0;
+  };
+  const auto flowOf = [&](const std::string& client) {
+    Flow f;
+    auto sync = SyncClient::connect(options("stats").connection);
+    if (!sync) return f;
+    auto v = sync->call("hub.inspect", "stats", flow::Variant());
+    if (!v || v->find("flows") == nullptr) return f;
+    for (const auto& fl : *v->find("flows")->asList()) {
+      if (*fl.find("client") != flow::Variant(client)) continue;
+      const auto n = [&](const char* k) { return uint64_t(fl.find(k)->asInt64().value_or(0)); };
+      f = Flow{n("messages_out"), n("bytes_out"), n("path_messages"), n("path_bytes"),
+               n("dropped")};
+    }
+    return f;
+  };
+  const auto got = [](SatOnThread& s) { return s.on([](Satellite& x) { return x.pathStats(); }); };
+  // Reported once a second: wait until the hub has heard of every message each one got.
+  Flow shm, dir;
+  const bool reported = eventually(
+      [&] {
+        shm = flowOf("sub");
+        dir = flowOf("direct");
+        return shm.path == got(*sub).path_messages && dir.path == got(*direct).path_messages;
+      },
+      5000);
+  ASSERT_TRUE(reported) << "shm " << shm.path << " of " << got(*sub).path_messages << ", direct "
+                        << dir.path << " of " << got(*direct).path_messages;
+  EXPECT_GE(dir.path, 200u);
+  EXPECT_GE(dir.path_bytes, 290u) << "the 200 payloads' bytes at least";
+  EXPECT_GE(dir.out, dir.path) << "messages out include the path's";
+  EXPECT_GE(dir.bytes_out, dir.path_bytes);
+  const auto shm_stats = got(*sub);
+  EXPECT_LT(shm_stats.path_messages, 200u + 100u);
+  EXPECT_GT(shm_stats.missed, 0u) << "the slow reader skipped some";
+  EXPECT_EQ(shm.dropped, shm_stats.missed) << "what it skipped counts as its drops";
+  EXPECT_GE(shm.out, shm.path);
 }
 
 TEST_F(Paths, AnOwnerThatGoesAwayLeavesItsReaderOnTheRelayUntilTheNextOne) {

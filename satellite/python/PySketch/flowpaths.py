@@ -78,7 +78,8 @@ import time
 
 from PySketch import log
 from PySketch.abstractflow import ipFamily, parseAddress
-from PySketch.flowproto import PATH_DIRECT, PATH_SHM, physRequest, physState, utf8
+from PySketch.flowproto import (
+    PATH_DIRECT, PATH_SHM, RECEIVED_MINOR, physReceived, physRequest, physState, utf8)
 
 try:
     import fcntl
@@ -393,6 +394,7 @@ class _Path(object):
         self.failures = 0
         self.connectingUntil = 0.0  # a TCP connect in progress (HELLO waits in `hello`)
         self.hello = b""
+        self.unreported = [0, 0, 0]  # messages, bytes, missed not told the hub yet
 
 
 class Paths(object):
@@ -613,6 +615,7 @@ class Paths(object):
                 self._fail(p, "the owner closed the path")
             if p.ring is not None:
                 p.ring.heartbeat()
+            self._report(p)
             if not p.open and p.tag == 0 and p.retryAt and p.retryAt <= t:
                 self._request(p)
 
@@ -687,6 +690,15 @@ class Paths(object):
             p.sock = None
         p.inbuf = bytearray()
 
+    def _report(self, p):
+        """What came on p since the last report, to a hub of 1.10 (PHYS_RECEIVED)."""
+        u = p.unreported
+        if u[0] == 0 and u[2] == 0:
+            return
+        if self._flow.hubMinor >= RECEIVED_MINOR:
+            self._flow._send(physReceived(p.chanID, u[0], u[1], u[2]))
+        p.unreported = [0, 0, 0]
+
     def _dropPath(self, p, tellHub):
         wasOpen = p.open
         self._closeIo(p)
@@ -700,6 +712,7 @@ class Paths(object):
             self._closeIo(p)
             return
         wasOpen = p.open
+        self._report(p)
         self._closeIo(p)
         p.open = False
         p.marker = False
@@ -834,6 +847,8 @@ class Paths(object):
                     self._stats["dropped_before_marker"] += 1
                     continue
                 self._stats["path_messages"] += 1
+                p.unreported[0] += 1
+                p.unreported[1] += end - start - _DATA_HEAD
                 with memoryview(buf) as whole:  # released before buf is resized
                     payload = whole[start + _DATA_HEAD:end].tobytes()
                 self._flow._deliverData(chan, payload)
@@ -854,6 +869,7 @@ class Paths(object):
         if c is None:
             return
         self._stats["missed"] += c.missed
+        p.unreported[2] += c.missed
         if c.seq <= p.after:
             ring.release(c)
             self._stats["dropped_before_marker"] += 1
@@ -884,6 +900,8 @@ class Paths(object):
         if not ok:
             return
         self._stats["path_messages"] += 1
+        p.unreported[0] += 1
+        p.unreported[1] += c.size
         if data is not None:
             flow._call("grab-data", flow._onGrab, p.chanID, data)
 

@@ -36,12 +36,14 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
+# 1.10: PHYS_RECEIVED, what came on a path, reported once a second (flowpaths);
 # 1.9: EV_PHYS_MARKER, the subscriber's marker with the owner's message number (flowpaths);
 # 1.8 changes only PHYS_OFFER, which PySketch never sends; 1.7: physical mode, subscriber side;
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
-PROTOCOL_MINOR = 9
+PROTOCOL_MINOR = 10
 PATHS_MINOR = 7  # PHYS_REQUEST, PHYS_STATE and their events
+RECEIVED_MINOR = 10  # PHYS_RECEIVED
 
 # Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
 # kPathShm) and in PHYS_REQUEST's `paths` bits.
@@ -264,6 +266,7 @@ class Code(object):
     PHYS_SWITCHED = 0xF4   # owner: the subscriber leaves the relay after message `seq`
     EV_PHYS_SWITCH = 0xFC  # to the owner (PySketch offers no paths: never to it)
     EV_PHYS_MARKER = 0xFD  # to the subscriber: relayed up to `seq`, the rest on the path only
+    PHYS_RECEIVED = 0xF5   # subscriber (1.10): what came on its path since its last report
 
 
 def codeName(code):
@@ -385,6 +388,12 @@ def physRequest(tag, chanID, paths):
 def physState(chanID, active):
     """PHYS_STATE: our granted path works (1: stop relaying to us) or broke (0)."""
     return frame(Code.PHYS_STATE, struct.pack("<HB", chanID, 1 if active else 0))
+
+
+def physReceived(chanID, messages, nbytes, missed):
+    """PHYS_RECEIVED (1.10): messages, their bytes and the skipped ones on our path since the
+    last report, for the hub's statistics of our flow."""
+    return frame(Code.PHYS_RECEIVED, struct.pack("<HQQQ", chanID, messages, nbytes, missed))
 
 
 def _sortKey(item):

@@ -255,20 +255,24 @@ class PathsWithAHub(HubTestCase):
     def test_fallback_without_duplicates_shm(self):
         self.fallback("shm", PATH_SHM)
 
+    def publishToASlowReader(self, pub, s, delay):
+        """200 messages at once to `s`, whose callback takes `delay` s: until it has the last."""
+        def slow(chan, data):
+            s.got.append(number(data))
+            time.sleep(delay)
+        s.setGrabDataCallBack(slow)
+        s.got = []
+        pub.send("pub 200 64")   # all at once: the owner never waits for the reader
+        self.assertTrue(pump([s], lambda: pub.count("^published") >= 2 and
+                             int(pub.last().split()[1]) in s.got), (s.got, pub.output()))
+
     def test_slow_reader_gets_the_newest(self):
         pub = self.publisher("shm")
         s = self.subscriber(PATH_SHM)
         self.onPath(pub, s)
 
-        def slow(chan, data):
-            s.got.append(number(data))
-            time.sleep(0.02)
-        s.setGrabDataCallBack(slow)
-        s.got = []
         before = s.pathStats()
-        pub.send("pub 200 64")   # all at once: the owner never waits for the reader
-        self.assertTrue(pump([s], lambda: pub.count("^published") >= 2 and
-                             int(pub.last().split()[1]) in s.got), (s.got, pub.output()))
+        self.publishToASlowReader(pub, s, 0.02)
         last = int(pub.last().split()[1])
         got = s.got[:]
         self.assertEqual(got, sorted(set(got)))
@@ -277,6 +281,38 @@ class PathsWithAHub(HubTestCase):
         st = s.pathStats()
         self.assertGreaterEqual(st["missed"] - before["missed"], 200 - len(got))
         self.assertEqual((st["torn"], st["fallbacks"]), (0, 0))
+
+    def test_the_hub_counts_what_comes_on_the_path(self):
+        """PHYS_RECEIVED (1.10): the hub's statistics of our flow include what came on the path
+        (messages and bytes out, path_messages, path_bytes) and what we skipped (dropped)."""
+        from PySketch.flowsync import FlowSync
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+
+        self.publishToASlowReader(pub, s, 0.005)
+        stats = FlowSync(self.hub.address, "guest", "password")
+        self.assertTrue(stats.connect())
+        self.addCleanup(stats.close)
+
+        def ours():
+            for f in stats.serviceCall("hub.inspect", "stats")["flows"]:
+                if f["client"] == s.clientName() and f["kind"] == "satellite":
+                    return f
+            return {}
+        seen = [{}]
+
+        def reported():
+            seen[0] = ours()
+            st = s.pathStats()
+            return (seen[0].get("path_messages") == st["path_messages"] and
+                    seen[0].get("dropped") == st["missed"])
+        self.assertTrue(pump([s], reported), (seen[0], s.pathStats()))
+        f = seen[0]
+        self.assertGreater(f["dropped"], 0, "the slow reader skipped some")
+        self.assertGreaterEqual(f["path_bytes"], 64 * f["path_messages"])
+        self.assertGreaterEqual(f["messages_out"], f["path_messages"])
+        self.assertGreaterEqual(f["bytes_out"], f["path_bytes"])
 
     def deadOwner(self, kinds, kind):
         pub = self.publisher(kinds)
@@ -523,6 +559,7 @@ class FakeFlow(object):
         self._tag = 0
         self._onGrab = lambda chan, data: self.got.append(data)
         self._onGrabView = None
+        self.hubMinor = 10  # PHYS_RECEIVED goes to `sent` as well
 
     def _nextTag(self):
         self._tag += 1

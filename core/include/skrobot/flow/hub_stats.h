@@ -32,6 +32,7 @@ struct FlowCounters {
   uint32_t id = 0;
   std::string user, client, kind;  // kind: satellite, sync, module, link, replica
   uint64_t messages_in = 0, bytes_in = 0, messages_out = 0, bytes_out = 0, dropped = 0;
+  uint64_t path_messages = 0, path_bytes = 0;  // of those out: what came on its paths
   uint64_t queued_bytes = 0;
   uint32_t pending_requests = 0;
 };

@@ -91,6 +91,7 @@ void forEachMessage(F&& f) {
   f(PhysSwitched{});
   f(EvPhysSwitch{});
   f(EvPhysMarker{});
+  f(PhysReceived{});
   f(HubLinkHello{});
   f(HubLinkHelloOk{});
   f(ReplicateChannel{});

@@ -893,6 +893,20 @@ struct PhysSwitched {
     return f(chan_id) && f(subscriber) && f(switch_id) && f(seq);
   }
 };
+// Subscriber -> hub (1.10): what came on its path of `chan_id` since its last report: messages
+// delivered, their bytes, and those it skipped (shared memory, newest wins). Added to its flow's
+// statistics, as if the hub had sent them.
+struct PhysReceived {
+  static constexpr Code code = Code::phys_received;
+  uint16_t chan_id = 0;
+  uint64_t messages = 0;
+  uint64_t bytes = 0;
+  uint64_t missed = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(messages) && f(bytes) && f(missed);
+  }
+};
 // Hub -> subscriber (1.9), the marker that replaces EV_PHYS_RELAY 0 when the owner answered
 // EV_PHYS_SWITCH: nothing of `chan_id` is relayed after it; path messages up to `seq` were
 // relayed (duplicates), those after it come on the path only.

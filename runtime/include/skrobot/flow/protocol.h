@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 9;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 10;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -136,6 +136,8 @@ enum class Code : uint8_t {
   phys_switched = 0xF4,   // owner: the subscriber may leave the relay after message `seq`
   ev_phys_switch = 0xFC,  // to the owner: a subscriber's path works; answer with PHYS_SWITCHED
   ev_phys_marker = 0xFD,  // to the subscriber: relayed up to `seq`; the rest comes on the path
+  // 1.10: each subscriber reports what came on its path, for the statistics of its flow.
+  phys_received = 0xF5,  // subscriber: messages, bytes and skipped ones on its path since the last
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -149,10 +151,10 @@ enum class Code : uint8_t {
   return isBlobRequest(code) || code == 0xE8;
 }
 // A command of a family block sent on a flow: the sync pulse (1.4), replicas and TIME_PROBE (1.5),
-// LINK_OFFER (1.6), physical mode (1.7, 1.9).
+// LINK_OFFER (1.6), physical mode (1.7, 1.9, 1.10).
 [[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
   return (code >= 0xD0 && code <= 0xD3) || (code >= 0xE0 && code <= 0xE2) || code == 0xE9 ||
-         (code >= 0xF0 && code <= 0xF4);
+         (code >= 0xF0 && code <= 0xF5);
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

@@ -868,8 +868,10 @@ class Paths(object):
             return
         if c is None:
             return
-        self._stats["missed"] += c.missed
-        p.unreported[2] += c.missed
+        # Skipped since the last read, or since the marker: those up to it were relayed.
+        missed = min(c.missed, c.seq - 1 - p.after) if c.seq > p.after else 0
+        self._stats["missed"] += missed
+        p.unreported[2] += missed
         if c.seq <= p.after:
             ring.release(c)
             self._stats["dropped_before_marker"] += 1

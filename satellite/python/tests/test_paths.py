@@ -789,6 +789,7 @@ class PathsWithAFakeOwner(unittest.TestCase):
                 os.close(fd)
             del self.flow.got[:]
             before = self.paths.stats()["dropped_before_marker"]
+            missed = self.paths.stats()["missed"]
             commit(m, stride, 0, 1, b"m1")
             os.eventfd_write(self.paths._paths[5].ring.eventFd, 1)
             self.step()
@@ -801,6 +802,8 @@ class PathsWithAFakeOwner(unittest.TestCase):
             self.assertEqual(self.flow.got, expected, after)
             self.assertEqual(self.paths.stats()["dropped_before_marker"] - before, dropped,
                              "the newest at the marker, when it was relayed too")
+            self.assertEqual(self.paths.stats()["missed"], missed,
+                             "m1 was relayed, not missed (paths_subscriber.cpp readRing)")
             owner.close()
             self.paths.onUnsubscribed(5)
 

@@ -126,6 +126,8 @@ class Paths {
   void onPathEvent(Path& p);
   void pathFrames(Path& p);
   void failPath(uint16_t chan_id, const std::string& why);
+  // A message of `bytes` delivered from `p`: in our statistics and in p's next report.
+  void counted(Path& p, size_t bytes);
   // Tells the hub what came on `p` since the last report (PHYS_RECEIVED, a 1.10 hub).
   void report(Path& p);
   // Closes p's socket, polls and ring; a ring being read by a callback goes when it returns.

@@ -286,9 +286,7 @@ void Paths::pathFrames(Path& p) {
       ++stats_.dropped_before_marker;
       continue;
     }
-    ++stats_.path_messages;
-    ++p.new_messages;
-    p.new_bytes += data->payload.size();
+    counted(p, data->payload.size());
     host_.deliver_view(chan, data->payload);
     if (!alive(chan, &p)) return;  // a slot unsubscribed, or reset the paths
     if (host_.wants_copy()) {
@@ -355,9 +353,7 @@ void Paths::readRing(Path& p) {
       ++stats_.dropped_before_marker;
       return;
     }
-    ++stats_.path_messages;
-    ++p.new_messages;
-    p.new_bytes += bytes.size();
+    counted(p, bytes.size());
     const std::string_view view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
     host_.deliver_view(chan, view);
     if (alive(chan, &p) && host_.wants_copy()) copy.assign(view), copied = true;
@@ -369,6 +365,12 @@ void Paths::readRing(Path& p) {
   } else if (copied) {
     host_.deliver_copy(chan, std::move(copy));
   }
+}
+
+void Paths::counted(Path& p, size_t bytes) {
+  ++stats_.path_messages;
+  ++p.new_messages;
+  p.new_bytes += bytes;
 }
 
 void Paths::report(Path& p) {

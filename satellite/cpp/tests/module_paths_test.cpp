@@ -50,10 +50,8 @@ class ModulePaths : public SatTest {
   };
   Counters counters() {
     Counters c;
-    auto sync = SyncClient::connect(options("stats").connection);
-    if (!sync) return c;
-    auto v = sync->call("hub.inspect", "stats", flow::Variant());
-    if (!v || v->find("channels") == nullptr || v->find("flows") == nullptr) return c;
+    auto v = hubStats();
+    if (!v) return c;
     for (const auto& ch : *v->find("channels")->asList()) {
       if (*ch.find("name") == flow::Variant(kChannel)) {
         c.channel = ch.find("messages")->asInt64().value_or(-1);

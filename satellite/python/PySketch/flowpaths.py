@@ -690,6 +690,12 @@ class Paths(object):
             p.sock = None
         p.inbuf = bytearray()
 
+    def _counted(self, p, nbytes):
+        """A message of `nbytes` delivered from p: in our statistics and in p's next report."""
+        self._stats["path_messages"] += 1
+        p.unreported[0] += 1
+        p.unreported[1] += nbytes
+
     def _report(self, p):
         """What came on p since the last report, to a hub of 1.10 (PHYS_RECEIVED)."""
         u = p.unreported
@@ -846,9 +852,7 @@ class Paths(object):
                     p.dropPartial = False
                     self._stats["dropped_before_marker"] += 1
                     continue
-                self._stats["path_messages"] += 1
-                p.unreported[0] += 1
-                p.unreported[1] += end - start - _DATA_HEAD
+                self._counted(p, end - start - _DATA_HEAD)
                 with memoryview(buf) as whole:  # released before buf is resized
                     payload = whole[start + _DATA_HEAD:end].tobytes()
                 self._flow._deliverData(chan, payload)
@@ -901,9 +905,7 @@ class Paths(object):
                 self._stats["torn"] += 1
         if not ok:
             return
-        self._stats["path_messages"] += 1
-        p.unreported[0] += 1
-        p.unreported[1] += c.size
+        self._counted(p, c.size)
         if data is not None:
             flow._call("grab-data", flow._onGrab, p.chanID, data)
 

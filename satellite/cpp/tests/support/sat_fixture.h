@@ -2,6 +2,7 @@
 #pragma once
 
 #include <skrobot/satellite.h>
+#include <skrobot/satellite/sync_client.h>
 
 #include <gtest/gtest.h>
 
@@ -157,6 +158,15 @@ class SatTest : public ::testing::Test {
     return s;
   }
   [[nodiscard]] std::string hubLog() const { return hub_ ? hub_->log() : ""; }
+  // The hub's statistics (hub.inspect "stats", docs/observability.md); empty when it does not
+  // answer.
+  [[nodiscard]] std::optional<flow::Variant> hubStats() const {
+    auto sync = SyncClient::connect(options("stats").connection);
+    if (!sync) return std::nullopt;
+    auto v = sync->call("hub.inspect", "stats", flow::Variant());
+    if (!v || v->find("channels") == nullptr || v->find("flows") == nullptr) return std::nullopt;
+    return std::move(v).value();
+  }
 
   TempDir dir_;
   std::unique_ptr<HubProcess> hub_;

@@ -11,6 +11,8 @@
 //     wakes another blocked in epoll through an eventfd, paced the same way
 //   shm-spin: shared memory with the reader's loop polling the ring (PathWait::spin) instead of
 //     sleeping until the eventfd wakes it: one way and throughput
+//   shm: the reader sleeps until its eventfd wakes it, and polls the ring for a moment after a
+//     message in a stream (one that came soon after the last, or after skipping some)
 //   throughput: delivered MB/s, the producer filling each message, beside memcpy's bandwidth
 //     (memcpy4: into four buffers in turn, as the producer fills a ring of four slots);
 //     relay and direct with at most two messages in flight, shared memory with the producer
@@ -81,6 +83,7 @@ sat::ConnectOptions connectLarge(const Hub& hub, const std::string& client) {
 struct Figures {
   double one_way_p50 = 0, one_way_p99 = 0, rtt_p50 = 0, mb_s = 0;
   uint64_t sent = 0, missed = 0;  // throughput: published, and skipped by a shm reader
+  uint64_t polled = 0;            // throughput: read by a woken shm reader without a wake-up
 };
 
 // memcpy of `size` bytes, repeatedly, into `destinations` buffers in turn: MB/s. One destination
@@ -378,6 +381,10 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
     return b.on([](sat::Satellite& s) { return s.pathStats().missed; });
   };
   const uint64_t missed_base = missedNow();
+  const auto polledNow = [&] {
+    return b.on([](sat::Satellite& s) { return s.pathStats().polled; });
+  };
+  const uint64_t polled_base = polledNow();
   uint64_t sent = 0;
   const Nanos start = monotonicNs();
   const Nanos end = start + static_cast<Nanos>(seconds * 1e9);
@@ -409,6 +416,7 @@ Figures throughHub(const Hub& hub, Mode mode, size_t size, int rounds, double se
   }
   (void)waitFor([&] { return got_ping.load() - base + missedNow() - missed_base >= sent; }, 2000);
   f.missed = missedNow() - missed_base;
+  f.polled = polledNow() - polled_base;
   f.sent = sent;
   f.mb_s = static_cast<double>((got_ping.load() - base) * size) / 1e6 /
            (static_cast<double>(monotonicNs() - start) / 1e9);
@@ -473,9 +481,11 @@ int main(int argc, char** argv) {
     row("relay", relay);
     row("direct", direct);
     row("shm", shm);
-    std::printf("%-9zu %-7s %llu of %llu frames skipped by the reader (newest wins)\n", size, "",
-                static_cast<unsigned long long>(shm.missed),
-                static_cast<unsigned long long>(shm.sent));
+    std::printf(
+        "%-9zu %-7s %llu of %llu frames skipped by the reader (newest wins); %llu read while it "
+        "polled after a message (no wake-up)\n",
+        size, "", static_cast<unsigned long long>(shm.missed),
+        static_cast<unsigned long long>(shm.sent), static_cast<unsigned long long>(shm.polled));
     std::printf("%-9zu %-7s %8.1fus %8.1fus   (slot not filled: the ring's delivery alone)\n", size,
                 "shm-0", unfilled.one_way_p50, unfilled.one_way_p99);
     std::printf("%-9zu %-7s %8.1fus %8.1fus   (no ring: a thread's fill, then an eventfd wake)\n",

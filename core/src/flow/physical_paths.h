@@ -39,8 +39,8 @@ class PhysicalPaths {
   // PHYS_COUNT from the owner. permission_denied.
   [[nodiscard]] Result<void> count(Endpoint& e, const msg::PhysCount& m);
   // PHYS_RECEIVED from a subscriber with a grant: added to its flow's traffic (and what it
-  // skipped to the channel's drops). not_found (no channel); without a grant (revoked since the
-  // report left) it is ignored.
+  // skipped to the channel's drops). For a channel or a grant that went since the report left,
+  // it is ignored.
   [[nodiscard]] Result<void> received(Endpoint& e, const msg::PhysReceived& m);
 
   // Someone subscribed to `chan_id` or unsubscribed: the owner may have to relay again, or not.

@@ -13,6 +13,10 @@ Paths::Paths(Host host) : host_(std::move(host)) {}
 
 Paths::~Paths() {
   reset();
+  if (spin_ != nullptr) {
+    uv_close(reinterpret_cast<uv_handle_t*>(spin_),
+             [](uv_handle_t* h) { delete reinterpret_cast<uv_idle_t*>(h); });
+  }
   for (auto& [id, p] : paths_) closePoll(p->poll);
   closePoll(listen_poll_);
   closeFd(listen_fd_);

@@ -29,6 +29,11 @@ namespace skr::sat::detail {
 inline constexpr Nanos kGrantLifetimeNs = 10 * kNsPerSec;
 // How long a HELLO waits for its grant, which the hub sent us when it sent the subscriber its path.
 inline constexpr Nanos kHelloWaitNs = 2 * kNsPerSec;
+// How long a woken shared-memory reader polls its ring after a message that came this soon after
+// the one before (or after skipping some), before it waits for its eventfd again: a dense stream
+// is then read without wake-ups (and the owner writes no eventfd); sparse messages cost no
+// polling.
+inline constexpr Nanos kLingerNs = 20'000;
 
 class Paths {
  public:
@@ -104,6 +109,7 @@ class Paths {
     uint64_t path_messages = 0;                  // received on paths
     uint64_t dropped_before_marker = 0, torn = 0, fallbacks = 0;
     uint64_t missed = 0;  // shared memory: published while we were busy, never read (newest wins)
+    uint64_t polled = 0;  // shared memory, woken: read while lingering (kLingerNs), no wake-up
   };
   [[nodiscard]] Stats stats() const;
 
@@ -137,6 +143,9 @@ class Paths {
   // `after`: the owner's last message relayed; none: drop what waits on the path (1.8).
   void onMarker(Path& p, std::optional<uint64_t> after);
   void readRing(Path& p);
+  // After a message from a woken ring: poll it for kLingerNs more if it came in a stream
+  // (`skipped`: older ones were skipped to read it).
+  void linger(Path& p, bool skipped);
   // Polls spinning rings from an idle handle while one works (the loop then never sleeps).
   void updateSpin();
   void spinOnce();

@@ -192,8 +192,12 @@ struct Paths::Path {
   bool drop_partial = false;  // the direct frame being read began before a marker without `after`
   bool paused = false;        // before the marker, kMaxBeforeMarker read: reading waits for it
   bool spin = false;          // a ring polled on each turn of the loop (PathWait::spin)
+  Nanos linger_until = 0;     // a woken ring polled until then after its last message (0: not)
+  Nanos last_read = 0;        // when a message last came from the ring
   Nanos retry_at = 0;         // 0: not waiting to ask again
   int failures = 0;
+  // Whether the ring is read from the loop's idle turns now (spinning, or lingering).
+  [[nodiscard]] bool polled() const;
   uint64_t new_messages = 0, new_bytes = 0, new_missed = 0;  // not reported yet (PHYS_RECEIVED)
 };
 

@@ -10,6 +10,7 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <sched.h>
 #include <sys/un.h>
 
 namespace skr::sat::detail {
@@ -303,33 +304,63 @@ void Paths::onPathEvent(Path& p) {
   readRing(p);
 }
 
+void Paths::linger(Path& p, bool skipped) {
+  const Nanos now = monotonicNs();
+  const Nanos gap = now - std::exchange(p.last_read, now);
+  // Only in a stream: messages that come faster than we are woken (some were skipped), or
+  // soon after the one before. A message long after the last one is not followed soon.
+  if (p.spin || !p.marker || (gap > kLingerNs && !skipped)) return;
+  const bool started = p.linger_until == 0;
+  p.linger_until = now + kLingerNs;
+  if (started) updateSpin();
+}
+
+bool Paths::Path::polled() const {
+  return reader && marker && (spin || linger_until != 0);
+}
+
 void Paths::updateSpin() {
   bool any = false;
   for (auto& [id, p] : paths_) {
-    const bool spins = p->spin && p->reader && p->marker;
-    if (p->reader) p->reader->setPolling(spins);  // a spinning reader is not woken: no write
+    const bool spins = p->polled();
+    if (p->reader) p->reader->setPolling(spins);  // a polled reader is not woken: no write
     any = any || spins;
   }
   if (any && spin_ == nullptr) {
     spin_ = new uv_idle_t{};
     uv_idle_init(host_.loop, spin_);
     spin_->data = this;
+  }
+  if (spin_ == nullptr) return;
+  if (any) {
     uv_idle_start(spin_, [](uv_idle_t* h) { static_cast<Paths*>(h->data)->spinOnce(); });
-  } else if (!any && spin_ != nullptr) {
+  } else {
     uv_idle_stop(spin_);
-    uv_close(reinterpret_cast<uv_handle_t*>(spin_),
-             [](uv_handle_t* h) { delete reinterpret_cast<uv_idle_t*>(h); });
-    spin_ = nullptr;
   }
 }
 
-// A turn of the loop with a spinning ring: what is new is read without waiting for the eventfd
-// (which stays watched, and is drained when it fires).
+// A turn of the loop with a polled ring: what is new is read without waiting for the eventfd
+// (which stays watched, and is drained when it fires). A lingering ring with nothing new past its
+// time is woken again.
 void Paths::spinOnce() {
   std::vector<uint16_t> ready;
+  bool expired = false, lingering = false;
+  const Nanos now = monotonicNs();
   for (auto& [id, p] : paths_) {
-    if (p->spin && p->reader && p->marker && p->reader->hasNew()) ready.push_back(id);
+    if (!p->polled()) continue;
+    if (p->reader->hasNew()) {
+      ready.push_back(id);
+    } else if (!p->spin && p->linger_until > now) {
+      lingering = true;
+    } else if (!p->spin) {
+      p->linger_until = 0;
+      expired = true;
+    }
   }
+  if (expired) updateSpin();  // (a message committed meanwhile wakes it: setPolling)
+  // A lingering reader is often put on its producer's CPU (it was woken from there): it lets the
+  // producer run rather than spin against it.
+  if (ready.empty() && lingering) sched_yield();
   for (uint16_t id : ready) {  // a callback may close any of them
     if (auto it = paths_.find(id); it != paths_.end() && it->second->reader) readRing(*it->second);
   }
@@ -342,6 +373,8 @@ void Paths::readRing(Path& p) {
   // only when the read was not torn.
   std::string copy;
   bool copied = false;
+  const bool lingering = p.linger_until != 0;
+  bool skipped = false;
   reading_ = &p;
   flow::shm::RingReader* reader = p.reader.get();
   const auto status = reader->readLatest([&](std::span<const std::byte> bytes, const auto& info) {
@@ -349,11 +382,13 @@ void Paths::readRing(Path& p) {
     const uint64_t missed = info.seq > p.after ? std::min(info.missed, info.seq - 1 - p.after) : 0;
     stats_.missed += missed;
     p.new_missed += missed;
+    skipped = missed != 0;
     if (info.seq <= p.after) {
       ++stats_.dropped_before_marker;
       return;
     }
     counted(p, bytes.size());
+    if (lingering) ++stats_.polled;
     const std::string_view view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
     host_.deliver_view(chan, view);
     if (alive(chan, &p) && host_.wants_copy()) copy.assign(view), copied = true;
@@ -365,6 +400,8 @@ void Paths::readRing(Path& p) {
   } else if (copied) {
     host_.deliver_copy(chan, std::move(copy));
   }
+  // More may follow soon (a stream): polled a while, it is read without a wake-up.
+  if (status != flow::shm::ReadStatus::nothing_new && alive(chan, &p)) linger(p, skipped);
 }
 
 void Paths::counted(Path& p, size_t bytes) {
@@ -394,6 +431,8 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   p.after = 0;
   p.drop_partial = false;
   p.paused = false;
+  p.linger_until = 0;
+  p.last_read = 0;
   p.tag = 0;
   p.connecting_until = 0;
   p.hello.clear();

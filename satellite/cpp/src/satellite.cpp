@@ -193,7 +193,7 @@ void Satellite::resetPaths() {
 Satellite::PathStats Satellite::pathStats() const {
   const auto s = impl_->paths->stats();
   return PathStats{s.served_direct, s.served_shm, s.path_messages, s.dropped_before_marker,
-                   s.torn,          s.fallbacks,  s.missed};
+                   s.torn,          s.fallbacks,  s.missed,        s.polled};
 }
 
 void Satellite::follow(std::string name, uint32_t every) {

@@ -23,6 +23,15 @@
 namespace skr::sat::test {
 namespace {
 
+// CPU time its loop thread has used, in ms.
+double loopCpuMs(SatOnThread& sat) {
+  return sat.on([](Satellite&) {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+  });
+}
+
 class Paths : public SatTest {
  protected:
   void SetUp() override { startHub(); }
@@ -204,13 +213,7 @@ TEST_F(Paths, ASpinningReaderPollsItsRingOnlyWhileThePathWorks) {
   setUp(false, true, 0);
   sub->on([](Satellite& s) { s.usePaths("guest.frames", kPathShm, PathWait::spin); });
   ASSERT_TRUE(pathWorks()) << sub->events.dump();
-  const auto cpuMs = [&] {
-    return sub->on([](Satellite&) {
-      timespec t{};
-      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-      return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
-    });
-  };
+  const auto cpuMs = [&] { return loopCpuMs(*sub); };
   const auto busyOver300Ms = [&] {
     const double before = cpuMs();
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -232,6 +235,44 @@ TEST_F(Paths, ASpinningReaderPollsItsRingOnlyWhileThePathWorks) {
   ASSERT_TRUE(eventually(
       [&] { return pub->on([](Satellite& s) { return s.pathStats().served_shm; }) == 0; }));
   EXPECT_LT(busyOver300Ms(), 50) << "no spinning without a path";
+}
+
+// A woken reader polls its ring for a moment after a message that followed another closely: a
+// dense stream is then read without wake-ups (and the owner writes no eventfd); sparse messages
+// are each woken, and the loop sleeps between them.
+TEST_F(Paths, AWokenReaderPollsADenseStreamAndSleepsBetweenSparseMessages) {
+  setUp(false, true, kPathShm);
+  ASSERT_TRUE(pathWorks()) << sub->events.dump();
+  const auto polled = [&] { return sub->on([](Satellite& s) { return s.pathStats().polled; }); };
+  const uint64_t before = polled();
+  // A stream: 2000 messages about 5 us apart, published from the owner's loop.
+  pub->on([&](Satellite& s) {
+    for (int i = 0; i < 2000; ++i) {
+      ASSERT_TRUE(s.publish("frames", "s" + std::to_string(i)));
+      const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(5);
+      while (std::chrono::steady_clock::now() < until) {
+      }
+    }
+  });
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.frames:s1999") == 1; }));
+  const uint64_t in_stream = polled() - before;
+  const auto st = sub->on([](Satellite& s) { return s.pathStats(); });
+  EXPECT_GT(in_stream, 0u) << "a stream is read by polling; path messages " << st.path_messages
+                           << ", missed " << st.missed;
+  // Sparse messages: each one wakes the reader, which does not poll in between.
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const uint64_t after_stream = polled();
+  for (int i = 0; i < 10; ++i) {
+    pub->on([&](Satellite& s) { ASSERT_TRUE(s.publish("frames", "p" + std::to_string(i))); });
+    ASSERT_TRUE(eventually(
+        [&] { return sub->events.count("data:guest.frames:p" + std::to_string(i)) == 1; }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_EQ(polled(), after_stream) << "a message long after the last one is woken";
+  const auto cpuMs = [&] { return loopCpuMs(*sub); };
+  const double cpu_before = cpuMs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_LT(cpuMs() - cpu_before, 50) << "the loop sleeps between messages";
 }
 
 TEST_F(Paths, AKindTheOwnerDoesNotServeIsRelayed) {

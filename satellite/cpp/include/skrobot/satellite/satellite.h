@@ -249,6 +249,7 @@ class Satellite : public Object {
     uint64_t path_messages = 0;                  // received on paths
     uint64_t dropped_before_marker = 0, torn = 0, fallbacks = 0;
     uint64_t missed = 0;  // shared memory: published while we were busy, never read (newest wins)
+    uint64_t polled = 0;  // shared memory, woken: read while polling in a stream, without a wake-up
   };
   [[nodiscard]] PathStats pathStats() const;
   // Closes every path of ours, both sides, as if they broke: subscribers fall back to the relay

@@ -4,6 +4,8 @@
 // revocation when a subscriber leaves, counts in the statistics, and refusals.
 #include "flow_fixture.h"
 
+#include <skrobot/flow/access.h>
+#include <skrobot/flow/accounts.h>
 #include <skrobot/flow/hub_stats.h>
 
 #include <algorithm>
@@ -15,6 +17,7 @@ namespace {
 using flow::ChannelKind;
 using flow::Code;
 using flow::ErrorCode;
+using flow::Variant;
 namespace msg = flow::msg;
 
 class PhysicalPaths : public FlowFixture {
@@ -241,6 +244,38 @@ TEST_F(PhysicalPaths, LeavingOrUnsubscribingRevokesTheGrant) {
   revoked = as<msg::EvPhysRevoke>(p.owner.waitFor(Code::ev_phys_revoke));
   ASSERT_TRUE(revoked);
   EXPECT_EQ(revoked->subscriber, second->subscriber);
+}
+
+// An administrator kicks a subscriber (FlowProtocol ADMIN "kick"): its path goes with its flow.
+TEST_F(PhysicalPaths, AKickedSubscriberLosesItsPath) {
+  auto o = defaults();
+  o.users_file = dir_.path() / "users.json";
+  auto users = flow::UsersFile::load(o.users_file);
+  ASSERT_TRUE(users);
+  ASSERT_TRUE(users->add("root", "pw"));
+  flow::AccessRules admin;
+  admin.setRole(flow::Role::admin);
+  ASSERT_TRUE(users->setAccess("root", admin));
+  ASSERT_TRUE(users->save());
+  ASSERT_TRUE(startHub(o));
+  Pair p = offered();
+  auto grant = directPath(p);
+  ASSERT_TRUE(grant);
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  switchOver(p, 0);
+  EXPECT_EQ(paths(p.id), std::vector<std::string>{"direct"});
+  TestClient root = syncClient("root", "pw");
+  const auto kicked = as<msg::ReplyValue>(root.call(msg::Admin{
+      "kick", Variant(Variant::Map{{"connection", static_cast<int64_t>(grant->subscriber)}})}));
+  ASSERT_TRUE(kicked);
+  auto revoked = as<msg::EvPhysRevoke>(p.owner.waitFor(Code::ev_phys_revoke));
+  ASSERT_TRUE(revoked) << "the owner closes the kicked flow's path";
+  EXPECT_EQ(revoked->subscriber, grant->subscriber);
+  EXPECT_TRUE(p.sub.closedByPeer());
+  onHub([&] {
+    for (const auto& f : server_->snapshot().flows) EXPECT_NE(f.id, grant->subscriber);
+  });
+  EXPECT_TRUE(paths(p.id).empty());
 }
 
 TEST_F(PhysicalPaths, TrafficOnPathsIsCounted) {

@@ -96,6 +96,9 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
   h.on_phys_switch = [this](const flow::msg::EvPhysSwitch& m) {
     if (paths_) paths_->onSwitch(m);
   };
+  h.on_phys_resume = [this](const flow::msg::EvPhysResume& m) {
+    if (paths_) paths_->onResume(m);
+  };
   client_ = server.attachLocal(module_name, module_name, std::move(h), std::move(access));
 }
 
@@ -205,9 +208,13 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     h.switched = [this](const flow::msg::PhysSwitched& m) {
       if (auto r = client_->switchedPaths(m); !r) (void)fail("paths", r.error());
     };
+    h.replay = [this](const flow::msg::PhysReplay& m) {
+      if (auto r = client_->replayPaths(m); !r) (void)fail("paths", r.error());
+    };
     // A module takes no paths as a subscriber: these are never called.
     h.request = [](const flow::msg::PhysRequest&) {};
     h.state = [](const flow::msg::PhysState&) {};
+    h.fallback = [](const flow::msg::PhysFallback&) {};
     h.received = [](const flow::msg::PhysReceived&) {};
     h.deliver_view = [](uint16_t, std::string_view) {};
     h.wants_copy = [] { return false; };

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <optional>
+#include <thread>
 
 namespace skr::test {
 namespace {
@@ -220,6 +221,83 @@ TEST_F(PhysicalPaths, OlderOwnersAndSubscribersGetTheMarkerOf18) {
   auto marker = as<msg::EvPhysRelay>(p.sub.waitFor(Code::ev_phys_relay));
   ASSERT_TRUE(marker);
   EXPECT_EQ(marker->needed, 0);
+}
+
+// 1.11: a direct path that broke (PHYS_FALLBACK) keeps its subscriber off the relay until the
+// owner has replayed what came after the subscriber's last message, to it alone, and said what it
+// no longer kept; an owner that does not end its replay within 5 s leaves the subscriber relayed
+// without it.
+TEST_F(PhysicalPaths, ADirectPathThatBreaksIsResumedWithWhatTheOwnerKept) {
+  startHub();
+  Pair p = offered();
+  TestClient relayed = flowClient();
+  subscribe(relayed, p.id);
+  auto grant = directPath(p);
+  ASSERT_TRUE(grant);
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  switchOver(p, 5);
+  ASSERT_TRUE(p.sub.send(msg::PhysFallback{p.id, 7}));
+  auto resume = as<msg::EvPhysResume>(p.owner.waitFor(Code::ev_phys_resume));
+  ASSERT_TRUE(resume) << "the owner is asked for what the path lost";
+  EXPECT_EQ(resume->chan_id, p.id);
+  EXPECT_EQ(resume->subscriber, grant->subscriber);
+  EXPECT_EQ(resume->after, 7u);
+  // Another resume's replay, and one from someone else, change nothing.
+  const uint32_t sub = resume->subscriber, id = resume->resume_id;
+  ASSERT_TRUE(p.owner.send(msg::PhysReplay{p.id, sub, id + 1, 0, 0, msg::Rest{"other"}}));
+  ASSERT_TRUE(relayed.send(msg::PhysReplay{p.id, sub, id, 0, 0, msg::Rest{"stranger"}}));
+  EXPECT_EQ(error(relayed), uint16_t(ErrorCode::permission_denied));
+  ASSERT_TRUE(p.owner.send(msg::PhysReplay{p.id, sub, id, 0, 0, msg::Rest{"m8"}}));
+  ASSERT_TRUE(p.owner.send(msg::PhysReplay{p.id, sub, id, 0, 0, msg::Rest{"m9"}}));
+  ASSERT_TRUE(p.owner.send(msg::PhysReplay{p.id, sub, id, 1, 2, msg::Rest{}}));
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"m12"}}));
+  std::vector<std::string> got;
+  while (got.size() < 3) {
+    auto d = as<msg::EvData>(p.sub.waitFor(Code::ev_data));
+    ASSERT_TRUE(d) << "got " << got.size();
+    got.emplace_back(d->payload.bytes);
+  }
+  EXPECT_EQ(got, (std::vector<std::string>{"m8", "m9", "m12"}));
+  auto r = as<msg::EvData>(relayed.waitFor(Code::ev_data));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->payload.bytes, "m12") << "a replay is for its subscriber alone";
+  flow::HubSnapshot snap;
+  onHub([&] { snap = server_->snapshot(); });
+  for (const auto& f : snap.flows) {
+    if (f.id == sub) EXPECT_EQ(f.dropped, 2u) << "what the owner no longer kept";
+  }
+  // An owner that does not answer: relayed after 5 s without what it missed.
+  ASSERT_TRUE(p.sub.send(msg::PhysRequest{8, p.id, msg::kPhysDirect}));
+  ASSERT_TRUE(p.sub.waitFor(Code::ev_phys_path));
+  ASSERT_TRUE(p.owner.waitFor(Code::ev_phys_grant));
+  ASSERT_TRUE(p.sub.send(msg::PhysState{p.id, 1}));
+  switchOver(p, 20);
+  ASSERT_TRUE(p.sub.send(msg::PhysFallback{p.id, 20}));
+  ASSERT_TRUE(p.owner.waitFor(Code::ev_phys_resume));
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"early"}}));
+  EXPECT_FALSE(p.sub.waitFor(Code::ev_data, 200)) << "not relayed before the replay";
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"late"}}));
+  std::this_thread::sleep_for(std::chrono::milliseconds(6000));
+  ASSERT_TRUE(p.owner.send(msg::Publish{p.id, msg::Rest{"relayed"}}));
+  auto d = as<msg::EvData>(p.sub.waitFor(Code::ev_data));
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->payload.bytes, "relayed");
+}
+
+// An owner older than 1.11 is not asked: PHYS_FALLBACK is PHYS_STATE 0.
+TEST_F(PhysicalPaths, AnOwnerOlderThan111RelaysAtOnceOnAFallback) {
+  startHub();
+  Pair old = offered(olderFlow(10));
+  ASSERT_TRUE(directPath(old));
+  ASSERT_TRUE(old.sub.send(msg::PhysState{old.id, 1}));
+  switchOver(old, 0);
+  ASSERT_TRUE(old.sub.send(msg::PhysFallback{old.id, 0}));
+  settle(old.sub);
+  EXPECT_FALSE(old.owner.waitFor(Code::ev_phys_resume, 200));
+  ASSERT_TRUE(old.owner.send(msg::Publish{old.id, msg::Rest{"at once"}}));
+  auto d = as<msg::EvData>(old.sub.waitFor(Code::ev_data));
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->payload.bytes, "at once");
 }
 
 TEST_F(PhysicalPaths, LeavingOrUnsubscribingRevokesTheGrant) {

@@ -604,6 +604,9 @@ void Connection::onPhysical(const msg::EvPhysRelay& m) {
 void Connection::onPhysical(const msg::EvPhysSwitch& m) {
   if (state_ == State::flow) send(m);
 }
+void Connection::onPhysical(const msg::EvPhysResume& m) {
+  if (state_ == State::flow) send(m);
+}
 void Connection::onPhysical(const msg::EvPhysMarker& m) {
   if (state_ == State::flow) send(m);
 }

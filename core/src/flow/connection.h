@@ -80,6 +80,7 @@ class Connection final : public Endpoint {
   void onPhysical(const msg::EvPhysRevoke& m) override;
   void onPhysical(const msg::EvPhysRelay& m) override;
   void onPhysical(const msg::EvPhysSwitch& m) override;
+  void onPhysical(const msg::EvPhysResume& m) override;
   void onPhysical(const msg::EvPhysMarker& m) override;
   [[nodiscard]] uint16_t protocolMinor() const override { return minor_; }
   void onError(Code command, uint32_t tag, uint16_t chan_id, ErrorCode error,

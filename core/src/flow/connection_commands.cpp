@@ -571,6 +571,16 @@ void Connection::handleAsync(Code code, std::string_view body) {
       check(server_.physical.received(*this, m), 0, m.chan_id);
       return;
     }
+    case Code::phys_fallback: {
+      SKR_DECODE(msg::PhysFallback, m);
+      check(server_.physical.fallback(*this, m), 0, m.chan_id);
+      return;
+    }
+    case Code::phys_replay: {
+      SKR_DECODE(msg::PhysReplay, m);
+      check(server_.physical.replay(*this, m), 0, m.chan_id);
+      return;
+    }
     case Code::chan_set_props: {
       SKR_DECODE(msg::ChanSetProps, m);
       check(server_.setProps(*this, m.chan_id, m.props), m.tag, m.chan_id);

@@ -90,6 +90,7 @@ class Endpoint {
   virtual void onPhysical(const msg::EvPhysRevoke& /*m*/) {}
   virtual void onPhysical(const msg::EvPhysRelay& /*m*/) {}
   virtual void onPhysical(const msg::EvPhysSwitch& /*m*/) {}
+  virtual void onPhysical(const msg::EvPhysResume& /*m*/) {}
   virtual void onPhysical(const msg::EvPhysMarker& /*m*/) {}
   // The protocol minor it speaks: a connection's is the lower of its client's and ours.
   [[nodiscard]] virtual uint16_t protocolMinor() const { return kProtocolMinor; }

@@ -93,6 +93,9 @@ struct LocalClient::Impl final : Endpoint {
   void onPhysical(const msg::EvPhysSwitch& m) override {
     if (handlers.on_phys_switch) handlers.on_phys_switch(m);
   }
+  void onPhysical(const msg::EvPhysResume& m) override {
+    if (handlers.on_phys_resume) handlers.on_phys_resume(m);
+  }
   void onBlobChanged(const Channel& ch, const BlobEvent& ev) override {
     static constexpr const char* kChanges[] = {"", "written", "removed", "dir_added",
                                                "dir_removed"};
@@ -179,6 +182,10 @@ Result<void> LocalClient::countPaths(const msg::PhysCount& m) {
 
 Result<void> LocalClient::switchedPaths(const msg::PhysSwitched& m) {
   return impl_->server.physical.switched(*impl_, m);
+}
+
+Result<void> LocalClient::replayPaths(const msg::PhysReplay& m) {
+  return impl_->server.physical.replay(*impl_, m);
 }
 
 Result<void> LocalClient::pulse(uint16_t chan_id) {

@@ -143,12 +143,62 @@ Result<void> PhysicalPaths::state(Endpoint& e, const msg::PhysState& m) {
   if (ch->owner != nullptr && ch->owner->protocolMinor() >= 9) {
     // The owner picks the point: it answers before publishing anything else, so every message
     // before its answer is relayed and every one after it goes on the path.
-    if (++next_switch_ == 0) next_switch_ = 1;
-    g.switching = next_switch_;
+    g.switching = nextId();
     ch->owner->onPhysical(msg::EvPhysSwitch{ch->id, e.id, g.switching});
     return {};
   }
   activate(it->second, *ch, e, g, std::nullopt);
+  return {};
+}
+
+uint32_t PhysicalPaths::nextId() {
+  if (++next_switch_ == 0) next_switch_ = 1;
+  return next_switch_;
+}
+
+Result<void> PhysicalPaths::fallback(Endpoint& e, const msg::PhysFallback& m) {
+  auto it = offers_.find(m.chan_id);
+  Channel* ch = channels_.find(m.chan_id);
+  if (it == offers_.end() || ch == nullptr) return {};  // the owner or the grant went: relayed
+  auto g = it->second.grants.find(e.id);
+  if (g == it->second.grants.end()) return {};
+  if (!g->second.active || g->second.path != msg::kPhysDirect || ch->owner == nullptr ||
+      ch->owner->protocolMinor() < 11) {
+    return state(e, msg::PhysState{m.chan_id, 0});
+  }
+  // Off the path, not on the relay yet: the owner first sends what the path lost, in its
+  // connection's order before what it publishes next, then relays again.
+  g->second.active = false;
+  g->second.resuming = nextId();
+  g->second.resume_asked = monotonicNs();
+  ch->owner->onPhysical(msg::EvPhysResume{ch->id, e.id, g->second.resuming, m.last});
+  return {};
+}
+
+Result<void> PhysicalPaths::replay(Endpoint& e, const msg::PhysReplay& m) {
+  auto owned = channels_.owned(e, m.chan_id, "replays paths of");
+  if (!owned) return owned.error();
+  Channel& ch = **owned;
+  auto it = offers_.find(m.chan_id);
+  if (it == offers_.end()) return {};
+  Offer& o = it->second;
+  auto g = o.grants.find(m.subscriber);
+  Endpoint* subscriber = endpoints_.find(m.subscriber);
+  const bool ours = g != o.grants.end() && subscriber != nullptr && g->second.resuming != 0 &&
+                    g->second.resuming == m.resume_id;
+  if (m.done == 0) {
+    if (ours) subscriber->onData(ch, m.payload.bytes);
+    return {};
+  }
+  // From the end on the owner publishes to the hub again, whatever became of the resume.
+  o.relay_needed = true;
+  if (ours) {
+    g->second.resuming = 0;
+    channels_.setPhysical(*subscriber, ch.id, false);
+    subscriber->traffic.dropped += m.lost;
+    ch.dropped += m.lost;
+  }
+  tellRelay(o, ch);
   return {};
 }
 
@@ -210,7 +260,7 @@ Result<void> PhysicalPaths::received(Endpoint& e, const msg::PhysReceived& m) {
 void PhysicalPaths::revoke(Offer& o, Channel& ch, uint32_t subscriber, bool tell_owner) {
   auto g = o.grants.find(subscriber);
   if (g == o.grants.end()) return;
-  const bool was_active = g->second.active;
+  const bool was_active = g->second.active || g->second.resuming != 0;  // off the relay
   o.grants.erase(g);
   if (was_active) {
     if (Endpoint* s = endpoints_.find(subscriber)) channels_.setPhysical(*s, ch.id, false);
@@ -226,6 +276,26 @@ void PhysicalPaths::tellRelay(Offer& o, Channel& ch) {
   if (needed == o.relay_needed || ch.owner == nullptr) return;
   o.relay_needed = needed;
   ch.owner->onPhysical(msg::EvPhysRelay{ch.id, static_cast<uint8_t>(needed ? 1 : 0)});
+}
+
+void PhysicalPaths::everySecond(Nanos now) {
+  for (auto& [chan_id, o] : offers_) {
+    Channel* ch = channels_.find(chan_id);
+    if (ch == nullptr) continue;
+    bool changed = false;
+    for (auto& [sub, g] : o.grants) {
+      if (g.resuming == 0 || now - g.resume_asked < kResumeTimeoutNs) continue;
+      g.resuming = 0;
+      changed = true;
+      Endpoint* s = endpoints_.find(sub);
+      if (s == nullptr) continue;
+      channels_.setPhysical(*s, chan_id, false);
+      log::warn(kLogSource, "PHYS-RESUME-LATE",
+                ch->name + ": its owner did not replay what flow " + std::to_string(sub) +
+                    " missed within 5 s; relayed without it");
+    }
+    if (changed) tellRelay(o, *ch);
+  }
 }
 
 void PhysicalPaths::subscribersChanged(uint16_t chan_id) {

@@ -8,6 +8,7 @@
 #include "channel_table.h"
 #include "endpoint.h"
 
+#include <skrobot/core/clock.h>
 #include <skrobot/core/result.h>
 #include <skrobot/flow/messages.h>
 
@@ -17,6 +18,8 @@
 #include <string>
 
 namespace skr::flow {
+
+inline constexpr Nanos kResumeTimeoutNs = 5 * kNsPerSec;
 
 class PhysicalPaths {
  public:
@@ -36,12 +39,24 @@ class PhysicalPaths {
   // PHYS_SWITCHED from the owner: the subscriber leaves the relay here, and gets its marker.
   // permission_denied (not the owner); an answer to a switch given up since is ignored.
   [[nodiscard]] Result<void> switched(Endpoint& e, const msg::PhysSwitched& m);
+  // PHYS_FALLBACK from a subscriber whose direct path broke (1.11): an owner of 1.11 is asked to
+  // replay what came after `last` (EV_PHYS_RESUME), and the subscriber stays off the relay until
+  // it has; otherwise as PHYS_STATE 0.
+  [[nodiscard]] Result<void> fallback(Endpoint& e, const msg::PhysFallback& m);
+  // PHYS_REPLAY from the owner: a kept message relayed to that subscriber alone, or the end,
+  // from which it is relayed again. permission_denied (not the owner); an answer to a resume
+  // given up since (the grant went, or was asked again) is ignored.
+  [[nodiscard]] Result<void> replay(Endpoint& e, const msg::PhysReplay& m);
   // PHYS_COUNT from the owner. permission_denied.
   [[nodiscard]] Result<void> count(Endpoint& e, const msg::PhysCount& m);
   // PHYS_RECEIVED from a subscriber with a grant: added to its flow's traffic (and what it
   // skipped to the channel's drops). For a channel or a grant that went since the report left,
   // it is ignored.
   [[nodiscard]] Result<void> received(Endpoint& e, const msg::PhysReceived& m);
+
+  // Once a second: a resume its owner has not ended within kResumeTimeoutNs is given up (the
+  // subscriber is relayed).
+  void everySecond(Nanos now);
 
   // Someone subscribed to `chan_id` or unsubscribed: the owner may have to relay again, or not.
   void subscribersChanged(uint16_t chan_id);
@@ -61,6 +76,8 @@ class PhysicalPaths {
     uint8_t path = 0;
     bool active = false;
     uint32_t switching = 0;  // the EV_PHYS_SWITCH the owner has not answered yet (0: none)
+    uint32_t resuming = 0;   // the EV_PHYS_RESUME the owner has not ended yet (0: none)
+    Nanos resume_asked = 0;
   };
   struct Offer {
     uint8_t paths = 0;
@@ -78,7 +95,8 @@ class PhysicalPaths {
   EndpointTable& endpoints_;
   ChannelTable& channels_;
   std::map<uint16_t, Offer> offers_;
-  uint32_t next_switch_ = 0;
+  uint32_t next_switch_ = 0;  // EV_PHYS_SWITCH and EV_PHYS_RESUME ids
+  [[nodiscard]] uint32_t nextId();
 };
 
 }  // namespace skr::flow

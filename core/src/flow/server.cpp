@@ -343,6 +343,7 @@ void FlowServer::Impl::sweep() {
     next_flow_stats = now + kNsPerSec;
     writeFlowStats();
     for (const auto& link : links) link->everySecond(now);
+    physical.everySecond(now);
   }
 }
 

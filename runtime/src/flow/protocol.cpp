@@ -181,6 +181,12 @@ std::string_view codeName(uint8_t code) noexcept {
       return "EV_PHYS_MARKER";
     case Code::phys_received:
       return "PHYS_RECEIVED";
+    case Code::phys_fallback:
+      return "PHYS_FALLBACK";
+    case Code::phys_replay:
+      return "PHYS_REPLAY";
+    case Code::ev_phys_resume:
+      return "EV_PHYS_RESUME";
   }
   return "UNKNOWN";
 }
@@ -239,6 +245,10 @@ uint16_t minorOf(Code code) noexcept {
       return 9;
     case Code::phys_received:
       return 10;
+    case Code::phys_fallback:
+    case Code::phys_replay:
+    case Code::ev_phys_resume:
+      return 11;
     default:
       return 0;
   }

@@ -29,6 +29,12 @@ namespace skr::sat::detail {
 inline constexpr Nanos kGrantLifetimeNs = 10 * kNsPerSec;
 // How long a HELLO waits for its grant, which the hub sent us when it sent the subscriber its path.
 inline constexpr Nanos kHelloWaitNs = 2 * kNsPerSec;
+// What an owner keeps of what it sent on direct paths, for a subscriber that falls back to the
+// relay (EV_PHYS_RESUME): the last messages of up to 64 KiB each, 1 MiB of them in all, while a
+// direct path is served and for 10 s after the last one closed.
+inline constexpr size_t kKeptMessageBytes = 64 << 10;
+inline constexpr size_t kKeptBytes = 1 << 20;
+inline constexpr size_t kSpareBuffers = 16;
 // How long a woken shared-memory reader polls its ring after a message that came this soon after
 // the one before (or after skipping some), before it waits for its eventfd again: a dense stream
 // is then read without wake-ups (and the owner writes no eventfd); sparse messages cost no
@@ -46,6 +52,8 @@ class Paths {
     std::function<void(const flow::msg::PhysCount&)> count;
     std::function<void(const flow::msg::PhysReceived&)> received;
     std::function<void(const flow::msg::PhysSwitched&)> switched;
+    std::function<void(const flow::msg::PhysFallback&)> fallback;
+    std::function<void(const flow::msg::PhysReplay&)> replay;
     std::function<uint32_t()> next_tag;
     // Data from a path: the view (for shared memory, the slot in place), then, when someone
     // wants one, the copy (for shared memory only if the read was not torn).
@@ -71,6 +79,9 @@ class Paths {
   void onRelay(const flow::msg::EvPhysRelay& m);
   // A subscriber's path works (1.9): tell the hub our last message number, before publishing on.
   void onSwitch(const flow::msg::EvPhysSwitch& m);
+  // A subscriber's direct path broke (1.11): replay what we kept after its last message, then
+  // the end, and publish to the hub again, before publishing anything else.
+  void onResume(const flow::msg::EvPhysResume& m);
   [[nodiscard]] bool serves(uint16_t chan_id) const { return served_.count(chan_id) != 0; }
   [[nodiscard]] bool hasRing(uint16_t chan_id) const;
   // One of our channels is gone (not the flow): its peers are closed, its grants dropped; its
@@ -121,6 +132,8 @@ class Paths {
   void ensureListener();
   void ensureTcpListener();
   bool sendDirect(Served& sv, std::string_view payload, int64_t capture_ns);
+  // Keeps what was sent on direct paths for a fallback (kKeptBytes).
+  void keep(Served& sv, std::string_view payload);
   void onAccept(int listen_fd, bool tcp);
   void onPeer(Peer& p, int events);
   void welcome(Peer& p, std::string_view body);

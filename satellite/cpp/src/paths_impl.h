@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -153,6 +154,12 @@ struct Paths::Served {
   std::optional<flow::shm::RingWriter> ring;
   bool relay_needed = true;
   uint64_t seq = 0;
+  // Sent on direct paths, kept for a fallback (kKeptBytes): by seq, while a direct path is
+  // served or until keep_until.
+  std::deque<std::pair<uint64_t, std::string>> kept;
+  std::vector<std::string> spare;  // buffers of messages no longer kept, to keep the next ones in
+  size_t kept_bytes = 0;
+  Nanos keep_until = 0;
   uint64_t unrelayed_messages = 0, unrelayed_bytes = 0;  // for PHYS_COUNT
 };
 
@@ -189,6 +196,7 @@ struct Paths::Path {
   std::string hello;
   bool marker = false;        // the hub relays no more: what comes on the path is ours
   uint64_t after = 0;         // from the marker: path messages up to this one were relayed
+  uint64_t last = 0;          // direct: the number of the last message we have (for a fallback)
   bool drop_partial = false;  // the direct frame being read began before a marker without `after`
   bool paused = false;        // before the marker, kMaxBeforeMarker read: reading waits for it
   bool spin = false;          // a ring polled on each turn of the loop (PathWait::spin)

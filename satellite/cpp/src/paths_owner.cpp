@@ -228,6 +228,26 @@ void Paths::onSwitch(const msg::EvPhysSwitch& m) {
   // No such peer (it left since): its subscriber falls back, and the hub drops the switch.
 }
 
+void Paths::onResume(const msg::EvPhysResume& m) {
+  auto s = served_.find(m.chan_id);
+  if (s == served_.end()) return;  // gone with its channel: the hub relays without us
+  Served& sv = *s->second;
+  uint64_t replayed = 0;
+  for (const auto& [seq, payload] : sv.kept) {
+    if (seq <= m.after) continue;
+    host_.replay(msg::PhysReplay{m.chan_id, m.subscriber, m.resume_id, 0, 0, msg::Rest{payload}});
+    ++replayed;
+  }
+  const uint64_t lost = sv.seq > m.after ? sv.seq - m.after - replayed : 0;
+  host_.replay(msg::PhysReplay{m.chan_id, m.subscriber, m.resume_id, 1, lost, msg::Rest{}});
+  sv.relay_needed = true;  // the subscriber is relayed from here on
+  if (lost != 0) {
+    log::warn(kLogSource, "SAT-PATH-LOST",
+              sv.name + ": " + std::to_string(lost) + " messages for flow " +
+                  std::to_string(m.subscriber) + " were no longer kept when its path broke");
+  }
+}
+
 void Paths::onAccept(int listen_fd, bool tcp) {
   for (;;) {
     int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
@@ -349,6 +369,10 @@ void Paths::closePeer(int fd, const std::string& why) {
     --stats_.served_shm;
   } else if (p.path == msg::kPhysDirect) {
     --stats_.served_direct;
+    // Its subscriber may fall back and ask for what it missed: keep on keeping a while.
+    if (auto s = served_.find(p.chan_id); s != served_.end()) {
+      s->second->keep_until = monotonicNs() + kGrantLifetimeNs;
+    }
   }
   if (p.path != 0) {
     (void)writeSome(fd, flow::path::encodeBye(why));
@@ -372,8 +396,10 @@ bool Paths::publish(uint16_t chan_id, std::string_view payload, int64_t capture_
 bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns) {
   ++sv.seq;
   std::string head;
+  bool direct = false;
   for (auto& [fd, p] : peers_) {
     if (p->chan_id != sv.chan_id || p->path != msg::kPhysDirect) continue;
+    direct = true;
     if (head.empty()) head = flow::path::dataHead(sv.seq, capture_ns, payload.size());
     if (p->out.size() + head.size() + payload.size() > kMaxPeerQueue) {
       ++p->dropped;  // a slow direct subscriber: what waits goes first, this one is dropped
@@ -394,11 +420,31 @@ bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns)
       uv_poll_start(p->poll, UV_READABLE | UV_WRITABLE | UV_DISCONNECT, p->poll->poll_cb);
     }
   }
+  if (direct || (sv.keep_until != 0 && monotonicNs() < sv.keep_until)) keep(sv, payload);
   if (!sv.relay_needed) {
     ++sv.unrelayed_messages;
     sv.unrelayed_bytes += payload.size();
   }
   return sv.relay_needed;
+}
+
+void Paths::keep(Served& sv, std::string_view payload) {
+  if (payload.size() <= kKeptMessageBytes) {
+    // Into a buffer let go before when there is one: no allocation, no fresh pages to fault in.
+    std::string copy;
+    if (!sv.spare.empty()) {
+      copy = std::move(sv.spare.back());
+      sv.spare.pop_back();
+    }
+    copy.assign(payload);
+    sv.kept.emplace_back(sv.seq, std::move(copy));
+    sv.kept_bytes += payload.size();
+  }
+  while (!sv.kept.empty() && sv.kept_bytes > kKeptBytes) {
+    sv.kept_bytes -= sv.kept.front().second.size();
+    if (sv.spare.size() < kSpareBuffers) sv.spare.push_back(std::move(sv.kept.front().second));
+    sv.kept.pop_front();
+  }
 }
 
 std::span<std::byte> Paths::beginPublish(uint16_t chan_id) {

@@ -104,6 +104,7 @@ void Paths::onMarker(Path& p, std::optional<uint64_t> after) {
   const uint16_t chan = p.chan_id;
   p.marker = true;
   p.after = after.value_or(UINT64_MAX);
+  p.last = after.value_or(0);  // what was relayed up to the marker
   if (p.reader) {
     onPathEvent(p);
     if (alive(chan, &p)) updateSpin();
@@ -282,6 +283,7 @@ void Paths::pathFrames(Path& p) {
     const auto data =
         f.type == uint8_t(flow::path::Type::data) ? flow::path::decodeData(f.body) : std::nullopt;
     if (!data) return failPath(chan, "an unexpected path frame");
+    p.last = data->seq;
     if (p.drop_partial || data->seq <= p.after) {
       p.drop_partial = false;
       ++stats_.dropped_before_marker;
@@ -423,12 +425,16 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   if (it == paths_.end()) return;
   Path& p = *it->second;
   const bool was_open = p.open;
+  // A direct path that carried our messages: the owner (1.11) replays what it lost (PHYS_FALLBACK).
+  const bool resume = p.open && p.marker && p.path == msg::kPhysDirect && host_.hub_minor() >= 11;
+  const uint64_t last = p.last;
   report(p);
   closePath(p);
   p.in.clear();
   p.open = false;
   p.marker = false;
   p.after = 0;
+  p.last = 0;
   p.drop_partial = false;
   p.paused = false;
   p.linger_until = 0;
@@ -439,7 +445,11 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
   ++p.failures;
   ++stats_.fallbacks;
   p.retry_at = retryAt(p.failures);
-  if (was_open) host_.state(msg::PhysState{chan_id, 0});  // relayed again
+  if (resume) {
+    host_.fallback(msg::PhysFallback{chan_id, last});
+  } else if (was_open) {
+    host_.state(msg::PhysState{chan_id, 0});  // relayed again
+  }
   log::warn(kLogSource, "SAT-PATH-FALLBACK",
             p.name + ": " + why + "; relayed by the hub meanwhile");
 }

@@ -132,6 +132,11 @@ void Satellite::Impl::event(uint8_t code, std::string_view body) {
       paths->onSwitch(m);
       return;
     }
+    case Code::ev_phys_resume: {
+      SAT_DECODE(msg::EvPhysResume, m);
+      paths->onResume(m);
+      return;
+    }
     case Code::ev_phys_marker: {
       SAT_DECODE(msg::EvPhysMarker, m);
       paths->onMarker(m);

@@ -54,6 +54,8 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std
   h.count = [this](const flow::msg::PhysCount& m) { send(m); };
   h.received = [this](const flow::msg::PhysReceived& m) { send(m); };
   h.switched = [this](const flow::msg::PhysSwitched& m) { send(m); };
+  h.fallback = [this](const flow::msg::PhysFallback& m) { send(m); };
+  h.replay = [this](const flow::msg::PhysReplay& m) { send(m); };
   h.next_tag = [this] { return nextTag(); };
   h.hub_minor = [this] { return login.minor; };
   h.tcp_listen = opt.path_tcp;

@@ -79,7 +79,8 @@ import time
 from PySketch import log
 from PySketch.abstractflow import ipFamily, parseAddress
 from PySketch.flowproto import (
-    PATH_DIRECT, PATH_SHM, RECEIVED_MINOR, physReceived, physRequest, physState, utf8)
+    FALLBACK_MINOR, PATH_DIRECT, PATH_SHM, RECEIVED_MINOR, physFallback, physReceived, physRequest,
+    physState, utf8)
 
 try:
     import fcntl
@@ -388,6 +389,7 @@ class _Path(object):
         self.marker = False   # the hub relays no more: what comes on the path is ours
         self.markersDue = 0   # PHYS_STATE 1 sent, their marker not come yet
         self.after = 0        # from the marker: path messages up to this number were relayed
+        self.last = 0         # direct: the number of the last message we have (PHYS_FALLBACK)
         self.dropPartial = False  # the direct frame being read began before EV_PHYS_RELAY 0
         self.paused = False   # before the marker, _MAX_BEFORE_MARKER read: reading waits for it
         self.retryAt = 0.0    # 0: not waiting to ask again
@@ -532,6 +534,7 @@ class Paths(object):
             return  # the marker of a path that broke since: not this one's
         p.marker = True
         p.after = _ALL if after is None else after
+        p.last = 0 if after is None else after  # what was relayed up to the marker
         p.paused = False
         sock = p.sock
         if sock is not None:
@@ -718,17 +721,24 @@ class Paths(object):
             self._closeIo(p)
             return
         wasOpen = p.open
+        # A direct path that carried our messages: the owner (1.11) replays what it lost.
+        resume = (p.open and p.marker and p.kind == PATH_DIRECT
+                  and self._flow.hubMinor >= FALLBACK_MINOR)
+        last = p.last
         self._report(p)
         self._closeIo(p)
         p.open = False
         p.marker = False
         p.after = 0
+        p.last = 0
         p.dropPartial = False
         p.tag = 0
         p.failures += 1
         self._stats["fallbacks"] += 1
         p.retryAt = _now() + self._backoff(p)
-        if wasOpen:
+        if resume:
+            self._flow._send(physFallback(p.chanID, last))
+        elif wasOpen:
             self._flow._send(physState(p.chanID, False))  # relayed again
         log.wrn("FlowSat: SAT-PATH-FALLBACK %s: %s; relayed by the hub meanwhile" % (p.name, why))
 
@@ -848,7 +858,8 @@ class Paths(object):
                     return self._fail(p, "the owner said goodbye")
                 if kind != DATA or end - start < _DATA_HEAD:
                     return self._fail(p, "an unexpected path frame")
-                if p.dropPartial or struct.unpack_from("<Q", buf, start)[0] <= p.after:
+                p.last = struct.unpack_from("<Q", buf, start)[0]
+                if p.dropPartial or p.last <= p.after:
                     p.dropPartial = False
                     self._stats["dropped_before_marker"] += 1
                     continue

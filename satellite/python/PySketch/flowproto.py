@@ -36,14 +36,16 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
+# 1.11: PHYS_FALLBACK, a broken direct path resumed with what the owner kept (flowpaths);
 # 1.10: PHYS_RECEIVED, what came on a path, reported once a second (flowpaths);
 # 1.9: EV_PHYS_MARKER, the subscriber's marker with the owner's message number (flowpaths);
 # 1.8 changes only PHYS_OFFER, which PySketch never sends; 1.7: physical mode, subscriber side;
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
-PROTOCOL_MINOR = 10
+PROTOCOL_MINOR = 11
 PATHS_MINOR = 7  # PHYS_REQUEST, PHYS_STATE and their events
 RECEIVED_MINOR = 10  # PHYS_RECEIVED
+FALLBACK_MINOR = 11  # PHYS_FALLBACK
 
 # Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
 # kPathShm) and in PHYS_REQUEST's `paths` bits.
@@ -267,6 +269,10 @@ class Code(object):
     EV_PHYS_SWITCH = 0xFC  # to the owner (PySketch offers no paths: never to it)
     EV_PHYS_MARKER = 0xFD  # to the subscriber: relayed up to `seq`, the rest on the path only
     PHYS_RECEIVED = 0xF5   # subscriber (1.10): what came on its path since its last report
+    # 1.11: a broken direct path falls back without losing what its owner sent meanwhile
+    PHYS_FALLBACK = 0xF6   # subscriber: its direct path broke after message `last`
+    PHYS_REPLAY = 0xF7     # owner (PySketch offers no paths: never from it)
+    EV_PHYS_RESUME = 0xFE  # to the owner (never to PySketch)
 
 
 def codeName(code):
@@ -388,6 +394,13 @@ def physRequest(tag, chanID, paths):
 def physState(chanID, active):
     """PHYS_STATE: our granted path works (1: stop relaying to us) or broke (0)."""
     return frame(Code.PHYS_STATE, struct.pack("<HB", chanID, 1 if active else 0))
+
+
+def physFallback(chanID, last):
+    """PHYS_FALLBACK (1.11), instead of PHYS_STATE 0 for a direct path that broke after its
+    marker: `last` is the number of the last message we have; the hub relays to us again once
+    the owner has replayed what came after it."""
+    return frame(Code.PHYS_FALLBACK, struct.pack("<HQ", chanID, last))
 
 
 def physReceived(chanID, messages, nbytes, missed):

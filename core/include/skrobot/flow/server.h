@@ -125,6 +125,9 @@ struct LocalHandlers {
   std::function<void(const msg::EvPhysRelay&)> on_phys_relay;
   // A subscriber's path works: answer with LocalClient::switchedPaths before publishing again.
   std::function<void(const msg::EvPhysSwitch&)> on_phys_switch;
+  // A subscriber's direct path broke: answer with LocalClient::replayPaths (what was kept, then
+  // the end) before publishing again.
+  std::function<void(const msg::EvPhysResume&)> on_phys_resume;
 };
 
 class FlowServer {
@@ -201,6 +204,7 @@ class LocalClient {
   [[nodiscard]] Result<void> offerPaths(const msg::PhysOffer& m);
   [[nodiscard]] Result<void> countPaths(const msg::PhysCount& m);
   [[nodiscard]] Result<void> switchedPaths(const msg::PhysSwitched& m);
+  [[nodiscard]] Result<void> replayPaths(const msg::PhysReplay& m);
   // A pulse of an owned sync source (docs/sync-pulse.md), stamped with the monotonic clock.
   [[nodiscard]] Result<void> pulse(uint16_t chan_id);
   // Follows a sync source by name, every `every`th pulse; like subscribe() it waits for a source

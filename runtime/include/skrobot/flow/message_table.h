@@ -92,6 +92,9 @@ void forEachMessage(F&& f) {
   f(EvPhysSwitch{});
   f(EvPhysMarker{});
   f(PhysReceived{});
+  f(PhysFallback{});
+  f(EvPhysResume{});
+  f(PhysReplay{});
   f(HubLinkHello{});
   f(HubLinkHelloOk{});
   f(ReplicateChannel{});

@@ -907,6 +907,48 @@ struct PhysReceived {
     return f(chan_id) && f(messages) && f(bytes) && f(missed);
   }
 };
+// Subscriber -> hub (1.11), instead of PHYS_STATE 0 for a direct path that broke after its
+// marker: `last` is the number (the direct frames' `seq`) of the last message it has, relayed or
+// on the path. The hub relays to it again once its owner has replayed what came after `last`.
+struct PhysFallback {
+  static constexpr Code code = Code::phys_fallback;
+  uint16_t chan_id = 0;
+  uint64_t last = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(last);
+  }
+};
+// Hub -> owner (1.11), after a subscriber's PHYS_FALLBACK: send it, with PHYS_REPLAY and the same
+// `resume_id`, the messages kept after `after`, then the end, before publishing anything else.
+struct EvPhysResume {
+  static constexpr Code code = Code::ev_phys_resume;
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  uint32_t resume_id = 0;
+  uint64_t after = 0;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(subscriber) && f(resume_id) && f(after);
+  }
+};
+// Owner -> hub (1.11), answering EV_PHYS_RESUME: `done` 0, one kept message for that subscriber
+// alone (relayed to it as if published); `done` 1, the end (no payload): `lost` messages after
+// `after` were no longer kept. From the end on, the owner publishes to the hub again and the
+// subscriber is relayed.
+struct PhysReplay {
+  static constexpr Code code = Code::phys_replay;
+  uint16_t chan_id = 0;
+  uint32_t subscriber = 0;
+  uint32_t resume_id = 0;
+  uint8_t done = 0;
+  uint64_t lost = 0;
+  Rest payload;
+  template <class IO>
+  bool io(IO& f) {
+    return f(chan_id) && f(subscriber) && f(resume_id) && f(done) && f(lost) && f(payload);
+  }
+};
 // Hub -> subscriber (1.9), the marker that replaces EV_PHYS_RELAY 0 when the owner answered
 // EV_PHYS_SWITCH: nothing of `chan_id` is relayed after it; path messages up to `seq` were
 // relayed (duplicates), those after it come on the path only.

@@ -14,7 +14,7 @@
 namespace skr::flow {
 
 constexpr uint16_t kProtocolMajor = 1;
-constexpr uint16_t kProtocolMinor = 10;  // history: docs/flow-protocol.md, "Minor versions"
+constexpr uint16_t kProtocolMinor = 11;  // history: docs/flow-protocol.md, "Minor versions"
 
 constexpr size_t kFrameHeaderBytes = 5;                       // u32 length + u8 code
 constexpr uint32_t kDefaultMaxFrameBytes = 16 * 1024 * 1024;  // the length field's limit
@@ -138,6 +138,10 @@ enum class Code : uint8_t {
   ev_phys_marker = 0xFD,  // to the subscriber: relayed up to `seq`; the rest comes on the path
   // 1.10: each subscriber reports what came on its path, for the statistics of its flow.
   phys_received = 0xF5,  // subscriber: messages, bytes and skipped ones on its path since the last
+  // 1.11: a direct path falls back to the relay without losing what the owner sent meanwhile.
+  phys_fallback = 0xF6,   // subscriber: its direct path broke after message `last`
+  phys_replay = 0xF7,     // owner: a kept message for one subscriber, or the end of them
+  ev_phys_resume = 0xFE,  // to the owner: replay what came after `after` to that subscriber
 };
 
 [[nodiscard]] std::string_view codeName(uint8_t code) noexcept;
@@ -154,7 +158,7 @@ enum class Code : uint8_t {
 // LINK_OFFER (1.6), physical mode (1.7, 1.9, 1.10).
 [[nodiscard]] constexpr bool isFlowFamilyCommand(uint8_t code) noexcept {
   return (code >= 0xD0 && code <= 0xD3) || (code >= 0xE0 && code <= 0xE2) || code == 0xE9 ||
-         (code >= 0xF0 && code <= 0xF5);
+         (code >= 0xF0 && code <= 0xF7);
 }
 // A sync pulse command (1.4): sent by satellites on a flow, like 0x40-0x7F.
 [[nodiscard]] constexpr bool isSyncCommand(uint8_t code) noexcept {

@@ -420,7 +420,11 @@ bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns)
       uv_poll_start(p->poll, UV_READABLE | UV_WRITABLE | UV_DISCONNECT, p->poll->poll_cb);
     }
   }
-  if (direct || (sv.keep_until != 0 && monotonicNs() < sv.keep_until)) keep(sv, payload);
+  // Only a hub of 1.11 ever asks for them back (EV_PHYS_RESUME).
+  if ((direct || (sv.keep_until != 0 && monotonicNs() < sv.keep_until)) &&
+      host_.hub_minor() >= 11) {
+    keep(sv, payload);
+  }
   if (!sv.relay_needed) {
     ++sv.unrelayed_messages;
     sv.unrelayed_bytes += payload.size();

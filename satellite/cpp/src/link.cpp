@@ -264,7 +264,7 @@ void Link::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
     }
     if (c->rcap_ - c->rend_ < want) {
       const size_t cap = c->rend_ + want;
-      auto bigger = std::make_unique<char[]>(cap);
+      auto bigger = std::make_unique_for_overwrite<char[]>(cap);
       if (have > 0) std::memcpy(bigger.get(), c->rbuf_.get(), have);
       c->rbuf_ = std::move(bigger);
       c->rcap_ = cap;

@@ -99,20 +99,15 @@ Result<void> sendRaw(int fd, std::string_view bytes) {
   return {};
 }
 
-Result<void> readRaw(int fd, std::string& buf, uint32_t timeout_ms) {
-  // Straight into `buf`, as much as has arrived (FIONREAD, up to 1 MiB): a file's chunk takes a
-  // few calls instead of one per 64 KiB, and no copy. Poll only when nothing is there yet.
-  constexpr size_t kMost = 1 << 20;
+Result<size_t> readRaw(int fd, char* dst, size_t room, uint32_t timeout_ms) {
+  // As much as has arrived, up to `room`: a file's chunk takes a few calls instead of one per
+  // 64 KiB. Poll only when nothing is there yet (FIONREAD).
   for (;;) {
     int ready = 0;
     if (::ioctl(fd, FIONREAD, &ready) != 0) ready = 0;
     if (ready > 0) {
-      const size_t had = buf.size();
-      const size_t want = std::min(static_cast<size_t>(ready), kMost);
-      buf.resize(had + want);
-      const ssize_t got = ::recv(fd, buf.data() + had, want, 0);
-      buf.resize(had + (got > 0 ? static_cast<size_t>(got) : 0));
-      if (got > 0) return {};
+      const ssize_t got = ::recv(fd, dst, room, 0);
+      if (got > 0) return static_cast<size_t>(got);
       if (got < 0 && errno == EINTR) continue;
       if (got == 0) return makeError(Errc::closed, "the hub closed the connection");
       return makeError(Errc::closed, std::string("recv: ") + std::strerror(errno));
@@ -135,6 +130,17 @@ Result<void> readRaw(int fd, std::string& buf, uint32_t timeout_ms) {
   }
 }
 
+// Appends what has arrived (ciphertext, or a handshake's reply) to `buf`.
+Result<void> readRawAppend(int fd, std::string& buf, uint32_t timeout_ms) {
+  constexpr size_t kChunk = 64 << 10;
+  const size_t had = buf.size();
+  buf.resize(had + kChunk);
+  auto got = readRaw(fd, buf.data() + had, kChunk, timeout_ms);
+  buf.resize(had + (got ? *got : 0));
+  if (!got) return got.error();
+  return {};
+}
+
 }  // namespace
 
 Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes) {
@@ -145,24 +151,25 @@ Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes) {
   return sendRaw(fd, cipher);
 }
 
-Result<void> readSome(int fd, flow::TlsSession* tls, std::string& buf, uint32_t timeout_ms) {
-  if (tls == nullptr) return readRaw(fd, buf, timeout_ms);
+Result<size_t> readSome(int fd, flow::TlsSession* tls, char* dst, size_t room,
+                        uint32_t timeout_ms) {
+  if (tls == nullptr) return readRaw(fd, dst, room, timeout_ms);
   for (;;) {
-    char tmp[16 * 1024];
-    auto got = tls->read(tmp, sizeof tmp);
-    if (!got) return makeError(Errc::closed, got.error().message);
-    if (*got > 0) {
-      buf.append(tmp, *got);
-      while ((got = tls->read(tmp, sizeof tmp)) && *got > 0) buf.append(tmp, *got);
-      return {};
+    size_t filled = 0;
+    while (filled < room) {
+      auto got = tls->read(dst + filled, room - filled);
+      if (!got) return makeError(Errc::closed, got.error().message);
+      if (*got == 0) break;
+      filled += *got;
     }
+    if (filled > 0) return filled;
     std::string cipher;
-    if (auto r = readRaw(fd, cipher, timeout_ms); !r) return r;
+    if (auto r = readRawAppend(fd, cipher, timeout_ms); !r) return r.error();
     if (auto r = tls->receive(cipher); !r) return makeError(Errc::closed, r.error().message);
     if (tls->hasOutput()) {  // a key update or the like
       std::string out;
       tls->takeOutput(out);
-      if (auto s = sendRaw(fd, out); !s) return s;
+      if (auto s = sendRaw(fd, out); !s) return s.error();
     }
   }
 }
@@ -181,7 +188,7 @@ Result<flow::TlsSession> tlsHandshake(int fd, const flow::TlsContext& context,
     if (auto s = sendRaw(fd, out); !s) return failed(s.error().message);
     if (tls.established()) return std::move(session).value();
     std::string cipher;
-    if (auto r = readRaw(fd, cipher, timeout_ms); !r) {
+    if (auto r = readRawAppend(fd, cipher, timeout_ms); !r) {
       if (r.error().code == Errc::closed) {
         return failed(
             "the hub closed the connection during the handshake (is its TCP port "

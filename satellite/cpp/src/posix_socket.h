@@ -20,10 +20,10 @@ namespace skr::sat::detail {
                                                     const Address& address, uint32_t timeout_ms);
 // Writes every byte (encrypted first with `tls`). Errc::closed when the peer went away.
 [[nodiscard]] Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes);
-// Reads once (waiting up to timeout_ms) and appends to `buf` (decrypted with `tls`: waits until
-// at least one byte of data is readable). Errc::timeout, Errc::closed.
-[[nodiscard]] Result<void> readSome(int fd, flow::TlsSession* tls, std::string& buf,
-                                    uint32_t timeout_ms);
+// Reads what has arrived, up to `room` bytes, into `dst` (decrypted with `tls`), waiting up to
+// timeout_ms for at least one byte; returns the count. Errc::timeout, Errc::closed.
+[[nodiscard]] Result<size_t> readSome(int fd, flow::TlsSession* tls, char* dst, size_t room,
+                                      uint32_t timeout_ms);
 // Sends close_notify, best effort.
 void closeTls(int fd, flow::TlsSession& tls) noexcept;
 

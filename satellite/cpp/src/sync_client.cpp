@@ -3,6 +3,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstring>
+
 #include "posix_socket.h"
 
 namespace skr::sat {
@@ -25,8 +28,9 @@ SyncClient::SyncClient(SyncClient&& o) noexcept
       login_(std::move(o.login_)),
       last_error_(o.last_error_),
       rbuf_(std::move(o.rbuf_)),
+      rcap_(o.rcap_),
       rpos_(o.rpos_),
-      held_(std::move(o.held_)) {
+      rend_(o.rend_) {
   o.fd_ = -1;
 }
 
@@ -40,8 +44,9 @@ SyncClient& SyncClient::operator=(SyncClient&& o) noexcept {
     login_ = std::move(o.login_);
     last_error_ = o.last_error_;
     rbuf_ = std::move(o.rbuf_);
+    rcap_ = o.rcap_;
     rpos_ = o.rpos_;
-    held_ = std::move(o.held_);
+    rend_ = o.rend_;
   }
   return *this;
 }
@@ -51,8 +56,8 @@ void SyncClient::close() noexcept {
   tls_.reset();
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
-  rbuf_.clear();
-  rpos_ = 0;
+  rbuf_.reset();
+  rcap_ = rpos_ = rend_ = 0;
 }
 
 Error SyncClient::fail(Errc code, std::string message) {
@@ -109,24 +114,21 @@ Result<void> SyncClient::sendFrame(std::string_view frame) {
 }
 
 Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
+  auto v = receiveView(timeout_ms);
+  if (!v) return v.error();
+  return Reply{v->code, std::string(v->body)};
+}
+
+Result<SyncClient::ReplyView> SyncClient::receiveView(uint32_t timeout_ms) {
   if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
   last_error_ = ErrorCode::ok;
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {
     const auto n =
-        splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.data()) + rpos_, rbuf_.size() - rpos_);
+        splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.get()) + rpos_, rend_ - rpos_);
     if (n.status == flow::FrameSplitter::Status::frame) {
-      Reply reply{n.code, std::string(n.body)};
-      // Parsed bytes are dropped once they are half the buffer: large pipelined replies are not
-      // moved down the buffer one by one.
-      rpos_ += n.consumed;
-      if (rpos_ == rbuf_.size()) {
-        rbuf_.clear();
-        rpos_ = 0;
-      } else if (rpos_ > rbuf_.size() / 2) {
-        rbuf_.erase(0, rpos_);
-        rpos_ = 0;
-      }
+      rpos_ += n.consumed;  // the view stays valid: bytes move only in the next receive
+      const ReplyView reply{n.code, n.body};
       if (reply.code == static_cast<uint8_t>(Code::reply_error)) {
         auto e = flow::decode<msg::ReplyError>(reply.body);
         if (!e) return fail(Errc::protocol_error, "REPLY_ERROR: " + e.error().message);
@@ -143,9 +145,28 @@ Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
       return fail(Errc::protocol_error,
                   "bad frame length " + std::to_string(n.announced) + " from the hub");
     }
-    if (auto r = detail::readSome(fd_, tls_ ? &*tls_ : nullptr, rbuf_, timeout_ms); !r) {
-      return fail(r.error().code, r.error().message);
+    // Room for the rest of the frame (its length was checked), read into without a copy; the
+    // unparsed bytes move down first, and the buffer grows without being cleared.
+    constexpr size_t kReadChunk = 64 << 10;
+    const size_t have = rend_ - rpos_;
+    if (have == 0) rpos_ = rend_ = 0;
+    const size_t want = std::max(kReadChunk, n.wanted > have ? n.wanted - have : 0);
+    if (rcap_ - rend_ < want) {
+      if (have > 0 && rpos_ > 0) std::memmove(rbuf_.get(), rbuf_.get() + rpos_, have);
+      rpos_ = 0;
+      rend_ = have;
+      if (rcap_ - rend_ < want) {
+        const size_t cap = rend_ + want;
+        auto bigger = std::make_unique_for_overwrite<char[]>(cap);
+        if (have > 0) std::memcpy(bigger.get(), rbuf_.get(), have);
+        rbuf_ = std::move(bigger);
+        rcap_ = cap;
+      }
     }
+    auto r = detail::readSome(fd_, tls_ ? &*tls_ : nullptr, rbuf_.get() + rend_, rcap_ - rend_,
+                              timeout_ms);
+    if (!r) return fail(r.error().code, r.error().message);
+    rend_ += *r;
   }
 }
 

@@ -121,17 +121,26 @@ Result<uint64_t> SyncClient::blobGetStream(
     uint16_t chan_id, const std::string& path,
     const std::function<Result<void>(std::string_view)>& sink, const BlobProgress& progress) {
   SKR_NEEDS_BLOBS();
-  const auto reply = [&](Result<Reply> r) -> Result<msg::BlobData> {
+  // The data is a view into the read buffer, valid until the next receive.
+  const auto reply = [&](Result<ReplyView> r) -> Result<msg::BlobData> {
     if (!r) return r.error();
-    if (r->code != static_cast<uint8_t>(Code::reply_ok)) return hubError(last_error_, r->body);
+    if (r->code != static_cast<uint8_t>(Code::reply_ok)) {
+      return hubError(last_error_, std::string(r->body));
+    }
     auto d = flow::decode<msg::BlobData>(r->body);
     if (!d) return fail(Errc::protocol_error, "BLOB_GET: " + d.error().message);
-    held_ = std::move(r->body);  // the data is a view into the reply's body
-    return flow::decode<msg::BlobData>(held_).value();
+    return d;
+  };
+  const auto ask = [&](uint64_t version, uint64_t offset) -> Result<void> {
+    std::string frame;
+    if (!flow::encode(frame, msg::BlobGet{chan_id, path, version, offset, uint32_t(kBlobChunk)})) {
+      return makeError(Errc::invalid_argument, "the path is longer than 65535 bytes");
+    }
+    return sendFrame(frame);
   };
   // The first chunk gives the version and the size; the rest are asked ahead, of that version.
-  auto first =
-      reply(request(msg::BlobGet{chan_id, path, 0, 0, uint32_t(kBlobChunk)}, options_.timeout_ms));
+  if (auto s = ask(0, 0); !s) return s.error();
+  auto first = reply(receiveView(options_.timeout_ms));
   if (!first) return first.error();
   const uint64_t version = first->version;
   const uint64_t total = first->total_size;
@@ -143,16 +152,12 @@ Result<uint64_t> SyncClient::blobGetStream(
   Result<void> failed{};
   while (got < total) {
     while (failed && ahead < kBlobWindow && asked < total) {
-      std::string frame;
-      if (!flow::encode(frame, msg::BlobGet{chan_id, path, version, asked, uint32_t(kBlobChunk)})) {
-        return makeError(Errc::invalid_argument, "the path is longer than 65535 bytes");
-      }
-      if (auto s = sendFrame(frame); !s) return s.error();
+      if (auto s = ask(version, asked); !s) return s.error();
       asked += std::min<uint64_t>(kBlobChunk, total - asked);
       ++ahead;
     }
     if (ahead == 0) break;
-    auto d = reply(receiveReply(options_.timeout_ms));
+    auto d = reply(receiveView(options_.timeout_ms));
     --ahead;
     if (!d) {
       if (!isOpen()) return d.error();

@@ -1,8 +1,8 @@
 // TLS on the TCP transport against real hubs: the satellite library (flow and synchronous
-// connection) and flowctl over tls: addresses, and every refusal (plain TCP to the TLS port,
-// TLS to a plain port, untrusted, expired, wrong-host and self-signed hub certificates, a
-// missing or untrusted client certificate): a clear error to the client, a FLOW-TLS line in
-// the hub's log, and the hub goes on serving. Certificates are made at test time
+// connection, with a blob round trip) and flowctl over tls: addresses, and every refusal (plain TCP
+// to the TLS port, TLS to a plain port, untrusted, expired, wrong-host and self-signed hub
+// certificates, a missing or untrusted client certificate): a clear error to the client, a FLOW-TLS
+// line in the hub's log, and the hub goes on serving. Certificates are made at test time
 // (tests/support/make_test_certs.sh, openssl CLI).
 #include "sat_fixture.h"
 
@@ -91,6 +91,15 @@ TEST_F(Tls, SatellitesPublishSubscribeAndUseDatabasesOverTls) {
   ASSERT_TRUE(got) << got.error().message;
   ASSERT_NE(got->asString(), nullptr);
   EXPECT_EQ(*got->asString(), "green");
+  // A file of several chunks, each many records, up and down on the synchronous connection.
+  std::string file(5 * SyncClient::kBlobChunk + 12345, '\0');
+  for (size_t i = 0; i < file.size(); ++i) file[i] = char(i * 2654435761u >> 13);
+  auto blobs = sync->createBlobChannel("files");
+  ASSERT_TRUE(blobs) << blobs.error().message;
+  ASSERT_TRUE(sync->blobPut(blobs->id, "a/file.bin", file));
+  auto back = sync->blobGet(blobs->id, "a/file.bin");
+  ASSERT_TRUE(back) << back.error().message;
+  EXPECT_TRUE(*back == file) << back->size();
 
   SatelliteOptions po;
   po.connection = options(h->tlsAddress(), "ca.pem");

@@ -75,7 +75,7 @@ struct SatelliteOptions {
 struct PhysicalOptions {
   bool direct = false;  // a Unix socket of ours (the hub hands out one-time tokens)
   bool shm = false;     // a ring of slots in shared memory (ring.slot_bytes: the largest message)
-  flow::shm::RingGeometry ring;
+  flow::shm::RingGeometry ring{};
 };
 
 // Path kinds a subscriber asks for (usePaths).

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -161,6 +162,11 @@ class SyncClient {
     uint8_t code = 0;
     std::string body;
   };
+  // A reply whose body is a view into the read buffer, valid until the next receive or close.
+  struct ReplyView {
+    uint8_t code = 0;
+    std::string_view body;
+  };
   explicit SyncClient(int fd, ConnectOptions options);
   template <class M>
   Result<Reply> request(const M& m, uint32_t timeout_ms);
@@ -168,6 +174,7 @@ class SyncClient {
   // The two halves of a round trip, for requests sent ahead of their replies (blob transfers).
   Result<void> sendFrame(std::string_view frame);
   Result<Reply> receiveReply(uint32_t timeout_ms);
+  Result<ReplyView> receiveView(uint32_t timeout_ms);
   static Error hubError(flow::ErrorCode code, const std::string& body);
   // A pipelined upload from `read` (blobPut and blobPutFile).
   Result<uint64_t> upload(uint16_t chan_id, const std::string& path, uint64_t size,
@@ -182,9 +189,9 @@ class SyncClient {
   ConnectOptions options_;
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
-  std::string rbuf_;
-  size_t rpos_ = 0;   // rbuf_ before this is parsed
-  std::string held_;  // the body of the last blob reply, which its data points into
+  // Bytes from the hub: [rpos_, rend_) of rbuf_ (rcap_ bytes) are not parsed yet.
+  std::unique_ptr<char[]> rbuf_;
+  size_t rcap_ = 0, rpos_ = 0, rend_ = 0;
 };
 
 template <class M>

@@ -343,6 +343,7 @@ void Connection::closeAfterFlush(const char* why) {
 void Connection::queued() {
   if (state_ == State::closing) {
     out_.clear();
+    whole_.clear();
     return;
   }
   const size_t hard =
@@ -455,6 +456,12 @@ void Connection::flush() {
     return;
   }
   releaseInflight();
+  if (!whole_.empty()) {
+    inflight_ = std::move(whole_.front());
+    whole_.pop_front();
+    writeSlice();
+    return;
+  }
   if (out_.empty()) {
     if (close_after_flush_) close("replies sent");
     return;
@@ -573,8 +580,8 @@ void Connection::onWrite(uv_write_t* req, int status) {
   } else {
     c->inflight_off_ = c->slice_end_;
   }
-  if (c->inflight_off_ < c->inflight_.size() || !c->urgent_.empty() || !c->out_.empty() ||
-      !c->dropped_.empty() || c->close_after_flush_) {
+  if (c->inflight_off_ < c->inflight_.size() || !c->urgent_.empty() || !c->whole_.empty() ||
+      !c->out_.empty() || !c->dropped_.empty() || c->close_after_flush_) {
     c->flush();
   } else {
     c->releaseInflight();

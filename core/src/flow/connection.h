@@ -11,6 +11,7 @@
 #include <skrobot/flow/codec.h>
 #include <skrobot/flow/tls.h>
 
+#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
@@ -208,8 +209,10 @@ class Connection final : public Endpoint {
 
   // Output: frames accumulate in out_; inflight_ is being written, a slice at a time
   // ([inflight_off_, slice_end_) now; next_frame_: a frame start at or past inflight_off_).
-  // Urgent frames wait in urgent_ (urgent_wire_ while the socket takes their rest).
+  // Urgent frames wait in urgent_ (urgent_wire_ while the socket takes their rest). Blob data
+  // frames that arrive while output waits are queued whole in whole_, which goes before out_.
   std::string out_, inflight_, urgent_, urgent_wire_;
+  std::deque<std::string> whole_;
   size_t inflight_off_ = 0, slice_end_ = 0, next_frame_ = 0;
   bool writing_urgent_ = false;
   uv_write_t wreq_{};

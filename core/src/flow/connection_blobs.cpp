@@ -10,6 +10,7 @@
 #include <skrobot/core/log.h>
 
 #include <cstring>
+#include <utility>
 
 namespace skr::flow {
 
@@ -53,10 +54,15 @@ void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string
   std::memcpy(frame.data(), head.data(), head.size());
   ++traffic.messages_out;
   traffic.bytes_out += frame.size();
-  if (out_.empty()) {
+  if (out_.empty() && whole_.empty()) {
     out_.swap(frame);
+  } else if (tls_) {
+    out_.append(frame);  // encrypted with the rest at the next flush
   } else {
-    out_.append(frame);
+    // Queued whole rather than copied onto the output on the loop thread: what is in out_ goes
+    // first, then this frame, then what comes after it.
+    if (!out_.empty()) whole_.push_back(std::exchange(out_, std::string()));
+    whole_.push_back(std::move(frame));
   }
   queued();
 }

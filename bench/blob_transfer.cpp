@@ -102,7 +102,9 @@ double rawCopy(bool tcp, const std::string& data) {
   return s;
 }
 
-// Seconds to write `data` to a new file and fsync it.
+// Seconds to write `data` to a new file and fsync it, 1 MiB per write, each started back to the
+// disk at once as the hub's store does (without that, a large file waits for the dirty-page
+// throttle and the floor is lower than what the store achieves).
 double fileWrite(const std::filesystem::path& p, const std::string& data) {
   const auto t0 = Clock::now();
   const int fd = ::open(p.c_str(), O_CREAT | O_TRUNC | O_WRONLY | O_CLOEXEC, 0600);
@@ -111,6 +113,7 @@ double fileWrite(const std::filesystem::path& p, const std::string& data) {
   while (off < data.size()) {
     const ssize_t n = ::write(fd, data.data() + off, std::min<size_t>(1 << 20, data.size() - off));
     if (n <= 0) fail("write");
+    (void)::sync_file_range(fd, off_t(off), off_t(n), SYNC_FILE_RANGE_WRITE);
     off += size_t(n);
   }
   ::fsync(fd);

@@ -7,6 +7,7 @@
 #include <poll.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -87,14 +88,22 @@ Result<int> connectSocket(const Address& a, uint32_t timeout_ms) {
 
 namespace {
 
-Result<void> sendRaw(int fd, std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+// Writes `bytes` then `more`, gathered (no copy of them into one buffer).
+Result<void> sendRaw(int fd, std::string_view bytes, std::string_view more = {}) {
+  while (!bytes.empty() || !more.empty()) {
+    iovec iov[2] = {{const_cast<char*>(bytes.data()), bytes.size()},
+                    {const_cast<char*>(more.data()), more.size()}};
+    msghdr m{};
+    m.msg_iov = bytes.empty() ? iov + 1 : iov;
+    m.msg_iovlen = bytes.empty() || more.empty() ? 1 : 2;
+    ssize_t n = ::sendmsg(fd, &m, MSG_NOSIGNAL);
     if (n < 0) {
       if (errno == EINTR) continue;
       return makeError(Errc::closed, std::string("send: ") + std::strerror(errno));
     }
-    bytes.remove_prefix(static_cast<size_t>(n));
+    const size_t first = std::min(static_cast<size_t>(n), bytes.size());
+    bytes.remove_prefix(first);
+    more.remove_prefix(static_cast<size_t>(n) - first);
   }
   return {};
 }
@@ -143,9 +152,12 @@ Result<void> readRawAppend(int fd, std::string& buf, uint32_t timeout_ms) {
 
 }  // namespace
 
-Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes) {
-  if (tls == nullptr) return sendRaw(fd, bytes);
+Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes, std::string_view more) {
+  if (tls == nullptr) return sendRaw(fd, bytes, more);
   if (auto w = tls->write(bytes); !w) return makeError(Errc::closed, w.error().message);
+  if (!more.empty()) {
+    if (auto w = tls->write(more); !w) return makeError(Errc::closed, w.error().message);
+  }
   std::string cipher;
   tls->takeOutput(cipher);
   return sendRaw(fd, cipher);

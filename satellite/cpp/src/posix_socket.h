@@ -18,8 +18,10 @@ namespace skr::sat::detail {
 // and the reason (certificate verify failed: ..., the hub closed the connection, ...).
 [[nodiscard]] Result<flow::TlsSession> tlsHandshake(int fd, const flow::TlsContext& context,
                                                     const Address& address, uint32_t timeout_ms);
-// Writes every byte (encrypted first with `tls`). Errc::closed when the peer went away.
-[[nodiscard]] Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes);
+// Writes every byte of `bytes` and then of `more` (encrypted first with `tls`). Errc::closed when
+// the peer went away.
+[[nodiscard]] Result<void> sendAll(int fd, flow::TlsSession* tls, std::string_view bytes,
+                                   std::string_view more = {});
 // Reads what has arrived, up to `room` bytes, into `dst` (decrypted with `tls`), waiting up to
 // timeout_ms for at least one byte; returns the count. Errc::timeout, Errc::closed.
 [[nodiscard]] Result<size_t> readSome(int fd, flow::TlsSession* tls, char* dst, size_t room,

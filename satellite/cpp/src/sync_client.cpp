@@ -106,9 +106,9 @@ Result<SyncClient::Reply> SyncClient::roundTrip(const std::string& frame, uint32
   return receiveReply(timeout_ms);
 }
 
-Result<void> SyncClient::sendFrame(std::string_view frame) {
+Result<void> SyncClient::sendFrame(std::string_view frame, std::string_view more) {
   if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
-  if (auto s = detail::sendAll(fd_, tls_ ? &*tls_ : nullptr, frame); !s)
+  if (auto s = detail::sendAll(fd_, tls_ ? &*tls_ : nullptr, frame, more); !s)
     return fail(s.error().code, s.error().message);
   return {};
 }

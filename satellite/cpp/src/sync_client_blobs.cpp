@@ -1,5 +1,6 @@
 // SyncClient's blob channel requests (protocol 1.3). Transfers keep kBlobWindow requests of
 // kBlobChunk bytes ahead of their replies, so that the hub's disk and the socket overlap.
+#include <skrobot/flow/bytes.h>
 #include <skrobot/flow/codec.h>
 #include <skrobot/satellite/sync_client.h>
 
@@ -248,11 +249,11 @@ Result<uint64_t> SyncClient::upload(
         failed = data.error();
         break;
       }
-      std::string frame;
-      if (!flow::encode(frame, msg::BlobChunk{chan_id, at->upload_id, sent, msg::Rest{*data}})) {
-        return makeError(Errc::invalid_argument, "a chunk too large to encode");
-      }
-      if (auto s = sendFrame(frame); !s) return s.error();
+      // The frame's head, then the data sent from where it is (not copied into the frame).
+      std::string head;
+      (void)flow::encode(head, msg::BlobChunk{chan_id, at->upload_id, sent, msg::Rest{}});
+      flow::ByteWriter(head).patchU32(0, static_cast<uint32_t>(head.size() - 4 + data->size()));
+      if (auto s = sendFrame(head, *data); !s) return s.error();
       sent += n;
       empty_sent = true;
       ++ahead;

@@ -172,7 +172,7 @@ class SyncClient {
   Result<Reply> request(const M& m, uint32_t timeout_ms);
   Result<Reply> roundTrip(const std::string& frame, uint32_t timeout_ms);
   // The two halves of a round trip, for requests sent ahead of their replies (blob transfers).
-  Result<void> sendFrame(std::string_view frame);
+  Result<void> sendFrame(std::string_view frame, std::string_view more = {});
   Result<Reply> receiveReply(uint32_t timeout_ms);
   Result<ReplyView> receiveView(uint32_t timeout_ms);
   static Error hubError(flow::ErrorCode code, const std::string& body);

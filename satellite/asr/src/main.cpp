@@ -2,7 +2,8 @@
 //
 //   skrobot-asr [--input CHANNEL] [--name NAME] [--mode dictation|grammar]
 //               [--grammar FILE.gram | --keywords FILE] [--max-utterance-s N] [--hangover-ms N]
-//               [--model DIR] [--reject-threshold X] [--max-unplaced X] [--no-reject]
+//               [--max-behind-s N] [--model DIR] [--reject-threshold X] [--max-unplaced X]
+//               [--no-reject]
 //               [--address ADDR] [--user NAME] [--password PW]
 #include "asr_satellite.h"
 #include "pocketsphinx_engine.h"
@@ -29,6 +30,8 @@ constexpr const char* kUsage = R"(usage: skrobot-asr [options]
   --keywords FILE        phrases, one a line (grammar mode; "/1e-20/" thresholds are ignored)
   --max-utterance-s N    an utterance is cut at this length (default 15, 1..120)
   --hangover-ms N        silence that ends an utterance (default 300, 50..3000)
+  --max-behind-s N       audio the recogniser may fall behind by; beyond it the utterance being
+                         heard is dropped (default 30, 1..3600)
   --model DIR            pocketsphinx model (default /usr/share/pocketsphinx/model/en-us)
   --reject-threshold X   grammar mode: reject above this score per frame (default 5; docs/asr.md)
   --max-unplaced X       grammar mode: reject when more of the speech than this share (0..1)
@@ -106,6 +109,9 @@ int main(int argc, char** argv) {
     } else if (arg == "--hangover-ms") {
       if (!number(value, 50, 3000, x)) return usage("--hangover-ms: 50..3000");
       options.segmenter.vad.hangover_ms = static_cast<int>(x);
+    } else if (arg == "--max-behind-s") {
+      if (!number(value, 1, 3600, x)) return usage("--max-behind-s: 1..3600");
+      options.max_queued_s = x;
     } else if (arg == "--model") {
       engine_options.model_dir = value;
     } else if (arg == "--reject-threshold") {

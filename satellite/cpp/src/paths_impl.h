@@ -2,6 +2,7 @@
 // paths, and the socket helpers that paths_owner.cpp and paths_subscriber.cpp share.
 #pragma once
 
+#include "in_buffer.h"
 #include "paths.h"
 
 #include <skrobot/core/log.h>
@@ -107,44 +108,6 @@ inline std::string_view writeSome(int fd, std::string_view bytes) {
   return bytes.substr(writeSome(fd, {}, bytes));
 }
 
-// Bytes read from a path socket, received straight into place (no zero-filling, no copy from a
-// bounce buffer): a large frame is read into memory that already has its size.
-class InBuffer {
- public:
-  [[nodiscard]] std::string_view view() const { return {data_.get() + head_, len_}; }
-  [[nodiscard]] bool empty() const { return len_ == 0; }
-  void append(std::string_view b) {
-    std::memcpy(tail(b.size()), b.data(), b.size()), len_ += b.size();
-  }
-  // Room for `n` more bytes at the end; commit(k) keeps the k read there.
-  char* tail(size_t n) {
-    if (head_ + len_ + n > cap_) {
-      const size_t cap = std::max(cap_ * 2, len_ + n);
-      if (len_ + n <= cap_ && head_ > 0) {
-        std::memmove(data_.get(), data_.get() + head_, len_);
-      } else {
-        std::unique_ptr<char[]> d(new char[cap]);
-        if (len_ > 0) std::memcpy(d.get(), data_.get() + head_, len_);
-        data_ = std::move(d);
-        cap_ = cap;
-      }
-      head_ = 0;
-    }
-    return data_.get() + head_ + len_;
-  }
-  void commit(size_t n) { len_ += n; }
-  void consume(size_t n) {
-    head_ += n;
-    len_ -= n;
-    if (len_ == 0) head_ = 0;
-  }
-  void clear() { head_ = len_ = 0; }
-
- private:
-  std::unique_ptr<char[]> data_;
-  size_t cap_ = 0, head_ = 0, len_ = 0;
-};
-
 }  // namespace paths_io
 
 struct Paths::Served {
@@ -190,7 +153,7 @@ struct Paths::Path {
   uv_poll_t* poll = nullptr;
   uv_poll_t* event_poll = nullptr;
   std::unique_ptr<flow::shm::RingReader> reader;  // kept in place while a callback reads
-  paths_io::InBuffer in;
+  InBuffer in;
   bool open = false;           // WELCOME came
   Nanos connecting_until = 0;  // a TCP connect in progress (HELLO waits in `hello`) until then
   std::string hello;

@@ -4,8 +4,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstring>
 
+#include "in_buffer.h"
 #include "posix_socket.h"
 
 namespace skr::sat {
@@ -27,10 +27,7 @@ SyncClient::SyncClient(SyncClient&& o) noexcept
       options_(std::move(o.options_)),
       login_(std::move(o.login_)),
       last_error_(o.last_error_),
-      rbuf_(std::move(o.rbuf_)),
-      rcap_(o.rcap_),
-      rpos_(o.rpos_),
-      rend_(o.rend_) {
+      in_(std::move(o.in_)) {
   o.fd_ = -1;
 }
 
@@ -43,10 +40,7 @@ SyncClient& SyncClient::operator=(SyncClient&& o) noexcept {
     options_ = std::move(o.options_);
     login_ = std::move(o.login_);
     last_error_ = o.last_error_;
-    rbuf_ = std::move(o.rbuf_);
-    rcap_ = o.rcap_;
-    rpos_ = o.rpos_;
-    rend_ = o.rend_;
+    in_ = std::move(o.in_);
   }
   return *this;
 }
@@ -56,8 +50,7 @@ void SyncClient::close() noexcept {
   tls_.reset();
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
-  rbuf_.reset();
-  rcap_ = rpos_ = rend_ = 0;
+  in_.reset();
 }
 
 Error SyncClient::fail(Errc code, std::string message) {
@@ -121,13 +114,14 @@ Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
 
 Result<SyncClient::ReplyView> SyncClient::receiveView(uint32_t timeout_ms) {
   if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
+  if (!in_) in_ = std::make_unique<detail::InBuffer>();
   last_error_ = ErrorCode::ok;
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {
-    const auto n =
-        splitter.next(reinterpret_cast<const uint8_t*>(rbuf_.get()) + rpos_, rend_ - rpos_);
+    const std::string_view have = in_->view();
+    const auto n = splitter.next(reinterpret_cast<const uint8_t*>(have.data()), have.size());
     if (n.status == flow::FrameSplitter::Status::frame) {
-      rpos_ += n.consumed;  // the view stays valid: bytes move only in the next receive
+      in_->consume(n.consumed);  // the view stays valid: bytes move only in the next receive
       const ReplyView reply{n.code, n.body};
       if (reply.code == static_cast<uint8_t>(Code::reply_error)) {
         auto e = flow::decode<msg::ReplyError>(reply.body);
@@ -145,28 +139,12 @@ Result<SyncClient::ReplyView> SyncClient::receiveView(uint32_t timeout_ms) {
       return fail(Errc::protocol_error,
                   "bad frame length " + std::to_string(n.announced) + " from the hub");
     }
-    // Room for the rest of the frame (its length was checked), read into without a copy; the
-    // unparsed bytes move down first, and the buffer grows without being cleared.
+    // Room for the rest of the frame (its length was checked), read into without a copy.
     constexpr size_t kReadChunk = 64 << 10;
-    const size_t have = rend_ - rpos_;
-    if (have == 0) rpos_ = rend_ = 0;
-    const size_t want = std::max(kReadChunk, n.wanted > have ? n.wanted - have : 0);
-    if (rcap_ - rend_ < want) {
-      if (have > 0 && rpos_ > 0) std::memmove(rbuf_.get(), rbuf_.get() + rpos_, have);
-      rpos_ = 0;
-      rend_ = have;
-      if (rcap_ - rend_ < want) {
-        const size_t cap = rend_ + want;
-        auto bigger = std::make_unique_for_overwrite<char[]>(cap);
-        if (have > 0) std::memcpy(bigger.get(), rbuf_.get(), have);
-        rbuf_ = std::move(bigger);
-        rcap_ = cap;
-      }
-    }
-    auto r = detail::readSome(fd_, tls_ ? &*tls_ : nullptr, rbuf_.get() + rend_, rcap_ - rend_,
-                              timeout_ms);
+    const size_t room = std::max(kReadChunk, n.wanted > have.size() ? n.wanted - have.size() : 0);
+    auto r = detail::readSome(fd_, tls_ ? &*tls_ : nullptr, in_->tail(room), room, timeout_ms);
     if (!r) return fail(r.error().code, r.error().message);
-    rend_ += *r;
+    in_->commit(*r);
   }
 }
 

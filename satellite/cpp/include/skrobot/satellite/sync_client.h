@@ -26,6 +26,10 @@
 
 namespace skr::sat {
 
+namespace detail {
+class InBuffer;
+}  // namespace detail
+
 using ChannelInfo = flow::msg::ChannelInfo;
 using LoginInfo = flow::msg::LoginOk;
 
@@ -189,9 +193,7 @@ class SyncClient {
   ConnectOptions options_;
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
-  // Bytes from the hub: [rpos_, rend_) of rbuf_ (rcap_ bytes) are not parsed yet.
-  std::unique_ptr<char[]> rbuf_;
-  size_t rcap_ = 0, rpos_ = 0, rend_ = 0;
+  std::unique_ptr<detail::InBuffer> in_;  // bytes from the hub not parsed yet
 };
 
 template <class M>

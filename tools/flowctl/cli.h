@@ -14,13 +14,14 @@ namespace flowctl {
 // Exit codes, stable for scripts (documented in `flowctl --help` and docs/cpp-satellites.md).
 enum Exit : int {
   kOk = 0,
-  kFailed = 1,        // the hub refused the command, or it failed otherwise
-  kUsage = 2,         // bad command line
-  kNoHub = 3,         // nobody listens at the address (or the hub went away)
-  kLoginRefused = 4,  // wrong user name or password
-  kNotFound = 5,      // no such channel, variable or database
-  kTimeout = 6,       // a service call was not answered in time
-  kDenied = 7,        // not allowed (someone else's channel or database)
+  kFailed = 1,           // the hub refused the command, or it failed otherwise
+  kUsage = 2,            // bad command line
+  kNoHub = 3,            // nobody listens at the address (or the hub went away)
+  kLoginRefused = 4,     // wrong user name or password
+  kNotFound = 5,         // no such channel, variable or database
+  kTimeout = 6,          // a service call was not answered in time
+  kDenied = 7,           // not allowed (someone else's channel or database)
+  kAnsweredFailure = 8,  // call: the service answered that it failed ({"ok": false} or {"error"})
 };
 
 struct Cli {

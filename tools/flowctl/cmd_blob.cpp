@@ -133,13 +133,22 @@ int cmdBlob(const Cli& cli) {
   }
   if (verb == "put") {
     ProgressBar bar("put " + rest[3]);
-    auto version = sync->blobPutFile(ch->id, rest[2], rest[3], std::ref(bar));
+    uint64_t size = 0;  // what was stored: the upload's size, as the last progress call says
+    auto version = sync->blobPutFile(ch->id, rest[2], rest[3], [&](uint64_t done, uint64_t total) {
+      size = total;
+      bar(done, total);
+    });
     if (!version) return failed(version.error());
     if (cli.json) {
-      std::printf("%s\n",
-                  skr::flow::variantToJsonText(
-                      Variant::Map{{"channel", ch->name}, {"path", rest[3]}, {"version", *version}})
-                      .c_str());
+      std::printf("%s\n", skr::flow::variantToJsonText(Variant::Map{{"channel", ch->name},
+                                                                    {"path", rest[3]},
+                                                                    {"size", size},
+                                                                    {"version", *version}})
+                              .c_str());
+    } else {
+      std::printf("stored %s as %s:%s, %llu bytes, version %llu\n", rest[2].c_str(),
+                  ch->name.c_str(), rest[3].c_str(), static_cast<unsigned long long>(size),
+                  static_cast<unsigned long long>(*version));
     }
     return kOk;
   }

@@ -230,6 +230,23 @@ int cmdPlay(const Cli& cli) {
   if (played.empty()) return fail(kNotFound, "no channel of " + rest[0] + " to play");
 
   Session s(cli, skr::kNsPerMs);
+  // A channel of that name exists: someone else publishes it (or an earlier play still runs).
+  s.explain = [&](const sat::FlowError& e) {
+    std::string why = e.message;
+    if (static_cast<skr::flow::ErrorCode>(e.error) != skr::flow::ErrorCode::already_exists) {
+      return why;
+    }
+    std::string example = "RECORDED=NAME";
+    for (const auto& [id, p] : played) {
+      if (e.message.find(me + "." + p.short_name + " ") != std::string::npos) {
+        example = p.topic + "=" + p.short_name + "_replay";
+      }
+    }
+    return why +
+           ": another satellite publishes it; play the recording onto another channel with "
+           "--remap " +
+           example + " (flowctl help play)";
+  };
   // Each channel starts with the properties it had when the first message to play was logged.
   for (auto& [id, p] : played) {
     for (const auto& c : changes) {
@@ -368,7 +385,7 @@ int cmdPlay(const Cli& cli) {
                                          {"late_max_ms", static_cast<double>(late_max_ns) / 1e6},
                                          {"channels", std::move(list)}})
                             .c_str());
-  } else {
+  } else if (code == kOk || sent > 0) {
     std::printf("played %llu messages on %zu channels in %.1f s (at worst %.1f ms late)\n",
                 (unsigned long long)sent, played.size(), seconds,
                 static_cast<double>(late_max_ns) / 1e6);

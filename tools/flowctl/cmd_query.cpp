@@ -91,6 +91,25 @@ int cmdLs(const Cli& cli) {
   return kOk;
 }
 
+namespace {
+
+// What an answer says went wrong, if it says so: services answer an object, by convention
+// {"ok": true, ...} or {"ok": false, "error": "..."}, or {"error": "..."} (plugin_channels.hpp).
+std::optional<std::string> failureIn(const Variant& answer) {
+  const auto* map = answer.asMap();
+  if (map == nullptr) return std::nullopt;
+  std::optional<bool> ok;
+  if (auto it = map->find("ok"); it != map->end()) ok = it->second.asBool();
+  const std::string* error = nullptr;
+  if (auto it = map->find("error"); it != map->end()) error = it->second.asString();
+  const bool has_error = map->count("error") > 0;
+  if (ok.value_or(!has_error)) return std::nullopt;
+  if (error != nullptr) return *error;
+  return std::string("the service answered that it failed");
+}
+
+}  // namespace
+
 int cmdCall(const Cli& cli) {
   Args args(cli.args);
   const auto timeout = args.option("--timeout-ms");
@@ -125,6 +144,8 @@ int cmdCall(const Cli& cli) {
                 rest[0] + ": " + answer.error().message);
   }
   std::printf("%s\n", skr::flow::variantToJsonText(*answer).c_str());
+  // The answer is printed either way; a script tells a refusal by the exit code.
+  if (const auto why = failureIn(*answer)) return fail(kAnsweredFailure, rest[0] + ": " + *why);
   return kOk;
 }
 

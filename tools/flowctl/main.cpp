@@ -60,7 +60,8 @@ Global options:
   --json            machine-readable output (one JSON document, or one JSON line per message)
 
 Exit codes: 0 ok, 1 refused or failed, 2 usage, 3 no hub (or hub lost), 4 login refused,
-            5 no such channel/variable/database, 6 timeout, 7 permission denied.
+            5 no such channel/variable/database, 6 timeout, 7 permission denied,
+            8 call: the service answered that it failed ({"ok": false} or {"error": ...}).
 
 Accounts are managed on the hub's machine with `skrobot user add|del|passwd|list`
 (docs/accounts.md). More: docs/cpp-satellites.md, section flowctl.

@@ -4,6 +4,7 @@
 #include <uv.h>
 
 #include <csignal>
+#include <functional>
 #include <string>
 
 #include "cli.h"
@@ -65,7 +66,7 @@ struct Session {
         int exit_code = exitFor({sat::toErrc(code), ""});
         if (code == skr::flow::ErrorCode::auth_failed) exit_code = kLoginRefused;
         if (code == skr::flow::ErrorCode::io_error) exit_code = kNoHub;
-        end(exit_code, e.message);
+        end(exit_code, explain ? explain(e) : e.message);
       }
     });
     loop.addTickHandler(skr::Tick::one_sec, [this] {
@@ -88,6 +89,9 @@ struct Session {
     return code;
   }
 
+  // What a command adds to a refusal that ends it (a hint for the user); the hub's message if
+  // unset.
+  std::function<std::string(const sat::FlowError&)> explain;
   skr::Loop loop;
   sat::Satellite satellite;
   StopOnSignals signals;

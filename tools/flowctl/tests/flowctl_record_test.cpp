@@ -292,6 +292,26 @@ TEST_F(FlowctlRecord, DropsAreCountedAndReported) {
   EXPECT_EQ(summary->statistics->message_count, 0u);
 }
 
+// A recorded channel that someone publishes now: play says which and how to remap it, and does
+// not claim to have played anything.
+TEST_F(FlowctlRecord, PlayOntoAChannelThatExistsSuggestsRemap) {
+  auto pub = publisher();
+  const std::string path = (dir_.path() / "short.mcap").string();
+  auto rec = flowctl({"record", "-o", path, "guest.numbers"});
+  EXPECT_TRUE(eventually([&] { return pub->events.count("start:") >= 1; })) << hubLog();
+  pub->on([](Satellite& x) { ASSERT_TRUE(x.publish("numbers", number(1))); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  rec->signal(SIGINT);
+  ASSERT_EQ(rec->wait(), 0) << rec->output();
+  auto play = flowctl({"play", path, "--wait-ms", "100"});  // guest.numbers still has its owner
+  EXPECT_NE(play->wait(), 0) << play->output();
+  EXPECT_NE(play->output().find("channel guest.numbers exists"), std::string::npos)
+      << play->output();
+  EXPECT_NE(play->output().find("--remap guest.numbers=numbers_replay"), std::string::npos)
+      << play->output();
+  EXPECT_EQ(play->output().find("played 0 messages"), std::string::npos) << play->output();
+}
+
 TEST_F(FlowctlRecord, UsageErrors) {
   EXPECT_EQ(flowctl({"record", "guest.x"})->wait(), 2);       // no -o
   EXPECT_EQ(flowctl({"record", "-o", "x.mcap"})->wait(), 2);  // no channel

@@ -355,6 +355,31 @@ TEST_F(Flowctl, CallsServices) {
   EXPECT_EQ(flowctl({"call", "guest.counter", "add", "[1]"}).code, 1);
 }
 
+// An answer that says the call failed is printed, and the exit code says so (8).
+TEST_F(Flowctl, CallExitsNonZeroWhenTheAnswerSaysItFailed) {
+  auto s = satellite("refuser");
+  s->on([](Satellite& x) {
+    ASSERT_TRUE(x.addChannel({.name = "arm", .kind = flow::ChannelKind::service}));
+    x.serviceRequest.connect(&x, [&x](const Request& r) {
+      if (r.command == "ok") (void)x.respond(r, Variant::Map{{"ok", true}});
+      if (r.command == "no") (void)x.respond(r, Variant::Map{{"ok", false}, {"error", "stalled"}});
+      if (r.command == "bad") (void)x.respond(r, Variant::Map{{"error", "unknown command"}});
+      if (r.command == "bare") (void)x.respond(r, Variant::Map{{"ok", false}});
+    });
+  });
+  ASSERT_TRUE(eventually([&] { return s->events.count("ready:") == 1; }));
+  auto ok = flowctl({"call", "guest.arm", "ok"});
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  auto no = flowctl({"call", "guest.arm", "no"});
+  EXPECT_EQ(no.code, 8) << no.out;
+  EXPECT_TRUE(has(no, "{\"error\":\"stalled\",\"ok\":false}\n")) << no.out;
+  EXPECT_TRUE(has(no, "flowctl: guest.arm: stalled")) << no.out;
+  auto bad = flowctl({"call", "guest.arm", "bad"});
+  EXPECT_EQ(bad.code, 8) << bad.out;
+  EXPECT_TRUE(has(bad, "unknown command")) << bad.out;
+  EXPECT_EQ(flowctl({"call", "guest.arm", "bare"}).code, 8);
+}
+
 TEST_F(Flowctl, Databases) {
   EXPECT_EQ(flowctl({"db", "set", "speed", "1.5"}).code, 0);
   EXPECT_EQ(flowctl({"db", "set", "name", "\"nao\""}).code, 0);
@@ -381,6 +406,19 @@ TEST_F(Flowctl, BlobFiles) {
   // put creates the caller's blob channel; ls, get, mkdir, rmdir and rm work on it.
   auto put = flowctl({"blob", "put", "maps", local.string(), "floor1/map.pgm"});
   ASSERT_EQ(put.code, 0) << put.out;
+  // What was stored, with the version the channel lists for it (a version is an opaque number).
+  const std::string said =
+      "stored " + local.string() + " as guest.maps:floor1/map.pgm, 300000 bytes, version ";
+  ASSERT_EQ(put.out.substr(0, said.size()), said) << put.out;
+  auto listed = flowctl({"--json", "blob", "ls", "maps", "floor1"});
+  EXPECT_TRUE(has(
+      listed, "\"version\":" + put.out.substr(said.size(), put.out.size() - said.size() - 1) + "}"))
+      << put.out << listed.out;
+  auto again = flowctl({"--json", "blob", "put", "maps", local.string(), "floor1/map.pgm"});
+  EXPECT_TRUE(has(again,
+                  "{\"channel\":\"guest.maps\",\"path\":\"floor1/map.pgm\",\"size\":300000,"
+                  "\"version\":"))
+      << again.out;
   EXPECT_TRUE(has(flowctl({"ls"}), "guest.maps"));
   auto ls = flowctl({"blob", "ls", "guest.maps"});
   EXPECT_TRUE(has(ls, "floor1/")) << ls.out;

@@ -81,6 +81,10 @@ int checkConfig(const skr::HubConfig& cfg) {
                 cfg.server.tls->cert_file.c_str(),
                 tls->requiresPeerCertificate() ? "required" : "not asked for");
   }
+  // Secrets the hub will read at start from its own environment (a link's password_env).
+  for (const auto& n : cfg.notes) {
+    std::printf("  %-20s needed  %s: %s\n", "environment", n.path.c_str(), n.reason.c_str());
+  }
   int problems = 0;
   const auto search = skr::moduleSearchPath(cfg.module_paths);
   size_t enabled = 0;
@@ -324,7 +328,8 @@ int main(int argc, char** argv) {
   if (!opt.describe.empty() && !config_given && !fs::exists(opt.config)) {
     return describeModule(opt.describe, {});
   }
-  auto cfg = skr::loadHubConfig(opt.config);
+  auto cfg = skr::loadHubConfig(opt.config,
+                                opt.check ? skr::ConfigPurpose::check : skr::ConfigPurpose::start);
   if (!cfg) {
     std::fprintf(stderr, "skrobot: config error\n%s\n", cfg.error().message.c_str());
     return kExitConfig;

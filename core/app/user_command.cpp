@@ -78,7 +78,7 @@ skr::Result<fs::path> defaultUsersFile(const std::optional<fs::path>& config) {
     return fs::path(v);
   }
   const fs::path file = config ? *config : skr::defaultConfigFile();
-  auto cfg = skr::loadHubConfig(file);
+  auto cfg = skr::loadHubConfig(file, skr::ConfigPurpose::check);  // no link secrets needed
   if (!cfg) {
     return skr::makeError(cfg.error().code, "no users file: the config " + file.string() +
                                                 " cannot be read (use --users FILE or --config "

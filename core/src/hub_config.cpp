@@ -320,8 +320,8 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
   }
 }
 
-Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
-                        const fs::path& base_dir) {
+Result<HubConfig> build(const Json::Value& doc, const std::string& origin, const fs::path& base_dir,
+                        ConfigPurpose purpose) {
   const s::Schema schema = hubSchema();
   s::Problems problems = s::validate(doc, schema);
   HubConfig cfg;
@@ -342,7 +342,7 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin,
     readModules(d["modules"], base_dir, cfg, problems);
     if (d["sync"].isObject()) cfg.sync_hub_source = d["sync"]["hub_source"].asString();
     readServer(d, base_dir, cfg);
-    readLinks(d, base_dir, cfg, problems);
+    readLinks(d, base_dir, purpose, cfg, problems);
     if (cfg.server.tls && !cfg.server.tcp_enabled) {
       problems.push_back({"$.server.tls", "TLS is served on the TCP listener: set \"tcp\": true"});
     }
@@ -394,19 +394,19 @@ s::Schema hubSchema() {
 }
 
 Result<HubConfig> parseHubConfig(std::string_view text, const std::string& origin,
-                                 const fs::path& base_dir) {
+                                 const fs::path& base_dir, ConfigPurpose purpose) {
   try {
     Result<Json::Value> doc = parseJson(text, origin);
     if (!doc) return doc.error();
     std::error_code ec;
     const fs::path dir = fs::absolute(base_dir, ec);
-    return build(*doc, origin, ec ? base_dir : dir);
+    return build(*doc, origin, ec ? base_dir : dir, purpose);
   } catch (const std::exception& e) {  // a bug here must not take the hub down with it
     return makeError(Errc::exception, origin + ": " + e.what());
   }
 }
 
-Result<HubConfig> loadHubConfig(const fs::path& file) {
+Result<HubConfig> loadHubConfig(const fs::path& file, ConfigPurpose purpose) {
   const std::string origin = file.string();
   std::error_code ec;
   if (!fs::exists(file, ec)) return makeError(Errc::not_found, origin + ": no such file");
@@ -415,7 +415,7 @@ Result<HubConfig> loadHubConfig(const fs::path& file) {
   const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   if (!in.is_open() || in.bad()) return makeError(Errc::io_error, origin + ": cannot read");
   const fs::path absolute = fs::absolute(file, ec).lexically_normal();
-  Result<HubConfig> cfg = parseHubConfig(text, origin, absolute.parent_path());
+  Result<HubConfig> cfg = parseHubConfig(text, origin, absolute.parent_path(), purpose);
   if (cfg) cfg->config_file = absolute;
   return cfg;
 }

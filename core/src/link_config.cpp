@@ -29,7 +29,7 @@ bool loopbackHost(const std::string& host) {
 // The password of a link: the first line of its file (readable by its owner only), or an
 // environment variable; never the config itself.
 std::string readPassword(const Json::Value& l, const fs::path& base_dir, const std::string& path,
-                         s::Problems& out) {
+                         ConfigPurpose purpose, HubConfig& cfg, s::Problems& out) {
   const bool file = l.isMember("password_file");
   const bool env = l.isMember("password_env");
   if (file == env) {
@@ -40,7 +40,13 @@ std::string readPassword(const Json::Value& l, const fs::path& base_dir, const s
     const std::string var = l["password_env"].asString();
     const char* value = std::getenv(var.c_str());
     if (value == nullptr || *value == '\0') {
-      out.push_back({s::childPath(path, "password_env"), "the variable " + var + " is not set"});
+      if (purpose == ConfigPurpose::check) {
+        cfg.notes.push_back({s::childPath(path, "password_env"),
+                             "the variable " + var +
+                                 " is not set here: the hub's environment must set it at start"});
+      } else {
+        out.push_back({s::childPath(path, "password_env"), "the variable " + var + " is not set"});
+      }
       return {};
     }
     return value;
@@ -99,8 +105,8 @@ s::Schema linksSchema() {
   }));
 }
 
-void readLinks(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg,
-               s::Problems& problems) {
+void readLinks(const Json::Value& d, const fs::path& base_dir, ConfigPurpose purpose,
+               HubConfig& cfg, s::Problems& problems) {
   if (d["hub_name"].isString()) cfg.hub_name = d["hub_name"].asString();
   if (d["link_hops"].isUInt()) cfg.link_hops = d["link_hops"].asUInt();
   for (Json::ArrayIndex i = 0; d["replicas"].isArray() && i < d["replicas"].size(); ++i) {
@@ -145,7 +151,7 @@ void readLinks(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg,
       o.tls.cert_file = file("cert_file");
       o.tls.key_file = file("key_file");
     }
-    o.password = readPassword(l, base_dir, path, problems);
+    o.password = readPassword(l, base_dir, path, purpose, cfg, problems);
     cfg.links.push_back(std::move(o));
   }
 }

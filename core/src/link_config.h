@@ -16,7 +16,8 @@ namespace skr {
 [[nodiscard]] schema::Schema replicasSchema();
 // Fills cfg.hub_name and cfg.links from the document (defaults filled in), reading each link's
 // password from its file or environment variable; what is wrong goes to `problems` with its path.
-void readLinks(const Json::Value& doc, const std::filesystem::path& base_dir, HubConfig& cfg,
-               schema::Problems& problems);
+// For a check, a variable that is not set goes to cfg.notes instead.
+void readLinks(const Json::Value& doc, const std::filesystem::path& base_dir, ConfigPurpose purpose,
+               HubConfig& cfg, schema::Problems& problems);
 
 }  // namespace skr

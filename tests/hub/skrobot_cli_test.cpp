@@ -163,6 +163,29 @@ TEST(SkrobotCli, CheckConfigReportsModuleConfigErrorsWithTheirPaths) {
   EXPECT_EQ(r.output.find("CONFIG-KEYS-INIT"), std::string::npos) << r.output;
 }
 
+// A link's password variable is the hub's environment's business: a check in another shell says
+// it will be needed; a start without it is refused with the path and the variable.
+TEST(SkrobotCli, CheckConfigNotesAnUnsetPasswordVariableWhereAStartRefusesIt) {
+  TempDir dir;
+  ::unsetenv("SKROBOT_TEST_UNSET_LINK_PW");
+  auto cfg = dir.write("cfg.json", R"({"app_name": "cli-link-)" + std::to_string(::getpid()) +
+                                       R"(", "hub_name": "here", "links": [{"name": "base",
+      "address": "local:/tmp/nowhere", "user": "guest",
+      "password_env": "SKROBOT_TEST_UNSET_LINK_PW"}]})");
+  auto check = run({"--config", cfg.string(), "--check-config"});
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  EXPECT_NE(check.output.find("$.links[0].password_env: the variable SKROBOT_TEST_UNSET_LINK_PW is "
+                              "not set here: the hub's environment must set it at start"),
+            std::string::npos)
+      << check.output;
+  auto start = run({"--config", cfg.string()});
+  EXPECT_NE(start.exit_code, 0) << start.output;
+  EXPECT_NE(start.output.find("$.links[0].password_env: the variable SKROBOT_TEST_UNSET_LINK_PW is "
+                              "not set"),
+            std::string::npos)
+      << start.output;
+}
+
 // audio-io in a process of its own: refused before init, it is unloaded, and libjack (under
 // PortAudio) leaves its static allocations behind, which LeakSanitizer would blame on a test
 // process that loads it in-process (tests/audio/audio_config_test.cpp).

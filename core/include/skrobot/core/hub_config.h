@@ -60,6 +60,11 @@ struct ServerConfig {
   std::optional<std::pair<std::string, std::string>> dev_account;  // user, password
 };
 
+// What a config is loaded for. A start reads every secret it names (a link's password from its
+// variable); a check (--check-config, `skrobot user`) runs in another shell than the hub's, so a
+// variable it lacks is noted (HubConfig::notes), not refused.
+enum class ConfigPurpose { start, check };
+
 struct HubConfig {
   std::string app_name = "Robot";
   log::Level log_level = log::Level::info;
@@ -76,6 +81,8 @@ struct HubConfig {
   std::string sync_hub_source;  // "sync.hub_source": the hub pulses hub.<name> on its fast tick
   std::filesystem::path config_file;  // absolute path of the file loaded
   Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections
+  // ConfigPurpose::check only: what the hub will need at start that this shell lacks.
+  schema::Problems notes;
 };
 
 // Loads and validates a config file. On failure the error message lists every problem found,
@@ -83,12 +90,14 @@ struct HubConfig {
 // JSON syntax errors). Relative paths in the file are resolved against its directory.
 // The error code is Errc::config_error for a bad document, Errc::not_found or Errc::io_error
 // when the file cannot be read.
-[[nodiscard]] Result<HubConfig> loadHubConfig(const std::filesystem::path& file);
+[[nodiscard]] Result<HubConfig> loadHubConfig(const std::filesystem::path& file,
+                                              ConfigPurpose purpose = ConfigPurpose::start);
 
 // The same, from text already in memory; `origin` names it in messages and `base_dir` resolves
 // relative paths.
 [[nodiscard]] Result<HubConfig> parseHubConfig(std::string_view text, const std::string& origin,
-                                               const std::filesystem::path& base_dir);
+                                               const std::filesystem::path& base_dir,
+                                               ConfigPurpose purpose = ConfigPurpose::start);
 
 // The schema of the whole document; adding a top-level section is one line in its definition.
 // docs/config.md describes every key.

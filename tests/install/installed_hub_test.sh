@@ -19,6 +19,11 @@ if [[ ${INSIDE_NAMESPACE:-} != 1 ]]; then
   for f in etc lib/systemd; do
     if [[ -e $tmp/prefix/$f ]]; then echo "FAIL: a plain install wrote $f"; exit 1; fi
   done
+  # docs/cpp-satellites.md names the directory the libraries are installed in.
+  lib=$(find "$tmp/prefix" -name 'libskrobot-satellite.so*' -printf '%h\n' | head -1)
+  lib=${lib#"$tmp/prefix/"}
+  grep -q "<prefix>/$lib\`" "$src/docs/cpp-satellites.md" ||
+    { echo "FAIL: docs/cpp-satellites.md does not say the libraries go to <prefix>/$lib"; exit 1; }
   cp "$src/satellite/examples/python/publisher.py" "$tmp/"
   if [[ $(id -u) -eq 0 ]]; then ns=(unshare --mount --net); else ns=(unshare --map-root-user --mount --net); fi
   exec "${ns[@]}" env INSIDE_NAMESPACE=1 TMP="$tmp" bash "$0" "$@"

@@ -1,6 +1,7 @@
 // The qi codec (signatures, values, message framing) and a full client session against
-// QiTestServer: authentication, service look-up, metaObject, calls with arguments and their
-// replies, an error reply, oversized and malformed messages, and a dropped connection.
+// QiTestServer: authentication on every connection, service look-up, metaObject, calls with
+// arguments and their replies, services of a second session at its own endpoint, an error reply,
+// oversized and malformed messages, a dropped connection and a lost second session.
 #include "qi_client.h"
 #include "qi_test_server.h"
 
@@ -248,9 +249,13 @@ TEST_F(QiSession, OversizedAndMalformedRepliesCloseTheConnection) {
   ASSERT_FALSE(r);
   EXPECT_EQ(r.error().code, Errc::closed);
   EXPECT_NE(r.error().message.find("exceeds the limit"), std::string::npos);
-  EXPECT_FALSE(client_.connected());
+  // It came over the second session's connection: only that one is closed, with its services.
+  EXPECT_TRUE(client_.connected());
+  EXPECT_EQ(client_.connections(), 1u);
+  EXPECT_EQ(client_.takeLost().count("ALTextToSpeech"), 1u);
 
-  // A reply whose payload does not match the method's signature also closes it.
+  // A reply whose payload does not match the method's signature also closes its connection,
+  // here the directory's: all of them.
   ASSERT_TRUE(client_.connect(o));
   ASSERT_TRUE(client_.resolve("ALRobotPosture"));
   server_.corruptNextReply();
@@ -306,12 +311,21 @@ TEST_F(QiSession, RepliesNotReadToTheEndAreRefused) {
   EXPECT_EQ(used, 5u);
 }
 
-TEST_F(QiSession, ServicesInAnotherProcessAreCalledAtTheirOwnEndpoint) {
+// ALTextToSpeech and ALLeds are hosted by a second session with its own endpoint: another
+// process, or (as in the libqi 4.0.5 server this was tried against) a second session of the
+// directory's own process, whose look-ups then name the same process as the directory's. Either
+// way their calls must go to their own endpoint: the directory's server does not host them and
+// answers "The call request could not be handled.".
+class QiSecondSession : public QiSession, public ::testing::WithParamInterface<std::uint32_t> {};
+
+TEST_P(QiSecondSession, ServicesOfASecondSessionAreCalledAtItsOwnEndpoint) {
+  server_.setSideProcessId(GetParam());
   ASSERT_TRUE(client_.connect(options()));
   auto info = client_.serviceInfo("ALLeds");
   ASSERT_TRUE(info) << info.error().message;
   ASSERT_EQ(info->endpoints.size(), 1u);
   EXPECT_EQ(info->endpoints[0], "tcp://127.0.0.1:" + std::to_string(server_.sidePort()));
+  EXPECT_EQ(info->process_id, GetParam());
 
   auto ok =
       client_.callSync("ALLeds", "fadeRGB",
@@ -325,18 +339,86 @@ TEST_F(QiSession, ServicesInAnotherProcessAreCalledAtTheirOwnEndpoint) {
   EXPECT_EQ(calls[0].endpoint, 1);
   EXPECT_EQ(calls[1].endpoint, 1);
   EXPECT_EQ(calls[2].endpoint, 0);
-  // One connection to the other process, shared by its two services, authenticated too.
+  // One connection to the second session, shared by its two services, authenticated too.
   EXPECT_EQ(client_.connections(), 2u);
   EXPECT_EQ(server_.sideConnections(), 1);
   EXPECT_EQ(server_.authentications(), 2);
+  EXPECT_EQ(server_.refusedUnauthenticated(), 0);
   EXPECT_EQ(client_.endpointOf("ALLeds"), "127.0.0.1:" + std::to_string(server_.sidePort()));
   EXPECT_EQ(client_.endpointOf("ALMotion"), "127.0.0.1:" + std::to_string(server_.port()));
 
-  // Losing the other endpoint closes everything, like losing the robot.
+  // Losing every connection (the robot went away) closes the client.
   server_.dropConnection();
   for (int i = 0; i < 100 && client_.connected(); ++i) (void)client_.pump(20);
   EXPECT_FALSE(client_.connected());
   EXPECT_EQ(client_.connections(), 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(SideSession, QiSecondSession,
+                         ::testing::Values(43u, test::kDirectoryProcess),
+                         [](const ::testing::TestParamInfo<std::uint32_t>& p) {
+                           return p.param == test::kDirectoryProcess
+                                      ? std::string("InTheDirectorysProcess")
+                                      : std::string("InAnotherProcess");
+                         });
+
+// The test server stands in for libqi 4.0.5 here: each connection, on each endpoint, must make
+// the capability exchange before anything else.
+TEST_F(QiSession, EveryEndpointRefusesCallsBeforeTheCapabilityExchange) {
+  for (const std::uint16_t port : {server_.port(), server_.sidePort()}) {
+    const std::uint32_t service = port == server_.port() ? 11 : 14;  // ALMotion, ALLeds
+    ClientOptions o = options();
+    o.port = port;
+    o.authenticate = false;
+    QiClient bare;
+    ASSERT_TRUE(bare.connect(o));
+    auto meta = bare.metaObject(service, kMainObject);
+    ASSERT_FALSE(meta) << port;
+    EXPECT_EQ(meta.error().message, "The call request could not be handled.");
+    o.authenticate = true;
+    QiClient authenticated;
+    ASSERT_TRUE(authenticated.connect(o));
+    meta = authenticated.metaObject(service, kMainObject);
+    EXPECT_TRUE(meta) << port << ": " << meta.error().message;
+  }
+  EXPECT_EQ(server_.authentications(), 2);
+}
+
+// The second session's process goes away while the robot stays: only its services are lost,
+// and they are reached again, over a new authenticated connection, once it is back.
+TEST_F(QiSession, LosingAnotherEndpointLosesOnlyItsServices) {
+  ASSERT_TRUE(client_.connect(options()));
+  ASSERT_TRUE(client_.callSync(
+      "ALLeds", "fadeRGB", {Value::string("FaceLeds"), Value::integer(1), Value::real(0)}, 2000));
+  ASSERT_TRUE(client_.resolve("ALTextToSpeech"));
+  ASSERT_TRUE(client_.resolve("ALMotion"));
+  ASSERT_EQ(client_.connections(), 2u);
+
+  server_.setAccepting(false, 1);
+  server_.dropConnection(1);
+  std::map<std::string, std::string> lost;
+  for (int i = 0; i < 100 && lost.size() < 2; ++i) {
+    ASSERT_TRUE(client_.pump(20));
+    lost.merge(client_.takeLost());
+  }
+  ASSERT_EQ(lost.size(), 2u);
+  EXPECT_NE(lost["ALLeds"].find(std::to_string(server_.sidePort())), std::string::npos)
+      << lost["ALLeds"];
+  EXPECT_TRUE(lost.count("ALTextToSpeech"));
+  EXPECT_TRUE(client_.connected());
+  EXPECT_EQ(client_.connections(), 1u);
+  EXPECT_EQ(client_.endpointOf("ALLeds"), "");
+  EXPECT_TRUE(client_.callSync("ALMotion", "stopMove", {}, 2000));
+  EXPECT_FALSE(client_.resolve("ALLeds"));  // its endpoint closes every new connection
+  EXPECT_TRUE(client_.connected());
+
+  server_.setAccepting(true, 1);
+  auto ok = client_.callSync("ALLeds", "fadeRGB",
+                             {Value::string("FaceLeds"), Value::integer(2), Value::real(0)}, 2000);
+  ASSERT_TRUE(ok) << ok.error().message;
+  EXPECT_EQ(client_.connections(), 2u);
+  EXPECT_EQ(server_.authentications(), 3);
+  EXPECT_EQ(server_.refusedUnauthenticated(), 0);
 }
 
 TEST_F(QiSession, WithoutTheCapabilityMapNaoqi25RefusesEveryCall) {

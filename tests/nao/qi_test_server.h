@@ -1,10 +1,17 @@
 // A qi endpoint for tests, written from the same protocol description as the client and from
-// what a server built on libqi 4.0.5 did (NAOqi 2.5 and later):
-// - every call before the capability/authenticate exchange is refused with an error reply;
+// what a server built on libqi 4.0.5 did (NAOqi 2.5 and later; libqi's src/messaging/server.cpp
+// and tcpmessagesocket.hpp at that release):
+// - on every connection of every endpoint, each call before the capability/authenticate
+//   exchange is refused with "The call request could not be handled." (libqi binds a socket to
+//   its server's objects only once it is authenticated);
 // - ServiceDirectory.service answers with seven fields (libqi 4 adds the object uid), or six
 //   (setSixFieldLookups, as older NAOqi);
-// - ALTextToSpeech and ALLeds live "in another process": on a second listening socket, which
-//   their look-up names as their only endpoint, and which alone answers their calls.
+// - ALTextToSpeech and ALLeds live in a second session: on a second listening socket, which
+//   their look-up names as their only endpoint, and which alone answers their calls (a call to
+//   a service that a socket's server does not host gets the same refusal). That session is
+//   another process by default, or a second session of the directory's own process
+//   (setSideProcessId(kDirectoryProcess)): then the look-ups name the same process for all
+//   services, only the endpoints tell them apart.
 // It fakes ALTextToSpeech, ALMotion, ALRobotPosture, ALMemory and ALLeds and records every call
 // (service, method, arguments, endpoint) so tests can assert on them. One thread, any number of
 // clients, 127.0.0.1 on free ports.
@@ -36,6 +43,9 @@ struct RecordedCall {
   qi::Value args;    // the decoded argument tuple
   int endpoint = 0;  // 0: the main endpoint (port()), 1: the other one (sidePort())
 };
+
+constexpr int kAllEndpoints = -1;
+constexpr std::uint32_t kDirectoryProcess = 42;  // the process id of the directory's session
 
 class QiTestServer {
  public:
@@ -70,21 +80,33 @@ class QiTestServer {
   [[nodiscard]] int connections() const { return connections_; }
   // Connections accepted on the side endpoint.
   [[nodiscard]] int sideConnections() const { return side_connections_; }
-  // Closes every connection (the robot "goes away") and returns once they are closed.
-  void dropConnection() {
-    drop_ = true;
-    while (drop_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  // Closes every connection (the robot "goes away"), or those of one endpoint (0 or 1), and
+  // returns once they are closed.
+  void dropConnection(int endpoint = kAllEndpoints) {
+    drop_ = endpoint;
+    while (drop_ != kNoDrop) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  // While off, new connections are accepted and closed at once.
-  void setAccepting(bool on) { accepting_ = on; }
+  // While off, new connections (to every endpoint, or to one) are accepted and closed at once.
+  void setAccepting(bool on, int endpoint = kAllEndpoints) {
+    for (std::size_t i = 0; i < accepting_.size(); ++i) {
+      if (endpoint == kAllEndpoints || endpoint == static_cast<int>(i)) accepting_[i] = on;
+    }
+  }
+  // The process id that look-ups give the second session's services (43 unless set).
+  void setSideProcessId(std::uint32_t pid) { side_pid_ = pid; }
   // Replies carry the dynamic-payload flag and an 'm' payload (MessageFlags capability).
   void setDynamicReplies(bool on) { dynamic_ = on; }
   // Look-ups answer with the six fields of libqi before the object uid.
   void setSixFieldLookups(bool on) { six_fields_ = on; }
-  // Call before the client connects: the directory no longer knows `name`.
+  // The directory no longer knows `name` (its process went away), or knows it again. Calls
+  // over connections already open still reach it.
   void removeService(const std::string& name) {
     std::lock_guard<std::mutex> l(mu_);
     removed_.insert(name);
+  }
+  void restoreService(const std::string& name) {
+    std::lock_guard<std::mutex> l(mu_);
+    removed_.erase(name);
   }
   // The next message sent is this raw byte string instead of a reply.
   void sendRawNext(std::string bytes) {
@@ -109,6 +131,7 @@ class QiTestServer {
   }
 
   static constexpr char kObjectUid[] = "0123456789abcdefghij";  // 20 bytes, as libqi's PtrUid
+  static constexpr char kUnhandled[] = "The call request could not be handled.";
 
  private:
   struct Listener {
@@ -170,10 +193,14 @@ class QiTestServer {
 
   void run() {
     while (!stop_) {
-      if (drop_) {
-        for (auto& c : clients_) ::close(c.fd);
-        clients_.clear();
-        drop_ = false;
+      if (const int drop = drop_; drop != kNoDrop) {
+        for (auto& c : clients_) {
+          if (drop == kAllEndpoints || c.endpoint == drop) ::close(c.fd);
+        }
+        std::erase_if(clients_, [drop](const Client& c) {
+          return drop == kAllEndpoints || c.endpoint == drop;
+        });
+        drop_ = kNoDrop;
       }
       std::vector<pollfd> p;
       for (const auto& l : listeners_) p.push_back({l.fd, POLLIN, 0});
@@ -211,7 +238,7 @@ class QiTestServer {
     const int fd = ::accept4(listeners_[endpoint].fd, nullptr, nullptr, SOCK_CLOEXEC);
     if (fd < 0) return;
     ++(endpoint == 0 ? connections_ : side_connections_);
-    if (!accepting_) {
+    if (!accepting_[static_cast<std::size_t>(endpoint)]) {
       ::close(fd);
       return;
     }
@@ -261,7 +288,7 @@ class QiTestServer {
     }
     if (!c.authenticated) {  // libqi >= 2.5, even without a password
       ++refused_;
-      return error(c, m, "The call request could not be handled");
+      return error(c, m, kUnhandled);
     }
     if (h.service == qi::kServiceDirectory && h.action == qi::kActionService && c.endpoint == 0) {
       return lookup(c, m);
@@ -283,8 +310,8 @@ class QiTestServer {
       }
       return error(c, m, "no action " + std::to_string(h.action));
     }
-    // What libqi's server answers for a service it does not host on this socket.
-    error(c, m, "can't find service, address: " + std::to_string(h.service));
+    // What libqi 4's socket answers for a call that no object bound to it handles.
+    error(c, m, kUnhandled);
   }
 
   void lookup(const Client& c, const qi::Message& m) {
@@ -298,7 +325,7 @@ class QiTestServer {
     std::uint16_t port = listeners_[0].port;
     if (info.name == "ServiceDirectory") {
       info.service_id = qi::kServiceDirectory;
-      info.process_id = 42;
+      info.process_id = kDirectoryProcess;
     } else {
       auto it = services_.find(info.name);
       bool removed = false;
@@ -310,7 +337,7 @@ class QiTestServer {
         return error(c, m, "Cannot find service '" + info.name + "'");
       }
       info.service_id = it->second.id;
-      info.process_id = it->second.endpoint == 0 ? 42 : 43;
+      info.process_id = it->second.endpoint == 0 ? kDirectoryProcess : side_pid_.load();
       port = listeners_[it->second.endpoint].port;
     }
     info.endpoints = {"tcp://127.0.0.1:" + std::to_string(port)};
@@ -348,8 +375,10 @@ class QiTestServer {
   std::vector<Client> clients_;  // the server thread's own
   std::thread thread_;
   std::atomic<bool> stop_{false};
-  std::atomic<bool> drop_{false};
-  std::atomic<bool> accepting_{true};
+  static constexpr int kNoDrop = -2;
+  std::atomic<int> drop_{kNoDrop};
+  std::array<std::atomic<bool>, 2> accepting_{true, true};
+  std::atomic<std::uint32_t> side_pid_{43};
   std::atomic<bool> dynamic_{false};
   std::atomic<bool> six_fields_{false};
   std::atomic<bool> corrupt_{false};

@@ -6,6 +6,7 @@
 #include "sim_robot.h"
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -36,7 +37,8 @@ struct NaoqiOptions {
 
 class NaoqiBackend final : public RobotBackend {
  public:
-  // Every service the bridge calls; connect() looks each one up.
+  // Every service the bridge calls; connect() looks each one up. One that is missing (or whose
+  // connection is lost later) only fails the commands and reads that need it.
   static constexpr const char* kServices[] = {"ALMotion", "ALRobotPosture", "ALTextToSpeech",
                                               "ALMemory", "ALLeds"};
 
@@ -48,8 +50,12 @@ class NaoqiBackend final : public RobotBackend {
   void read(StateKind k, StateDone done) override;
   Result<void> pump(int timeout_ms, int wake_fd) override;
   std::string describe() const override;
+  std::map<std::string, std::string> missing() const override { return missing_; }
+  void retryMissing() override;
 
  private:
+  // "NAOqi service <name> unavailable: <why>" when `service` is missing, else "".
+  [[nodiscard]] std::string unavailable(const std::string& service) const;
   void call(const std::string& service, const std::string& method, std::vector<qi::Value> args,
             Done done, std::function<CommandResult(const qi::Value&)> check = {});
   void readMemory(std::vector<std::string> keys, std::function<std::string(std::vector<double>)> f,
@@ -57,8 +63,9 @@ class NaoqiBackend final : public RobotBackend {
 
   NaoqiOptions opt_;
   qi::QiClient client_;
-  std::string requested_posture_;  // a lying posture asked for is not a fall
-  bool read_failed_ = false;       // a state read timed out: drop the link at the next pump
+  std::map<std::string, std::string> missing_;  // service -> why, while connected
+  std::string requested_posture_;               // a lying posture asked for is not a fall
+  bool read_failed_ = false;  // a state read timed out: drop the link at the next pump
 };
 
 }  // namespace skr::nao

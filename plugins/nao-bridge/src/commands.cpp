@@ -25,6 +25,8 @@ const char* commandErrorCode(CommandError e) noexcept {
       return "not_connected";
     case CommandError::robot_error:
       return "robot_error";
+    case CommandError::service_unavailable:
+      return "service_unavailable";
   }
   return "?";
 }

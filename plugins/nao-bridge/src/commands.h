@@ -22,9 +22,10 @@ enum class CommandError {
   none,
   bad_request,  // not JSON, not an object, a missing or mistyped field
   unknown_command,
-  out_of_range,   // a value outside a joint limit or an allowed range
-  not_connected,  // the robot is not connected (or the connection was lost meanwhile)
-  robot_error,    // the robot refused or failed
+  out_of_range,         // a value outside a joint limit or an allowed range
+  not_connected,        // the robot is not connected (or the connection was lost meanwhile)
+  robot_error,          // the robot refused or failed
+  service_unavailable,  // the robot is connected but lacks the service this command needs
 };
 
 [[nodiscard]] const char* commandErrorCode(CommandError e) noexcept;

@@ -1,6 +1,7 @@
 // nao-bridge: a Nao on the FlowNetwork. See docs/nao.md.
 //   <name>.command   service: JSON commands (commands.h), answered {"ok":true} or an error
-//   <name>.status    streaming: {"connected":..,"backend":..,"error":..,"retry_in_ms":..}
+//   <name>.status    streaming: {"connected":..,"backend":..,"error":..,"retry_in_ms":..,
+//                    "missing":{service: why}}
 //   <name>.joints|sonar|battery|posture|fall   streaming state at configured rates
 //   <name>.results   streaming: outcome of each command read from a configured queue
 // Channel calls happen on the hub's loop thread; robot I/O on the RobotWorker thread, whose
@@ -15,6 +16,7 @@
 
 #include <json/value.h>
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -90,11 +92,11 @@ class NaoBridge final : public plugin::Module {
                                           if (worker_) worker_->setStreaming(k, first);
                                         });
     }
-    status_ = plugin::StreamChannel(host_, "status", "application/json",
-                                    R"({"keys":["connected","backend","error","retry_in_ms"]})",
-                                    [this](bool first) {
-                                      if (first) status_.publish(status_json_);
-                                    });
+    status_ = plugin::StreamChannel(
+        host_, "status", "application/json",
+        R"({"keys":["connected","backend","error","retry_in_ms","missing"]})", [this](bool first) {
+          if (first) status_.publish(status_json_);
+        });
     results_ = plugin::StreamChannel(host_, "results", "application/json",
                                      R"({"keys":["queue","seq","ok","code","error"]})");
     command_ = plugin::ServiceChannel(
@@ -104,18 +106,15 @@ class NaoBridge final : public plugin::Module {
     // The simulator is there at once; a real robot is "connecting" until the worker says so.
     // (The worker thread does not run yet: asking the backend here is safe.)
     const bool ready = backend->connected();
-    setStatus(ready, ready ? backend->describe() : "connecting", 0);
+    setStatus(nao::WorkerStatus{ready, ready ? backend->describe() : "connecting", 0, {}});
 
     worker_ = std::make_unique<nao::RobotWorker>(
         std::move(backend), worker_opt_,
-        nao::WorkerCallbacks{[this](bool c, const std::string& d, int ms) {
-                               host_.post([this, c, d, ms] { setStatus(c, d, ms); });
-                             },
-                             [this](StateKind k, const std::string& j) {
-                               host_.post([this, k, j] {
-                                 state_[static_cast<std::size_t>(k)].publish(j);
-                               });
-                             }});
+        nao::WorkerCallbacks{
+            [this](const nao::WorkerStatus& s) { host_.post([this, s] { setStatus(s); }); },
+            [this](StateKind k, const std::string& j) {
+              host_.post([this, k, j] { state_[static_cast<std::size_t>(k)].publish(j); });
+            }});
     for (StateKind k : nao::kStateKinds) {
       worker_->setStreaming(k, state_[static_cast<std::size_t>(k)].hasSubscribers());
     }
@@ -178,21 +177,38 @@ class NaoBridge final : public plugin::Module {
     return std::make_unique<nao::NaoqiBackend>(o);
   }
 
-  void setStatus(bool connected, const std::string& detail, int retry_in_ms) {
-    if (connected != connected_ || detail != last_detail_) {
-      if (connected) {
-        host_.log.info("NAO-CONNECTED", detail);
-      } else if (detail != "connecting") {
-        host_.log.warn("NAO-DISCONNECTED", detail, "; retrying in ", retry_in_ms, " ms");
+  void setStatus(const nao::WorkerStatus& s) {
+    if (s.connected != connected_ || s.detail != last_detail_) {
+      if (s.connected) {
+        host_.log.info("NAO-CONNECTED", s.detail);
+      } else if (s.detail != "connecting") {
+        host_.log.warn("NAO-DISCONNECTED", s.detail, "; retrying in ", s.retry_in_ms, " ms");
       }
     }
-    connected_ = connected;
-    last_detail_ = detail;
+    // What the connected robot lacks: each service logged when it goes missing and when it is
+    // found again.
+    for (const auto& [service, why] : s.missing) {
+      if (missing_.count(service) == 0) {
+        host_.log.warn("NAO-SERVICE-MISSING", service, ": ", why,
+                       "; its commands answer service_unavailable; looking again in ",
+                       s.retry_in_ms, " ms");
+      }
+    }
+    for (const auto& [service, why] : missing_) {
+      if (s.connected && s.missing.count(service) == 0) {
+        host_.log.info("NAO-SERVICE-FOUND", service);
+      }
+    }
+    connected_ = s.connected;
+    last_detail_ = s.detail;
+    missing_ = s.missing;
     Json::Value v(Json::objectValue);
-    v["connected"] = connected;
+    v["connected"] = s.connected;
     v["backend"] = backend_name_;
-    v["error"] = connected ? "" : detail;
-    v["retry_in_ms"] = retry_in_ms;
+    v["error"] = s.connected ? "" : s.detail;
+    v["retry_in_ms"] = s.retry_in_ms;
+    v["missing"] = Json::Value(Json::objectValue);
+    for (const auto& [service, why] : s.missing) v["missing"][service] = why;
     status_json_ = writeJson(v);
     status_.publish(status_json_);
     plugin::dbSet(host_, std::string(host_.name()), "status", status_json_);
@@ -247,6 +263,7 @@ class NaoBridge final : public plugin::Module {
   std::unique_ptr<nao::RobotWorker> worker_;
   bool connected_ = false;
   std::string last_detail_;
+  std::map<std::string, std::string> missing_;  // as last reported by the worker
   std::string status_json_ = "{}";
   std::uint64_t queue_seq_ = 0;
 };

@@ -5,14 +5,22 @@
 #include <json/value.h>
 
 #include <cstdio>
+#include <iterator>
+#include <optional>
 
 namespace skr::nao {
 namespace {
 
 using qi::Value;
 
-CommandResult fromError(const Error& e) {
+// `robot_up`: the directory's connection is still open, so a lost connection was the
+// service's own (its process went away), not the robot's.
+CommandResult fromError(const Error& e, const std::string& service, bool robot_up) {
   if (e.code == Errc::closed || e.code == Errc::io_error) {
+    if (robot_up) {
+      return CommandResult::failure(CommandError::service_unavailable,
+                                    "NAOqi service " + service + " unavailable: " + e.message);
+    }
     return CommandResult::failure(CommandError::not_connected,
                                   "connection to the robot lost: " + e.message);
   }
@@ -27,35 +35,69 @@ std::string NaoqiBackend::describe() const {
 
 Result<void> NaoqiBackend::connect() {
   read_failed_ = false;
+  missing_.clear();
   auto r = client_.connect(opt_.client);
   if (!r) return r;
-  // Look up every service the bridge uses now, so that a robot without one (or with one that
-  // cannot be reached) is reported at once, not at the first command.
+  // Look up every service the bridge uses now, so that one the robot lacks (or that cannot be
+  // reached) is reported at once, not at the first command. Only losing the directory's
+  // connection meanwhile, or finding none of them (a robot that refuses every look-up, e.g.
+  // NAOqi 2.5+ with "authenticate" off), fails the connection.
+  std::optional<Error> first;
   for (const char* s : kServices) {
     auto found = client_.resolve(s);
-    if (!found) {
-      const std::string why =
-          std::string("NAOqi service ") + s + " unavailable: " + found.error().message;
-      client_.close(why);
-      return makeError(found.error().code, why);
-    }
+    if (found) continue;
+    Error e = makeError(found.error().code, std::string("NAOqi service ") + s +
+                                                " unavailable: " + found.error().message);
+    if (!client_.connected()) return e;
+    if (!first) first = e;
+    missing_[s] = found.error().message;
+  }
+  for (auto& [service, why] : client_.takeLost()) missing_[service] = why;
+  if (missing_.size() == std::size(kServices)) {
+    Error e = first ? *first
+                    : makeError(Errc::closed, "NAOqi service " + missing_.begin()->first +
+                                                  " unavailable: " + missing_.begin()->second);
+    client_.close(e.message);
+    missing_.clear();
+    return e;
   }
   return {};
+}
+
+void NaoqiBackend::retryMissing() {
+  for (auto it = missing_.begin(); it != missing_.end() && client_.connected();) {
+    auto found = client_.resolve(it->first);
+    if (found) {
+      it = missing_.erase(it);
+    } else {
+      it->second = found.error().message;
+      ++it;
+    }
+  }
+  for (auto& [service, why] : client_.takeLost()) missing_[service] = why;
+}
+
+std::string NaoqiBackend::unavailable(const std::string& service) const {
+  auto it = missing_.find(service);
+  return it == missing_.end() ? "" : "NAOqi service " + service + " unavailable: " + it->second;
 }
 
 void NaoqiBackend::call(const std::string& service, const std::string& method,
                         std::vector<Value> args, Done done,
                         std::function<CommandResult(const Value&)> check) {
+  if (std::string why = unavailable(service); !why.empty()) {
+    return done(CommandResult::failure(CommandError::service_unavailable, std::move(why)));
+  }
   auto shared = std::make_shared<Done>(std::move(done));
   auto r = client_.call(service, method, std::move(args), opt_.motion_timeout_ms,
-                        [shared, check](Result<Value> v) {
+                        [this, shared, check, service](Result<Value> v) {
                           if (!v) {
-                            (*shared)(fromError(v.error()));
+                            (*shared)(fromError(v.error(), service, client_.connected()));
                           } else {
                             (*shared)(check ? check(v.value()) : CommandResult::success());
                           }
                         });
-  if (!r) (*shared)(fromError(r.error()));
+  if (!r) (*shared)(fromError(r.error(), service, client_.connected()));
 }
 
 void NaoqiBackend::execute(const Command& c, Done done) {
@@ -111,6 +153,12 @@ void NaoqiBackend::readMemory(std::vector<std::string> keys,
 }
 
 void NaoqiBackend::read(StateKind k, StateDone done) {
+  const char* service = k == StateKind::joints                             ? "ALMotion"
+                        : k == StateKind::sonar || k == StateKind::battery ? "ALMemory"
+                                                                           : "ALRobotPosture";
+  if (std::string why = unavailable(service); !why.empty()) {
+    return done(makeError(Errc::not_found, std::move(why)));
+  }
   auto shared = std::make_shared<StateDone>(std::move(done));
   auto finish = [this, shared](std::function<std::string(const Value&)> f) {
     return [this, shared, f](Result<Value> v) {
@@ -180,7 +228,9 @@ Result<void> NaoqiBackend::pump(int timeout_ms, int wake_fd) {
     client_.close("the robot stopped answering");
     return makeError(Errc::timeout, "the robot stopped answering");
   }
-  return client_.pump(timeout_ms, wake_fd);
+  auto r = client_.pump(timeout_ms, wake_fd);
+  for (auto& [service, why] : client_.takeLost()) missing_[service] = why;
+  return r;
 }
 
 }  // namespace skr::nao

@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <utility>
 
 namespace skr::nao::qi {
 
@@ -14,18 +15,10 @@ QiClient::~QiClient() {
 Result<void> QiClient::connect(const ClientOptions& options) {
   close("reconnecting");
   options_ = options;
-  auto c = QiConnection::dial(Endpoint{options.host, options.port}, options.connect_timeout_ms,
-                              options.max_payload);
-  if (!c) return c.error();
-  links_.push_back(std::make_unique<QiConnection>(std::move(c.value())));
-  if (options.authenticate) {
-    auto r = authenticate(0);
-    if (!r) {
-      close(r.error().message);
-      return r;
-    }
-  }
-  // Which process the directory is in: services of the same one share its connection.
+  auto link = openLink(Endpoint{options.host, options.port});
+  if (!link) return link.error();
+  // The endpoints the directory's server listens on: services that list one of them are served
+  // by that server, over this connection.
   auto sd = serviceInfo("ServiceDirectory");
   if (sd) {
     directory_ = std::move(sd.value());
@@ -37,15 +30,81 @@ Result<void> QiClient::connect(const ClientOptions& options) {
 }
 
 void QiClient::close(const std::string& why) {
-  for (auto& l : links_) l->close();
+  for (auto& l : links_) {
+    if (l) l->close();
+  }
   links_.clear();
   services_.clear();
+  lost_.clear();
   directory_.reset();
   auto pending = std::move(pending_);
   pending_.clear();
   for (auto& [id, p] : pending) {
     if (p.fn) p.fn(makeError(Errc::closed, why));
   }
+}
+
+Result<std::size_t> QiClient::openLink(const Endpoint& to) {
+  auto c = QiConnection::dial(to, options_.connect_timeout_ms, options_.max_payload);
+  if (!c) return c.error();
+  std::size_t link = links_.size();
+  for (std::size_t i = 1; i < links_.size(); ++i) {
+    if (!links_[i]) {
+      link = i;
+      break;
+    }
+  }
+  if (link == links_.size()) links_.emplace_back();
+  links_[link] = std::make_unique<QiConnection>(std::move(c.value()));
+  if (options_.authenticate) {
+    auto r = authenticate(link);
+    if (!r) {
+      dropLink(link, r.error().message);
+      return r.error();
+    }
+  }
+  return link;
+}
+
+void QiClient::dropLink(std::size_t link, const std::string& why) {
+  if (link == 0) {
+    close(why);
+    return;
+  }
+  if (link >= links_.size() || !links_[link]) return;
+  const std::string what = "connection to " + links_[link]->endpoint().text() + " lost: " + why;
+  links_[link]->close();
+  links_[link].reset();
+  for (auto it = services_.begin(); it != services_.end();) {
+    if (it->second.link != link) {
+      ++it;
+      continue;
+    }
+    lost_[it->first] = what;
+    it = services_.erase(it);
+  }
+  std::vector<ReplyFn> fail;
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    if (it->second.link != link) {
+      ++it;
+      continue;
+    }
+    fail.push_back(std::move(it->second.fn));
+    it = pending_.erase(it);
+  }
+  for (ReplyFn& fn : fail) {
+    if (fn) fn(makeError(Errc::closed, what));
+  }
+}
+
+std::map<std::string, std::string> QiClient::takeLost() {
+  return std::exchange(lost_, {});
+}
+
+std::size_t QiClient::connections() const noexcept {
+  std::size_t n = 0;
+  for (const auto& l : links_) n += (l && l->open()) ? 1 : 0;
+  return n;
 }
 
 // The client's capabilities as a {sm} map; the server answers with its own and
@@ -83,7 +142,7 @@ Result<void> QiClient::authenticate(std::size_t link) {
 Result<void> QiClient::send(std::size_t link, std::uint32_t service, std::uint32_t object,
                             std::uint32_t action, const std::string& payload,
                             std::vector<std::string> return_sigs, int timeout_ms, ReplyFn fn) {
-  if (link >= links_.size() || !links_[link]->open()) {
+  if (link >= links_.size() || !links_[link] || !links_[link]->open()) {
     return makeError(Errc::closed, "not connected");
   }
   Header h;
@@ -94,7 +153,7 @@ Result<void> QiClient::send(std::size_t link, std::uint32_t service, std::uint32
   h.action = action;
   auto r = links_[link]->write(encodeMessage(h, payload));
   if (!r) {
-    close(r.error().message);
+    dropLink(link, r.error().message);
     return r;
   }
   pending_[h.id] = Pending{link, std::move(return_sigs),
@@ -109,9 +168,14 @@ Result<Value> QiClient::wait(std::size_t link, std::uint32_t service, std::uint3
   auto r = send(link, service, object, action, payload, std::move(return_sigs), timeout_ms,
                 [&answer](Result<Value> v) { answer.emplace(std::move(v)); });
   if (!r) return r.error();
+  const std::string where = links_[link]->endpoint().text();
   while (!answer) {
     auto p = pump(50);
     if (!p && !answer) return p.error();
+  }
+  // A connection that leaves a look-up unanswered cannot be trusted with the next one.
+  if (!*answer && answer->error().code == Errc::timeout) {
+    dropLink(link, where + " did not answer a look-up in time");
   }
   return std::move(*answer);
 }
@@ -145,14 +209,26 @@ Result<MetaObject> QiClient::metaObject(std::uint32_t service, std::uint32_t obj
   return toMetaObject(v.value());
 }
 
-// The connection for a service: the directory's when the service shares its process or lists
-// its endpoint; else one to the first endpoint it lists that answers (connected and
-// authenticated once, then shared). Loopback endpoints are the robot's own unless the robot
-// was reached over loopback too, so they are skipped otherwise.
+bool QiClient::isDirectoryEndpoint(const Endpoint& e) const {
+  if (!connected()) return false;
+  const Endpoint& at = links_[0]->endpoint();
+  if (at.host == e.host && at.port == e.port) return true;
+  if (!directory_) return false;
+  for (const std::string& url : directory_->endpoints) {
+    auto d = parseEndpoint(url);
+    if (d && d->host == e.host && d->port == e.port) return true;
+  }
+  return false;
+}
+
+// The connection for a service, chosen by the endpoints its look-up lists, as libqi does: the
+// directory's when it lists the endpoint that connection reached or one the directory lists
+// (the same listening socket, so the same server); else an open one to an endpoint it lists;
+// else a new one to the first it lists that answers. Loopback endpoints are the robot's own
+// unless the robot was reached over loopback too, so they are skipped otherwise.
 Result<std::size_t> QiClient::linkFor(const ServiceInfo& info) {
-  if (directory_ && info.machine_id == directory_->machine_id &&
-      info.process_id == directory_->process_id) {
-    return std::size_t{0};
+  if (info.endpoints.empty()) {
+    return makeError(Errc::not_found, "its look-up lists no endpoint");
   }
   std::vector<Endpoint> candidates;
   std::string skipped;
@@ -162,7 +238,7 @@ Result<std::size_t> QiClient::linkFor(const ServiceInfo& info) {
       skipped += " " + url + " (" + e.error().message + ")";
       continue;
     }
-    if (e->host == options_.host && e->port == options_.port) return std::size_t{0};
+    if (isDirectoryEndpoint(e.value())) return std::size_t{0};
     if (isLoopback(e->host) && !isLoopback(options_.host)) {
       skipped += " " + url + " (the robot's own loopback)";
       continue;
@@ -170,31 +246,18 @@ Result<std::size_t> QiClient::linkFor(const ServiceInfo& info) {
     candidates.push_back(std::move(e.value()));
   }
   for (const Endpoint& e : candidates) {
-    for (std::size_t i = 0; i < links_.size(); ++i) {
+    for (std::size_t i = 1; i < links_.size(); ++i) {
+      if (!links_[i] || !links_[i]->open()) continue;
       const Endpoint& at = links_[i]->endpoint();
       if (at.host == e.host && at.port == e.port) return i;
     }
   }
   Error last = makeError(Errc::unsupported, "no endpoint this client can use:" + skipped);
   for (const Endpoint& e : candidates) {
-    auto c = QiConnection::dial(e, options_.connect_timeout_ms, options_.max_payload);
-    if (!c) {
-      last = c.error();
-      continue;
-    }
-    links_.push_back(std::make_unique<QiConnection>(std::move(c.value())));
-    const std::size_t link = links_.size() - 1;
-    if (options_.authenticate) {
-      auto r = authenticate(link);
-      if (!r) {
-        if (link < links_.size()) {
-          links_[link]->close();
-          links_.pop_back();
-        }
-        return r.error();
-      }
-    }
-    return link;
+    auto link = openLink(e);
+    if (link) return link;
+    last = link.error();
+    if (!connected()) break;
   }
   return last;
 }
@@ -208,8 +271,7 @@ Result<const QiClient::Service*> QiClient::lookup(const std::string& name) {
   if (!link) {
     std::string at;
     for (const std::string& e : info->endpoints) at += " " + e;
-    return makeError(link.error().code,
-                     name + " lives in another process, at" + at + ": " + link.error().message);
+    return makeError(link.error().code, name + " is served at" + at + ": " + link.error().message);
   }
   auto meta = metaObject(info->service_id, kMainObject, link.value());
   if (!meta) return makeError(meta.error().code, name + ".metaObject: " + meta.error().message);
@@ -228,7 +290,9 @@ Result<void> QiClient::resolve(const std::string& service) {
 
 std::string QiClient::endpointOf(const std::string& service) const {
   auto it = services_.find(service);
-  if (it == services_.end() || it->second.link >= links_.size()) return "";
+  if (it == services_.end() || it->second.link >= links_.size() || !links_[it->second.link]) {
+    return "";
+  }
   return links_[it->second.link]->endpoint().text();
 }
 
@@ -297,7 +361,7 @@ void QiClient::dispatch(std::size_t link, Message&& m) {
                                  : p.return_sigs[0]) +
         "): " + (v ? v->error().message : std::string("no signature to read it with"));
     p.fn(makeError(Errc::protocol_error, why));
-    close(why);
+    dropLink(link, why);
     return;
   }
   p.fn(std::move(*v));
@@ -319,7 +383,12 @@ void QiClient::expire() {
 Result<void> QiClient::pump(int timeout_ms, int wake_fd) {
   if (!connected()) return makeError(Errc::closed, "not connected");
   std::vector<pollfd> p;
-  for (const auto& l : links_) p.push_back({l->fd(), POLLIN, 0});
+  std::vector<std::size_t> polled;  // the link of each pollfd before the wake fd
+  for (std::size_t i = 0; i < links_.size(); ++i) {
+    if (!links_[i] || !links_[i]->open()) continue;
+    p.push_back({links_[i]->fd(), POLLIN, 0});
+    polled.push_back(i);
+  }
   if (wake_fd >= 0) p.push_back({wake_fd, POLLIN, 0});
   const int n = ::poll(p.data(), p.size(), timeout_ms);
   if (n < 0 && errno != EINTR) {
@@ -327,18 +396,24 @@ Result<void> QiClient::pump(int timeout_ms, int wake_fd) {
     close(e.message);
     return e;
   }
-  const std::size_t polled = links_.size();  // a callback may open more; they wait for the next
-  for (std::size_t i = 0; n > 0 && i < polled && i < links_.size(); ++i) {
-    if ((p[i].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
+  // A callback may open or drop links; those opened wait for the next pump.
+  for (std::size_t k = 0; n > 0 && k < polled.size(); ++k) {
+    if ((p[k].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
+    const std::size_t i = polled[k];
+    if (i >= links_.size() || !links_[i] || links_[i]->fd() != p[k].fd) continue;
     std::vector<Message> got;
     auto r = links_[i]->read(got);
     for (Message& m : got) {
       dispatch(i, std::move(m));
       if (!connected()) return makeError(Errc::closed, "closed during dispatch");
+      if (!links_[i]) break;
     }
     if (!r) {
-      close(r.error().message);
-      return r;
+      if (i == 0) {
+        close(r.error().message);
+        return r;
+      }
+      dropLink(i, r.error().message);
     }
   }
   expire();

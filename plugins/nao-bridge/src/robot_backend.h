@@ -8,6 +8,7 @@
 
 #include <array>
 #include <functional>
+#include <map>
 #include <string>
 
 namespace skr::nao {
@@ -35,6 +36,11 @@ class RobotBackend {
   // connection was lost.
   [[nodiscard]] virtual Result<void> pump(int timeout_ms, int wake_fd) = 0;
   [[nodiscard]] virtual std::string describe() const = 0;
+  // While connected: the parts of the robot it lacks now (NAOqi services), each with why. A
+  // command that needs one fails at once with service_unavailable; the others work.
+  [[nodiscard]] virtual std::map<std::string, std::string> missing() const { return {}; }
+  // Looks for the missing parts again (blocking, bounded by the backend's timeouts).
+  virtual void retryMissing() {}
 };
 
 }  // namespace skr::nao

@@ -72,6 +72,17 @@ void RobotWorker::run() {
   int backoff_ms = opt_.reconnect_min_ms;
   std::int64_t next_attempt = 0;
   bool was_connected = false;
+  // What the connected robot lacks, as last reported, and when to look for it again.
+  std::map<std::string, std::string> missing;
+  int missing_backoff_ms = opt_.reconnect_min_ms;
+  std::int64_t next_missing_attempt = 0;
+  auto reportConnected = [&](std::int64_t now) {
+    const int in_ms =
+        missing.empty()
+            ? 0
+            : static_cast<int>(std::max<std::int64_t>(0, (next_missing_attempt - now) / kMs));
+    cb_.status(WorkerStatus{true, backend_->describe(), in_ms, missing});
+  };
   std::array<std::int64_t, 5> next_read{};
   std::array<std::shared_ptr<bool>, 5> in_flight;
   for (auto& f : in_flight) f = std::make_shared<bool>(false);
@@ -92,10 +103,14 @@ void RobotWorker::run() {
           backoff_ms = opt_.reconnect_min_ms;
           was_connected = true;
           for (auto& f : in_flight) *f = false;
-          cb_.status(true, backend_->describe(), 0);
+          missing = backend_->missing();
+          missing_backoff_ms = opt_.reconnect_min_ms;
+          now = monotonicNs();
+          next_missing_attempt = now + missing_backoff_ms * kMs;
+          reportConnected(now);
           continue;
         }
-        cb_.status(false, r.error().message, backoff_ms);
+        cb_.status(WorkerStatus{false, r.error().message, backoff_ms, {}});
         next_attempt = monotonicNs() + backoff_ms * kMs;
         backoff_ms = std::min(backoff_ms * 2, opt_.reconnect_max_ms);
       }
@@ -113,7 +128,31 @@ void RobotWorker::run() {
         backend_->execute(j.command, std::move(j.done));
       }
     }
+    // Parts the robot lacks are looked for again with the reconnection backoff; one that goes
+    // missing later (its process went away) starts again from the shortest delay.
+    bool looked = false;
+    if (!missing.empty() && now >= next_missing_attempt) {
+      backend_->retryMissing();
+      looked = true;
+      missing_backoff_ms = std::min(missing_backoff_ms * 2, opt_.reconnect_max_ms);
+      now = monotonicNs();
+      next_missing_attempt = now + missing_backoff_ms * kMs;
+    }
+    if (backend_->connected()) {
+      auto lacking = backend_->missing();
+      if (lacking != missing || looked) {
+        if (missing.empty() || lacking.empty()) {
+          missing_backoff_ms = opt_.reconnect_min_ms;
+          next_missing_attempt = now + missing_backoff_ms * kMs;
+        }
+        missing = std::move(lacking);
+        reportConnected(now);
+      }
+    }
     std::int64_t wait_ns = 100 * kMs;
+    if (!missing.empty()) {
+      wait_ns = std::clamp<std::int64_t>(next_missing_attempt - now, 0, wait_ns);
+    }
     for (std::size_t i = 0; i < next_read.size(); ++i) {
       if (!streaming_[i] || opt_.rate_hz[i] <= 0) continue;
       const auto period = static_cast<std::int64_t>(1e9 / opt_.rate_hz[i]);
@@ -132,9 +171,11 @@ void RobotWorker::run() {
     }
     auto r = backend_->pump(static_cast<int>(wait_ns / kMs), wake_fd_);
     if (!r || !backend_->connected()) {
-      backend_->disconnect(r ? "disconnected" : r.error().message);
-      if (was_connected) cb_.status(false, r ? "disconnected" : r.error().message, backoff_ms);
+      const std::string why = r ? "disconnected" : r.error().message;
+      backend_->disconnect(why);
+      if (was_connected) cb_.status(WorkerStatus{false, why, backoff_ms, {}});
       was_connected = false;
+      missing.clear();
       next_attempt = monotonicNs() + backoff_ms * kMs;
     }
   }

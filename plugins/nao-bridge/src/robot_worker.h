@@ -1,5 +1,6 @@
-// The bridge's robot thread: owns the backend, connects and reconnects it with backoff, runs
-// commands in submission order and polls the state kinds that are switched on at their rates.
+// The bridge's robot thread: owns the backend, connects and reconnects it with backoff, looks
+// for the parts a connected robot lacks with the same backoff, runs commands in submission
+// order and polls the state kinds that are switched on at their rates.
 // Its callbacks run on this thread; the module posts what they carry to the hub's loop.
 #pragma once
 
@@ -10,6 +11,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -24,9 +26,19 @@ struct WorkerOptions {
   int reconnect_max_ms = 10000;
 };
 
+struct WorkerStatus {
+  bool connected = false;
+  std::string detail;  // connected: the backend's description; else why not
+  // Not connected: when the next attempt is; connected with parts missing: when they are looked
+  // for next; else 0.
+  int retry_in_ms = 0;
+  std::map<std::string, std::string> missing;  // connected: what the robot lacks, with why
+};
+
 struct WorkerCallbacks {
-  // connected, or why not and when the next attempt is.
-  std::function<void(bool connected, const std::string& detail, int retry_in_ms)> status;
+  // On connecting, on losing the connection, after each failed attempt, and when what is
+  // missing changes or was looked for again.
+  std::function<void(const WorkerStatus&)> status;
   std::function<void(StateKind, const std::string& json)> state;
 };
 

@@ -49,7 +49,7 @@ TEST(BlobPath, RulesOfPaths) {
   EXPECT_EQ(*ok, (std::vector<std::string>{"maps", "floor 1", "map.pgm"}));
   EXPECT_TRUE(splitPath("", true));
   EXPECT_TRUE(splitPath("%2e%2e/..x/.hidden", false));  // names, not separators or parents
-  for (const std::string bad :
+  for (const std::string& bad :
        {std::string(""), std::string("/etc/passwd"), std::string("a//b"), std::string("a/"),
         std::string(".."), std::string("a/../../b"), std::string("."), std::string("a/./b"),
         std::string("a\\..\\b"), std::string("a\0b", 3), std::string(256, 'x'),

@@ -148,7 +148,7 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
     answer(std::move(done), {false, "too many logins waiting"});
     return;
   }
-  queue_.push_back(Job{std::move(user), std::move(password), std::move(done)});
+  queue_.push_back(Job{std::move(user), std::move(password), std::move(done), {}});
   lock.unlock();
   queue_cv_.notify_one();
 }

@@ -13,10 +13,6 @@ constexpr size_t kKeepBuffer = 1 << 20;        // shrink buffers above this once
 constexpr size_t kGiveAwayBytes = 256 * 1024;  // takeBody hands over the buffer from this size
 constexpr size_t kWriteSlice = 256 << 10;      // queued output is handed to the socket in slices
 
-bool inRange(uint8_t code, uint8_t lo, uint8_t hi) {
-  return code >= lo && code <= hi;
-}
-
 }  // namespace
 
 Connection::Connection(FlowServer::Impl& server, Transport transport)
@@ -233,28 +229,24 @@ void Connection::unblock() {
 }
 
 void Connection::handleFrame(uint8_t code, std::string_view body) {
-  const bool sync_code = inRange(code, 0x01, 0x3F) || isSyncFamilyRequest(code);
-  const bool async_code = inRange(code, 0x40, 0x7F) || isFlowFamilyCommand(code);
-  const bool reserved =
-      code >= 0xC0 && !sync_code && !async_code && code != uint8_t(Code::ev_blob_changed) &&
-      code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe) &&
-      code != uint8_t(Code::ev_link_wanted) && !inRange(code, 0xF8, 0xFD);
-  if (!sync_code && !async_code && !reserved) {
-    protocolError("code 0x" +
-                  [&] {
-                    char b[3];
-                    std::snprintf(b, sizeof b, "%02x", code);
-                    return std::string(b);
-                  }() +
-                  " (" + std::string(codeName(code)) + ") is not sent by satellites");
+  // What the catalogue says of the code: a hub-to-satellite code (or one of the range kept for
+  // them) breaks the protocol; one no minor assigned is answered `unsupported` (rule 5).
+  const CodeInfo* info = codeInfo(code);
+  if ((info != nullptr && info->direction == Direction::to_client) ||
+      (info == nullptr && code >= 0x80 && code <= 0xBF)) {
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "0x%02x", code);
+    protocolError("code " + std::string(hex) + " (" + std::string(codeName(code)) +
+                  ") is not sent by satellites");
     return;
   }
+  const std::string name(codeName(code));
   switch (state_) {
     case State::login:
       if (static_cast<Code>(code) == Code::login) {
         handleLogin(body);
       } else {
-        replyError(ErrorCode::not_logged_in, std::string(codeName(code)) + " before LOGIN");
+        replyError(ErrorCode::not_logged_in, name + " before LOGIN");
         closeAfterFlush("command before login");
       }
       return;
@@ -262,36 +254,32 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
     case State::closing:
       return;  // not reached: reading is paused
     case State::sync:
-      if (sync_code && minorOf(static_cast<Code>(code)) > minor_) {
-        replyError(ErrorCode::unsupported, std::string(codeName(code)) +
-                                               " is newer than this connection's protocol 1." +
-                                               std::to_string(minor_));
-      } else if (sync_code) {
-        handleSync(static_cast<Code>(code), body);
-      } else if (async_code) {
-        replyError(ErrorCode::invalid_argument,
-                   std::string(codeName(code)) + " is asynchronous: send GO_ASYNC first");
-      } else {
+      if (info == nullptr) {
+        replyError(ErrorCode::unsupported, name + " is reserved and not implemented by this hub");
+      } else if (!info->synchronous()) {
+        replyError(ErrorCode::invalid_argument, name + " is asynchronous: send GO_ASYNC first");
+      } else if (info->minor > minor_) {
         replyError(ErrorCode::unsupported,
-                   std::string(codeName(code)) + " is reserved and not implemented by this hub");
-      }
-      return;
-    case State::flow:
-      if (async_code && minorOf(static_cast<Code>(code)) > minor_) {
-        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
-                std::string(codeName(code)) + " is newer than this connection's protocol 1." +
-                    std::to_string(minor_));
-      } else if (async_code) {
-        handleAsync(static_cast<Code>(code), body);
-      } else if (sync_code) {
-        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
-                std::string(codeName(code)) +
-                    " is synchronous: use a synchronous connection, the flow never blocks");
+                   name + " is newer than this connection's protocol 1." + std::to_string(minor_));
       } else {
-        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
-                std::string(codeName(code)) + " is reserved and not implemented by this hub");
+        handleSync(static_cast<Code>(code), body);
       }
       return;
+    case State::flow: {
+      const auto refuse = [&](const std::string& why) {
+        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported, why);
+      };
+      if (info == nullptr) {
+        refuse(name + " is reserved and not implemented by this hub");
+      } else if (info->synchronous()) {
+        refuse(name + " is synchronous: use a synchronous connection, the flow never blocks");
+      } else if (info->minor > minor_) {
+        refuse(name + " is newer than this connection's protocol 1." + std::to_string(minor_));
+      } else {
+        handleAsync(static_cast<Code>(code), body);
+      }
+      return;
+    }
   }
 }
 

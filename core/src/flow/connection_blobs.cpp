@@ -84,7 +84,11 @@ void Connection::blobAnswered(uint64_t bytes) {
 }
 
 bool Connection::waitForBlobAnswers(uint8_t code) {
-  if (state_ != State::sync || blob_in_flight_ == 0 || isBlobRequest(code)) return false;
+  if (state_ != State::sync || blob_in_flight_ == 0) return false;
+  const CodeInfo* info = codeInfo(code);
+  if (info != nullptr && info->family == Family::blobs && info->direction == Direction::to_hub) {
+    return false;  // another blob request: in order with the others
+  }
   blob_waiting_ = true;
   block();
   return true;

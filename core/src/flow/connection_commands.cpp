@@ -342,7 +342,7 @@ void Connection::handleSync(Code code, std::string_view body) {
       return;
     }
     default:
-      if (isBlobRequest(static_cast<uint8_t>(code))) {
+      if (codeInfo(static_cast<uint8_t>(code))->family == Family::blobs) {
         handleBlob(code, body);
         return;
       }
@@ -473,7 +473,7 @@ void Connection::handleAsync(Code code, std::string_view body) {
     }
     case Code::var_del_async: {
       SKR_DECODE(msg::VarDelAsync, m);
-      check(dbs.delVar(*this, {}, m.name), m.tag, 0);
+      check(dbs.delVar(*this, {}, m.key), m.tag, 0);
       return;
     }
     case Code::link_offer: {

@@ -92,8 +92,8 @@ from PySketch.flowpaths import Paths
 from PySketch.flowproto import (
     PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T,
     FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysMarker, decodePhysPath,
-    decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame, integer_types, str16,
-    text_type, toBytes, u16, u32, u64, utf8)
+    decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame, integer_types,
+    payloadBuffer, releaseViews, str16, text_type, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
 TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
@@ -105,6 +105,8 @@ _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconn
 _BACKOFF_MIN = 0.05            # first delay before reconnecting, seconds; doubles ...
 _BACKOFF_MAX = 2.0             # ... up to this
 _STABLE_ONLINE = 5.0           # a connection online this long resets the delay to the minimum
+_GATHER = hasattr(socket.socket, "sendmsg")  # Python 3: a frame's head and payload in one write
+_PUBLISH_HEAD = struct.Struct("<IBH")        # u32 length, u8 PUBLISH, u16 chanID
 
 
 def _callableName(f):
@@ -634,6 +636,49 @@ class FlowSat(AbstractFlow):
             return False
         self._outbuf.extend(data)
         self._flush()
+        return self._bounded()
+
+    def _sendPublish(self, chanID, payload):
+        """PUBLISH with `payload` (payloadBuffer's): under Python 3 on a plain socket, its head
+        and the payload go out in one gathered write when nothing waits before them, and only
+        what the socket does not take is copied into the output buffer; otherwise (TLS, Python
+        2.7, output waiting) the payload is copied there once. Either way the caller's buffer
+        is free again when this returns."""
+        if self._state != "online":
+            return False
+        size = len(payload)
+        if self._outbuf:
+            self._flush()
+            if self._state != "online":
+                return False  # the connection broke
+        if not _GATHER or self._outbuf or isinstance(self._sock, ssl.SSLSocket):
+            out = self._outbuf
+            start = len(out)
+            out.extend(_PUBLISH_HEAD.pack(0, Code.PUBLISH, chanID))
+            out.extend(payload)
+            _PUBLISH_HEAD.pack_into(out, start, len(out) - start - 4, Code.PUBLISH, chanID)
+            self._flush()
+            return self._bounded()
+        head = _PUBLISH_HEAD.pack(size + 3, Code.PUBLISH, chanID)
+        try:
+            sent = self._sock.sendmsg([head, payload])
+        except socket.error as e:
+            if not (e.args and e.args[0] in _WOULD_BLOCK):
+                self._lost(str(e))
+                return False
+            sent = 0
+        if sent < len(head):
+            self._outbuf.extend(head[sent:])
+            sent = len(head)
+        if sent - len(head) < size:
+            with memoryview(payload) as whole:
+                with whole[sent - len(head):] as rest:
+                    self._outbuf.extend(rest)
+        return self._bounded()
+
+    def _bounded(self):
+        """Past _OUT_LIMIT of queued output, waits (up to 10 s) until the hub has read half of
+        it; False when it does not."""
         if len(self._outbuf) > _OUT_LIMIT:
             deadline = now() + 10.0
             gen = self._gen
@@ -1319,13 +1364,23 @@ class FlowSat(AbstractFlow):
     # Publishing
 
     def publish(self, chanID, data):
-        """Publishes bytes (or a DataBuffer, bytearray, memoryview) on an owned streaming
-        channel (chanID, name or FlowChannel, like every publish* method). Returns False when
-        offline."""
+        """Publishes a payload on an owned streaming channel (chanID, name or FlowChannel, like
+        every publish* method): bytes, or any object with the buffer protocol (bytearray,
+        memoryview, array.array, a numpy array: its bytes in C order), a DataBuffer, or text
+        (UTF-8). No intermediate bytes object is built: under Python 3 the frame goes out as a
+        gathered write straight from the caller's buffer, and only what the socket cannot take
+        at once is copied into the flow's output buffer (a buffer that is not C-contiguous is
+        copied once first). The caller may change or reuse its buffer as soon as publish()
+        returns. Returns False when offline (or when the connection breaks during the call);
+        data of any other type: TypeError."""
         chanID = self._chanID(chanID)
-        if chanID is None:
-            return False
-        return self._send(frame(Code.PUBLISH, u16(chanID) + toBytes(data)))
+        payload, views = payloadBuffer(data)
+        try:
+            if chanID is None:
+                return False
+            return self._sendPublish(chanID, payload)
+        finally:
+            releaseViews(views)
 
     def _publishPacked(self, chanID, fmt, values):
         if not isinstance(values, (list, tuple)):

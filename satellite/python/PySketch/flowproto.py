@@ -288,12 +288,16 @@ def errorName(error):
 
 
 class FlowError(Exception):
-    """A REPLY_ERROR, an EV_ERROR, or a broken frame. `code` is an Error_T value."""
+    """A REPLY_ERROR, an EV_ERROR, or a broken frame. `code` is an Error_T value, `message` the
+    hub's text; for a refused asynchronous command (FlowSat's error callback) also `command`
+    (its name, e.g. "CHAN_ADD") and `channel` (the full name of the channel concerned, or None)."""
 
-    def __init__(self, code, message):
+    def __init__(self, code, message, command=None, channel=None):
         Exception.__init__(self, "%s: %s" % (errorName(code), message))
         self.code = code
         self.message = message
+        self.command = command
+        self.channel = channel
 
 
 class ProtocolError(FlowError):

@@ -37,6 +37,9 @@ Callbacks (all run inside tick() or connect()):
     setRequestCallBack(f(chanID, hash, cmdName, value))  a request on an owned service channel;
                                          answer with sendServiceResponse(chanID, hash, value)
     setResponseCallBack(f(chanID, value)) the answer to sendServiceRequest (f(value) works too)
+    setErrorCallBack(f(chanName, code, text)) the hub refused a command, e.g. a channel that
+                                         another satellite owns already (f(FlowError) works too);
+                                         logged as the sketch's error in any case
 
 Errors in callbacks: an exception raised by a callback is the sketch's, not the hub's. It is
 logged with its traceback ("FlowSat: the sketch's <kind> callback <name> raised ...") and then
@@ -139,6 +142,18 @@ def _arity(f):
         return None
 
 
+def _refusedChannel(name, error, message, user):
+    """The log line of a channel the hub did not create, with what to do about it."""
+    if error == Error_T.already_exists:
+        advice = ("another satellite owns a channel of that name (another sketch of user %s, or "
+                  "this sketch started twice): choose another name, or stop the other satellite "
+                  "and add the channel again" % user)
+    else:
+        advice = "the channel does not exist until it is added again"
+    return "SAT-CHANNEL-REFUSED: the hub refused to create the channel %s (%s: %s): %s" % (
+        name, errorName(error), message, advice)
+
+
 class TickTimer(ElapsedTime):
     """FlowSat._timer: the tick settings; stop() gives the seconds since the satellite was made."""
 
@@ -213,6 +228,7 @@ class FlowSat(AbstractFlow):
         self._onDbChanged = None
         self._onBlobChanged = None
         self._onError = None
+        self._errorArity = None
         self.lastRequester = None
 
         # The sync pulse (docs/sync-pulse.md): the sources followed, by name -> every Nth pulse.
@@ -308,8 +324,15 @@ class FlowSat(AbstractFlow):
         self._onSyncLost = f
 
     def setErrorCallBack(self, f):
-        """f(FlowError) for every failed asynchronous command (they are also logged)."""
+        """f(chanName, code, text) for every asynchronous command the hub refused and every
+        failed service request, after the refusal was logged as the sketch's error: chanName is
+        the full name of the channel concerned (for a channel that addStreamingChannel or
+        addServiceChannel asked for: "<user>.<name>"), None when there is none; code is the
+        Error_T member (Error_T.already_exists, ...); text is the hub's message. A callback
+        that takes one argument gets a FlowError instead, with the same as .channel, .code and
+        .message, and the command's name as .command ("CHAN_ADD")."""
         self._onError = f
+        self._errorArity = _arity(f) if f is not None else None
 
     ###########################################################################
     # Connection
@@ -861,8 +884,7 @@ class FlowSat(AbstractFlow):
             if error != 0:
                 log.wrn("FlowSat: service request on channel %d failed: %s: %s"
                         % (chan, errorName(error), value))
-                if self._onError is not None:
-                    self._call("error", self._onError, FlowError(error, str(value)))
+                self._reportError(Code.SERVICE_REQUEST, self._chanName(chan), error, str(value))
             if self._onResponse is not None:
                 if self._responseArity == 1:
                     self._call("response", self._onResponse, value)
@@ -920,18 +942,38 @@ class FlowSat(AbstractFlow):
     def _commandFailed(self, command, tag, chan, error, message):
         if command == Code.PHYS_REQUEST and self._paths.onRefused(tag, message):
             return  # relayed meanwhile, asked again later: logged there, not a sketch's error
+        name = self._chanName(chan)
         if command == Code.CHAN_ADD:
             short = self._pendingAdds.pop(tag, None)
             if short is not None:
-                self._specs.pop(short, None)
+                self._specs.pop(short, None)  # not re-created on reconnection: add it again
+                name = "%s.%s" % (self._userName, short)
+                self._logOnce((command, name, error), _refusedChannel(name, error, message,
+                                                                      self._userName))
+                self._reportError(command, name, error, message)
+                return
         elif command == Code.SUBSCRIBE:
             self._subscribedIDs.discard(chan)
         elif command == Code.PHYS_STATE:
             self._paths.onStateRefused(chan)
         self._logOnce((command, chan, error), "FlowSat: %s failed: %s: %s"
                       % (codeName(command), errorName(error), message))
-        if self._onError is not None:
-            self._call("error", self._onError, FlowError(error, message))
+        self._reportError(command, name, error, message)
+
+    def _chanName(self, chan):
+        ch = self._channels.get(chan) if chan else None
+        return ch.name if ch is not None else None
+
+    def _reportError(self, command, chanName, error, message):
+        """The error callback, in the form it takes (setErrorCallBack)."""
+        if self._onError is None:
+            return
+        if self._errorArity == 3:
+            code = Error_T.byValue(error)
+            self._call("error", self._onError, chanName, error if code is None else code, message)
+        else:
+            self._call("error", self._onError,
+                       FlowError(error, message, codeName(command), chanName))
 
     def _deliverData(self, chan, data):
         """A message of a subscribed channel (bytes), relayed or from a direct path."""
@@ -1114,9 +1156,12 @@ class FlowSat(AbstractFlow):
                             name=None, mime="", props=None):
         """Creates the streaming channel "<user>.<name>". Its id arrives with the new-channel
         callback. `props` (a dict) become the channel's database; flow_type and data_type are
-        added to it as "flow_type" and "data_type" (their names). Returns bool (the command was
-        accepted locally; the hub's refusal is logged). Before connect() or while reconnecting,
-        the channel is created as soon as the flow is online."""
+        added to it as "flow_type" and "data_type" (their names). Returns bool: the command was
+        accepted locally (a bad name, or a name this flow added already: False). The hub may
+        still refuse it later, typically because another satellite owns a channel of that name:
+        that is logged as the sketch's error (SAT-CHANNEL-REFUSED) and reported to the error
+        callback with the channel's name. Before connect() or while reconnecting, the channel
+        is created as soon as the flow is online."""
         p = dict(props or {}) if isinstance(props, dict) or props is None else props
         if isinstance(p, dict):
             ft = self._flowTypeName(flow_type)

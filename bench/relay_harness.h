@@ -7,6 +7,7 @@
 #include <skrobot/core/clock.h>
 #include <skrobot/core/loop.h>
 #include <skrobot/flow/codec.h>
+#include <skrobot/flow/hub_stats.h>
 #include <skrobot/flow/server.h>
 #include <skrobot/flow/tls.h>
 
@@ -334,6 +335,7 @@ class Hub {
   uint16_t tcp_port_ = 0;
   std::unique_ptr<skr::LoopThread> thread_;
   std::unique_ptr<flow::FlowServer> server_;
+  std::unique_ptr<flow::HubStats> stats_;  // hub.stats and hub.inspect, as the hub has them
 };
 
 // --- hub clients: login, channels, subscriptions ----------------------------------------------

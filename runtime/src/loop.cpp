@@ -237,6 +237,7 @@ void Loop::startTicks() {
   slow_deadline_ = now + options_.slow_interval_ns;
   sec_deadline_ = now + kOneSecond;
   window_start_ = now;
+  cpu_at_tick_end_ = threadCpuNs();
   switch (options_.mode) {
     case TimingMode::coarse:
     case TimingMode::pseudo_realtime:
@@ -368,6 +369,17 @@ void Loop::pulse() {
 
 void Loop::fireTicks(Nanos now) {
   const Nanos interval = options_.fast_interval_ns;
+  const bool deadlines =
+      options_.mode == TimingMode::coarse || options_.mode == TimingMode::pseudo_realtime;
+  // A wake-up a whole interval late skips ticks. When the thread spent most of that time off
+  // the CPU (not scheduled, stopped, blocked: it ran for less than a quarter of it since the
+  // last tick), the lateness is the machine's, not the loop's work: callbacks that ran past the
+  // deadline would have used the CPU for it (a quarter leaves room for a busy machine that
+  // shares the CPU with them).
+  bool late_wakeup = false;
+  if (deadlines && now - fast_deadline_ >= interval) {
+    late_wakeup = (threadCpuNs() - cpu_at_tick_end_) * 4 < now - fast_deadline_;
+  }
   ++stats_.fast_ticks;
   ++window_ticks_;
   dispatch(Tick::fast);
@@ -389,6 +401,7 @@ void Loop::fireTicks(Nanos now) {
       sec_deadline_ += ((now - sec_deadline_) / kOneSecond + 1) * kOneSecond;
   }
   const Nanos end = monotonicNs();
+  if (deadlines) cpu_at_tick_end_ = threadCpuNs();
   const double ratio = static_cast<double>(end - now) / static_cast<double>(interval);
   window_work_sum_ += ratio;
   window_work_max_ = std::max(window_work_max_, ratio);
@@ -401,7 +414,16 @@ void Loop::fireTicks(Nanos now) {
         // Work overran whole periods: skip them rather than tick in a burst; keep the phase.
         const Nanos missed = (end - fast_deadline_) / interval + 1;
         stats_.skipped_ticks += static_cast<uint64_t>(missed);
-        window_skipped_ += static_cast<uint64_t>(missed);
+        if (late_wakeup) {
+          // Those the tick's work would have skipped after an on-time wake-up stay the work's.
+          const Nanos by_work = std::min(missed, (end - now) / interval);
+          window_skipped_ += static_cast<uint64_t>(by_work);
+          window_late_skipped_ += static_cast<uint64_t>(missed - by_work);
+          stats_.late_skipped_ticks += static_cast<uint64_t>(missed - by_work);
+          ++stats_.late_wakeups;
+        } else {
+          window_skipped_ += static_cast<uint64_t>(missed);
+        }
         fast_deadline_ += missed * interval;
       }
       armFastTimer(end);
@@ -428,10 +450,12 @@ void Loop::measureSecond(Nanos now) {
       char buf[256];
       std::snprintf(buf, sizeof buf,
                     "loop %s: tick work %.0f%% of the %.3f ms interval on average (max %.0f%%), "
-                    "%llu ticks skipped in the last second, %llu warnings suppressed",
+                    "%llu ticks skipped by its work in the last second (%llu more after late "
+                    "wake-ups), %llu warnings suppressed",
                     options_.name.c_str(), stats_.work_ratio_mean * 100,
                     static_cast<double>(options_.fast_interval_ns) / kNsPerMs,
                     stats_.work_ratio_max * 100, static_cast<unsigned long long>(window_skipped_),
+                    static_cast<unsigned long long>(window_late_skipped_),
                     static_cast<unsigned long long>(suppressed_warnings_));
       log::warn("core.loop", "LOOP-OVERLOAD", buf);
       ++stats_.load_warnings;
@@ -444,6 +468,7 @@ void Loop::measureSecond(Nanos now) {
   window_start_ = now;
   window_ticks_ = 0;
   window_skipped_ = 0;
+  window_late_skipped_ = 0;
   window_work_sum_ = 0;
   window_work_max_ = 0;
 }

@@ -58,6 +58,18 @@ inline std::string jpegFrame(const cv::Mat& image, std::uint64_t seq, std::int64
   return media::makeFrame(h, std::string(jpeg.begin(), jpeg.end()));
 }
 
+// A media frame holding `grey` (CV_8UC1) as Y8 pixels, as video-mono publishes them.
+inline std::string y8Frame(const cv::Mat& grey, std::uint64_t seq) {
+  const cv::Mat pixels = grey.isContinuous() ? grey : grey.clone();
+  media::FrameHeader h;
+  h.format = media::Format::y8;
+  h.seq = seq;
+  h.width = static_cast<std::uint16_t>(pixels.cols);
+  h.height = static_cast<std::uint16_t>(pixels.rows);
+  return media::makeFrame(
+      h, std::string_view(reinterpret_cast<const char*>(pixels.data), pixels.total()));
+}
+
 // The area of `a` covered by `b`, as a fraction of `a`.
 inline double coveredBy(const cv::Rect& a, const cv::Rect& b) {
   return a.area() > 0 ? static_cast<double>((a & b).area()) / a.area() : 0.0;

@@ -1,12 +1,13 @@
 // The network page (/network) in Debian's chromium against a real hub with 200 channels
 // (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
 // table, previews of JSON, JPEG, gray, audio and detections, a channel's properties, and editing a
-// variable with and without the token. Screenshots go to <build>/test-output/network_browser/
-// (docs/images/network-*.jpg are two of them).
+// variable with and without the token. Then the avatar demo's hub (config/default.json): its graph
+// at "fit" on a 1280x720 and a 1920x1080 page, and the wheel's zoom. Screenshots go to
+// <build>/test-output/network_browser/ (docs/images/network-*.jpg are two of them).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
-import { existsSync } from 'node:fs';
+import { existsSync, readFileSync } from 'node:fs';
 import path from 'node:path';
 import { env, freePort, launchChromium, outDir, startHub, waitFor } from './harness.mjs';
 
@@ -134,4 +135,72 @@ test('the network page shows the hub live, previews channels and edits with the 
   traffic.kill('SIGKILL');
   const exit = await hub.stop();
   assert.deepEqual(exit, { code: 0, signal: null }, `the hub stops cleanly (a sanitizer report fails it):\n${hub.log.slice(-4000)}`);
+});
+
+// The graph at "fit", as the page shows it: the share of the pane covered by the drawing's box,
+// the smallest label on the screen (its font size times the view's scale, CSS pixels), the scale.
+function measureGraph() {
+  const svg = document.querySelector('#graph');
+  const pane = svg.getBoundingClientRect();
+  const boxes = ['g.nodes', 'g.edges'].map((s) => svg.querySelector(s).getBoundingClientRect());
+  const clip = (lo, hi, a, b) => Math.max(0, Math.min(hi, b) - Math.max(lo, a));
+  const w = clip(pane.left, pane.right, Math.min(...boxes.map((b) => b.left)), Math.max(...boxes.map((b) => b.right)));
+  const h = clip(pane.top, pane.bottom, Math.min(...boxes.map((b) => b.top)), Math.max(...boxes.map((b) => b.bottom)));
+  const scale = svg.getScreenCTM().a;
+  const labels = [...svg.querySelectorAll('text')].filter((t) => t.textContent);
+  const font = (t) => parseFloat(getComputedStyle(t).fontSize) * scale;
+  const smallest = labels.reduce((a, t) => (font(t) < font(a) ? t : a), labels[0]);
+  return {
+    pane: `${Math.round(pane.width)}x${Math.round(pane.height)}`, covered: (w * h) / (pane.width * pane.height),
+    smallestPx: font(smallest), smallest: smallest.textContent, labels: labels.length, scale,
+  };
+}
+
+test("the demo's graph fills the pane at fit with readable labels, and the wheel zooms in steps", async (t) => {
+  const port = await freePort();
+  const foxglove = await freePort();
+  const demo = JSON.parse(readFileSync(path.join(env.source, 'config/default.json'), 'utf8'));
+  const own = { 'websocket-ui': { port }, 'foxglove-bridge': { port: foxglove } };
+  const hub = await startHub(demo.modules.filter((m) => m.enabled !== false)
+    .map((m) => ({ ...m, config: { ...m.config, ...own[m.name] } })));
+  t.after(() => hub.stop());
+  const browser = await launchChromium();
+  t.after(() => browser.close());
+  const page = await browser.context.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  const shots = outDir('network_browser');
+  for (const [width, height] of [[1280, 720], [1920, 1080]]) {
+    await page.setViewportSize({ width, height });
+    await page.goto(`http://127.0.0.1:${port}/network`);
+    await waitFor("the demo's 22 channels", async () =>
+      (await page.locator('#graph .node.channel').count()) === 22 &&
+      (await page.locator('#graph .edge-label').first().textContent()) !== '', 30000);
+    const m = await page.evaluate(measureGraph);
+    console.log(`${width}x${height}: ${JSON.stringify(m)}`);
+    await page.screenshot({ path: path.join(shots, `network-fit-${width}.png`) });
+    assert.ok(m.covered >= 0.5, `the graph covers ${(m.covered * 100).toFixed(0)}% of the pane (${m.pane}) at ${width}x${height}`);
+    assert.ok(m.smallestPx >= 11, `"${m.smallest}" is ${m.smallestPx.toFixed(1)} px at ${width}x${height}`);
+  }
+  // The wheel, over the middle of the graph: a notch (100 pixels), a fast spin, and back.
+  const pane = await page.locator('#graph').boundingBox();
+  await page.mouse.move(pane.x + pane.width / 2, pane.y + pane.height / 2);
+  const scale = () => page.evaluate(() => document.querySelector('#graph').getScreenCTM().a);
+  for (const deltaY of [-100, -1000, 1000, 100]) {
+    const before = await scale();
+    await page.mouse.wheel(0, deltaY);
+    const after = await waitFor('the zoom', async () => {
+      const s = await scale();
+      return s !== before && s;
+    }, 5000, 20);
+    const k = deltaY < 0 ? after / before : before / after;
+    console.log(`wheel ${deltaY}: zoom ${k.toFixed(3)}`);
+    // getScreenCTM() is single precision.
+    assert.ok(k > 1 && k <= 1.25 * (1 + 1e-6), `one wheel event of ${deltaY} zoomed by ${k}`);
+  }
+  await page.click('#fit');
+  assert.ok((await page.evaluate(measureGraph)).covered >= 0.5, 'fit again');
+  assert.deepEqual(errors, [], 'no errors in the page');
+  const exit = await hub.stop();
+  assert.deepEqual(exit, { code: 0, signal: null }, `the hub stops cleanly:\n${hub.log.slice(-4000)}`);
 });

@@ -1,8 +1,9 @@
 // The network page's model (web/js/network-model.js) in node: hub.stats to a graph, what is
-// highlighted, the layered layout, detection boxes.
+// highlighted, the layered layout, detection boxes, the zoom of a wheel event.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { buildGraph, detectionBoxes, formatRate, layout } from '../../web/js/network-model.js';
+import { wheelZoom } from '../../web/js/network-graph.js';
 
 const flow = (id, name, extra = {}) => ({
   id, name, user: name.split('/')[0], client: name.split('/')[1], kind: 'satellite',
@@ -72,10 +73,21 @@ test("the hub's own channels on request; a filter keeps what it touches", () => 
   assert.equal(buildGraph(stats).topology, buildGraph({ ...stats }).topology);
 });
 
+// A publisher is left of its channel in the same band; any other edge of an acyclic graph goes
+// right, or down to a later band.
+function checkDirections(g, pos) {
+  for (const e of g.edges) {
+    const a = pos.get(e.from);
+    const b = pos.get(e.to);
+    if (e.kind === 'publish') assert.ok(a.band === b.band && a.x < b.x, `${e.id} goes right`);
+    else assert.ok(a.band < b.band || (a.band === b.band && a.x < b.x), `${e.id} goes right or down`);
+  }
+}
+
 test('the layout puts publishers left of their channels and nothing on top of anything', () => {
   const g = buildGraph(stats);
   const { pos } = layout(g);
-  for (const e of g.edges) assert.ok(pos.get(e.from).x < pos.get(e.to).x, `${e.id} goes right`);
+  checkDirections(g, pos);
   const seen = new Set();
   for (const p of pos.values()) {
     const key = `${p.x},${p.y}`;
@@ -84,12 +96,58 @@ test('the layout puts publishers left of their channels and nothing on top of an
   }
 });
 
+// The avatar demo's hub (config/default.json): 22 channels of 9 modules, and foxglove-bridge.
+// owner: [channel, '!' for a service, ':' and its subscribers].
+const DEMO = {
+  'websocket-ui': ['camera:video-mono', 'mic:fft-audio,agent', 'say!'],
+  'video-mono': ['mono:face-detect,motion,qrcode'],
+  'face-detect': ['faces:websocket-ui,agent'],
+  motion: ['motion:websocket-ui'],
+  qrcode: ['codes:websocket-ui,agent'],
+  'fft-audio': ['spectrum', 'bands:websocket-ui'],
+  speech: ['voice:websocket-ui', 'phonemes:websocket-ui', 'say!'],
+  'nao-bridge': ['joints', 'sonar', 'battery', 'posture', 'fall', 'status', 'results', 'command!'],
+  agent: ['dialogue:websocket-ui', 'command!'],
+  'foxglove-bridge': [],
+};
+function demoStats() {
+  const ids = new Map(Object.keys(DEMO).map((name, i) => [name, i + 10]));
+  const flows = [...ids].map(([name, id]) => ({ ...flow(id, `${name}/${name}`), kind: 'module' }));
+  const channels = Object.entries(DEMO).flatMap(([owner, list]) => list.map((spec) => {
+    const [short, subs = ''] = spec.split(':');
+    return channel(`${owner}.${short.replace('!', '')}`, ids.get(owner),
+      subs ? subs.split(',').map((s) => ids.get(s)) : [], short.endsWith('!') ? { kind: 'service' } : {});
+  }));
+  return { flows, channels };
+}
+
+test("the demo's graph fills the page's pane with labels at full size", () => {
+  const g = buildGraph(demoStats());
+  assert.equal([...g.nodes.values()].filter((n) => n.type === 'channel').length, 22);
+  // The graph's pane on a 1280x720 and a 1920x1080 page; the page fits with a margin of 12 and
+  // at most twice the size. Labels are 11 and 12 units high: at a scale of 1 or more, 11 px.
+  for (const pane of [{ width: 871, height: 632 }, { width: 1475, height: 992 }]) {
+    const { pos, width, height, scale } = layout(g, { pane, margin: 12, maxScale: 2 });
+    assert.ok(scale >= 1, `scale ${scale} at ${pane.width}x${pane.height}`);
+    const covered = (width * scale * height * scale) / (pane.width * pane.height);
+    assert.ok(covered >= 0.5, `the graph covers ${covered} of ${pane.width}x${pane.height}`);
+    assert.equal(pos.size, g.nodes.size);
+    // Publishers left of their channels; the cycles through websocket-ui are closed by
+    // subscriptions only.
+    for (const e of g.edges.filter((x) => x.kind === 'publish')) {
+      const a = pos.get(e.from);
+      const b = pos.get(e.to);
+      assert.ok(a.band === b.band && a.x < b.x, `${e.id} goes right`);
+    }
+  }
+});
+
 test('cycles and 1000 channels are laid out', () => {
   const flows = Array.from({ length: 50 }, (_, i) => flow(i + 10, `s${i}/s${i}`));
   const channels = Array.from({ length: 1000 }, (_, i) =>
     channel(`s${i % 50}.c${i}`, 10 + (i % 50), [10 + ((i * 7 + 1) % 50)]));
   const g = buildGraph({ flows, channels });
-  const { pos, height } = layout(g);
+  const { pos, height } = layout(g, { pane: { width: 871, height: 632 } });
   assert.equal(pos.size, 1050);
   assert.ok(height > 0);
   const ys = new Set([...pos.values()].map((p) => `${p.x},${p.y}`));
@@ -104,4 +162,13 @@ test('detections become boxes in frame pixels', () => {
   assert.deepEqual(detectionBoxes({ regions: [{ x: 'a' }] }), []);
   assert.deepEqual(detectionBoxes(null), []);
   assert.equal(formatRate(0.25, 12), '0.3 Hz · 12 B/s');
+});
+
+test('one wheel event zooms by 1.2 a notch, never more than 1.25', () => {
+  assert.equal(wheelZoom({ deltaY: -100, deltaMode: 0 }).toFixed(3), '1.200');
+  assert.equal(wheelZoom({ deltaY: 100, deltaMode: 0 }).toFixed(3), (1 / 1.2).toFixed(3));
+  assert.equal(wheelZoom({ deltaY: -1000, deltaMode: 0 }), 1.25, 'a fast wheel');
+  assert.equal(wheelZoom({ deltaY: 1000, deltaMode: 0 }), 1 / 1.25);
+  assert.ok(wheelZoom({ deltaY: -3, deltaMode: 1 }) > 1.2, 'three lines (Firefox)');
+  assert.ok(wheelZoom({ deltaY: -4, deltaMode: 0 }) < 1.01, 'a touchpad');
 });

@@ -50,7 +50,8 @@ std::string human(double bytes) {
   return buf;
 }
 
-// The hub's statistics asked of hub.inspect (over the time since they were last taken).
+// The hub's statistics asked of hub.inspect (rates over the last second and the last ten, the
+// same for every reader until the hub's next one-second tick).
 std::optional<Variant> fetchStats(const Cli& cli, int& code) {
   auto sync = connectSync(cli, code);
   if (!sync) return std::nullopt;
@@ -195,6 +196,28 @@ int measure(const Cli& cli, const char* usage, bool bandwidth) {
   return s.run();
 }
 
+// A channel's rates over the hub's windows (the last second, the last ten): a channel younger
+// than a window was measured over its age. An older hub gives one interval only.
+void printRates(const Variant& stats, const Variant& row) {
+  const auto line = [&](const char* label, const std::string& suffix, double window_s) {
+    const double age = num(row, "age_s");
+    std::printf("  %-12s %.1f Hz, %s/s over the last %.1f s%s\n", label, num(row, "hz" + suffix),
+                human(num(row, "bytes_per_s" + suffix)).c_str(), std::min(window_s, age),
+                age < window_s ? " (since it began)" : "");
+  };
+  if (row.find("hz_10s") == nullptr) {
+    std::printf("  rate         %.1f Hz, %s/s (over the last %.1f s)\n", num(row, "hz"),
+                human(num(row, "bytes_per_s")).c_str(), num(stats, "interval_s"));
+    return;
+  }
+  if (num(row, "age_s") <= 0) {
+    std::printf("  rate         none yet (it began less than a second ago)\n");
+    return;
+  }
+  line("rate", "", num(stats, "interval_s"));
+  line("", "_10s", num(stats, "interval_10s_s"));
+}
+
 std::string dotId(const std::string& s) {
   std::string out = "\"";
   for (char c : s) {
@@ -286,9 +309,10 @@ int cmdInfo(const Cli& cli) {
       {"subscribers", subscribers},
       {"properties", info->props}};
   if (row != nullptr) {
-    for (const char* key : {"hz", "bytes_per_s", "messages", "bytes", "dropped", "dropped_per_s",
-                            "pending_requests"}) {
-      out.asMap()->emplace(key, at(*row, key));
+    for (const char* key :
+         {"hz", "bytes_per_s", "messages", "bytes", "dropped", "dropped_per_s", "pending_requests",
+          "hz_10s", "bytes_per_s_10s", "dropped_per_s_10s", "age_s"}) {
+      if (row->find(key) != nullptr) out.asMap()->emplace(key, at(*row, key));
     }
   }
   if (cli.json) {
@@ -301,8 +325,7 @@ int cmdInfo(const Cli& cli) {
   std::printf("  subscribers  %zu\n", subscribers.size());
   for (const Variant& s : subscribers) std::printf("    %s\n", s.asString()->c_str());
   if (row != nullptr) {
-    std::printf("  rate         %.1f Hz, %s/s (over the last %.1f s)\n", num(*row, "hz"),
-                human(num(*row, "bytes_per_s")).c_str(), num(*stats, "interval_s"));
+    printRates(*stats, *row);
     std::printf("  total        %.0f messages, %s, %.0f dropped\n", num(*row, "messages"),
                 human(num(*row, "bytes")).c_str(), num(*row, "dropped"));
     if (num(*row, "pending_requests") > 0) {

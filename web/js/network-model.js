@@ -95,10 +95,19 @@ export function buildGraph(stats, { showHub = false, filter = '' } = {}) {
 
 // Layered layout, left to right: cycles broken at their back edges (depth first), each node one
 // layer right of its farthest predecessor, then the order within layers by the mean position of
-// the neighbours (a few sweeps each way); a layer of more than maxRows nodes (default: about
-// sqrt(8 n), for a landscape page) wraps into columns. {pos: Map(id -> {x, y, layer}),
-// width, height}.
-export function layout(graph, { colWidth = 320, rowHeight = 30, sweeps = 4, maxRows = 0 } = {}) {
+// the neighbours (a few sweeps each way). Then it is shaped to the pane: a layer longer than
+// `rows` is split into columns side by side, and the columns wrap into bands stacked top to
+// bottom, `rows` and the bands chosen so that the drawing, scaled to fit `pane` (its width and
+// height in pixels, with `margin` units around the drawing, at most `maxScale` pixels a unit), is
+// as large as it can be. A band starts only at a column without publishers' edges coming in
+// (their rates are drawn left of the channel), so nothing sticks out on the left. Sizes are in
+// the drawing's units: nodes of `nodeWidth` x `nodeHeight`, `colGap` between columns, `rowGap`
+// between rows, `bandGap` between bands. {pos: Map(id -> {x, y, layer, band}), width, height,
+// scale}: the top left corners of the nodes, the extent of the drawing, and the scale that fits it.
+export function layout(graph, {
+  pane = { width: 1280, height: 720 }, margin = 0, maxScale = Infinity,
+  nodeWidth = 200, nodeHeight = 22, colGap = 100, rowGap = 6, bandGap = 24, sweeps = 4,
+} = {}) {
   const ids = [...graph.nodes.keys()].sort();
   const out = new Map(ids.map((id) => [id, []]));
   const inn = new Map(ids.map((id) => [id, []]));
@@ -108,10 +117,15 @@ export function layout(graph, { colWidth = 320, rowHeight = 30, sweeps = 4, maxR
     inn.get(e.to).push(e.from);
   }
   // Back edges, found iteratively (200+ nodes deep would be fine recursively; a pathological
-  // chain would not).
+  // chain would not). The search starts from the flows, the most source-like first (more
+  // published than followed), so that a channel is only ever reached from its owner: publishers
+  // stay left of their channels, and only a subscription closes a cycle.
   const state = new Map();  // 1 on the stack, 2 done
   const back = new Set();
-  for (const root of ids) {
+  const flowFirst = (id) => (graph.nodes.get(id).type === 'flow' ? 0 : 1);
+  const roots = [...ids].sort((a, b) => flowFirst(a) - flowFirst(b) ||
+    (inn.get(a).length - out.get(a).length) - (inn.get(b).length - out.get(b).length) || (a < b ? -1 : 1));
+  for (const root of roots) {
     if (state.has(root)) continue;
     const stack = [[root, 0]];
     state.set(root, 1);
@@ -163,24 +177,93 @@ export function layout(graph, { colWidth = 320, rowHeight = 30, sweeps = 4, maxR
       renumber();
     }
   }
-  // A layer taller than maxRows wraps into columns side by side (200 channels of one owner make
-  // a readable block, not a column 6000 pixels tall).
-  const nodes = ids.length;
-  const rows = maxRows || Math.max(12, Math.ceil(Math.sqrt(nodes * 8)));
-  const columns = layers.map((list) => Math.max(1, Math.ceil(list.length / rows)));
-  const tallest = Math.max(1, ...layers.map((list, l) => Math.ceil(list.length / columns[l])));
+  const labelledIn = new Set(graph.edges.filter((e) => e.kind === 'publish').map((e) => e.to));
+  const sizes = { pane, margin, maxScale, nodeWidth, nodeHeight, colGap, rowGap, bandGap };
+  const shape = chooseShape(layers.map((list) => ({ n: list.length, open: !list.some((id) => labelledIn.has(id)) })), sizes);
+  const colPitch = nodeWidth + colGap;
+  const rowPitch = nodeHeight + rowGap;
   const pos = new Map();
-  let x = 0;
-  layers.forEach((list, l) => {
-    const perColumn = Math.ceil(list.length / columns[l]);
-    const top = ((tallest - perColumn) * rowHeight) / 2;
-    list.forEach((id, i) => {
-      const c = Math.floor(i / perColumn);
-      pos.set(id, { x: x + c * colWidth, y: top + (i % perColumn) * rowHeight, layer: l });
+  let top = 0;
+  let width = 0;
+  shape.bands.forEach((band, b) => {
+    band.forEach((col, c) => {
+      const list = layers[col.layer].slice(col.from, col.from + col.n);
+      const y0 = top + ((band.rows - col.n) * rowPitch) / 2;
+      list.forEach((id, i) => pos.set(id, { x: c * colPitch, y: y0 + i * rowPitch, layer: col.layer, band: b }));
     });
-    x += columns[l] * colWidth;
+    width = Math.max(width, band.length * colPitch - colGap);
+    top += band.rows * rowPitch - rowGap + bandGap;
   });
-  return { pos, width: x, height: tallest * rowHeight };
+  return { pos, width, height: Math.max(0, top - bandGap), scale: shape.scale };
+}
+
+// Whether shape `a` beats `b`: larger, but with more bands only when more than 5% larger.
+function better(a, b) {
+  if (a.bands.length === b.bands.length) return a.scale > b.scale;
+  return a.bands.length < b.bands.length ? a.scale * 1.05 >= b.scale : a.scale > b.scale * 1.05;
+}
+
+// The columns of layers of `n` nodes split with at most `rows` a column (evenly), in order:
+// [{layer, from, n, open}], `open` for the first column of a layer whose nodes have no
+// publishers' edges coming in (a band may start there).
+function splitLayers(layers, rows) {
+  const columns = [];
+  layers.forEach(({ n, open }, layer) => {
+    const k = Math.max(1, Math.ceil(n / rows));
+    const per = Math.ceil(n / k);
+    for (let c = 0; c < k; c++) {
+      columns.push({ layer, from: c * per, n: Math.max(0, Math.min(per, n - c * per)), open: open && c === 0 });
+    }
+  });
+  return columns;
+}
+
+// The columns wrapped into bands of `perBand` columns, each broken at the last column where a
+// band may start (longer than `perBand` when there is none): [[column, ...] with .rows].
+function wrapColumns(columns, perBand) {
+  const bands = [];
+  let i = 0;
+  while (i < columns.length) {
+    let end = Math.min(columns.length, i + perBand);
+    if (end < columns.length && !columns[end].open) {
+      let back = end;
+      while (back > i + 1 && !columns[back].open) back--;
+      if (columns[back].open) end = back;
+      else while (end < columns.length && !columns[end].open) end++;
+    }
+    const band = columns.slice(i, end);
+    band.rows = Math.max(1, ...band.map((c) => c.n));
+    bands.push(band);
+    i = end;
+  }
+  return bands;
+}
+
+// The shape of the drawing for layers [{n, open}] (sizes as layout's): {rows, bands, scale},
+// the one that fits the pane at the largest scale. One with more bands must be more than 5%
+// larger to be chosen (edges between bands are long): so a graph that fits at maxScale anyway
+// keeps its fewest bands.
+function chooseShape(layers, { pane, margin, maxScale, nodeWidth, nodeHeight, colGap, rowGap, bandGap }) {
+  const longest = Math.max(1, ...layers.map((l) => l.n));
+  // A layer in at most 40 columns: the distinct splits of the longest layer.
+  const candidates = new Set();
+  for (let k = 1; k <= Math.min(40, longest); k++) candidates.add(Math.ceil(longest / k));
+  let best = null;
+  for (const rows of candidates) {
+    const columns = splitLayers(layers, rows);
+    let lastCount = 0;
+    for (let perBand = columns.length; perBand >= 1; perBand--) {
+      const bands = wrapColumns(columns, perBand);
+      if (bands.length === lastCount) continue;
+      lastCount = bands.length;
+      const w = Math.max(...bands.map((b) => b.length)) * (nodeWidth + colGap) - colGap;
+      const h = bands.reduce((sum, b) => sum + b.rows * (nodeHeight + rowGap) - rowGap, 0) +
+        (bands.length - 1) * bandGap;
+      const scale = Math.min(maxScale, pane.width / (w + 2 * margin), pane.height / (h + 2 * margin));
+      if (!best || better({ bands, scale }, best)) best = { rows, bands, scale };
+    }
+  }
+  return best;
 }
 
 // The boxes of a detector's message, in its frame's pixels: faces and motion regions as

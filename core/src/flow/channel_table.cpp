@@ -8,7 +8,7 @@
 
 namespace skr::flow {
 
-ChannelTable::ChannelTable() : rng_(std::random_device{}()) {
+ChannelTable::ChannelTable(Nanos (*clock)()) : rng_(std::random_device{}()), clock_(clock) {
   channels_.resize(kMaxChannels);
 }
 
@@ -63,6 +63,7 @@ Result<Channel*> ChannelTable::add(Endpoint* owner, const std::string& user,
   ch->mime = mime;
   ch->owner = owner;
   ch->owner_user = user;
+  ch->rates = Channel::Rates(clock_(), ch->rateCounters());
   Channel* raw = ch.get();
   channels_[id] = std::move(ch);
   by_name_[raw->name] = id;

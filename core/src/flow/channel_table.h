@@ -5,6 +5,7 @@
 #pragma once
 
 #include "endpoint.h"
+#include "rate_window.h"
 
 #include <skrobot/core/result.h>
 #include <skrobot/flow/protocol.h>
@@ -46,11 +47,16 @@ class Channel {
   // Messages a subscriber's queue dropped (counted where the drop happens, with the channel const).
   mutable uint64_t dropped = 0;
   size_t pending_requests = 0;  // kept by the RequestTable
+  // seq, bytes, dropped at the hub's last one-second ticks (rate_window.h), for hub.stats.
+  using Rates = RateWindow<3>;
+  [[nodiscard]] Rates::Counters rateCounters() const noexcept { return {seq, bytes, dropped}; }
+  Rates rates;
 };
 
 class ChannelTable {
  public:
-  ChannelTable();
+  // `clock`: the monotonic time a channel's rate window starts at (tests drive their own).
+  explicit ChannelTable(Nanos (*clock)() = &monotonicNs);
 
   [[nodiscard]] Channel* find(uint16_t id) noexcept {
     return id < channels_.size() ? channels_[id].get() : nullptr;
@@ -118,6 +124,7 @@ class ChannelTable {
   std::multimap<std::string, uint32_t> wanted_;
   int dispatching_ = 0;  // > 0 while publish iterates subscribers: removals leave tombstones
   std::vector<uint16_t> tombstoned_;  // channels whose subscriber lists hold tombstones
+  Nanos (*clock_)();
 };
 
 }  // namespace skr::flow

@@ -7,6 +7,8 @@
 #include <skrobot/flow/protocol.h>
 #include <skrobot/flow/variant.h>
 
+#include "rate_window.h"
+
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -56,6 +58,14 @@ class Endpoint {
   } traffic;
   std::vector<uint16_t> owned;       // channels it owns
   std::vector<uint16_t> subscribed;  // channels it is subscribed to
+  // Its traffic at the hub's last one-second ticks (rate_window.h), for hub.stats: messages and
+  // bytes in, messages and bytes out, dropped, path messages.
+  using Rates = RateWindow<6>;
+  [[nodiscard]] Rates::Counters rateCounters() const noexcept {
+    return {traffic.messages_in, traffic.bytes_in, traffic.messages_out,
+            traffic.bytes_out,   traffic.dropped,  traffic.path_messages};
+  }
+  Rates rates;
 
   // True when it takes events (a flow, or a local client); sync connections do not.
   [[nodiscard]] virtual bool receivesEvents() const = 0;
@@ -102,8 +112,12 @@ class Endpoint {
 // The endpoints connected now, by id. Does not own them.
 class EndpointTable {
  public:
-  // Gives `e` a fresh id (never 0) and registers it.
+  // `clock`: the monotonic time an endpoint's rate window starts at (tests drive their own).
+  explicit EndpointTable(Nanos (*clock)() = &monotonicNs) : clock_(clock) {}
+
+  // Gives `e` a fresh id (never 0) and registers it; its rate window starts now.
   uint32_t add(Endpoint& e) {
+    e.rates = Endpoint::Rates(clock_(), e.rateCounters());
     e.id = next_id_++;
     if (next_id_ == 0) next_id_ = 1;
     by_id_[e.id] = &e;
@@ -152,6 +166,7 @@ class EndpointTable {
   }
 
  private:
+  Nanos (*clock_)();
   uint32_t next_id_ = 1;
   std::unordered_map<uint32_t, Endpoint*> by_id_;
 };

@@ -148,21 +148,18 @@ void HubLink::offerAgain() {
     return;
   }
   if (!up_) return;
-  for (const msg::ChannelInfo& info : sat_->channels()) added(info);
+  for (const msg::ChannelInfo& info : sat_->channels()) {
+    // Ours over there are never shown here, and only their own EV_CHAN_ADDED answers an offer
+    // (one withdrawn but not yet gone must not be taken for a new offer of the same name).
+    if (info.owner_connection != sat_->login().connection_id) added(info);
+  }
 }
 
 void HubLink::dropAll() {
   std::vector<uint16_t> ids;
   ids.reserve(by_local_.size());
   for (const auto& [local, r] : by_local_) ids.push_back(local);
-  for (uint16_t local : ids) {
-    auto it = by_local_.find(local);
-    if (it == by_local_.end()) continue;
-    sat_->unsubscribe(it->second.remote_name);
-    by_remote_.erase(it->second.remote_id);
-    by_local_.erase(it);
-    (void)server_.removeChannel(*this, local);
-  }
+  for (uint16_t local : ids) (void)server_.removeChannel(*this, local);  // see onChannelRemoved
 }
 
 void HubLink::added(const msg::ChannelInfo& info) {
@@ -194,6 +191,9 @@ void HubLink::added(const msg::ChannelInfo& info) {
   const Channel* ch = *made;
   by_remote_[info.id] = ch->id;
   by_local_[ch->id] = Remote{info.id, info.name};
+  // In-process subscribers waiting for this name (modules, replicas) came in createChannelAs,
+  // before the lines above: onSubscribers could not tell which far channel it was.
+  if (ch->subscriber_count > 0) sat_->subscribe(info.name);
 }
 
 void HubLink::removed(uint16_t remote_id) {
@@ -204,17 +204,17 @@ void HubLink::removed(uint16_t remote_id) {
     offered_.erase(o);
     return;
   }
-  auto it = by_remote_.find(remote_id);
-  if (it == by_remote_.end()) return;
-  const uint16_t local = it->second;
-  by_remote_.erase(it);
-  by_local_.erase(local);
-  (void)server_.removeChannel(*this, local);
+  if (auto it = by_remote_.find(remote_id); it != by_remote_.end()) {
+    (void)server_.removeChannel(*this, it->second);  // see onChannelRemoved
+  }
 }
 
-void HubLink::forget(uint16_t local) {
-  auto it = by_local_.find(local);
-  if (it == by_local_.end()) return;
+void HubLink::shownNoMore(const Channel& ch) {
+  auto it = by_local_.find(ch.id);
+  if (it == by_local_.end() || ch.owner != this || !sat_) return;
+  // Its subscribers here went with it, without a last-subscriber event: so goes our
+  // subscription over there, which the satellite would otherwise keep by name and make again
+  // when the far channel comes back, with nobody behind it.
   sat_->unsubscribe(it->second.remote_name);
   by_remote_.erase(it->second.remote_id);
   by_local_.erase(it);
@@ -364,9 +364,8 @@ bool FlowServer::Impl::takeRoute(const std::string& name, size_t hops) {
   log::info(kLinkLog, "HUB-ROUTE-SWITCH",
             name + ": a route of " + std::to_string(hops) + " links replaces one of " +
                 std::to_string(held));
-  Endpoint& owner = *ch->owner;
-  if (auto* link = dynamic_cast<HubLink*>(&owner)) link->forget(ch->id);
-  (void)removeChannel(owner, ch->id);
+  // Its owner, a link or a shared connection, lets go of it as of any channel removed.
+  (void)removeChannel(*ch->owner, ch->id);
   return true;
 }
 

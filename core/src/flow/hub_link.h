@@ -42,8 +42,6 @@ class HubLink final : public Endpoint {
   void everySecond(Nanos now);
   // Another link dropped: takes the far channels this one offers that nobody shows any more.
   void offerAgain();
-  // A shorter route took channel `local` of ours: no more of it comes this way.
-  void forget(uint16_t local);
   // Open, and the far hub said it is the one the config names.
   [[nodiscard]] bool up() const noexcept { return up_; }
   // --- one connection for two hubs that list each other (hub_link_shared.cpp)
@@ -89,6 +87,9 @@ class HubLink final : public Endpoint {
   void lost(const std::string& why);
   void added(const msg::ChannelInfo& info);
   void removed(uint16_t remote_id);
+  // One of the far channels shown here was removed, whoever removed it (the far hub, a shorter
+  // route, the link dropping, an administrator): what we hold over there for it goes too.
+  void shownNoMore(const Channel& ch);
   void changed(const msg::ChannelInfo& info);
   void data(uint16_t remote_id, std::string_view payload);
   void timeSample(int64_t round_trip_ns, int64_t offset_ns);
@@ -127,6 +128,7 @@ class HubLink final : public Endpoint {
   struct Offer {
     uint16_t local = 0;
     uint32_t tag = 0;
+    std::string name;  // here
   };
   std::unordered_map<std::string, Offer> offers_;
   std::unordered_map<uint16_t, uint16_t> offered_far_;                // local id -> far id

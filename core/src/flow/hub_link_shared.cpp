@@ -49,6 +49,10 @@ void HubLink::released() {
   state_ = "down: hub " + opt_.name + " closed the shared connection";
   since_ = utcNowText();
   writeDb();
+  // The channels it brought are gone: they may come another way, as when a link of ours drops.
+  for (const auto& other : server_.links) {
+    if (other.get() != this) other->offerAgain();
+  }
   if (server_.hub_name < opt_.name) {
     sat_->start();
   } else {
@@ -120,22 +124,24 @@ void HubLink::offer(const Channel& ch) {
   info.name = ch.name;
   info.mime = ch.mime;
   info.props = server_.databases.channelProps(ch.name);  // hub_route: the hops before us
-  if (auto tag = sat_->offerChannel(info)) offers_[far] = Offer{ch.id, *tag};
+  if (auto tag = sat_->offerChannel(info)) offers_[far] = Offer{ch.id, *tag, ch.name};
 }
 
 bool HubLink::offered(const msg::ChannelInfo& info) {
   if (info.owner_connection != sat_->login().connection_id) return false;
   auto it = offers_.find(info.name);
   if (it == offers_.end()) return true;  // ours over there, never taken back
-  const uint16_t local = it->second.local;
+  const Offer o = std::move(it->second);
   offers_.erase(it);
-  const Channel* ch = server_.channels.find(local);
-  if (ch == nullptr || farName(ch->name, server_.hub_name) != info.name) {
-    (void)sat_->withdrawChannel(info.id);  // gone here while the offer travelled
+  const Channel* ch = server_.channels.find(o.local);
+  if (ch == nullptr || ch->name != o.name) {
+    (void)sat_->withdrawChannel(info.id);  // gone here while the offer travelled...
+    // ...and perhaps made again meanwhile, not offered while this offer was pending.
+    if (const Channel* again = server_.channels.findByName(o.name)) offer(*again);
     return true;
   }
-  offered_far_[local] = info.id;
-  offered_[info.id] = local;
+  offered_far_[o.local] = info.id;
+  offered_[info.id] = o.local;
   return true;
 }
 
@@ -144,6 +150,7 @@ void HubLink::onChannelAdded(const Channel& ch, uint32_t) {
 }
 
 void HubLink::onChannelRemoved(const Channel& ch) {
+  shownNoMore(ch);
   auto it = offered_far_.find(ch.id);
   if (it == offered_far_.end()) return;  // a pending offer is withdrawn when it is made
   (void)sat_->withdrawChannel(it->second);
@@ -183,8 +190,10 @@ void HubLink::farRequest(const msg::EvServiceRequest& r) {
   auto it = offered_.find(r.chan_id);
   if (it == offered_.end()) return;
   const uint32_t tag = next_tag_++;
-  if (server_.requests.request(*this, it->second, tag, false, 0, r.command, r.value)) {
-    far_requests_[tag] = r;
+  // Noted first: a module may answer from inside request() (onResponse).
+  far_requests_[tag] = r;
+  if (!server_.requests.request(*this, it->second, tag, false, 0, r.command, r.value)) {
+    far_requests_.erase(tag);
   }
 }
 

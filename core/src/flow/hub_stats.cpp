@@ -1,5 +1,6 @@
-// The hub's statistics: FlowServer::snapshot() reads the counters, statsBetween() turns two
-// snapshots into rates, HubStats publishes them each second (flow/hub_stats.h).
+// The hub's statistics: FlowServer::sampleRates() closes a second of every channel's and flow's
+// rate windows, FlowServer::snapshot() reads the counters and those windows, statsOf() writes
+// them as hub.stats carries them, HubStats samples and publishes each second (flow/hub_stats.h).
 #include <skrobot/core/log.h>
 #include <skrobot/flow/hub_stats.h>
 
@@ -12,11 +13,55 @@
 
 namespace skr::flow {
 
+namespace {
+
+// Per second, of a counter that rose by `delta` in `span_ns` (0 when no time was covered).
+// Rounded to 0.01: the figures are read by people and pages, and the JSON stays short.
+double perSecond(uint64_t delta, Nanos span_ns) {
+  if (span_ns <= 0) return 0;
+  return std::round(static_cast<double>(delta) * 1e9 / static_cast<double>(span_ns) * 100) / 100;
+}
+
+double seconds(Nanos ns) {
+  return std::round(static_cast<double>(ns) / 1e6) / 1000;  // to the millisecond
+}
+
+ChannelRates channelRates(const Channel::Rates::Window& w) {
+  return {perSecond(w.delta[0], w.span_ns), perSecond(w.delta[1], w.span_ns),
+          perSecond(w.delta[2], w.span_ns)};
+}
+
+FlowRates flowRates(const Endpoint::Rates::Window& w) {
+  // Endpoint::rateCounters: messages and bytes in, messages and bytes out, dropped, path.
+  return {perSecond(w.delta[0], w.span_ns), perSecond(w.delta[2], w.span_ns),
+          perSecond(w.delta[1], w.span_ns), perSecond(w.delta[3], w.span_ns),
+          perSecond(w.delta[4], w.span_ns), perSecond(w.delta[5], w.span_ns)};
+}
+
+int64_t wallMs() {
+  using namespace std::chrono;
+  return duration_cast<milliseconds>(system_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+void FlowServer::sampleRates() {
+  Impl& s = *impl_;
+  const Nanos now = s.opt.stats_clock();
+  s.channels.forEach([&](Channel& ch) { ch.rates.sample(now, ch.rateCounters()); });
+  s.endpoints.forEach([&](Endpoint& e) { e.rates.sample(now, e.rateCounters()); });
+  s.rate_ticks.sample(now, {});
+  s.rates_until_ms = wallMs();
+}
+
 HubSnapshot FlowServer::snapshot() const {
   const Impl& s = *impl_;
   HubSnapshot out;
-  out.at = monotonicNs();
+  out.at = s.opt.stats_clock();
   out.queue_limit = s.opt.subscriber_queue_bytes;
+  out.interval_s = seconds(s.rate_ticks.over(1).span_ns);
+  out.interval_10s_s = seconds(s.rate_ticks.over(RateWindow<0>::kLongest).span_ns);
+  out.rates_until_ms = s.rates_until_ms;
   s.channels.forEach([&](const Channel& ch) {
     ChannelCounters c;
     c.id = ch.id;
@@ -38,6 +83,9 @@ HubSnapshot FlowServer::snapshot() const {
     c.bytes = ch.bytes;
     c.dropped = ch.dropped;
     c.pending_requests = static_cast<uint32_t>(ch.pending_requests);
+    c.last_1s = channelRates(ch.rates.over(1));
+    c.last_10s = channelRates(ch.rates.over(Channel::Rates::kLongest));
+    c.age_s = seconds(ch.rates.age());
     out.channels.push_back(std::move(c));
   });
   s.endpoints.forEach([&](const Endpoint& e) {
@@ -55,6 +103,9 @@ HubSnapshot FlowServer::snapshot() const {
     f.path_bytes = e.traffic.path_bytes;
     f.queued_bytes = e.queuedBytes();
     f.pending_requests = e.pending_requests;
+    f.last_1s = flowRates(e.rates.over(1));
+    f.last_10s = flowRates(e.rates.over(Endpoint::Rates::kLongest));
+    f.age_s = seconds(e.rates.age());
     out.flows.push_back(std::move(f));
   });
   std::sort(out.flows.begin(), out.flows.end(),
@@ -62,38 +113,12 @@ HubSnapshot FlowServer::snapshot() const {
   return out;
 }
 
-namespace {
-
-// Per second, of a counter that went from `a` to `b` in `seconds` (a restarted one from zero).
-// Rounded to 0.01: the figures are read by people and pages, and the JSON stays short.
-double rate(uint64_t a, uint64_t b, double seconds) {
-  if (seconds <= 0) return 0;
-  return std::round(static_cast<double>(b >= a ? b - a : b) / seconds * 100) / 100;
-}
-
-int64_t wallMs() {
-  using namespace std::chrono;
-  return duration_cast<milliseconds>(system_clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
-
-Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
-                     const std::string& hub_name) {
-  const double seconds = static_cast<double>(now.at - before.at) / 1e9;
-  std::unordered_map<std::string, const ChannelCounters*> old_channels;
-  for (const auto& c : before.channels) old_channels[c.name] = &c;
-  std::unordered_map<uint32_t, const FlowCounters*> old_flows;
-  for (const auto& f : before.flows) old_flows[f.id] = &f;
+Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
   std::unordered_map<uint32_t, std::string> flow_names;
-  for (const auto& f : now.flows) flow_names[f.id] = f.user + "/" + f.client;
+  for (const auto& f : snapshot.flows) flow_names[f.id] = f.user + "/" + f.client;
 
   Variant::List channels;
-  for (const auto& c : now.channels) {
-    static const ChannelCounters kNone;
-    const auto it = old_channels.find(c.name);
-    const ChannelCounters& o =
-        it != old_channels.end() && it->second->id == c.id ? *it->second : kNone;
+  for (const auto& c : snapshot.channels) {
     Variant::List subscribers;
     for (uint32_t id : c.subscriber_flows) subscribers.emplace_back(static_cast<uint64_t>(id));
     Variant::List paths;
@@ -111,17 +136,18 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
         {"messages", c.messages},
         {"bytes", c.bytes},
         {"dropped", c.dropped},
-        {"hz", rate(o.messages, c.messages, seconds)},
-        {"bytes_per_s", rate(o.bytes, c.bytes, seconds)},
-        {"dropped_per_s", rate(o.dropped, c.dropped, seconds)},
+        {"hz", c.last_1s.hz},
+        {"bytes_per_s", c.last_1s.bytes_per_s},
+        {"dropped_per_s", c.last_1s.dropped_per_s},
+        {"hz_10s", c.last_10s.hz},
+        {"bytes_per_s_10s", c.last_10s.bytes_per_s},
+        {"dropped_per_s_10s", c.last_10s.dropped_per_s},
+        {"age_s", c.age_s},
         {"pending_requests", static_cast<uint64_t>(c.pending_requests)},
     });
   }
   Variant::List flows;
-  for (const auto& f : now.flows) {
-    static const FlowCounters kNone;
-    const auto it = old_flows.find(f.id);
-    const FlowCounters& o = it != old_flows.end() ? *it->second : kNone;
+  for (const auto& f : snapshot.flows) {
     const bool queued = f.kind == "satellite" || f.kind == "link";
     flows.emplace_back(Variant::Map{
         {"id", static_cast<uint64_t>(f.id)},
@@ -134,18 +160,25 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
         {"messages_out", f.messages_out},
         {"bytes_out", f.bytes_out},
         {"dropped", f.dropped},
-        {"in_hz", rate(o.messages_in, f.messages_in, seconds)},
-        {"out_hz", rate(o.messages_out, f.messages_out, seconds)},
-        {"in_bytes_per_s", rate(o.bytes_in, f.bytes_in, seconds)},
-        {"out_bytes_per_s", rate(o.bytes_out, f.bytes_out, seconds)},
-        {"dropped_per_s", rate(o.dropped, f.dropped, seconds)},
+        {"in_hz", f.last_1s.in_hz},
+        {"out_hz", f.last_1s.out_hz},
+        {"in_bytes_per_s", f.last_1s.in_bytes_per_s},
+        {"out_bytes_per_s", f.last_1s.out_bytes_per_s},
+        {"dropped_per_s", f.last_1s.dropped_per_s},
         {"path_messages", f.path_messages},
         {"path_bytes", f.path_bytes},
-        {"path_hz", rate(o.path_messages, f.path_messages, seconds)},
+        {"path_hz", f.last_1s.path_hz},
+        {"in_hz_10s", f.last_10s.in_hz},
+        {"out_hz_10s", f.last_10s.out_hz},
+        {"in_bytes_per_s_10s", f.last_10s.in_bytes_per_s},
+        {"out_bytes_per_s_10s", f.last_10s.out_bytes_per_s},
+        {"dropped_per_s_10s", f.last_10s.dropped_per_s},
+        {"path_hz_10s", f.last_10s.path_hz},
+        {"age_s", f.age_s},
         {"queued_bytes", f.queued_bytes},
-        {"queue_fill", queued && now.queue_limit > 0
+        {"queue_fill", queued && snapshot.queue_limit > 0
                            ? std::round(static_cast<double>(f.queued_bytes) * 1000 /
-                                        static_cast<double>(now.queue_limit)) /
+                                        static_cast<double>(snapshot.queue_limit)) /
                                  1000
                            : 0.0},
         {"pending_requests", static_cast<uint64_t>(f.pending_requests)},
@@ -153,7 +186,9 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
   }
   return Variant::Map{{"hub", hub_name},
                       {"time_ms", wallMs()},
-                      {"interval_s", seconds},
+                      {"interval_s", snapshot.interval_s},
+                      {"interval_10s_s", snapshot.interval_10s_s},
+                      {"rates_until_ms", snapshot.rates_until_ms},
                       {"channels", std::move(channels)},
                       {"flows", std::move(flows)}};
 }
@@ -161,16 +196,12 @@ Variant statsBetween(const HubSnapshot& before, const HubSnapshot& now,
 HubStats::HubStats(Loop& loop, FlowServer& server) : loop_(loop), server_(server) {
   LocalHandlers h;
   h.on_subscribers = [this](uint16_t chan, bool first) {
-    if (chan != stats_chan_) return;
-    watched_ = first;
-    if (first) last_ = server_.snapshot();  // the first second published counts from now
+    if (chan == stats_chan_) watched_ = first;
   };
   h.on_request = [this](uint16_t chan, uint64_t request, const std::string& command,
                         const std::string& /*requester*/, const Variant& /*value*/) {
     if (command == "stats") {
-      // Nobody follows hub.stats: the figures since they were last taken.
-      if (!watched_) compute();
-      (void)client_->respond(chan, request, current_);
+      (void)client_->respond(chan, request, current());
     } else {
       (void)client_->respond(chan, request,
                              Variant::Map{{"error", "unknown command '" + command + "' (stats)"}});
@@ -188,7 +219,6 @@ HubStats::HubStats(Loop& loop, FlowServer& server) : loop_(loop), server_(server
   }
   stats_chan_ = stats ? *stats : 0;
   inspect_chan_ = inspect ? *inspect : 0;
-  last_ = server_.snapshot();
   tick_ = loop_.addTickHandler(Tick::one_sec, [this] { everySecond(); });
 }
 
@@ -196,18 +226,25 @@ HubStats::~HubStats() {
   loop_.removeTickHandler(tick_);
 }
 
-void HubStats::compute() {
-  HubSnapshot now = server_.snapshot();
-  current_ = statsBetween(last_, now, server_.hubName());
-  last_ = std::move(now);
+Variant HubStats::current() const {
+  Variant out = statsOf(server_.snapshot(), server_.hubName());
+  const LoopStats& l = loop_.stats();
+  out.asMap()->emplace(
+      "loop", Variant::Map{{"name", loop_.name()},
+                           {"fast_rate_hz", std::round(l.fast_rate_hz * 100) / 100},
+                           {"work_ratio_mean", std::round(l.work_ratio_mean * 1000) / 1000},
+                           {"skipped_ticks", l.skipped_ticks},
+                           {"late_wakeups", l.late_wakeups},
+                           {"late_skipped_ticks", l.late_skipped_ticks},
+                           {"load_warnings", l.load_warnings}});
+  return out;
 }
 
-// Only while someone follows hub.stats: a hub with thousands of channels and nobody looking
-// spends nothing on them.
+// Every second the rate windows move on, whoever reads them; the snapshot and its JSON only
+// while someone follows hub.stats.
 void HubStats::everySecond() {
-  if (!watched_) return;
-  compute();
-  (void)client_->publish(stats_chan_, variantToJsonText(current_));
+  server_.sampleRates();
+  if (watched_) (void)client_->publish(stats_chan_, variantToJsonText(current()));
 }
 
 }  // namespace skr::flow

@@ -39,6 +39,9 @@ std::string Replica::describe() const {
 Variant Replica::propsOf(const Channel& source) const {
   Variant props = server_.databases.channelProps(source.name);
   if (!props.isMap()) props = Variant::Map{};
+  // A channel of this hub: the source's route (a far channel's) is not its own, and would keep
+  // it from the hubs that route names.
+  props.asMap()->erase("hub_route");
   (*props.asMap())["replica_of"] = Variant(source_);
   return props;
 }
@@ -54,6 +57,15 @@ void Replica::attach(const Channel& source) {
     return;
   }
   local_id_ = (*made)->id;
+  // In-process subscribers waiting for this name came in createChannelAs, before local_id_ was
+  // set: onSubscribers did not take them for ours.
+  if ((*made)->subscriber_count > 0) subscribeSource();
+}
+
+void Replica::subscribeSource() {
+  if (auto r = server_.channels.subscribe(*this, source_id_); !r) {
+    log::warn(kLogSource, "FLOW-REPLICA", describe() + ": " + r.error().message);
+  }
 }
 
 void Replica::onChannelAdded(const Channel& ch, uint32_t) {
@@ -78,9 +90,7 @@ void Replica::onChannelHeader(const Channel& ch) {
 void Replica::onSubscribers(const Channel& ch, bool first) {
   if (ch.id != local_id_ || source_id_ == 0) return;
   if (first) {
-    if (auto r = server_.channels.subscribe(*this, source_id_); !r) {
-      log::warn(kLogSource, "FLOW-REPLICA", describe() + ": " + r.error().message);
-    }
+    subscribeSource();
   } else {
     (void)server_.channels.unsubscribe(*this, source_id_);
   }

@@ -50,6 +50,7 @@ class Replica final : public Endpoint {
 
  private:
   void attach(const Channel& source);
+  void subscribeSource();
   [[nodiscard]] Variant propsOf(const Channel& source) const;
 
   FlowServer::Impl& server_;

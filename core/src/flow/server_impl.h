@@ -77,14 +77,18 @@ struct FlowServer::Impl {
   std::vector<DelayedLogin> delayed_logins;
 
   // The parts. Declaration order is construction order: requests refer to the others.
-  EndpointTable endpoints;
+  EndpointTable endpoints{opt.stats_clock};
   DatabaseAccess databases;
-  ChannelTable channels;
+  ChannelTable channels{opt.stats_clock};
   RequestTable requests;
   SyncPulses syncs{endpoints, channels};
   PhysicalPaths physical{endpoints, channels};
   // The files of blob channels (blob_wiring.cpp); null without a data directory.
   std::unique_ptr<BlobStore> blobs;
+  // When the last one-second samples of the rate windows were taken (sampleRates,
+  // hub_stats.cpp): the spans of the hub's windows; and the wall clock at the newest.
+  RateWindow<0> rate_ticks{opt.stats_clock(), {}};
+  int64_t rates_until_ms = 0;
 
   // --- lifecycle, transports, output (server.cpp)
   Result<void> start();

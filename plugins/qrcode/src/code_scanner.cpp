@@ -7,9 +7,36 @@
 #include <algorithm>
 
 namespace skr::vision {
+namespace {
 
-CodeScanner::CodeScanner(int density) : scanner_(std::make_unique<zbar::ImageScanner>()) {
-  scanner_->set_config(zbar::ZBAR_NONE, zbar::ZBAR_CFG_ENABLE, 1);
+// What "common" enables. Left out: the EAN-2 and EAN-5 add-ons, two and five digits that zbar
+// also reads on their own and finds in ordinary pictures (skimage's astronaut.png in the demo's
+// 640x360 camera frame reads as "EAN-2: 34"), and DataBar, whose decoder pairs halves found in
+// different scan lines (opencv-doc's aero1.jpg in a camera frame at JPEG 50 reads as one).
+// tests/vision/qrcode_test.cpp checks every sample picture.
+constexpr zbar::zbar_symbol_type_t kCommon[] = {
+    zbar::ZBAR_QRCODE,  zbar::ZBAR_EAN13,  zbar::ZBAR_EAN8,   zbar::ZBAR_UPCA, zbar::ZBAR_UPCE,
+    zbar::ZBAR_CODE128, zbar::ZBAR_CODE39, zbar::ZBAR_CODE93, zbar::ZBAR_I25,  zbar::ZBAR_CODABAR,
+};
+
+}  // namespace
+
+std::optional<CodeTypes> codeTypesFromName(std::string_view name) {
+  if (name == "common") return CodeTypes::common;
+  if (name == "qr") return CodeTypes::qr;
+  if (name == "all") return CodeTypes::all;
+  return std::nullopt;
+}
+
+CodeScanner::CodeScanner(CodeTypes types, int density)
+    : scanner_(std::make_unique<zbar::ImageScanner>()) {
+  // ZBAR_NONE sets every symbology at once; then the chosen ones are enabled again.
+  scanner_->set_config(zbar::ZBAR_NONE, zbar::ZBAR_CFG_ENABLE, types == CodeTypes::all ? 1 : 0);
+  if (types == CodeTypes::qr) {
+    scanner_->set_config(zbar::ZBAR_QRCODE, zbar::ZBAR_CFG_ENABLE, 1);
+  } else if (types == CodeTypes::common) {
+    for (const auto t : kCommon) scanner_->set_config(t, zbar::ZBAR_CFG_ENABLE, 1);
+  }
   scanner_->set_config(zbar::ZBAR_NONE, zbar::ZBAR_CFG_X_DENSITY, density);
   scanner_->set_config(zbar::ZBAR_NONE, zbar::ZBAR_CFG_Y_DENSITY, density);
 }

@@ -5,7 +5,9 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace zbar {
@@ -22,10 +24,21 @@ struct Code {
   std::array<cv::Point, 4> corners;
 };
 
+// Which symbologies a scanner decodes (config "types"; docs/vision.md lists them).
+enum class CodeTypes {
+  common,  // QR codes and the common retail and industrial barcodes
+  qr,      // QR codes only
+  all,     // everything zbar decodes, the EAN-2/EAN-5 add-ons and DataBar included
+};
+// The choices of config "types", as the host checks them ("common|qr|all").
+inline constexpr const char* kCodeTypesChoices = "common|qr|all";
+// `name` is one of kCodeTypesChoices; nullopt otherwise.
+std::optional<CodeTypes> codeTypesFromName(std::string_view name);
+
 class CodeScanner {
  public:
-  // Scans every `density`-th row and column (1: all of them).
-  explicit CodeScanner(int density);
+  // Decodes `types`; scans every `density`-th row and column (1: all of them).
+  CodeScanner(CodeTypes types, int density);
   ~CodeScanner();
   CodeScanner(const CodeScanner&) = delete;
   CodeScanner& operator=(const CodeScanner&) = delete;

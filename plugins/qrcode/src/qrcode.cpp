@@ -19,6 +19,9 @@ class QrCode final : public skr::plugin::Module {
   explicit QrCode(skr::plugin::Host& host) : host_(host) {
     repeat_ms_ = host.configInt("repeat_ms");  // declared in kConfig, checked by the host
     density_ = static_cast<int>(host.configInt("density"));
+    const auto types = skr::vision::codeTypesFromName(host.configString("types"));
+    if (!types) configFailure(host, "types", "not one of the choices");  // the host checked them
+    types_ = *types;
     pipeline_.emplace(host, skr::vision::readPipelineOptions(host));
   }
 
@@ -28,7 +31,7 @@ class QrCode final : public skr::plugin::Module {
         R"({"source":)" + skr::support::jsonQuote(pipeline_->options().input) + "}");
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
-          auto scanner = std::make_shared<skr::vision::CodeScanner>(density_);
+          auto scanner = std::make_shared<skr::vision::CodeScanner>(types_, density_);
           return [scanner](const skr::vision::FrameIn& in) { return analyse(*scanner, in); };
         },
         [this](skr::vision::Outcome&& o) { deliver(std::move(o)); });
@@ -75,6 +78,7 @@ class QrCode final : public skr::plugin::Module {
   skr::plugin::Host& host_;
   std::int64_t repeat_ms_ = 1000;
   int density_ = 2;
+  skr::vision::CodeTypes types_ = skr::vision::CodeTypes::common;
   std::optional<skr::vision::Pipeline> pipeline_;
   skr::plugin::StreamChannel out_;
   std::string last_key_;  // the set of codes last announced ("" = none)
@@ -93,6 +97,10 @@ constexpr skr_config_key kConfig[] = {
                  "frame")
         .min(0),
     cfg::integer("density", "2", "zbar scans every density-th row and column (1: all)").range(1, 4),
+    cfg::string("types", "common",
+                "common: QR codes and the usual barcodes; qr: QR codes only; all: everything zbar "
+                "reads, the EAN-2/5 add-ons and DataBar included (they misread ordinary pictures)")
+        .oneOf(skr::vision::kCodeTypesChoices),
 };
 
 SKROBOT_MODULE_WITH_CONFIG(QrCode, "qrcode", "1.0.0",

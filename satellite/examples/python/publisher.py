@@ -47,7 +47,7 @@ def loop():
 
 def onChannelAdded(ch):
     global sine
-    if ch.name == "{}.{}".format(args.user, args.name):
+    if ch.name == "{}.{}".format(args.user, args.name) and ch.isOwned:  # not another's
         sine = ch
         msg("channel ready: {} (id {})".format(ch.name, ch.chanID))
 

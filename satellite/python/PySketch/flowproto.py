@@ -194,12 +194,16 @@ def errorName(error):
 
 
 class FlowError(Exception):
-    """A REPLY_ERROR, an EV_ERROR, or a broken frame. `code` is an Error_T value."""
+    """A REPLY_ERROR, an EV_ERROR, or a broken frame. `code` is an Error_T value, `message` the
+    hub's text; for a refused asynchronous command (FlowSat's error callback) also `command`
+    (its name, e.g. "CHAN_ADD") and `channel` (the full name of the channel concerned, or None)."""
 
-    def __init__(self, code, message):
+    def __init__(self, code, message, command=None, channel=None):
         Exception.__init__(self, "%s: %s" % (errorName(code), message))
         self.code = code
         self.message = message
+        self.command = command
+        self.channel = channel
 
 
 class ProtocolError(FlowError):
@@ -211,20 +215,81 @@ class ProtocolError(FlowError):
 # Text and bytes that behave the same under both interpreters
 
 
-def toBytes(data):
-    """bytes (py3) / str (py2) from bytes, bytearray, memoryview, a DataBuffer or text."""
+_PAYLOADS = ("bytes-like data (bytes, bytearray, memoryview, array.array, a numpy array: "
+             "anything with the buffer protocol), text or a DataBuffer")
+
+
+def payloadBuffer(data):
+    """A payload as one flat run of bytes, copied only where it must be. Returns (buf, views):
+    buf is bytes, or under Python 3 a memoryview of format "B" over the caller's own object
+    (its length is the payload's size), or under Python 2.7 something bytearray.extend()
+    takes; `views` are the memoryviews made here: releaseViews(views) once buf has been used,
+    so that the caller may resize its bytearray again. Text becomes UTF-8, a DataBuffer (any
+    object with toBytes()) its bytes. A buffer that is not C-contiguous (a numpy slice with a
+    step, a transposed array) is copied once, in C order, as numpy's tobytes() does. Anything
+    else: TypeError naming what is accepted."""
     if isinstance(data, bytes):
-        return data
+        return data, ()
     if isinstance(data, text_type):
-        return data.encode("utf-8")
-    if isinstance(data, memoryview):
-        return data.tobytes()
-    if isinstance(data, bytearray):
-        return bytes(data)
+        return data.encode("utf-8"), ()
     to = getattr(data, "toBytes", None)
     if to is not None:
-        return to()
-    raise TypeError("expected bytes-like data, got %s" % type(data).__name__)
+        return to(), ()
+    if PY2:  # pragma: no cover - Python 2 only
+        return _payloadBuffer27(data), ()
+    try:
+        view = memoryview(data)
+    except TypeError:
+        raise TypeError("expected %s, got %s" % (_PAYLOADS, type(data).__name__))
+    if view.format == "B" and view.ndim == 1 and view.c_contiguous:
+        return view, (view,)
+    if view.c_contiguous:
+        try:
+            flat = view.cast("B")
+            return flat, (flat, view)
+        except TypeError:  # a format that this Python's cast() refuses: copied below
+            pass
+    flat = view.tobytes()
+    view.release()
+    return flat, ()
+
+
+def _payloadBuffer27(data):  # pragma: no cover - Python 2 only
+    import array
+    if isinstance(data, (bytearray, buffer)):  # noqa: F821 (Python 2's buffer)
+        return data
+    if isinstance(data, array.array):  # the old buffer protocol only
+        return buffer(data)  # noqa: F821
+    try:
+        view = memoryview(data)
+    except TypeError:
+        try:
+            return buffer(data)  # noqa: F821
+        except TypeError:
+            raise TypeError("expected %s, got %s" % (_PAYLOADS, type(data).__name__))
+    if view.format == "B" and view.ndim == 1:
+        return view
+    return view.tobytes()
+
+
+def releaseViews(views):
+    """Releases the memoryviews payloadBuffer() made (Python 3; nothing to do under 2.7)."""
+    for v in views:
+        v.release()
+
+
+def toBytes(data):
+    """bytes (py3) / str (py2) from anything payloadBuffer() takes: bytes, text, a DataBuffer,
+    bytearray, memoryview, array.array, a numpy array. A copy, unless `data` is bytes."""
+    if isinstance(data, bytes):
+        return data
+    buf, views = payloadBuffer(data)
+    try:
+        if isinstance(buf, memoryview):
+            return buf.tobytes()
+        return bytes(buf)
+    finally:
+        releaseViews(views)
 
 
 def utf8(s):

@@ -37,6 +37,9 @@ Callbacks (all run inside tick() or connect()):
     setRequestCallBack(f(chanID, hash, cmdName, value))  a request on an owned service channel;
                                          answer with sendServiceResponse(chanID, hash, value)
     setResponseCallBack(f(chanID, value)) the answer to sendServiceRequest (f(value) works too)
+    setErrorCallBack(f(chanName, code, text)) the hub refused a command, e.g. a channel that
+                                         another satellite owns already (f(FlowError) works too);
+                                         logged as the sketch's error in any case
 
 Errors in callbacks: an exception raised by a callback is the sketch's, not the hub's. It is
 logged with its traceback ("FlowSat: the sketch's <kind> callback <name> raised ...") and then
@@ -93,7 +96,7 @@ from PySketch.flowproto import (
     CODE_MINOR, PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue,
     Error_T, Flow_T, FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysMarker,
     decodePhysPath, decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame,
-    integer_types, str16, text_type, toBytes, u16, u32, u64, utf8)
+    integer_types, payloadBuffer, releaseViews, str16, text_type, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
 TIMED_REQUEST_MINOR = CODE_MINOR[Code.SERVICE_REQUEST_TIMED]
@@ -105,6 +108,8 @@ _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconn
 _BACKOFF_MIN = 0.05            # first delay before reconnecting, seconds; doubles ...
 _BACKOFF_MAX = 2.0             # ... up to this
 _STABLE_ONLINE = 5.0           # a connection online this long resets the delay to the minimum
+_GATHER = hasattr(socket.socket, "sendmsg")  # Python 3: a frame's head and payload in one write
+_PUBLISH_HEAD = struct.Struct("<IBH")        # u32 length, u8 PUBLISH, u16 chanID
 
 
 def _callableName(f):
@@ -135,6 +140,18 @@ def _arity(f):
         return n
     except (TypeError, ValueError):
         return None
+
+
+def _refusedChannel(name, error, message, user):
+    """The log line of a channel the hub did not create, with what to do about it."""
+    if error == Error_T.already_exists:
+        advice = ("another satellite owns a channel of that name (another sketch of user %s, or "
+                  "this sketch started twice): choose another name, or stop the other satellite "
+                  "and add the channel again" % user)
+    else:
+        advice = "the channel does not exist until it is added again"
+    return "SAT-CHANNEL-REFUSED: the hub refused to create the channel %s (%s: %s): %s" % (
+        name, errorName(error), message, advice)
 
 
 class TickTimer(ElapsedTime):
@@ -211,6 +228,7 @@ class FlowSat(AbstractFlow):
         self._onDbChanged = None
         self._onBlobChanged = None
         self._onError = None
+        self._errorArity = None
         self.lastRequester = None
 
         # The sync pulse (docs/sync-pulse.md): the sources followed, by name -> every Nth pulse.
@@ -306,8 +324,15 @@ class FlowSat(AbstractFlow):
         self._onSyncLost = f
 
     def setErrorCallBack(self, f):
-        """f(FlowError) for every failed asynchronous command (they are also logged)."""
+        """f(chanName, code, text) for every asynchronous command the hub refused and every
+        failed service request, after the refusal was logged as the sketch's error: chanName is
+        the full name of the channel concerned (for a channel that addStreamingChannel or
+        addServiceChannel asked for: "<user>.<name>"), None when there is none; code is the
+        Error_T member (Error_T.already_exists, ...); text is the hub's message. A callback
+        that takes one argument gets a FlowError instead, with the same as .channel, .code and
+        .message, and the command's name as .command ("CHAN_ADD")."""
         self._onError = f
+        self._errorArity = _arity(f) if f is not None else None
 
     ###########################################################################
     # Connection
@@ -634,6 +659,49 @@ class FlowSat(AbstractFlow):
             return False
         self._outbuf.extend(data)
         self._flush()
+        return self._bounded()
+
+    def _sendPublish(self, chanID, payload):
+        """PUBLISH with `payload` (payloadBuffer's): under Python 3 on a plain socket, its head
+        and the payload go out in one gathered write when nothing waits before them, and only
+        what the socket does not take is copied into the output buffer; otherwise (TLS, Python
+        2.7, output waiting) the payload is copied there once. Either way the caller's buffer
+        is free again when this returns."""
+        if self._state != "online":
+            return False
+        size = len(payload)
+        if self._outbuf:
+            self._flush()
+            if self._state != "online":
+                return False  # the connection broke
+        if not _GATHER or self._outbuf or isinstance(self._sock, ssl.SSLSocket):
+            out = self._outbuf
+            start = len(out)
+            out.extend(_PUBLISH_HEAD.pack(0, Code.PUBLISH, chanID))
+            out.extend(payload)
+            _PUBLISH_HEAD.pack_into(out, start, len(out) - start - 4, Code.PUBLISH, chanID)
+            self._flush()
+            return self._bounded()
+        head = _PUBLISH_HEAD.pack(size + 3, Code.PUBLISH, chanID)
+        try:
+            sent = self._sock.sendmsg([head, payload])
+        except socket.error as e:
+            if not (e.args and e.args[0] in _WOULD_BLOCK):
+                self._lost(str(e))
+                return False
+            sent = 0
+        if sent < len(head):
+            self._outbuf.extend(head[sent:])
+            sent = len(head)
+        if sent - len(head) < size:
+            with memoryview(payload) as whole:
+                with whole[sent - len(head):] as rest:
+                    self._outbuf.extend(rest)
+        return self._bounded()
+
+    def _bounded(self):
+        """Past _OUT_LIMIT of queued output, waits (up to 10 s) until the hub has read half of
+        it; False when it does not."""
         if len(self._outbuf) > _OUT_LIMIT:
             deadline = now() + 10.0
             gen = self._gen
@@ -816,8 +884,7 @@ class FlowSat(AbstractFlow):
             if error != 0:
                 log.wrn("FlowSat: service request on channel %d failed: %s: %s"
                         % (chan, errorName(error), value))
-                if self._onError is not None:
-                    self._call("error", self._onError, FlowError(error, str(value)))
+                self._reportError(Code.SERVICE_REQUEST, self._chanName(chan), error, str(value))
             if self._onResponse is not None:
                 if self._responseArity == 1:
                     self._call("response", self._onResponse, value)
@@ -875,18 +942,38 @@ class FlowSat(AbstractFlow):
     def _commandFailed(self, command, tag, chan, error, message):
         if command == Code.PHYS_REQUEST and self._paths.onRefused(tag, message):
             return  # relayed meanwhile, asked again later: logged there, not a sketch's error
+        name = self._chanName(chan)
         if command == Code.CHAN_ADD:
             short = self._pendingAdds.pop(tag, None)
             if short is not None:
-                self._specs.pop(short, None)
+                self._specs.pop(short, None)  # not re-created on reconnection: add it again
+                name = "%s.%s" % (self._userName, short)
+                self._logOnce((command, name, error), _refusedChannel(name, error, message,
+                                                                      self._userName))
+                self._reportError(command, name, error, message)
+                return
         elif command == Code.SUBSCRIBE:
             self._subscribedIDs.discard(chan)
         elif command == Code.PHYS_STATE:
             self._paths.onStateRefused(chan)
         self._logOnce((command, chan, error), "FlowSat: %s failed: %s: %s"
                       % (codeName(command), errorName(error), message))
-        if self._onError is not None:
-            self._call("error", self._onError, FlowError(error, message))
+        self._reportError(command, name, error, message)
+
+    def _chanName(self, chan):
+        ch = self._channels.get(chan) if chan else None
+        return ch.name if ch is not None else None
+
+    def _reportError(self, command, chanName, error, message):
+        """The error callback, in the form it takes (setErrorCallBack)."""
+        if self._onError is None:
+            return
+        if self._errorArity == 3:
+            code = Error_T.byValue(error)
+            self._call("error", self._onError, chanName, error if code is None else code, message)
+        else:
+            self._call("error", self._onError,
+                       FlowError(error, message, codeName(command), chanName))
 
     def _deliverData(self, chan, data):
         """A message of a subscribed channel (bytes), relayed or from a direct path."""
@@ -1069,9 +1156,12 @@ class FlowSat(AbstractFlow):
                             name=None, mime="", props=None):
         """Creates the streaming channel "<user>.<name>". Its id arrives with the new-channel
         callback. `props` (a dict) become the channel's database; flow_type and data_type are
-        added to it as "flow_type" and "data_type" (their names). Returns bool (the command was
-        accepted locally; the hub's refusal is logged). Before connect() or while reconnecting,
-        the channel is created as soon as the flow is online."""
+        added to it as "flow_type" and "data_type" (their names). Returns bool: the command was
+        accepted locally (a bad name, or a name this flow added already: False). The hub may
+        still refuse it later, typically because another satellite owns a channel of that name:
+        that is logged as the sketch's error (SAT-CHANNEL-REFUSED) and reported to the error
+        callback with the channel's name. Before connect() or while reconnecting, the channel
+        is created as soon as the flow is online."""
         p = dict(props or {}) if isinstance(props, dict) or props is None else props
         if isinstance(p, dict):
             ft = self._flowTypeName(flow_type)
@@ -1319,13 +1409,23 @@ class FlowSat(AbstractFlow):
     # Publishing
 
     def publish(self, chanID, data):
-        """Publishes bytes (or a DataBuffer, bytearray, memoryview) on an owned streaming
-        channel (chanID, name or FlowChannel, like every publish* method). Returns False when
-        offline."""
+        """Publishes a payload on an owned streaming channel (chanID, name or FlowChannel, like
+        every publish* method): bytes, or any object with the buffer protocol (bytearray,
+        memoryview, array.array, a numpy array: its bytes in C order), a DataBuffer, or text
+        (UTF-8). No intermediate bytes object is built: under Python 3 the frame goes out as a
+        gathered write straight from the caller's buffer, and only what the socket cannot take
+        at once is copied into the flow's output buffer (a buffer that is not C-contiguous is
+        copied once first). The caller may change or reuse its buffer as soon as publish()
+        returns. Returns False when offline (or when the connection breaks during the call);
+        data of any other type: TypeError."""
         chanID = self._chanID(chanID)
-        if chanID is None:
-            return False
-        return self._send(frame(Code.PUBLISH, u16(chanID) + toBytes(data)))
+        payload, views = payloadBuffer(data)
+        try:
+            if chanID is None:
+                return False
+            return self._sendPublish(chanID, payload)
+        finally:
+            releaseViews(views)
 
     def _publishPacked(self, chanID, fmt, values):
         if not isinstance(values, (list, tuple)):

@@ -1,7 +1,9 @@
 """Errors, and who they are blamed on: an exception in a sketch's callback is the sketch's
-(reported with its traceback, the flow stays up, no reconnection); a hub that keeps dropping
-the flow sees growing delays between logins, not a storm; a FlowChannel is accepted wherever a
-chanID or a channel name is."""
+(reported with its traceback, the flow stays up, no reconnection); a channel that another
+satellite owns already is refused later than addStreamingChannel returns, and that refusal is
+the sketch's error and reaches its error callback; a hub that keeps dropping the flow sees
+growing delays between logins, not a storm; a FlowChannel is accepted wherever a chanID or a
+channel name is."""
 from __future__ import print_function
 
 import os
@@ -12,11 +14,11 @@ import textwrap
 import threading
 
 from PySketch.abstractflow import FlowChannel
-from PySketch.flowproto import Flow_T, Variant_T
+from PySketch.flowproto import Error_T, Flow_T, Variant_T
 from PySketch.flowsat import FlowSat
 
 from tests.compat import TextIO, monotonic, redirect_stderr
-from tests.hubtest import EXECUTOR, HubTestCase, Sketch, pump, tickFor
+from tests.hubtest import EXAMPLES, EXECUTOR, HubTestCase, Sketch, pump, tickFor
 
 CREDENTIALS = ["--user", "guest", "--password", "password"]
 
@@ -106,6 +108,86 @@ class CallbackErrors(HubTestCase):
         self.assertNotIn("broken frame", out)
         self.assertNotIn("reconnect", out)
         self.assertEqual(logins(self.hub), 2, "the sketch logged in once:\n" + self.hub.log())
+
+
+REFUSED = (r"\[ERR\] SAT-CHANNEL-REFUSED: the hub refused to create the channel guest\.camera "
+           r"\(already_exists: [^)]*guest\.camera[^)]*\): another satellite owns a channel of "
+           r"that name \(another sketch of user guest, or this sketch started twice\): choose "
+           r"another name, or stop the other satellite and add the channel again")
+
+
+class SecondPublisher(HubTestCase):
+    """Two satellites of one user create the same channel: the hub refuses the second."""
+
+    def owner_and_second(self):
+        first, second = self.connected(), self.connected()
+        self.assertTrue(first.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY,
+                                                  "camera"))
+        self.assertTrue(pump([first, second], lambda: second.channelByName("guest.camera")))
+        return first, second
+
+    def test_the_refusal_reaches_the_error_callback_with_the_channels_name(self):
+        first, second = self.owner_and_second()
+        refusals = []
+        second.setErrorCallBack(lambda name, code, text: refusals.append((name, code, text)))
+        err = TextIO()
+        with redirect_stderr(err):
+            # True: sent. The hub's answer comes later.
+            self.assertTrue(second.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY,
+                                                       "camera"))
+            self.assertTrue(pump([first, second], lambda: refusals))
+            tickFor([first, second], 0.1)
+        self.assertEqual(len(refusals), 1, refusals)
+        name, code, text = refusals[0]
+        self.assertEqual(name, "guest.camera")
+        self.assertEqual(code, Error_T.already_exists)
+        self.assertEqual(code.name, "already_exists")
+        self.assertIn("guest.camera", text)
+        self.assertRegex(err.getvalue(), REFUSED)
+        self.assertFalse(second.channelByName("guest.camera").isOwned)
+
+        # What the line advises: once the other satellite is gone, adding it again works.
+        first.close()
+        self.assertTrue(pump([second], lambda: second.channelByName("guest.camera") is None))
+        added = []
+        second.setNewChanCallBack(added.append)
+        self.assertTrue(second.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY,
+                                                   "camera"))
+        self.assertTrue(pump([second], lambda: [c for c in added if c.name == "guest.camera"]))
+        self.assertTrue(second.channelByName("guest.camera").isOwned)
+        self.assertEqual(len(refusals), 1)
+
+    def test_without_a_callback_the_refusal_is_the_sketchs_error(self):
+        first, second = self.owner_and_second()
+        errors = []
+        err = TextIO()
+        with redirect_stderr(err):
+            self.assertTrue(second.addServiceChannel("camera"))  # any kind of channel
+            self.assertTrue(pump([first, second], lambda: "SAT-CHANNEL-REFUSED" in
+                                 err.getvalue()))
+            # The one-argument form gets a FlowError that names the channel and the command.
+            second.setErrorCallBack(errors.append)
+            self.assertTrue(second.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_BYTEARRAY,
+                                                       "camera"))
+            self.assertTrue(pump([first, second], lambda: errors))
+        self.assertRegex(err.getvalue(), REFUSED)
+        e = errors[0]
+        self.assertEqual((e.channel, e.command, e.code), ("guest.camera", "CHAN_ADD",
+                                                          Error_T.already_exists))
+        self.assertIn("guest.camera", e.message)
+
+    def test_a_sketch_started_twice_says_why_its_channel_stays_silent(self):
+        publisher = os.path.join(EXAMPLES, "publisher.py")
+        one = Sketch([EXECUTOR, publisher] + CREDENTIALS, self.hub.env())
+        self.addCleanup(lambda: one.alive() and one.stop(signal.SIGKILL))
+        one.waitFor(r"channel ready: guest\.sine")
+        two = Sketch([EXECUTOR, publisher] + CREDENTIALS, self.hub.env())
+        self.addCleanup(lambda: two.alive() and two.stop(signal.SIGKILL))
+        two.waitFor(r"\[ERR\] SAT-CHANNEL-REFUSED: the hub refused to create the channel "
+                    r"guest\.sine \(already_exists")
+        self.assertNotIn("channel ready", two.output(), "the channel is the other sketch's")
+        self.assertTrue(two.alive())
+        self.assertEqual(two.stop(signal.SIGTERM), 0, two.output())
 
 
 class _DropsItsFlow(FlowSat):

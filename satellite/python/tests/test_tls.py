@@ -5,10 +5,12 @@ hub, no client certificate) are clear errors, and the hub goes on. Certificates 
 time by tests/support/make_test_certs.sh (openssl CLI)."""
 from __future__ import print_function
 
+import array
 import json
 import os
 import re
 import shutil
+import struct
 import subprocess
 import tempfile
 import unittest
@@ -139,11 +141,13 @@ class OverTls(TlsTestCase):
         mine = pub.channelByName("alice.n")
         self.assertTrue(pump([pub, sub], lambda: mine.isPublishingEnabled))
         big = b"x" * 300000   # many TLS records
-        sent = [("%d" % i).encode() for i in range(50)] + [big]
+        floats = array.array("f", range(100000))  # a buffer: copied once, then encrypted
+        sent = [("%d" % i).encode() for i in range(50)] + [big, bytearray(b"ba"), floats]
         for payload in sent:
             self.assertTrue(pub.publish(mine.chanID, payload))
+        floats[0] = -1.0  # published already: changes nothing
         self.assertTrue(pump([pub, sub], lambda: len(data) >= len(sent)), len(data))
-        self.assertEqual(data, sent)
+        self.assertEqual(data, sent[:-2] + [b"ba", struct.pack("<100000f", *range(100000))])
         self.assertIn("(alice/", self.hub.log())
 
     def test_refusals_are_clear_and_the_hub_goes_on(self):

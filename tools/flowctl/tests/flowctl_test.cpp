@@ -308,6 +308,14 @@ TEST_F(Flowctl, StatisticsTopInfoGraphHzAndBw) {
   EXPECT_TRUE(has(info, "guest/viewer (satellite)")) << info.out;
   EXPECT_TRUE(has(info, "40 messages")) << info.out;
   EXPECT_TRUE(has(info, R"("unit":"ticks")")) << info.out;
+  // Both windows: the last second, and the last ten (or its age, when it is younger).
+  EXPECT_TRUE(has(info, "  rate         ")) << info.out;
+  EXPECT_TRUE(has(info, "over the last 1.0 s\n")) << info.out;
+  auto info_json = flow::variantFromJsonText(flowctl({"--json", "info", "guest.counter"}).out);
+  ASSERT_TRUE(info_json);
+  for (const char* key : {"hz", "hz_10s", "bytes_per_s_10s", "age_s"}) {
+    EXPECT_NE(info_json->find(key), nullptr) << key;
+  }
   EXPECT_EQ(flowctl({"info", "guest.nothing"}).code, 5);
 
   auto graph = flowctl({"graph"});

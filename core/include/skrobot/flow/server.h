@@ -81,6 +81,9 @@ struct ServerOptions {
   // A development account accepted on the Unix socket only (guest/password in the default
   // config). TCP never starts without real accounts in the users file.
   std::optional<std::pair<std::string, std::string>> dev_account;
+  // The monotonic clock of the statistics' rate windows (when a channel or flow began, when
+  // sampleRates() closes a second). Tests drive time with their own; the hub keeps the default.
+  Nanos (*stats_clock)() = &monotonicNs;
 };
 
 // Counters a test or an operator can read (FlowServer::stats()).
@@ -154,8 +157,13 @@ class FlowServer {
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
   [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's
-  // Every channel's and flow's counters now (flow/hub_stats.h).
+  // Every channel's and flow's counters now, with their rates over the last second and the
+  // last ten as of the last sampleRates() (flow/hub_stats.h).
   [[nodiscard]] HubSnapshot snapshot() const;
+  // Closes a second of every channel's and flow's rate windows, at options().stats_clock() now:
+  // HubStats calls it on each one-second tick. A walk over the channels and flows copying a few
+  // counters each; the relay itself only counts.
+  void sampleRates();
 
   // An in-process satellite (a module) logged in as `user`, with its own flow database, acting
   // under `access` (null: the default rules). Handlers run on the main loop thread. The client

@@ -9,6 +9,9 @@
 //   (>= fast), OneSecTick every second. Slow and one-second ticks are checked at each fast tick;
 //   when several fall due at once they run in the order fast, slow, one-second. A tick whose
 //   deadline passed by more than a whole interval is skipped and counted, never run in a burst.
+// - late wake-up: the loop woke a whole fast interval or more after its deadline while its thread
+//   was off the CPU (not scheduled on a busy machine, stopped, or blocked in a call): counted,
+//   and its skipped ticks are not the loop's work being too slow (no LOOP-OVERLOAD for them).
 #pragma once
 
 #include <skrobot/core/clock.h>
@@ -49,7 +52,8 @@ struct LoopOptions {
   Nanos fast_interval_ns = 10 * kNsPerMs;
   Nanos slow_interval_ns = 100 * kNsPerMs;  // raised to fast_interval_ns if smaller
   // Log LOOP-OVERLOAD when tick work over a second averages more than this fraction of the
-  // fast interval, or when ticks had to be skipped.
+  // fast interval, or when the loop's own work (its ticks, or callbacks that kept it on the CPU
+  // past a deadline) made it skip ticks. Late wake-ups are counted instead (LoopStats).
   double load_warning_ratio = 0.8;
   // pseudo_realtime only: how long before each deadline the loop stops sleeping and spins.
   Nanos spin_margin_ns = 1500 * 1000;
@@ -66,7 +70,12 @@ struct LoopStats {
   std::uint64_t fast_ticks = 0;
   std::uint64_t slow_ticks = 0;
   std::uint64_t one_sec_ticks = 0;
-  std::uint64_t skipped_ticks = 0;  // fast deadlines skipped because work overran
+  std::uint64_t skipped_ticks = 0;  // fast deadlines skipped, for whatever reason
+  // Wake-ups a whole fast interval or more after their deadline while the thread was off the
+  // CPU (coarse and pseudo-realtime modes), and the fast deadlines they skipped (of
+  // skipped_ticks): the machine's doing, not the loop's work.
+  std::uint64_t late_wakeups = 0;
+  std::uint64_t late_skipped_ticks = 0;
   std::uint64_t pulses = 0;         // pulses that ran posted work
   std::uint64_t posted = 0;         // functions run from post()
   std::uint64_t load_warnings = 0;  // LOOP-OVERLOAD lines logged
@@ -191,11 +200,15 @@ class Loop {
   LoopStats stats_;
   Nanos window_start_ = 0;
   std::uint64_t window_ticks_ = 0;
-  std::uint64_t window_skipped_ = 0;
+  std::uint64_t window_skipped_ = 0;       // by the loop's work
+  std::uint64_t window_late_skipped_ = 0;  // after late wake-ups
   double window_work_sum_ = 0;
   double window_work_max_ = 0;
   Nanos last_warning_ns_ = 0;
   std::uint64_t suppressed_warnings_ = 0;
+  // The thread's CPU time when the last tick's work ended (coarse and pseudo-realtime): what it
+  // did between then and a late wake-up tells work from not being scheduled.
+  Nanos cpu_at_tick_end_ = 0;
 };
 
 // A Loop that runs on a thread of its own (a module that asks for its own thread).

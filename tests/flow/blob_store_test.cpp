@@ -1,8 +1,8 @@
 // The blob store on its own: path rules, confinement under both resolvers (a symlink planted in
 // the tree, a directory swapped for a symlink during the walk), the order of a commit's system
 // calls, resumed uploads across a restart, versions, quotas.
-#include "../../core/src/flow/blob_store.h"
-#include "../../core/src/flow/blob_path.h"
+#include "families/blobs/blob_store.h"
+#include "families/blobs/blob_path.h"
 #include "temp_dir.h"
 
 #include <gtest/gtest.h>

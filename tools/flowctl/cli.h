@@ -56,6 +56,9 @@ int exitFor(const skr::Error& error);
 std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code);
 // Parses a number argument; false (after printing a usage error) when it is not one.
 bool parseNumber(const std::string& text, const char* what, double& out);
+// Parses a JSON value argument; nullopt (after a usage error that says how to quote) when it is
+// not JSON.
+std::optional<skr::flow::Variant> jsonArg(const std::string& text, const char* what);
 
 // Commands. Each returns an exit code.
 int cmdLs(const Cli& cli);

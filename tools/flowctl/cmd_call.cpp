@@ -29,8 +29,7 @@ int cmdCall(const Cli& cli) {
   const auto timeout = args.option("--timeout-ms");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() < 2 || rest.size() > 3)
-    return fail(kUsage, "usage: flowctl call SERVICE CMD [VALUE]");
+  if (rest.size() < 2 || rest.size() > 3) return usageError(cli);
   double timeout_ms = 5000;
   if (timeout && !parseNumber(*timeout, "--timeout-ms", timeout_ms)) return kUsage;
   Variant value;

@@ -14,7 +14,7 @@ int cmdDb(const Cli& cli) {
   const size_t want = op == "set" ? 3 : (op == "get" || op == "del") ? 2 : 1;
   const bool known = op == "get" || op == "set" || op == "del" || op == "ls" || op == "save" ||
                      op == "sync" || op == "databases";
-  if (!known || rest.size() != want) return fail(kUsage, std::string(commandHelp("db")));
+  if (!known || rest.size() != want) return usageError(cli);
   std::optional<Variant> value;
   if (op == "set" && !(value = jsonArg(rest[2], "VALUE"))) return kUsage;
   int code = kOk;

@@ -25,7 +25,7 @@ int cmdGraph(const Cli& cli) {
   const bool all = args.flag("--all");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (!rest.empty()) return fail(kUsage, "usage: flowctl graph [--all]");
+  if (!rest.empty()) return usageError(cli);
   int code = kOk;
   auto stats = fetchStats(cli, code);
   if (!stats) return code;

@@ -23,13 +23,13 @@ struct Window {
 };
 
 // hz and bw: subscribe and print once a second until --count lines (0: until Ctrl-C).
-int measure(const Cli& cli, const char* usage, bool bandwidth) {
+int measure(const Cli& cli, bool bandwidth) {
   Args args(cli.args);
   const auto window_text = args.option("--window");
   const auto count_text = args.option("--count");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 1) return fail(kUsage, usage);
+  if (rest.size() != 1) return usageError(cli);
   double window = 100, count = 0;
   if (window_text && (!parseNumber(*window_text, "--window", window) || window < 2)) {
     return fail(kUsage, "--window takes 2 messages or more");
@@ -95,11 +95,11 @@ int measure(const Cli& cli, const char* usage, bool bandwidth) {
 }  // namespace
 
 int cmdHz(const Cli& cli) {
-  return measure(cli, "usage: flowctl hz CHANNEL [--window N] [--count N]", false);
+  return measure(cli, false);
 }
 
 int cmdBw(const Cli& cli) {
-  return measure(cli, "usage: flowctl bw CHANNEL [--window N] [--count N]", true);
+  return measure(cli, true);
 }
 
 }  // namespace flowctl

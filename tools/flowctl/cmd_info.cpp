@@ -38,7 +38,7 @@ int cmdInfo(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 1) return fail(kUsage, "usage: flowctl info CHANNEL");
+  if (rest.size() != 1) return usageError(cli);
   int code = kOk;
   auto sync = connectSync(cli, code);
   if (!sync) return code;

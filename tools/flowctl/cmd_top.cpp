@@ -66,8 +66,7 @@ int cmdTop(const Cli& cli) {
   const bool once = args.flag("--once");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (!rest.empty())
-    return fail(kUsage, "usage: flowctl top [--sort hz|bw|drops|name] [--rows N] [--once]");
+  if (!rest.empty()) return usageError(cli);
   if (sort != "hz" && sort != "bw" && sort != "drops" && sort != "name") {
     return fail(kUsage, "--sort is hz, bw, drops or name, not '" + sort + "'");
   }

@@ -332,6 +332,22 @@ std::string overview() {
   return out;
 }
 
+std::string commandsMarkdown() {
+  std::string out;
+  for (const Command& c : kCommands) {
+    if (c.synopsis.empty() || c.run == nullptr) continue;  // listed on another row's line; help
+    out += "- `flowctl ";
+    out += c.synopsis;
+    out += "`: ";
+    for (const char ch : c.summary) {
+      if (ch == '<') out += '\\';  // "<user>" is text, not HTML
+      out += ch == '\n' ? ' ' : ch;
+    }
+    out += '\n';
+  }
+  return out;
+}
+
 std::string_view commandHelp(std::string_view name) {
   const Command* c = findCommand(name);
   return c != nullptr ? c->help : std::string_view();

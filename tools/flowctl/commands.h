@@ -1,7 +1,8 @@
 // flowctl's commands: one row each (commands.cpp) with the word the operator types, the texts
 // that explain it and the handler that runs it. The overview (flowctl --help), a command's help
-// (flowctl help NAME), its usage error, the unknown-command error and the dispatch are all read
-// from these rows. Adding a command: one row in commands.cpp and one handler (declared in cli.h).
+// (flowctl help NAME), its usage error, the unknown-command error, the dispatch and the docs'
+// list of commands (flowctl help --markdown) are all read from these rows. Adding a command: one
+// row in commands.cpp and one handler (declared in cli.h).
 #pragma once
 
 #include <span>
@@ -32,6 +33,9 @@ const Command* findCommand(std::string_view name);
 
 // flowctl --help: the global options, every row's line, the exit codes.
 std::string overview();
+// flowctl help --markdown: the commands as a Markdown list, one item per line of the overview
+// (help aside); README.md and docs/cpp-satellites.md hold it (tests/commands_markdown.py).
+std::string commandsMarkdown();
 // flowctl help NAME: the row's help, or "" when there is no such command or it has none.
 std::string_view commandHelp(std::string_view name);
 // "unknown command 'NAME' (see flowctl --help)"; returns kUsage.

@@ -78,8 +78,9 @@ int main(int argc, char** argv) {
     cli.command = cli.args.empty() ? "" : cli.args[0];
   }
   if (help || cli.command.empty()) {
-    const std::string text =
-        cli.command.empty() ? overview() : std::string(commandHelp(cli.command));
+    const std::string text = cli.command.empty()           ? overview()
+                             : cli.command == "--markdown" ? commandsMarkdown()
+                                                           : std::string(commandHelp(cli.command));
     if (text.empty()) return unknownCommand(cli.command);
     std::fputs(text.c_str(), help ? stdout : stderr);
     return help ? kOk : kUsage;

@@ -1,6 +1,8 @@
 // flowctl's table of commands (commands.h) and the texts made from it.
 #include "commands.h"
 
+#include <iterator>
+
 namespace flowctl {
 
 namespace {
@@ -15,8 +17,8 @@ constexpr std::string_view kHzBwHelp = R"(usage: flowctl hz|bw CHANNEL [--window
 constexpr Command kCommands[] = {
     {.name = "ls",
      .synopsis = "ls",
-     .summary = "list the hub's channels: id, kind, name, owner, subscribers, mime,\n"
-                "properties",
+     .summary = "list the hub's channels: id, kind, hub, name, owner, subscribers,\n"
+                "mime, properties",
      .help = R"(usage: flowctl ls [PATTERN...]
   Lists the channels whose names match a PATTERN (all without one). In a pattern '*' is any run
   within one part of the name (parts are separated by '.'), '**' any run across parts, '?' one
@@ -78,7 +80,7 @@ constexpr Command kCommands[] = {
 )",
      .run = cmdCall},
     {.name = "db",
-     .synopsis = "db get|set|del|ls|save|databases [--db NAME] [KEY [VALUE]]",
+     .synopsis = "db get|set|del|ls|save|sync|databases [--db NAME] [KEY [VALUE]]",
      .summary = "read and write PairDatabases",
      .help =
          R"(usage: flowctl db get KEY | set KEY VALUE | del KEY | ls | save | sync | databases [--db NAME]
@@ -96,16 +98,26 @@ constexpr Command kCommands[] = {
      .synopsis = "flows",
      .summary = "the hub's connections: id, user, client, source (administrators)",
      .usage = "usage: flowctl flows",
+     .help = R"(usage: flowctl flows
+  The hub's connections (administrators only; docs/security.md): id, user, client name,
+  transport, source address, channels owned and subscriptions.
+)",
      .run = cmdFlows},
     {.name = "kick",
      .synopsis = "kick ID",
      .summary = "disconnect connection ID (administrators)",
      .usage = "usage: flowctl kick ID",
+     .help = R"(usage: flowctl kick ID
+  Disconnects connection ID, as flowctl flows lists it (administrators only).
+)",
      .run = cmdKick},
     {.name = "chan",
      .synopsis = "chan rm CHANNEL",
      .summary = "remove any channel (administrators)",
      .usage = "usage: flowctl chan rm CHANNEL",
+     .help = R"(usage: flowctl chan rm CHANNEL
+  Removes the channel CHANNEL, whoever owns it (administrators only).
+)",
      .run = cmdChan},
     {.name = "blob",
      .synopsis = "blob ls|get|put|mkdir|rmdir|rm CHANNEL ...",
@@ -147,6 +159,11 @@ constexpr Command kCommands[] = {
      .summary = "this hub's links to other hubs: state, channels, round trip,\n"
                 "clock offset, traffic (docs/hub-links.md)",
      .usage = "usage: flowctl link ls",
+     .help = R"(usage: flowctl link ls
+  This hub's links to other hubs (docs/hub-links.md), from their databases _link.<name>: the
+  far hub, state, channels, round trip and clock offset (microseconds), messages in, requests,
+  drops and address.
+)",
      .run = cmdLink},
     {.name = "top",
      .synopsis = "top",
@@ -243,6 +260,10 @@ constexpr Command kCommands[] = {
      .synopsis = "users",
      .summary = "the accounts of the users file (administrators)",
      .usage = "usage: flowctl users",
+     .help = R"(usage: flowctl users
+  The accounts of the hub's users file: name, role, when it was made (administrators only;
+  docs/accounts.md).
+)",
      .run = cmdUsers},
     {.name = "user",
      .synopsis = "user add|del|passwd|role|rule NAME ...",
@@ -264,8 +285,24 @@ constexpr Command kCommands[] = {
     {.name = "help",
      .synopsis = "help [COMMAND]",
      .summary = "this text, or a command's options",
+     .help = R"(usage: flowctl help [COMMAND | --markdown]
+  The commands and the global options, or COMMAND's usage and options (as flowctl COMMAND
+  --help). --markdown: the commands as a Markdown list (README.md's).
+)",
      .run = nullptr},  // main answers help
 };
+
+// Every row has a name of its own and a help text (flowctl help NAME).
+constexpr bool wellFormed() {
+  for (size_t i = 0; i < std::size(kCommands); ++i) {
+    if (kCommands[i].name.empty() || kCommands[i].help.empty()) return false;
+    for (size_t j = 0; j < i; ++j) {
+      if (kCommands[i].name == kCommands[j].name) return false;
+    }
+  }
+  return true;
+}
+static_assert(wellFormed(), "each command needs a name of its own and a help text");
 
 // The overview around the rows' lines.
 constexpr std::string_view kOverviewHead =

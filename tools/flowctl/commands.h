@@ -21,8 +21,7 @@ struct Command {
   std::string_view summary = {};
   // Printed on a usage error (usageError); empty: the help is printed instead.
   std::string_view usage = {};
-  // flowctl help NAME, or NAME --help; empty: none (help says it is an unknown command).
-  std::string_view help = {};
+  std::string_view help = {};            // flowctl help NAME, or NAME --help (every row has one)
   int (*run)(const Cli& cli) = nullptr;  // the handler; null for help, which main answers
 };
 
@@ -36,7 +35,7 @@ std::string overview();
 // flowctl help --markdown: the commands as a Markdown list, one item per line of the overview
 // (help aside); README.md and docs/cpp-satellites.md hold it (tests/commands_markdown.py).
 std::string commandsMarkdown();
-// flowctl help NAME: the row's help, or "" when there is no such command or it has none.
+// flowctl help NAME: the row's help, or "" when there is no such command.
 std::string_view commandHelp(std::string_view name);
 // "unknown command 'NAME' (see flowctl --help)"; returns kUsage.
 int unknownCommand(const std::string& name);

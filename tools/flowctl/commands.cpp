@@ -335,10 +335,6 @@ constexpr size_t kSummaryColumn = 30;
 
 }  // namespace
 
-std::span<const Command> commands() {
-  return kCommands;
-}
-
 const Command* findCommand(std::string_view name) {
   for (const Command& c : kCommands) {
     if (c.name == name) return &c;

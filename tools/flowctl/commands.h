@@ -5,7 +5,6 @@
 // row in commands.cpp and one handler (declared in cli.h).
 #pragma once
 
-#include <span>
 #include <string>
 #include <string_view>
 
@@ -25,8 +24,6 @@ struct Command {
   int (*run)(const Cli& cli) = nullptr;  // the handler; null for help, which main answers
 };
 
-// Every command, in the overview's order.
-std::span<const Command> commands();
 // The row named `name`, or null.
 const Command* findCommand(std::string_view name);
 

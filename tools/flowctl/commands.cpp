@@ -193,8 +193,8 @@ constexpr Command kCommands[] = {
      .summary = "owner, subscribers, rate, totals, properties",
      .usage = "usage: flowctl info CHANNEL",
      .help = R"(usage: flowctl info CHANNEL
-  A channel's kind, mime type, owner, subscribers (their flows), rate (since the hub's figures
-  were last taken), totals (messages, bytes, drops), pending requests and properties.
+  A channel's kind, mime type, owner, subscribers (their flows), rates (over the hub's last
+  second and last ten), totals (messages, bytes, drops), pending requests and properties.
 )",
      .run = cmdInfo},
     {.name = "graph",

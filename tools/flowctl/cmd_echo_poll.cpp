@@ -1,5 +1,6 @@
 // flowctl echo and poll: print what a streaming channel carries, as it comes or its latest.
 #include <chrono>
+#include <csignal>
 #include <thread>
 
 #include "session.h"

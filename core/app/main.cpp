@@ -4,17 +4,15 @@
 #include <skrobot/core/install_layout.h>
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
+#include <skrobot/core/loop_handles.h>
 #include <skrobot/core/module_host.h>
 #include <skrobot/flow/hub_stats.h>
 #include <skrobot/flow/server.h>
 #include <skrobot/plugin.h>
 #include <skrobot/support/json.hpp>
 
-#include <uv.h>
-
 #include "user_command.h"
 
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -180,17 +178,6 @@ int listModules(const std::vector<fs::path>& config_paths) {
   return kExitOk;
 }
 
-struct SignalWatch {
-  uv_signal_t handle{};
-  skr::Loop* loop = nullptr;
-};
-
-void onSignal(uv_signal_t* handle, int signum) {
-  auto* w = static_cast<SignalWatch*>(handle->data);
-  skr::log::info("hub", "HUB-SIGNAL", std::string("received ") + strsignal(signum) + ", stopping");
-  w->loop->stop();
-}
-
 skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   skr::flow::ServerOptions o;
   const skr::ServerConfig& s = cfg.server;
@@ -224,14 +211,10 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
 
 int runHub(const skr::HubConfig& cfg) {
   skr::Loop loop(cfg.loop);
-  SignalWatch watches[2];
-  const int signums[2] = {SIGINT, SIGTERM};
-  for (int i = 0; i < 2; ++i) {
-    watches[i].loop = &loop;
-    watches[i].handle.data = &watches[i];
-    uv_signal_init(loop.uv(), &watches[i].handle);
-    uv_signal_start(&watches[i].handle, &onSignal, signums[i]);
-  }
+  const auto signals = skr::stopOnSignals(loop, [](int signum) {
+    skr::log::info("hub", "HUB-SIGNAL",
+                   std::string("received ") + strsignal(signum) + ", stopping");
+  });
   skr::log::info("hub", "HUB-START",
                  "skrobot " SKROBOT_VERSION " app " + cfg.app_name + ", config " +
                      cfg.config_file.string() + ", loop " +
@@ -242,8 +225,6 @@ int runHub(const skr::HubConfig& cfg) {
   if (auto started = server.start(); !started) {
     skr::log::error("hub", "HUB-SERVER",
                     "the FlowNetwork server cannot start: " + started.error().message);
-    for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
-    uv_run(loop.uv(), UV_RUN_NOWAIT);
     return kExitServer;
   }
   // The hub's statistics, hub.stats and hub.inspect (docs/observability.md).
@@ -272,8 +253,6 @@ int runHub(const skr::HubConfig& cfg) {
   pulser.reset();
   stats.reset();
   server.stop();
-  for (auto& w : watches) uv_close(reinterpret_cast<uv_handle_t*>(&w.handle), nullptr);
-  uv_run(loop.uv(), UV_RUN_NOWAIT);  // let the close callbacks run before the loop goes
   skr::log::info("hub", "HUB-STOP", "stopped");
   return kExitOk;
 }

@@ -196,7 +196,7 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
   }
   if (!paths_) {
     sat::detail::Paths::Host h;
-    h.loop = loop.uv();
+    h.loop = &loop;
     h.offer = [this](const flow::msg::PhysOffer& m) {
       auto r = client_->offerPaths(m);
       offered_ = true;

@@ -1,5 +1,6 @@
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
+#include "loop_internal.h"
 #include "uv_handle.h"
 
 #include <uv.h>
@@ -19,18 +20,6 @@ thread_local Loop* t_current = nullptr;
 constexpr Nanos kOneSecond = kNsPerSec;
 constexpr Nanos kWarningInterval = 10 * kNsPerSec;       // at most one LOOP-OVERLOAD line per 10 s
 constexpr Nanos kPulseBudgetNs = 100 * kNsPerMs / 1000;  // posted work run before I/O gets a turn
-
-void runGuarded(const std::function<void()>& fn, const std::string& loop_name, const char* what) {
-  // An exception must not unwind through libuv's C frames: log it and go on.
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    log::error("core.loop", "LOOP-EXCEPTION",
-               "loop " + loop_name + ": " + what + " threw: " + e.what());
-  } catch (...) {
-    log::error("core.loop", "LOOP-EXCEPTION", "loop " + loop_name + ": " + what + " threw");
-  }
-}
 
 }  // namespace
 
@@ -214,7 +203,7 @@ void Loop::dispatch(Tick which) {
   dispatching_ = true;
   // Index loop: handlers added meanwhile wait in added_during_dispatch_, so `list` never grows.
   for (size_t i = 0; i < list.size(); ++i) {
-    if (!list[i].removed) runGuarded(list[i].fn, options_.name, "tick handler");
+    if (!list[i].removed) detail::runGuarded(options_.name, "tick handler", list[i].fn);
   }
   dispatching_ = false;
   for (int i = 0; i < 3; ++i) {
@@ -254,14 +243,8 @@ void Loop::startTicks() {
 }
 
 void Loop::armTimerAt(Nanos target_ns) {
-  // libuv timers count whole milliseconds from its cached loop time. Round the real remaining
-  // time up (never before target_ns on a precise clock; onTimer re-checks for coarse clocks);
-  // rounding the target in loop time instead would add up to 1 ms of truncation error.
-  uv_update_time(uv_);
-  const Nanos remaining = target_ns - monotonicNs();
-  const auto timeout_ms =
-      remaining <= 0 ? 0 : static_cast<uint64_t>((remaining + kNsPerMs - 1) / kNsPerMs);
-  uv_timer_start(timer_, &Loop::onTimer, timeout_ms, 0);
+  // Never before target_ns on a precise clock; onTimer re-checks for coarse clocks.
+  uv_timer_start(timer_, &Loop::onTimer, detail::uvTimeoutMs(uv_, target_ns), 0);
 }
 
 void Loop::armFastTimer(Nanos now) {
@@ -359,7 +342,7 @@ void Loop::pulse() {
     auto fn = std::move(runnable_.front());
     runnable_.pop_front();
     ++stats_.posted;
-    runGuarded(fn, options_.name, "posted work");
+    detail::runGuarded(options_.name, "posted work", fn);
     if (!runnable_.empty() && monotonicNs() >= until) {
       uv_async_send(async_);  // the rest after this iteration's I/O
       break;

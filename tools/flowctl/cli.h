@@ -56,33 +56,35 @@ int exitFor(const skr::Error& error);
 std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code);
 // Parses a number argument; false (after printing a usage error) when it is not one.
 bool parseNumber(const std::string& text, const char* what, double& out);
+// Parses a JSON value argument; nullopt (after a usage error that says how to quote) when it is
+// not JSON.
+std::optional<skr::flow::Variant> jsonArg(const std::string& text, const char* what);
 
-// Commands. Each returns an exit code.
-int cmdLs(const Cli& cli);
-int cmdEcho(const Cli& cli);
-int cmdPoll(const Cli& cli);
-int cmdPub(const Cli& cli);
-int cmdCall(const Cli& cli);
-int cmdDb(const Cli& cli);
-int cmdFlows(const Cli& cli);
-int cmdKick(const Cli& cli);
-int cmdChan(const Cli& cli);
-int cmdUsers(const Cli& cli);
-int cmdUser(const Cli& cli);
-int cmdBlob(const Cli& cli);
-int cmdSync(const Cli& cli);
-int cmdLink(const Cli& cli);
-int cmdTop(const Cli& cli);
-int cmdHz(const Cli& cli);
-int cmdBw(const Cli& cli);
-int cmdInfo(const Cli& cli);
-int cmdGraph(const Cli& cli);
-int cmdRecord(const Cli& cli);
-int cmdPlay(const Cli& cli);
-int cmdMcap(const Cli& cli);
+// Prints the usage of cli.command's row (commands.h) and returns kUsage.
+int usageError(const Cli& cli);
 
-// Help texts: the overview, or one command's (empty if unknown).
-std::string_view usage();
-std::string_view commandHelp(std::string_view command);
+// The handlers of the commands' rows (commands.cpp), by file. Each returns an exit code.
+int cmdLs(const Cli& cli);      // cmd_ls.cpp
+int cmdEcho(const Cli& cli);    // cmd_echo_poll.cpp
+int cmdPoll(const Cli& cli);    // cmd_echo_poll.cpp
+int cmdPub(const Cli& cli);     // cmd_pub.cpp
+int cmdCall(const Cli& cli);    // cmd_call.cpp
+int cmdDb(const Cli& cli);      // cmd_db.cpp
+int cmdFlows(const Cli& cli);   // cmd_admin.cpp
+int cmdKick(const Cli& cli);    // cmd_admin.cpp
+int cmdChan(const Cli& cli);    // cmd_admin.cpp
+int cmdUsers(const Cli& cli);   // cmd_admin.cpp
+int cmdUser(const Cli& cli);    // cmd_admin.cpp
+int cmdBlob(const Cli& cli);    // cmd_blob.cpp
+int cmdSync(const Cli& cli);    // cmd_sync.cpp
+int cmdLink(const Cli& cli);    // cmd_link.cpp
+int cmdTop(const Cli& cli);     // cmd_top.cpp
+int cmdHz(const Cli& cli);      // cmd_hz_bw.cpp
+int cmdBw(const Cli& cli);      // cmd_hz_bw.cpp
+int cmdInfo(const Cli& cli);    // cmd_info.cpp
+int cmdGraph(const Cli& cli);   // cmd_graph.cpp
+int cmdRecord(const Cli& cli);  // cmd_record.cpp
+int cmdPlay(const Cli& cli);    // cmd_play.cpp
+int cmdMcap(const Cli& cli);    // cmd_mcap.cpp
 
 }  // namespace flowctl

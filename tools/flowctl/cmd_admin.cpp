@@ -40,7 +40,7 @@ std::string text(const Variant& map, const char* key) {
 
 int cmdFlows(const Cli& cli) {
   Args args(cli.args);
-  if (!args.rest().empty() || !args.error().empty()) return fail(kUsage, "usage: flowctl flows");
+  if (!args.rest().empty() || !args.error().empty()) return usageError(cli);
   return runAdmin(cli, "flows", Variant(), [](const Variant& answer) {
     std::printf("%-6s %-16s %-16s %-10s %-22s %5s %5s\n", "ID", "USER", "CLIENT", "TRANSPORT",
                 "SOURCE", "CHANS", "SUBS");
@@ -58,7 +58,7 @@ int cmdFlows(const Cli& cli) {
 int cmdKick(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
-  if (rest.size() != 1 || !args.error().empty()) return fail(kUsage, "usage: flowctl kick ID");
+  if (rest.size() != 1 || !args.error().empty()) return usageError(cli);
   double id = 0;
   if (!parseNumber(rest[0], "ID", id)) return kUsage;
   return runAdmin(
@@ -69,9 +69,7 @@ int cmdKick(const Cli& cli) {
 int cmdChan(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
-  if (rest.size() != 2 || rest[0] != "rm" || !args.error().empty()) {
-    return fail(kUsage, "usage: flowctl chan rm CHANNEL");
-  }
+  if (rest.size() != 2 || rest[0] != "rm" || !args.error().empty()) return usageError(cli);
   return runAdmin(cli, "chan_rm", Variant::Map{{"name", rest[1]}}, [](const Variant& a) {
     std::printf("removed %s\n", text(a, "removed").c_str());
   });
@@ -79,7 +77,7 @@ int cmdChan(const Cli& cli) {
 
 int cmdUsers(const Cli& cli) {
   Args args(cli.args);
-  if (!args.rest().empty() || !args.error().empty()) return fail(kUsage, "usage: flowctl users");
+  if (!args.rest().empty() || !args.error().empty()) return usageError(cli);
   return runAdmin(cli, "users", Variant(), [](const Variant& answer) {
     if (const auto* list = answer.asList()) {
       for (const auto& u : *list) {
@@ -91,13 +89,10 @@ int cmdUsers(const Cli& cli) {
 }
 
 int cmdUser(const Cli& cli) {
-  static constexpr const char* kUserUsage =
-      "usage: flowctl user add NAME [--admin] | del NAME | passwd NAME | role NAME admin|user |\n"
-      "                    rule NAME ACTION [PATTERN...]   (the password: one line on stdin)";
   Args args(cli.args);
   const bool as_admin = args.flag("--admin");
   const auto rest = args.rest();
-  if (!args.error().empty() || rest.size() < 2) return fail(kUsage, kUserUsage);
+  if (!args.error().empty() || rest.size() < 2) return usageError(cli);
   const std::string& op = rest[0];
   Variant::Map a{{"user", rest[1]}};
   const auto password = [&a]() {
@@ -119,7 +114,7 @@ int cmdUser(const Cli& cli) {
     for (size_t i = 3; i < rest.size(); ++i) patterns.emplace_back(rest[i]);
     a["patterns"] = Variant(std::move(patterns));
   } else {
-    return fail(kUsage, kUserUsage);
+    return usageError(cli);
   }
   return runAdmin(cli, "user_" + op, Variant(std::move(a)), [&](const Variant& answer) {
     std::printf("%s %s\n", text(answer, "done").c_str(), text(answer, "user").c_str());

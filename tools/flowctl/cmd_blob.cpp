@@ -73,7 +73,7 @@ int cmdBlob(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() < 2) return fail(kUsage, "flowctl blob ls|get|put|mkdir|rmdir|rm CHANNEL ...");
+  if (rest.size() < 2) return usageError(cli);
   const std::string& verb = rest[0];
   const auto want = [&](size_t lo, size_t hi) { return rest.size() >= lo && rest.size() <= hi; };
   if ((verb == "ls" && !want(2, 3)) || (verb == "get" && !want(3, 4)) ||

@@ -27,7 +27,7 @@ int cmdLink(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 1 || rest[0] != "ls") return fail(kUsage, "usage: flowctl link ls");
+  if (rest.size() != 1 || rest[0] != "ls") return usageError(cli);
   int code = kOk;
   auto sync = connectSync(cli, code);
   if (!sync) return code;

@@ -127,9 +127,7 @@ int cmdMcap(const Cli& cli) {
   Args args(cli.args);
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 2 || (rest[0] != "info" && rest[0] != "cat")) {
-    return fail(kUsage, "usage: flowctl mcap info|cat FILE.mcap");
-  }
+  if (rest.size() != 2 || (rest[0] != "info" && rest[0] != "cat")) return usageError(cli);
   auto reader = mcap::Reader::open(rest[1]);
   if (!reader) return fail(kFailed, reader.error().message);
   return rest[0] == "info" ? info(cli, *reader, rest[1]) : cat(*reader, rest[1]);

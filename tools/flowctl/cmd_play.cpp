@@ -115,7 +115,7 @@ int cmdPlay(const Cli& cli) {
   while (auto r = args.option("--remap")) remaps.push_back(*r);
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 1) return fail(kUsage, "usage: flowctl play FILE.mcap [options]");
+  if (rest.size() != 1) return usageError(cli);
   double rate = 1, start_s = 0, wait_ms = 1000;
   if (rate_text && !parseNumber(*rate_text, "--rate", rate)) return kUsage;
   if (start_text && !parseNumber(*start_text, "--start", start_s)) return kUsage;

@@ -18,9 +18,7 @@ int cmdPub(const Cli& cli) {
   const bool variant = args.flag("--variant");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.empty() || rest.size() > 2 || (rest.size() == 2 && file)) {
-    return fail(kUsage, "usage: flowctl pub CHANNEL [PAYLOAD | --file PATH] [options]");
-  }
+  if (rest.empty() || rest.size() > 2 || (rest.size() == 2 && file)) return usageError(cli);
   double repeat = 1, rate = 0, wait_ms = 1000;
   if (repeat_text && !parseNumber(*repeat_text, "--repeat", repeat)) return kUsage;
   if (rate_text && !parseNumber(*rate_text, "--rate", rate)) return kUsage;

@@ -162,9 +162,7 @@ int cmdRecord(const Cli& cli) {
   const auto duration_text = args.option("--duration");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (!output || (rest.empty() && !all) || (!rest.empty() && all)) {
-    return fail(kUsage, "usage: flowctl record -o FILE.mcap (CHANNEL... | --all) [options]");
-  }
+  if (!output || (rest.empty() && !all) || (!rest.empty() && all)) return usageError(cli);
   auto compression = mcap::compressionFromName(compression_name == "none" ? "" : compression_name);
   if (!compression) return fail(kUsage, "--compression is zstd, lz4 or none");
   double chunk_kb = 4096, flush_ms = 1000, queue_mb = 256, duration_s = 0;

@@ -150,9 +150,7 @@ int cmdSync(const Cli& cli) {
   const auto every_text = args.option("--every");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  const char* usage =
-      "usage: flowctl sync source NAME --hz N [--count N] | follow NAME [--every N] [--count N]";
-  if (rest.size() != 2 || (rest[0] != "source" && rest[0] != "follow")) return fail(kUsage, usage);
+  if (rest.size() != 2 || (rest[0] != "source" && rest[0] != "follow")) return usageError(cli);
   double hz = 0, count = 0, every = 1;
   if (count_text && !parseNumber(*count_text, "--count", count)) return kUsage;
   if (every_text && !parseNumber(*every_text, "--every", every)) return kUsage;

@@ -104,4 +104,12 @@ bool parseNumber(const std::string& text, const char* what, double& out) {
   return true;
 }
 
+std::optional<skr::flow::Variant> jsonArg(const std::string& text, const char* what) {
+  auto v = skr::flow::variantFromJsonText(text);
+  if (v) return std::move(v).value();
+  fail(kUsage,
+       std::string(what) + " must be JSON (" + v.error().message + "); quote strings: '\"text\"'");
+  return std::nullopt;
+}
+
 }  // namespace flowctl

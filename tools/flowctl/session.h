@@ -1,9 +1,8 @@
 // flowctl echo and pub: a satellite flow on a loop of flowctl's own (internal).
 #pragma once
 
-#include <uv.h>
+#include <skrobot/core/loop_handles.h>
 
-#include <csignal>
 #include <functional>
 #include <string>
 
@@ -12,34 +11,6 @@
 namespace flowctl {
 
 namespace sat = skr::sat;
-
-// SIGINT/SIGTERM stop the loop (flowctl then exits 0); closed when it goes out of scope.
-class StopOnSignals {
- public:
-  explicit StopOnSignals(skr::Loop& loop) {
-    for (int i = 0; i < 2; ++i) {
-      handles_[i] = new uv_signal_t{};
-      uv_signal_init(loop.uv(), handles_[i]);
-      handles_[i]->data = &loop;
-      uv_signal_start(
-          handles_[i], [](uv_signal_t* h, int) { static_cast<skr::Loop*>(h->data)->stop(); },
-          i == 0 ? SIGINT : SIGTERM);
-    }
-  }
-  ~StopOnSignals() {
-    for (auto* h : handles_) {
-      uv_close(reinterpret_cast<uv_handle_t*>(h),
-               [](uv_handle_t* x) { delete reinterpret_cast<uv_signal_t*>(x); });
-    }
-  }
-  StopOnSignals(const StopOnSignals&) = delete;
-  StopOnSignals& operator=(const StopOnSignals&) = delete;
-  StopOnSignals(StopOnSignals&&) = delete;
-  StopOnSignals& operator=(StopOnSignals&&) = delete;
-
- private:
-  uv_signal_t* handles_[2] = {};
-};
 
 // What echo and pub share: a flow that does not reconnect, and how it ends.
 struct Session {
@@ -53,7 +24,7 @@ struct Session {
                     o.reconnect = false;
                     return o;
                   }()),
-        signals(loop) {
+        signals(skr::stopOnSignals(loop)) {
     satellite.disconnected.connect(&satellite, [this](const std::string& why) {
       if (!finished)
         end(kNoHub,
@@ -94,7 +65,7 @@ struct Session {
   std::function<std::string(const sat::FlowError&)> explain;
   skr::Loop loop;
   sat::Satellite satellite;
-  StopOnSignals signals;
+  skr::StopOnSignals signals;  // SIGINT/SIGTERM stop the loop: flowctl then exits 0
   int code = kOk;
   int seconds_unconnected = 0;
   bool finished = false;  // the loop ended: the flow closes on purpose

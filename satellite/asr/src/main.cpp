@@ -8,12 +8,10 @@
 #include "asr_satellite.h"
 #include "pocketsphinx_engine.h"
 
-#include <uv.h>
-
 #include <skrobot/core/log.h>
+#include <skrobot/core/loop_handles.h>
 #include <skrobot/satellite.h>
 
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -188,22 +186,10 @@ int main(int argc, char** argv) {
   sat::Satellite sat(loop, std::move(so));
   asr::AsrSatellite asr(loop, sat, options, std::move(engine).value());
 
-  std::vector<uv_signal_t*> signals;
-  for (int signum : {SIGINT, SIGTERM}) {
-    auto* h = new uv_signal_t{};
-    uv_signal_init(loop.uv(), h);
-    h->data = &loop;
-    uv_signal_start(
-        h, [](uv_signal_t* s, int) { static_cast<Loop*>(s->data)->stop(); }, signum);
-    signals.push_back(h);
-  }
+  const auto signals = stopOnSignals(loop);
   sat.start();
   loop.run();
   sat.stop();
-  for (auto* h : signals) {
-    uv_close(reinterpret_cast<uv_handle_t*>(h),
-             [](uv_handle_t* handle) { delete reinterpret_cast<uv_signal_t*>(handle); });
-  }
   log::info("asr", "ASR-STOP", "instance " + options.name + " stopped");
   return 0;
 }

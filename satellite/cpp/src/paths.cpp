@@ -12,16 +12,12 @@ using namespace paths_io;
 Paths::Paths(Host host) : host_(std::move(host)) {}
 
 Paths::~Paths() {
-  reset();
-  if (spin_ != nullptr) {
-    uv_close(reinterpret_cast<uv_handle_t*>(spin_),
-             [](uv_handle_t* h) { delete reinterpret_cast<uv_idle_t*>(h); });
-  }
-  for (auto& [id, p] : paths_) closePoll(p->poll);
-  closePoll(listen_poll_);
+  reset();  // closes every peer and path
+  spin_ = Spinner();
+  listen_watch_ = FdWatch();
   closeFd(listen_fd_);
   if (!listen_path_.empty()) ::unlink(listen_path_.c_str());
-  closePoll(tcp_poll_);
+  tcp_watch_ = FdWatch();
   closeFd(tcp_fd_);
 }
 

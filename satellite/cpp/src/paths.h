@@ -6,10 +6,9 @@
 #pragma once
 
 #include <skrobot/core/clock.h>
+#include <skrobot/core/loop_handles.h>
 #include <skrobot/flow/messages.h>
 #include <skrobot/flow/shm_ring.h>
-
-#include <uv.h>
 
 #include <cstdint>
 #include <functional>
@@ -45,7 +44,7 @@ class Paths {
  public:
   // What the satellite gives its paths: sending on the flow, emitting data, naming channels.
   struct Host {
-    uv_loop_t* loop = nullptr;
+    Loop* loop = nullptr;  // the satellite's (or module's) loop: Paths runs on its thread
     std::function<void(const flow::msg::PhysOffer&)> offer;
     std::function<void(const flow::msg::PhysRequest&)> request;
     std::function<void(const flow::msg::PhysState&)> state;
@@ -135,13 +134,13 @@ class Paths {
   // Keeps what was sent on direct paths for a fallback (kKeptBytes).
   void keep(Served& sv, std::string_view payload);
   void onAccept(int listen_fd, bool tcp);
-  void onPeer(Peer& p, int events);
+  void onPeer(Peer& p, unsigned events);  // FdWatch events
   void welcome(Peer& p, std::string_view body);
   void refusePeer(Peer& p, const std::string& why);
   void closePeer(int fd, const std::string& why);
   void connectPath(Path& p, const std::string& endpoint);
   bool sendHello(Path& p);  // false: the path failed
-  void onPathSocket(Path& p, int events);
+  void onPathSocket(Path& p, unsigned events);  // FdWatch events
   void onPathEvent(Path& p);
   void pathFrames(Path& p);
   void failPath(uint16_t chan_id, const std::string& why);
@@ -159,17 +158,17 @@ class Paths {
   // After a message from a woken ring: poll it for kLingerNs more if it came in a stream
   // (`skipped`: older ones were skipped to read it).
   void linger(Path& p, bool skipped);
-  // Polls spinning rings from an idle handle while one works (the loop then never sleeps).
+  // Polls spinning rings on every turn of the loop while one works (the loop then never sleeps).
   void updateSpin();
   void spinOnce();
   void request(Path& p);
 
   Host host_;
   int listen_fd_ = -1;
-  uv_poll_t* listen_poll_ = nullptr;
+  FdWatch listen_watch_;
   std::string listen_path_;
   int tcp_fd_ = -1;
-  uv_poll_t* tcp_poll_ = nullptr;
+  FdWatch tcp_watch_;
   std::string tcp_endpoint_;                            // "tcp:<address>:<port>" once listening
   std::map<uint16_t, std::unique_ptr<Served>> served_;  // by channel id
   std::map<std::string, flow::shm::RingWriter> idle_rings_;  // channels not created now
@@ -188,7 +187,7 @@ class Paths {
   std::map<std::string, Wanted, std::less<>> wanted_;  // by full name
   std::map<uint16_t, std::unique_ptr<Path>> paths_;    // by channel id
   Stats stats_;
-  uv_idle_t* spin_ = nullptr;
+  Spinner spin_;  // made when a ring is first polled
   const Path* reading_ = nullptr;                          // a ring callback runs for it
   std::unique_ptr<flow::shm::RingReader> retired_reader_;  // closed during that callback
 };

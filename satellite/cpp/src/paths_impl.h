@@ -39,18 +39,9 @@ inline Nanos retryAt(int failures) {
   return monotonicNs() + std::min(kRetryMaxNs, kRetryMinNs << std::clamp(failures - 1, 0, 5));
 }
 
-inline uv_poll_t* newPoll(uv_loop_t* loop, int fd, void* data) {
-  auto* p = new uv_poll_t{};
-  uv_poll_init(loop, p, fd);
-  p->data = data;
-  return p;
-}
-inline void closePoll(uv_poll_t*& p) {
-  if (p == nullptr) return;
-  uv_poll_stop(p);
-  uv_close(reinterpret_cast<uv_handle_t*>(p),
-           [](uv_handle_t* h) { delete reinterpret_cast<uv_poll_t*>(h); });
-  p = nullptr;
+// What a path socket's watch reports to onPeer/onPathSocket: a failed poll counts as a hang-up.
+inline unsigned pathEvents(unsigned events) {
+  return (events & FdWatch::error) != 0 ? unsigned(FdWatch::hangup) : events;
 }
 inline void closeFd(int& fd) {
   if (fd >= 0) ::close(fd);
@@ -129,7 +120,7 @@ struct Paths::Served {
 struct Paths::Peer {
   Paths* owner = nullptr;
   int fd = -1;
-  uv_poll_t* poll = nullptr;
+  FdWatch watch;  // destroyed before fd is closed
   std::string in, out;
   uint8_t path = 0;  // 0 until WELCOME
   uint16_t chan_id = 0;
@@ -150,8 +141,8 @@ struct Paths::Path {
   uint32_t tag = 0;  // PHYS_REQUEST in flight
   uint8_t path = 0;
   int fd = -1;
-  uv_poll_t* poll = nullptr;
-  uv_poll_t* event_poll = nullptr;
+  FdWatch watch;        // the socket; destroyed before fd is closed
+  FdWatch event_watch;  // a ring's eventfd (shared memory), destroyed before the reader
   std::unique_ptr<flow::shm::RingReader> reader;  // kept in place while a callback reads
   InBuffer in;
   bool open = false;           // WELCOME came

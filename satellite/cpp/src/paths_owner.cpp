@@ -39,14 +39,21 @@ void Paths::ensureListener() {
     listen_path_.clear();
     return;
   }
+  auto watch = FdWatch::open(*host_.loop, fd, [this](unsigned) { onAccept(listen_fd_, false); });
+  if (!watch) {
+    log::warn(kLogSource, "SAT-PATH",
+              "cannot listen at " + listen_path_ + ": " + watch.error().message +
+                  "; paths are not offered");
+    closeFd(fd);
+    ::unlink(listen_path_.c_str());
+    listen_path_.clear();
+    return;
+  }
   // Anyone may connect: what lets a connection in is the token the hub gave its subscriber.
   ::chmod(listen_path_.c_str(), 0666);
   listen_fd_ = fd;
-  listen_poll_ = newPoll(host_.loop, fd, this);
-  uv_poll_start(listen_poll_, UV_READABLE, [](uv_poll_t* h, int, int) {
-    auto* self = static_cast<Paths*>(h->data);
-    self->onAccept(self->listen_fd_, false);
-  });
+  listen_watch_ = std::move(*watch);
+  listen_watch_.watch(FdWatch::readable);
 }
 
 namespace {
@@ -112,6 +119,15 @@ void Paths::ensureTcpListener() {
     host_.tcp_listen.clear();
     return;
   }
+  auto watch = FdWatch::open(*host_.loop, fd, [this](unsigned) { onAccept(tcp_fd_, true); });
+  if (!watch) {
+    log::warn(kLogSource, "SAT-PATH",
+              "cannot listen at " + where + ": " + watch.error().message +
+                  "; no direct paths over TCP");
+    closeFd(fd);
+    host_.tcp_listen.clear();
+    return;
+  }
   const uint16_t port =
       ntohs(a.ss_family == AF_INET ? reinterpret_cast<sockaddr_in*>(&a)->sin_port
                                    : reinterpret_cast<sockaddr_in6*>(&a)->sin6_port);
@@ -119,11 +135,8 @@ void Paths::ensureTcpListener() {
   tcp_endpoint_ =
       flow::Address{.kind = flow::Address::Kind::tcp, .host = split->first, .port = port}
           .toString();
-  tcp_poll_ = newPoll(host_.loop, fd, this);
-  uv_poll_start(tcp_poll_, UV_READABLE, [](uv_poll_t* h, int, int) {
-    auto* self = static_cast<Paths*>(h->data);
-    self->onAccept(self->tcp_fd_, true);
-  });
+  tcp_watch_ = std::move(*watch);
+  tcp_watch_.watch(FdWatch::readable);
   log::info(kLogSource, "SAT-PATH", "direct paths over TCP at " + tcp_endpoint_);
 }
 
@@ -265,23 +278,28 @@ void Paths::onAccept(int listen_fd, bool tcp) {
     const int sndbuf = 8 << 20;
     ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof sndbuf);
     p->opened = monotonicNs();
-    p->poll = newPoll(host_.loop, fd, p.get());
-    uv_poll_start(p->poll, UV_READABLE | UV_DISCONNECT, [](uv_poll_t* h, int status, int events) {
-      auto* peer = static_cast<Peer*>(h->data);
-      peer->owner->onPeer(*peer, status < 0 ? UV_DISCONNECT : events);
+    auto watch = FdWatch::open(*host_.loop, fd, [peer = p.get()](unsigned events) {
+      peer->owner->onPeer(*peer, pathEvents(events));
     });
+    if (!watch) {
+      log::warn(kLogSource, "SAT-PATH-REFUSED", "a path connection: " + watch.error().message);
+      ::close(fd);
+      continue;
+    }
+    p->watch = std::move(*watch);
+    p->watch.watch(FdWatch::readable | FdWatch::hangup);
     peers_[fd] = std::move(p);
   }
 }
 
-void Paths::onPeer(Peer& p, int events) {
+void Paths::onPeer(Peer& p, unsigned events) {
   const int fd = p.fd;
-  if ((events & UV_WRITABLE) != 0 && !p.out.empty()) {
+  if ((events & FdWatch::writable) != 0 && !p.out.empty()) {
     const std::string_view rest = writeSome(fd, p.out);
     p.out.erase(0, p.out.size() - rest.size());
-    if (p.out.empty()) uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
+    if (p.out.empty()) p.watch.watch(FdWatch::readable | FdWatch::hangup);
   }
-  if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
+  if ((events & (FdWatch::readable | FdWatch::hangup)) == 0) return;
   char buf[4096];
   const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
   if (n == 0 || (n < 0 && errno != EAGAIN && errno != EINTR)) {
@@ -378,7 +396,7 @@ void Paths::closePeer(int fd, const std::string& why) {
     (void)writeSome(fd, flow::path::encodeBye(why));
     log::info(kLogSource, "SAT-PATH-CLOSED", "flow " + std::to_string(p.subscriber) + ": " + why);
   }
-  closePoll(p.poll);
+  p.watch = FdWatch();
   ::close(fd);
   peers_.erase(it);
 }
@@ -416,9 +434,7 @@ bool Paths::sendDirect(Served& sv, std::string_view payload, int64_t capture_ns)
     } else {
       p->out.append(head).append(payload);
     }
-    if (!p->out.empty()) {
-      uv_poll_start(p->poll, UV_READABLE | UV_WRITABLE | UV_DISCONNECT, p->poll->poll_cb);
-    }
+    if (!p->out.empty()) p->watch.watch(FdWatch::readable | FdWatch::writable | FdWatch::hangup);
   }
   // Only a hub of 1.11 ever asks for them back (EV_PHYS_RESUME).
   if ((direct || (sv.keep_until != 0 && monotonicNs() < sv.keep_until)) &&

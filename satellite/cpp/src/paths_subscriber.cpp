@@ -74,8 +74,8 @@ void Paths::onUnsubscribed(uint16_t chan_id) {
 }
 
 void Paths::closePath(Path& p) {
-  closePoll(p.poll);
-  closePoll(p.event_poll);
+  p.watch = FdWatch();
+  p.event_watch = FdWatch();
   if (&p == reading_) {
     retired_reader_ = std::move(p.reader);
   } else {
@@ -109,9 +109,9 @@ void Paths::onMarker(Path& p, std::optional<uint64_t> after) {
     onPathEvent(p);
     if (alive(chan, &p)) updateSpin();
   } else {
-    if (p.paused) uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
+    if (p.paused) p.watch.watch(FdWatch::readable | FdWatch::hangup);
     p.paused = false;
-    onPathSocket(p, UV_READABLE);
+    onPathSocket(p, FdWatch::readable);
   }
   if (!alive(chan, &p) || after) return;
   p.drop_partial = !p.in.empty();
@@ -127,13 +127,14 @@ void Paths::onPath(const msg::EvPhysPath& m) {
   connectPath(p, m.endpoint);
   if (p.fd < 0) return failPath(m.chan_id, "cannot connect to " + m.endpoint);
   p.hello = flow::path::encode(flow::path::Hello{1, m.path, p.name, m.token});
-  p.poll = newPoll(host_.loop, p.fd, &p);
+  auto watch = FdWatch::open(*host_.loop, p.fd, [path = &p](unsigned events) {
+    path->owner->onPathSocket(*path, pathEvents(events));
+  });
+  if (!watch) return failPath(m.chan_id, watch.error().message);
+  p.watch = std::move(*watch);
   if (p.connecting_until == 0 && !sendHello(p)) return;
-  uv_poll_start(p.poll, (p.connecting_until != 0 ? UV_WRITABLE : UV_READABLE) | UV_DISCONNECT,
-                [](uv_poll_t* h, int status, int events) {
-                  auto* path = static_cast<Path*>(h->data);
-                  path->owner->onPathSocket(*path, status < 0 ? UV_DISCONNECT : events);
-                });
+  p.watch.watch((p.connecting_until != 0 ? FdWatch::writable : FdWatch::readable) |
+                FdWatch::hangup);
 }
 
 bool Paths::sendHello(Path& p) {
@@ -180,19 +181,19 @@ void Paths::connectPath(Path& p, const std::string& endpoint) {
   }
 }
 
-void Paths::onPathSocket(Path& p, int events) {
+void Paths::onPathSocket(Path& p, unsigned events) {
   const uint16_t chan = p.chan_id;
   if (p.connecting_until != 0) {
-    if ((events & (UV_WRITABLE | UV_DISCONNECT)) == 0) return;
+    if ((events & (FdWatch::writable | FdWatch::hangup)) == 0) return;
     int err = 0;
     socklen_t len = sizeof err;
     if (::getsockopt(p.fd, SOL_SOCKET, SO_ERROR, &err, &len) != 0) err = errno;
     if (err != 0) return failPath(chan, std::string("cannot connect: ") + std::strerror(err));
     if (!sendHello(p)) return;
-    uv_poll_start(p.poll, UV_READABLE | UV_DISCONNECT, p.poll->poll_cb);
+    p.watch.watch(FdWatch::readable | FdWatch::hangup);
     return;
   }
-  if ((events & (UV_READABLE | UV_DISCONNECT)) == 0) return;
+  if ((events & (FdWatch::readable | FdWatch::hangup)) == 0) return;
   // Waiting for the marker with enough read ahead: only a hang-up wakes us.
   if (p.paused) return failPath(chan, "the owner closed the path");
   if (!p.open) {
@@ -224,11 +225,11 @@ void Paths::onPathSocket(Path& p, int events) {
       auto reader = flow::shm::RingReader::open(got->fds[0], got->fds[1], got->fds[2]);
       if (!reader) return failPath(chan, reader.error().message);
       p.reader = std::make_unique<flow::shm::RingReader>(std::move(*reader));
-      p.event_poll = newPoll(host_.loop, p.reader->eventFd(), &p);
-      uv_poll_start(p.event_poll, UV_READABLE, [](uv_poll_t* h, int, int) {
-        auto* path = static_cast<Path*>(h->data);
-        path->owner->onPathEvent(*path);
-      });
+      auto event = FdWatch::open(*host_.loop, p.reader->eventFd(),
+                                 [path = &p](unsigned) { path->owner->onPathEvent(*path); });
+      if (!event) return failPath(chan, event.error().message);
+      p.event_watch = std::move(*event);
+      p.event_watch.watch(FdWatch::readable);
     } else {
       for (int fd : got->fds) ::close(fd);
     }
@@ -260,7 +261,7 @@ void Paths::onPathSocket(Path& p, int events) {
     p.in.commit(static_cast<size_t>(n));
     if (!p.marker && p.in.view().size() >= kMaxBeforeMarker) {
       p.paused = true;  // the rest waits in the socket (and then at the owner) for the marker
-      uv_poll_start(p.poll, UV_DISCONNECT, p.poll->poll_cb);
+      p.watch.watch(FdWatch::hangup);
       break;
     }
     if (static_cast<size_t>(n) < want) break;
@@ -328,16 +329,12 @@ void Paths::updateSpin() {
     if (p->reader) p->reader->setPolling(spins);  // a polled reader is not woken: no write
     any = any || spins;
   }
-  if (any && spin_ == nullptr) {
-    spin_ = new uv_idle_t{};
-    uv_idle_init(host_.loop, spin_);
-    spin_->data = this;
-  }
-  if (spin_ == nullptr) return;
+  if (any && !spin_) spin_ = Spinner(*host_.loop, [this] { spinOnce(); });
+  if (!spin_) return;
   if (any) {
-    uv_idle_start(spin_, [](uv_idle_t* h) { static_cast<Paths*>(h->data)->spinOnce(); });
+    spin_.start();
   } else {
-    uv_idle_stop(spin_);
+    spin_.stop();
   }
 }
 

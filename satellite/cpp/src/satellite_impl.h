@@ -2,10 +2,9 @@
 // requests. Everything runs on the satellite's loop thread.
 #pragma once
 
+#include <skrobot/core/loop_handles.h>
 #include <skrobot/flow/codec.h>
 #include <skrobot/satellite/satellite.h>
-
-#include <uv.h>
 
 #include <map>
 #include <memory>
@@ -55,7 +54,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   void guarded(std::string_view handling, F&& fn);
   void onFlowOpen();
   void armTimer(Nanos delay_ns);
-  static void onTimer(uv_timer_t* timer);
+  void onTimer();
   void onOneSecond();
 
   // --- events on the flow (satellite_events.cpp) ---
@@ -98,7 +97,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   State state = State::stopped;
   uint64_t generation = 0;  // bumped on every connection attempt; slots may change it
   detail::Link* link = nullptr;
-  uv_timer_t* timer = nullptr;
+  Timer timer;  // handshake time-out, or the wait before the next connection attempt
   Nanos backoff_ns = 0;      // the delay before the next connection attempt
   Nanos flow_opened_ns = 0;  // steadyNowNs() when the current flow opened
   bool failure_logged = false;

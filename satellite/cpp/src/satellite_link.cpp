@@ -38,16 +38,14 @@ void Satellite::Impl::guarded(std::string_view handling, F&& fn) {
   }
 }
 
-Satellite::Impl::Impl(Satellite& s, SatelliteOptions options) : self(s), opt(std::move(options)) {
+Satellite::Impl::Impl(Satellite& s, SatelliteOptions options)
+    : self(s), opt(std::move(options)), timer(s.loop(), [this] { onTimer(); }) {
   if (opt.reconnect_min_ns <= 0) opt.reconnect_min_ns = kNsPerMs;
   opt.reconnect_max_ns = std::max(opt.reconnect_max_ns, opt.reconnect_min_ns);
   backoff_ns = opt.reconnect_min_ns;
-  timer = new uv_timer_t{};
-  uv_timer_init(self.loop().uv(), timer);
-  timer->data = this;
   login.user = opt.connection.user;
   detail::Paths::Host h;
-  h.loop = self.loop().uv();
+  h.loop = &self.loop();
   h.offer = [this](const flow::msg::PhysOffer& m) { send(m); };
   h.request = [this](const flow::msg::PhysRequest& m) { send(m); };
   h.state = [this](const flow::msg::PhysState& m) { send(m); };
@@ -73,9 +71,6 @@ Satellite::Impl::~Impl() {
   paths.reset();
   if (link != nullptr) link->close();
   link = nullptr;
-  uv_timer_stop(timer);
-  uv_close(reinterpret_cast<uv_handle_t*>(timer),
-           [](uv_handle_t* h) { delete reinterpret_cast<uv_timer_t*>(h); });
 }
 
 void Satellite::Impl::start() {
@@ -110,25 +105,22 @@ void Satellite::Impl::connectNow() {
 }
 
 void Satellite::Impl::armTimer(Nanos delay_ns) {
-  uv_update_time(self.loop().uv());
-  uv_timer_start(timer, &Impl::onTimer, static_cast<uint64_t>((delay_ns + kNsPerMs - 1) / kNsPerMs),
-                 0);
+  timer.startIn(delay_ns);
 }
 
-void Satellite::Impl::onTimer(uv_timer_t* t) {
-  auto* impl = static_cast<Impl*>(t->data);
-  switch (impl->state) {
+void Satellite::Impl::onTimer() {
+  switch (state) {
     case State::waiting:
-      impl->connectNow();
+      connectNow();
       return;
     case State::connecting:
     case State::login:
     case State::hello:
     case State::listing:
     case State::going_async:
-      impl->guarded("a handshake time-out", [impl] {
-        impl->drop("no answer from the hub within " +
-                   std::to_string(impl->opt.handshake_timeout_ns / kNsPerMs) + " ms");
+      guarded("a handshake time-out", [this] {
+        drop("no answer from the hub within " +
+                   std::to_string(opt.handshake_timeout_ns / kNsPerMs) + " ms");
       });
       return;
     case State::stopped:
@@ -186,7 +178,7 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
   } else {
     log::debug(kLogSource, "SAT-RETRY", "hub at " + where + ": " + why);
   }
-  uv_timer_stop(timer);
+  timer.stop();
   paths->reset();
   table.clear();
   by_name.clear();
@@ -288,7 +280,7 @@ void Satellite::Impl::handshake(uint8_t code, std::string_view body) {
     case State::going_async:
       if (!body.empty()) return drop("GO_ASYNC reply has a body", true);
       state = State::flow;
-      uv_timer_stop(timer);
+      timer.stop();
       onFlowOpen();
       return;
     default:

@@ -1,11 +1,9 @@
 #include <skrobot/core/log.h>
+#include <skrobot/core/loop_handles.h>
 #include <skrobot/satellite/sketch.h>
-
-#include <uv.h>
 
 #include <algorithm>
 #include <cmath>
-#include <csignal>
 
 namespace skr::sat {
 
@@ -93,27 +91,14 @@ int Sketch::run() {
     }
   });
 
-  // SIGINT/SIGTERM stop the loop through libuv, so that nothing runs in signal context.
-  std::vector<uv_signal_t*> signals;
-  if (options_.handle_signals) {
-    for (int signum : {SIGINT, SIGTERM}) {
-      auto* h = new uv_signal_t{};
-      uv_signal_init(loop_->uv(), h);
-      h->data = loop_.get();
-      uv_signal_start(
-          h, [](uv_signal_t* sig, int) { static_cast<Loop*>(sig->data)->stop(); }, signum);
-      signals.push_back(h);
-    }
-  }
+  // SIGINT/SIGTERM stop the loop (on the loop thread: nothing runs in signal context).
+  StopOnSignals signals;
+  if (options_.handle_signals) signals = stopOnSignals(*loop_);
   s.start();
   window_start_ns_ = monotonicNs();
   loop_->run();
   s.stop();
   loop_->removeTickHandler(tick);
-  for (auto* h : signals) {
-    uv_close(reinterpret_cast<uv_handle_t*>(h),
-             [](uv_handle_t* handle) { delete reinterpret_cast<uv_signal_t*>(handle); });
-  }
   return 0;
 }
 

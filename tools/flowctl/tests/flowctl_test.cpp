@@ -1,5 +1,6 @@
 // flowctl, the built binary, against a real hub: every command and its error cases.
 #include <fstream>
+#include <sstream>
 
 #include "sat_fixture.h"
 
@@ -69,6 +70,29 @@ TEST_F(Flowctl, HelpAndUsageErrors) {
   auto bad_env = flowctl({"ls"}, {}, {"ROBOT_ADDRESS=pigeon:home"});
   EXPECT_EQ(bad_env.code, 2);
   EXPECT_TRUE(has(bad_env, "ROBOT_ADDRESS")) << bad_env.out;
+}
+
+// Every command has a help text (flowctl help NAME, or NAME --help): those that flowctl help
+// --markdown lists, bw (on hz's line) and help.
+TEST_F(Flowctl, EveryCommandHasHelp) {
+  auto markdown = flowctl({"help", "--markdown"});
+  ASSERT_EQ(markdown.code, 0) << markdown.out;
+  std::vector<std::string> names{"bw", "help"};
+  std::istringstream lines(markdown.out);
+  const std::string item = "- `flowctl ";
+  for (std::string line; std::getline(lines, line);) {
+    ASSERT_TRUE(line.starts_with(item)) << line;
+    names.push_back(line.substr(item.size(), line.find_first_of(" `", item.size()) - item.size()));
+  }
+  EXPECT_GE(names.size(), 23u) << markdown.out;
+  for (const auto& name : names) {
+    auto help = flowctl({"help", name});
+    EXPECT_EQ(help.code, 0) << name << ": " << help.out;
+    EXPECT_TRUE(help.out.starts_with("usage: flowctl ") && has(help, name)) << help.out;
+    if (name != "help") {
+      EXPECT_EQ(flowctl({name, "--help"}).out, help.out) << name;
+    }
+  }
 }
 
 TEST_F(Flowctl, NoHubAndWrongPassword) {

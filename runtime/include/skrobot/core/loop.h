@@ -12,6 +12,9 @@
 // - late wake-up: the loop woke a whole fast interval or more after its deadline while its thread
 //   was off the CPU (not scheduled on a busy machine, stopped, or blocked in a call): counted,
 //   and its skipped ticks are not the loop's work being too slow (no LOOP-OVERLOAD for them).
+//
+// Timers, a function run on every turn, descriptor and POSIX signal watches on a loop:
+// skrobot/core/loop_handles.h.
 #pragma once
 
 #include <skrobot/core/clock.h>
@@ -138,7 +141,9 @@ class Loop {
   [[nodiscard]] const std::string& name() const noexcept { return options_.name; }
   [[nodiscard]] const LoopStats& stats() const noexcept { return stats_; }
 
-  // The libuv loop, for I/O handles (servers, libwebsockets as a foreign loop). Loop thread only.
+  // The libuv loop, for the runtime's own transports (the hub's server and connections, the
+  // satellite library's link to its hub, loop_handles.h). Do not use it in new code: timers,
+  // descriptor and signal watches are in skrobot/core/loop_handles.h. Loop thread only.
   [[nodiscard]] uv_loop_s* uv() noexcept { return uv_; }
 
  private:

@@ -1,5 +1,6 @@
 // flowctl echo and poll: print what a streaming channel carries, as it comes or its latest.
 #include <chrono>
+#include <csignal>
 #include <thread>
 
 #include "session.h"
@@ -63,7 +64,7 @@ int cmdEcho(const Cli& cli) {
   const bool wait = args.flag("--wait");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 1) return fail(kUsage, "usage: flowctl echo CHANNEL [options]");
+  if (rest.size() != 1) return usageError(cli);
   if (format != "auto" && format != "text" && format != "hex" && format != "json") {
     return fail(kUsage, "--format is auto, text, hex or json, not '" + format + "'");
   }
@@ -122,7 +123,7 @@ int cmdPoll(const Cli& cli) {
   const auto interval_text = args.option("--interval");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
-  if (rest.size() != 1) return fail(kUsage, "usage: flowctl poll CHANNEL [options]");
+  if (rest.size() != 1) return usageError(cli);
   if (format != "auto" && format != "text" && format != "hex" && format != "json") {
     return fail(kUsage, "--format is auto, text, hex or json, not '" + format + "'");
   }

@@ -5,6 +5,8 @@
 
 #include <skrobot/core/log.h>
 
+#include <sys/socket.h>
+
 #include <algorithm>
 #include <cstring>
 #include <utility>
@@ -23,21 +25,21 @@ Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
   return hub.connection(id);
 }
 
-Connection::Connection(Hub& hub, Transport transport)
+Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport)
     : hub_(hub),
-      transport_(transport),
-      splitter_(std::min(kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes)) {
-  handle_.pipe.data = this;  // both members start with the uv_handle_t fields
-}
+      transport_(std::move(transport)),
+      splitter_(std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes,
+                          transport_->maxFrameBytes()})) {}
 
-// The close callback deletes a connection, possibly after the server is gone: close() has
+// The transport's closed() deletes a connection, possibly after the server is gone: close() has
 // already detached it from the server, so the destructor must not touch it.
 Connection::~Connection() = default;
 
 std::string Connection::describe() const {
   std::string s = "connection " + std::to_string(id);
   if (!user.empty()) s += " (" + user + (client_name.empty() ? "" : "/" + client_name) + ")";
-  s += transport_ != Transport::tcp ? " unix" : tls_ ? " tls" : " tcp";
+  s += " ";
+  s += transport::transportKindName(transport_->kind());
   return s;
 }
 
@@ -47,16 +49,12 @@ bool Connection::congested() const {
 
 void Connection::startReading() {
   if (reading_ || state_ == State::closing) return;
-  if (int rc = uv_read_start(stream(), &Connection::onAlloc, &Connection::onRead); rc < 0) {
-    close(uv_strerror(rc));
+  if (auto r = reading_started_ ? transport_->resume() : transport_->start(*this); !r) {
+    close(r.error().message.c_str());
     return;
   }
+  reading_started_ = true;
   reading_ = true;
-}
-
-void Connection::useTls(TlsSession session) {
-  tls_.emplace(std::move(session));
-  tls_in_ = std::make_unique_for_overwrite<char[]>(kReadChunk);
 }
 
 void Connection::reserveRead(size_t want) {
@@ -88,104 +86,49 @@ SharedBytes Connection::takeBody(std::string_view part) {
   return SharedBytes(std::move(taken), part);
 }
 
-void Connection::onAlloc(uv_handle_t* h, size_t, uv_buf_t* buf) {
-  auto* c = static_cast<Connection*>(h->data);
-  if (c->tls_) {  // ciphertext: decrypted into rbuf_ by receiveTls
-    *buf = uv_buf_init(c->tls_in_.get(), static_cast<unsigned>(kReadChunk));
-    return;
-  }
-  const size_t have = c->rend_ - c->rstart_;
+std::span<char> Connection::readBuffer() {
+  const size_t have = rend_ - rstart_;
   // Room for the rest of the frame being received (its length was checked against the limit by
   // the splitter before rneed_ was set), and at least one chunk.
-  c->reserveRead(std::max(kReadChunk, c->rneed_ > have ? c->rneed_ - have : 0));
-  *buf = uv_buf_init(c->rbuf_.get() + c->rend_, static_cast<unsigned>(c->rcap_ - c->rend_));
+  reserveRead(std::max(kReadChunk, rneed_ > have ? rneed_ - have : 0));
+  return {rbuf_.get() + rend_, rcap_ - rend_};
 }
 
-void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf) {
-  auto* c = static_cast<Connection*>(s->data);
-  if (nread == 0) return;
-  if (nread < 0) {
-    if (c->tls_ && !c->tls_->established() && !c->first_input_) {
-      c->refuse("the client closed the connection during the TLS handshake", {});
-      return;
-    }
-    c->close(nread == UV_EOF ? "peer closed the connection" : uv_strerror(static_cast<int>(nread)));
-    return;
-  }
-  c->hub_.loop.noteActivity();
-  if (c->tls_) {
-    c->receiveTls(buf->base, static_cast<size_t>(nread));
-    return;
-  }
-  c->rend_ += static_cast<size_t>(nread);
-  if (c->first_input_) {
-    c->first_input_ = false;
-    if (c->transport_ == Transport::tcp &&
-        looksLikeTls(std::string_view(c->rbuf_.get() + c->rstart_, c->rend_ - c->rstart_))) {
-      c->refuse(
-          "a TLS client on the plain TCP port (the hub has no server.tls; the client "
-          "should use a tcp: address)",
-          {});
-      return;
-    }
-  }
-  c->processInput();
-}
-
-void Connection::receiveTls(const char* data, size_t n) {
-  if (first_input_) {
-    first_input_ = false;
-    if (!looksLikeTls(std::string_view(data, n))) {
-      // A plain FlowProtocol client: it waits for the reply to its LOGIN, so tell it in its own
-      // language before closing.
-      std::string reply;
-      (void)encode(reply, msg::ReplyError{static_cast<uint16_t>(ErrorCode::protocol_error),
-                                          "this hub's TCP port speaks TLS: connect with a tls: "
-                                          "address (docs/security.md)"});
-      refuse("a plain TCP client on the TLS port", std::move(reply));
-      return;
-    }
-  }
-  const bool was_established = tls_->established();
-  if (auto r = tls_->receive(std::string_view(data, n)); !r) {
-    std::string alert;
-    tls_->takeOutput(alert);
-    refuse(r.error().message, std::move(alert));
-    return;
-  }
-  if (!was_established && tls_->established()) {
-    log::debug(kLogSource, "FLOW-TLS", describe() + ": " + tls_->describe());
-  }
-  // Everything decrypted now goes into rbuf_: the splitter then sees exactly what a plain
-  // connection would have read.
-  for (;;) {
-    reserveRead(kReadChunk);
-    auto got = tls_->read(rbuf_.get() + rend_, rcap_ - rend_);
-    if (!got) {
-      if (got.error().code == Errc::closed) {
-        close("peer closed TLS");
-      } else {
-        refuse(got.error().message, {});
-      }
-      return;
-    }
-    if (*got == 0) break;
-    rend_ += *got;
-  }
-  if (tls_->hasOutput()) hub_.markDirty(this);  // handshake records
+void Connection::received(size_t n) {
+  hub_.loop.noteActivity();
+  rend_ += n;
   processInput();
 }
 
-void Connection::refuse(const std::string& why, std::string reply) {
-  ++hub_.stats.tls_refused;
-  log::warn(kLogSource, "FLOW-TLS", "refusing " + describe() + ": " + why);
-  if (!reply.empty()) {
-    // Best effort, on a fresh connection whose socket buffer is empty: one try, no queueing.
-    uv_buf_t b = uv_buf_init(reply.data(), static_cast<unsigned>(reply.size()));
-    (void)uv_try_write(stream(), &b, 1);
+void Connection::message(std::string_view bytes) {
+  hub_.loop.noteActivity();
+  // One whole frame per message: its length prefix must say so.
+  uint32_t length = 0;
+  if (bytes.size() >= 4) std::memcpy(&length, bytes.data(), 4);
+  if (bytes.size() < kFrameHeaderBytes || length + size_t{4} != bytes.size()) {
+    protocolError("a message of " + std::to_string(bytes.size()) + " bytes is not one frame");
+    return;
   }
-  tls_.reset();  // nothing more to encrypt
-  close("refused");
+  reserveRead(bytes.size());
+  std::memcpy(rbuf_.get() + rend_, bytes.data(), bytes.size());
+  rend_ += bytes.size();
+  processInput();
+}
+
+void Connection::ended(const transport::TransportEnd& end) {
+  if (end.why == transport::TransportEnd::Why::refused) {
+    // The other language (plain on TLS, TLS on plain) or a failed handshake: the transport told
+    // the peer what it could.
+    ++hub_.stats.tls_refused;
+    log::warn(kLogSource, "FLOW-TLS", "refusing " + describe() + ": " + end.message);
+    close("refused");
+    return;
+  }
+  close(end.message.c_str());
+}
+
+void Connection::closed() noexcept {
+  delete this;
 }
 
 void Connection::processInput() {
@@ -225,7 +168,7 @@ void Connection::processInput() {
 
 void Connection::block() {
   blocked_ = true;
-  if (reading_) uv_read_stop(stream());
+  if (reading_) transport_->pause();
   reading_ = false;
 }
 
@@ -395,23 +338,13 @@ void Connection::pipelineAnswered(uint64_t bytes) {
 
 void Connection::close(const char* why) noexcept {
   if (state_ == State::closing) return;
-  if (tls_ && tls_->established() && !writing_) {
-    // close_notify, so that the peer can tell our close from a cut connection.
-    tls_->shutdown();
-    std::string bye;
-    tls_->takeOutput(bye);
-    uv_buf_t b = uv_buf_init(bye.data(), static_cast<unsigned>(bye.size()));
-    if (!bye.empty()) (void)uv_try_write(stream(), &b, 1);
-  }
   state_ = State::closing;
   log::debug(kLogSource, "FLOW-CLOSE", describe() + ": " + why);
   hub_.removeEndpoint(*this);
   if (flush_queued) std::erase(hub_.dirty, this);
   flush_queued = false;
-  if (reading_) uv_read_stop(stream());
   reading_ = false;
-  uv_close(reinterpret_cast<uv_handle_t*>(&handle_),
-           [](uv_handle_t* h) { delete static_cast<Connection*>(h->data); });
+  transport_->close(why);  // closed() follows from the loop
 }
 
 void Connection::closeAfterFlush(const char* why) {
@@ -432,8 +365,6 @@ void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string
   traffic.bytes_out += frame.size();
   if (out_.empty() && whole_.empty()) {
     out_.swap(frame);
-  } else if (tls_) {
-    out_.append(frame);  // encrypted with the rest at the next flush
   } else {
     // Queued whole rather than copied onto the output on the loop thread: what is in out_ goes
     // first, then this frame, then what comes after it.
@@ -444,10 +375,12 @@ void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string
 }
 
 void Connection::widenSendBuffer() {
-  if (wide_send_buffer_ || transport_ != Transport::unix_socket) return;
+  if (wide_send_buffer_ || transport_->kind() != transport::TransportKind::unix_socket) return;
   wide_send_buffer_ = true;
-  int size = 1 << 20;  // Linux doubles it (and caps it at net.core.wmem_max)
-  (void)uv_send_buffer_size(reinterpret_cast<uv_handle_t*>(stream()), &size);
+  const int size = 1 << 20;  // Linux doubles it (and caps it at net.core.wmem_max)
+  if (const int fd = transport_->descriptor(); fd >= 0) {
+    (void)::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &size, sizeof size);
+  }
 }
 
 
@@ -546,20 +479,7 @@ void Connection::flush() {
     }
     dropped_.clear();
   }
-  if (tls_) {
-    // Ciphertext has no frame boundaries to slice at: urgent frames go ahead of the plaintext not
-    // encrypted yet, and the queue holds whole frames up to here (dropOldestData reads it).
-    for (std::string* plain : {&urgent_, &out_}) {
-      if (plain->empty()) continue;
-      auto w = tls_->write(*plain);
-      plain->clear();
-      if (!w) {
-        refuse(w.error().message, {});
-        return;
-      }
-    }
-    tls_->takeOutput(out_);
-  } else if (!urgent_.empty() && atFrameBoundary()) {
+  if (!urgent_.empty() && atFrameBoundary()) {
     if (!writeUrgent()) return;
   }
   if (inflight_off_ < inflight_.size()) {
@@ -577,11 +497,15 @@ void Connection::flush() {
     if (close_after_flush_) close("replies sent");
     return;
   }
-  // Try the socket directly first: when everything fits (the common case) no write request is
-  // queued, and libuv does not have to watch the socket for writability.
-  uv_buf_t direct = uv_buf_init(out_.data(), static_cast<unsigned>(out_.size()));
-  const int sent = uv_try_write(stream(), &direct, 1);
-  if (sent == static_cast<int>(out_.size())) {
+  // Try the transport directly first: when everything fits (the common case) no write is queued,
+  // and the loop does not have to watch the socket for writability.
+  const std::string_view direct = out_;
+  const auto sent = transport_->tryWrite({&direct, 1});
+  if (!sent) {
+    close(sent.error().message.c_str());
+    return;
+  }
+  if (*sent == out_.size()) {
     if (out_.capacity() > kKeepBuffer) {
       std::string().swap(out_);  // a burst is over: give the memory back
     } else {
@@ -590,13 +514,9 @@ void Connection::flush() {
     if (close_after_flush_) close("replies sent");
     return;
   }
-  if (sent < 0 && sent != UV_EAGAIN) {
-    close(uv_strerror(sent));
-    return;
-  }
   inflight_.swap(out_);
   out_.clear();
-  inflight_off_ = sent > 0 ? static_cast<size_t>(sent) : 0;
+  inflight_off_ = *sent;
   next_frame_ = 0;
   writeSlice();
 }
@@ -612,25 +532,25 @@ bool Connection::atFrameBoundary() {
 }
 
 bool Connection::writeUrgent() {
-  uv_buf_t b = uv_buf_init(urgent_.data(), static_cast<unsigned>(urgent_.size()));
-  const int sent = uv_try_write(stream(), &b, 1);
-  if (sent == static_cast<int>(urgent_.size())) {
+  const std::string_view urgent = urgent_;
+  const auto sent = transport_->tryWrite({&urgent, 1});
+  if (!sent) {
+    close(sent.error().message.c_str());
+    return false;
+  }
+  if (*sent == urgent_.size()) {
     urgent_.clear();
     return true;
   }
-  if (sent < 0 && sent != UV_EAGAIN) {
-    close(uv_strerror(sent));
-    return false;
-  }
   // The socket is full: the rest goes first, on its own.
-  urgent_wire_.assign(urgent_, sent > 0 ? static_cast<size_t>(sent) : 0);
+  urgent_wire_.assign(urgent_, *sent);
   urgent_.clear();
   writing_urgent_ = true;
   writing_ = true;
-  uv_buf_t rest = uv_buf_init(urgent_wire_.data(), static_cast<unsigned>(urgent_wire_.size()));
-  if (int rc = uv_write(&wreq_, stream(), &rest, 1, &Connection::onWrite); rc < 0) {
+  const std::string_view rest = urgent_wire_;
+  if (auto r = transport_->write({&rest, 1}); !r) {
     writing_ = false;
-    close(uv_strerror(rc));
+    close(r.error().message.c_str());
   }
   return false;
 }
@@ -638,9 +558,10 @@ bool Connection::writeUrgent() {
 void Connection::writeSlice() {
   // Whole frames of at least kWriteSlice bytes, so that urgent frames wait behind one slice at
   // most; a larger frame goes in slices of kWriteSlice too, so that no write holds the loop for
-  // long (urgent frames wait for its end: atFrameBoundary). TLS output is written whole.
+  // long (urgent frames wait for its end: atFrameBoundary). A message-based transport takes
+  // whole frames only: a frame larger than a slice goes whole.
   size_t end = inflight_.size();
-  if (!tls_) {
+  {
     size_t last_start = 0;  // where the last frame added below starts
     while (next_frame_ < inflight_.size() &&
            (next_frame_ <= inflight_off_ || next_frame_ - inflight_off_ < kWriteSlice)) {
@@ -653,18 +574,17 @@ void Connection::writeSlice() {
     if (end - inflight_off_ > kWriteSlice) {
       if (last_start > inflight_off_) {
         end = next_frame_ = last_start;  // the frames before the one that makes it too long
-      } else {
+      } else if (transport_->framing() == transport::Transport::Framing::stream) {
         end = inflight_off_ + kWriteSlice;  // inside one frame larger than a slice
       }
     }
   }
   slice_end_ = end;
-  uv_buf_t buf =
-      uv_buf_init(inflight_.data() + inflight_off_, static_cast<unsigned>(end - inflight_off_));
+  const std::string_view slice(inflight_.data() + inflight_off_, end - inflight_off_);
   writing_ = true;
-  if (int rc = uv_write(&wreq_, stream(), &buf, 1, &Connection::onWrite); rc < 0) {
+  if (auto r = transport_->write({&slice, 1}); !r) {
     writing_ = false;
-    close(uv_strerror(rc));
+    close(r.error().message.c_str());
   }
 }
 
@@ -677,25 +597,24 @@ void Connection::releaseInflight() {
   inflight_off_ = next_frame_ = slice_end_ = 0;
 }
 
-void Connection::onWrite(uv_write_t* req, int status) {
-  auto* c = static_cast<Connection*>(req->handle->data);
-  c->writing_ = false;
-  if (c->state_ == State::closing) return;
-  if (status < 0) {
-    c->close(uv_strerror(status));
+void Connection::written(Result<void> result) {
+  writing_ = false;
+  if (state_ == State::closing) return;
+  if (!result) {
+    close(result.error().message.c_str());
     return;
   }
-  if (c->writing_urgent_) {
-    c->writing_urgent_ = false;
-    c->urgent_wire_.clear();
+  if (writing_urgent_) {
+    writing_urgent_ = false;
+    urgent_wire_.clear();
   } else {
-    c->inflight_off_ = c->slice_end_;
+    inflight_off_ = slice_end_;
   }
-  if (c->inflight_off_ < c->inflight_.size() || !c->urgent_.empty() || !c->whole_.empty() ||
-      !c->out_.empty() || !c->dropped_.empty() || c->close_after_flush_) {
-    c->flush();
+  if (inflight_off_ < inflight_.size() || !urgent_.empty() || !whole_.empty() ||
+      !out_.empty() || !dropped_.empty() || close_after_flush_) {
+    flush();
   } else {
-    c->releaseInflight();
+    releaseInflight();
   }
 }
 

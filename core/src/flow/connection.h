@@ -1,11 +1,9 @@
-// One satellite connected over a socket (Unix or TCP, TLS on TCP): its session with the hub.
-// Reads bytes into a buffer that frames are parsed from in place, checks each frame against the
-// catalogue and the session's state (login, authenticating, sync, flow) and hands it to its room
-// (dispatch.h); keeps an output queue flushed once per loop iteration (many frames per write).
-// The rooms answer through the calls below. Main loop thread only.
-//
-// With TLS (useTls), received bytes are decrypted into the same read buffer and the same frame
-// splitter parses them; the output queue holds frames until flush() encrypts it as a whole.
+// One satellite connected over a transport (skrobot/flow/transport.h: Unix socket, TCP, TLS on
+// TCP, or a message-based one): its session with the hub. Receives bytes into a buffer that frames
+// are parsed from in place (a message-based transport's messages are one frame each), checks each
+// frame against the catalogue and the session's state (login, authenticating, sync, flow) and
+// hands it to its room (dispatch.h); keeps an output queue flushed once per loop iteration (many
+// frames per write). The rooms answer through the calls below. Main loop thread only.
 #pragma once
 
 #include "endpoint.h"
@@ -15,9 +13,7 @@
 #include <skrobot/flow/accounts.h>
 #include <skrobot/flow/bytes.h>
 #include <skrobot/flow/codec.h>
-#include <skrobot/flow/tls.h>
-
-#include <uv.h>
+#include <skrobot/flow/transport.h>
 
 #include <deque>
 #include <functional>
@@ -34,24 +30,21 @@ class Connection;
 // The connection with endpoint id `id` in `hub`, if it is still there.
 [[nodiscard]] Connection* connectionOf(Hub& hub, uint32_t id) noexcept;
 
-class Connection final : public Endpoint {
+class Connection final : public Endpoint, private transport::Transport::Receiver {
  public:
   enum class State { login, authenticating, sync, flow, closing };
 
-  Connection(Hub& hub, Transport transport);
+  // Takes over an accepted transport; startReading() starts the session.
+  Connection(Hub& hub, std::unique_ptr<transport::Transport> transport);
   ~Connection() override;
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
   Connection(Connection&&) = delete;
   Connection& operator=(Connection&&) = delete;
 
-  // --- the socket (server.cpp accepts it)
-  // The libuv stream this connection reads and writes (initialised by the server's accept).
-  [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&handle_); }
+  // --- the transport (server.cpp accepts it)
   void startReading();
-  // Makes this a TLS connection: call after accept, before startReading().
-  void useTls(TlsSession session);
-  // Closes now: the connection leaves every room at once; memory goes with the close callback.
+  // Closes now: the connection leaves every room at once; memory goes once the transport closed.
   void close(const char* why) noexcept;
   // Sends what is queued, then closes.
   void closeAfterFlush(const char* why);
@@ -59,7 +52,11 @@ class Connection final : public Endpoint {
 
   [[nodiscard]] Hub& hub() noexcept { return hub_; }
   [[nodiscard]] State state() const noexcept { return state_; }
-  [[nodiscard]] Transport transport() const noexcept { return transport_; }
+  // What the accounts' rules see: a Unix socket, or the network (TCP, TLS, any other).
+  [[nodiscard]] Transport transport() const noexcept {
+    return transport_->kind() == transport::TransportKind::unix_socket ? Transport::unix_socket
+                                                            : Transport::tcp;
+  }
   Nanos login_deadline = 0;
   // Accepted beyond server.max_connections: its LOGIN is answered limit_exceeded, then it closes.
   bool over_limit = false;
@@ -172,17 +169,17 @@ class Connection final : public Endpoint {
   [[nodiscard]] bool sees(const Channel& ch) const noexcept;
 
  private:
-  static void onAlloc(uv_handle_t* h, size_t suggested, uv_buf_t* buf);
-  static void onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf);
-  static void onWrite(uv_write_t* req, int status);
+  // Transport::Receiver
+  std::span<char> readBuffer() override;
+  void received(size_t n) override;
+  void message(std::string_view bytes) override;
+  void written(Result<void> result) override;
+  void ended(const transport::TransportEnd& end) override;
+  void closed() noexcept override;
 
   void processInput();
   // Room for at least `want` more bytes at rbuf_ + rend_.
   void reserveRead(size_t want);
-  void receiveTls(const char* data, size_t n);
-  // Refuses a peer that speaks the other language (plain on TLS, TLS on plain) or fails the TLS
-  // handshake: FLOW-TLS log line, `reply` sent as it is (an alert, a plain REPLY_ERROR), close.
-  void refuse(const std::string& why, std::string reply);
   // A frame: checked against the catalogue and the session's state, then dispatched.
   void handleFrame(uint8_t code, std::string_view body);
   void dispatchFrame(uint8_t code, std::string_view body);
@@ -205,11 +202,7 @@ class Connection final : public Endpoint {
   void dropOldestData(size_t needed);
 
   Hub& hub_;
-  Transport transport_;
-  union Handle {
-    uv_pipe_t pipe;
-    uv_tcp_t tcp;
-  } handle_{};
+  std::unique_ptr<transport::Transport> transport_;
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
@@ -225,10 +218,8 @@ class Connection final : public Endpoint {
   bool pipeline_waiting_ = false;     // reading paused until a pipelined answer leaves
   uint8_t current_code_ = 0;          // the code of the frame being handled
   bool wide_send_buffer_ = false;     // widened for downloads (widenSendBuffer)
-  bool first_input_ = true;  // nothing received yet: a plain TCP port checks for a TLS peer
-  std::optional<TlsSession> tls_;
-  std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;
+  bool reading_started_ = false;  // the transport was started (later: resume)
 
   // Output: frames accumulate in out_; inflight_ is being written, a slice at a time
   // ([inflight_off_, slice_end_) now; next_frame_: a frame start at or past inflight_off_).
@@ -238,7 +229,6 @@ class Connection final : public Endpoint {
   std::deque<std::string> whole_;
   size_t inflight_off_ = 0, slice_end_ = 0, next_frame_ = 0;
   bool writing_urgent_ = false;
-  uv_write_t wreq_{};
   bool writing_ = false;
   bool close_after_flush_ = false;
   std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED

@@ -71,8 +71,8 @@ class TransportPair : public ::testing::Test {
     const std::string_view parts[] = {"gathered ", "in ", "one write"};
     auto n = client_->tryWrite(parts);
     ASSERT_TRUE(n) << n.error().message;
-    EXPECT_EQ(*n, 22u);
-    ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.bytes.size() >= 22; }, kWait));
+    EXPECT_EQ(*n, 21u);
+    ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.bytes.size() >= 21; }, kWait));
     EXPECT_EQ(server_sink_.bytes, "gathered in one write");
   }
 
@@ -98,16 +98,16 @@ TEST_F(TransportPair, UnixSocketCarriesBytesAndNamesItsPeerByUid) {
   const std::string_view more = "more";
   ASSERT_TRUE(client_->tryWrite({&more, 1}));
   loop_.runFor(50 * kNsPerMs);
-  EXPECT_EQ(server_sink_.bytes.size(), 22u);
+  EXPECT_EQ(server_sink_.bytes.size(), 21u);
   ASSERT_TRUE(server_->resume());
-  ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.bytes.size() == 26; }, kWait));
+  ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.bytes.size() == 25; }, kWait));
 
   // A large gathered write() ends with one written() once the reader took it all.
   const std::string big(size_t{4} << 20, 'x');
   const std::string_view two[] = {big, big};
   ASSERT_TRUE(client_->write(two));
   ASSERT_TRUE(loop_.runUntil(
-      [&] { return client_sink_.writes == 1 && server_sink_.bytes.size() == 26 + 2 * big.size(); },
+      [&] { return client_sink_.writes == 1 && server_sink_.bytes.size() == 25 + 2 * big.size(); },
       20 * kNsPerSec));
   EXPECT_TRUE(client_sink_.write_ok);
 

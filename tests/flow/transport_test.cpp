@@ -57,6 +57,11 @@ class TransportPair : public ::testing::Test {
     ASSERT_TRUE(l) << l.error().message;
     listener_ = std::move(l).value();
     if (address.kind != Address::Kind::local) address.port = listener_->port();
+    dial(address, client_tls);
+  }
+  // A dialer to the listener there; both ends started with their sinks.
+  void dial(const Address& address, const Result<flow::TlsContext>* client_tls = nullptr) {
+    server_.reset();
     std::optional<Result<std::unique_ptr<Transport>>> opened;
     auto dialer = Dialer::open(loop_, address, client_tls,
                                [&](Result<std::unique_ptr<Transport>> r) { opened.emplace(std::move(r)); });
@@ -131,7 +136,7 @@ TEST_F(TransportPair, TcpNamesItsPeerByAddressAndRefusesATlsClient) {
   server_.reset();
   client_.reset();
   server_sink_ = {};
-  connect(Address{.kind = Address::Kind::tcp, .host = "127.0.0.1", .port = listener_->port()});
+  dial(Address{.kind = Address::Kind::tcp, .host = "127.0.0.1", .port = listener_->port()});
   const std::string_view hello("\x16\x03\x01\x00\x05hello", 10);
   ASSERT_TRUE(client_->tryWrite({&hello, 1}));
   ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.end.has_value(); }, kWait));

@@ -52,7 +52,11 @@ class TransportPair : public ::testing::Test {
   // A listener on `address` and a dialer to it; both ends started with their sinks.
   void connect(Address address, ListenOptions options = {},
                const Result<flow::TlsContext>* client_tls = nullptr) {
-    auto l = Listener::open(loop_, address, std::move(options),
+    // The listener binds a numeric address; the dialer may name the host (a TLS certificate names
+    // "localhost").
+    Address listen_at = address;
+    if (listen_at.kind != Address::Kind::local) listen_at.host = "127.0.0.1";
+    auto l = Listener::open(loop_, listen_at, std::move(options),
                             [this](std::unique_ptr<Transport> t) { server_ = std::move(t); });
     ASSERT_TRUE(l) << l.error().message;
     listener_ = std::move(l).value();

@@ -1,8 +1,8 @@
 // The blob store on its own: path rules, confinement under both resolvers (a symlink planted in
 // the tree, a directory swapped for a symlink during the walk), the order of a commit's system
 // calls, resumed uploads across a restart, versions, quotas.
-#include "../../core/src/flow/blob_store.h"
-#include "../../core/src/flow/blob_path.h"
+#include "families/blobs/blob_store.h"
+#include "families/blobs/blob_path.h"
 #include "temp_dir.h"
 
 #include <gtest/gtest.h>
@@ -49,7 +49,7 @@ TEST(BlobPath, RulesOfPaths) {
   EXPECT_EQ(*ok, (std::vector<std::string>{"maps", "floor 1", "map.pgm"}));
   EXPECT_TRUE(splitPath("", true));
   EXPECT_TRUE(splitPath("%2e%2e/..x/.hidden", false));  // names, not separators or parents
-  for (const std::string bad :
+  for (const std::string& bad :
        {std::string(""), std::string("/etc/passwd"), std::string("a//b"), std::string("a/"),
         std::string(".."), std::string("a/../../b"), std::string("."), std::string("a/./b"),
         std::string("a\\..\\b"), std::string("a\0b", 3), std::string(256, 'x'),

@@ -1,9 +1,9 @@
 // Durable PairDatabases: the log format, the journal's fsync order under a simulated power cut,
 // and what the store does with torn and damaged files. The kill -9 test of the real hub is in
 // tests/hub/database_kill_test.cpp.
-#include "../../core/src/flow/database_journal.h"
-#include "../../core/src/flow/database_log.h"
-#include "../../core/src/flow/file_layer.h"
+#include "families/databases/database_journal.h"
+#include "families/databases/database_log.h"
+#include "families/databases/file_layer.h"
 #include "log_capture.h"
 #include "temp_dir.h"
 

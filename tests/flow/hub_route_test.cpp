@@ -1,5 +1,5 @@
-// A hub link's naming and routing rules (core/src/flow/hub_route.cpp, docs/hub-links.md).
-#include "../../core/src/flow/hub_route.h"
+// A hub link's naming and routing rules (core/src/flow/families/links/hub_route.cpp, docs/hub-links.md).
+#include "families/links/hub_route.h"
 
 #include <gtest/gtest.h>
 

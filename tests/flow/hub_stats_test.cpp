@@ -1,6 +1,6 @@
 // The hub's statistics (flow/hub_stats.h): rate windows over the last second and the last ten,
 // closed by the hub's one-second tick, the same for every reader; how hub.stats writes them.
-#include "../../core/src/flow/rate_window.h"
+#include "rate_window.h"
 #include "flow_fixture.h"
 
 #include <skrobot/flow/hub_stats.h>

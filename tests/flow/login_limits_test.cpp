@@ -1,6 +1,6 @@
 // Before login a connection is held short: frames of 4096 bytes at most, and failed logins slow
 // down the next ones per user name and per source (login_throttle.h).
-#include "../../core/src/flow/login_throttle.h"
+#include "families/session/login_throttle.h"
 #include "flow_fixture.h"
 #include "log_capture.h"
 

@@ -13,6 +13,8 @@ namespace skr::test {
 namespace {
 
 using flow::Code;
+using flow::CodeInfo;
+using flow::Direction;
 using flow::ErrorCode;
 using flow::Variant;
 namespace msg = flow::msg;
@@ -557,6 +559,36 @@ TEST_F(Server, MalformedFramesCloseTheSender) {
   EXPECT_EQ(stats().protocol_errors, bad_frames.size() + 1);
   TestClient fine = syncClient();
   EXPECT_EQ(fine.call(msg::Ping{msg::Rest{"x"}})->kind(), Code::reply_ok);
+}
+
+// Every code the catalogue says the hub sends closes a satellite that sends it (EV_PHYS_RESUME,
+// 0xFE, was answered `unsupported` by a hand-kept range), on a flow and on a synchronous
+// connection; a code no minor assigned is answered `unsupported` and the connection stays.
+TEST_F(Server, HubToSatelliteCodesCloseTheSenderAndUnassignedOnesAreUnsupported) {
+  startHub();
+  size_t closed = 0;
+  for (const CodeInfo& row : flow::catalogue()) {
+    if (row.direction != Direction::to_client) continue;
+    for (bool flow : {true, false}) {
+      TestClient c = flow ? flowClient() : syncClient();
+      ASSERT_TRUE(c.sendRaw(std::string("\x01\x00\x00\x00", 4) + char(row.code)));
+      EXPECT_TRUE(c.closedByPeer()) << row.name << (flow ? " on a flow" : " on a sync connection");
+      ++closed;
+    }
+  }
+  EXPECT_EQ(stats().protocol_errors, closed);
+  for (uint8_t unassigned : {uint8_t(0x16), uint8_t(0x51), uint8_t(0xCA), uint8_t(0xE3)}) {
+    ASSERT_EQ(flow::codeInfo(unassigned), nullptr);
+    TestClient sync = syncClient();
+    ASSERT_TRUE(sync.sendRaw(std::string("\x01\x00\x00\x00", 4) + char(unassigned)));
+    EXPECT_EQ(errorOf(sync.recvReply()), uint16_t(ErrorCode::unsupported)) << int(unassigned);
+    TestClient f = flowClient();
+    ASSERT_TRUE(f.sendRaw(std::string("\x01\x00\x00\x00", 4) + char(unassigned)));
+    auto e = as<msg::EvError>(f.waitFor(Code::ev_error));
+    ASSERT_TRUE(e) << int(unassigned);
+    EXPECT_EQ(e->error, uint16_t(ErrorCode::unsupported));
+  }
+  EXPECT_EQ(stats().protocol_errors, closed);
 }
 
 TEST_F(Server, ClientKilledMidFrame) {

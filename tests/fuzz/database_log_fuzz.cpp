@@ -1,11 +1,11 @@
 // libFuzzer target: arbitrary bytes as a database log (<data_dir>/db/<name>.log,
-// core/src/flow/database_log.h), as the hub reads it at start after a crash. The reader must
+// core/src/flow/families/databases/database_log.h), as the hub reads it at start after a crash. The reader must
 // never crash or allocate what a length field announces; its verdict must be consistent (a clean
 // log is read to its end, a torn or corrupt one stops at good_bytes); and every record it accepts
 // must encode again to the same bytes.
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/database_log_fuzz
-#include "../../core/src/flow/database_log.h"
+#include "families/databases/database_log.h"
 
 #include <skrobot/flow/bytes.h>
 

@@ -1,5 +1,5 @@
 // libFuzzer target: arbitrary bytes as the users file (<data_dir>/users.json: accounts, argon2id
-// hashes, roles, rules, limits; core/src/flow/accounts.cpp), which the hub reads at start and
+// hashes, roles, rules, limits; core/src/flow/families/session/accounts.cpp), which the hub reads at start and
 // on every change. Loading must never crash; an accepted file's accounts must have valid names
 // and rules that write back to JSON and read back equal.
 //

@@ -1,9 +1,13 @@
 #include "connection.h"
 
+#include "dispatch.h"
+#include "hub.h"
+
 #include <skrobot/core/log.h>
 
 #include <algorithm>
 #include <cstring>
+#include <utility>
 
 namespace skr::flow {
 namespace {
@@ -13,16 +17,16 @@ constexpr size_t kKeepBuffer = 1 << 20;        // shrink buffers above this once
 constexpr size_t kGiveAwayBytes = 256 * 1024;  // takeBody hands over the buffer from this size
 constexpr size_t kWriteSlice = 256 << 10;      // queued output is handed to the socket in slices
 
-bool inRange(uint8_t code, uint8_t lo, uint8_t hi) {
-  return code >= lo && code <= hi;
-}
-
 }  // namespace
 
-Connection::Connection(FlowServer::Impl& server, Transport transport)
-    : server_(server),
+Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
+  return hub.connection(id);
+}
+
+Connection::Connection(Hub& hub, Transport transport)
+    : hub_(hub),
       transport_(transport),
-      splitter_(std::min(kPreLoginMaxFrameBytes, server.opt.max_frame_bytes)) {
+      splitter_(std::min(kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes)) {
   handle_.pipe.data = this;  // both members start with the uv_handle_t fields
 }
 
@@ -38,7 +42,7 @@ std::string Connection::describe() const {
 }
 
 bool Connection::congested() const {
-  return out_.size() > server_.opt.subscriber_queue_bytes;
+  return out_.size() > hub_.opt.subscriber_queue_bytes;
 }
 
 void Connection::startReading() {
@@ -108,7 +112,7 @@ void Connection::onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf) {
     c->close(nread == UV_EOF ? "peer closed the connection" : uv_strerror(static_cast<int>(nread)));
     return;
   }
-  c->server_.loop.noteActivity();
+  c->hub_.loop.noteActivity();
   if (c->tls_) {
     c->receiveTls(buf->base, static_cast<size_t>(nread));
     return;
@@ -168,12 +172,12 @@ void Connection::receiveTls(const char* data, size_t n) {
     if (*got == 0) break;
     rend_ += *got;
   }
-  if (tls_->hasOutput()) server_.markDirty(this);  // handshake records
+  if (tls_->hasOutput()) hub_.markDirty(this);  // handshake records
   processInput();
 }
 
 void Connection::refuse(const std::string& why, std::string reply) {
-  ++server_.stats.tls_refused;
+  ++hub_.stats.tls_refused;
   log::warn(kLogSource, "FLOW-TLS", "refusing " + describe() + ": " + why);
   if (!reply.empty()) {
     // Best effort, on a fresh connection whose socket buffer is empty: one try, no queueing.
@@ -202,10 +206,10 @@ void Connection::processInput() {
       protocolError("frame length 0 (a frame holds at least its code)");
       return;
     }
-    if (waitForBlobAnswers(n.code)) break;  // handled once the blob answers have left
+    if (waitForPipeline(n.code)) break;  // handled once the pipeline's answers have left
     rstart_ += n.consumed;                  // before handling: a handler may block and resume later
     rneed_ = 0;
-    ++server_.stats.frames_in;
+    ++hub_.stats.frames_in;
     ++traffic.messages_in;
     traffic.bytes_in += n.consumed;
     handleFrame(n.code, n.body);
@@ -233,28 +237,24 @@ void Connection::unblock() {
 }
 
 void Connection::handleFrame(uint8_t code, std::string_view body) {
-  const bool sync_code = inRange(code, 0x01, 0x3F) || isSyncFamilyRequest(code);
-  const bool async_code = inRange(code, 0x40, 0x7F) || isFlowFamilyCommand(code);
-  const bool reserved =
-      code >= 0xC0 && !sync_code && !async_code && code != uint8_t(Code::ev_blob_changed) &&
-      code != uint8_t(Code::ev_sync_pulse) && code != uint8_t(Code::ev_time_probe) &&
-      code != uint8_t(Code::ev_link_wanted) && !inRange(code, 0xF8, 0xFD);
-  if (!sync_code && !async_code && !reserved) {
-    protocolError("code 0x" +
-                  [&] {
-                    char b[3];
-                    std::snprintf(b, sizeof b, "%02x", code);
-                    return std::string(b);
-                  }() +
-                  " (" + std::string(codeName(code)) + ") is not sent by satellites");
+  // What the catalogue says of the code: a hub-to-satellite code (or one of the range kept for
+  // them) breaks the protocol; one no minor assigned is answered `unsupported` (rule 5).
+  const CodeInfo* info = codeInfo(code);
+  if ((info != nullptr && info->direction == Direction::to_client) ||
+      (info == nullptr && code >= 0x80 && code <= 0xBF)) {
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "0x%02x", code);
+    protocolError("code " + std::string(hex) + " (" + std::string(codeName(code)) +
+                  ") is not sent by satellites");
     return;
   }
+  const std::string name(codeName(code));
   switch (state_) {
     case State::login:
       if (static_cast<Code>(code) == Code::login) {
-        handleLogin(body);
+        dispatchFrame(code, body);
       } else {
-        replyError(ErrorCode::not_logged_in, std::string(codeName(code)) + " before LOGIN");
+        replyError(ErrorCode::not_logged_in, name + " before LOGIN");
         closeAfterFlush("command before login");
       }
       return;
@@ -262,41 +262,37 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
     case State::closing:
       return;  // not reached: reading is paused
     case State::sync:
-      if (sync_code && minorOf(static_cast<Code>(code)) > minor_) {
-        replyError(ErrorCode::unsupported, std::string(codeName(code)) +
-                                               " is newer than this connection's protocol 1." +
-                                               std::to_string(minor_));
-      } else if (sync_code) {
-        handleSync(static_cast<Code>(code), body);
-      } else if (async_code) {
-        replyError(ErrorCode::invalid_argument,
-                   std::string(codeName(code)) + " is asynchronous: send GO_ASYNC first");
-      } else {
+      if (info == nullptr) {
+        replyError(ErrorCode::unsupported, name + " is reserved and not implemented by this hub");
+      } else if (!info->synchronous()) {
+        replyError(ErrorCode::invalid_argument, name + " is asynchronous: send GO_ASYNC first");
+      } else if (info->minor > minor_) {
         replyError(ErrorCode::unsupported,
-                   std::string(codeName(code)) + " is reserved and not implemented by this hub");
-      }
-      return;
-    case State::flow:
-      if (async_code && minorOf(static_cast<Code>(code)) > minor_) {
-        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
-                std::string(codeName(code)) + " is newer than this connection's protocol 1." +
-                    std::to_string(minor_));
-      } else if (async_code) {
-        handleAsync(static_cast<Code>(code), body);
-      } else if (sync_code) {
-        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
-                std::string(codeName(code)) +
-                    " is synchronous: use a synchronous connection, the flow never blocks");
+                   name + " is newer than this connection's protocol 1." + std::to_string(minor_));
       } else {
-        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported,
-                std::string(codeName(code)) + " is reserved and not implemented by this hub");
+        dispatchFrame(code, body);
       }
       return;
+    case State::flow: {
+      const auto refuse = [&](const std::string& why) {
+        onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported, why);
+      };
+      if (info == nullptr) {
+        refuse(name + " is reserved and not implemented by this hub");
+      } else if (info->synchronous()) {
+        refuse(name + " is synchronous: use a synchronous connection, the flow never blocks");
+      } else if (info->minor > minor_) {
+        refuse(name + " is newer than this connection's protocol 1." + std::to_string(minor_));
+      } else {
+        dispatchFrame(code, body);
+      }
+      return;
+    }
   }
 }
 
 void Connection::protocolError(const std::string& why) {
-  ++server_.stats.protocol_errors;
+  ++hub_.stats.protocol_errors;
   log::warn(kLogSource, "FLOW-PROTOCOL", "killing spurious client, " + describe() + ": " + why);
   close("protocol error");
 }
@@ -307,7 +303,94 @@ void Connection::replyError(ErrorCode error, const std::string& message) {
 
 void Connection::replyOk() {
   appendHeader(out_, Code::reply_ok, 0);
+  ++traffic.messages_out;
+  traffic.bytes_out += kFrameHeaderBytes;
   queued();
+}
+
+void Connection::reply(const Result<void>& r) {
+  if (r) {
+    replyOk();
+  } else {
+    replyError(toErrorCode(r.error().code), r.error().message);
+  }
+}
+
+void Connection::replyValue(Result<Variant>&& r) {
+  if (r) {
+    send(msg::ReplyValue{std::move(*r)});
+  } else {
+    replyError(toErrorCode(r.error().code), r.error().message);
+  }
+}
+
+void Connection::refused(Code command, uint32_t tag, uint16_t chan_id, const Result<void>& r) {
+  if (!r) onError(command, tag, chan_id, toErrorCode(r.error().code), r.error().message);
+}
+
+void Connection::answerDone(const Result<void>& r) {
+  reply(r);
+  unblock();
+}
+
+std::function<void(Result<void>)> Connection::whenDone(
+    std::function<void(Connection&, Result<void>)> then) {
+  return whenAlive<Result<void>>(std::move(then));
+}
+
+std::function<void(Result<Variant>)> Connection::whenRead(
+    std::function<void(Connection&, Result<Variant>)> then) {
+  return whenAlive<Result<Variant>>(std::move(then));
+}
+
+// --- the session's steps -----------------------------------------------------------------------
+
+void Connection::authenticating(ValueEncoding enc) {
+  enc_ = enc;
+  state_ = State::authenticating;
+  block();
+}
+
+void Connection::loggedIn(uint16_t minor) {
+  minor_ = minor;
+  splitter_.setMaxFrameBytes(hub_.opt.max_frame_bytes);
+  state_ = State::sync;
+}
+
+void Connection::becomeFlow() {
+  state_ = State::flow;
+}
+
+void Connection::dispatchFrame(uint8_t code, std::string_view body) {
+  current_code_ = code;
+  dispatch(hub_, *this, code, body);
+}
+
+// --- the pipeline ------------------------------------------------------------------------------
+
+bool Connection::waitForPipeline(uint8_t code) {
+  if (state_ != State::sync || pipeline_in_flight_ == 0) return false;
+  const CodeInfo* info = codeInfo(code);
+  if (info != nullptr && info->family == pipeline_family_ && info->direction == Direction::to_hub) {
+    return false;  // another request of the pipeline: in order with the others
+  }
+  pipeline_waiting_ = true;
+  block();
+  return true;
+}
+
+void Connection::pausePipeline() {
+  pipeline_waiting_ = true;
+  block();
+}
+
+void Connection::pipelineAnswered(uint64_t bytes) {
+  --pipeline_in_flight_;
+  pipeline_bytes_ -= bytes;
+  if (pipeline_waiting_) {
+    pipeline_waiting_ = false;
+    unblock();
+  }
 }
 
 void Connection::close(const char* why) noexcept {
@@ -322,8 +405,8 @@ void Connection::close(const char* why) noexcept {
   }
   state_ = State::closing;
   log::debug(kLogSource, "FLOW-CLOSE", describe() + ": " + why);
-  server_.removeEndpoint(*this);
-  if (flush_queued) std::erase(server_.dirty, this);
+  hub_.removeEndpoint(*this);
+  if (flush_queued) std::erase(hub_.dirty, this);
   flush_queued = false;
   if (reading_) uv_read_stop(stream());
   reading_ = false;
@@ -335,10 +418,38 @@ void Connection::closeAfterFlush(const char* why) {
   close_after_flush_ = true;
   log::debug(kLogSource, "FLOW-CLOSE", describe() + ": " + why + " (after sending replies)");
   block();
-  server_.markDirty(this);
+  hub_.markDirty(this);
 }
 
 // --- output ----------------------------------------------------------------------------------
+
+void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string frame) {
+  std::string head;
+  (void)encode(head, msg::BlobData{version, total_size, {}});
+  ByteWriter(head).patchU32(0, static_cast<uint32_t>(frame.size() - 4));
+  std::memcpy(frame.data(), head.data(), head.size());
+  ++traffic.messages_out;
+  traffic.bytes_out += frame.size();
+  if (out_.empty() && whole_.empty()) {
+    out_.swap(frame);
+  } else if (tls_) {
+    out_.append(frame);  // encrypted with the rest at the next flush
+  } else {
+    // Queued whole rather than copied onto the output on the loop thread: what is in out_ goes
+    // first, then this frame, then what comes after it.
+    if (!out_.empty()) whole_.push_back(std::exchange(out_, std::string()));
+    whole_.push_back(std::move(frame));
+  }
+  queued();
+}
+
+void Connection::widenSendBuffer() {
+  if (wide_send_buffer_ || transport_ != Transport::unix_socket) return;
+  wide_send_buffer_ = true;
+  int size = 1 << 20;  // Linux doubles it (and caps it at net.core.wmem_max)
+  (void)uv_send_buffer_size(reinterpret_cast<uv_handle_t*>(stream()), &size);
+}
+
 
 void Connection::queued() {
   if (state_ == State::closing) {
@@ -347,7 +458,7 @@ void Connection::queued() {
     return;
   }
   const size_t hard =
-      server_.opt.subscriber_queue_bytes * 2 + server_.opt.max_frame_bytes + (64u << 10);
+      hub_.opt.subscriber_queue_bytes * 2 + hub_.opt.max_frame_bytes + (64u << 10);
   if (out_.size() > hard) {
     log::warn(kLogSource, "FLOW-SLOW-CLIENT",
               describe() + ": " + std::to_string(out_.size()) +
@@ -355,20 +466,20 @@ void Connection::queued() {
     close("not reading");
     return;
   }
-  server_.markDirty(this);
+  hub_.markDirty(this);
 }
 
 void Connection::onData(const Channel& ch, std::string_view payload) {
   if (state_ != State::flow) return;
   const size_t frame = kFrameHeaderBytes + 2 + payload.size();
-  const size_t limit = server_.opt.subscriber_queue_bytes;
+  const size_t limit = hub_.opt.subscriber_queue_bytes;
   if (!out_.empty() && out_.size() + frame > limit) {
     dropOldestData(frame);
     if (!out_.empty() && out_.size() + frame > limit) {
       ++dropped_[ch.id];
       ++ch.dropped;
       ++traffic.dropped;
-      ++server_.stats.data_frames_dropped;
+      ++hub_.stats.data_frames_dropped;
       return;
     }
   }
@@ -381,16 +492,16 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
   p[4] = static_cast<char>(Code::ev_data);
   std::memcpy(p + 5, &ch.id, 2);
   if (!payload.empty()) std::memcpy(p + 7, payload.data(), payload.size());
-  ++server_.stats.data_frames_out;
+  ++hub_.stats.data_frames_out;
   ++traffic.messages_out;
   traffic.bytes_out += frame;
-  if (!flush_queued) server_.markDirty(this);
+  if (!flush_queued) hub_.markDirty(this);
 }
 
 // A slow subscriber loses its oldest data frames; events and replies are kept. Drops a quarter
 // more than needed so that a subscriber that stays slow is not compacted for every frame.
 void Connection::dropOldestData(size_t needed) {
-  const size_t limit = server_.opt.subscriber_queue_bytes;
+  const size_t limit = hub_.opt.subscriber_queue_bytes;
   const size_t target = limit - std::min(limit, needed + limit / 4);
   size_t size = out_.size();
   std::string kept;
@@ -407,7 +518,7 @@ void Connection::dropOldestData(size_t needed) {
       std::memcpy(&chan, out_.data() + pos + 5, 2);
       ++dropped_[chan];
       ++dropped;
-      if (const Channel* ch = server_.channels.find(chan)) ++ch->dropped;
+      if (const Channel* ch = hub_.channels.find(chan)) ++ch->dropped;
       size -= frame;
     } else {
       kept.append(out_, pos, frame);
@@ -416,7 +527,7 @@ void Connection::dropOldestData(size_t needed) {
   }
   out_.swap(kept);
   traffic.dropped += dropped;
-  server_.stats.data_frames_dropped += dropped;
+  hub_.stats.data_frames_dropped += dropped;
   const Nanos now = monotonicNs();
   if (now - last_drop_log_ > kNsPerSec) {
     last_drop_log_ = now;
@@ -623,7 +734,7 @@ void Connection::sendUrgent(std::string_view frame) {
   urgent_.append(frame);
   ++traffic.messages_out;
   traffic.bytes_out += frame.size();
-  server_.markDirty(this);
+  hub_.markDirty(this);
 }
 
 // --- events ----------------------------------------------------------------------------------
@@ -663,7 +774,7 @@ bool Connection::sees(const Channel& ch) const noexcept {
 }
 
 void Connection::onChannelAdded(const Channel& ch, uint32_t tag) {
-  if (state_ == State::flow && sees(ch)) send(msg::EvChanAdded{tag, server_.info(ch)});
+  if (state_ == State::flow && sees(ch)) send(msg::EvChanAdded{tag, hub_.channels.info(ch)});
 }
 
 void Connection::onChannelRemoved(const Channel& ch) {
@@ -671,7 +782,7 @@ void Connection::onChannelRemoved(const Channel& ch) {
 }
 
 void Connection::onChannelHeader(const Channel& ch) {
-  if (state_ == State::flow && sees(ch)) send(msg::EvChanHeader{server_.info(ch)});
+  if (state_ == State::flow && sees(ch)) send(msg::EvChanHeader{hub_.channels.info(ch)});
 }
 
 void Connection::onBlobChanged(const Channel& ch, const BlobEvent& ev) {

@@ -1,17 +1,26 @@
-// One satellite connected over a socket (Unix or TCP). Owns its libuv stream, a read buffer that
-// frames are parsed from in place, and an output queue flushed once per loop iteration (many
-// frames per write system call). Main loop thread only.
+// One satellite connected over a socket (Unix or TCP, TLS on TCP): its session with the hub.
+// Reads bytes into a buffer that frames are parsed from in place, checks each frame against the
+// catalogue and the session's state (login, authenticating, sync, flow) and hands it to its room
+// (dispatch.h); keeps an output queue flushed once per loop iteration (many frames per write).
+// The rooms answer through the calls below. Main loop thread only.
 //
 // With TLS (useTls), received bytes are decrypted into the same read buffer and the same frame
 // splitter parses them; the output queue holds frames until flush() encrypts it as a whole.
 #pragma once
 
-#include "server_impl.h"
+#include "endpoint.h"
 
+#include <skrobot/core/clock.h>
+#include <skrobot/core/log.h>
+#include <skrobot/flow/accounts.h>
+#include <skrobot/flow/bytes.h>
 #include <skrobot/flow/codec.h>
 #include <skrobot/flow/tls.h>
 
+#include <uv.h>
+
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -19,31 +28,36 @@
 
 namespace skr::flow {
 
-// True for ADMIN's commands on accounts ("users", "user_*"), which Connection::adminUsers runs.
-[[nodiscard]] bool isUsersCommand(const std::string& command);
+struct Hub;
+class Connection;
+
+// The connection with endpoint id `id` in `hub`, if it is still there.
+[[nodiscard]] Connection* connectionOf(Hub& hub, uint32_t id) noexcept;
 
 class Connection final : public Endpoint {
  public:
   enum class State { login, authenticating, sync, flow, closing };
 
-  Connection(FlowServer::Impl& server, Transport transport);
+  Connection(Hub& hub, Transport transport);
   ~Connection() override;
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
   Connection(Connection&&) = delete;
   Connection& operator=(Connection&&) = delete;
 
+  // --- the socket (server.cpp accepts it)
   // The libuv stream this connection reads and writes (initialised by the server's accept).
   [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&handle_); }
   void startReading();
   // Makes this a TLS connection: call after accept, before startReading().
   void useTls(TlsSession session);
-  // Closes now: the connection leaves every channel at once; memory goes with the close callback.
+  // Closes now: the connection leaves every room at once; memory goes with the close callback.
   void close(const char* why) noexcept;
   // Sends what is queued, then closes.
   void closeAfterFlush(const char* why);
   void flush();
 
+  [[nodiscard]] Hub& hub() noexcept { return hub_; }
   [[nodiscard]] State state() const noexcept { return state_; }
   [[nodiscard]] Transport transport() const noexcept { return transport_; }
   Nanos login_deadline = 0;
@@ -52,10 +66,76 @@ class Connection final : public Endpoint {
   bool flush_queued = false;
   // Where it comes from, for the login throttle: "tcp:<address>" or "uid:<n>" (set at accept).
   std::string source;
-  // Verifies a LOGIN (after the throttle's delay, if any).
-  void verifyLogin(msg::Login m);
-  // A shared hub link (docs/hub-links.md): asks the linking hub to offer its channels here.
-  void wantLinkOffers();
+
+  // --- the session's steps (the session room decides them)
+  // LOGIN read: values are sent in `enc`; reading pauses until the password is checked.
+  void authenticating(ValueEncoding enc);
+  // The login succeeded (user and rules set): the connection's minor is `minor`, frames may be as
+  // large as the hub's limit, and it is a synchronous connection.
+  void loggedIn(uint16_t minor);
+  // GO_ASYNC: it is a flow now.
+  void becomeFlow();
+
+  // --- answers, for the rooms
+  template <class M>
+  void send(const M& m) {
+    const size_t before = out_.size();
+    if (!encode(out_, m, enc_)) {
+      log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
+    }
+    ++traffic.messages_out;
+    traffic.bytes_out += out_.size() - before;
+    queued();
+  }
+  void replyOk();
+  void replyError(ErrorCode error, const std::string& message);
+  // REPLY_OK, or REPLY_ERROR with the error's code and message.
+  void reply(const Result<void>& r);
+  // A value (REPLY_OK with it), or the error.
+  void replyValue(Result<Variant>&& r);
+  // On a flow: EV_ERROR for `command` with its tag when `r` failed; nothing when it succeeded.
+  void refused(Code command, uint32_t tag, uint16_t chan_id, const Result<void>& r);
+  // A peer that breaks the protocol: FLOW-PROTOCOL logged, the connection closed.
+  void protocolError(const std::string& why);
+  // Pauses reading until the pending reply is sent (synchronous requests answer in order).
+  void block();
+  void unblock();
+  // Replies to a paused request with `r` and resumes reading.
+  void answerDone(const Result<void>& r);
+  // A callback for another thread's work (the store, the journal, a linked hub) that finds this
+  // connection again, if it is still there, and hands it the result. whenDone and whenRead for
+  // the two results there are.
+  template <class R>
+  std::function<void(R)> whenAlive(std::function<void(Connection&, R)> then);
+  std::function<void(Result<void>)> whenDone(std::function<void(Connection&, Result<void>)> then);
+  std::function<void(Result<Variant>)> whenRead(
+      std::function<void(Connection&, Result<Variant>)> then);
+
+  // --- a pipeline of requests answered later, in order (blob requests)
+  // A request the connection goes on reading past: `then` answers it when the work is done (if
+  // the connection is still there). Until every answer of the pipeline has left, a request of
+  // another family waits (answers keep the order of the requests). `bytes`: what it carries or
+  // asks for, counted until the answer.
+  template <class T>
+  std::function<void(Result<T>)> pipelined(uint64_t bytes,
+                                           std::function<void(Connection&, Result<T>&)> then);
+  [[nodiscard]] uint32_t pipelineDepth() const noexcept { return pipeline_in_flight_; }
+  [[nodiscard]] uint64_t pipelineBytes() const noexcept { return pipeline_bytes_; }
+  // Enough in the hub for this connection: reading pauses until an answer of the pipeline leaves.
+  void pausePipeline();
+
+  // --- bulk data, for the blobs room
+  // The bytes `part` of the frame being handled, for another thread: a large one takes the read
+  // buffer with it (no copy on the loop thread; what follows the frame moves to a new buffer), a
+  // small one is copied.
+  SharedBytes takeBody(std::string_view part);
+  // BLOB_DATA around bytes read after the header's room in `frame`: the header is written in
+  // front of them, and the buffer becomes the output queue's when that is empty (no copy).
+  void sendBlobData(uint64_t version, uint64_t total_size, std::string frame);
+  // A Unix socket's send buffer, raised once the connection downloads files: the kernel's
+  // default (about 200 KiB) makes a write, and a wake-up of each side, per 200 KiB. TCP tunes
+  // its own. Only synchronous connections download, so no sync pulse waits behind it.
+  void widenSendBuffer();
 
   // Endpoint
   [[nodiscard]] bool receivesEvents() const override { return state_ == State::flow; }
@@ -103,73 +183,14 @@ class Connection final : public Endpoint {
   // Refuses a peer that speaks the other language (plain on TLS, TLS on plain) or fails the TLS
   // handshake: FLOW-TLS log line, `reply` sent as it is (an alert, a plain REPLY_ERROR), close.
   void refuse(const std::string& why, std::string reply);
+  // A frame: checked against the catalogue and the session's state, then dispatched.
   void handleFrame(uint8_t code, std::string_view body);
-  void handleLogin(std::string_view body);
-  // ADMIN's commands on the users file (admin.cpp): answered once the worker changed it.
-  void adminUsers(const std::string& command, const Variant& args);
-  void handleSync(Code code, std::string_view body);
-  void handleAsync(Code code, std::string_view body);
-  // The blob channel requests (connection_blobs.cpp), answered once the store has run them.
-  void handleBlob(Code code, std::string_view body);
-  // A blob request refused: the error to the caller and a tagged log line (BLOB-REFUSED, or
-  // BLOB-IO when the disk failed); InOrder: behind the blob answers still to come.
-  void blobRefused(Code code, const Error& e);
-  void blobRefusedInOrder(Code code, const Error& e);
-  // Counts a blob request (and `bytes` of its data) in the hub until its answer, made by `then`.
-  template <class T>
-  std::function<void(Result<T>)> blobLater(uint64_t bytes,
-                                           std::function<void(Connection&, Result<T>&)> then);
-  void blobAnswered(uint64_t bytes);
-  // A Unix socket's send buffer, raised once the connection downloads files: the kernel's
-  // default (about 200 KiB) makes a write, and a wake-up of each side, per 200 KiB. TCP tunes
-  // its own. Only synchronous connections download, so no sync pulse waits behind it.
-  void widenSendBuffer();
-  // BLOB_DATA around bytes read after blobDataHead() bytes of `frame`: the header is written in
-  // front of them, and the buffer becomes the output queue's when that is empty (no copy).
-  void sendBlobData(uint64_t version, uint64_t total_size, std::string frame);
+  void dispatchFrame(uint8_t code, std::string_view body);
+  // Before handling a frame: a request of another family than the pipeline's waits until the
+  // pipeline's answers have left. True when it must wait.
+  bool waitForPipeline(uint8_t code);
+  void pipelineAnswered(uint64_t bytes);
 
- public:
-  // Before handling a frame: a request other than a blob one waits until the blob answers before
-  // it have left (replies go in the order of the requests). True when it must wait.
-  bool waitForBlobAnswers(uint8_t code);
-
- private:
-  void protocolError(const std::string& why);
-  void replyError(ErrorCode error, const std::string& message);
-  void replyOk();
-  // A database command's answer: at once, or, when `persistent` and the policy is `always`,
-  // once the change is on disk (reading stays paused meanwhile).
-  void answerDurably(const Result<void>& r, bool persistent);
-  // Replies to a paused request with `r` and resumes reading.
-  void answerDone(const Result<void>& r);
-  // A callback for the store (or a linked hub) that finds this connection again, if it is still
-  // there, and hands it the result; whenDone and whenRead for the two results there are.
-  template <class R>
-  std::function<void(R)> whenAlive(std::function<void(Connection&, R)> then);
-  std::function<void(Result<void>)> whenDone(std::function<void(Connection&, Result<void>)> then);
-  std::function<void(Result<Variant>)> whenRead(
-      std::function<void(Connection&, Result<Variant>)> then);
-  // The bytes `part` of the frame being handled, for the blob store's thread: a large one takes
-  // the read buffer with it (no copy on the loop thread; what follows the frame moves to a new
-  // buffer), a small one is copied.
-  SharedBytes takeBody(std::string_view part);
-  // VAR_GET, VAR_GET_ALL or VAR_KEYS in the current database, here or a linked hub's.
-  void readCurrentDb(Code code, std::string_view body);
-  void replyRead(Result<Variant> r);
-  // Pauses reading until the pending reply is sent (sync requests answer in order).
-  void block();
-  void unblock();
-
-  template <class M>
-  void send(const M& m) {
-    const size_t before = out_.size();
-    if (!encode(out_, m, enc_)) {
-      log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
-    }
-    ++traffic.messages_out;
-    traffic.bytes_out += out_.size() - before;
-    queued();
-  }
   void queued();  // after appending to out_: limits, then flush scheduling
   // A frame that goes ahead of the output queued in the hub (a sync pulse): after the slice being
   // written, before everything else.
@@ -183,7 +204,7 @@ class Connection final : public Endpoint {
   void releaseInflight();
   void dropOldestData(size_t needed);
 
-  FlowServer::Impl& server_;
+  Hub& hub_;
   Transport transport_;
   union Handle {
     uv_pipe_t pipe;
@@ -197,12 +218,14 @@ class Connection final : public Endpoint {
   // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
   std::unique_ptr<char[]> rbuf_;
   size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
-  bool blocked_ = false;           // a sync reply is pending: do not parse further frames
-  uint32_t blob_in_flight_ = 0;    // blob requests in the hub, not answered yet
-  uint64_t blob_bytes_ = 0;        // the data they carry or ask for
-  bool blob_waiting_ = false;      // reading paused until a blob answer leaves
-  bool wide_send_buffer_ = false;  // widened for downloads (widenSendBuffer)
-  bool first_input_ = true;        // nothing received yet: a plain TCP port checks for a TLS peer
+  bool blocked_ = false;              // a sync reply is pending: do not parse further frames
+  uint32_t pipeline_in_flight_ = 0;   // pipelined requests in the hub, not answered yet
+  uint64_t pipeline_bytes_ = 0;       // the data they carry or ask for
+  Family pipeline_family_ = Family::blobs;
+  bool pipeline_waiting_ = false;     // reading paused until a pipelined answer leaves
+  uint8_t current_code_ = 0;          // the code of the frame being handled
+  bool wide_send_buffer_ = false;     // widened for downloads (widenSendBuffer)
+  bool first_input_ = true;  // nothing received yet: a plain TCP port checks for a TLS peer
   std::optional<TlsSession> tls_;
   std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;
@@ -221,5 +244,31 @@ class Connection final : public Endpoint {
   std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED
   Nanos last_drop_log_ = 0;
 };
+
+// --- templates ------------------------------------------------------------------------------
+
+template <class R>
+std::function<void(R)> Connection::whenAlive(std::function<void(Connection&, R)> then) {
+  return [&hub = hub_, my_id = id, then = std::move(then)](R r) {
+    if (Connection* c = connectionOf(hub, my_id)) then(*c, std::move(r));  // else gone meanwhile
+  };
+}
+
+template <class T>
+std::function<void(Result<T>)> Connection::pipelined(
+    uint64_t bytes, std::function<void(Connection&, Result<T>&)> then) {
+  if (pipeline_in_flight_ == 0) {
+    const CodeInfo* info = codeInfo(current_code_);
+    pipeline_family_ = info != nullptr ? info->family : Family::blobs;
+  }
+  ++pipeline_in_flight_;
+  pipeline_bytes_ += bytes;
+  return [&hub = hub_, my_id = id, bytes, then = std::move(then)](Result<T> r) {
+    Connection* c = connectionOf(hub, my_id);
+    if (c == nullptr) return;
+    then(*c, r);
+    c->pipelineAnswered(bytes);
+  };
+}
 
 }  // namespace skr::flow

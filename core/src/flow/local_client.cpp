@@ -2,6 +2,8 @@
 // failures are the Results of the server's parts, so a module gets the Errc a satellite gets.
 #include "server_impl.h"
 
+#include "families/blobs/blob_path.h"
+
 #include <skrobot/core/log.h>
 
 #include <algorithm>
@@ -10,14 +12,14 @@
 namespace skr::flow {
 
 struct LocalClient::Impl final : Endpoint {
-  Impl(FlowServer::Impl& s, LocalHandlers h) : server(s), handlers(std::move(h)) {}
+  Impl(Hub& s, LocalHandlers h) : server(s), handlers(std::move(h)) {}
   ~Impl() override = default;
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
   Impl(Impl&&) = delete;
   Impl& operator=(Impl&&) = delete;
 
-  FlowServer::Impl& server;
+  Hub& server;
   LocalHandlers handlers;
   std::unordered_map<std::string, uint32_t> follows;  // sync sources by name, and `every`
   std::vector<uint64_t> watches;                      // database watches, ended with the client
@@ -41,7 +43,7 @@ struct LocalClient::Impl final : Endpoint {
     if (handlers.on_request) {
       handlers.on_request(ch.id, request, command, requester, value);
     } else {
-      (void)server.requests.respond(*this, ch.id, request,
+      (void)server.services.respond(*this, ch.id, request,
                                     Variant("this module answers no requests"));
     }
   }
@@ -60,11 +62,11 @@ struct LocalClient::Impl final : Endpoint {
     if (handlers.on_sync_pulse) {
       handlers.on_sync_pulse(ch.id, seq, source_time_ns, dropped);
     } else {
-      server.syncs.done(*this, ch.id, seq);
+      server.sync.done(*this, ch.id, seq);
     }
   }
   void followNow(const Channel& ch, uint32_t every) {
-    if (auto r = server.syncs.follow(*this, ch.id, every); !r) {
+    if (auto r = server.sync.follow(*this, ch.id, every); !r) {
       log::warn(kLogSource, "FLOW-MODULE-ERROR",
                 describe() + ": cannot follow " + ch.name + ": " + r.error().message);
     }
@@ -124,8 +126,8 @@ std::unique_ptr<LocalClient> FlowServer::attachLocal(const std::string& user,
 }
 
 std::shared_ptr<const AccessRules> FlowServer::accountAccess(const std::string& account) const {
-  if (!impl_->auth || !impl_->auth->hasUser(account)) return nullptr;
-  return impl_->auth->accessOf(account);
+  if (!impl_->session.auth || !impl_->session.auth->hasUser(account)) return nullptr;
+  return impl_->session.auth->accessOf(account);
 }
 
 LocalClient::LocalClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -144,13 +146,13 @@ uint32_t LocalClient::id() const noexcept {
 
 Result<uint16_t> LocalClient::createChannel(const std::string& short_name, ChannelKind kind,
                                             const std::string& mime, const Variant& props) {
-  auto r = impl_->server.createChannel(*impl_, short_name, kind, mime, props, 0);
+  auto r = impl_->server.channels.create(*impl_, short_name, kind, mime, props, 0);
   if (!r) return r.error();
   return (*r)->id;
 }
 
 Result<void> LocalClient::removeChannel(uint16_t chan_id) {
-  return impl_->server.removeChannel(*impl_, chan_id);
+  return impl_->server.channels.remove(*impl_, chan_id);
 }
 
 std::optional<uint16_t> LocalClient::findChannel(const std::string& name) const {
@@ -189,13 +191,13 @@ Result<void> LocalClient::replayPaths(const msg::PhysReplay& m) {
 }
 
 Result<void> LocalClient::pulse(uint16_t chan_id) {
-  return impl_->server.syncs.pulse(*impl_, chan_id, static_cast<uint64_t>(monotonicNs()));
+  return impl_->server.sync.pulse(*impl_, chan_id, static_cast<uint64_t>(monotonicNs()));
 }
 
 Result<void> LocalClient::follow(const std::string& name, uint32_t every) {
   const Channel* ch = impl_->server.channels.findByName(name);
   if (ch != nullptr) {
-    if (auto r = impl_->server.syncs.follow(*impl_, ch->id, every); !r) return r.error();
+    if (auto r = impl_->server.sync.follow(*impl_, ch->id, every); !r) return r.error();
   }
   impl_->follows[name] = every;  // waits for the source, or follows it again when re-created
   return {};
@@ -204,29 +206,26 @@ Result<void> LocalClient::follow(const std::string& name, uint32_t every) {
 void LocalClient::unfollow(const std::string& name) {
   impl_->follows.erase(name);
   if (const Channel* ch = impl_->server.channels.findByName(name)) {
-    (void)impl_->server.syncs.unfollow(*impl_, ch->id);
+    (void)impl_->server.sync.unfollow(*impl_, ch->id);
   }
 }
 
 void LocalClient::syncDone(uint16_t chan_id, uint64_t seq) {
-  impl_->server.syncs.done(*impl_, chan_id, seq);
+  impl_->server.sync.done(*impl_, chan_id, seq);
 }
 
 Result<void> LocalClient::subscribe(const std::string& name) {
-  ChannelTable& channels = impl_->server.channels;
+  ChannelsRoom& channels = impl_->server.channels;
   channels.want(name, impl_->id);
   if (const Channel* ch = channels.findByName(name)) {
-    const uint16_t id = ch->id;
-    auto r = channels.subscribe(*impl_, id);
     // A module is relayed: an owner that served only paths must publish to the hub again.
-    if (r) impl_->server.physical.subscribersChanged(id);
-    return r;
+    return channels.subscribeAndTell(*impl_, ch->id);
   }
   return {};  // waits for the channel
 }
 
 void LocalClient::unsubscribe(const std::string& name) {
-  ChannelTable& channels = impl_->server.channels;
+  ChannelsRoom& channels = impl_->server.channels;
   channels.unwant(name, impl_->id);
   if (const Channel* ch = channels.findByName(name)) {
     const uint16_t id = ch->id;
@@ -236,11 +235,11 @@ void LocalClient::unsubscribe(const std::string& name) {
 
 Result<void> LocalClient::request(uint16_t chan_id, uint32_t tag, const std::string& command,
                                   const Variant& value) {
-  return impl_->server.requests.request(*impl_, chan_id, tag, false, 0, command, value);
+  return impl_->server.services.request(*impl_, chan_id, tag, false, 0, command, value);
 }
 
 Result<void> LocalClient::respond(uint16_t chan_id, uint64_t request, const Variant& value) {
-  return impl_->server.requests.respond(*impl_, chan_id, request, value);
+  return impl_->server.services.respond(*impl_, chan_id, request, value);
 }
 
 std::optional<Variant> LocalClient::getVariable(const std::string& db, const std::string& key) {
@@ -283,16 +282,16 @@ void LocalClient::syncDatabases(std::function<void(Result<void>)> done) {
   impl_->server.databases.store().barrier(std::move(done));
 }
 
-// --- blob channels: the checks of connection_blobs.cpp, then the store -----------------------
+// --- blob channels: the checks of the blobs room (blobs_room.cpp), then the store -----------------------
 
 namespace {
 // The store, once the path is known to be one (a bad path is refused at once, not later).
-Result<BlobStore*> blobStore(FlowServer::Impl& server, const std::string& path, bool root_ok) {
-  if (!server.blobs) {
+Result<BlobStore*> blobStore(Hub& server, const std::string& path, bool root_ok) {
+  if (server.blobs.store() == nullptr) {
     return makeError(Errc::unsupported, "this hub keeps no files: it has no data_dir");
   }
   if (auto parts = blob::splitPath(path, root_ok); !parts) return parts.error();
-  return server.blobs.get();
+  return server.blobs.store();
 }
 }  // namespace
 
@@ -300,7 +299,7 @@ Result<void> LocalClient::blobList(uint16_t chan_id, const std::string& dir,
                                    std::function<void(Result<Variant>)> done) {
   auto store = blobStore(impl_->server, dir, true);
   if (!store) return store.error();
-  auto ch = impl_->server.blobChannel(*impl_, chan_id, false);
+  auto ch = impl_->server.blobs.channel(*impl_, chan_id, false);
   if (!ch) return ch.error();
   (*store)->list((*ch)->name, dir, std::move(done));
   return {};
@@ -310,7 +309,7 @@ Result<void> LocalClient::blobGet(uint16_t chan_id, const std::string& path, uin
                                   std::function<void(Result<BlobFile>)> done) {
   auto store = blobStore(impl_->server, path, false);
   if (!store) return store.error();
-  auto ch = impl_->server.blobChannel(*impl_, chan_id, false);
+  auto ch = impl_->server.blobs.channel(*impl_, chan_id, false);
   if (!ch) return ch.error();
   (*store)->readAll((*ch)->name, path, max_bytes,
                     [done = std::move(done)](Result<BlobStore::Read> r) {
@@ -324,23 +323,24 @@ Result<void> LocalClient::blobPut(uint16_t chan_id, const std::string& path, std
                                   std::function<void(Result<uint64_t>)> done) {
   auto store = blobStore(impl_->server, path, false);
   if (!store) return store.error();
-  auto ch = impl_->server.blobChannel(*impl_, chan_id, true);
+  auto ch = impl_->server.blobs.channel(*impl_, chan_id, true);
   if (!ch) return ch.error();
   const BlobQuota quota{uint64_t(impl_->limits.blob_mib) << 20, impl_->limits.blob_files};
   // An upload of one chunk: started, then its data, then the change told to subscribers.
-  FlowServer::Impl& server = impl_->server;
+  Hub& server = impl_->server;
   const std::string name = (*ch)->name;
   const uint64_t size = data.size();
   (*store)->put(name, quota, path, size, 0,
                 [&server, name, id = chan_id, hash = (*ch)->hash, data = std::move(data),
                  done = std::move(done)](Result<BlobStore::PutAt> at) mutable {
                   if (!at) return done(at.error());
-                  if (!server.blobs) return done(makeError(Errc::closed, "the hub is stopping"));
-                  server.blobs->chunk(
+                  BlobStore* store = server.blobs.store();
+                  if (store == nullptr) return done(makeError(Errc::closed, "the hub is stopping"));
+                  store->chunk(
                       name, at->upload_id, 0, std::move(data),
                       [&server, id, hash, done = std::move(done)](Result<BlobStore::Written> w) {
                         if (!w) return done(w.error());
-                        if (w->event) server.blobChanged(id, hash, *w->event);
+                        if (w->event) server.blobs.changed(id, hash, *w->event);
                         done(w->version);
                       });
                 });
@@ -351,12 +351,12 @@ Result<void> LocalClient::blobDo(uint16_t chan_id, BlobOp op, const std::string&
                                  std::function<void(Result<void>)> done) {
   auto store = blobStore(impl_->server, path, false);
   if (!store) return store.error();
-  auto ch = impl_->server.blobChannel(*impl_, chan_id, true);
+  auto ch = impl_->server.blobs.channel(*impl_, chan_id, true);
   if (!ch) return ch.error();
   auto then = [&server = impl_->server, id = chan_id, hash = (*ch)->hash,
                done = std::move(done)](Result<BlobEvent> r) {
     if (!r) return done(r.error());
-    server.blobChanged(id, hash, *r);
+    server.blobs.changed(id, hash, *r);
     done({});
   };
   const std::string& name = (*ch)->name;

@@ -1,8 +1,7 @@
 // FlowServer: transports, connection lifecycle, output flushing and timeouts (server_impl.h).
-#include "connection.h"
-#include "hub_link.h"
-#include "replica.h"
 #include "server_impl.h"
+
+#include "connection.h"
 #include "uv_handle.h"
 
 #include <skrobot/core/log.h>
@@ -22,19 +21,6 @@
 namespace skr::flow {
 namespace {
 
-// The host's name as a hub name: up to its first '.', other characters than A-Z a-z 0-9 _ -
-// made '-'.
-std::string hostHubName() {
-  char host[256] = {};
-  if (::gethostname(host, sizeof host - 1) != 0 || host[0] == '\0') return "hub";
-  std::string name(host, std::strcspn(host, "."));
-  for (char& c : name) {
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '-';
-  }
-  if (name.size() > 64) name.resize(64);
-  return name.empty() ? "hub" : name;
-}
-
 // Whether a listening address is reachable from this machine only.
 bool isLoopback(const std::string& address) {
   return address == "localhost" || address == "::1" || address.starts_with("127.");
@@ -42,19 +28,8 @@ bool isLoopback(const std::string& address) {
 
 }  // namespace
 
-FlowServer::Impl::Impl(Loop& l, ServerOptions options)
-    : loop(l),
-      opt(std::move(options)),
-      databases(opt.data_dir),
-      requests(endpoints, channels, opt.max_pending_requests, opt.request_timeout_ms) {
+FlowServer::Impl::Impl(Loop& l, ServerOptions options) : Hub(l, std::move(options)) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
-  hub_name = opt.hub_name.empty() ? hostHubName() : opt.hub_name;
-  databases.on_props_changed = [this](const std::string& name) {
-    if (const Channel* ch = channels.findByName(name)) {
-      endpoints.forEachEventReceiver([&](Endpoint& e) { e.onChannelHeader(*ch); });
-    }
-  };
-  databases.hub_reachable = [this](std::string_view hub) { return linkToward(hub) != nullptr; };
 }
 
 Result<void> FlowServer::Impl::start() {
@@ -63,42 +38,12 @@ Result<void> FlowServer::Impl::start() {
   // SIGPIPE and kill the whole hub. Ignored, the write fails with EPIPE and only that
   // connection closes.
   std::signal(SIGPIPE, SIG_IGN);
-  DatabaseStore& dbs = databases.store();
-  if (auto loaded = dbs.loadAll(); !loaded) {
-    return loaded.error();
-  } else {
-    // The store logs each corrupt file itself (DB-CORRUPT) and sets it aside.
-    if (!opt.data_dir.empty()) {
-      log::info(kLogSource, "FLOW-DB-LOADED",
-                std::to_string(loaded->loaded.size()) + " databases from " + dbs.dbDir().string() +
-                    (loaded->problems.empty()
-                         ? std::string()
-                         : ", " + std::to_string(loaded->problems.size()) + " corrupt set aside") +
-                    ", durability " + durabilityName(opt.durability));
+  // The rooms, in order: the databases are loaded, the blob stores opened, the accounts read.
+  for (Room* room : lifecycle()) {
+    if (auto r = room->start(); !r) {
+      stop();
+      return r;
     }
-  }
-  dbs.startJournal(opt.durability, opt.compact_bytes,
-                   [&l = loop](std::function<void()> fn) { l.post(std::move(fn)); });
-  if (auto b = startBlobs(); !b) return b.error();
-  std::optional<DevAccount> dev;
-  if (opt.dev_account) dev = DevAccount{opt.dev_account->first, opt.dev_account->second};
-  std::filesystem::path users = opt.users_file;
-  if (users.empty() && !opt.data_dir.empty()) users = opt.data_dir / "users.json";
-  auto a = Authenticator::create(users, dev, loop);
-  if (!a) return a.error();
-  auth = std::move(a).value();
-  if (dev) {
-    log::warn(kLogSource, "FLOW-DEV-ACCOUNT",
-              "development account \"" + dev->user +
-                  "\" is enabled on the Unix socket only (never on TCP); replace it with real "
-                  "accounts: skrobot user add NAME, and remove accounts.dev_account");
-  }
-  if (opt.tcp_enabled && !auth->hasRealAccounts()) {
-    return makeError(Errc::permission_denied,
-                     "TCP is enabled but " +
-                         (users.empty() ? std::string("no users file is configured")
-                                        : "the users file " + users.string() + " has no accounts") +
-                         "; create one with: skrobot user add NAME");
   }
 
   flush_prepare = newUvHandle<uv_prepare_t>(this);
@@ -111,7 +56,8 @@ Result<void> FlowServer::Impl::start() {
   sweep_timer = newUvHandle<uv_timer_t>(this);
   uv_timer_init(loop.uv(), sweep_timer);
   uv_timer_start(
-      sweep_timer, [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(); }, 20, 20);
+      sweep_timer,
+      [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(monotonicNs()); }, 20, 20);
 
   if (opt.tcp_enabled && opt.tls) {
     // The certificate, key and CA files are read here, once, before the loop serves anyone.
@@ -133,7 +79,7 @@ Result<void> FlowServer::Impl::start() {
     }
   }
   started = true;
-  startLinks();
+  links.connect();
   return {};
 }
 
@@ -249,7 +195,7 @@ std::string peerOf(uv_stream_t* stream, Transport transport) {
 }  // namespace
 
 void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
-  auto* c = new Connection(*this, transport);
+  auto* c = new Connection(static_cast<Hub&>(*this), transport);
   bool tls_failed = false;
   if (transport == Transport::tcp && tls) {
     auto session = TlsSession::open(*tls);
@@ -298,58 +244,8 @@ void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
   c->startReading();
 }
 
-void FlowServer::Impl::markDirty(Connection* c) {
-  if (c->flush_queued || c->state() == Connection::State::closing) return;
-  c->flush_queued = true;
-  dirty.push_back(c);
-}
-
-void FlowServer::Impl::flushDirty() {
-  // flush() may close a connection (which erases it from `dirty` in its destructor only later).
-  while (!dirty.empty()) {
-    std::vector<Connection*> batch;
-    batch.swap(dirty);
-    for (Connection* c : batch) {
-      c->flush_queued = false;
-      c->flush();
-    }
-  }
-}
-
-void FlowServer::Impl::sweep() {
-  const Nanos now = monotonicNs();
-  std::vector<Connection*> late;
-  for (auto& [id, c] : connections) {
-    if (c->state() == Connection::State::login && now > c->login_deadline) late.push_back(c);
-  }
-  for (Connection* c : late) {
-    log::warn(kLogSource, "FLOW-LOGIN-TIMEOUT", c->describe() + ": no login in time");
-    c->close("login timeout");
-  }
-  if (!delayed_logins.empty()) {
-    std::vector<DelayedLogin> due;
-    std::erase_if(delayed_logins, [&](DelayedLogin& d) {
-      if (d.at > now) return false;
-      due.push_back(std::move(d));
-      return true;
-    });
-    for (DelayedLogin& d : due) {
-      auto it = connections.find(d.connection);
-      if (it != connections.end()) it->second->verifyLogin(std::move(d.login));
-    }
-  }
-  requests.expire(now);
-  if (now >= next_flow_stats) {
-    next_flow_stats = now + kNsPerSec;
-    writeFlowStats();
-    for (const auto& link : links) link->everySecond(now);
-    physical.everySecond(now);
-  }
-}
-
 void FlowServer::Impl::stop() noexcept {
-  replicas.clear();  // their channels go while everyone is still here to be told
-  links.clear();
+  links.stop();  // replicas and links go while everyone is still here to be told
   std::vector<Connection*> all;
   for (auto& [id, c] : connections) all.push_back(c);
   for (Connection* c : all) c->close("hub stopping");
@@ -359,14 +255,13 @@ void FlowServer::Impl::stop() noexcept {
   closeUvHandle(flush_check);
   closeUvHandle(sweep_timer);
   if (started) {
-    if (auto r = databases.store().close(); !r) {
-      log::error(kLogSource, "FLOW-DB-SAVE", r.error().message);
-    }
     ::unlink(unix_path.c_str());
     started = false;
   }
-  blobs.reset();  // what was asked of the store runs first
-  auth.reset();
+  // The rooms in reverse: the authenticator's worker ended, what was asked of the blob store run,
+  // the databases saved.
+  auto order = lifecycle();
+  for (auto it = order.rbegin(); it != order.rend(); ++it) (*it)->stop();
 }
 
 // --- FlowServer ------------------------------------------------------------------------------

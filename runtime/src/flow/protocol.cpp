@@ -1,371 +1,154 @@
 #include <skrobot/flow/codec.h>
 #include <skrobot/flow/protocol.h>
 
+#include <array>
+#include <iterator>
+
 namespace skr::flow {
 
-std::string_view codeName(uint8_t code) noexcept {
-  switch (static_cast<Code>(code)) {
-    case Code::login:
-      return "LOGIN";
-    case Code::db_select:
-      return "DB_SELECT";
-    case Code::db_create:
-      return "DB_CREATE";
-    case Code::db_save:
-      return "DB_SAVE";
-    case Code::db_remove:
-      return "DB_REMOVE";
-    case Code::var_get:
-      return "VAR_GET";
-    case Code::var_set:
-      return "VAR_SET";
-    case Code::var_del:
-      return "VAR_DEL";
-    case Code::var_get_all:
-      return "VAR_GET_ALL";
-    case Code::var_keys:
-      return "VAR_KEYS";
-    case Code::chan_list:
-      return "CHAN_LIST";
-    case Code::poll_register:
-      return "POLL_REGISTER";
-    case Code::poll_fetch:
-      return "POLL_FETCH";
-    case Code::poll_deregister:
-      return "POLL_DEREGISTER";
-    case Code::service_call:
-      return "SERVICE_CALL";
-    case Code::go_async:
-      return "GO_ASYNC";
-    case Code::ping:
-      return "PING";
-    case Code::db_list:
-      return "DB_LIST";
-    case Code::chan_info:
-      return "CHAN_INFO";
-    case Code::admin:
-      return "ADMIN";
-    case Code::db_sync:
-      return "DB_SYNC";
-    case Code::db_sync_async:
-      return "DB_SYNC_ASYNC";
-    case Code::ev_db_synced:
-      return "EV_DB_SYNCED";
-    case Code::chan_add:
-      return "CHAN_ADD";
-    case Code::chan_remove:
-      return "CHAN_REMOVE";
-    case Code::subscribe:
-      return "SUBSCRIBE";
-    case Code::unsubscribe:
-      return "UNSUBSCRIBE";
-    case Code::publish:
-      return "PUBLISH";
-    case Code::service_request:
-      return "SERVICE_REQUEST";
-    case Code::service_request_timed:
-      return "SERVICE_REQUEST_TIMED";
-    case Code::service_response:
-      return "SERVICE_RESPONSE";
-    case Code::db_set_current:
-      return "DB_SET_CURRENT";
-    case Code::db_create_async:
-      return "DB_CREATE_ASYNC";
-    case Code::db_remove_async:
-      return "DB_REMOVE_ASYNC";
-    case Code::db_save_async:
-      return "DB_SAVE_ASYNC";
-    case Code::var_set_async:
-      return "VAR_SET_ASYNC";
-    case Code::var_del_async:
-      return "VAR_DEL_ASYNC";
-    case Code::chan_set_props:
-      return "CHAN_SET_PROPS";
-    case Code::reply_ok:
-      return "REPLY_OK";
-    case Code::reply_error:
-      return "REPLY_ERROR";
-    case Code::ev_db_changed:
-      return "EV_DB_CHANGED";
-    case Code::ev_chan_added:
-      return "EV_CHAN_ADDED";
-    case Code::ev_chan_removed:
-      return "EV_CHAN_REMOVED";
-    case Code::ev_chan_header:
-      return "EV_CHAN_HEADER";
-    case Code::ev_service_request:
-      return "EV_SERVICE_REQUEST";
-    case Code::ev_start_publish:
-      return "EV_START_PUBLISH";
-    case Code::ev_stop_publish:
-      return "EV_STOP_PUBLISH";
-    case Code::ev_data:
-      return "EV_DATA";
-    case Code::ev_service_response:
-      return "EV_SERVICE_RESPONSE";
-    case Code::ev_error:
-      return "EV_ERROR";
-    case Code::ev_dropped:
-      return "EV_DROPPED";
-    case Code::blob_list:
-      return "BLOB_LIST";
-    case Code::blob_get:
-      return "BLOB_GET";
-    case Code::blob_put:
-      return "BLOB_PUT";
-    case Code::blob_mkdir:
-      return "BLOB_MKDIR";
-    case Code::blob_rmdir:
-      return "BLOB_RMDIR";
-    case Code::blob_remove:
-      return "BLOB_REMOVE";
-    case Code::blob_chunk:
-      return "BLOB_CHUNK";
-    case Code::blob_modify:
-      return "BLOB_MODIFY";
-    case Code::blob_abort:
-      return "BLOB_ABORT";
-    case Code::blob_create:
-      return "BLOB_CREATE";
-    case Code::ev_blob_changed:
-      return "EV_BLOB_CHANGED";
-    case Code::sync_pulse:
-      return "SYNC_PULSE";
-    case Code::sync_follow:
-      return "SYNC_FOLLOW";
-    case Code::sync_unfollow:
-      return "SYNC_UNFOLLOW";
-    case Code::sync_done:
-      return "SYNC_DONE";
-    case Code::ev_sync_pulse:
-      return "EV_SYNC_PULSE";
-    case Code::replicate_channel:
-      return "REPLICATE_CHANNEL";
-    case Code::replicate_stop:
-      return "REPLICATE_STOP";
-    case Code::hub_link_hello:
-      return "HUB_LINK_HELLO";
-    case Code::time_probe:
-      return "TIME_PROBE";
-    case Code::ev_time_probe:
-      return "EV_TIME_PROBE";
-    case Code::db_read:
-      return "DB_READ";
-    case Code::link_offer:
-      return "LINK_OFFER";
-    case Code::ev_link_wanted:
-      return "EV_LINK_WANTED";
-    case Code::ev_db_value:
-      return "EV_DB_VALUE";
-    case Code::phys_offer:
-      return "PHYS_OFFER";
-    case Code::phys_request:
-      return "PHYS_REQUEST";
-    case Code::phys_state:
-      return "PHYS_STATE";
-    case Code::phys_count:
-      return "PHYS_COUNT";
-    case Code::ev_phys_grant:
-      return "EV_PHYS_GRANT";
-    case Code::ev_phys_path:
-      return "EV_PHYS_PATH";
-    case Code::ev_phys_revoke:
-      return "EV_PHYS_REVOKE";
-    case Code::ev_phys_relay:
-      return "EV_PHYS_RELAY";
-    case Code::phys_switched:
-      return "PHYS_SWITCHED";
-    case Code::ev_phys_switch:
-      return "EV_PHYS_SWITCH";
-    case Code::ev_phys_marker:
-      return "EV_PHYS_MARKER";
-    case Code::phys_received:
-      return "PHYS_RECEIVED";
-    case Code::phys_fallback:
-      return "PHYS_FALLBACK";
-    case Code::phys_replay:
-      return "PHYS_REPLAY";
-    case Code::ev_phys_resume:
-      return "EV_PHYS_RESUME";
+namespace {
+
+// A wire name ("LOGIN") from a C++ name ("login"), at compile time.
+struct UpperName {
+  char text[32] = {};
+  size_t size = 0;
+  constexpr explicit UpperName(std::string_view lower) {
+    for (char c : lower) text[size++] = (c >= 'a' && c <= 'z') ? char(c - 'a' + 'A') : c;
   }
-  return "UNKNOWN";
+};
+
+#define SKR_FLOW_NAME(code, name, ...) UpperName(#name),
+constexpr UpperName kUpperNames[] = {SKR_FLOW_CATALOGUE(SKR_FLOW_NAME)};
+#undef SKR_FLOW_NAME
+
+constexpr size_t kRows = std::size(kUpperNames);
+
+constexpr std::array<CodeInfo, kRows> makeRows() {
+  std::array<CodeInfo, kRows> rows{};
+  size_t i = 0;
+#define SKR_FLOW_ROW(code, name, minor, dir, via, family, ...)                             \
+  rows[i] = CodeInfo{code,     std::string_view(kUpperNames[i].text, kUpperNames[i].size), \
+                     minor,    Direction::dir,                                             \
+                     Via::via, Family::family};                                            \
+  ++i;
+  SKR_FLOW_CATALOGUE(SKR_FLOW_ROW)
+#undef SKR_FLOW_ROW
+  return rows;
+}
+constexpr std::array<CodeInfo, kRows> kRowsInOrder = makeRows();
+
+// Row index by code (kRows: none).
+constexpr std::array<uint16_t, 256> makeIndex() {
+  std::array<uint16_t, 256> index{};
+  index.fill(uint16_t(kRows));
+  for (size_t i = 0; i < kRows; ++i) index[kRowsInOrder[i].code] = uint16_t(i);
+  return index;
+}
+constexpr std::array<uint16_t, 256> kIndex = makeIndex();
+
+constexpr bool inCodeOrder() {
+  for (size_t i = 1; i < kRows; ++i) {
+    if (kRowsInOrder[i - 1].code >= kRowsInOrder[i].code) return false;
+  }
+  return true;
+}
+static_assert(inCodeOrder(), "catalogue.h: rows in code order, each code once");
+
+}  // namespace
+
+const CodeInfo* codeInfo(uint8_t code) noexcept {
+  const uint16_t i = kIndex[code];
+  return i < kRows ? &kRowsInOrder[i] : nullptr;
+}
+
+std::span<const CodeInfo> catalogue() noexcept {
+  return kRowsInOrder;
+}
+
+std::string_view codeName(uint8_t code) noexcept {
+  const CodeInfo* info = codeInfo(code);
+  return info != nullptr ? info->name : "UNKNOWN";
 }
 
 uint16_t minorOf(Code code) noexcept {
-  switch (code) {
-    case Code::admin:
-      return 1;
-    case Code::db_sync:
-    case Code::db_sync_async:
-    case Code::ev_db_synced:
-      return 2;
-    case Code::blob_list:
-    case Code::blob_get:
-    case Code::blob_put:
-    case Code::blob_mkdir:
-    case Code::blob_rmdir:
-    case Code::blob_remove:
-    case Code::blob_chunk:
-    case Code::blob_modify:
-    case Code::blob_abort:
-    case Code::blob_create:
-    case Code::ev_blob_changed:
-      return 3;
-    case Code::service_request_timed:
-    case Code::poll_deregister:
-    case Code::sync_pulse:
-    case Code::sync_follow:
-    case Code::sync_unfollow:
-    case Code::sync_done:
-    case Code::ev_sync_pulse:
-      return 4;
-    case Code::hub_link_hello:
-    case Code::replicate_channel:
-    case Code::replicate_stop:
-    case Code::time_probe:
-    case Code::ev_time_probe:
-      return 5;
-    case Code::db_read:
-    case Code::ev_db_value:
-    case Code::link_offer:
-    case Code::ev_link_wanted:
-      return 6;
-    case Code::phys_offer:
-    case Code::phys_request:
-    case Code::phys_state:
-    case Code::phys_count:
-    case Code::ev_phys_grant:
-    case Code::ev_phys_path:
-    case Code::ev_phys_revoke:
-    case Code::ev_phys_relay:
-      return 7;
-    case Code::phys_switched:
-    case Code::ev_phys_switch:
-    case Code::ev_phys_marker:
-      return 9;
-    case Code::phys_received:
-      return 10;
-    case Code::phys_fallback:
-    case Code::phys_replay:
-    case Code::ev_phys_resume:
-      return 11;
-    default:
-      return 0;
-  }
+  const CodeInfo* info = codeInfo(static_cast<uint8_t>(code));
+  return info != nullptr ? info->minor : 0;
 }
 
-std::string_view errorCodeName(ErrorCode code) noexcept {
-  switch (code) {
-    case ErrorCode::ok:
-      return "ok";
-    case ErrorCode::protocol_error:
-      return "protocol_error";
-    case ErrorCode::version_mismatch:
-      return "version_mismatch";
-    case ErrorCode::auth_failed:
-      return "auth_failed";
-    case ErrorCode::not_logged_in:
-      return "not_logged_in";
-    case ErrorCode::not_found:
-      return "not_found";
-    case ErrorCode::already_exists:
-      return "already_exists";
-    case ErrorCode::permission_denied:
-      return "permission_denied";
-    case ErrorCode::invalid_argument:
-      return "invalid_argument";
-    case ErrorCode::timeout:
-      return "timeout";
-    case ErrorCode::owner_gone:
-      return "owner_gone";
-    case ErrorCode::overflow:
-      return "overflow";
-    case ErrorCode::unsupported:
-      return "unsupported";
-    case ErrorCode::limit_exceeded:
-      return "limit_exceeded";
-    case ErrorCode::io_error:
-      return "io_error";
-    case ErrorCode::internal:
-      return "internal";
+std::string_view familyName(Family family) noexcept {
+  switch (family) {
+    case Family::session:
+      return "session";
+    case Family::channels:
+      return "channels";
+    case Family::databases:
+      return "databases";
+    case Family::services:
+      return "services";
+    case Family::blobs:
+      return "blobs";
+    case Family::sync:
+      return "sync";
+    case Family::links:
+      return "links";
+    case Family::physical:
+      return "physical";
+    case Family::admin:
+      return "admin";
   }
   return "unknown";
 }
 
+std::string_view viaName(Via via) noexcept {
+  switch (via) {
+    case Via::sync:
+      return "sync";
+    case Via::flow:
+      return "flow";
+    case Via::link_sync:
+      return "sync, hubs only";
+    case Via::link_flow:
+      return "flow, hubs only";
+  }
+  return "unknown";
+}
+
+std::string_view errorCodeName(ErrorCode code) noexcept {
+  switch (code) {
+#define SKR_FLOW_ERROR_NAME(value, name, minor) \
+  case ErrorCode::name:                         \
+    return #name;
+    SKR_FLOW_ERRORS(SKR_FLOW_ERROR_NAME)
+#undef SKR_FLOW_ERROR_NAME
+  }
+  return "unknown";
+}
+
+// Every wire error has the Errc of the same name.
 Errc toErrc(ErrorCode code) noexcept {
   switch (code) {
-    case ErrorCode::ok:
-      return Errc::ok;
-    case ErrorCode::protocol_error:
-      return Errc::protocol_error;
-    case ErrorCode::version_mismatch:
-      return Errc::version_mismatch;
-    case ErrorCode::auth_failed:
-      return Errc::auth_failed;
-    case ErrorCode::not_logged_in:
-      return Errc::not_logged_in;
-    case ErrorCode::not_found:
-      return Errc::not_found;
-    case ErrorCode::already_exists:
-      return Errc::already_exists;
-    case ErrorCode::permission_denied:
-      return Errc::permission_denied;
-    case ErrorCode::invalid_argument:
-      return Errc::invalid_argument;
-    case ErrorCode::timeout:
-      return Errc::timeout;
-    case ErrorCode::owner_gone:
-      return Errc::owner_gone;
-    case ErrorCode::overflow:
-      return Errc::overflow;
-    case ErrorCode::unsupported:
-      return Errc::unsupported;
-    case ErrorCode::limit_exceeded:
-      return Errc::limit_exceeded;
-    case ErrorCode::io_error:
-      return Errc::io_error;
-    case ErrorCode::internal:
-      return Errc::internal;
+#define SKR_FLOW_TO_ERRC(value, name, minor) \
+  case ErrorCode::name:                      \
+    return Errc::name;
+    SKR_FLOW_ERRORS(SKR_FLOW_TO_ERRC)
+#undef SKR_FLOW_TO_ERRC
   }
   return Errc::internal;  // a code this build does not know (a newer peer)
 }
 
 ErrorCode toErrorCode(Errc code) noexcept {
   switch (code) {
-    case Errc::ok:
-      return ErrorCode::ok;
-    case Errc::protocol_error:
-      return ErrorCode::protocol_error;
-    case Errc::version_mismatch:
-      return ErrorCode::version_mismatch;
-    case Errc::auth_failed:
-      return ErrorCode::auth_failed;
-    case Errc::not_logged_in:
-      return ErrorCode::not_logged_in;
-    case Errc::not_found:
-      return ErrorCode::not_found;
-    case Errc::already_exists:
-      return ErrorCode::already_exists;
-    case Errc::permission_denied:
-      return ErrorCode::permission_denied;
-    case Errc::invalid_argument:
+#define SKR_FLOW_FROM_ERRC(value, name, minor) \
+  case Errc::name:                             \
+    return ErrorCode::name;
+    SKR_FLOW_ERRORS(SKR_FLOW_FROM_ERRC)
+#undef SKR_FLOW_FROM_ERRC
+    // The codes that never travel: the nearest wire error.
     case Errc::config_error:
     case Errc::parse_error:
       return ErrorCode::invalid_argument;
-    case Errc::timeout:
-      return ErrorCode::timeout;
-    case Errc::owner_gone:
-      return ErrorCode::owner_gone;
-    case Errc::overflow:
-      return ErrorCode::overflow;
-    case Errc::unsupported:
-      return ErrorCode::unsupported;
-    case Errc::limit_exceeded:
-      return ErrorCode::limit_exceeded;
-    case Errc::io_error:
     case Errc::closed:
       return ErrorCode::io_error;
-    case Errc::internal:
     case Errc::abi_mismatch:
     case Errc::module_failed:
     case Errc::exception:
@@ -381,27 +164,24 @@ Error wireError(ErrorCode code, std::string message) {
 
 std::string_view channelKindName(ChannelKind kind) noexcept {
   switch (kind) {
-    case ChannelKind::streaming:
-      return "streaming";
-    case ChannelKind::service:
-      return "service";
-    case ChannelKind::blob:
-      return "blob";
-    case ChannelKind::sync:
-      return "sync";
+#define SKR_FLOW_KIND_NAME(value, name, minor) \
+  case ChannelKind::name:                      \
+    return #name;
+    SKR_FLOW_CHANNEL_KINDS(SKR_FLOW_KIND_NAME)
+#undef SKR_FLOW_KIND_NAME
   }
   return "unknown";
 }
 
 uint16_t minorOfKind(ChannelKind kind) noexcept {
   switch (kind) {
-    case ChannelKind::blob:
-      return minorOf(Code::blob_list);
-    case ChannelKind::sync:
-      return minorOf(Code::sync_pulse);
-    default:
-      return 0;
+#define SKR_FLOW_KIND_MINOR(value, name, minor) \
+  case ChannelKind::name:                       \
+    return minor;
+    SKR_FLOW_CHANNEL_KINDS(SKR_FLOW_KIND_MINOR)
+#undef SKR_FLOW_KIND_MINOR
   }
+  return 0;
 }
 
 FrameSplitter::Next FrameSplitter::next(const uint8_t* data, size_t size) const noexcept {

@@ -21,10 +21,10 @@ import socket
 from PySketch.abstractflow import FlowChannel
 from PySketch.elapsedtime import now
 from PySketch.flowproto import (
-    ChannelInfo, Code, Error_T, FlowError, ProtocolError, Reader, frame, integer_types, str16,
-    toBytes, u16, u32, u64)
+    CODE_MINOR, ChannelInfo, Code, Error_T, FlowError, ProtocolError, Reader, frame, integer_types,
+    str16, toBytes, u16, u32, u64)
 
-BLOB_MINOR = 3
+BLOB_MINOR = CODE_MINOR[Code.BLOB_LIST]
 CHUNK = 256 * 1024  # bytes per request
 WINDOW = 8  # requests sent ahead of their replies
 

@@ -78,6 +78,7 @@ import time
 
 from PySketch import log
 from PySketch.abstractflow import ipFamily, parseAddress
+from PySketch.flowcodes import PATH_FRAMES
 from PySketch.flowproto import (
     FALLBACK_MINOR, PATH_DIRECT, PATH_SHM, RECEIVED_MINOR, physFallback, physReceived, physRequest,
     physState, utf8)
@@ -96,7 +97,7 @@ PATHS_SUPPORTED = (sys.version_info[0] >= 3 and hasattr(socket.socket, "recvmsg"
                    sys.platform.startswith("linux"))
 
 # --- the path socket (runtime/include/skrobot/flow/path_framing.h) --------------------------------
-HELLO, WELCOME, DATA, BYE = 1, 2, 3, 4
+HELLO, WELCOME, DATA, BYE = [dict(PATH_FRAMES)[_n] for _n in ("hello", "welcome", "data", "bye")]
 MAX_CONTROL_BYTES = 4096
 MAX_DATA_BYTES = 64 << 20
 MAX_DATA_FRAME = MAX_DATA_BYTES + 32   # what the C++ subscriber accepts (kMaxDataFrame)

@@ -26,6 +26,8 @@ import struct
 import sys
 import base64
 
+from PySketch.flowcodes import CODES, ERRORS, CHANNEL_KINDS
+
 PY2 = sys.version_info[0] == 2
 
 if PY2:  # pragma: no cover - Python 2 only
@@ -43,9 +45,6 @@ PROTOCOL_MAJOR = 1
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
 PROTOCOL_MINOR = 11
-PATHS_MINOR = 7  # PHYS_REQUEST, PHYS_STATE and their events
-RECEIVED_MINOR = 10  # PHYS_RECEIVED
-FALLBACK_MINOR = 11  # PHYS_FALLBACK
 
 # Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
 # kPathShm) and in PHYS_REQUEST's `paths` bits.
@@ -156,17 +155,10 @@ Flow_T = _enum("Flow_T", [
 ], "What kind of flow a channel carries (PySketch's flow types). FT_BLOB is opaque data. "
    "Written to the channel's properties as `flow_type`.")
 
-ChanKind_T = _enum("ChanKind_T", [
-    ("CK_STREAMING", 1), ("CK_SERVICE", 2), ("CK_BLOB", 3), ("CK_SYNC", 4),
-], "Channel kinds on the wire (ChannelInfo.kind).")
+ChanKind_T = _enum("ChanKind_T", [("CK_" + _n.upper(), _v) for _n, _v, _m in CHANNEL_KINDS],
+                   "Channel kinds on the wire (ChannelInfo.kind).")
 
-Error_T = _enum("Error_T", [
-    ("ok", 0), ("protocol_error", 1), ("version_mismatch", 2), ("auth_failed", 3),
-    ("not_logged_in", 4), ("not_found", 5), ("already_exists", 6),
-    ("permission_denied", 7), ("invalid_argument", 8), ("timeout", 9),
-    ("owner_gone", 10), ("overflow", 11), ("unsupported", 12), ("limit_exceeded", 13),
-    ("io_error", 14), ("internal", 15),
-], "FlowProtocol error codes.")
+Error_T = _enum("Error_T", [(_n, _v) for _n, _v, _m in ERRORS], "FlowProtocol error codes.")
 
 
 class FlowChanID(int):
@@ -177,102 +169,16 @@ class FlowChanID(int):
 
 
 class Code(object):
-    """Frame codes (docs/flow-protocol.md)."""
-    LOGIN = 0x01
-    DB_SELECT = 0x02
-    DB_CREATE = 0x03
-    DB_SAVE = 0x04
-    DB_REMOVE = 0x05
-    VAR_GET = 0x06
-    VAR_SET = 0x07
-    VAR_DEL = 0x08
-    VAR_GET_ALL = 0x09
-    VAR_KEYS = 0x0A
-    CHAN_LIST = 0x0B
-    POLL_REGISTER = 0x0C
-    POLL_FETCH = 0x0D
-    POLL_DEREGISTER = 0x15  # 1.4
-    SERVICE_CALL = 0x0E
-    GO_ASYNC = 0x0F
-    PING = 0x10
-    DB_LIST = 0x11
-    CHAN_INFO = 0x12
-    DB_SYNC = 0x13  # 1.2
+    """Frame codes (docs/flow-protocol.md): Code.LOGIN == 0x01, ... From the protocol catalogue
+    (flowcodes.py, generated from the hub's catalogue.h)."""
 
-    CHAN_ADD = 0x40
-    CHAN_REMOVE = 0x41
-    SUBSCRIBE = 0x42
-    UNSUBSCRIBE = 0x43
-    PUBLISH = 0x44
-    SERVICE_REQUEST = 0x45
-    SERVICE_RESPONSE = 0x46
-    DB_SET_CURRENT = 0x47
-    DB_CREATE_ASYNC = 0x48
-    DB_REMOVE_ASYNC = 0x49
-    DB_SAVE_ASYNC = 0x4A
-    VAR_SET_ASYNC = 0x4B
-    VAR_DEL_ASYNC = 0x4C
-    CHAN_SET_PROPS = 0x4D
-    DB_SYNC_ASYNC = 0x4E  # 1.2
-    SERVICE_REQUEST_TIMED = 0x4F  # 1.4
 
-    REPLY_OK = 0x80
-    REPLY_ERROR = 0x81
-    EV_DB_CHANGED = 0x90
-    EV_CHAN_ADDED = 0x91
-    EV_CHAN_REMOVED = 0x92
-    EV_CHAN_HEADER = 0x93
-    EV_SERVICE_REQUEST = 0x94
-    EV_START_PUBLISH = 0x95
-    EV_STOP_PUBLISH = 0x96
-    EV_DATA = 0x97
-    EV_SERVICE_RESPONSE = 0x98
-    EV_ERROR = 0x99
-    EV_DROPPED = 0x9A
-    EV_DB_SYNCED = 0x9B  # 1.2
-
-    # 1.3: blob channels (synchronous requests) and their change event
-    BLOB_LIST = 0xC0
-    BLOB_GET = 0xC1
-    BLOB_PUT = 0xC2
-    BLOB_MKDIR = 0xC3
-    BLOB_RMDIR = 0xC4
-    BLOB_REMOVE = 0xC5
-    BLOB_CHUNK = 0xC6
-    BLOB_MODIFY = 0xC7
-    BLOB_ABORT = 0xC8
-    BLOB_CREATE = 0xC9
-    EV_BLOB_CHANGED = 0xCF
-
-    # 1.4: the sync pulse (commands on a flow, and the pulse event)
-    SYNC_PULSE = 0xD0
-    SYNC_FOLLOW = 0xD1
-    SYNC_UNFOLLOW = 0xD2
-    SYNC_DONE = 0xD3
-    EV_SYNC_PULSE = 0xD8
-
-    # 1.5: replicas and hub links (commands on a flow)
-    REPLICATE_CHANNEL = 0xE0
-    REPLICATE_STOP = 0xE1
-
-    # 1.7: physical mode (docs/flow-protocol.md, "Physical mode")
-    PHYS_OFFER = 0xF0
-    PHYS_REQUEST = 0xF1
-    PHYS_STATE = 0xF2
-    PHYS_COUNT = 0xF3
-    EV_PHYS_GRANT = 0xF8
-    EV_PHYS_PATH = 0xF9
-    EV_PHYS_REVOKE = 0xFA
-    EV_PHYS_RELAY = 0xFB
-    # 1.9: the switch to a path at a point of the owner's choosing (docs/physical-mode.md)
-    PHYS_SWITCHED = 0xF4   # owner: the subscriber leaves the relay after message `seq`
-    EV_PHYS_SWITCH = 0xFC  # to the owner (PySketch offers no paths: never to it)
-    EV_PHYS_MARKER = 0xFD  # to the subscriber: relayed up to `seq`, the rest on the path only
-    PHYS_RECEIVED = 0xF5   # subscriber (1.10): what came on its path since its last report
-    # 1.11: a broken direct path falls back without losing what its owner sent meanwhile
-    PHYS_FALLBACK = 0xF6   # subscriber: its direct path broke after message `last`
-    PHYS_REPLAY = 0xF7     # owner (PySketch offers no paths: never from it)
-    EV_PHYS_RESUME = 0xFE  # to the owner (never to PySketch)
+for _row in CODES:
+    setattr(Code, _row[0], _row[1])
+CODE_MINOR = dict((_row[1], _row[2]) for _row in CODES)  # the minor that introduced each code
+PATHS_MINOR = CODE_MINOR[Code.PHYS_REQUEST]  # PHYS_REQUEST, PHYS_STATE and their events
+RECEIVED_MINOR = CODE_MINOR[Code.PHYS_RECEIVED]
+FALLBACK_MINOR = CODE_MINOR[Code.PHYS_FALLBACK]
 
 
 def codeName(code):

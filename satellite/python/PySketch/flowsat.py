@@ -93,15 +93,15 @@ from PySketch.abstractflow import (
 from PySketch.elapsedtime import ElapsedTime, now
 from PySketch.flowpaths import Paths
 from PySketch.flowproto import (
-    PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue, Error_T, Flow_T,
-    FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysMarker, decodePhysPath,
-    decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame, integer_types,
-    payloadBuffer, releaseViews, str16, text_type, u16, u32, u64, utf8)
+    CODE_MINOR, PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue,
+    Error_T, Flow_T, FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysMarker,
+    decodePhysPath, decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame,
+    integer_types, payloadBuffer, releaseViews, str16, text_type, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
-TIMED_REQUEST_MINOR = 4  # SERVICE_REQUEST_TIMED
-SYNC_MINOR = 4           # the sync pulse
-REPLICA_MINOR = 5        # REPLICATE_CHANNEL, REPLICATE_STOP
+TIMED_REQUEST_MINOR = CODE_MINOR[Code.SERVICE_REQUEST_TIMED]
+SYNC_MINOR = CODE_MINOR[Code.SYNC_PULSE]  # the sync pulse
+REPLICA_MINOR = CODE_MINOR[Code.REPLICATE_CHANNEL]  # and REPLICATE_STOP
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection

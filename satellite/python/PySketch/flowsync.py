@@ -22,11 +22,11 @@ from PySketch.abstractflow import AbstractFlow, FlowChannel, openSocket, tlsFail
 from PySketch.elapsedtime import now
 from PySketch.flowblobs import BlobRequests
 from PySketch.flowproto import (
-    ChannelInfo, Code, Error_T, FlowError, ProtocolError, Reader, encodeValue, frame, str16,
-    integer_types, toBytes, u16)
+    CODE_MINOR, ChannelInfo, Code, Error_T, FlowError, ProtocolError, Reader, encodeValue, frame,
+    str16, integer_types, toBytes, u16)
 from PySketch import log
 
-POLL_DEREGISTER_MINOR = 4
+POLL_DEREGISTER_MINOR = CODE_MINOR[Code.POLL_DEREGISTER]
 
 
 class FlowSync(AbstractFlow, BlobRequests):

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -97,6 +98,24 @@ class ByteWriter {
     out_->append(reinterpret_cast<const char*>(&v), sizeof v);
   }
   std::string* out_;
+};
+
+// Bytes handed to another thread and what keeps them alive: a connection's read buffer given away
+// without a copy (the hub's Connection::takeBody, for the blob store), or a string of their own.
+class SharedBytes {
+ public:
+  SharedBytes(std::string s)  // NOLINT(google-explicit-constructor): a string is bytes
+      : owner_(std::make_shared<const std::string>(std::move(s))),
+        view_(*static_cast<const std::string*>(owner_.get())) {}
+  SharedBytes(const char* s) : SharedBytes(std::string(s)) {}  // NOLINT: the tests' literals
+  SharedBytes(std::shared_ptr<const void> owner, std::string_view view)
+      : owner_(std::move(owner)), view_(view) {}
+  operator std::string_view() const noexcept { return view_; }  // NOLINT: a view of them
+  [[nodiscard]] size_t size() const noexcept { return view_.size(); }
+
+ private:
+  std::shared_ptr<const void> owner_;
+  std::string_view view_;
 };
 
 }  // namespace skr::flow

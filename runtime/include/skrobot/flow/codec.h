@@ -47,6 +47,10 @@ class FieldWriter {
     }
     return true;
   }
+  // A part shared by several frames (ChannelInfo): its fields in place.
+  template <class T>
+  requires requires(T& t, FieldWriter& w) { t.io(w); }
+  bool operator()(const T& part) { return const_cast<T&>(part).io(*this); }
   template <class T>
   bool operator()(const std::vector<T>& items) {
     w_.u32(static_cast<uint32_t>(items.size()));
@@ -86,6 +90,9 @@ class FieldReader {
     return true;
   }
   bool operator()(Variant& v);
+  template <class T>
+  requires requires(T& t, FieldReader& r) { t.io(r); }
+  bool operator()(T& part) { return part.io(*this); }
   template <class T>
   bool operator()(std::vector<T>& items) {
     uint32_t count = 0;

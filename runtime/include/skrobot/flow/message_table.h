@@ -1,108 +1,74 @@
-// Every message struct of messages.h, for code that must handle them all (the fuzz target, the
-// round-trip tests): forEachMessage(f) calls f(M{}) once per message type.
+// Every message struct of the catalogue (catalogue.h), for code that must handle them all (the
+// fuzz target, the round-trip tests): forEachMessage(f) calls f(M{}) once per message type, each
+// row's body and its reply, each type once.
 #pragma once
 
 #include <skrobot/flow/messages.h>
 
+#include <type_traits>
+
 namespace skr::flow {
+
+namespace msg {
+// The reply column of a row that has none.
+struct None {};
+}  // namespace msg
+
+namespace detail {
+
+template <class... T>
+struct TypeList {};
+
+// Appends U unless the list has it (or it is None).
+template <class List, class U>
+struct AddUnique;
+template <class... T, class U>
+struct AddUnique<TypeList<T...>, U> {
+  using type = std::conditional_t<(std::is_same_v<T, U> || ...) || std::is_same_v<U, msg::None>,
+                                  TypeList<T...>, TypeList<T..., U>>;
+};
+
+template <class List, class... U>
+struct Unique {
+  using type = List;
+};
+template <class List, class U, class... Rest>
+struct Unique<List, U, Rest...> {
+  using type = typename Unique<typename AddUnique<List, U>::type, Rest...>::type;
+};
+
+#define SKR_FLOW_TYPES(code, name, minor, dir, via, family, message, reply) \
+  msg::message, msg::reply,
+using AllMessages = Unique<TypeList<>, SKR_FLOW_CATALOGUE(SKR_FLOW_TYPES) msg::None>::type;
+#undef SKR_FLOW_TYPES
+
+template <class R>
+constexpr bool isReplyBody() {
+  if constexpr (std::is_same_v<R, msg::None>) {
+    return true;
+  } else {
+    return R::code == Code::reply_ok;
+  }
+}
+
+// Each row's body is the struct of that code, and its reply a REPLY_OK body.
+#define SKR_FLOW_CHECK_ROW(value, name, minor, dir, via, family, message, reply)              \
+  static_assert(msg::message::code == Code::name, "catalogue.h: " #message " is not " #name); \
+  static_assert(isReplyBody<msg::reply>(),                                                    \
+                "catalogue.h: the reply of " #name " is no REPLY_OK body");
+SKR_FLOW_CATALOGUE(SKR_FLOW_CHECK_ROW)
+#undef SKR_FLOW_CHECK_ROW
+
+template <class F, class... T>
+void each(TypeList<T...>, F& f) {
+  (f(T{}), ...);
+}
+
+}  // namespace detail
 
 template <class F>
 void forEachMessage(F&& f) {
-  using namespace msg;
-  f(Login{});
-  f(LoginOk{});
-  f(DbSelect{});
-  f(DbCreate{});
-  f(DbSave{});
-  f(DbRemove{});
-  f(VarGet{});
-  f(VarSet{});
-  f(VarDel{});
-  f(Empty<Code::var_get_all>{});
-  f(PollRegister{});
-  f(PollFetch{});
-  f(PollDeregister{});
-  f(ServiceCall{});
-  f(Ping{});
-  f(ChanInfoByName{});
-  f(Admin{});
-  f(ReplyError{});
-  f(ReplyValue{});
-  f(PollData{});
-  f(ChannelList{});
-  f(ChannelInfoReply{});
-  f(ChanAdd{});
-  f(ChanRemove{});
-  f(Subscribe{});
-  f(Unsubscribe{});
-  f(Publish{});
-  f(ServiceRequest{});
-  f(ServiceRequestTimed{});
-  f(ServiceResponse{});
-  f(DbSetCurrent{});
-  f(DbCreateAsync{});
-  f(DbRemoveAsync{});
-  f(DbSaveAsync{});
-  f(VarSetAsync{});
-  f(VarDelAsync{});
-  f(ChanSetProps{});
-  f(EvDbChanged{});
-  f(EvChanAdded{});
-  f(EvChanRemoved{});
-  f(EvChanHeader{});
-  f(EvServiceRequest{});
-  f(EvStartPublish{});
-  f(EvStopPublish{});
-  f(EvData{});
-  f(EvServiceResponse{});
-  f(EvError{});
-  f(EvDropped{});
-  f(DbSyncAsync{});
-  f(EvDbSynced{});
-  f(DbRead{});
-  f(EvDbValue{});
-  f(BlobList{});
-  f(BlobGet{});
-  f(BlobData{});
-  f(BlobPut{});
-  f(BlobPutOk{});
-  f(BlobMkdir{});
-  f(BlobRmdir{});
-  f(BlobRemove{});
-  f(BlobChunk{});
-  f(BlobWritten{});
-  f(BlobModify{});
-  f(BlobAbort{});
-  f(BlobCreate{});
-  f(EvBlobChanged{});
-  f(SyncPulse{});
-  f(SyncFollow{});
-  f(SyncUnfollow{});
-  f(SyncDone{});
-  f(EvSyncPulse{});
-  f(PhysOffer{});
-  f(PhysRequest{});
-  f(PhysState{});
-  f(PhysCount{});
-  f(EvPhysGrant{});
-  f(EvPhysPath{});
-  f(EvPhysRevoke{});
-  f(EvPhysRelay{});
-  f(PhysSwitched{});
-  f(EvPhysSwitch{});
-  f(EvPhysMarker{});
-  f(PhysReceived{});
-  f(PhysFallback{});
-  f(EvPhysResume{});
-  f(PhysReplay{});
-  f(HubLinkHello{});
-  f(HubLinkHelloOk{});
-  f(ReplicateChannel{});
-  f(ReplicateStop{});
-  f(TimeProbe{});
-  f(EvTimeProbe{});
-  f(LinkOffer{});
-  f(EvLinkWanted{});
+  detail::each(detail::AllMessages{}, f);
 }
 
 }  // namespace skr::flow

@@ -1,0 +1,30 @@
+// The admin room: what an administrator does over the protocol (ADMIN, docs/security.md): the
+// connections (flows, kick), any channel or named database removed (chan_rm, db_rm), and the
+// accounts of the users file, changed on the authenticator's worker thread while the connection
+// waits (users, user_add, user_del, user_passwd, user_role, user_rule).
+#pragma once
+
+#include "families/room.h"
+
+#include <skrobot/flow/messages.h>
+
+#include <string>
+
+namespace skr::flow {
+
+class Connection;
+
+class AdminRoom final : public Room {
+ public:
+  explicit AdminRoom(Hub& hub) : Room(hub) {}
+
+  void handle(Connection& c, msg::Admin& m);
+
+ private:
+  // flows, kick, chan_rm, db_rm: answered at once.
+  Result<Variant> command(Connection& by, const std::string& command, const Variant& args);
+  // users and user_*: answered once the authenticator's worker changed the users file.
+  void users(Connection& c, const std::string& command, const Variant& args);
+};
+
+}  // namespace skr::flow

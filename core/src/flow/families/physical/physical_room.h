@@ -1,0 +1,34 @@
+// The physical room: direct and shared-memory paths between an owner and its subscribers
+// (physical_paths.h: offers, grants, one-time tokens, the switch and the fallback) and the PHYS_*
+// rows of the catalogue.
+#pragma once
+
+#include "families/physical/physical_paths.h"
+#include "families/room.h"
+
+#include <skrobot/flow/messages.h>
+
+namespace skr::flow {
+
+class Connection;
+
+class PhysicalRoom final : public Room, public PhysicalPaths {
+ public:
+  explicit PhysicalRoom(Hub& hub);
+
+  void handle(Connection& c, msg::PhysOffer& m);
+  void handle(Connection& c, msg::PhysRequest& m);
+  void handle(Connection& c, msg::PhysState& m);
+  void handle(Connection& c, msg::PhysCount& m);
+  void handle(Connection& c, msg::PhysSwitched& m);
+  void handle(Connection& c, msg::PhysReceived& m);
+  void handle(Connection& c, msg::PhysFallback& m);
+  void handle(Connection& c, msg::PhysReplay& m);
+
+  // Room
+  void endpointLeft(Endpoint& e) override;
+  void channelRemoved(const Channel& ch) override;
+  void everySecond(Nanos now) override;
+};
+
+}  // namespace skr::flow

@@ -1,0 +1,31 @@
+// The sync room: sync pulse sources and their targets (sync_pulses.h), what each flow follows in
+// its database, and the SYNC_* rows of the catalogue.
+#pragma once
+
+#include "families/room.h"
+#include "families/sync/sync_pulses.h"
+
+#include <skrobot/flow/messages.h>
+
+namespace skr::flow {
+
+class Connection;
+
+class SyncRoom final : public Room, public SyncPulses {
+ public:
+  explicit SyncRoom(Hub& hub);
+
+  // The sources `e` follows, into its flow database ("sync_following").
+  void noteFollowed(const Endpoint& e);
+
+  void handle(Connection& c, msg::SyncPulse& m);
+  void handle(Connection& c, msg::SyncFollow& m);
+  void handle(Connection& c, msg::SyncUnfollow& m);
+  void handle(Connection& c, msg::SyncDone& m);
+
+  // Room
+  void endpointLeft(Endpoint& e) override;
+  void channelRemoved(const Channel& ch) override;
+};
+
+}  // namespace skr::flow

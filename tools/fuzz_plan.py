@@ -68,7 +68,10 @@ def object_deps(build):
 
 def strong_symbols(path):
     """Symbols a file defines that only one object may define (functions and data)."""
-    out = run(["nm", "-g", "--defined-only", "--format=posix", path])
+    try:
+        out = run(["nm", "-g", "--defined-only", "--format=posix", path])
+    except subprocess.CalledProcessError:
+        return set()  # not there: counted as linked
     return {f.split()[0] for f in out.splitlines() if len(f.split()) > 1 and f.split()[1] in "TDBR"}
 
 

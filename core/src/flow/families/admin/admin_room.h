@@ -18,7 +18,8 @@ class AdminRoom final : public Room {
  public:
   explicit AdminRoom(Hub& hub) : Room(hub) {}
 
-  void handle(Connection& c, msg::Admin& m);
+  // Its rows (catalogue.h, family admin): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(admin)
 
  private:
   // flows, kick, chan_rm, db_rm: answered at once.

@@ -58,11 +58,8 @@ class LinksRoom final : public Room {
   Result<void> stopReplica(const std::string& owner_user, const std::string& short_name,
                            uint32_t by);
 
-  void handle(Connection& c, msg::HubLinkHello& m);
-  void handle(Connection& c, msg::LinkOffer& m);
-  void handle(Connection& c, msg::ReplicateChannel& m);
-  void handle(Connection& c, msg::ReplicateStop& m);
-  void handle(Connection& c, msg::TimeProbe& m);
+  // Its rows (catalogue.h, family links): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(links)
 
   // Room
   void stop() noexcept override;

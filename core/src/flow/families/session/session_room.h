@@ -25,9 +25,8 @@ class SessionRoom final : public Room {
   std::unique_ptr<Authenticator> auth;
   LoginThrottle throttle;
 
-  void handle(Connection& c, msg::Login& m);
-  void handle(Connection& c, msg::GoAsync& m);
-  void handle(Connection& c, msg::Ping& m);
+  // Its rows (catalogue.h, family session): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(session)
 
   // Room
   [[nodiscard]] Result<void> start() override;

@@ -18,10 +18,8 @@ class SyncRoom final : public Room, public SyncPulses {
   // The sources `e` follows, into its flow database ("sync_following").
   void noteFollowed(const Endpoint& e);
 
-  void handle(Connection& c, msg::SyncPulse& m);
-  void handle(Connection& c, msg::SyncFollow& m);
-  void handle(Connection& c, msg::SyncUnfollow& m);
-  void handle(Connection& c, msg::SyncDone& m);
+  // Its rows (catalogue.h, family sync): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(sync)
 
   // Room
   void endpointLeft(Endpoint& e) override;

@@ -129,7 +129,7 @@ def state(src, name, kind):
     at = insert_at(lines, kind, name)
     if len(lines) > at and lines[at].rstrip("\r\n") in LINE[kind]:
         return None
-    if any(TAG in line for line in lines):
+    if any(line.strip() in LINE[kind] for line in lines):
         return "its SPDX line is not %r at line %d" % (LINE[kind][0], at + 1)
     return "no SPDX line"
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Every source file of the project names its licence (LICENSE: Apache-2.0) in an SPDX line.
 
     tools/spdx.py [--check | --write | --list] [SOURCE_DIR]

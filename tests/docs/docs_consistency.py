@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Facts the documentation states in more than one place say the same thing everywhere.
 
     docs_consistency.py SOURCE_DIR

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """tools/spdx.py on a scratch git repository: --check names each file without its line (tracked
 or new), --write puts the line where each kind of file wants it, once.
 

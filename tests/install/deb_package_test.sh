@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The Debian packages: built with CPack from this build, their file lists, control data and
 # systemd unit checked, then unpacked into a throwaway root (dpkg -x) and run from there with the
 # source and build trees hidden, a clean environment, and private /tmp, /run, /var/lib and network

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flow-catalogue: the protocol catalogue (runtime/include/skrobot/flow/catalogue.h) written out for
 // what is not C++, and checks that those copies have not drifted from it.
 //

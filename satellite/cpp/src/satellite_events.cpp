@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Events on the flow: the channel table, subscriptions by name, data, services, errors. A frame
 // that breaks the protocol closes the connection (SAT-PROTOCOL) and the satellite reconnects.
 #include <skrobot/core/log.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A room: one family of the protocol in the hub (docs/internals.md, "The rooms"). A room holds its
 // family's state (for most, the part it extends: the channel table, the request table, ...), the
 // handlers of its catalogue rows, and what it does when something crosses the rooms.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The admin room: what an administrator does over the protocol (ADMIN, docs/security.md): the
 // connections (flows, kick), any channel or named database removed (chan_rm, db_rm), and the
 // accounts of the users file, changed on the authenticator's worker thread while the connection

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The blobs room: the files of blob channels (blob_store.h, on its own thread; blob_path.h, the
 // rules and confinement of paths), blob channels that outlive their owner's connection, the change
 // events to subscribers, and the BLOB_* rows of the catalogue. A client may send up to

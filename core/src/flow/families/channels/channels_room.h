@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The channels room: the channel table and its router (channel_table.h, the relay's hot path),
 // channels made and removed with their databases and the events everyone gets, polling, and the
 // CHAN_* / SUBSCRIBE / PUBLISH / POLL_* rows of the catalogue.

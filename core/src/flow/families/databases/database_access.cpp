@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Database access (see database_access.h).
 #include "families/databases/database_access.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Database access: the PairDatabases as the protocol sees them, and who may write which. One per
 // flow ("_flow.<id>", transient), per user (named after the user, persistent), per channel
 // (named after the channel, transient: its properties), plus named ones anybody may create.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The databases room: the PairDatabases as the protocol sees them (database_access.h: who may read
 // and write which; database_store.cpp and the journal: in memory and on disk), a connection's
 // current database, reads of a linked hub's databases, each flow's database of statistics, and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The links room: this hub's links to other hubs (hub_link.h: a satellite of the far hub on this
 // hub's loop, and an endpoint here that owns the far hub's channels as "<hub>/<user>.<name>"),
 // the far hubs that link in (HUB_LINK_HELLO, one shared connection for two hubs that list each

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The physical room: direct and shared-memory paths between an owner and its subscribers
 // (physical_paths.h: offers, grants, one-time tokens, the switch and the fallback) and the PHYS_*
 // rows of the catalogue.

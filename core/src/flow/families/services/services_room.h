@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The services room: pending service requests (request_table.h: routing to the owner and back,
 // timeouts, owner-gone failures) and the SERVICE_* rows of the catalogue.
 #pragma once

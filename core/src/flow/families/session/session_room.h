@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The session room: a connection's login (accounts, the authenticator's off-loop password checks,
 // the login throttle), its switch to a flow and PING; the LOGIN, GO_ASYNC and PING rows of the
 // catalogue. The connection's own state machine (login, authenticating, sync, flow) is in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync room: sync pulse sources and their targets (sync_pulses.h), what each flow follows in
 // its database, and the SYNC_* rows of the catalogue.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The client's side of the dispatch generated from the catalogue (catalogue.h): an event the hub
 // sends on a flow (a row to_client, via flow or link_flow) is decoded and handed to the handler's
 // overload for its message, so a client has no switch over codes of its own and a new event row

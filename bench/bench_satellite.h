@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // For the benchmarks that drive hubs through satellites (hub_link, nats_bridge, large_payload):
 // polling for a condition, a hub in this process on a loop thread of its own, and a
 // skr::sat::Satellite on a loop thread of its own. Header-only; the benchmark process stops

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channel transfers against their floors, in one run:
 //   - upload and download through the hub (SyncClient, Unix socket and TCP loopback), per size;
 //   - a raw socket copy of the same bytes (a socketpair, a TCP loopback pair);

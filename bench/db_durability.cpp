@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Database write throughput under each durability policy (docs/pair-databases.md), against the
 // same hub keeping its databases in memory only (no data directory), measured in the same run.
 //

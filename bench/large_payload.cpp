@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Large payloads through the relay, a direct path and shared memory (docs/physical-mode.md),
 // beside a raw Unix socket and memcpy of the same bytes, in one run, at 64 KB, 1 MB and 6 MB
 // (a 1080p RGB frame):

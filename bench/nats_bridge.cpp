@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nats-bridge module (docs/fleet.md) against its baselines, in one run:
 //   1. service round trip p50/p99 at 16 B, 1 KB and 64 KB over four paths: a raw NATS client pair
 //      (libnats request/reply through nats-server), one hub (caller and server on the same hub),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub beside its peers: Redis pub/sub, Mosquitto (MQTT QoS 0) and NATS core, each started
 // here from Debian's binaries on a free loopback port, persisting nothing, and stopped at the
 // end. The same sizes and patterns go through every server and through the hub (in-process,

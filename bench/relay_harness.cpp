@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The relay benchmark's harness (relay_harness.h): the hub, its clients, round trips and streams.
 #include "relay_harness.h"
 

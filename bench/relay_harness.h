@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The relay benchmark's harness, shared by flow_relay and peers: an in-process hub on a
 // LoopThread (Unix socket, TCP, TLS), blocking client sockets that speak FlowProtocol, round trips
 // (one message in flight) and streams (1:N, a publisher at most a window ahead of its slowest

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse through the hub, in one run: a source at 100 Hz and at 1 kHz, followed by 1, 10
 // and 50 target processes, with and without a 15 fps 640x360 RGB stream going to the same
 // targets. Per row: the source's own period error, the targets' period error and source-to-target

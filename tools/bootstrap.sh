@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Set-up for a fresh Debian 12 machine, then run the hub or the tests.
 #
 #   tools/bootstrap.sh run    install what is missing, build, start the hub with config/default.json

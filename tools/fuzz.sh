@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Builds the libFuzzer targets (clang, build/fuzz) and runs each for a bounded time, as many at
 # once as there are cores (each fuzzer is one process on one core), the longest first.
 #   tools/fuzz.sh                        FUZZ_CHANGED_SECONDS (default 60) for each target whose

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """How long tools/fuzz.sh runs each fuzz target: longer for those whose code changed.
 
     tools/fuzz_plan.py BUILD_DIR SHORT_SECONDS CHANGED_SECONDS BUDGET_SECONDS JOBS

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // fft-audio inside a hub: what a second of audio costs the whole process. A satellite publishes
 // PCM (1024-sample frames) on guest.in as fast as the module keeps up and subscribes to
 // fft.spectrum and fft.bands; the figure is the process CPU time (hub loop, module worker and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Vision benchmark: latency from publishing a 640x360 JPEG frame to receiving its detection,
 // for face-detect, motion and qrcode alone, then all three together, at the camera's 15 fps.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // skrobot: the hub executable. Loads the config, starts the modules on the main loop, runs until
 // SIGINT/SIGTERM, then stops the modules in reverse order and exits 0.
 #include <skrobot/core/hub_config.h>

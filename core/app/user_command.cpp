@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `skrobot user ...`: add, remove, re-password and list the accounts of the users file.
 #include "user_command.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C table of host services (skr_host_api). Every function is called from module code
 // through C frames: none may throw, so each one catches what the C++ below could raise.
 #include "module_record.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/core/hub_config.h>
 
 #include "link_config.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/core/json_schema.h>
 #include <skrobot/support/json.hpp>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // "hub_name" and "links" (see link_config.h).
 #include "link_config.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub-link part of the config: "hub_name" and "links" (docs/hub-links.md).
 #pragma once
 

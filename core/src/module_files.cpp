@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Finding module files and reading their descriptors.
 #include "module_record.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A module's satellite in the hub: the ABI 1.1 channel and database calls of one module, on top
 // of a flow::LocalClient. Created by the module's first such call, destroyed when it stops (its
 // channels and subscriptions go with it). Main loop thread only.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/core/module_host.h>
 
 #include "module_record.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The host's record of one module; also the opaque skr_module_ctx handed to it. Internal.
 #pragma once
 

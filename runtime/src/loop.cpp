@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>
 #include "loop_internal.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What loop.cpp and loop_handles.cpp share (private to the runtime's sources).
 #pragma once
 

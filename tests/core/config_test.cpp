@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Config loading and validation: defaults, every kind of error, path resolution.
 #include <skrobot/core/hub_config.h>
 #include <skrobot/core/json_schema.h>

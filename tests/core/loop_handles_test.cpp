@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The loop's handles (skrobot/core/loop_handles.h): timers, the spinner, descriptor and POSIX
 // signal watches, stopOnSignals.
 #include "test_support.h"

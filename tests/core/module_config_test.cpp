@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Declared config keys (ABI 1.2) through the module host: checked before init, each problem at
 // its key's path, defaults filled in; checkModules (what `skrobot --check-config` runs) reports the
 // same without initialising anything. Modules built for ABI 1.0 and 1.1 (no declared keys, config

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The module host through its public interface, with the example module and the test modules
 // of tests/modules (one per failure case). No assertion depends on timing: loops run until a
 // condition holds, with generous time limits.

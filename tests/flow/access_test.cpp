@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Roles and rules (flow/access.h): parsed from the users file, and obeyed by every way in.
 #include <skrobot/flow/access.h>
 #include <skrobot/flow/accounts.h>

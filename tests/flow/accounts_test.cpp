@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Users file, Authenticator and `skrobot user`. argon2id costs ~0.1 s per hash: each test notes
 // how many it spends (about 25 in all).
 #include <skrobot/core/hub_config.h>

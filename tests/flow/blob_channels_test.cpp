@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channels through the hub: owner-only writes, reads for everyone, stores that outlive their
 // owner's connection and the hub, change events, older clients, readers during a replacement,
 // quotas and a resumed upload, with the satellite library's SyncClient and raw frames.

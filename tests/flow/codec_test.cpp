@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every FlowProtocol message encodes and decodes back to itself; the byte examples of
 // docs/flow-protocol.md are what the code produces; the frame splitter refuses bad lengths.
 #include <skrobot/flow/codec.h>

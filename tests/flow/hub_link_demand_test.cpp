@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub link subscribes over there to exactly what is subscribed here, whatever order channels,
 // subscribers and links come and go in (docs/hub-links.md, "What crosses a link").
 //

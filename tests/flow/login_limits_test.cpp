@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Before login a connection is held short: frames of 4096 bytes at most, and failed logins slow
 // down the next ones per user name and per source (login_throttle.h).
 #include "families/session/login_throttle.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Modules on the FlowNetwork: the ABI 1.1 calls from a C module, and in-process zero-copy.
 #include "flow_fixture.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/flow/name_pattern.h>
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PairDatabase and DatabaseStore: pairs, names, persistence across store instances, crash
 // leftovers and corrupt files.
 #include <skrobot/core/log.h>

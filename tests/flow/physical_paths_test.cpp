@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode through the hub (protocol 1.7, two endpoints 1.8, the owner's switch 1.9, the
 // subscribers' reports 1.10): offers, grants with one-time tokens, the relay skipped for a
 // subscriber whose path works (from the point the owner picks) and resumed when it breaks,

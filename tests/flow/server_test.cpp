@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The FlowServer over real sockets: login, databases, channels, services, bad input, overload.
 #include "flow_fixture.h"
 

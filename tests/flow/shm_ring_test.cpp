@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The shared-memory ring of physical mode (skrobot/flow/shm_ring.h): delivery in place, newest
 // wins, leases against slow readers, dead readers, and writers that break the rules; descriptors
 // passed to another process (skrobot/flow/fd_passing.h).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The FlowServer's TLS listener in process: bad files stop the start; frames inside TLS go
 // through the same frame splitter (a bad length still closes that connection with
 // FLOW-PROTOCOL); a plain client gets a plain REPLY_ERROR; garbage records are refused; the

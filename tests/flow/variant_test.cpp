@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Variant: construction, conversions, the binary wire encoding (byte-exact and against hostile
 // input) and the JSON mapping.
 #include <skrobot/flow/variant.h>

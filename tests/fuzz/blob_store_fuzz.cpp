@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as the files a blob store reads at start
 // (<data_dir>/blobs/<channel>/owner and uploads/<id>.meta, core/src/flow/families/blobs/blob_store.cpp), as a
 // hub finds them after a crash or a hand edit. Opening must never crash; an upload it keeps must

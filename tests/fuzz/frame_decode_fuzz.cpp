@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as a FlowProtocol stream. The splitter must never read past
 // the input or accept an over-limit length; every frame body is decoded as each message of its
 // code, and what decodes must re-encode to bytes that decode to the same message again.

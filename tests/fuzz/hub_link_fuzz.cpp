@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: what a linked hub sends about its channels. The bytes are an EV_CHAN_ADDED
 // body (a ChannelInfo: the name and the properties come from the far hub); its name and route
 // go through the link's naming and routing (core/src/flow/families/links/hub_route.cpp), whose promises are

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as the users file (<data_dir>/users.json: accounts, argon2id
 // hashes, roles, rules, limits; core/src/flow/families/session/accounts.cpp), which the hub reads at start and
 // on every change. Loading must never crash; an accepted file's accounts must have valid names

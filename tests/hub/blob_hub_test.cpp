@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channels with the real hub process: a large round trip checked by sha256 while the hub's
 // resident memory is sampled, and kill -9 in the middle of an upload.
 //   BLOB_MB   size of the round trip in MiB (default 256, 32 in the AddressSanitizer build; 2048

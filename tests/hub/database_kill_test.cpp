@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Durable databases under `always`, proven with the real hub and kill -9: a satellite writes with
 // VAR_SET and counts the writes the hub acknowledged; the hub is killed at a random moment, twenty
 // times; after every restart each acknowledged write is there and no database is lost.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The same as blob_files.c through plugin_blobs.hpp: the module's blob channel <name>.files and,
 // once someone listens to <name>.report, one line per step ("bad:<status>", "put:<status>:...",
 // "get:<status>:<data>", "list:<status>:<json>", "removed:<status>",

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A C++ module on plugin_channels.hpp:
 //   <name>.upper   streaming: what arrives on config "input" (default guest.in), upper-cased
 //   <name>.ask     service: forwards each request to config "forward" (a service channel) with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A module that declares its config keys (ABI 1.2) and logs what it reads at init
 // (CONFIG-KEYS-INIT), so that tests see the host's checks and the declared defaults.
 // CASE_BAD_DEFAULT builds a module whose declaration is inconsistent (default out of range).

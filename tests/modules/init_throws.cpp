@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Its constructor (init) throws: the C++ helper must turn that into a status and a message.
 #include <skrobot/plugin.hpp>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // start() refuses. Its tick (registered in init) must never run; fini must still be called.
 #include <skrobot/plugin.hpp>
 

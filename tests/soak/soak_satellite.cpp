@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A satellite for the soak test (tests/soak/soak.py): one role, reporting on stdout what the
 // driver checks, one line per event. It reconnects by itself, as every satellite does.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub's FlowServer on its own loop thread, and clients that talk to it over real sockets.
 #pragma once
 

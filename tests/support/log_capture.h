@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Collects the hub's log lines ("<tag> <message>") while alive, for tests that assert on logs.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A blocking FlowProtocol client for tests and benchmarks: one socket, explicit frames.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A Unix-socket relay on a Loop, for tests that cut a connection and let it come back: what
 // connects to `path` is joined to `target` (connected anew for each), byte for byte. cut()
 // closes every connection it joined, and holds those that come next, unanswered, as a network

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // video-source (file frames, looping, props, idle without subscribers, config errors) and the
 // whole chain without a browser: video-source -> video-mono -> motion + face-detect.
 #include "vision_fixture.h"

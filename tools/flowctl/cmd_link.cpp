@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl link ls: the hub's links to other hubs, from their databases "_link.<name>".
 #include "cli.h"
 

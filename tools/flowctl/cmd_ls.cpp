@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl ls: the hub's channels, or those whose names match patterns.
 #include <skrobot/flow/name_pattern.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl record: subscribe to streaming channels and write what they carry to an MCAP file.
 //
 // Threads: the satellite's loop receives (and time-stamps) messages and queues them; a disk

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl echo and pub: a satellite flow on a loop of flowctl's own (internal).
 #pragma once
 

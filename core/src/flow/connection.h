@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One satellite connected over a socket (Unix or TCP, TLS on TCP): its session with the hub.
 // Reads bytes into a buffer that frames are parsed from in place, checks each frame against the
 // catalogue and the session's state (login, authenticating, sync, flow) and hands it to its room

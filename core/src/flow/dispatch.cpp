@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one switch over codes in the hub: generated from the catalogue, one case per row.
 #include "dispatch.h"
 

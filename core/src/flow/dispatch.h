@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The dispatch of a received frame to its room, generated from the catalogue (catalogue.h): the
 // row of the code names the family, whose room (a member of Hub named as the family) has a
 // handle(Connection&, msg::X&) overload for the row's message. Connection::handleFrame has

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Endpoints: the satellites of one hub as its parts see them, a socket Connection or an
 // in-process LocalClient, and the table of those connected now. Main loop thread only.
 #pragma once

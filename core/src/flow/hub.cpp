@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What crosses the rooms: endpoints logging in and leaving, the output of connections, the
 // server's timers.
 #include "hub.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A channel's or flow's counters sampled at each of the hub's one-second ticks (FlowServer::
 // sampleRates), so that its rates over the last second and the last ten are the difference of
 // two samples: the same for every reader, and nothing added to the relay's hot path, which only

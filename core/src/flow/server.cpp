@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FlowServer: transports, connection lifecycle, output flushing and timeouts (server_impl.h).
 #include "server_impl.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
 // one room per family of the protocol); this adds the listeners (Unix socket, TCP, TLS on TCP),
 // accepting connections, the loop's handles that flush output once per iteration and run the

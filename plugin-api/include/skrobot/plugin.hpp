@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Header-only C++ helper over the C ABI in plugin.h. It lives entirely inside the module: the
 // classes below never cross the seam, and every exception is caught before it could.
 //

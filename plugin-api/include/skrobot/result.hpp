@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Errors as values, shared by the hub, the satellite libraries, the tools and every module
 // (header-only: nothing here crosses the C seam of plugin.h).
 //

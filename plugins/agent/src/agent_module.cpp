@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // agent: the robot agent's loop (docs/agent.md). It hears the transcripts of every recogniser
 // (channels matching `recognisers`, "<instance>.transcript"), matches them against the intents
 // of its rules file, and acts: the avatar speaks (`say`), shows an expression, the Nao moves,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // audio-io: a sound card through PortAudio (docs/audio.md).
 //   capture: the input device to <name>.capture (PCM media frames, sample_rate Hz, mono)
 //   play:    the audio channel named by config "play" to the output device ("" = off)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The tutorial module: every part of the module API in one small file (docs/plugins.md).
 //
 // Config (the "config" object of its entry in the hub's JSON): declared in kConfig below, so the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // face-detect: the faces in each frame of a video channel, published as JSON on <name>.faces:
 //   {"seq":N,"capture_ns":T,"width":W,"height":H,"faces":[{"x":..,"y":..,"w":..,"h":..,"score":..}]}
 // An OpenCV cascade by default; YuNet (FaceDetectorYN) when config "model" names an ONNX file.

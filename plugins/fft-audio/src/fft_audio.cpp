@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // fft-audio: the spectrum of an audio channel (docs/audio.md).
 //   input:  the channel named by config "input" (required), PCM media frames
 //   output: <name>.spectrum (JSON per window), <name>.bands (JSON, 16 bands, <= bands_rate_hz/s)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // foxglove-bridge: the hub's channels, services and databases for Foxglove Studio and
 // Lichtblick over foxglove.websocket.v1 (docs/foxglove.md).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // motion: what moves in a video channel, published as JSON on <name>.motion:
 //   {"seq","capture_ns","width","height","amount":0..1,"center":{"x","y"}|null,
 //    "regions":[{"x","y","w","h"}]}

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nao-bridge: a Nao on the FlowNetwork. See docs/nao.md.
 //   <name>.command   service: JSON commands (commands.h), answered {"ok":true} or an error
 //   <name>.status    streaming: {"connected":..,"backend":..,"error":..,"retry_in_ms":..,

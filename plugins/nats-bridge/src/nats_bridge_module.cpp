@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nats-bridge: a hub's channels on a NATS cluster (docs/fleet.md). Exported channels are
 // published under the bridge's prefix, imported subjects become channels of the module, services
 // cross both ways, named databases are mirrored to JetStream key-value buckets. The NATS client's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // qrcode: QR codes and barcodes in a video channel, published as JSON on <name>.codes:
 //   {"seq","capture_ns","width","height",
 //    "codes":[{"type":"QR-Code","text":"...","corners":[[x,y],[x,y],[x,y],[x,y]]}]}

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // speech: text to speech with espeak-ng, and the phoneme timeline that moves a face's lips
 // (docs/audio.md).
 //   <name>.say       service, command "say", value {"text","voice","rate","pitch"}

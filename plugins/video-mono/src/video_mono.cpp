@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // video-mono: publishes <name>.mono, the Y8 (grey) variant of a JPEG video channel (config
 // "input", required), decoded once for every module that wants grey pixels.
 // It subscribes to the input only while <name>.mono has subscribers. Same counters as the

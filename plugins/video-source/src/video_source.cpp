@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // video-source: publishes <name>.video, one JPEG media frame per message, from a video file
 // (config "file", looped) or a V4L2 camera (config "device"), at config "fps" and
 // "width" x "height". Frames are read only while the channel has subscribers.

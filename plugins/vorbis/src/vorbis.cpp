@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vorbis: record an audio channel to Ogg Vorbis files, and play an .ogg file onto
 // <name>.playback (docs/audio.md). Either part is off when its config key is empty.
 #include "player.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // websocket-ui: serves the avatar page and bridges browsers to the FlowNetwork
 // (docs/websocket-ui.md).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/flow/fd_passing.h>
 
 #include <sys/socket.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/flow/bytes.h>
 #include <skrobot/flow/path_framing.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // TLS through memory BIOs (skrobot/flow/tls.h). OpenSSL never touches a socket here: received
 // bytes go into the read BIO, what OpenSSL wants to send accumulates in the write BIO.
 #include <skrobot/flow/tls.h>

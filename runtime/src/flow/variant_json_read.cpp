@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // variantFromJsonText: strict JSON text (RFC 8259) read straight into a Variant, with the
 // mapping's escapes ({"$base64"}, {"$map"}) undone as each object closes. No Json::Value in
 // between: values of modules and JSON twin commands pass here (a 64 KB string took 527 us

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // skrobot-asr: the speech-recognition satellite (docs/asr.md).
 //
 //   skrobot-asr [--input CHANNEL] [--name NAME] [--mode dictation|grammar]

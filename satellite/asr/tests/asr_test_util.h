@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Helpers of the skrobot-asr tests and benchmark: speech made with espeak-ng and sox at run time,
 // one continuous stream with silence between utterances, a hub and skrobot-asr as processes
 // (satellite/cpp/tests/support/hub_process.h), and a satellite that streams the audio as media

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Bytes read from a socket, received straight into place (no zero-filling, no copy from a bounce
 // buffer): a large frame is read into memory that already has its size. Used by path sockets and
 // the synchronous connection.

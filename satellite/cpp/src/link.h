@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One libuv stream to a hub (internal to the satellite library): connects, splits incoming bytes
 // into frames, and writes everything queued during one loop iteration in one write.
 //

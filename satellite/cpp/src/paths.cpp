@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode in a satellite (see paths.h): what both sides share.
 #include "paths_impl.h"
 

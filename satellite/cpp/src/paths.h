@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode in a satellite (docs/physical-mode.md): the owner's side (a listener for the
 // subscribers the hub granted a path, a shared-memory ring per channel, direct sockets) and the
 // subscriber's side (a path per channel it asked one for, with fallback to the relay). Internal to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Internals of physical mode in a satellite (paths.h): the state of served channels, peers and
 // paths, and the socket helpers that paths_owner.cpp and paths_subscriber.cpp share.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode, the owner's side (see paths.h): the listener, grants, peers, publishing.
 #include "paths_impl.h"
 

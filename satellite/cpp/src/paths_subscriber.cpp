@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode, the subscriber's side (see paths.h): paths asked for, connected, read, and their
 // fallback.
 #include "paths_impl.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blocking socket helpers for the synchronous connection (internal).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Satellite's public methods: channels, publishing, services, databases.
 #include "satellite_impl.h"
 

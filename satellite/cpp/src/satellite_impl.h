@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The inside of a Satellite (internal): connection state machine, channel table, pending
 // requests. Everything runs on the satellite's loop thread.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The satellite's connection: connect, LOGIN, CHAN_LIST, GO_ASYNC, and reconnection with backoff.
 #include <skrobot/core/log.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // SyncClient's blob channel requests (protocol 1.3). Transfers keep kBlobWindow requests of
 // kBlobChunk bytes ahead of their replies, so that the hub's disk and the socket overlap.
 #include <skrobot/flow/bytes.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hub links under churn: three hubs in a chain (ay -> bee -> sea), publishers on sea and bee,
 // subscribers on ay, while bee (the middle hub) is restarted again and again. Publishers put a
 // sequence number in each payload; each subscriber checks, per channel, that nothing arrives

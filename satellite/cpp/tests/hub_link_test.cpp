@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hub links (docs/hub-links.md): hubs started as processes on one machine, each with its own app
 // name, socket and data directory; satellites of one use the channels of another by name.
 #include <cmath>

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the runtime and dev components (libskrobot-satellite, libskrobot-runtime, their
 # headers, the CMake package and the .pc) into a temp prefix, builds a satellite out of tree against it twice
 # (CMake package: satellite/examples/cpp/out-of-tree; pkg-config: a one-file program), and runs

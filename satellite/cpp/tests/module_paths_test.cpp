@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode from a module (plugin ABI 1.7, docs/physical-mode.md "Modules"): the hub serves
 // test_paths_camera.frames (tests/modules/paths_camera.c: numbered frames, every other one filled
 // in a shared-memory slot in place) to satellites by shared memory and by a direct socket, with a

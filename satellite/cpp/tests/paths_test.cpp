@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode through the satellite library (docs/physical-mode.md): shared-memory and direct
 // paths granted by a real hub, the relay skipped while a path works, fallback when it breaks
 // (nothing delivered twice), a subscriber that asks for a kind the owner does not serve, a slow

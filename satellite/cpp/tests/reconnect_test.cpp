@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Satellites recover by themselves: a hub restarted under them, and a "hub" that sends garbage.
 #include <skrobot/core/log.h>
 #include <skrobot/flow/codec.h>

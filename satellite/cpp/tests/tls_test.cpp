@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // TLS on the TCP transport against real hubs: the satellite library (flow and synchronous
 // connection, with a blob round trip) and flowctl over tls: addresses, and every refusal (plain TCP
 // to the TLS port, TLS to a plain port, untrusted, expired, wrong-host and self-signed hub

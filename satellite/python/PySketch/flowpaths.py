@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7;
 its marker of 1.9).
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The MCAP reader (reader.h).
 #include <fcntl.h>
 #include <skrobot/flow/bytes.h>

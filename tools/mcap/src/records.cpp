@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The byte encoding of MCAP records (records.h).
 #include <skrobot/flow/bytes.h>
 #include <skrobot/mcap/records.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub's configuration, loaded from JSON and validated before anything starts.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where an installed hub finds its own files: relative to the directory of its executable, so
 // that an install under any prefix works (docs/install.md). In a build tree these directories do
 // not exist and the callers fall back to the build tree's own places.

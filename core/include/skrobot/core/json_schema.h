@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A small declarative schema for JSON values (jsoncpp), so that a config section reads as a few
 // lines and every problem in a document is reported at once, with its path:
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The module host: finds, loads, runs and unloads the hub's modules (shared objects that speak
 // the C ABI of plugin-api/include/skrobot/plugin.h).
 //

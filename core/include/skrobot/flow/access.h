@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Who may do what: a user's role and rules, from the users file (docs/security.md).
 //
 //   "alice": {"hash": "...", "role": "user",

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // User accounts: the users file (argon2id hashes, never passwords) and the Authenticator that the
 // hub's server asks at login. docs/accounts.md is the operator's side of this header.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub's statistics as data (docs/observability.md): per channel its messages, bytes and
 // drops per second over the last second and the last ten, and its subscribers; per flow its
 // traffic, output queue and pending requests; the main loop's late wake-ups. Published as JSON

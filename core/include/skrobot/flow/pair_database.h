@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PairDatabases: named key -> Variant stores. Every flow, user and channel has one; named ones
 // are created by satellites. DatabaseStore holds them all and keeps the persistent ones in
 // <data_dir>/db: a snapshot <name>.json and an append-only log <name>.log of the changes since,

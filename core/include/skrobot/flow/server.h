@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The FlowNetwork server: the hub's side of the FlowProtocol. It accepts satellites on a Unix
 // socket and (optionally) TCP, logs them in, keeps the channels, routes data, service requests
 // and database commands, and gives modules the same channels in process (LocalClient).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Declaring a module's config keys (ABI 1.2) next to SKROBOT_MODULE, header-only:
 //
 //   constexpr skr_config_key kConfig[] = {

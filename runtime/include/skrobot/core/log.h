@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Logging. A line carries UTC time, level, source and a stable tag that operators can search:
 //   2026-11-22T10:00:00.123Z WARN  [core.loop] LOOP-OVERLOAD fast tick work 9.1 ms of 10 ms
 // Thread-safe; each line is written with a single write(2).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The event loop: one per thread, on libuv. It emits FastTick, SlowTick and OneSecTick from
 // absolute deadlines, runs work posted from other threads, and measures itself.
 //

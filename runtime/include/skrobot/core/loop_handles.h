@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Handles on a Loop for what its users would otherwise reach libuv for: timers, a function run on
 // every turn of the loop, the readiness of a file descriptor, and POSIX signals (SIGINT, SIGTERM:
 // not skr::Signal, which is signal/slot). Each is a small RAII object owned by its caller.

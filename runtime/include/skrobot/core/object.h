@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Objects live on one loop, own their children and are the receivers of signals.
 //
 // - An Object belongs to the loop it was created with; destroy it on that loop's thread.

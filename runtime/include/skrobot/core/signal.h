@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Type-safe signals and slots.
 //
 //   struct Sensor : skr::Object { skr::Signal<double> reading{*this}; ... };

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How a set of timings spreads: p50, p99 and max, and the period errors of a series of instants
 // (for benchmarks and tools that report timing).
 #pragma once

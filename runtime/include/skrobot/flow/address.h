@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub's address, in the form ROBOT_ADDRESS and flowctl's --address take:
 //
 //   local:/tmp/Robot        a Unix socket (the default)

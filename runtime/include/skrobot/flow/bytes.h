@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Little-endian byte reading and writing for the FlowProtocol. A ByteReader never reads past its
 // end: every read checks the remaining length first and fails (returns false) instead.
 #pragma once

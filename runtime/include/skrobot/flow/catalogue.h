@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The FlowProtocol catalogue: one row per code, the one place a code's facts are written.
 //
 // Everything else derives from these rows: the Code enum, codeName, minorOf and the code's

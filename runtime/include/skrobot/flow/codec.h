@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Encoding and decoding of the message structs in messages.h.
 //
 //   std::string out;

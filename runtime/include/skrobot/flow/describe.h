@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A message's layout as the documentation writes it: its fields in wire order, each as
 // "<wire type> <name>" ("u16 chan_id", "str16 name", "value props", "rest payload"); a list is
 // "u32 count, count × <part>". Read from the

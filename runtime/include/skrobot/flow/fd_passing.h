@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Passing descriptors between processes over a Unix socket (SCM_RIGHTS), for the shared-memory
 // path of physical mode (docs/physical-mode.md): libuv's pipes here are not opened for passing
 // descriptors, so the path's own socket carries them. On a non-blocking socket call them when it

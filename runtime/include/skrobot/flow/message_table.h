@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every message struct of the catalogue (catalogue.h), for code that must handle them all (the
 // fuzz target, the round-trip tests): forEachMessage(f) calls f(M{}) once per message type, each
 // row's body and its reply, each type once.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The body of every FlowProtocol frame as a struct. Each struct lists its fields once, in wire
 // order, with SKR_FLOW_FIELDS; the same list drives encoding and decoding (codec.h) and the
 // catalogue's description of the layout (catalogue.h, describe.h), so they cannot disagree.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Channel-name patterns: the one syntax for every place that selects channels by name (flowctl
 // filters, permission rules, hub-link filters, NATS export and import). docs/flow-protocol.md,
 // "Channel-name patterns", is the specification.

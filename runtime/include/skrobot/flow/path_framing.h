@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reduced framing of physical mode's path sockets (docs/physical-mode.md): what an owner and a
 // subscriber say on the owner's socket once the hub granted the path. Pure functions, fuzzed by
 // path_frame_fuzz. Every frame is u32 length (of what follows, type included), u8 type, body.

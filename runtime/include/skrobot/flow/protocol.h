@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FlowProtocol: frame layout, command codes, error codes and limits. docs/flow-protocol.md is the
 // byte-by-byte specification; this header is its code. Used by the hub, the satellite libraries,
 // the tests and the fuzz targets.

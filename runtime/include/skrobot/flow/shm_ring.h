@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The shared-memory path of physical mode (docs/physical-mode.md): one writer (a channel's owner)
 // and readers on the same machine share a ring of slots in a memfd. The writer fills a slot in
 // place and commits it; each reader is woken through an eventfd of its own and reads the newest

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // TLS for FlowProtocol connections over TCP, with OpenSSL, through memory buffers: the caller owns
 // the socket (a libuv stream or a blocking fd), hands received bytes in and sends what comes out,
 // so an event loop never blocks inside OpenSSL. No OpenSSL type appears here.

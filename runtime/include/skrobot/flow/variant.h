@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Variant: the typed value of PairDatabases and FlowProtocol payloads (null, bool, int64, uint64,
 // float64, UTF-8 string, bytes, list, map), with its binary wire encoding and its JSON mapping.
 // docs/flow-protocol.md specifies the binary encoding byte by byte; docs/pair-databases.md the

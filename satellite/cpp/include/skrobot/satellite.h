@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C++ satellite library: everything a satellite includes.
 //   find_package(skrobot_satellite) -> skrobot::satellite, or pkg-config skrobot-satellite.
 // docs/cpp-satellites.md is the guide.

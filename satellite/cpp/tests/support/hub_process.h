@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test helpers: a real `skrobot` hub started from a temp config, and child processes (examples,
 // flowctl) whose output is captured. Header-only; used by the satellite and flowctl tests.
 #pragma once

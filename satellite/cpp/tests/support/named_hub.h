@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub process with a hub name, linked to other hubs (docs/hub-links.md), for the hub-link
 // tests: its own directory, app name and socket; the development account on every link.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Satellites on loop threads of their own, recording their signals, against a real hub.
 #pragma once
 

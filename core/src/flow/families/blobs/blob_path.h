@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Paths of blob channels and their confinement: a path a satellite names is checked (relative,
 // '/'-separated, no '.', '..', empty, NUL or backslash components, bounded lengths and depth),
 // then resolved beneath the channel's directory so that nothing on disk (a symlink planted in the

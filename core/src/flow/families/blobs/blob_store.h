@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The files of the hub's blob channels: one tree per channel under <data_dir>/blobs/<channel>/
 // (files/ the tree, uploads/ uploads under way, owner the owning user), with per-channel and
 // per-user quotas. Every disk operation runs on the store's own thread, in the order asked; each

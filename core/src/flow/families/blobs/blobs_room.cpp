@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channels across the hub (the store opened at start and its channels brought back, an owner
 // that leaves and comes back, the change events) and the BLOB_* requests of a synchronous
 // connection: each is checked here (the channel, who may read, who may write), run by the store on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The channel table and the router (see channel_table.h).
 #include "families/channels/channel_table.h"
 

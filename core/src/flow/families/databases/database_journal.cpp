@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The journal's writer thread (see database_journal.h).
 #include "families/databases/database_journal.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The journal: one writer thread that appends the persistent databases' changes to their logs,
 // fsyncs them by the durability policy, and compacts a log into its snapshot, so that the loop
 // thread never waits for the disk (docs/pair-databases.md, "Durability").

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The database log's format (see database_log.h).
 #include "families/databases/database_log.h"
 

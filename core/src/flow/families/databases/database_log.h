@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The append-only log of a persistent PairDatabase, <data_dir>/db/<name>.log: its byte format and
 // its reader. The file is an 8-byte header "SKRDBLG1", then records:
 //

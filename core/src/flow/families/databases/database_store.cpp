@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // DatabaseStore: the hub's databases and their files. A persistent database is a snapshot
 // <name>.json plus an append-only log <name>.log of the changes made since (database_log.h). At
 // start the store reads both; afterwards its journal (database_journal.h) appends each change on

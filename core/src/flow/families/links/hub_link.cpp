@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A link to another hub (see hub_link.h, docs/hub-links.md).
 #include "families/links/hub_link.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // HubLink: this hub's link to another (docs/hub-links.md). A satellite of the far hub, on this
 // hub's loop (skr::sat::Satellite: reconnection with backoff, subscriptions by name, request
 // timeouts), and an Endpoint here that owns the far hub's channels as "<hub>/<user>.<name>".

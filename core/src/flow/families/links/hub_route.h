@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How a hub link names and routes the far hub's channels (docs/hub-links.md): pure functions of
 // what arrives over the link, kept apart so that a fuzz target drives them with any input.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Replicas (see replica.h).
 #include "families/links/replica.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode's grants (see physical_paths.h).
 #include "families/physical/physical_paths.h"
 

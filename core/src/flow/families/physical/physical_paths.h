@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode (FlowProtocol 1.7, docs/physical-mode.md): the hub decides who may take a direct
 // or shared-memory path to a channel and tells both ends; the bytes then bypass it. It keeps each
 // channel's offer (the owner's endpoint and the kinds it serves) and each grant, moves a

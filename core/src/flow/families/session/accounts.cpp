@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The users file: validation, argon2id hashing, JSON load and crash-safe save.
 #include "families/databases/file_layer.h"
 

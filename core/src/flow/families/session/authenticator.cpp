@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Authenticator: logins verified on one worker thread, answered on the loop thread.
 #include <skrobot/core/log.h>
 #include <skrobot/core/loop.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // LOGIN, GO_ASYNC and PING: a connection becomes a logged-in synchronous connection, then a flow.
 #include "families/session/session_room.h"
 

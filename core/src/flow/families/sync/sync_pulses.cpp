@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse (see sync_pulses.h).
 #include "families/sync/sync_pulses.h"
 

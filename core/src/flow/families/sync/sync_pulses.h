@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse (protocol 1.4): sources are channels of kind sync; targets follow one, every
 // Nth pulse. A pulse goes to each target that finished its tick for the previous one (SYNC_DONE);
 // for a target still busy it is dropped and counted, and the count rides on the next pulse it

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where the hub is and who we are: ROBOT_ADDRESS, ROBOT_USER, ROBOT_PASSWORD, and for tls:
 // addresses ROBOT_TLS_CA, ROBOT_TLS_CERT, ROBOT_TLS_KEY (docs/security.md).
 // The address forms are skr::flow::Address's (skrobot/flow/address.h, in the runtime library).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A satellite on a skr::Loop: the flow (one asynchronous connection to the hub) as an skr::Object
 // that emits typed signals, with channels, publishing, services and databases.
 //

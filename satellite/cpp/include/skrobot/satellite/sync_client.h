@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A synchronous connection to a hub: one request, one reply, in the calling thread.
 //
 // This is the short-lived connection of the FlowProtocol for look-ups that block (database

@@ -64,4 +64,4 @@ class BlobFilesCpp final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(BlobFilesCpp, "test_blob_files_cpp", "1.0.0", "plugin_blobs.hpp in use", 0)
+SKR_MODULE(BlobFilesCpp, "test_blob_files_cpp", "1.0.0", "plugin_blobs.hpp in use", 0)

@@ -94,4 +94,4 @@ class ChannelsCpp final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(ChannelsCpp, "test_channels_cpp", "1.0.0", "plugin_channels.hpp in use", 0)
+SKR_MODULE(ChannelsCpp, "test_channels_cpp", "1.0.0", "plugin_channels.hpp in use", 0)

@@ -37,5 +37,5 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKROBOT_MODULE_WITH_CONFIG(ConfigKeys, "config_keys", "1.0.0", "declares its config keys", 0,
+SKR_MODULE_WITH_CONFIG(ConfigKeys, "config_keys", "1.0.0", "declares its config keys", 0,
                            kConfig)

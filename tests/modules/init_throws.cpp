@@ -18,4 +18,4 @@ class Throws final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(Throws, "init_throws", "0.1.0", "init throws", 0)
+SKR_MODULE(Throws, "init_throws", "0.1.0", "init throws", 0)

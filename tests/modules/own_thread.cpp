@@ -48,5 +48,5 @@ class OwnThread final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(OwnThread, "own_thread", "0.1.0", "runs on its own loop thread",
+SKR_MODULE(OwnThread, "own_thread", "0.1.0", "runs on its own loop thread",
                SKR_MODULE_WANTS_OWN_THREAD)

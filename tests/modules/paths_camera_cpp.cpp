@@ -50,4 +50,4 @@ class PathsCameraCpp final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(PathsCameraCpp, "test_paths_camera_cpp", "1.0.0", "plugin_channels.hpp paths", 0)
+SKR_MODULE(PathsCameraCpp, "test_paths_camera_cpp", "1.0.0", "plugin_channels.hpp paths", 0)

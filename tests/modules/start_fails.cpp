@@ -25,4 +25,4 @@ class StartFails final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(StartFails, "start_fails", "0.1.0", "start fails", 0)
+SKR_MODULE(StartFails, "start_fails", "0.1.0", "start fails", 0)

@@ -59,4 +59,4 @@ class WatchCalls final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(WatchCalls, "test_watch_calls", "1.0.0", "watches channels and a database", 0)
+SKR_MODULE(WatchCalls, "test_watch_calls", "1.0.0", "watches channels and a database", 0)

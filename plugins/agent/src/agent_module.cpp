@@ -659,6 +659,6 @@ constexpr skr_config_key kConfig[] = {
         .range(0, 10000),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(Agent, "agent", "1.0.0",
+SKR_MODULE_WITH_CONFIG(Agent, "agent", "1.0.0",
                            "the robot agent: hears transcripts, matches intents, speaks and acts",
                            0, kConfig)

@@ -308,6 +308,6 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKROBOT_MODULE_WITH_CONFIG(NaoBridge, "nao-bridge", "1.0.0",
+SKR_MODULE_WITH_CONFIG(NaoBridge, "nao-bridge", "1.0.0",
                            "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0,
                            kConfig)

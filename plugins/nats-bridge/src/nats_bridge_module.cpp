@@ -415,5 +415,5 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKROBOT_MODULE_WITH_CONFIG(NatsBridge, "nats-bridge", "1.0.0",
+SKR_MODULE_WITH_CONFIG(NatsBridge, "nats-bridge", "1.0.0",
                            "a hub's channels, services and databases on a NATS cluster", 0, kConfig)

@@ -555,7 +555,7 @@ constexpr skr_config_key kConfig[] = {
         .min(0),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(
+SKR_MODULE_WITH_CONFIG(
     skr::wsui::WebsocketUi, "websocket-ui", "1.0.0",
     "serves the avatar page; browsers' camera and microphone to channels, avatar behaviour", 0,
     kConfig)

@@ -53,6 +53,8 @@ find_package(skrobot_satellite REQUIRED)
 add_executable(runtime_only main.cpp)
 target_link_libraries(runtime_only PRIVATE skrobot::runtime)
 CMAKE
+# The old include paths on purpose: their forwarding headers must keep a program written for
+# them building until the next minor release (CHANGELOG.md, "Moved headers").
 cat > "$tmp/rt-src/main.cpp" <<'CPP'
 #include <skrobot/core/loop.h>
 #include <skrobot/flow/address.h>

@@ -151,5 +151,5 @@ constexpr skr_config_key kConfig[] = {
         .min(1),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(FftAudio, "fft-audio", "1.0.0",
+SKR_MODULE_WITH_CONFIG(FftAudio, "fft-audio", "1.0.0",
                            "FFTW spectrum and band levels of an audio channel", 0, kConfig)

@@ -192,5 +192,5 @@ constexpr skr_config_key kConfig[] = {
     cfg::integer("frame_samples", "1024", "samples per frame on <name>.voice").range(64, 65536),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(Speech, "speech", "1.0.0", "espeak-ng speech with a phoneme timeline", 0,
+SKR_MODULE_WITH_CONFIG(Speech, "speech", "1.0.0", "espeak-ng speech with a phoneme timeline", 0,
                            kConfig)

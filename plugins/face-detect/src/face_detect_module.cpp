@@ -113,5 +113,5 @@ constexpr skr_config_key kConfig[] = {
     cfg::integer("top_k", "50", "YuNet: candidates kept before suppression").range(1, 5000),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(FaceDetect, "face-detect", "1.0.0",
+SKR_MODULE_WITH_CONFIG(FaceDetect, "face-detect", "1.0.0",
                            "faces on a video channel (OpenCV cascade or YuNet)", 0, kConfig)

@@ -96,5 +96,5 @@ constexpr skr_config_key kConfig[] = {
         .range(64, 65536),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(Vorbis, "vorbis", "1.0.0",
+SKR_MODULE_WITH_CONFIG(Vorbis, "vorbis", "1.0.0",
                            "records audio channels to Ogg Vorbis and plays .ogg files", 0, kConfig)

@@ -81,5 +81,5 @@ class VideoMono final : public skr::plugin::Module {
 constexpr skr_config_key kConfig[] = {skr::vision::kInputKey, skr::vision::workersKey(8),
                                       skr::vision::kMaxFpsKey};
 
-SKROBOT_MODULE_WITH_CONFIG(VideoMono, "video-mono", "1.0.0",
+SKR_MODULE_WITH_CONFIG(VideoMono, "video-mono", "1.0.0",
                            "the grey (Y8) variant of a JPEG video channel", 0, kConfig)

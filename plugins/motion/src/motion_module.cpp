@@ -102,5 +102,5 @@ constexpr skr_config_key kConfig[] = {
     cfg::integer("history", "100", "MOG2: frames of history").min(1),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(Motion, "motion", "1.0.0",
+SKR_MODULE_WITH_CONFIG(Motion, "motion", "1.0.0",
                            "moving regions and centre of motion on a video channel", 0, kConfig)

@@ -198,5 +198,5 @@ constexpr skr_config_key kConfig[] = {
         .oneOf("none|shm|direct|shm+direct"),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(VideoSource, "video-source", "1.0.0",
+SKR_MODULE_WITH_CONFIG(VideoSource, "video-source", "1.0.0",
                            "JPEG frames from a video file or a V4L2 camera", 0, kConfig)

@@ -149,7 +149,10 @@ void Satellite::Impl::onChanAdded(msg::EvChanAdded& ev) {
     mine->tag = 0;
     mine->retries = 0;
     if (mine->spec.kind == flow::ChannelKind::streaming && login.minor >= 7) {
-      paths->serve(ev.info.id, ev.info.name, mine->spec.physical);
+      const PhysicalOptions& o = mine->spec.physical;
+      paths->serve(ev.info.id, ev.info.name,
+                   uint8_t((o.direct ? msg::kPhysDirect : 0) | (o.shm ? msg::kPhysShm : 0)),
+                   o.ring);
     }
     log::debug(kLogSource, "SAT-CHANNEL",
                "channel " + ev.info.name + " is ready (id " + std::to_string(ev.info.id) + ")");

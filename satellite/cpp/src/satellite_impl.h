@@ -130,7 +130,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   uint32_t next_tag = 1;
   std::optional<SyncClient> sync;
   std::optional<Result<flow::TlsContext>> tls_context;  // tls: addresses, made once
-  std::unique_ptr<detail::Paths> paths;                 // physical mode (paths.h)
+  std::unique_ptr<flow::phys::Paths> paths;             // physical mode (the runtime's paths.h)
 };
 
 }  // namespace skr::sat

@@ -20,7 +20,7 @@ zero copy, to a grab-data-view callback that gets a read-only `memoryview` of th
 Keeping `view` (or an array made from it) after the callback returns is not an error Python can
 catch: the ring stays mapped (nothing crashes), but the slot is rewritten by later messages.
 
-This module mirrors the C++ subscriber (satellite/cpp/src/paths_subscriber.cpp) in what it says
+This module mirrors the C++ subscriber (runtime/src/paths/paths_subscriber.cpp) in what it says
 to the hub and to the owner:
 - on each subscription to a channel it wants paths for, PHYS_REQUEST; the hub answers
   EV_PHYS_PATH (an endpoint and a one-time token) or EV_ERROR (then asked again later);

@@ -25,11 +25,11 @@
 #include <string_view>
 #include <vector>
 
-namespace skr::sat {
+namespace skr::flow {
+class InBuffer;  // the runtime's (internal)
+}  // namespace skr::flow
 
-namespace detail {
-class InBuffer;
-}  // namespace detail
+namespace skr::sat {
 
 using ChannelInfo = flow::msg::ChannelInfo;
 using LoginInfo = flow::msg::LoginOk;
@@ -194,7 +194,7 @@ class SyncClient {
   ConnectOptions options_;
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
-  std::unique_ptr<detail::InBuffer> in_;  // bytes from the hub not parsed yet
+  std::unique_ptr<flow::InBuffer> in_;     // bytes from the hub not parsed yet
 };
 
 template <class M>

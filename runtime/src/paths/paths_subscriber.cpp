@@ -5,7 +5,6 @@
 
 #include <skrobot/flow/address.h>
 #include <skrobot/flow/fd_passing.h>
-#include <skrobot/satellite/satellite.h>
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -14,7 +13,7 @@
 #include <sched.h>
 #include <sys/un.h>
 
-namespace skr::sat::detail {
+namespace skr::flow::phys {
 
 namespace msg = flow::msg;
 using namespace paths_io;
@@ -452,4 +451,4 @@ void Paths::failPath(uint16_t chan_id, const std::string& why) {
             p.name + ": " + why + "; relayed by the hub meanwhile");
 }
 
-}  // namespace skr::sat::detail
+}  // namespace skr::flow::phys

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Internals of physical mode in a satellite (paths.h): the state of served channels, peers and
+// Internals of physical mode (paths.h): the state of served channels, peers and
 // paths, and the socket helpers that paths_owner.cpp and paths_subscriber.cpp share.
 #pragma once
 
@@ -25,9 +25,10 @@
 #include <string_view>
 #include <utility>
 
-namespace skr::sat::detail {
+namespace skr::flow::phys {
 namespace paths_io {
 
+// Both sides log as the satellite library (tag SAT-PATH), a module's paths in the hub too.
 inline constexpr const char* kLogSource = "satellite";
 inline constexpr uint32_t kMaxDataFrame = flow::path::kMaxDataBytes + 32;
 inline constexpr size_t kMaxPeerQueue = 16u << 20;  // a direct subscriber's backlog; beyond: drops
@@ -164,4 +165,4 @@ struct Paths::Path {
   uint64_t new_messages = 0, new_bytes = 0, new_missed = 0;  // not reported yet (PHYS_RECEIVED)
 };
 
-}  // namespace skr::sat::detail
+}  // namespace skr::flow::phys

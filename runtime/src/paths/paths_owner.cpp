@@ -4,7 +4,6 @@
 
 #include <skrobot/flow/address.h>
 #include <skrobot/flow/fd_passing.h>
-#include <skrobot/satellite/satellite.h>
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -16,7 +15,7 @@
 #include <random>
 #include <utility>
 
-namespace skr::sat::detail {
+namespace skr::flow::phys {
 
 namespace msg = flow::msg;
 using namespace paths_io;
@@ -141,8 +140,9 @@ void Paths::ensureTcpListener() {
   log::info(kLogSource, "SAT-PATH", "direct paths over TCP at " + tcp_endpoint_);
 }
 
-void Paths::serve(uint16_t chan_id, const std::string& name, const PhysicalOptions& o) {
-  uint8_t kinds = (o.direct ? msg::kPhysDirect : 0) | (o.shm ? msg::kPhysShm : 0);
+void Paths::serve(uint16_t chan_id, const std::string& name, uint8_t kinds,
+                  const shm::RingGeometry& ring) {
+  kinds &= msg::kPhysDirect | msg::kPhysShm;
   if (kinds == 0) return;
   ensureListener();
   if (listen_fd_ < 0) return;
@@ -154,8 +154,8 @@ void Paths::serve(uint16_t chan_id, const std::string& name, const PhysicalOptio
     s->ring = std::move(idle->second);
     idle_rings_.erase(idle);
   }
-  if (o.shm && !s->ring) {
-    auto r = flow::shm::RingWriter::create("skrobot:" + name, o.ring);
+  if ((kinds & msg::kPhysShm) != 0 && !s->ring) {
+    auto r = flow::shm::RingWriter::create("skrobot:" + name, ring);
     if (r) {
       s->ring = std::move(*r);
     } else {
@@ -489,4 +489,4 @@ std::optional<std::string_view> Paths::commitPublish(uint16_t chan_id, size_t si
   return bytes;
 }
 
-}  // namespace skr::sat::detail
+}  // namespace skr::flow::phys

@@ -1,11 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Physical mode in a satellite (see paths.h): what both sides share.
+// Physical mode (see paths.h): what both sides share.
 #include "paths_impl.h"
 
 #include <skrobot/flow/fd_passing.h>
-#include <skrobot/satellite/satellite.h>
 
-namespace skr::sat::detail {
+namespace skr::flow::phys {
 
 namespace msg = flow::msg;
 using namespace paths_io;
@@ -81,4 +80,4 @@ Paths::Stats Paths::stats() const {
   return stats_;
 }
 
-}  // namespace skr::sat::detail
+}  // namespace skr::flow::phys

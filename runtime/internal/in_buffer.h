@@ -10,7 +10,7 @@
 #include <memory>
 #include <string_view>
 
-namespace skr::sat::detail {
+namespace skr::flow {
 
 class InBuffer {
  public:
@@ -48,4 +48,4 @@ class InBuffer {
   size_t cap_ = 0, head_ = 0, len_ = 0;
 };
 
-}  // namespace skr::sat::detail
+}  // namespace skr::flow

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Physical mode in a satellite (docs/physical-mode.md): the owner's side (a listener for the
-// subscribers the hub granted a path, a shared-memory ring per channel, direct sockets) and the
-// subscriber's side (a path per channel it asked one for, with fallback to the relay). Internal to
-// the satellite library; runs on the satellite's loop thread.
+// Physical mode (docs/physical-mode.md): the owner's side (a listener for the subscribers the hub
+// granted a path, a shared-memory ring per channel, direct sockets) and the subscriber's side (a
+// path per channel it asked one for, with fallback to the relay). The runtime's, internal (never
+// installed): used by the satellite library (Satellite::Impl, as owner and subscriber) and by the
+// hub's module host (ModuleFlow, as a module's owner side), each through its Host. Runs on the
+// thread of Host::loop. The sources are runtime/src/paths/.
 // The path socket speaks the reduced framing of skrobot/flow/path_framing.h.
 #pragma once
 
@@ -20,11 +22,7 @@
 #include <string>
 #include <string_view>
 
-namespace skr::sat {
-struct PhysicalOptions;
-}
-
-namespace skr::sat::detail {
+namespace skr::flow::phys {
 
 inline constexpr Nanos kGrantLifetimeNs = 10 * kNsPerSec;
 // How long a HELLO waits for its grant, which the hub sent us when it sent the subscriber its path.
@@ -43,7 +41,8 @@ inline constexpr Nanos kLingerNs = 20'000;
 
 class Paths {
  public:
-  // What the satellite gives its paths: sending on the flow, emitting data, naming channels.
+  // What its user (a satellite, or the hub for a module) gives its paths: sending on the flow,
+  // emitting data, naming channels.
   struct Host {
     Loop* loop = nullptr;  // the satellite's (or module's) loop: Paths runs on its thread
     std::function<void(const flow::msg::PhysOffer&)> offer;
@@ -70,8 +69,10 @@ class Paths {
   Paths& operator=(const Paths&) = delete;
 
   // --- the owner's side ---
-  // One of our channels was created (again) with `options`: offer its paths.
-  void serve(uint16_t chan_id, const std::string& name, const PhysicalOptions& options);
+  // One of our channels was created (again): offer its paths. `kinds`: msg::kPhysDirect and/or
+  // msg::kPhysShm (0: none); `ring`: the shared-memory ring's geometry.
+  void serve(uint16_t chan_id, const std::string& name, uint8_t kinds,
+             const shm::RingGeometry& ring);
   void onGrant(const flow::msg::EvPhysGrant& m);
   void onRevoke(const flow::msg::EvPhysRevoke& m);
   // Ours: whether the relay is still needed; a channel we follow: the marker of a 1.8 hub, or of
@@ -193,4 +194,4 @@ class Paths {
   std::unique_ptr<flow::shm::RingReader> retired_reader_;  // closed during that callback
 };
 
-}  // namespace skr::sat::detail
+}  // namespace skr::flow::phys

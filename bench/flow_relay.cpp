@@ -23,7 +23,7 @@
 //
 // Exits 1 on a real error (lost connection, frames missing beyond the reported drops, a hub
 // that does not answer); a missed target is reported, not an error.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include "relay_harness.h"
 

@@ -10,10 +10,10 @@
 // their own loop threads, the caller a SyncClient. Two cores are shared by everything.
 //
 //   hub_link [--quick]
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/spread.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/spread.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include <unistd.h>

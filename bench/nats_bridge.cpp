@@ -15,8 +15,8 @@
 // raw NATS clients live in this process on threads of their own. Two cores run everything.
 //
 //   nats_bridge [--quick] [--hubs N]
-#include <skrobot/core/clock.h>
-#include <skrobot/core/spread.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/spread.h>
 #include <skrobot/satellite.h>
 
 #include <json/json.h>

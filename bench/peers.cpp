@@ -25,7 +25,7 @@
 // Exits 1 on a real error (lost connection, a server that does not start, no data at all); a
 // slower figure is reported, not an error. A missing server binary skips its column, unless
 // --require-all (the test suite) makes it an error.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include "hub_process.h"  // Child
 #include "nats_server.h"  // NatsServer, freePort

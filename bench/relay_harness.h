@@ -5,12 +5,12 @@
 // subscriber, so that figures are delivered traffic). Everything fails by throwing Fail.
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/hub_stats.h>
-#include <skrobot/flow/server.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/hub/flow/hub_stats.h>
+#include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include "temp_dir.h"
 

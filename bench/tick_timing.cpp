@@ -5,7 +5,7 @@
 // in the same run: a thread sleeping to absolute deadlines with clock_nanosleep(TIMER_ABSTIME).
 //
 //   tick_timing [--seconds S]   (default 2 s per row)
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/loop.h>
 
 #include <algorithm>
 #include <cmath>

@@ -3,8 +3,8 @@
 // through C frames: none may throw, so each one catches what the C++ below could raise.
 #include "module_record.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
 
 #include <json/writer.h>
 

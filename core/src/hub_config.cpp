@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/core/hub_config.h>
+#include <skrobot/hub/hub_config.h>
 
 #include "link_config.h"
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/core/install_layout.h>
+#include <skrobot/hub/install_layout.h>
 
 #include <cstdlib>
 #include <system_error>

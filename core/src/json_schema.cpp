@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/core/json_schema.h>
+#include <skrobot/hub/json_schema.h>
 #include <skrobot/support/json.hpp>
 
 #include <algorithm>

@@ -2,7 +2,7 @@
 // Finding module files and reading their descriptors.
 #include "module_record.h"
 
-#include <skrobot/core/install_layout.h>
+#include <skrobot/hub/install_layout.h>
 
 #include <unistd.h>
 

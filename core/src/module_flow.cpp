@@ -4,8 +4,8 @@
 #include "module_record.h"
 #include "paths.h"  // the runtime's physical mode (its owner side serves a module's paths)
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <algorithm>
 #include <cstring>

@@ -8,8 +8,8 @@
 // flow.
 #pragma once
 
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/plugin.h>
 
 #include <cstdint>

@@ -5,9 +5,9 @@
 #include "module_flow.h"
 #include "shared_library.h"
 
-#include <skrobot/core/hub_config.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/module_host.h>
+#include <skrobot/hub/hub_config.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
 
 #include <deque>

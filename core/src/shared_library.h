@@ -2,7 +2,7 @@
 // RAII handle of a shared object opened with dlopen(RTLD_NOW | RTLD_LOCAL). Internal to the core.
 #pragma once
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <filesystem>
 

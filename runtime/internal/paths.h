@@ -5,13 +5,13 @@
 // installed): used by the satellite library (Satellite::Impl, as owner and subscriber) and by the
 // hub's module host (ModuleFlow, as a module's owner side), each through its Host. Runs on the
 // thread of Host::loop. The sources are runtime/src/paths/.
-// The path socket speaks the reduced framing of skrobot/flow/path_framing.h.
+// The path socket speaks the reduced framing of skrobot/runtime/flow/path_framing.h.
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop_handles.h>
-#include <skrobot/flow/messages.h>
-#include <skrobot/flow/shm_ring.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop_handles.h>
+#include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/flow/shm_ring.h>
 
 #include <cstdint>
 #include <functional>

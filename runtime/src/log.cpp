@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <unistd.h>
 

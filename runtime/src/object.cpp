@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/core/log.h>
-#include <skrobot/core/signal.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/signal.h>
 
 #include <algorithm>
 

@@ -4,8 +4,8 @@
 
 #include "log_capture.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
 
 #include <atomic>
 #include <mutex>

@@ -4,7 +4,7 @@
 // quotas and a resumed upload, with the satellite library's SyncClient and raw frames.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/accounts.h>
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <algorithm>

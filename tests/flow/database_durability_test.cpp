@@ -8,7 +8,7 @@
 #include "log_capture.h"
 #include "temp_dir.h"
 
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <gtest/gtest.h>
 

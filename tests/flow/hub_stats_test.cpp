@@ -4,7 +4,7 @@
 #include "rate_window.h"
 #include "flow_fixture.h"
 
-#include <skrobot/flow/hub_stats.h>
+#include <skrobot/hub/flow/hub_stats.h>
 
 #include <gtest/gtest.h>
 

@@ -5,8 +5,8 @@
 #include "flow_fixture.h"
 #include "log_capture.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/flow/accounts.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <gtest/gtest.h>
 

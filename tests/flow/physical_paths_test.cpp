@@ -5,9 +5,9 @@
 // revocation when a subscriber leaves, counts in the statistics, and refusals.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/access.h>
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/hub_stats.h>
+#include <skrobot/hub/flow/access.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/hub/flow/hub_stats.h>
 
 #include <algorithm>
 #include <optional>

@@ -5,8 +5,8 @@
 // server goes on. Clients here are blocking sockets with skr::flow::TlsSession.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include <netinet/in.h>
 #include <poll.h>

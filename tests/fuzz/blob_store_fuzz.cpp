@@ -8,7 +8,7 @@
 #include "families/blobs/blob_path.h"
 #include "families/blobs/blob_store.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <cstdint>
 #include <cstdio>

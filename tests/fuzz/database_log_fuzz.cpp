@@ -8,7 +8,7 @@
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/database_log_fuzz
 #include "families/databases/database_log.h"
 
-#include <skrobot/flow/bytes.h>
+#include <skrobot/runtime/flow/bytes.h>
 
 #include <cstdint>
 #include <cstdio>

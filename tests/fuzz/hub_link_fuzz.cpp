@@ -4,8 +4,8 @@
 // go through the link's naming and routing (core/src/flow/families/links/hub_route.cpp), whose promises are
 // checked: a taken name keeps the far name, or prefixes it with the link's hub; never one of
 // our own channels back; a route always ends with the link's hub.
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include "families/links/hub_route.h"
 

@@ -5,8 +5,8 @@
 // and rules that write back to JSON and read back equal.
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/users_file_fuzz
-#include <skrobot/core/log.h>
-#include <skrobot/flow/accounts.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <sys/mman.h>
 #include <sys/stat.h>

@@ -6,7 +6,7 @@
 // same through jsoncpp and Variant::fromJson().
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/variant_decode_fuzz
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <json/reader.h>
 

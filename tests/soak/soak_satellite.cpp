@@ -12,7 +12,7 @@
 //                     over the synchronous connection; prints "ACK <key> <value>" once answered
 //                     (a slot's keys are reused by its next writer, with a higher BASE: the
 //                     database stays the same size however long the soak runs)
-#include <skrobot/core/clock.h>
+#include <skrobot/runtime/clock.h>
 #include <skrobot/satellite.h>
 
 #include <cstdio>

@@ -10,7 +10,7 @@
 
 #include "flow_fixture.h"
 
-#include <skrobot/core/module_host.h>
+#include <skrobot/hub/module_host.h>
 
 #include <json/json.h>
 

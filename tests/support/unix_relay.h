@@ -5,7 +5,7 @@
 // that lost its way would, until restore(). Loop thread only; header-only.
 #pragma once
 
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/loop.h>
 
 #include <uv.h>
 

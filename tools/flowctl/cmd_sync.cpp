@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-#include <skrobot/core/spread.h>
+#include <skrobot/runtime/spread.h>
 
 #include "session.h"
 

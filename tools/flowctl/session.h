@@ -2,7 +2,7 @@
 // flowctl echo and pub: a satellite flow on a loop of flowctl's own (internal).
 #pragma once
 
-#include <skrobot/core/loop_handles.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <functional>
 #include <string>

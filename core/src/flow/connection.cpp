@@ -4,7 +4,7 @@
 #include "dispatch.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 #include <cstring>

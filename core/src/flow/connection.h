@@ -11,12 +11,12 @@
 
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/bytes.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include <uv.h>
 

@@ -5,7 +5,7 @@
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/flow/codec.h>
 
 #include <algorithm>
 

@@ -5,7 +5,7 @@
 // checked the code's direction, connection and minor before.
 #pragma once
 
-#include <skrobot/flow/protocol.h>
+#include <skrobot/runtime/flow/protocol.h>
 
 #include <string_view>
 

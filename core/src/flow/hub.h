@@ -21,8 +21,8 @@
 #include "families/sync/sync_room.h"
 #include "rate_window.h"
 
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 
 #include <array>
 #include <cstdint>

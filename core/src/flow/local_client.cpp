@@ -5,7 +5,7 @@
 
 #include "families/blobs/blob_path.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 #include <unordered_map>

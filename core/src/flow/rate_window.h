@@ -6,7 +6,7 @@
 // than a window is measured over its age. Main loop thread only.
 #pragma once
 
-#include <skrobot/core/clock.h>
+#include <skrobot/runtime/clock.h>
 
 #include <array>
 #include <cstddef>

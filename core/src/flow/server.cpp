@@ -5,7 +5,7 @@
 #include "connection.h"
 #include "uv_handle.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <netinet/in.h>
 #include <sys/socket.h>

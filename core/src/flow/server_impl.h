@@ -7,8 +7,8 @@
 
 #include "hub.h"
 
-#include <skrobot/flow/server.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include <uv.h>
 

@@ -14,7 +14,7 @@
 // Log tags: AGENT-RULES, AGENT-HEARD, AGENT-ACTION, AGENT-RECOGNISER, AGENT-REQUEUE.
 #include "rules.h"
 
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/plugin_watch.hpp>

@@ -5,7 +5,7 @@
 
 #include "nats_client.h"
 
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <json/value.h>
 

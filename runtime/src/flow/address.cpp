@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/flow/address.h>
+#include <skrobot/runtime/flow/address.h>
 
 #include <charconv>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/flow/fd_passing.h>
+#include <skrobot/runtime/flow/fd_passing.h>
 
 #include <sys/socket.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <cstddef>
 #include <vector>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/flow/bytes.h>
-#include <skrobot/flow/path_framing.h>
+#include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/runtime/flow/path_framing.h>
 
 #include <cstring>
 #include <functional>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/core/clock.h>
-#include <skrobot/flow/shm_ring.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/flow/shm_ring.h>
 
 #include <fcntl.h>
 #include <sys/eventfd.h>

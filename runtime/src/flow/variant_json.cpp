@@ -4,7 +4,7 @@
 // Json::Value: variant_json_read.cpp, variant_json_write.cpp.
 #include "variant_json_text.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <cmath>
 #include <limits>

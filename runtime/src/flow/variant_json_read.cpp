@@ -10,7 +10,7 @@
 // nesting, itself bounded by 2 x max_depth + 2.
 #include "variant_json_text.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <algorithm>
 #include <charconv>

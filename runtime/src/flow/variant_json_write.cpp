@@ -5,7 +5,7 @@
 // the shortest digits that read back to the same double.
 #include "variant_json_text.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <charconv>
 #include <cmath>

@@ -2,7 +2,7 @@
 // Physical mode (see paths.h): what both sides share.
 #include "paths_impl.h"
 
-#include <skrobot/flow/fd_passing.h>
+#include <skrobot/runtime/flow/fd_passing.h>
 
 namespace skr::flow::phys {
 

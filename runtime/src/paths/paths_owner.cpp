@@ -2,8 +2,8 @@
 // Physical mode, the owner's side (see paths.h): the listener, grants, peers, publishing.
 #include "paths_impl.h"
 
-#include <skrobot/flow/address.h>
-#include <skrobot/flow/fd_passing.h>
+#include <skrobot/runtime/flow/address.h>
+#include <skrobot/runtime/flow/fd_passing.h>
 
 #include <arpa/inet.h>
 #include <netinet/in.h>

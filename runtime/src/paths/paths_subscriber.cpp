@@ -3,8 +3,8 @@
 // fallback.
 #include "paths_impl.h"
 
-#include <skrobot/flow/address.h>
-#include <skrobot/flow/fd_passing.h>
+#include <skrobot/runtime/flow/address.h>
+#include <skrobot/runtime/flow/fd_passing.h>
 
 #include <arpa/inet.h>
 #include <fcntl.h>

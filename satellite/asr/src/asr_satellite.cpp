@@ -3,7 +3,7 @@
 
 #include "transcript.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 #include <skrobot/media_frame.hpp>
 
 #include <cmath>

@@ -9,8 +9,8 @@
 #include "asr_satellite.h"
 #include "pocketsphinx_engine.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop_handles.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/satellite.h>
 
 #include <cstdio>

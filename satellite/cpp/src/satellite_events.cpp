@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // Events on the flow: the channel table, subscriptions by name, data, services, errors. A frame
 // that breaks the protocol closes the connection (SAT-PROTOCOL) and the satellite reconnects.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 
 #include "satellite_impl.h"
 
-#include <skrobot/flow/event_dispatch.h>
+#include <skrobot/runtime/flow/event_dispatch.h>
 
 namespace skr::sat {
 

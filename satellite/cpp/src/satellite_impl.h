@@ -3,8 +3,8 @@
 // requests. Everything runs on the satellite's loop thread.
 #pragma once
 
-#include <skrobot/core/loop_handles.h>
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/loop_handles.h>
+#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <map>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The satellite's connection: connect, LOGIN, CHAN_LIST, GO_ASYNC, and reconnection with backoff.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <chrono>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <unistd.h>

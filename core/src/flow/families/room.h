@@ -13,9 +13,9 @@
 // Main loop thread only, like everything in the hub's server.
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/result.h>
-#include <skrobot/flow/catalogue.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/catalogue.h>
 
 namespace skr::flow {
 

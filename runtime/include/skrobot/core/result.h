@@ -1,5 +1,4 @@
 // SPDX-License-Identifier: Apache-2.0
-// The hub's Result and Errc are the shared, header-only ones of the plugin API.
+// moved to <skrobot/runtime/result.h>; this forwarding header goes in the next minor release
 #pragma once
-
-#include <skrobot/result.hpp>
+#include <skrobot/runtime/result.h>

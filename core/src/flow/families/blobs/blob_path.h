@@ -9,7 +9,7 @@
 // component then use the parent's descriptor with the *at calls, never following a symlink.
 #pragma once
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstddef>
 #include <functional>

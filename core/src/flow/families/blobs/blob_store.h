@@ -9,12 +9,12 @@
 // a test can check it). BLOB_MODIFY writes a copy the same way: a reader never sees a torn chunk.
 #pragma once
 
-#include <skrobot/flow/bytes.h>
+#include <skrobot/runtime/flow/bytes.h>
 
 #include "families/blobs/blob_path.h"
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <condition_variable>
 #include <cstdint>

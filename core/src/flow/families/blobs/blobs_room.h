@@ -9,7 +9,7 @@
 #include "families/blobs/blob_store.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <memory>

@@ -7,7 +7,7 @@
 #include "families/channels/channel_table.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <string>

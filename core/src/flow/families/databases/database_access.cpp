@@ -2,8 +2,8 @@
 // Database access (see database_access.h).
 #include "families/databases/database_access.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

@@ -4,7 +4,7 @@
 
 #include "families/databases/database_log.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <chrono>
 #include <utility>

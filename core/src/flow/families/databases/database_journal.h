@@ -11,8 +11,8 @@
 
 #include "families/databases/file_layer.h"
 
-#include <skrobot/flow/pair_database.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <condition_variable>
 #include <cstdint>

@@ -6,7 +6,7 @@
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 namespace skr::flow {
 

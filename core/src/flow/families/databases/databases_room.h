@@ -8,7 +8,7 @@
 #include "families/databases/database_access.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <string>

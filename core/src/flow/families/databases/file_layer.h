@@ -9,7 +9,7 @@
 // journal writes on its own thread.
 #pragma once
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <filesystem>

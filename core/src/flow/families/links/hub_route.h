@@ -3,7 +3,7 @@
 // what arrives over the link, kept apart so that a fuzz target drives them with any input.
 #pragma once
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <string>
 #include <string_view>

@@ -8,7 +8,7 @@
 #include "families/links/hub_route.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

@@ -11,7 +11,7 @@
 #include "families/links/replica.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <memory>

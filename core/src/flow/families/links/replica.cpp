@@ -4,8 +4,8 @@
 
 #include "hub.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <algorithm>
 

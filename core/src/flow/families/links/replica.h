@@ -9,7 +9,7 @@
 
 #include "endpoint.h"
 
-#include <skrobot/flow/server.h>
+#include <skrobot/hub/flow/server.h>
 
 #include <cstdint>
 #include <string>

@@ -9,9 +9,9 @@
 #include "families/channels/channel_table.h"
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/result.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <cstdint>
 #include <map>

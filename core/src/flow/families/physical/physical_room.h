@@ -7,7 +7,7 @@
 #include "families/physical/physical_paths.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 namespace skr::flow {
 

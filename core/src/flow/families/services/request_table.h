@@ -8,8 +8,8 @@
 #include "families/channels/channel_table.h"
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <functional>

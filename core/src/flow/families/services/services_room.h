@@ -6,7 +6,7 @@
 #include "families/room.h"
 #include "families/services/request_table.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 namespace skr::flow {
 

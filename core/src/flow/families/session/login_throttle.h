@@ -5,7 +5,7 @@
 // is forgotten too, and the table is bounded. Main loop thread only.
 #pragma once
 
-#include <skrobot/core/clock.h>
+#include <skrobot/runtime/clock.h>
 
 #include <cstddef>
 #include <string>

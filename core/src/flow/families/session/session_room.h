@@ -8,8 +8,8 @@
 #include "families/room.h"
 #include "families/session/login_throttle.h"
 
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <memory>
 #include <vector>

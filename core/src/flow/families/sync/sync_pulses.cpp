@@ -2,7 +2,7 @@
 // The sync pulse (see sync_pulses.h).
 #include "families/sync/sync_pulses.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

@@ -8,7 +8,7 @@
 #include "families/channels/channel_table.h"
 #include "endpoint.h"
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <string>

@@ -6,7 +6,7 @@
 #include "families/room.h"
 #include "families/sync/sync_pulses.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 namespace skr::flow {
 

@@ -12,9 +12,9 @@
 // and closes.
 #pragma once
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/messages.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>
@@ -34,7 +34,7 @@ namespace skr::sat {
 using ChannelInfo = flow::msg::ChannelInfo;
 using LoginInfo = flow::msg::LoginOk;
 
-// The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/flow/protocol.h,
+// The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/runtime/flow/protocol.h,
 // shared with the hub's modules (same name, one for one).
 using flow::toErrc;
 

@@ -5,7 +5,7 @@
 //             "rules": {"publish": ["alice.**"], "subscribe": ["**", "!bob.secret"],
 //                       "call": ["speech.*"], "db_read": ["**"], "db_write": ["alice*"]}}
 //
-// Each rule is a list of channel-name patterns (runtime/include/skrobot/flow/name_pattern.h, the
+// Each rule is a list of channel-name patterns (runtime/include/skrobot/runtime/flow/name_pattern.h, the
 // one pattern syntax) naming what the user may do: publish (create and publish on its own
 // channels), subscribe, call (service channels), read databases (select them) and write them. A
 // rule left out is ["**"]: a user without rules keeps what every logged-in user could do before
@@ -15,7 +15,7 @@
 // hub's modules have the defaults.
 #pragma once
 
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/result.hpp>
 
 #include <json/value.h>

@@ -19,10 +19,10 @@
 // Lines written by a module carry the source "mod.<name>"; its config problems MODULE-CONFIG.
 #pragma once
 
-#include <skrobot/core/hub_config.h>
-#include <skrobot/core/json_schema.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/result.h>
+#include <skrobot/hub/hub_config.h>
+#include <skrobot/hub/json_schema.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstddef>
 #include <cstdint>

@@ -8,14 +8,14 @@
 // breaks the protocol closes that connection only, with a FLOW-PROTOCOL log line.
 #pragma once
 
-#include <skrobot/core/loop.h>
-#include <skrobot/core/result.h>
-#include <skrobot/flow/access.h>
-#include <skrobot/flow/messages.h>
-#include <skrobot/flow/pair_database.h>
-#include <skrobot/flow/protocol.h>
-#include <skrobot/flow/tls.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/hub/flow/access.h>
+#include <skrobot/runtime/flow/messages.h>
+#include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/protocol.h>
+#include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <cstdint>
 #include <filesystem>

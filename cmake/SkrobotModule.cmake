@@ -30,9 +30,7 @@ function(skrobot_add_module name)
   endif()
   target_compile_features(${name} PRIVATE cxx_std_20)
   target_link_libraries(${name} PRIVATE skrobot::plugin_api skrobot::module_support ${M_LIBS})
-  # Static libraries linked in (module-support, a module's own core library, the runtime's
-  # skrobot_name_pattern) export nothing from the module either.
-  target_link_options(${name} PRIVATE -Wl,--no-undefined -Wl,--exclude-libs,ALL)
+  target_link_options(${name} PRIVATE -Wl,--no-undefined)
   if(NOT M_NO_INSTALL)
     install(TARGETS ${name} LIBRARY DESTINATION ${SKROBOT_MODULE_INSTALL_DIR}
       COMPONENT ${SKROBOT_MODULE_INSTALL_COMPONENT})

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // skrobot-asr through a hub (issue 19's benchmark): word error rate per mode on espeak-ng speech
 // and on the pocketsphinx-testdata recordings, the recogniser's real-time factor, the delay from
 // the end of speech (as the VAD decides it, one hang-over after the last voiced frame) to the

@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 // For the benchmarks that drive hubs through satellites (hub_link, nats_bridge, large_payload):
 // polling for a condition, a hub in this process on a loop thread of its own, and a
 // skr::sat::Satellite on a loop thread of its own. Header-only; the benchmark process stops
 // (exit 1, a line on stderr) when a hub cannot start or a satellite cannot connect.
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include <errno.h>

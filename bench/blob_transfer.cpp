@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channel transfers against their floors, in one run:
 //   - upload and download through the hub (SyncClient, Unix socket and TCP loopback), per size;
 //   - a raw socket copy of the same bytes (a socketpair, a TCP loopback pair);
@@ -6,9 +7,9 @@
 //     ping-pong during a raw socket copy of the same size (two cores are shared either way).
 //
 //   blob_transfer [--quick] [--sizes MB,MB,...]    default sizes 1,100,1024; --quick: 1,16
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <arpa/inet.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Database write throughput under each durability policy (docs/pair-databases.md), against the
 // same hub keeping its databases in memory only (no data directory), measured in the same run.
 //
@@ -11,9 +12,9 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 
 #include <fcntl.h>
 #include <sys/vfs.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FlowNetwork relay benchmark: what the hub costs compared with a direct socket between two
 // clients. For the Unix socket, TCP and TLS over TCP (loopback), in the same run:
 //   round trip   ping-pong A -> hub -> B -> hub -> A, one message in flight: p50/p99
@@ -22,7 +23,7 @@
 //
 // Exits 1 on a real error (lost connection, frames missing beyond the reported drops, a hub
 // that does not answer); a missed target is reported, not an error.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include "relay_harness.h"
 

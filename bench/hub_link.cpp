@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hub links against one hub, in one run (docs/hub-links.md):
 //   - service round trip p50/p99 at 16 B, 1 KB and 64 KB: the caller on the service's hub (one
 //     hub), on a hub linked to it (one link), and on a hub linked to that one (two links);
@@ -9,10 +10,10 @@
 // their own loop threads, the caller a SyncClient. Two cores are shared by everything.
 //
 //   hub_link [--quick]
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/spread.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/spread.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include <unistd.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Large payloads through the relay, a direct path and shared memory (docs/physical-mode.md),
 // beside a raw Unix socket and memcpy of the same bytes, in one run, at 64 KB, 1 MB and 6 MB
 // (a 1080p RGB frame):
@@ -26,9 +27,9 @@
 // throughput at least 0.5x memcpy; direct round trip within 1.3x the raw socket's.
 //
 //   large_payload [--quick]
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include "bench_satellite.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nats-bridge module (docs/fleet.md) against its baselines, in one run:
 //   1. service round trip p50/p99 at 16 B, 1 KB and 64 KB over four paths: a raw NATS client pair
 //      (libnats request/reply through nats-server), one hub (caller and server on the same hub),
@@ -14,8 +15,8 @@
 // raw NATS clients live in this process on threads of their own. Two cores run everything.
 //
 //   nats_bridge [--quick] [--hubs N]
-#include <skrobot/core/clock.h>
-#include <skrobot/core/spread.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/spread.h>
 #include <skrobot/satellite.h>
 
 #include <json/json.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub beside its peers: Redis pub/sub, Mosquitto (MQTT QoS 0) and NATS core, each started
 // here from Debian's binaries on a free loopback port, persisting nothing, and stopped at the
 // end. The same sizes and patterns go through every server and through the hub (in-process,
@@ -24,7 +25,7 @@
 // Exits 1 on a real error (lost connection, a server that does not start, no data at all); a
 // slower figure is reported, not an error. A missing server binary skips its column, unless
 // --require-all (the test suite) makes it an error.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include "hub_process.h"  // Child
 #include "nats_server.h"  // NatsServer, freePort

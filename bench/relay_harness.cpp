@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // The relay benchmark's harness (relay_harness.h): the hub, its clients, round trips and streams.
 #include "relay_harness.h"
 
-#include <skrobot/flow/accounts.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <arpa/inet.h>
 #include <netinet/tcp.h>

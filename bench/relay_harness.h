@@ -1,15 +1,16 @@
+// SPDX-License-Identifier: Apache-2.0
 // The relay benchmark's harness, shared by flow_relay and peers: an in-process hub on a
 // LoopThread (Unix socket, TCP, TLS), blocking client sockets that speak FlowProtocol, round trips
 // (one message in flight) and streams (1:N, a publisher at most a window ahead of its slowest
 // subscriber, so that figures are delivered traffic). Everything fails by throwing Fail.
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/hub_stats.h>
-#include <skrobot/flow/server.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/hub/flow/hub_stats.h>
+#include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include "temp_dir.h"
 

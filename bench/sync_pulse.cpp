@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse through the hub, in one run: a source at 100 Hz and at 1 kHz, followed by 1, 10
 // and 50 target processes, with and without a 15 fps 640x360 RGB stream going to the same
 // targets. Per row: the source's own period error, the targets' period error and source-to-target
@@ -12,9 +13,9 @@
 //
 // Targets are processes of this binary (--target): each follows the source with a Satellite and
 // answers each pulse at once (a target that keeps up), and reports its figures on stdout.
-#include <skrobot/core/loop.h>
-#include <skrobot/core/spread.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/spread.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <spawn.h>

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tick timing benchmark: for each timing mode at fast intervals of 1 ms and 10 ms, the error of
 // each fast tick period against the nominal interval (p50/p99/max of |period - interval|), the
 // drift of the mean period, and the loop thread's CPU use. The baseline is the OS floor measured
 // in the same run: a thread sleeping to absolute deadlines with clock_nanosleep(TIMER_ABSTIME).
 //
 //   tick_timing [--seconds S]   (default 2 s per row)
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/loop.h>
 
 #include <algorithm>
 #include <cmath>

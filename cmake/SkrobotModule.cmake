@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # skrobot_add_module(<name> SOURCES src... [LIBS lib...] [OUTPUT_DIR dir] [NO_INSTALL])
 #
 # Builds one hub module: a shared object named <name>.so (no "lib" prefix) that exports only its

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # The Debian packages skrobot and skrobot-dev, built by CPack from an installed tree:
 #   tools/bootstrap.sh package      (or: cpack --config <build>/CPackConfig.cmake -B <dir>)
 set(CPACK_GENERATOR DEB)

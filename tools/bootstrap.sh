@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Set-up for a fresh Debian 12 machine, then run the hub or the tests.
 #
 #   tools/bootstrap.sh run    install what is missing, build, start the hub with config/default.json
@@ -145,12 +146,13 @@ case "$MODE" in
     exit "$status"
     ;;
   test)
+    # docs/testing.md: what each step runs, and the heavy tests the asan build leaves out.
     build_preset asan
-    step "running the tests under AddressSanitizer + UndefinedBehaviorSanitizer (build/asan)"
+    step "running the tests under AddressSanitizer + UndefinedBehaviorSanitizer (build/asan; the heavy ones in release only)"
     ctest --preset asan -j "$JOBS" "$@"
-    step "fuzzing the network decoders (clang + libFuzzer, ${FUZZ_SECONDS:-30} s per target)"
+    step "fuzzing the network decoders (clang + libFuzzer, ${FUZZ_CHANGED_SECONDS:-60} s per target whose code changed, ${FUZZ_SECONDS:-10} s for the others)"
     fuzz_status=0
-    tools/fuzz.sh "${FUZZ_SECONDS:-30}" || fuzz_status=$?
+    tools/fuzz.sh || fuzz_status=$?
     step "running the tests (release build)"
     ctest --preset release -j "$JOBS" "$@"
     if [ "$fuzz_status" -ne 0 ]; then echo "the fuzzers found a failure (above)"; fi

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # cmake -DSRC=web -DOUT=<build>/web -DTHREE=<three.module.js> -P copy_web.cmake
 if(NOT EXISTS ${THREE})
   message(FATAL_ERROR "three.js is missing (${THREE}): run `npm ci --prefix web` "

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Audio benchmarks, without the hub (what the modules' worker threads do):
 //   fft-audio  CPU time per second of 22050 Hz audio for windows of 512..4096 samples, hop
 //              size/2, Hann: the FFT alone, and with the JSON the module publishes

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // fft-audio inside a hub: what a second of audio costs the whole process. A satellite publishes
 // PCM (1024-sample frames) on guest.in as fast as the module keeps up and subscribes to
 // fft.spectrum and fft.bands; the figure is the process CPU time (hub loop, module worker and the
@@ -6,10 +7,10 @@
 //   fft_module_bench [--quick]
 #include "test_client.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/module_host.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/module_host.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/media_frame.hpp>
 
 #include <json/json.h>

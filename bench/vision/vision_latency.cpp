@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Vision benchmark: latency from publishing a 640x360 JPEG frame to receiving its detection,
 // for face-detect, motion and qrcode alone, then all three together, at the camera's 15 fps.
 //
@@ -18,11 +19,11 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/module_host.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/module_host.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/media_frame.hpp>
 
 #include <json/json.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `skrobot user ...`: manage the hub's users file (docs/accounts.md).
 #pragma once
 

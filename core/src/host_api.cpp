@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C table of host services (skr_host_api). Every function is called from module code
 // through C frames: none may throw, so each one catches what the C++ below could raise.
 #include "module_record.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
 
 #include <json/writer.h>
 

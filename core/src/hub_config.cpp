@@ -1,4 +1,5 @@
-#include <skrobot/core/hub_config.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/hub/hub_config.h>
 
 #include "link_config.h"
 

@@ -1,4 +1,5 @@
-#include <skrobot/core/install_layout.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/hub/install_layout.h>
 
 #include <cstdlib>
 #include <system_error>

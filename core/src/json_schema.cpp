@@ -1,4 +1,5 @@
-#include <skrobot/core/json_schema.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/hub/json_schema.h>
 #include <skrobot/support/json.hpp>
 
 #include <algorithm>

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // "hub_name" and "links" (see link_config.h).
 #include "link_config.h"
 
-#include <skrobot/flow/address.h>
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/runtime/flow/address.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <sys/stat.h>
 

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub-link part of the config: "hub_name" and "links" (docs/hub-links.md).
 #pragma once
 
-#include <skrobot/core/hub_config.h>
-#include <skrobot/core/json_schema.h>
+#include <skrobot/hub/hub_config.h>
+#include <skrobot/hub/json_schema.h>
 
 #include <json/value.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Declared config keys (ABI 1.2): reading them out of a module, and checking a config object
 // against them with the hub's own schema validator (json_schema.h).
 #include "module_record.h"

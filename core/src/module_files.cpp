@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Finding module files and reading their descriptors.
 #include "module_record.h"
 
-#include <skrobot/core/install_layout.h>
+#include <skrobot/hub/install_layout.h>
 
 #include <unistd.h>
 

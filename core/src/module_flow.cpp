@@ -1,11 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "module_flow.h"
 
 #include "module_record.h"
-#include "paths.h"  // the satellite library's owner side of physical mode
+#include "paths.h"  // the runtime's physical mode (its owner side serves a module's paths)
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/variant.h>
-#include <skrobot/satellite/satellite.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <algorithm>
 #include <cstring>
@@ -195,7 +195,7 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     return fail("channel_paths", makeError(Errc::invalid_argument, "not a streaming channel"));
   }
   if (!paths_) {
-    sat::detail::Paths::Host h;
+    flow::phys::Paths::Host h;
     h.loop = &loop;
     h.offer = [this](const flow::msg::PhysOffer& m) {
       auto r = client_->offerPaths(m);
@@ -221,19 +221,19 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     h.deliver_copy = [](uint16_t, std::string) {};
     h.next_tag = [this] { return next_path_tag_++; };
     h.hub_minor = [] { return flow::kProtocolMinor; };  // no TCP endpoint (tcp_listen is "")
-    paths_ = std::make_unique<sat::detail::Paths>(std::move(h));
+    paths_ = std::make_unique<flow::phys::Paths>(std::move(h));
     paths_loop_ = &loop;
     paths_tick_ = loop.addTickHandler(Tick::one_sec, [this] { paths_->tick(); });
   }
-  sat::PhysicalOptions po;
-  po.direct = (o.kinds & SKR_PATH_DIRECT) != 0;
-  po.shm = (o.kinds & SKR_PATH_SHM) != 0;
-  if (o.ring_slots != 0) po.ring.slots = o.ring_slots;
-  if (o.ring_readers != 0) po.ring.max_readers = o.ring_readers;
-  if (o.slot_bytes != 0) po.ring.slot_bytes = o.slot_bytes;
+  const auto kinds = uint8_t(((o.kinds & SKR_PATH_DIRECT) != 0 ? flow::msg::kPhysDirect : 0) |
+                            ((o.kinds & SKR_PATH_SHM) != 0 ? flow::msg::kPhysShm : 0));
+  flow::shm::RingGeometry ring;
+  if (o.ring_slots != 0) ring.slots = o.ring_slots;
+  if (o.ring_readers != 0) ring.max_readers = o.ring_readers;
+  if (o.slot_bytes != 0) ring.slot_bytes = o.slot_bytes;
   offered_ = false;
   offer_error_.reset();
-  paths_->serve(chan_id, name, po);
+  paths_->serve(chan_id, name, kinds, ring);
   if (offer_error_) {
     paths_->unserve(chan_id);
     return fail("channel_paths " + name, *offer_error_);

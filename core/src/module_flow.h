@@ -1,13 +1,15 @@
+// SPDX-License-Identifier: Apache-2.0
 // A module's satellite in the hub: the ABI 1.1 channel and database calls of one module, on top
 // of a flow::LocalClient. Created by the module's first such call, destroyed when it stops (its
 // channels and subscriptions go with it). Main loop thread only.
-// Physical mode (ABI 1.7): the channels a module offers paths for are served by the satellite
-// library's owner side (satellite/cpp/src/paths.h), its Host bridged in-process to the hub's
-// PhysicalPaths through the LocalClient instead of frames on a flow.
+// Physical mode (ABI 1.7): the channels a module offers paths for are served by the owner side of
+// the runtime's flow::phys::Paths (runtime/internal/paths.h), as a satellite's are, its Host
+// bridged in-process to the hub's PhysicalPaths through the LocalClient instead of frames on a
+// flow.
 #pragma once
 
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/plugin.h>
 
 #include <cstdint>
@@ -18,7 +20,7 @@
 #include <unordered_map>
 #include <vector>
 
-namespace skr::sat::detail {
+namespace skr::flow::phys {
 class Paths;
 }
 
@@ -132,7 +134,7 @@ class ModuleFlow {
   skr_status refuseBlob(const BlobAnswer& a, const std::string& what, const Error& error);
   std::shared_ptr<ModuleFlow*> alive_ = std::make_shared<ModuleFlow*>(this);
   // Physical mode: made by the first offerPaths, ticked each second on `paths_loop_`.
-  std::unique_ptr<sat::detail::Paths> paths_;
+  std::unique_ptr<flow::phys::Paths> paths_;
   Loop* paths_loop_ = nullptr;
   TickId paths_tick_ = 0;
   uint32_t next_path_tag_ = 1;

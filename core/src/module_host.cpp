@@ -1,8 +1,9 @@
-#include <skrobot/core/module_host.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/hub/module_host.h>
 
 #include "module_record.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <skrobot/support/json.hpp>
 

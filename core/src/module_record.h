@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 // The host's record of one module; also the opaque skr_module_ctx handed to it. Internal.
 #pragma once
 
 #include "module_flow.h"
 #include "shared_library.h"
 
-#include <skrobot/core/hub_config.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/module_host.h>
+#include <skrobot/hub/hub_config.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
 
 #include <deque>

@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // RAII handle of a shared object opened with dlopen(RTLD_NOW | RTLD_LOCAL). Internal to the core.
 #pragma once
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <filesystem>
 

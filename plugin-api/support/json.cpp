@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/support/json.hpp>
 
 #include <json/reader.h>

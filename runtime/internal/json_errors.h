@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // jsoncpp reports parse errors as "* Line 1, Column 8\n  Duplicate key: 'a'\n"; messages here
 // are one line: "Line 1, Column 8: Duplicate key: 'a'". Internal.
 #pragma once

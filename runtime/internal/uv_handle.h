@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Heap-allocated libuv handles whose memory goes with their close callback. Internal.
 #pragma once
 

@@ -1,4 +1,5 @@
-#include <skrobot/core/log.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/log.h>
 
 #include <unistd.h>
 

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // What loop.cpp and loop_handles.cpp share (private to the runtime's sources).
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
 
 #include <uv.h>
 

@@ -1,5 +1,6 @@
-#include <skrobot/core/log.h>
-#include <skrobot/core/signal.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/signal.h>
 
 #include <algorithm>
 

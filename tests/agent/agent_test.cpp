@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The agent module in a hub process with the real speech and nao-bridge (simulated) modules:
 // recognisers and detectors are satellites that publish what a skrobot-asr, face-detect and
 // qrcode would, and record what the agent asks of them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The agent's phrase patterns, number words and rules file, without a hub.
 #include "rules.h"
 #include "number_words.h"

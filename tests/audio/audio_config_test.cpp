@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The audio modules' declared config keys: the host refuses a value out of range and an unknown
 // key (a typo) before init, naming the key; what the declarations cannot say is still checked
 // by the modules; the declared defaults are enough to start.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // audio-io against ALSA's null device: a test HOME whose .asoundrc makes the default PCM a null
 // device gives PortAudio one device on a machine without a sound card. HOME is set before main()
 // runs, so before any PortAudio or ALSA initialisation in this process.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Helpers for the audio module tests: PCM frames of generated signals, a satellite that listens
 // to several channels, module database reads, and a plain DFT to check spectra independently of
 // the modules' FFTW code.

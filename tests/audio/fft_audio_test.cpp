@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // fft-audio through the hub: a satellite publishes PCM on guest.in, listens to the module's
 // spectrum and bands channels, and reads its counters from the module's database.
 #include "audio_test_util.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // speech through the hub: requests on speech.say, PCM on speech.voice, timelines on
 // speech.phonemes, as the avatar's browser sees them.
 #include "audio_test_util.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vorbis through the hub: PCM published on guest.in is recorded to .ogg files, then played back
 // onto <name>.playback; duration and spectrum peak survive the round trip. soxi (from sox, which
 // the project's set-up installs) checks the files independently of our decoder: without it the

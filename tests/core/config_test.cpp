@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Config loading and validation: defaults, every kind of error, path resolution.
-#include <skrobot/core/hub_config.h>
-#include <skrobot/core/json_schema.h>
+#include <skrobot/hub/hub_config.h>
+#include <skrobot/hub/json_schema.h>
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,9 @@
-// The loop's handles (skrobot/core/loop_handles.h): timers, the spinner, descriptor and POSIX
+// SPDX-License-Identifier: Apache-2.0
+// The loop's handles (skrobot/runtime/loop_handles.h): timers, the spinner, descriptor and POSIX
 // signal watches, stopOnSignals.
 #include "test_support.h"
 
-#include <skrobot/core/loop_handles.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <gtest/gtest.h>
 

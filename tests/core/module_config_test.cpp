@@ -1,11 +1,12 @@
+// SPDX-License-Identifier: Apache-2.0
 // Declared config keys (ABI 1.2) through the module host: checked before init, each problem at
 // its key's path, defaults filled in; checkModules (what `skrobot --check-config` runs) reports the
 // same without initialising anything. Modules built for ABI 1.0 and 1.1 (no declared keys, config
 // unchecked) are compiled against the frozen headers in tests/modules/abi/abi_compat_test.sh.
 #include "log_capture.h"
 
-#include <skrobot/core/loop.h>
-#include <skrobot/core/module_host.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/support/json.hpp>
 
 #include <gtest/gtest.h>

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // The module host through its public interface, with the example module and the test modules
 // of tests/modules (one per failure case). No assertion depends on timing: loops run until a
 // condition holds, with generous time limits.
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/core/module_host.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
 
 #include <dlfcn.h>

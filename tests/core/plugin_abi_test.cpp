@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The binary layout of the seam: a module built against an older header must find every host
 // function where it was. Slots are spent from `reserved` without moving what follows
 // (docs/plugins.md, "Plan for the ABI changes"). A change that fails here breaks modules built

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "test_support.h"
 
-#include <skrobot/core/signal.h>
+#include <skrobot/runtime/signal.h>
 
 #include <gtest/gtest.h>
 

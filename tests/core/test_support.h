@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // Helpers shared by the core tests.
 #pragma once
 
 #include "log_capture.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
 
 #include <atomic>
 #include <mutex>

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Roles and rules (flow/access.h): parsed from the users file, and obeyed by every way in.
-#include <skrobot/flow/access.h>
-#include <skrobot/flow/accounts.h>
+#include <skrobot/hub/flow/access.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include "flow_fixture.h"
 #include "log_capture.h"
@@ -368,7 +369,7 @@ TEST_F(Access, AProtocol10ClientGetsUnsupportedForNewerRequests) {
 }  // namespace
 }  // namespace skr::flow
 
-#include <skrobot/core/module_host.h>
+#include <skrobot/hub/module_host.h>
 
 namespace skr::flow {
 namespace {

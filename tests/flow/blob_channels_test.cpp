@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channels through the hub: owner-only writes, reads for everyone, stores that outlive their
 // owner's connection and the hub, change events, older clients, readers during a replacement,
 // quotas and a resumed upload, with the satellite library's SyncClient and raw frames.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/accounts.h>
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The blob store on its own: path rules, confinement under both resolvers (a symlink planted in
 // the tree, a directory swapped for a symlink during the walk), the order of a commit's system
 // calls, resumed uploads across a restart, versions, quotas.

@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every FlowProtocol message encodes and decodes back to itself; the byte examples of
 // docs/flow-protocol.md are what the code produces; the frame splitter refuses bad lengths.
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/message_table.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/message_table.h>
 
 #include <gtest/gtest.h>
 

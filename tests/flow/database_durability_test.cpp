@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Durable PairDatabases: the log format, the journal's fsync order under a simulated power cut,
 // and what the store does with torn and damaged files. The kill -9 test of the real hub is in
 // tests/hub/database_kill_test.cpp.
@@ -7,7 +8,7 @@
 #include "log_capture.h"
 #include "temp_dir.h"
 
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <gtest/gtest.h>
 

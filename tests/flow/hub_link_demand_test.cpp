@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub link subscribes over there to exactly what is subscribed here, whatever order channels,
 // subscribers and links come and go in (docs/hub-links.md, "What crosses a link").
 //
@@ -17,10 +18,10 @@
 #include "temp_dir.h"
 #include "unix_relay.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/hub_stats.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/hub_stats.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <gtest/gtest.h>

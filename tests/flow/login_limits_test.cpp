@@ -1,11 +1,12 @@
+// SPDX-License-Identifier: Apache-2.0
 // Before login a connection is held short: frames of 4096 bytes at most, and failed logins slow
 // down the next ones per user name and per source (login_throttle.h).
 #include "families/session/login_throttle.h"
 #include "flow_fixture.h"
 #include "log_capture.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/flow/accounts.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C++ channel helpers of plugin_channels.hpp, through a real module (test_channels_cpp).
 #include "module_fixture.h"
 

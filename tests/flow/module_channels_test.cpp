@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Modules on the FlowNetwork: the ABI 1.1 calls from a C module, and in-process zero-copy.
 #include "flow_fixture.h"
 
-#include <skrobot/core/module_host.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
 
 #include <algorithm>

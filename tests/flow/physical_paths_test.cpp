@@ -1,12 +1,13 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode through the hub (protocol 1.7, two endpoints 1.8, the owner's switch 1.9, the
 // subscribers' reports 1.10): offers, grants with one-time tokens, the relay skipped for a
 // subscriber whose path works (from the point the owner picks) and resumed when it breaks,
 // revocation when a subscriber leaves, counts in the statistics, and refusals.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/access.h>
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/hub_stats.h>
+#include <skrobot/hub/flow/access.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/hub/flow/hub_stats.h>
 
 #include <algorithm>
 #include <optional>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Behaviour the docs promise about limits and channel identity, checked through the protocol: a
 // client that does not read its replies is closed (FLOW-SLOW-CLIENT) while the hub goes on,
 // connections beyond server.max_connections are refused, channel ids are not reused at once and a

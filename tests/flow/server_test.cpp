@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // The FlowServer over real sockets: login, databases, channels, services, bad input, overload.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/hub_stats.h>
+#include <skrobot/hub/flow/hub_stats.h>
 
-#include <skrobot/flow/accounts.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <sys/socket.h>
 

@@ -1,8 +1,9 @@
-// The shared-memory ring of physical mode (skrobot/flow/shm_ring.h): delivery in place, newest
+// SPDX-License-Identifier: Apache-2.0
+// The shared-memory ring of physical mode (skrobot/runtime/flow/shm_ring.h): delivery in place, newest
 // wins, leases against slow readers, dead readers, and writers that break the rules; descriptors
-// passed to another process (skrobot/flow/fd_passing.h).
-#include <skrobot/flow/fd_passing.h>
-#include <skrobot/flow/shm_ring.h>
+// passed to another process (skrobot/runtime/flow/fd_passing.h).
+#include <skrobot/runtime/flow/fd_passing.h>
+#include <skrobot/runtime/flow/shm_ring.h>
 
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse through the hub (protocol 1.4): sources as channels of kind sync, targets that
 // follow them every Nth pulse, pulses dropped for a target still busy with the previous one, and
 // pulses that go ahead of the data queued for a target.

@@ -1,11 +1,12 @@
+// SPDX-License-Identifier: Apache-2.0
 // The FlowServer's TLS listener in process: bad files stop the start; frames inside TLS go
 // through the same frame splitter (a bad length still closes that connection with
 // FLOW-PROTOCOL); a plain client gets a plain REPLY_ERROR; garbage records are refused; the
 // server goes on. Clients here are blocking sockets with skr::flow::TlsSession.
 #include "flow_fixture.h"
 
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include <netinet/in.h>
 #include <poll.h>

@@ -1,15 +1,16 @@
-// The transport layer (skrobot/flow/transport.h) on its own: Unix, TCP and TLS pairs made by a
+// SPDX-License-Identifier: Apache-2.0
+// The transport layer (skrobot/runtime/flow/transport.h) on its own: Unix, TCP and TLS pairs made by a
 // Listener and a Dialer on one loop (gathered writes, pause and resume, how each end hears a
 // close or a refusal, peer identity, descriptors), and the hub's Connection over a message-based
 // test transport (one frame per message), the proof that the interface carries one.
 #include "server_impl.h"
 #include "temp_dir.h"
 
-#include <skrobot/core/loop.h>
-#include <skrobot/core/loop_handles.h>
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/transport.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/loop_handles.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/transport.h>
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Variant: construction, conversions, the binary wire encoding (byte-exact and against hostile
 // input) and the JSON mapping.
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <gtest/gtest.h>
 #include <json/reader.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // foxglove-bridge in a real hub, against the reference client @foxglove/ws-protocol 0.8.0 and the
 // schemas of @foxglove/schemas 2.1.0 (web/node_modules): serverInfo, advertised channels and
 // their schemas, data while subscribed (and none after), a service call, parameters backed by

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // foxglove-bridge's protocol codec and conversions, without a hub.
 #include "foxglove_protocol.h"
 #include "foxglove_convert.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as the files a blob store reads at start
 // (<data_dir>/blobs/<channel>/owner and uploads/<id>.meta, core/src/flow/families/blobs/blob_store.cpp), as a
 // hub finds them after a crash or a hand edit. Opening must never crash; an upload it keeps must
@@ -7,7 +8,7 @@
 #include "families/blobs/blob_path.h"
 #include "families/blobs/blob_store.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <cstdint>
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as a database log (<data_dir>/db/<name>.log,
 // core/src/flow/families/databases/database_log.h), as the hub reads it at start after a crash. The reader must
 // never crash or allocate what a length field announces; its verdict must be consistent (a clean
@@ -7,7 +8,7 @@
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/database_log_fuzz
 #include "families/databases/database_log.h"
 
-#include <skrobot/flow/bytes.h>
+#include <skrobot/runtime/flow/bytes.h>
 
 #include <cstdint>
 #include <cstdio>

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as a FlowProtocol stream. The splitter must never read past
 // the input or accept an over-limit length; every frame body is decoded as each message of its
 // code, and what decodes must re-encode to bytes that decode to the same message again.
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/message_table.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/message_table.h>
 
 #include <cstdint>
 #include <cstdlib>

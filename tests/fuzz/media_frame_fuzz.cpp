@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the media frame header parser. Whatever it accepts must re-encode to the same
 // header fields and keep its payload inside the input.
 #include <skrobot/media_frame.hpp>

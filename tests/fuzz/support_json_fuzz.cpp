@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the module-support library's JSON parser (skrobot/support/json.hpp), which modules
 // run on messages from any publisher. It must never throw or crash; whatever it accepts must
 // write out as JSON that parses back (to the same text once written again: invalid UTF-8 in a

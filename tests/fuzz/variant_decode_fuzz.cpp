@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as a binary Variant. Whatever decodes must re-encode to a
 // value that decodes equal, stay encodable, and survive the JSON mapping (values holding no
 // non-finite float64, which JSON writes as null). The same bytes are also read as the JSON text
@@ -5,7 +6,7 @@
 // same through jsoncpp and Variant::fromJson().
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/variant_decode_fuzz
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <json/reader.h>
 

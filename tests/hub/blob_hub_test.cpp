@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channels with the real hub process: a large round trip checked by sha256 while the hub's
 // resident memory is sampled, and kill -9 in the middle of an upload.
 //   BLOB_MB   size of the round trip in MiB (default 256, 32 in the AddressSanitizer build; 2048
 //             for the long run)
-#include "hub_process.h"  // satellite/cpp/tests/support: Child
+#include "hub_process.h"  // Child
 #include "temp_dir.h"
 
 #include <skrobot/satellite/sync_client.h>

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Durable databases under `always`, proven with the real hub and kill -9: a satellite writes with
 // VAR_SET and counts the writes the hub acknowledged; the hub is killed at a random moment, twenty
 // times; after every restart each acknowledged write is there and no database is lost.
 // (The fsync order, which kill -9 cannot show, is tested in tests/flow/database_durability_test.)
-#include "hub_process.h"  // satellite/cpp/tests/support: Child
+#include "hub_process.h"  // Child
 #include "temp_dir.h"
 #include "test_client.h"
 

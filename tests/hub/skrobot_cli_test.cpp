@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The skrobot executable as a user runs it: options, config errors, module failures, signals.
 #include "temp_dir.h"
 #include "test_client.h"

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The Debian packages: built with CPack from this build, their file lists, control data and
 # systemd unit checked, then unpacked into a throwaway root (dpkg -x) and run from there with the
 # source and build trees hidden, a clean environment, and private /tmp, /run, /var/lib and network
@@ -30,7 +31,9 @@ if [[ ${INSIDE_NAMESPACE:-} != 1 ]]; then
   for f in /usr/bin/skrobot /usr/bin/flowctl /usr/bin/pysketch-executor \
            "$lib/libskrobot-runtime.so.0" "$lib/libskrobot-satellite.so.0" \
            /usr/share/skrobot/default.json /usr/share/skrobot/web/index.html \
-           /usr/share/skrobot/web/vendor/three.module.js /usr/share/doc/skrobot/README.md \
+           /usr/share/skrobot/web/vendor/three.module.js /usr/share/skrobot/web/vendor/LICENSE \
+           /usr/share/doc/skrobot/README.md /usr/share/doc/skrobot/copyright \
+           /usr/share/doc/skrobot/LICENSE /usr/share/doc/skrobot/NOTICE \
            /usr/lib/python3/dist-packages/PySketch/flowsat.py \
            /etc/skrobot/skrobot.json /lib/systemd/system/skrobot.service; do
     need hub "$f"
@@ -45,7 +48,8 @@ if [[ ${INSIDE_NAMESPACE:-} != 1 ]]; then
            "$lib/cmake/skrobot_module/skrobot_moduleConfig.cmake" \
            "$lib/cmake/skrobot_module/SkrobotModule.cmake" \
            "$lib/cmake/skrobot_satellite/skrobot_satelliteConfig.cmake" \
-           "$lib/pkgconfig/skrobot-module.pc" "$lib/pkgconfig/skrobot-satellite.pc"; do
+           "$lib/pkgconfig/skrobot-module.pc" "$lib/pkgconfig/skrobot-satellite.pc" \
+           /usr/share/doc/skrobot-dev/copyright; do
     need dev "$f"
   done
   never dev '/skrobot/modules/'; never dev '^/usr/bin/'; never dev '\.so\.0'
@@ -75,6 +79,14 @@ assert c["server"]["unix_path"] == "/run/skrobot/Robot", c["server"]
 assert c["data_dir"] == "/var/lib/skrobot", c.get("data_dir")
 assert not c["server"].get("tcp", False), "TCP is on"
 PY
+  # Each package's copyright file is machine-readable (DEP-5) and names the project's licence.
+  for doc in skrobot skrobot-dev; do
+    copyright=$tmp/root/usr/share/doc/$doc/copyright
+    head -1 "$copyright" | grep -qx 'Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/' ||
+      fail "$doc's copyright file is not DEP-5"
+    grep -A2 -x 'Files: \*' "$copyright" | grep -qx 'License: Apache-2.0' ||
+      fail "$doc's copyright file does not put Files: * under Apache-2.0"
+  done
   unit=$tmp/root/lib/systemd/system/skrobot.service
   for line in User=skrobot Group=skrobot RuntimeDirectory=skrobot StateDirectory=skrobot \
               "ExecStart=/usr/bin/skrobot --config /etc/skrobot/skrobot.json" PrivateTmp=yes; do

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # An installed hub is complete and relocatable: `cmake --install` into a temporary prefix, then,
 # with the source and build trees hidden (a mount namespace with empty tmpfs over them), a private
 # /tmp and network (so the default config's /tmp/Robot and port 8080 are this test's own) and a

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The module SDK as a module author uses it: docs/plugins.md, "Your first module in ten minutes",
 # run as written. Installs the hub with its SDK into ~/skrobot (step 1, here with this build),
 # then runs every ```sh block of that section in order, in one shell, from the checkout, with

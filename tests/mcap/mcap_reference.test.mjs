@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl record, play and mcap against the reference MCAP implementation, @mcap/core (with
 // @mcap/support's zstd and lz4): every file flowctl writes reads with McapIndexedReader, a
 // recorder killed with SIGKILL leaves a file McapStreamReader reads (CRCs checked) up to its last

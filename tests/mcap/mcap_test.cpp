@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The MCAP writer and reader (tools/mcap): round trips with each compression, files cut short,
 // damaged CRCs, lengths larger than the file or the limits.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* One descriptor defect per build (CASE_*): the host must refuse each at load. */
 #include <skrobot/plugin.h>
 

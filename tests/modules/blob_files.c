@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A plain C module that uses the blob channel calls of ABI 1.4:
  *   <module>.files   its blob channel, which it subscribes to (change events arrive as data)
  *   <module>.report  streaming: what happened, one line each, once someone listens:

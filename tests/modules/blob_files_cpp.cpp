@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The same as blob_files.c through plugin_blobs.hpp: the module's blob channel <name>.files and,
 // once someone listens to <name>.report, one line per step ("bad:<status>", "put:<status>:...",
 // "get:<status>:<data>", "list:<status>:<json>", "removed:<status>",
@@ -63,4 +64,4 @@ class BlobFilesCpp final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(BlobFilesCpp, "test_blob_files_cpp", "1.0.0", "plugin_blobs.hpp in use", 0)
+SKR_MODULE(BlobFilesCpp, "test_blob_files_cpp", "1.0.0", "plugin_blobs.hpp in use", 0)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* init fails: CASE_INIT_MESSAGE explains itself with set_error; CASE_INIT_STATUS only returns a
  * status, as a careless C module would. Both register a tick first: the host must remove it. */
 #include <skrobot/plugin.h>

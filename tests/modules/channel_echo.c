@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A plain C module that uses the FlowNetwork calls of ABI 1.1:
  *   test_channel_echo.out  streaming: republishes what arrives on guest.in (a subscription made
  *                          before guest.in exists), produced only while someone listens

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A C++ module on plugin_channels.hpp:
 //   <name>.upper   streaming: what arrives on config "input" (default guest.in), upper-cased
 //   <name>.ask     service: forwards each request to config "forward" (a service channel) with
@@ -93,4 +94,4 @@ class ChannelsCpp final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(ChannelsCpp, "test_channels_cpp", "1.0.0", "plugin_channels.hpp in use", 0)
+SKR_MODULE(ChannelsCpp, "test_channels_cpp", "1.0.0", "plugin_channels.hpp in use", 0)

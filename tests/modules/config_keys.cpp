@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A module that declares its config keys (ABI 1.2) and logs what it reads at init
 // (CONFIG-KEYS-INIT), so that tests see the host's checks and the declared defaults.
 // CASE_BAD_DEFAULT builds a module whose declaration is inconsistent (default out of range).
@@ -36,5 +37,5 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKROBOT_MODULE_WITH_CONFIG(ConfigKeys, "config_keys", "1.0.0", "declares its config keys", 0,
+SKR_MODULE_WITH_CONFIG(ConfigKeys, "config_keys", "1.0.0", "declares its config keys", 0,
                            kConfig)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Registers ticks and never removes them; posts work during stop that can never run. The host
  * must remove the ticks and cancel the work (FORGET-CANCEL), never run it (FORGET-RAN). */
 #include <skrobot/plugin.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Its constructor (init) throws: the C++ helper must turn that into a status and a message.
 #include <skrobot/plugin.hpp>
 
@@ -17,4 +18,4 @@ class Throws final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(Throws, "init_throws", "0.1.0", "init throws", 0)
+SKR_MODULE(Throws, "init_throws", "0.1.0", "init throws", 0)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A shared object without skrobot_module_entry: the host must refuse it (MODULE-NO-ENTRY). */
 #include <skrobot/plugin.h>
 

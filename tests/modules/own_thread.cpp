@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Wants its own loop thread. Logs the id of the thread of every step (OWN-INIT, OWN-START,
 // OWN-TICK once, OWN-STOP, OWN-FINI: message "<pthread id>") and what a tick_add from a foreign
 // thread returned (OWN-FOREIGN "<status>").
@@ -47,5 +48,5 @@ class OwnThread final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(OwnThread, "own_thread", "0.1.0", "runs on its own loop thread",
+SKR_MODULE(OwnThread, "own_thread", "0.1.0", "runs on its own loop thread",
                SKR_MODULE_WANTS_OWN_THREAD)

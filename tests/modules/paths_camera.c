@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A plain C module that offers physical paths (ABI 1.7), like a camera in the hub:
  *   test_paths_camera.frames  streaming, shared memory and direct paths (4 slots of 64 KB): on
  *                             each fast tick while it has subscribers, one frame

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // paths_camera.c through plugin_channels.hpp (StreamChannel::offerPaths, beginPublish,
 // commitPublish): test_paths_camera_cpp.frames, shared memory and direct paths, one frame
 // "frame <n> " and 2000 bytes of 'a' + n % 26 on each fast tick while subscribed, every other one
@@ -49,4 +50,4 @@ class PathsCameraCpp final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(PathsCameraCpp, "test_paths_camera_cpp", "1.0.0", "plugin_channels.hpp paths", 0)
+SKR_MODULE(PathsCameraCpp, "test_paths_camera_cpp", "1.0.0", "plugin_channels.hpp paths", 0)

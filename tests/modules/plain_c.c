@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A working module written in plain C against plugin.h only. Counts fast ticks (read by the
  * test through test_plain_c_ticks) and logs PLAIN-C-INIT/START/STOP/FINI. */
 #include <skrobot/plugin.h>

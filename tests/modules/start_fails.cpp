@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // start() refuses. Its tick (registered in init) must never run; fini must still be called.
 #include <skrobot/plugin.hpp>
 
@@ -24,4 +25,4 @@ class StartFails final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(StartFails, "start_fails", "0.1.0", "start fails", 0)
+SKR_MODULE(StartFails, "start_fails", "0.1.0", "start fails", 0)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A plain C module on the sync pulse (ABI 1.5):
  *   test_sync_step.beat   a sync source: one pulse for each message on guest.trigger
  *   test_sync_step.ticks  streaming: "<seq>:<dropped>" for each pulse of guest.clock, which it

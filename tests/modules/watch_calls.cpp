@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A C++ module on the watching calls (ABI 1.6, plugin_watch.hpp):
 //   test_watch_calls.events  one line per event: "added <name> <kind> <mime>" and
 //                            "removed <name>" for guest's channels, "set <key>=<json>",
@@ -58,4 +59,4 @@ class WatchCalls final : public skr::plugin::Module {
 
 }  // namespace
 
-SKROBOT_MODULE(WatchCalls, "test_watch_calls", "1.0.0", "watches channels and a database", 0)
+SKR_MODULE(WatchCalls, "test_watch_calls", "1.0.0", "watches channels and a database", 0)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nao-bridge module in a hub: its service channel with the simulated Nao, its state streams,
 // command queues, and the naoqi backend against QiTestServer (calls, connection loss, retry).
 #include "log_capture.h"

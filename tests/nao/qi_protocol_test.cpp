@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The qi codec (signatures, values, message framing) and a full client session against
 // QiTestServer: authentication on every connection, service look-up, metaObject, calls with
 // arguments and their replies, services of a second session at its own endpoint, an error reply,

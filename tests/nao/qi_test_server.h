@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A qi endpoint for tests, written from the same protocol description as the client and from
 // what a server built on libqi 4.0.5 did (NAOqi 2.5 and later; libqi's src/messaging/server.cpp
 // and tcpmessagesocket.hpp at that release):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The command parser's refusals and the simulated Nao: every command changes its state as a
 // Nao would, joints stay inside the V5 limits, walking integrates odometry, the battery drains.
 #include "sim_robot.h"

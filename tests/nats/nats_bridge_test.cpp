@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nats-bridge module (docs/fleet.md) against real nats-server processes on loopback: hubs
 // started as processes with the module, satellites on them, and a raw NATS client for the
 // fleet's side.

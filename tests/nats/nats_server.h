@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Real nats-server processes on loopback for the bridge's tests and benchmark, and a small raw
 // NATS client (Debian's libnats) to look at what the bridge sends from the NATS side.
 #pragma once

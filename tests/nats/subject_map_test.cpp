@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bridge's names: channel names to NATS subjects and database keys to key-value keys, both
 // reversible and without collisions (docs/fleet.md, "Subjects").
 #include "subject_map.h"

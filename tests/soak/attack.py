@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Attack: the hub stays responsive to a well-behaved satellite while others misbehave (issue 14).
 
 A well-behaved satellite (PySketch's FlowSync, logged in before anything starts) sends PING after

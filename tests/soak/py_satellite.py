@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A Python satellite for the soak test (tests/soak/soak.py), with the roles of
 soak_satellite.cpp and the same lines on stdout. It reconnects by itself (PySketch's FlowSat).
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Soak: a hub under churning satellites, restarted a few times (issue 14, "Soak and faults").
 
 Satellites, half C++ (soak_satellite) and half Python (py_satellite.py), publish, subscribe,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A satellite for the soak test (tests/soak/soak.py): one role, reporting on stdout what the
 // driver checks, one line per event. It reconnects by itself, as every satellite does.
 //
@@ -11,7 +12,7 @@
 //                     over the synchronous connection; prints "ACK <key> <value>" once answered
 //                     (a slot's keys are reused by its next writer, with a higher BASE: the
 //                     database stays the same size however long the soak runs)
-#include <skrobot/core/clock.h>
+#include <skrobot/runtime/clock.h>
 #include <skrobot/satellite.h>
 
 #include <cstdio>

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The hub process for the soak and attack tests (soak.py, attack.py)."""
 import atexit
 import json

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Polling for a condition in tests that cannot be told when something happened.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub's FlowServer on its own loop thread, and clients that talk to it over real sockets.
 #pragma once
 
@@ -5,8 +6,8 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 
 #include <gtest/gtest.h>
 

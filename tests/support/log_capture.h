@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Collects the hub's log lines ("<tag> <message>") while alive, for tests that assert on logs.
 #pragma once
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <mutex>
 #include <string>

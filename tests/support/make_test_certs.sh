@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Test certificates, made at test time with the openssl CLI (Debian's openssl package), into DIR:
 #   ca.pem ca.key                the test CA
 #   hub.pem hub.key              the hub: localhost and 127.0.0.1, signed by the CA

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hub with its FlowServer and a ModuleHost on a loop thread, for tests of real modules
 // (build/<preset>/modules/<name>.so): load them with their config objects, then talk to their
 // channels from TestClients over the hub's socket.
@@ -9,7 +10,7 @@
 
 #include "flow_fixture.h"
 
-#include <skrobot/core/module_host.h>
+#include <skrobot/hub/module_host.h>
 
 #include <json/json.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A temporary directory, removed with everything in it when the object goes. Header-only: used
 // by the hub's tests and the satellite library's tests alike.
 #pragma once

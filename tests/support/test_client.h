@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // A blocking FlowProtocol client for tests and benchmarks: one socket, explicit frames.
 #pragma once
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/codec.h>
 
 #include <cstdint>
 #include <deque>

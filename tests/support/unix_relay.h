@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // A Unix-socket relay on a Loop, for tests that cut a connection and let it come back: what
 // connects to `path` is joined to `target` (connected anew for each), byte for byte. cut()
 // closes every connection it joined, and holds those that come next, unanswered, as a network
 // that lost its way would, until restore(). Loop thread only; header-only.
 #pragma once
 
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/loop.h>
 
 #include <uv.h>
 

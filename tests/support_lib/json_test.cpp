@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The module-support library's JSON parser, writer and quoter (skrobot/support/json.hpp).
 #include <skrobot/support/json.hpp>
 

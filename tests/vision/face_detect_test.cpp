@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // face-detect on real pictures (astronaut.png, messi5.jpg) sent by a satellite on guest.camera.
 #include "vision_fixture.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // motion on a synthetic moving square and on the pedestrians of vtest.avi (opencv-doc), frames
 // sent one at a time by a satellite on guest.camera, each result awaited before the next frame.
 #include "vision_fixture.h"

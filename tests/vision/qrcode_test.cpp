@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // qrcode on QR codes made at test time with the qrencode CLI, and on an EAN-13 barcode drawn
 // here from the standard's tables, sent by a satellite on guest.camera; and on every picture of
 // opencv-doc's sample data, where it must read nothing.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // video-source (file frames, looping, props, idle without subscribers, config errors) and the
 // whole chain without a browser: video-source -> video-mono -> motion + face-detect.
 #include "vision_fixture.h"
@@ -106,7 +107,7 @@ TEST_F(VideoSource, ReadsNothingWithoutSubscribers) {
 
 TEST_F(VideoSource, OffersPathsWhenAsked) {
   // "paths": the hub grants a subscriber on its Unix socket shared memory to src.video (read
-  // through the satellite libraries: satellite/cpp/tests/module_paths_test.cpp). A frame every
+  // through the satellite libraries: tests/hub/module_paths_test.cpp). A frame every
   // 5 s: waiting for an answer gives up after 3 s without one.
   ASSERT_TRUE(startModule("src",
                           std::string(R"({"file":")") + kVtest + R"(","fps":0.2,"paths":"shm"})",

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The helpers shared by the vision modules (plugins/vision-common): decoding. (Their JSON output
 // is the module-support library's, tested in tests/support_lib.)
 #include <skrobot/vision/decode.h>

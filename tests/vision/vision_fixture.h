@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Helpers for the vision module tests: a satellite that publishes media frames on guest.camera,
 // a satellite subscribed to a module's results, and the test data of Debian's packages.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The listening loop end to end in Debian's chromium: the fake microphone plays a phrase made with
 // espeak-ng (1 s of silence, "how are you", 3 s of silence, in a loop), the page streams it to
 // websocket-ui.mic, skrobot-asr transcribes it with the agent's grammar, the agent answers, and

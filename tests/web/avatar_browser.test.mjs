@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The avatar demo end to end in Debian's chromium: a fake camera showing astronaut.png (left half
 // of the frame) and the fake microphone stream into the hub through websocket-ui; face-detect
 // finds the face; the page draws the box; the avatar's eyes turn toward it; a `say` request to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Test harness for the web tests: a real hub (the skrobot binary) with a generated config, flowctl
 // against it, and Debian's chromium through playwright-core. Paths come from CTest's environment.
 import { spawn, execFile } from 'node:child_process';

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes a .y4m video (4:2:0, 8-bit) for Chromium's fake camera: an image scaled to the frame's
 height and placed at the left or the centre, on grey, repeated for N frames.
 

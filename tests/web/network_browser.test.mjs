@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The network page (/network) in Debian's chromium against a real hub with 200 channels
 // (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
 // table, previews of JSON, JPEG, gray, audio and detections, a channel's properties, and editing a

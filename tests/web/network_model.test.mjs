@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The network page's model (web/js/network-model.js) in node: hub.stats to a graph, what is
 // highlighted, the layered layout, detection boxes, the zoom of a wheel event.
 import { test } from 'node:test';

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Traffic for the network page's browser test (network_browser.test.mjs), as user guest:
 --channels JSON channels (guest.c000...) at 1 Hz, a JPEG camera, gray frames, audio, face
 detections whose properties name the camera as their source, and a second flow subscribed to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // websocket-ui's logic without a browser: what browsers may send, the avatar's behaviour on a
 // driven clock, and the viseme timeline.
 #include "avatar_behaviour.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // websocket-ui in a hub, without a browser: its say service goes to the speech service that the
 // config names (none by default), and a channel name with a quote in it still gives a valid
 // JSON answer that carries the name.

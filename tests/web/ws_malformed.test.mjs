@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // websocket-ui against bad clients (node `ws`): oversized frames, bad JSON, binary that is not a
 // media frame, the wrong path, no subprotocol, a foreign origin. Each is refused and only that
 // connection closes; the hub and a well-behaved browser go on. Also the HTTP side: MIME types,

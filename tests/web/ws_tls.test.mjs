@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // websocket-ui reachable elsewhere: a configured address, and TLS with a certificate (made here
 // with openssl) serving HTTPS and WSS only. A half TLS config fails the module, not the hub.
 import assert from 'node:assert/strict';

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl internals: options, exit codes, argument helpers and output shared by the commands.
 #pragma once
 

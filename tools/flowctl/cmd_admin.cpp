@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl flows, kick, chan rm, users and user: an administrator's commands (ADMIN, protocol
 // 1.1; docs/security.md). Refused with exit 7 for an account that is not an administrator.
 #include <iostream>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl blob: the files of blob channels (docs/blob-channels.md), on the synchronous connection.
 #include <unistd.h>
 

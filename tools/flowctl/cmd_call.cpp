@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl call: a request to a service channel, and its answer.
 #include "cli.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl db: read and write PairDatabases on the synchronous connection.
 #include "cli.h"
 

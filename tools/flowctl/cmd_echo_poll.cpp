@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl echo and poll: print what a streaming channel carries, as it comes or its latest.
 #include <chrono>
 #include <csignal>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl graph: who publishes and who subscribes, as Graphviz DOT (hub.inspect).
 #include <map>
 

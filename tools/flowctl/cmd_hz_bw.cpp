@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl hz and bw: a streaming channel's rate or bandwidth, measured here once a second.
 #include <algorithm>
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl info: a channel's owner, subscribers, rate, totals and properties (hub.inspect).
 #include <algorithm>
 #include <map>

@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl link ls: the hub's links to other hubs, from their databases "_link.<name>".
 #include "cli.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 namespace flowctl {
 

@@ -1,5 +1,6 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl ls: the hub's channels, or those whose names match patterns.
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <algorithm>
 

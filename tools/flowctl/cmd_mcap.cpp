@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl mcap info|cat: what an MCAP file holds, read here (no hub needed).
 #include <skrobot/mcap/reader.h>
 

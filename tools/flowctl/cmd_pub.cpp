@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl pub: publish on one of the caller's channels, creating it for the time flowctl runs.
 #include <algorithm>
 #include <fstream>

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl record: subscribe to streaming channels and write what they carry to an MCAP file.
 //
 // Threads: the satellite's loop receives (and time-stamps) messages and queues them; a disk
 // thread owns the mcap::Writer, so a slow disk never blocks the flow. The queue is bounded
 // (--queue-mb): past it messages are dropped and counted, never silently.
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/mcap/writer.h>
 #include <skrobot/media_frame.hpp>
 

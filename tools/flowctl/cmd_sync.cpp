@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl sync: a sync pulse source at a rate, or a follower that prints each pulse and, at the
 // end, how regular they came (docs/sync-pulse.md).
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
-#include <skrobot/core/spread.h>
+#include <skrobot/runtime/spread.h>
 
 #include "session.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl top: the hub's channels by rate, bandwidth or drops, and its slow flows, from hub.stats
 // (docs/observability.md).
 #include <unistd.h>

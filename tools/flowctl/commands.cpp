@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl's table of commands (commands.h) and the texts made from it.
 #include "commands.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl's commands: one row each (commands.cpp) with the word the operator types, the texts
 // that explain it and the handler that runs it. The overview (flowctl --help), a command's help
 // (flowctl help NAME), its usage error, the unknown-command error, the dispatch and the docs'

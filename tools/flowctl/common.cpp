@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl: argument helpers, errors and the synchronous connection shared by the commands.
 #include <charconv>
 #include <cmath>

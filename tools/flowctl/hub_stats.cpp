@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl: reading the hub's statistics (hub_stats.h).
 #include "hub_stats.h"
 

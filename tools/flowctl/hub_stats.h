@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl: reading the hub's statistics (hub.stats, hub.inspect; docs/observability.md), shared
 // by top, info, graph, hz and bw.
 #pragma once

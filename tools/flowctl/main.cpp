@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl: an operator's tool for a running hub, as handy as redis-cli. main reads the global
 // options and hands the command to its row's handler (commands.h: the table of commands).
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <cstdlib>
 #include <cstring>

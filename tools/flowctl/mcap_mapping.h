@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How flowctl record and play map the hub's channels to MCAP and back (docs/recording.md).
 #pragma once
 

@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl echo and pub: a satellite flow on a loop of flowctl's own (internal).
 #pragma once
 
-#include <skrobot/core/loop_handles.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <functional>
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The avatar on screen: executes what the hub decides (gaze, blinks, expressions) and what the
 // voice plays (mouth shapes). State is kept even when WebGL is missing, so the page still works.
 import * as THREE from '../vendor/three.module.js';

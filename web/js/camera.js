@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The camera: preview in a <video>, and JPEG frames of the configured size and rate to the hub.
 import { FORMAT, makeFrame } from './media-frame.js';
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The avatar's head, generated: a deformed sphere with morph targets for the jaw and the mouth
 // shapes, lips and a mouth opening that follow them, eyes that rotate, and eyelids whose morph
 // target closes them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The WebSocket to websocket-ui: JSON commands in, media frames out. Reconnects with a backoff.
 export const SUBPROTOCOL = 'skrobot-avatar.v1';
 

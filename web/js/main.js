@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The avatar page: connects to websocket-ui, streams camera and microphone, executes the avatar's
 // commands. window.skrobot exposes the live state (used by the browser tests).
 import { Avatar } from './avatar.js';

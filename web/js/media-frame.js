@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The 32-byte media frame header of docs/channels.md, little-endian.
 export const HEADER_BYTES = 32;
 export const FORMAT = { jpeg: 1, y8: 2, pcm: 3 };

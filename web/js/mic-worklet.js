@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // AudioWorklet: the microphone resampled (linear interpolation) to the hub's rate as 16-bit
 // PCM, posted in chunks of `chunk` samples with the level (RMS) of each chunk.
 class MicCapture extends AudioWorkletProcessor {

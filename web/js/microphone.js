@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The microphone: PCM 16-bit mono at the hub's rate (22050 Hz), resampled in an AudioWorklet.
 import { FORMAT, makeFrame } from './media-frame.js';
 

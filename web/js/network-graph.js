@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The network page's graph: flows (boxes) and channels (pills) in SVG, edges publisher -> channel
 // -> subscriber with live rates. Laid out for the pane's size when the topology changes (and by
 // "fit" when the pane's size changed); otherwise the rates, classes and titles are updated in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The network page's model: hub.stats (docs/observability.md) as a graph of flows and channels,
 // and its layered layout. Pure functions, no DOM: tests/web/network_model.test.mjs runs them in node.
 

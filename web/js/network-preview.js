@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The network page's preview of a channel's last message: JSON pretty-printed, text as text, JPEG
 // and gray frames as images (with a detector's boxes drawn on the frame they belong to), audio as
 // a level meter and a spectrum, anything else as a hex dump. Content is shown as text, never as

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The network page (/network, docs/observability.md): the hub's flows and channels as a live
 // graph, a table of the busiest channels, and the selected node's details: figures, rate history,
 // properties and databases (editable with the token websocket-ui's config names), a preview.

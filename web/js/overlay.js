@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Detections drawn over the camera preview: face boxes, motion centre and regions, QR codes.
 // Coordinates arrive in pixels of the analysed frame and are scaled to the canvas.
 const FRESH_MS = 700;

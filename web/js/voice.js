@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The avatar's voice: PCM frames from the hub played in order of their sample counter, and the
 // viseme timeline of each utterance on the same clock, so the lips move with the sound.
 import { FORMAT, parseFrame } from './media-frame.js';

@@ -1,7 +1,8 @@
-#include <skrobot/flow/access.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/hub/flow/access.h>
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
 
 #include <array>
 #include <mutex>

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "connection.h"
 
 #include "dispatch.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <sys/socket.h>
 
@@ -179,6 +180,15 @@ void Connection::unblock() {
   if (!blocked_ && state_ != State::closing) startReading();
 }
 
+namespace {
+
+// The answer to a code no minor assigned (docs/flow-protocol.md, rule 5): a newer peer may use it.
+std::string unassigned(const std::string& name) {
+  return name + " is not assigned in this hub's protocol 1." + std::to_string(kProtocolMinor);
+}
+
+}  // namespace
+
 void Connection::handleFrame(uint8_t code, std::string_view body) {
   // What the catalogue says of the code: a hub-to-satellite code (or one of the range kept for
   // them) breaks the protocol; one no minor assigned is answered `unsupported` (rule 5).
@@ -206,7 +216,7 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
       return;  // not reached: reading is paused
     case State::sync:
       if (info == nullptr) {
-        replyError(ErrorCode::unsupported, name + " is reserved and not implemented by this hub");
+        replyError(ErrorCode::unsupported, unassigned(name));
       } else if (!info->synchronous()) {
         replyError(ErrorCode::invalid_argument, name + " is asynchronous: send GO_ASYNC first");
       } else if (info->minor > minor_) {
@@ -221,7 +231,7 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
         onError(static_cast<Code>(code), 0, 0, ErrorCode::unsupported, why);
       };
       if (info == nullptr) {
-        refuse(name + " is reserved and not implemented by this hub");
+        refuse(unassigned(name));
       } else if (info->synchronous()) {
         refuse(name + " is synchronous: use a synchronous connection, the flow never blocks");
       } else if (info->minor > minor_) {

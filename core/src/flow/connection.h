@@ -1,19 +1,20 @@
-// One satellite connected over a transport (skrobot/flow/transport.h: Unix socket, TCP, TLS on
-// TCP, or a message-based one): its session with the hub. Receives bytes into a buffer that frames
-// are parsed from in place (a message-based transport's messages are one frame each), checks each
-// frame against the catalogue and the session's state (login, authenticating, sync, flow) and
+// SPDX-License-Identifier: Apache-2.0
+// One satellite connected over a transport (skrobot/runtime/flow/transport.h: Unix socket, TCP,
+// TLS on TCP, or a message-based one): its session with the hub. Receives bytes into a buffer that
+// frames are parsed from in place (a message-based transport's messages are one frame each), checks
+// each frame against the catalogue and the session's state (login, authenticating, sync, flow) and
 // hands it to its room (dispatch.h); keeps an output queue flushed once per loop iteration (many
 // frames per write). The rooms answer through the calls below. Main loop thread only.
 #pragma once
 
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/bytes.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/transport.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/transport.h>
 
 #include <deque>
 #include <functional>

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one switch over codes in the hub: generated from the catalogue, one case per row.
 #include "dispatch.h"
 
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/flow/codec.h>
 
 #include <algorithm>
 

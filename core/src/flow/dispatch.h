@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // The dispatch of a received frame to its room, generated from the catalogue (catalogue.h): the
 // row of the code names the family, whose room (a member of Hub named as the family) has a
 // handle(Connection&, msg::X&) overload for the row's message. Connection::handleFrame has
 // checked the code's direction, connection and minor before.
 #pragma once
 
-#include <skrobot/flow/protocol.h>
+#include <skrobot/runtime/flow/protocol.h>
 
 #include <string_view>
 

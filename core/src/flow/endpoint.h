@@ -1,11 +1,12 @@
+// SPDX-License-Identifier: Apache-2.0
 // Endpoints: the satellites of one hub as its parts see them, a socket Connection or an
 // in-process LocalClient, and the table of those connected now. Main loop thread only.
 #pragma once
 
-#include <skrobot/flow/access.h>
-#include <skrobot/flow/messages.h>
-#include <skrobot/flow/protocol.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/hub/flow/access.h>
+#include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/flow/protocol.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include "rate_window.h"
 

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // What crosses the rooms: endpoints logging in and leaving, the output of connections, the
 // server's timers.
 #include "hub.h"
 
 #include "connection.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <unistd.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hub's FlowNetwork server as its parts see it: the endpoints connected now, the sessions on
 // sockets, and one room per family of the protocol (families/), named as the catalogue's family
 // column names them, so that the generated dispatch (dispatch.cpp) finds the room of a row by its
@@ -20,8 +21,8 @@
 #include "families/sync/sync_room.h"
 #include "rate_window.h"
 
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/server.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
 
 #include <array>
 #include <cstdint>

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // LocalClient: a module's satellite inside the hub. Same channels, no socket, no copies; its
 // failures are the Results of the server's parts, so a module gets the Errc a satellite gets.
 #include "server_impl.h"
 
 #include "families/blobs/blob_path.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 #include <unordered_map>

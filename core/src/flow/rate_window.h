@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A channel's or flow's counters sampled at each of the hub's one-second ticks (FlowServer::
 // sampleRates), so that its rates over the last second and the last ten are the difference of
 // two samples: the same for every reader, and nothing added to the relay's hot path, which only
@@ -5,7 +6,7 @@
 // than a window is measured over its age. Main loop thread only.
 #pragma once
 
-#include <skrobot/core/clock.h>
+#include <skrobot/runtime/clock.h>
 
 #include <array>
 #include <cstddef>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FlowServer: listeners (transport.h), connection lifecycle, output flushing and timeouts
 // (server_impl.h).
 #include "server_impl.h"
@@ -5,7 +6,7 @@
 #include "connection.h"
 #include "uv_handle.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <csignal>
 #include <vector>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
 // one room per family of the protocol); this adds the listeners (transport.h: Unix socket, TCP,
 // TLS on TCP),
@@ -7,9 +8,9 @@
 
 #include "hub.h"
 
-#include <skrobot/flow/server.h>
-#include <skrobot/flow/tls.h>
-#include <skrobot/flow/transport.h>
+#include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/transport.h>
 
 #include <uv.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // primes: a complete small module, built out of tree (docs/plugins.md, "Your first module in ten
 // minutes"). While someone subscribes to its streaming channel primes.count, a tick hands the
 // worker thread a growing limit every period_ms; the worker counts the primes below it (the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The media frame header that every video and audio message on a channel starts with
 // (docs/channels.md). Header-only, no dependencies, usable by modules, satellites and tests.
 //

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The skrobot module ABI: the only seam between the hub and a module (an internal satellite
  * loaded with dlopen). Plain C, usable from C and C++. No C++ type, exception or class crosses it.
  *

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Header-only C++ helper over the C ABI in plugin.h. It lives entirely inside the module: the
 // classes below never cross the seam, and every exception is caught before it could.
 //
@@ -11,7 +12,7 @@
 //     skr::plugin::Host& host_;
 //     skr::plugin::TickHandle tick_;
 //   };
-//   SKROBOT_MODULE(Hello, "hello", "1.0.0", "says hello every second", 0)
+//   SKR_MODULE(Hello, "hello", "1.0.0", "says hello every second", 0)
 #pragma once
 
 #include <skrobot/plugin.h>
@@ -312,12 +313,12 @@ struct Adapter {
 // Defines the entry symbol and the descriptor of a module implemented by `Class`.
 // `flags` is 0 or SKR_MODULE_* flags, e.g. SKR_MODULE_WANTS_OWN_THREAD. Use once per module.
 // The module declares no config keys: its config object reaches it unchecked. To declare them,
-// use SKROBOT_MODULE_WITH_CONFIG of <skrobot/support/config.hpp> instead.
-#define SKROBOT_MODULE(Class, name, version, description, flags) \
-  SKROBOT_MODULE_DESCRIPTOR(Class, name, version, description, flags, nullptr, 0)
+// use SKR_MODULE_WITH_CONFIG of <skrobot/support/config.hpp> instead.
+#define SKR_MODULE(Class, name, version, description, flags) \
+  SKR_MODULE_DESCRIPTOR(Class, name, version, description, flags, nullptr, 0)
 
 // The descriptor itself; `keys` (a static array of skr_config_key, or nullptr) and `key_count`.
-#define SKROBOT_MODULE_DESCRIPTOR(Class, name, version, description, flags, keys, key_count) \
+#define SKR_MODULE_DESCRIPTOR(Class, name, version, description, flags, keys, key_count)     \
   extern "C" SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {            \
     static constexpr skr_module_descriptor kDescriptor = {                                   \
         sizeof(skr_module_descriptor),                                                       \
@@ -335,3 +336,13 @@ struct Adapter {
         static_cast<std::size_t>(key_count)};                                                \
     return &kDescriptor;                                                                     \
   }
+
+// Deprecated names (the old prefix SKROBOT_): they expand to the SKR_ macros
+// with a compiler warning, so that modules written for them build unchanged. Deprecated: these
+// aliases go in the next minor release.
+#define SKROBOT_MODULE(...)                                                            \
+  _Pragma("GCC warning \"SKROBOT_MODULE is deprecated: use SKR_MODULE\"")              \
+  SKR_MODULE(__VA_ARGS__)
+#define SKROBOT_MODULE_DESCRIPTOR(...)                                                          \
+  _Pragma("GCC warning \"SKROBOT_MODULE_DESCRIPTOR is deprecated: use SKR_MODULE_DESCRIPTOR\"") \
+  SKR_MODULE_DESCRIPTOR(__VA_ARGS__)

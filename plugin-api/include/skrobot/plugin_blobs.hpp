@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // C++ helpers over the blob channel calls of the plugin ABI (1.4; docs/blob-channels.md): files
 // kept by the hub, written by their owner, read by everyone.
 //

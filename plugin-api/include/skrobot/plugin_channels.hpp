@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // C++ helpers over the FlowNetwork calls of the plugin ABI (1.1): owned channels, subscriptions,
 // service requests and databases. Header-only, inside the module like plugin.hpp.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // C++ helpers over the sync pulse of the plugin ABI (1.5; docs/sync-pulse.md): a source this
 // module owns, and following a source so that its pulses drive the module's tick.
 //

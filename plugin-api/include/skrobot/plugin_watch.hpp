@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // C++ helpers over the watching calls of the plugin ABI (1.6): channels added and removed,
 // changes of a database, a variable's removal and the hub's name. Header-only, inside the module
 // like plugin.hpp; loop thread, from start() until stop(), as plugin_channels.hpp.

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Errors as values, shared by the hub, the satellite libraries, the tools and every module
 // (header-only: nothing here crosses the C seam of plugin.h).
 //
 // Result<T> holds either a T or an Error (a named code and a message). The codes cover the
-// FlowProtocol's wire errors one for one (skrobot/flow/protocol.h maps them both ways), plus the
+// FlowProtocol's wire errors one for one (skrobot/runtime/flow/protocol.h maps them both ways), plus the
 // local failures that never travel (config, ABI, module steps).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the agent's rules file (any text; what parses must give a grammar and match
 // utterances), a phrase pattern (what parses must match or refuse any utterance, and give a
 // JSGF expansion or none), and an utterance against a fixed set of patterns.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // agent: the robot agent's loop (docs/agent.md). It hears the transcripts of every recogniser
 // (channels matching `recognisers`, "<instance>.transcript"), matches them against the intents
 // of its rules file, and acts: the avatar speaks (`say`), shows an expression, the Nao moves,
@@ -13,7 +14,7 @@
 // Log tags: AGENT-RULES, AGENT-HEARD, AGENT-ACTION, AGENT-RECOGNISER, AGENT-REQUEUE.
 #include "rules.h"
 
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/plugin_watch.hpp>
@@ -658,6 +659,6 @@ constexpr skr_config_key kConfig[] = {
         .range(0, 10000),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(Agent, "agent", "1.0.0",
+SKR_MODULE_WITH_CONFIG(Agent, "agent", "1.0.0",
                            "the robot agent: hears transcripts, matches intents, speaks and acts",
                            0, kConfig)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Numbers as recognisers write them: digits ("3", "2.5") or English words ("three",
 // "twenty five", "a hundred and five"), for the agent's number slots.
 #pragma once

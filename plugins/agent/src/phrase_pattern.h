@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The agent's phrase patterns: what an intent matches in a transcript, with slots.
 //
 //   "(walk | go) forward [{distance:number} (meters | steps)]"

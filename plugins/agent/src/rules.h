@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The agent's rules file (docs/agent.md): intents (phrase patterns and actions), what to do when
 // a face appears or a code is seen, the fallback, and the wake phrase.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/audio/pcm_input.h>
 
 #include <skrobot/media_frame.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PortAudio side of audio-io: one thread that initialises PortAudio, opens the input and
 // output devices with the blocking API, captures fixed-size frames and plays what PlayBuffer
 // holds. It never calls the hub except through Host::post and logging. Devices that deliver or

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Samples waiting to be played: filled by the loop thread from the played channel, drained by
 // the device thread. Bounded: when full the oldest samples are dropped (and counted), so a
 // stalled device never holds the loop thread up.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two face detectors of face-detect. Each instance belongs to one worker thread.
 #pragma once
 

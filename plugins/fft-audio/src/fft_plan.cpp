@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "fft_plan.h"
 
 #include <fftw3.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An FFTW real-to-complex plan with its aligned buffers, made once and reused (RAII).
 // Plan creation and destruction are not thread-safe in FFTW: a process-wide mutex guards them.
 // When the last plan goes, the planner's tables are freed (fftw_cleanup).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Short-time spectrum of a PCM stream: windows of `size` samples every `hop` samples, magnitude
 // bins, RMS level, peak frequency, and a coarse view of 16 log-spaced bands. No threads: the
 // fft-audio module runs it on its worker, the benchmark directly.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: decodeClientMessage on text and binary client messages, and the conversions of
 // publishers' messages. The first byte picks: bit 0 binary, bits 1-2 what is fed.
 #include "foxglove_convert.h"

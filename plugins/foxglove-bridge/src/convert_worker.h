@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A thread that runs conversions off the hub's loop thread (a camera frame's base64 takes about
 // 1.3 ms for 315 KB): one job waits per key (a channel); a newer one replaces it, newest wins.
 #pragma once

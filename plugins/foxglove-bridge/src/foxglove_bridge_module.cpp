@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // foxglove-bridge: the hub's channels, services and databases for Foxglove Studio and
 // Lichtblick over foxglove.websocket.v1 (docs/foxglove.md).
 //
@@ -633,7 +634,7 @@ constexpr skr_config_key kConfig[] = {
     cfg::array("parameters", "[]", "databases whose variables are parameters (<db>/<key>)"),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(skr::foxglove::FoxgloveBridge, "foxglove-bridge", "1.0.0",
+SKR_MODULE_WITH_CONFIG(skr::foxglove::FoxgloveBridge, "foxglove-bridge", "1.0.0",
                            "serves channels, services and databases to Foxglove Studio and "
                            "Lichtblick (foxglove.websocket.v1)",
                            0, kConfig)

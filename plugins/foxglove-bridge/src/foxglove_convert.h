@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What foxglove-bridge turns hub messages into (docs/foxglove.md), and the JSON schemas it
 // advertises with them. Pure functions; any thread.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The foxglove.websocket.v1 protocol as foxglove-bridge speaks it (docs/foxglove.md): the
 // client messages it reads and the server messages it writes. Pure functions, no I/O; any
 // thread. JSON messages are text frames; binary ones start with a one-byte opcode, integers

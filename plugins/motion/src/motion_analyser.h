@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Motion in a sequence of grey frames: frame differencing (default) or MOG2 background
 // subtraction. One instance per worker; it keeps the previous frame or the background model.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: parseCommand on arbitrary text. Accepted commands stay within the limits the
 // parser promises; refusals carry a code and a message.
 #include "commands.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: what a robot (or anything on port 9559) can send the qi client. The input is cut
 // into messages by MessageFramer (with a small size limit); each payload is decoded as a dynamic
 // value, as the MetaObject and the ServiceInfo (seven and six fields) structures, and as a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two backends: the simulated Nao (always connected) and a real one over NAOqi's qi protocol.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bridge's JSON commands, parsed and range-checked before they reach a backend:
 //   {"cmd":"say","text":"hello"}
 //   {"cmd":"posture","name":"Stand","speed":0.5}              speed: fraction of max, (0, 1]

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nao-bridge: a Nao on the FlowNetwork. See docs/nao.md.
 //   <name>.command   service: JSON commands (commands.h), answered {"ok":true} or an error
 //   <name>.status    streaming: {"connected":..,"backend":..,"error":..,"retry_in_ms":..,
@@ -307,6 +308,6 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKROBOT_MODULE_WITH_CONFIG(NaoBridge, "nao-bridge", "1.0.0",
+SKR_MODULE_WITH_CONFIG(NaoBridge, "nao-bridge", "1.0.0",
                            "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0,
                            kConfig)

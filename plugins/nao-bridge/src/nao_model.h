@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the bridge knows about a Nao v5 (H25): joint names, limits and speeds (Aldebaran's
 // "NAO - Joints" pages for V5), the standard postures and the LED groups of ALLeds.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A client of a qi (NAOqi 2.x) endpoint over TCP: authenticate, find services through the
 // ServiceDirectory, learn their methods from metaObject, call them and read the replies.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One TCP connection to a qi endpoint: the socket and the messages read from it. QiClient owns
 // one to the ServiceDirectory and one to each other endpoint a service lives at.
 //

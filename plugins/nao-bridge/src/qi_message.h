@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // qi messages: a 28-byte header then the payload (qiloop notes, "Message Header").
 //   magic u32 (0x42dead42, big-endian) | id u32 | size u32 | version u16 | type u8 | flags u8 |
 //   service u32 | object u32 | action u32       (all but the magic little-endian)

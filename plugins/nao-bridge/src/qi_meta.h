@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The structures the qi services describe themselves with: MetaObject (methods by name and
 // action id) and ServiceInfo (what ServiceDirectory.service returns).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // qi type signatures ("s", "[f]", "{sm}", "(ss)<Name,a,b>"), parsed into a tree.
 // Grammar (qiloop notes): basic b c C w W i I l L f d s r m o v X; list "[T]"; map "{KV}";
 // tuple "(T...)" with an optional annotation "<Name,field,...>".

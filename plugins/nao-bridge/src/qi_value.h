@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A qi value (what a signature describes) and its binary serialization, little-endian:
 // integers and floats as is, bool 1 byte, string/raw a uint32 length then bytes, list/map a uint32
 // count then elements, tuple its members, dynamic 'm' a signature string then the value.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A robot the bridge drives: the simulated Nao or a real one through NAOqi. All calls come from
 // the bridge's robot worker thread; completions run on that thread too (from execute/read or a
 // later pump).

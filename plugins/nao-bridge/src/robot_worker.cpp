@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "robot_worker.h"
 
 #include "qi_client.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bridge's robot thread: owns the backend, connects and reconnects it with backoff, looks
 // for the parts a connected robot lacks with the same backoff, runs commands in submission
 // order and polls the state kinds that are switched on at their rates.

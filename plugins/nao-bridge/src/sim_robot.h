@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A kinematic Nao: joints move toward their targets at bounded speeds inside their limits,
 // postures are joint targets, walking integrates odometry, the battery drains, two sonars see
 // the walls of a square room, and walking into a wall makes it fall.

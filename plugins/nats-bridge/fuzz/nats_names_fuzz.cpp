@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: what reaches the bridge from NATS and from its config. Subjects (of requests for
 // an exported channel's properties) and key-value keys must decode to the one name that encodes
 // back to them, and any name must survive the round trip; the config reader takes any JSON.

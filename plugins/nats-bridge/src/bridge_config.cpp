@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "bridge_config.h"
 
 #include "subject_map.h"

@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nats-bridge module's config (docs/fleet.md): the members the host checks from the declared
 // keys (types, ranges) plus what it cannot: the items of "export", "import" and "kv".
 #pragma once
 
 #include "nats_client.h"
 
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <json/value.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "kv_mirror.h"
 
 #include "subject_map.h"

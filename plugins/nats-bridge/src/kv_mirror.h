@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One named database mirrored to a JetStream key-value bucket, both ways (docs/fleet.md,
 // "Databases"). Keys are mapped by encodeKey, values are JSON text. The bucket's order decides:
 // at start the bucket's values replace the local ones, and local keys it lacks are put; after

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nats-bridge: a hub's channels on a NATS cluster (docs/fleet.md). Exported channels are
 // published under the bridge's prefix, imported subjects become channels of the module, services
 // cross both ways, named databases are mirrored to JetStream key-value buckets. The NATS client's
@@ -414,5 +415,5 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKROBOT_MODULE_WITH_CONFIG(NatsBridge, "nats-bridge", "1.0.0",
+SKR_MODULE_WITH_CONFIG(NatsBridge, "nats-bridge", "1.0.0",
                            "a hub's channels, services and databases on a NATS cluster", 0, kConfig)

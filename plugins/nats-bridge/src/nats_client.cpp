@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nats_client.h"
 
 #include <nats/nats.h>

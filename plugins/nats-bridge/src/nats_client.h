@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bridge's NATS connection, on Debian's C client (libnats). Nothing here touches the hub:
 // the client's threads and the bridge's own thread hand everything over through bounded queues.
 //

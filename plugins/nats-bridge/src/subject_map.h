@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Names between the hub and NATS (docs/fleet.md, "Subjects"): a channel name becomes a subject
 // under the bridge's prefix, a database key a JetStream key-value key, both reversibly and
 // without collisions.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // QR codes and barcodes in a grey image, with zbar. One instance per worker thread.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "synthesizer.h"
 
 #include <espeak-ng/speak_lib.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // espeak-ng in synchronous mode, with phoneme and word events. espeak-ng keeps global state:
 // at most one Synthesizer exists in the process at a time (a second one reports an error), and
 // all calls on it come from one thread. The library is initialised by the first Synthesizer and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The JSON messages of the speech module (docs/audio.md).
 #pragma once
 

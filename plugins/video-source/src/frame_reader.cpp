@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "frame_reader.h"
 
 #include <opencv2/imgcodecs.hpp>

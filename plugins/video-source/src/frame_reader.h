@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Frames from a video file (looped) or a camera, resized and JPEG-encoded. One thread uses it.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/vision/decode.h>
 #include <skrobot/vision/pipeline.h>
 

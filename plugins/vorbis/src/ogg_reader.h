@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An Ogg Vorbis file being read as s16 PCM (libvorbisfile). One thread at a time.
 #pragma once
 

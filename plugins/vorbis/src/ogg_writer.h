@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An Ogg Vorbis file being written from s16 PCM (libvorbisenc, VBR). One thread at a time.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "player.h"
 
 #include <skrobot/audio/pcm_output.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Plays an Ogg Vorbis file onto <module>.playback as PCM media frames, paced to real time with a
 // small lead (consumers buffer by the sample counter). A decoder thread reads and paces; the loop
 // thread publishes. Playback starts with the first subscriber, pauses when the last one leaves

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Records an audio channel to Ogg Vorbis files, rotating by size or by audio duration.
 // The loop thread parses frames and queues them (never blocks); a writer thread encodes and
 // writes, and posts progress back. The module's database gets: "file" (the file being written),

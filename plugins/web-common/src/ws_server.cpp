@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include <skrobot/web/ws_server.h>
 
 #include <libwebsockets.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: parseInbound on text and binary messages. The first byte picks the kind.
 #include "browser_protocol.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the avatar does, decided in the module (the browser only executes): where it looks and
 // when it blinks. Pure logic on a caller-supplied clock, so tests drive it without waiting.
 //

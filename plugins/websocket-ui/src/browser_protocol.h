@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a browser may send to websocket-ui (docs/websocket-ui.md), checked before anything else
 // sees it. Pure functions: no I/O, safe on any thread, fuzzed by websocket_ui_inbound_fuzz.
 #pragma once

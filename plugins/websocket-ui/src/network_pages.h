@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The /network page's side of websocket-ui (docs/observability.md): the hub's statistics, channel
 // previews and database views, for the browsers that opened that page. Loop thread only.
 //

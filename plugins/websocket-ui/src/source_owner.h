@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One browser at a time feeds the camera (or microphone) channel: the browser that owns it keeps
 // it while it keeps sending; another takes over once the owner has been silent for `handover_ms`
 // or has left. Frames from the others are counted and dropped, so that two open pages do not

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mouth shapes for the avatar from the speech module's phoneme timeline (espeak-ng phoneme
 // mnemonics, e.g. "h", "@", "l", "oU", "a:", "_:"). Five shapes and rest are enough for a
 // stylised head: the browser turns each into jaw/wide/round morph weights.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The directory of the avatar page when the config names none: installed beside the module
 // (<prefix>/share/skrobot/web, found from the module's own file) or a build tree's copy.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // websocket-ui: serves the avatar page and bridges browsers to the FlowNetwork
 // (docs/websocket-ui.md).
 //
@@ -554,7 +555,7 @@ constexpr skr_config_key kConfig[] = {
         .min(0),
 };
 
-SKROBOT_MODULE_WITH_CONFIG(
+SKR_MODULE_WITH_CONFIG(
     skr::wsui::WebsocketUi, "websocket-ui", "1.0.0",
     "serves the avatar page; browsers' camera and microphone to channels, avatar behaviour", 0,
     kConfig)

@@ -1,4 +1,5 @@
-#include <skrobot/flow/address.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/address.h>
 
 #include <charconv>
 

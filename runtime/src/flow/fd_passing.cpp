@@ -1,4 +1,5 @@
-#include <skrobot/flow/fd_passing.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/fd_passing.h>
 
 #include <sys/socket.h>
 #include <unistd.h>

@@ -1,4 +1,5 @@
-#include <skrobot/flow/name_pattern.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <cstddef>
 #include <vector>

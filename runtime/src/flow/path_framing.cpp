@@ -1,5 +1,6 @@
-#include <skrobot/flow/bytes.h>
-#include <skrobot/flow/path_framing.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/runtime/flow/path_framing.h>
 
 #include <cstring>
 #include <functional>

@@ -1,5 +1,6 @@
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/protocol.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/protocol.h>
 
 #include <array>
 #include <iterator>

@@ -1,5 +1,6 @@
-#include <skrobot/core/clock.h>
-#include <skrobot/flow/shm_ring.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/flow/shm_ring.h>
 
 #include <fcntl.h>
 #include <sys/eventfd.h>

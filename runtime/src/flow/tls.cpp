@@ -1,6 +1,7 @@
-// TLS through memory BIOs (skrobot/flow/tls.h). OpenSSL never touches a socket here: received
+// SPDX-License-Identifier: Apache-2.0
+// TLS through memory BIOs (skrobot/runtime/flow/tls.h). OpenSSL never touches a socket here: received
 // bytes go into the read BIO, what OpenSSL wants to send accumulates in the write BIO.
-#include <skrobot/flow/tls.h>
+#include <skrobot/runtime/flow/tls.h>
 
 #include <arpa/inet.h>
 #include <openssl/err.h>

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Variant accessors, equality, UTF-8 validation and base64. The binary codec is in
 // variant_binary.cpp, the JSON mapping in variant_json.cpp.
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <cmath>
 #include <cstring>

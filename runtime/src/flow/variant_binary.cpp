@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // The binary encoding of Variant (docs/flow-protocol.md). The decoder reads untrusted bytes: it
 // trusts no announced length or count until it has compared it with the bytes left.
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <algorithm>
 #include <cstdio>

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // The JSON mapping of Variant (docs/pair-databases.md) to and from a Json::Value. The text of
 // modules' values and the protocol's "JSON twin" commands is read and written without a
 // Json::Value: variant_json_read.cpp, variant_json_write.cpp.
 #include "variant_json_text.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <cmath>
 #include <limits>

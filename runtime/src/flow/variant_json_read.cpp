@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // variantFromJsonText: strict JSON text (RFC 8259) read straight into a Variant, with the
 // mapping's escapes ({"$base64"}, {"$map"}) undone as each object closes. No Json::Value in
 // between: values of modules and JSON twin commands pass here (a 64 KB string took 527 us
@@ -9,7 +10,7 @@
 // nesting, itself bounded by 2 x max_depth + 2.
 #include "variant_json_text.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <algorithm>
 #include <charconv>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the JSON mapping's reader and writer share: the keys of its escapes
 // (docs/pair-databases.md: {"$base64": "..."} is bytes, {"$map": {...}} a map whose only key
 // would otherwise read as an escape) and the scan for bytes a JSON string must escape.

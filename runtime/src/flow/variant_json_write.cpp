@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // variantToJsonText: the JSON mapping written straight from a Variant to text, without a
 // Json::Value in between (values of modules and JSON twin commands pass here; a 64 KB string
 // took 280 us through jsoncpp). Same text as Json::StreamWriter with emitUTF8, except float64:
 // the shortest digits that read back to the same double.
 #include "variant_json_text.h"
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <charconv>
 #include <cmath>

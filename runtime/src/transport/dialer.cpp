@@ -1,10 +1,11 @@
-// Opening a transport to a hub's address (skrobot/flow/transport.h): resolving on libuv's thread
+// SPDX-License-Identifier: Apache-2.0
+// Opening a transport to a hub's address (skrobot/runtime/flow/transport.h): resolving on libuv's thread
 // pool, connecting, and for tls: the handshake, before the transport is handed over.
 #include "stream_transport.h"
 #include "tls_transport.h"
 
-#include <skrobot/core/loop.h>
-#include <skrobot/core/loop_handles.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <optional>
 

@@ -1,9 +1,10 @@
-// Listeners on local:, tcp: and tls: addresses (skrobot/flow/transport.h).
+// SPDX-License-Identifier: Apache-2.0
+// Listeners on local:, tcp: and tls: addresses (skrobot/runtime/flow/transport.h).
 #include "stream_transport.h"
 #include "tls_transport.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
 
 #include <sys/socket.h>
 #include <sys/stat.h>

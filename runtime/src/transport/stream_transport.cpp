@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "stream_transport.h"
 
-#include <skrobot/core/loop.h>
+#include <skrobot/runtime/loop.h>
 
 #include <sys/socket.h>
 

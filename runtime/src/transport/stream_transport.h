@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // Unix sockets and TCP: a libuv stream as a Transport. Internal to the runtime (listener.cpp,
 // dialer.cpp make them). The libuv handle lives on the heap until libuv's close callback, so the
 // transport may be destroyed at any time, even with a write or a connect under way.
 #pragma once
 
-#include <skrobot/flow/transport.h>
+#include <skrobot/runtime/flow/transport.h>
 
 #include <uv.h>
 

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "tls_transport.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 namespace skr::flow::transport {
 namespace {

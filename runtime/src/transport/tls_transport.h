@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // TLS as a layer over another transport (TCP): received ciphertext is decrypted into the
 // receiver's buffer, so that the receiver sees what a plain connection would have read; writes
 // are encrypted as they are given and the ciphertext written in order. Internal to the runtime.
@@ -8,8 +9,8 @@
 // dialer, which hands the transport over once it is established.
 #pragma once
 
-#include <skrobot/core/loop_handles.h>
-#include <skrobot/flow/transport.h>
+#include <skrobot/runtime/loop_handles.h>
+#include <skrobot/runtime/flow/transport.h>
 
 #include <functional>
 #include <memory>

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "asr_satellite.h"
 
 #include "transcript.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 #include <skrobot/media_frame.hpp>
 
 #include <cmath>

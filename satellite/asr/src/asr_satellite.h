@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The speech-recognition satellite: subscribes to an audio channel, finds utterances, hands them
 // to the recogniser's worker and publishes what it heard on <user>.<name>.transcript; answers
 // commands on <user>.<name>.control (docs/asr.md).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The speech-recognition engine seen by the satellite: one utterance at a time, fed as it is
 // heard. pocketsphinx is the one built today (pocketsphinx_engine.h); another engine (whisper.cpp)
 // implements the same class and is picked in main.cpp.

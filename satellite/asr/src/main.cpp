@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // skrobot-asr: the speech-recognition satellite (docs/asr.md).
 //
 //   skrobot-asr [--input CHANNEL] [--name NAME] [--mode dictation|grammar]
@@ -8,8 +9,8 @@
 #include "asr_satellite.h"
 #include "pocketsphinx_engine.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop_handles.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/satellite.h>
 
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "pocketsphinx_engine.h"
 
 #include <pocketsphinx.h>

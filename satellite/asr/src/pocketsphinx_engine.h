@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // AsrEngine on pocketsphinx (Debian's 0.8+5prealpha: cmd_ln_init, ps_init, ps_process_raw).
 //
 // Dictation uses the model's language model. Grammar mode uses a JSGF search (a keyword list is

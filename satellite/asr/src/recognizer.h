@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The recogniser's worker thread: it owns the engine and runs every engine call, so that
 // recognition never runs on the satellite's loop. The loop thread hands it utterances as they are
 // heard (begin, audio, end) and engine commands (a grammar, a mode); results come back through

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A streaming sample-rate converter: Kaiser-windowed sinc interpolation at any ratio, with the
 // low-pass cut below the lower of the two Nyquist frequencies (so going down from 22050 Hz to
 // 16 kHz removes what 16 kHz cannot carry instead of folding it back).

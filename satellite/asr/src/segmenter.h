@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Cuts a continuous 16 kHz stream into utterances with the VAD (vad.h): each utterance is the
 // speech with `preroll_ms` of audio before it (the recogniser needs the onset) and the VAD's
 // hang-over after it. An utterance that reaches `max_utterance_s` is ended there, marked cut, and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The JSON published on <name>.transcript, one object per utterance (docs/asr.md).
 #pragma once
 

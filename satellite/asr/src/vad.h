@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Voice-activity detection by energy over an adaptive noise floor, in 10 ms frames of 16 kHz
 // audio.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The listening loop end to end: speech made with espeak-ng streams on guest.mic into a hub with
 // the agent and speech modules; two skrobot-asr instances listen to it, take the agent's command
 // grammar, and the agent answers each utterance once (docs/agent.md, docs/asr.md).

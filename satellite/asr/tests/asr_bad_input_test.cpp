@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // skrobot-asr on input it must survive: a channel whose properties say stereo or float, frames
 // that are not PCM media frames, a silent and a clipped stream, and a 10-minute monologue
 // streamed faster than real time (memory stays bounded, utterances are cut and say so).

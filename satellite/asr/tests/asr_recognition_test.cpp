@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // skrobot-asr against a hub: speech made with espeak-ng (the commands are the benchmark's first
 // set, whose rejection measures were looked at when the limits were chosen) and a real recording
 // from pocketsphinx-testdata, streamed as one continuous audio channel with silence between

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // Helpers of the skrobot-asr tests and benchmark: speech made with espeak-ng and sox at run time,
 // one continuous stream with silence between utterances, a hub and skrobot-asr as processes
-// (satellite/cpp/tests/support/hub_process.h), and a satellite that streams the audio as media
+// (tests/support/hub_process.h), and a satellite that streams the audio as media
 // frames on guest.mic and collects the transcripts. Word error rate by edit distance.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The parts of skrobot-asr on generated signals: resampler, VAD, segmenter.
 #include "resampler.h"
 #include "segmenter.h"

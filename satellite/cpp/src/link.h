@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // One libuv stream to a hub (internal to the satellite library): connects, splits incoming bytes
 // into frames, and writes everything queued during one loop iteration in one write.
 //
-// A tls: address gets a TLS session (skrobot/flow/tls.h) on the TCP stream: onLinkConnected comes
+// A tls: address gets a TLS session (skrobot/runtime/flow/tls.h) on the TCP stream: onLinkConnected comes
 // once the handshake is done, frames are split from the decrypted bytes, and queued output is
 // encrypted as a whole at flush time.
 //
@@ -10,8 +11,8 @@
 // through Handler::onLinkClosed (the owner must forget the pointer there, and not call close()).
 #pragma once
 
-#include <skrobot/flow/protocol.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/runtime/flow/protocol.h>
+#include <skrobot/runtime/flow/tls.h>
 #include <skrobot/satellite/address.h>
 
 #include <uv.h>

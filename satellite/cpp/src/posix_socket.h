@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blocking socket helpers for the synchronous connection (internal).
 #pragma once
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/tls.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/tls.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>

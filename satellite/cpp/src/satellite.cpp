@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Satellite's public methods: channels, publishing, services, databases.
 #include "satellite_impl.h"
 
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <cstdlib>
 

@@ -1,194 +1,126 @@
+// SPDX-License-Identifier: Apache-2.0
 // Events on the flow: the channel table, subscriptions by name, data, services, errors. A frame
 // that breaks the protocol closes the connection (SAT-PROTOCOL) and the satellite reconnects.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 
 #include "satellite_impl.h"
+
+#include <skrobot/runtime/flow/event_dispatch.h>
 
 namespace skr::sat {
 
 namespace msg = flow::msg;
 using flow::Code;
 
-// Decodes `body` as M into `var`, or drops the connection as the hub broke the protocol.
-// NOLINTBEGIN(bugprone-macro-parentheses): `M` is a type
-#define SAT_DECODE(M, var)                      \
-  auto var##_r = flow::decode<M>(body, limits); \
-  if (!var##_r) {                               \
-    drop(var##_r.error().message, true);        \
-    return;                                     \
-  }                                             \
-  auto& var = var##_r.value();
-// NOLINTEND(bugprone-macro-parentheses)
+namespace {
 
-void Satellite::Impl::event(uint8_t code, std::string_view body) {
-  const flow::DecodeLimits limits{32, opt.connection.max_frame_bytes};
-  const uint64_t gen = generation;
-  switch (static_cast<Code>(code)) {
-    case Code::ev_data: {
-      SAT_DECODE(msg::EvData, m);
-      self.dataView.emit(m.chan_id, m.payload.bytes);
-      if (gen == generation && self.data.connectionCount() > 0) {
-        self.data.emit(m.chan_id, std::string(m.payload.bytes));
-      }
-      return;
-    }
-    case Code::ev_chan_added: {
-      SAT_DECODE(msg::EvChanAdded, m);
-      onChanAdded(m);
-      return;
-    }
-    case Code::ev_chan_removed: {
-      SAT_DECODE(msg::EvChanRemoved, m);
-      onChanRemoved(m);
-      return;
-    }
-    case Code::ev_sync_pulse: {
-      SAT_DECODE(msg::EvSyncPulse, m);
-      const SyncPulse p{m.chan_id, m.seq, m.source_time_ns, m.dropped, monotonicNs()};
-      self.syncPulse.emit(p);
-      // The slots' work is the tick this pulse drove: done now.
-      if (gen == generation && flowOpen()) send(msg::SyncDone{m.chan_id, m.seq});
-      return;
-    }
-    case Code::ev_link_wanted: {
-      SAT_DECODE(msg::EvLinkWanted, m);
-      self.linkWanted.emit(m.hub_name);
-      return;
-    }
-    case Code::ev_time_probe: {
-      SAT_DECODE(msg::EvTimeProbe, m);
-      const TimeSample t{m.tag, static_cast<int64_t>(m.t1), static_cast<int64_t>(m.t2),
-                         static_cast<int64_t>(m.t3), realtimeNs()};
-      self.timeSample.emit(t);
-      return;
-    }
-    case Code::ev_chan_header: {
-      SAT_DECODE(msg::EvChanHeader, m);
-      upsert(m.info);
-      self.channelChanged.emit(m.info);
-      return;
-    }
-    case Code::ev_start_publish:
-    case Code::ev_stop_publish: {
-      SAT_DECODE(msg::EvStartPublish, m);  // both are a u16 channel id
-      const bool start = static_cast<Code>(code) == Code::ev_start_publish;
-      for (auto& [name, o] : own) {
-        if (o.id == m.chan_id && o.id != 0) o.subscribers = start;
-      }
-      if (start) {
-        self.startPublish.emit(m.chan_id);
-      } else {
-        self.stopPublish.emit(m.chan_id);
-      }
-      return;
-    }
-    case Code::ev_service_request: {
-      SAT_DECODE(msg::EvServiceRequest, m);
-      self.serviceRequest.emit(m);
-      return;
-    }
-    case Code::ev_service_response: {
-      SAT_DECODE(msg::EvServiceResponse, m);
-      Response r{m.chan_id, m.tag, static_cast<flow::ErrorCode>(m.error), std::move(m.value)};
-      ResponseHandler handler;
-      if (auto it = pending.find(m.tag); it != pending.end()) {
-        handler = std::move(it->second);
-        pending.erase(it);
-      }
-      if (handler) handler(r);
-      if (gen == generation) self.serviceResponse.emit(r);
-      return;
-    }
-    case Code::ev_error: {
-      SAT_DECODE(msg::EvError, m);
-      if (m.command == uint8_t(Code::phys_request) && paths->onRefused(m)) return;
-      onHubError(m);
-      return;
-    }
-    case Code::ev_phys_grant: {
-      SAT_DECODE(msg::EvPhysGrant, m);
-      paths->onGrant(m);
-      return;
-    }
-    case Code::ev_phys_path: {
-      SAT_DECODE(msg::EvPhysPath, m);
-      paths->onPath(m);
-      return;
-    }
-    case Code::ev_phys_revoke: {
-      SAT_DECODE(msg::EvPhysRevoke, m);
-      paths->onRevoke(m);
-      return;
-    }
-    case Code::ev_phys_relay: {
-      SAT_DECODE(msg::EvPhysRelay, m);
-      paths->onRelay(m);
-      return;
-    }
-    case Code::ev_phys_switch: {
-      SAT_DECODE(msg::EvPhysSwitch, m);
-      paths->onSwitch(m);
-      return;
-    }
-    case Code::ev_phys_resume: {
-      SAT_DECODE(msg::EvPhysResume, m);
-      paths->onResume(m);
-      return;
-    }
-    case Code::ev_phys_marker: {
-      SAT_DECODE(msg::EvPhysMarker, m);
-      paths->onMarker(m);
-      return;
-    }
-    case Code::ev_db_changed: {
-      SAT_DECODE(msg::EvDbChanged, m);  // flow_db follows what we asked, in flow order
-      (void)m;
-      return;
-    }
-    case Code::ev_db_value: {
-      SAT_DECODE(msg::EvDbValue, m);
-      if (auto it = reads.find(m.tag); it != reads.end()) {
-        ResponseHandler handler = std::move(it->second);
-        reads.erase(it);
-        if (handler) handler(Response{0, m.tag, flow::ErrorCode::ok, std::move(m.value)});
-      }
-      return;
-    }
-    case Code::ev_db_synced: {
-      SAT_DECODE(msg::EvDbSynced, m);
-      self.databasesSynced.emit(m.tag);
-      return;
-    }
-    case Code::ev_blob_changed: {
-      SAT_DECODE(msg::EvBlobChanged, m);
-      self.blobChanged.emit(BlobChange{m.chan_id, static_cast<msg::BlobChange>(m.change),
-                                       std::move(m.path), m.size, m.version});
-      return;
-    }
-    case Code::ev_dropped: {
-      SAT_DECODE(msg::EvDropped, m);
-      stats.data_dropped += m.count;
-      const Nanos now = monotonicNs();
-      if (now - last_drop_log_ns > kNsPerSec) {
-        last_drop_log_ns = now;
-        log::warn(kLogSource, "SAT-DROPPED",
-                  "the hub dropped " + std::to_string(m.count) + " data frames of channel " +
-                      std::to_string(m.chan_id) + ": this satellite reads too slowly");
-      }
-      return;
-    }
-    default: {
-      char hex[8];
-      std::snprintf(hex, sizeof hex, "0x%02x", code);
-      drop("the hub sent " + std::string(flow::codeName(code)) + " (" + hex + ") on a flow", true);
-      return;
+// The events of a flow, one overload per event row of the catalogue (flow::dispatchEvent calls
+// them; a new event row without one does not compile). `gen` is the connection the event came on:
+// a slot may reconnect, and what follows a slot is skipped then.
+struct Events {
+  Satellite::Impl& s;
+  const uint64_t gen = s.generation;
+
+  [[nodiscard]] bool same() const { return gen == s.generation; }
+
+  void on(msg::EvData& m) {
+    s.self.dataView.emit(m.chan_id, m.payload.bytes);
+    if (same() && s.self.data.connectionCount() > 0) {
+      s.self.data.emit(m.chan_id, std::string(m.payload.bytes));
     }
   }
-}
+  void on(msg::EvChanAdded& m) { s.onChanAdded(m); }
+  void on(msg::EvChanRemoved& m) { s.onChanRemoved(m); }
+  void on(msg::EvSyncPulse& m) {
+    const SyncPulse p{m.chan_id, m.seq, m.source_time_ns, m.dropped, monotonicNs()};
+    s.self.syncPulse.emit(p);
+    // The slots' work is the tick this pulse drove: done now.
+    if (same() && s.flowOpen()) s.send(msg::SyncDone{m.chan_id, m.seq});
+  }
+  void on(msg::EvLinkWanted& m) { s.self.linkWanted.emit(m.hub_name); }
+  void on(msg::EvTimeProbe& m) {
+    const TimeSample t{m.tag, static_cast<int64_t>(m.t1), static_cast<int64_t>(m.t2),
+                       static_cast<int64_t>(m.t3), realtimeNs()};
+    s.self.timeSample.emit(t);
+  }
+  void on(msg::EvChanHeader& m) {
+    s.upsert(m.info);
+    s.self.channelChanged.emit(m.info);
+  }
+  void on(msg::EvStartPublish& m) { publishing(m.chan_id, true); }
+  void on(msg::EvStopPublish& m) { publishing(m.chan_id, false); }
+  void publishing(uint16_t chan_id, bool start) {
+    for (auto& [name, o] : s.own) {
+      if (o.id == chan_id && o.id != 0) o.subscribers = start;
+    }
+    if (start) {
+      s.self.startPublish.emit(chan_id);
+    } else {
+      s.self.stopPublish.emit(chan_id);
+    }
+  }
+  void on(msg::EvServiceRequest& m) { s.self.serviceRequest.emit(m); }
+  void on(msg::EvServiceResponse& m) {
+    Response r{m.chan_id, m.tag, static_cast<flow::ErrorCode>(m.error), std::move(m.value)};
+    Satellite::ResponseHandler handler;
+    if (auto it = s.pending.find(m.tag); it != s.pending.end()) {
+      handler = std::move(it->second);
+      s.pending.erase(it);
+    }
+    if (handler) handler(r);
+    if (same()) s.self.serviceResponse.emit(r);
+  }
+  void on(msg::EvError& m) {
+    if (m.command == uint8_t(Code::phys_request) && s.paths->onRefused(m)) return;
+    s.onHubError(m);
+  }
+  void on(msg::EvPhysGrant& m) { s.paths->onGrant(m); }
+  void on(msg::EvPhysPath& m) { s.paths->onPath(m); }
+  void on(msg::EvPhysRevoke& m) { s.paths->onRevoke(m); }
+  void on(msg::EvPhysRelay& m) { s.paths->onRelay(m); }
+  void on(msg::EvPhysSwitch& m) { s.paths->onSwitch(m); }
+  void on(msg::EvPhysResume& m) { s.paths->onResume(m); }
+  void on(msg::EvPhysMarker& m) { s.paths->onMarker(m); }
+  void on(msg::EvDbChanged& /*m*/) {}  // flow_db follows what we asked, in flow order
+  void on(msg::EvDbValue& m) {
+    if (auto it = s.reads.find(m.tag); it != s.reads.end()) {
+      Satellite::ResponseHandler handler = std::move(it->second);
+      s.reads.erase(it);
+      if (handler) handler(Response{0, m.tag, flow::ErrorCode::ok, std::move(m.value)});
+    }
+  }
+  void on(msg::EvDbSynced& m) { s.self.databasesSynced.emit(m.tag); }
+  void on(msg::EvBlobChanged& m) {
+    s.self.blobChanged.emit(BlobChange{m.chan_id, static_cast<msg::BlobChange>(m.change),
+                                       std::move(m.path), m.size, m.version});
+  }
+  void on(msg::EvDropped& m) {
+    s.stats.data_dropped += m.count;
+    const Nanos now = monotonicNs();
+    if (now - s.last_drop_log_ns > kNsPerSec) {
+      s.last_drop_log_ns = now;
+      log::warn(kLogSource, "SAT-DROPPED",
+                "the hub dropped " + std::to_string(m.count) + " data frames of channel " +
+                    std::to_string(m.chan_id) + ": this satellite reads too slowly");
+    }
+  }
+  // A frame that breaks the protocol: the satellite drops the connection and reconnects.
+  void broken(const std::string& why) { s.drop(why, true); }
+  void unexpected(uint8_t code) {
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "0x%02x", code);
+    s.drop("the hub sent " + std::string(flow::codeName(code)) + " (" + hex + ") on a flow", true);
+  }
+};
 
-#undef SAT_DECODE
+}  // namespace
+
+void Satellite::Impl::event(uint8_t code, std::string_view body) {
+  Events events{*this};
+  flow::dispatchEvent(events, code, body, flow::DecodeLimits{32, opt.connection.max_frame_bytes});
+}
 
 void Satellite::Impl::upsert(const ChannelInfo& info) {
   if (auto old = table.find(info.id); old != table.end() && old->second.name != info.name) {
@@ -217,7 +149,10 @@ void Satellite::Impl::onChanAdded(msg::EvChanAdded& ev) {
     mine->tag = 0;
     mine->retries = 0;
     if (mine->spec.kind == flow::ChannelKind::streaming && login.minor >= 7) {
-      paths->serve(ev.info.id, ev.info.name, mine->spec.physical);
+      const PhysicalOptions& o = mine->spec.physical;
+      paths->serve(ev.info.id, ev.info.name,
+                   uint8_t((o.direct ? msg::kPhysDirect : 0) | (o.shm ? msg::kPhysShm : 0)),
+                   o.ring);
     }
     log::debug(kLogSource, "SAT-CHANNEL",
                "channel " + ev.info.name + " is ready (id " + std::to_string(ev.info.id) + ")");

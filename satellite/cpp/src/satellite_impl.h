@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // The inside of a Satellite (internal): connection state machine, channel table, pending
 // requests. Everything runs on the satellite's loop thread.
 #pragma once
 
-#include <skrobot/core/loop_handles.h>
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/loop_handles.h>
+#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <map>
@@ -129,7 +130,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   uint32_t next_tag = 1;
   std::optional<SyncClient> sync;
   std::optional<Result<flow::TlsContext>> tls_context;  // tls: addresses, made once
-  std::unique_ptr<detail::Paths> paths;                 // physical mode (paths.h)
+  std::unique_ptr<flow::phys::Paths> paths;             // physical mode (the runtime's paths.h)
 };
 
 }  // namespace skr::sat

@@ -1,5 +1,6 @@
+// SPDX-License-Identifier: Apache-2.0
 // The satellite's connection: connect, LOGIN, CHAN_LIST, GO_ASYNC, and reconnection with backoff.
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <chrono>
 
@@ -44,7 +45,7 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options)
   opt.reconnect_max_ns = std::max(opt.reconnect_max_ns, opt.reconnect_min_ns);
   backoff_ns = opt.reconnect_min_ns;
   login.user = opt.connection.user;
-  detail::Paths::Host h;
+  flow::phys::Paths::Host h;
   h.loop = &self.loop();
   h.offer = [this](const flow::msg::PhysOffer& m) { send(m); };
   h.request = [this](const flow::msg::PhysRequest& m) { send(m); };
@@ -64,7 +65,7 @@ Satellite::Impl::Impl(Satellite& s, SatelliteOptions options)
   h.deliver_copy = [this](uint16_t chan, const std::string& payload) {
     self.data.emit(chan, payload);
   };
-  paths = std::make_unique<detail::Paths>(std::move(h));
+  paths = std::make_unique<flow::phys::Paths>(std::move(h));
 }
 
 Satellite::Impl::~Impl() {

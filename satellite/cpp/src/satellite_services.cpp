@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Satellite: service requests and answers, and PairDatabase access (blocking reads over the
 // synchronous connection, writes on the flow).
 #include "satellite_impl.h"

@@ -1,5 +1,6 @@
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop_handles.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/satellite/sketch.h>
 
 #include <algorithm>

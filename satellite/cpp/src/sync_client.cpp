@@ -1,4 +1,5 @@
-#include <skrobot/flow/codec.h>
+// SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <unistd.h>
@@ -114,7 +115,7 @@ Result<SyncClient::Reply> SyncClient::receiveReply(uint32_t timeout_ms) {
 
 Result<SyncClient::ReplyView> SyncClient::receiveView(uint32_t timeout_ms) {
   if (fd_ < 0) return makeError(Errc::closed, "the synchronous connection is closed");
-  if (!in_) in_ = std::make_unique<detail::InBuffer>();
+  if (!in_) in_ = std::make_unique<flow::InBuffer>();
   last_error_ = ErrorCode::ok;
   const flow::FrameSplitter splitter(options_.max_frame_bytes);
   for (;;) {

@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // SyncClient's blob channel requests (protocol 1.3). Transfers keep kBlobWindow requests of
 // kBlobChunk bytes ahead of their replies, so that the hub's disk and the socket overlap.
-#include <skrobot/flow/bytes.h>
-#include <skrobot/flow/codec.h>
+#include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <fcntl.h>

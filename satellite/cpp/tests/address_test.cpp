@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // ROBOT_ADDRESS parsing, the environment, and the synchronous connection's errors.
 #include "sat_fixture.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The examples in satellite/examples/cpp, run as their users would, against a real hub.
 #include <signal.h>
 

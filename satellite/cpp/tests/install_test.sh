@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the runtime and dev components (libskrobot-satellite, libskrobot-runtime, their
 # headers, the CMake package and the .pc) into a temp prefix, builds a satellite out of tree against it twice
 # (CMake package: satellite/examples/cpp/out-of-tree; pkg-config: a one-file program), and runs
@@ -52,6 +53,8 @@ find_package(skrobot_satellite REQUIRED)
 add_executable(runtime_only main.cpp)
 target_link_libraries(runtime_only PRIVATE skrobot::runtime)
 CMAKE
+# The old include paths on purpose: their forwarding headers must keep a program written for
+# them building until the next minor release (CHANGELOG.md, "Moved headers").
 cat > "$tmp/rt-src/main.cpp" <<'CPP'
 #include <skrobot/core/loop.h>
 #include <skrobot/flow/address.h>

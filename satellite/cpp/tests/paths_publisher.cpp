@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A channel owner that offers physical-mode paths (docs/physical-mode.md), for the tests of other
 // languages' subscribers (satellite/python/tests/test_paths.py). It owns "<user>.<channel>" with
 // the paths asked for, and publishes numbered messages whose content a reader can check:

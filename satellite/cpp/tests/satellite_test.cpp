@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Two or more C++ satellites through a real hub: channels, data, properties, services, databases.
 #include <mutex>
 #include "sat_fixture.h"

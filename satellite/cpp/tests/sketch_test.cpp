@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sketch style: setup() once when the flow opens, loop() at the requested cadence, which the
 // sketch measures and reports. Rate bounds are loose (40% of the requested rate, and never
 // faster than requested) so that loaded machines pass, but a wrong cadence does not.

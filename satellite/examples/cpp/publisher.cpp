@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Publisher, in the sketch style: setup() once, loop() at a steady rate. It publishes a counter on
 // "<user>.counter", and only while somebody subscribes (the hub tells it: start/stop publish).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Service caller: a blocking call (over a short-lived synchronous connection, so the flow never
 // blocks), then an asynchronous request whose answer arrives as an event on the flow.
 //

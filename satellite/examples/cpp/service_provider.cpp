@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Service provider: owns the service channel "<user>.adder" and answers its requests.
 //   add  [numbers...]  -> their sum
 //   echo value         -> the value

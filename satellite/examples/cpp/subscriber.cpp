@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Subscriber, in the loop-integrated style: a Satellite on an skr::Loop, its events as signals.
 // It subscribes by name (and waits for the channel to appear), then prints every payload.
 //

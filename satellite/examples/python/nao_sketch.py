@@ -1,4 +1,5 @@
 #!/usr/bin/env pysketch-executor
+# SPDX-License-Identifier: Apache-2.0
 # The nao-bridge service, run on the Nao itself under Python 2.7 with the naoqi SDK: a service
 # channel "<user>.command" (see --name) that takes the same JSON commands as the hub's
 # nao-bridge module (docs/nao.md) and answers {"ok": True} or {"ok": False, "code", "error"}.

@@ -1,4 +1,5 @@
 #!/usr/bin/env pysketch-executor
+# SPDX-License-Identifier: Apache-2.0
 # A streaming publisher: a sine wave as float32 values on "<user>.sine", produced only while
 # someone subscribes (the hub tells the owner about its first and last subscriber).
 import argparse

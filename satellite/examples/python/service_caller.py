@@ -1,4 +1,5 @@
 #!/usr/bin/env pysketch-executor
+# SPDX-License-Identifier: Apache-2.0
 # A service caller: waits for a service channel, sends one request (non-blocking), prints the
 # answer and stops.
 import argparse

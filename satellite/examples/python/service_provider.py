@@ -1,4 +1,5 @@
 #!/usr/bin/env pysketch-executor
+# SPDX-License-Identifier: Apache-2.0
 # A service provider: "<user>.calc" answers "add" (the sum of a list of numbers), "upper" (a
 # string in capitals) and "echo" (the value itself); anything else gets an error map.
 import argparse

@@ -1,4 +1,5 @@
 #!/usr/bin/env pysketch-executor
+# SPDX-License-Identifier: Apache-2.0
 # A streaming subscriber: subscribes by name when the channel appears and prints every float.
 import argparse
 import struct

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """PySketch: Python satellites for the skrobot hub, compatible with the PySketch API.
 
 Modules: flowsat (FlowSat), robotmod (RobotModule), abstractflow (FlowChannel), flowproto

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """What FlowSat (the asynchronous flow) and FlowSync (the synchronous connection) share:
 FlowChannel, the hub's address (ROBOT_ADDRESS), credentials, sockets (TLS for tls: addresses,
 with Python's ssl module) and frame splitting."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """DataBuffer: packs and unpacks payloads, little-endian, the way sketches exchange them.
 
     buf = DataBuffer()

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """ElapsedTime: a stopwatch. start() (re)starts it, stop() returns the seconds since the last
 start() as a float, without stopping anything (it can be read again and again). A new
 ElapsedTime starts at once."""

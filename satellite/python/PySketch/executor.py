@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The sketch executor: runs a PySketch sketch.
 
     pysketch-executor SKETCH.py [the sketch's own options...]

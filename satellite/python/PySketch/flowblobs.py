@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The blob channel requests of FlowSync (protocol 1.3; docs/blob-channels.md).
 
 A blob channel is a tree of files owned by one user and kept on the hub: everyone may list and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7;
 its marker of 1.9).
 
@@ -19,7 +20,7 @@ zero copy, to a grab-data-view callback that gets a read-only `memoryview` of th
 Keeping `view` (or an array made from it) after the callback returns is not an error Python can
 catch: the ring stays mapped (nothing crashes), but the slot is rewritten by later messages.
 
-This module mirrors the C++ subscriber (satellite/cpp/src/paths_subscriber.cpp) in what it says
+This module mirrors the C++ subscriber (runtime/src/paths/paths_subscriber.cpp) in what it says
 to the hub and to the owner:
 - on each subscription to a channel it wants paths for, PHYS_REQUEST; the hub answers
   EV_PHYS_PATH (an endpoint and a one-time token) or EV_ERROR (then asked again later);
@@ -46,7 +47,7 @@ to the hub and to the owner:
   1 s, 2 s, 4 s, ... up to 30 s (the C++ library's backoff); a refused PHYS_REQUEST is logged
   (SAT-PATH-REFUSED), not handed to the error callback.
 
-Shared memory (RingReader) reads the layout of runtime/include/skrobot/flow/shm_ring.h: a 4 KB
+Shared memory (RingReader) reads the layout of runtime/include/skrobot/runtime/flow/shm_ring.h: a 4 KB
 header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
 wins: a busy reader reads the latest message and counts those it missed. A slot is leased while
 it is read, and its sequence number (a seqlock: odd while written) is checked before and after:
@@ -96,13 +97,13 @@ PATHS_SUPPORTED = (sys.version_info[0] >= 3 and hasattr(socket.socket, "recvmsg"
                    hasattr(time, "monotonic_ns") and fcntl is not None and
                    sys.platform.startswith("linux"))
 
-# --- the path socket (runtime/include/skrobot/flow/path_framing.h) --------------------------------
+# --- the path socket (runtime/include/skrobot/runtime/flow/path_framing.h) --------------------------------
 HELLO, WELCOME, DATA, BYE = [dict(PATH_FRAMES)[_n] for _n in ("hello", "welcome", "data", "bye")]
 MAX_CONTROL_BYTES = 4096
 MAX_DATA_BYTES = 64 << 20
 MAX_DATA_FRAME = MAX_DATA_BYTES + 32   # what the C++ subscriber accepts (kMaxDataFrame)
 _DATA_HEAD = 16                        # u64 seq, i64 capture_ns
-MAX_PASSED_FDS = 8                     # skrobot/flow/fd_passing.h
+MAX_PASSED_FDS = 8                     # skrobot/runtime/flow/fd_passing.h
 
 # --- the ring (runtime/src/flow/shm_ring.cpp) --------------------------------------------------
 _MAGIC = 0x47524B53  # "SKRG"

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """FlowProtocol 1.0 for Python: enums, command codes, error codes and the Variant codec.
 
 The byte-by-byte specification is docs/flow-protocol.md. Everything here is plain standard

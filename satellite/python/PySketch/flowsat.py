@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """FlowSat: a satellite's flow, the one asynchronous connection that carries all its channels.
 
 Typical use in a sketch (run by the executor, which calls setup() once and loop() until it

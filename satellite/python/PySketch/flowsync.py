@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """FlowSync: a blocking client on a synchronous connection to the hub.
 
 A satellite's flow never blocks; look-ups that wait for an answer (reading a channel's

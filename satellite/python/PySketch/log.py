@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Console logging for sketches: msg (info), dbg (debug), wrn (warning), err (error),
 cri (critical), printPair(key, value). Each takes any objects, like print().
 

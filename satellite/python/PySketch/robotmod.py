@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """RobotModule: the older name of FlowSat, with the same methods."""
 from __future__ import print_function, division, absolute_import
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The `#!PySketch/sketch-executor.py` form of the sketch executor: see executor.py."""
 from __future__ import print_function, division, absolute_import
 

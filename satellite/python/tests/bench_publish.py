@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """How long FlowSat.publish() takes for a camera frame, measured, not asserted (not run by CTest).
 
     SKROBOT_BIN=build/release/bin/skrobot PYTHONPATH=satellite/python \

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """What the tests need that Python 2.7 spells differently (the suite runs under Debian's python3
 and under Python 2.7.18, see test_python27.py)."""
 import contextlib

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Test helpers: a private hub (the real skrobot binary with a temporary config), sketches run
 as subprocesses, and a loop that ticks in-process satellites until something happens.
 

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Runs test modules of this suite (and so the example sketches, which run under the same
 # interpreter) under Python 2.7.18, against a real hub. Every machine of the project has it at
 # the pyenv path below ($PYSKETCH_PY27 overrides). Without it: skipped (exit 77, CTest's

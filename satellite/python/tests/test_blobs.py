@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Blob channels from PySketch (FlowSync's blob calls, FlowSat's change events) against a real
 hub, under Python 3 and 2.7."""
 import hashlib

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The Variant codec and frame layouts against docs/flow-protocol.md, and the small modules
 (DataBuffer, ElapsedTime, enums, addresses, log). No hub needed."""
 from __future__ import unicode_literals

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Python sketches and C++ satellites on one hub: streaming data and services, both ways. The
 C++ programs are the examples of satellite/examples/cpp, built by CMake
 (SKROBOT_SAT_EXAMPLES_DIR)."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Errors, and who they are blamed on: an exception in a sketch's callback is the sketch's
 (reported with its traceback, the flow stays up, no reconnection); a channel that another
 satellite owns already is refused later than addStreamingChannel returns, and that refusal is

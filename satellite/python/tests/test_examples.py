@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The example sketches (satellite/examples/python) run the way users run them, and the
 executor's contract: shebang forms, argv, setup/loop/close, exit status."""
 import os

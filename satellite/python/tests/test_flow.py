@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """FlowSat and FlowSync against a real hub (with the in-hub module test_channel_echo)."""
 import struct
 import threading

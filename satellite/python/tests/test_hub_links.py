@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """PySketch satellites against a linked hub's channels (docs/hub-links.md): a satellite of hub
 "ay" subscribes to and calls the channels of hub "bee" by their prefixed names."""
 import threading

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Physical mode as a PySketch subscriber (PySketch/flowpaths.py, docs/physical-mode.md).
 
 Against a real hub and a C++ owner (satellite/cpp/tests/paths_publisher, given as

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """FlowSat.publish() takes any object with the buffer protocol (numpy arrays, memoryview,
 bytearray, array.array; bytes and str under 2.7), sends it without an intermediate bytes copy
 (Python 3: a gathered write; what the socket cannot take is copied into the output buffer),

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Every file of PySketch, the executors and the example sketches parses as Python 2.7.
 
 Debian 12 has no Python 2 interpreter, and lib2to3's own grammar accepts Python 3 syntax too, so

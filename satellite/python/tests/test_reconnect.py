@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A hub restart under running satellites: they notice, reconnect by themselves, re-create
 their channels under the same names and re-subscribe by name; data flows again."""
 import re

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The sync pulse from PySketch (FlowSat.addSyncSource, pulse, followSync) against a real hub,
 under Python 3 and 2.7. The follower runs its loop on a thread of its own, as a sketch would."""
 import threading

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """PySketch over TLS (tls: addresses, Python's ssl module), under Python 3 and 2.7: FlowSync and
 FlowSat against a hub whose TCP listener speaks TLS, the CA from setTls() or ROBOT_TLS_CA, a
 client certificate when the hub asks for one; refusals (plain tcp: to the TLS port, an untrusted

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Plugin ABI compatibility with modules compiled now, with the build's C compiler and flags,
 # against: the frozen 1.0 to 1.6 headers (abi/1.0, abi/1.1: module_1_0.c, module_1_1.c;
 # abi/1.2 to abi/1.6: module_current.c as it was), the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A module of ABI 1.0, compiled at test time against the frozen 1.0 header (abi/1.0) by
  * abi_compat_test.sh: the lifecycle and the config calls of 1.0. Logs ABI10-INIT with what it
  * read from its config, then ABI10-START, ABI10-STOP and ABI10-FINI. */

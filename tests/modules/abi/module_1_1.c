@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A module of ABI 1.1, compiled at test time against the frozen 1.1 header (abi/1.1) by
  * abi_compat_test.sh: the 1.0 config calls, then the channel and database calls of 1.1. At start
  * it creates the streaming channel "<name>.numbers", subscribes to it, publishes "count=<count>"

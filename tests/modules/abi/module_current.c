@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* A module of the ABI of the header it is compiled against, by abi_compat_test.sh at test time:
  * the current plugin.h, or a copy with the minor (or the major) raised by one, which the hub must
  * refuse. It declares its config keys (ABI 1.2): "count" (integer 1..100, default 5) and "label"

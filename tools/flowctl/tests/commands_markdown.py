@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """The docs' lists of flowctl's commands are what `flowctl help --markdown` prints.
 
     commands_markdown.py FLOWCTL SOURCE_DIR [--write]

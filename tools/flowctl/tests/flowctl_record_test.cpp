@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl record and play against a real hub: a recorder killed mid-run leaves a file readable up
 // to its last chunk, a recorder stopped with SIGINT a complete one, and play publishes it again
 // (remapped) with its timing, contents and properties.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // flowctl, the built binary, against a real hub: every command and its error cases.
 #include <fstream>
 #include <sstream>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the MCAP reader (tools/mcap) on any bytes, indexed and streaming. A
 // malformed file must give an error, never a crash, a leak or an allocation past the limits.
 #include <skrobot/mcap/reader.h>

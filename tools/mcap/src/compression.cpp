@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // zstd (one frame per chunk) and lz4 (one LZ4 frame per chunk) through Debian's libzstd and liblz4.
 #include <lz4frame.h>
 #include <skrobot/mcap/compression.h>

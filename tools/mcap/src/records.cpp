@@ -1,5 +1,6 @@
+// SPDX-License-Identifier: Apache-2.0
 // The byte encoding of MCAP records (records.h).
-#include <skrobot/flow/bytes.h>
+#include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/mcap/records.h>
 #include <zlib.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The MCAP writer (writer.h).
 #include <fcntl.h>
 #include <skrobot/mcap/writer.h>

@@ -1,4 +1,5 @@
-// Declaring a module's config keys (ABI 1.2) next to SKROBOT_MODULE, header-only:
+// SPDX-License-Identifier: Apache-2.0
+// Declaring a module's config keys (ABI 1.2) next to SKR_MODULE, header-only:
 //
 //   constexpr skr_config_key kConfig[] = {
 //       skr::config::string("greeting", "hello", "logged with every EXAMPLE-TICK line"),
@@ -6,7 +7,7 @@
 //       skr::config::string("input", nullptr, "the channel to read, <owner>.<name>").required(),
 //       skr::config::string("method", "mog2", "background model").oneOf("mog2|knn|diff"),
 //   };
-//   SKROBOT_MODULE_WITH_CONFIG(Example, "example", "1.0.0", "Tutorial", 0, kConfig)
+//   SKR_MODULE_WITH_CONFIG(Example, "example", "1.0.0", "Tutorial", 0, kConfig)
 //
 // The host checks the config object against these keys before init (type, range, choices,
 // required and unknown keys; each problem logged as "MODULE-CONFIG $.modules[N].config.<key>:
@@ -98,8 +99,13 @@ constexpr Key any(const char* key, const char* default_json, const char* descrip
 
 }  // namespace skr::config
 
-// SKROBOT_MODULE with declared config keys: `keys` is a constexpr array of skr_config_key (at
-// namespace scope). Use once per module, instead of SKROBOT_MODULE.
-#define SKROBOT_MODULE_WITH_CONFIG(Class, name, version, description, flags, keys) \
-  SKROBOT_MODULE_DESCRIPTOR(Class, name, version, description, flags, (keys),      \
-                            sizeof(keys) / sizeof((keys)[0]))
+// SKR_MODULE with declared config keys: `keys` is a constexpr array of skr_config_key (at
+// namespace scope). Use once per module, instead of SKR_MODULE.
+#define SKR_MODULE_WITH_CONFIG(Class, name, version, description, flags, keys) \
+  SKR_MODULE_DESCRIPTOR(Class, name, version, description, flags, (keys),      \
+                        sizeof(keys) / sizeof((keys)[0]))
+
+// Deprecated name (see plugin.hpp): this alias goes in the next minor release.
+#define SKROBOT_MODULE_WITH_CONFIG(...)                                                          \
+  _Pragma("GCC warning \"SKROBOT_MODULE_WITH_CONFIG is deprecated: use SKR_MODULE_WITH_CONFIG\"") \
+  SKR_MODULE_WITH_CONFIG(__VA_ARGS__)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // JSON in and out for modules: one parser, one writer, one string quoter (the module-support
 // library, skrobot::module_support, linked by every module through skrobot_add_module).
 //

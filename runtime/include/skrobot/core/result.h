@@ -1,4 +1,4 @@
-// The hub's Result and Errc are the shared, header-only ones of the plugin API.
+// SPDX-License-Identifier: Apache-2.0
+// moved to <skrobot/runtime/result.h>; this forwarding header goes in the next minor release
 #pragma once
-
-#include <skrobot/result.hpp>
+#include <skrobot/runtime/result.h>

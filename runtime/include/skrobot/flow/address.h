@@ -1,39 +1,4 @@
-// A hub's address, in the form ROBOT_ADDRESS and flowctl's --address take. The grammar, with the
-// schemes reserved for later (serial:, udp:, ws:, wss:), is docs/flow-protocol.md's "Addresses";
-// transport.h opens and listens on them.
-//
-//   local:/tmp/Robot        a Unix socket (the default)
-//   tcp:robot.local:9000    TCP; the port defaults to 9000; IPv6 as tcp:[::1]:9000
-//   tls:robot.local:9000    TCP with TLS (docs/security.md); the hub's certificate must name
-//                           the host as written here (a DNS name or an IP address)
-//
-// Parsing only: nothing here resolves a name or opens a socket.
+// SPDX-License-Identifier: Apache-2.0
+// moved to <skrobot/runtime/flow/address.h>; this forwarding header goes in the next minor release
 #pragma once
-
-#include <skrobot/core/result.h>
-
-#include <cstdint>
-#include <string>
-#include <string_view>
-
-namespace skr::flow {
-
-constexpr uint16_t kDefaultTcpPort = 9000;
-constexpr std::string_view kDefaultAddress = "local:/tmp/Robot";
-
-struct Address {
-  enum class Kind { local, tcp, tls };
-  Kind kind = Kind::local;
-  std::string path = "/tmp/Robot";  // Kind::local
-  std::string host;                 // Kind::tcp and tls: a name or a numeric address
-  uint16_t port = kDefaultTcpPort;  // Kind::tcp and tls
-
-  [[nodiscard]] bool isNetwork() const noexcept { return kind != Kind::local; }
-  // "local:/tmp/Robot", "tcp:host:9000" or "tls:host:9000", the form parse() reads.
-  [[nodiscard]] std::string toString() const;
-  // Parses "local:/path", "tcp:host[:port]" or "tls:host[:port]". Errc::invalid_argument,
-  // naming what is wrong.
-  [[nodiscard]] static Result<Address> parse(std::string_view text);
-};
-
-}  // namespace skr::flow
+#include <skrobot/runtime/flow/address.h>

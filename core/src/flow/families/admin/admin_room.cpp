@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // ADMIN (protocol 1.1): what an administrator does over the protocol (docs/security.md).
 //   flows                        -> [{id, user, client, transport, source, channels, subscribed}]
 //   kick    {"connection": N}    -> {"kicked": "<connection N (...)>"}: closes that connection
@@ -13,7 +14,7 @@
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 namespace skr::flow {
 

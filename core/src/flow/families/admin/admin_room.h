@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The admin room: what an administrator does over the protocol (ADMIN, docs/security.md): the
 // connections (flows, kick), any channel or named database removed (chan_rm, db_rm), and the
 // accounts of the users file, changed on the authenticator's worker thread while the connection
@@ -6,7 +7,7 @@
 
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <string>
 
@@ -18,7 +19,8 @@ class AdminRoom final : public Room {
  public:
   explicit AdminRoom(Hub& hub) : Room(hub) {}
 
-  void handle(Connection& c, msg::Admin& m);
+  // Its rows (catalogue.h, family admin): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(admin)
 
  private:
   // flows, kick, chan_rm, db_rm: answered at once.

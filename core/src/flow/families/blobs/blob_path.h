@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Paths of blob channels and their confinement: a path a satellite names is checked (relative,
 // '/'-separated, no '.', '..', empty, NUL or backslash components, bounded lengths and depth),
 // then resolved beneath the channel's directory so that nothing on disk (a symlink planted in the
@@ -8,7 +9,7 @@
 // component then use the parent's descriptor with the *at calls, never following a symlink.
 #pragma once
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstddef>
 #include <functional>

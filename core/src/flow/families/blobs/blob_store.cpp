@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "families/blobs/blob_store.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <dirent.h>
 #include <fcntl.h>

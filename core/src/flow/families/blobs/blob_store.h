@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The files of the hub's blob channels: one tree per channel under <data_dir>/blobs/<channel>/
 // (files/ the tree, uploads/ uploads under way, owner the owning user), with per-channel and
 // per-user quotas. Every disk operation runs on the store's own thread, in the order asked; each
@@ -8,12 +9,12 @@
 // a test can check it). BLOB_MODIFY writes a copy the same way: a reader never sees a torn chunk.
 #pragma once
 
-#include <skrobot/flow/bytes.h>
+#include <skrobot/runtime/flow/bytes.h>
 
 #include "families/blobs/blob_path.h"
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <condition_variable>
 #include <cstdint>

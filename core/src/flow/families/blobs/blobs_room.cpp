@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Blob channels across the hub (the store opened at start and its channels brought back, an owner
 // that leaves and comes back, the change events) and the BLOB_* requests of a synchronous
 // connection: each is checked here (the channel, who may read, who may write), run by the store on
@@ -9,7 +10,7 @@
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 namespace skr::flow {
 

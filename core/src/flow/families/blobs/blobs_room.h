@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The blobs room: the files of blob channels (blob_store.h, on its own thread; blob_path.h, the
 // rules and confinement of paths), blob channels that outlive their owner's connection, the change
 // events to subscribers, and the BLOB_* rows of the catalogue. A client may send up to
@@ -8,7 +9,7 @@
 #include "families/blobs/blob_store.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <memory>
@@ -44,16 +45,8 @@ class BlobsRoom final : public Room {
   // Tells the subscribers of channel `id` (if it is still the channel `hash`) of a change.
   void changed(uint16_t id, uint64_t hash, const BlobEvent& event);
 
-  void handle(Connection& c, msg::BlobList& m);
-  void handle(Connection& c, msg::BlobGet& m);
-  void handle(Connection& c, msg::BlobPut& m);
-  void handle(Connection& c, msg::BlobMkdir& m);
-  void handle(Connection& c, msg::BlobRmdir& m);
-  void handle(Connection& c, msg::BlobRemove& m);
-  void handle(Connection& c, msg::BlobChunk& m);
-  void handle(Connection& c, msg::BlobModify& m);
-  void handle(Connection& c, msg::BlobAbort& m);
-  void handle(Connection& c, msg::BlobCreate& m);
+  // Its rows (catalogue.h, family blobs): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(blobs)
 
   // Room
   [[nodiscard]] Result<void> start() override;

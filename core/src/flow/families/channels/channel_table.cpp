@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // The channel table and the router (see channel_table.h).
 #include "families/channels/channel_table.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <algorithm>
 

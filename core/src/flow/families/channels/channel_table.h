@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The channel table and the router: channels by id and name, their subscriber lists, and the
 // routing of published data to each subscriber (ChannelTable::publish, the relay's hot path).
 // Knows nothing of databases or service requests: FlowServer::Impl wires those around it.
@@ -7,8 +8,8 @@
 #include "endpoint.h"
 #include "rate_window.h"
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/protocol.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/protocol.h>
 
 #include <cstdint>
 #include <map>

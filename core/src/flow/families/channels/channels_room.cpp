@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Channels made, changed and removed, with their databases and the events everyone gets; the
 // CHAN_*, SUBSCRIBE, UNSUBSCRIBE, PUBLISH and POLL_* rows.
 #include "families/channels/channels_room.h"
@@ -5,7 +6,7 @@
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The channels room: the channel table and its router (channel_table.h, the relay's hot path),
 // channels made and removed with their databases and the events everyone gets, polling, and the
 // CHAN_* / SUBSCRIBE / PUBLISH / POLL_* rows of the catalogue.
@@ -6,7 +7,7 @@
 #include "families/channels/channel_table.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <string>
@@ -42,19 +43,8 @@ class ChannelsRoom final : public Room, public ChannelTable {
   Result<void> subscribeAndTell(Endpoint& e, uint16_t id);
   Result<void> unsubscribeAndTell(Endpoint& e, uint16_t id);
 
-  // Rows: synchronous requests.
-  void handle(Connection& c, msg::ChanList& m);
-  void handle(Connection& c, msg::ChanInfoByName& m);
-  void handle(Connection& c, msg::PollRegister& m);
-  void handle(Connection& c, msg::PollFetch& m);
-  void handle(Connection& c, msg::PollDeregister& m);
-  // Rows: commands on a flow.
-  void handle(Connection& c, msg::ChanAdd& m);
-  void handle(Connection& c, msg::ChanRemove& m);
-  void handle(Connection& c, msg::Subscribe& m);
-  void handle(Connection& c, msg::Unsubscribe& m);
-  void handle(Connection& c, msg::Publish& m);
-  void handle(Connection& c, msg::ChanSetProps& m);
+  // Its rows (catalogue.h, family channels): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(channels)
 
   // Room
   void endpointLeft(Endpoint& e) override;

@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // Database access (see database_access.h).
 #include "families/databases/database_access.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 
@@ -225,17 +226,23 @@ Result<void> DatabaseAccess::remove(const Endpoint& e, const std::string& name) 
   return removed;
 }
 
-Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, const std::string& key,
-                                    const Variant& value) {
-  if (remote(db_name.empty() ? e.current_db : db_name)) {
-    return readOnly(db_name.empty() ? e.current_db : db_name);
-  }
+Result<PairDatabase*> DatabaseAccess::writable(Endpoint& e, const std::string& db_name) {
+  const std::string& target = db_name.empty() ? e.current_db : db_name;
+  if (remote(target)) return readOnly(target);
   PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
   if (db == nullptr) return noDatabase(db_name);
   if (!canWrite(e, db->name())) {
     return makeError(Errc::permission_denied,
                      "database \"" + db->name() + "\" is not yours to write");
   }
+  return db;
+}
+
+Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, const std::string& key,
+                                    const Variant& value) {
+  auto found = writable(e, db_name);
+  if (!found) return found.error();
+  PairDatabase* db = *found;
   const uint64_t before = db->version();
   auto r = db->set(key, value);
   propsChanged(*db, before);
@@ -244,15 +251,9 @@ Result<void> DatabaseAccess::setVar(Endpoint& e, const std::string& db_name, con
 
 Result<void> DatabaseAccess::delVar(Endpoint& e, const std::string& db_name,
                                     const std::string& key) {
-  if (remote(db_name.empty() ? e.current_db : db_name)) {
-    return readOnly(db_name.empty() ? e.current_db : db_name);
-  }
-  PairDatabase* db = db_name.empty() ? current(e) : store_.find(db_name);
-  if (db == nullptr) return noDatabase(db_name);
-  if (!canWrite(e, db->name())) {
-    return makeError(Errc::permission_denied,
-                     "database \"" + db->name() + "\" is not yours to write");
-  }
+  auto found = writable(e, db_name);
+  if (!found) return found.error();
+  PairDatabase* db = *found;
   if (!db->remove(key)) {
     return makeError(Errc::not_found, "no variable \"" + key + "\" in \"" + db->name() + "\"");
   }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Database access: the PairDatabases as the protocol sees them, and who may write which. One per
 // flow ("_flow.<id>", transient), per user (named after the user, persistent), per channel
 // (named after the channel, transient: its properties), plus named ones anybody may create.
@@ -8,9 +9,9 @@
 
 #include "endpoint.h"
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/messages.h>
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/messages.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <filesystem>
 #include <functional>
@@ -62,6 +63,9 @@ class DatabaseAccess {
   // databases are anybody's), or the administrator role (flow/access.h).
   [[nodiscard]] bool canRead(const Endpoint& e, const std::string& db) const;
   [[nodiscard]] bool canWrite(const Endpoint& e, const std::string& db) const;
+  // The database `db_name` names for `e` (its current one when empty), if `e` may write it here:
+  // read_only (a linked hub's), not_found, permission_denied.
+  [[nodiscard]] Result<PairDatabase*> writable(Endpoint& e, const std::string& db_name);
   [[nodiscard]] bool persistent(const std::string& db) const {
     return store_.kind(db) == DatabaseKind::persistent;
   }

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // The journal's writer thread (see database_journal.h).
 #include "families/databases/database_journal.h"
 
 #include "families/databases/database_log.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <chrono>
 #include <utility>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The journal: one writer thread that appends the persistent databases' changes to their logs,
 // fsyncs them by the durability policy, and compacts a log into its snapshot, so that the loop
 // thread never waits for the disk (docs/pair-databases.md, "Durability").
@@ -10,8 +11,8 @@
 
 #include "families/databases/file_layer.h"
 
-#include <skrobot/flow/pair_database.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <condition_variable>
 #include <cstdint>

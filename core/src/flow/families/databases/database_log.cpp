@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // The database log's format (see database_log.h).
 #include "families/databases/database_log.h"
 
-#include <skrobot/flow/bytes.h>
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <json/writer.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The append-only log of a persistent PairDatabase, <data_dir>/db/<name>.log: its byte format and
 // its reader. The file is an 8-byte header "SKRDBLG1", then records:
 //
@@ -9,8 +10,8 @@
 // (tests/fuzz/database_log_fuzz.cpp) feeds it anything.
 #pragma once
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <cstdint>
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // DatabaseStore: the hub's databases and their files. A persistent database is a snapshot
 // <name>.json plus an append-only log <name>.log of the changes made since (database_log.h). At
 // start the store reads both; afterwards its journal (database_journal.h) appends each change on
@@ -9,8 +10,8 @@
 #include "families/databases/file_layer.h"
 #include "json_errors.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <json/reader.h>
 #include <json/writer.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The DB_* and VAR_* rows, on synchronous connections and on flows; the databases loaded at start
 // and closed at stop; each flow's database.
 #include "families/databases/databases_room.h"
@@ -5,7 +6,7 @@
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 namespace skr::flow {
 

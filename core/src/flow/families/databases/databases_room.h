@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The databases room: the PairDatabases as the protocol sees them (database_access.h: who may read
 // and write which; database_store.cpp and the journal: in memory and on disk), a connection's
 // current database, reads of a linked hub's databases, each flow's database of statistics, and the
@@ -7,7 +8,7 @@
 #include "families/databases/database_access.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <string>
@@ -26,27 +27,8 @@ class DatabasesRoom final : public Room, public DatabaseAccess {
   void readDatabase(const Endpoint& e, const std::string& db, msg::DbReadWhat what,
                     const std::string& key, std::function<void(Result<Variant>)> done);
 
-  // Rows: synchronous requests.
-  void handle(Connection& c, msg::DbSelect& m);
-  void handle(Connection& c, msg::DbCreate& m);
-  void handle(Connection& c, msg::DbSave& m);
-  void handle(Connection& c, msg::DbRemove& m);
-  void handle(Connection& c, msg::VarGet& m);
-  void handle(Connection& c, msg::VarSet& m);
-  void handle(Connection& c, msg::VarDel& m);
-  void handle(Connection& c, msg::VarGetAll& m);
-  void handle(Connection& c, msg::VarKeys& m);
-  void handle(Connection& c, msg::DbList& m);
-  void handle(Connection& c, msg::DbSync& m);
-  // Rows: commands on a flow.
-  void handle(Connection& c, msg::DbSetCurrent& m);
-  void handle(Connection& c, msg::DbCreateAsync& m);
-  void handle(Connection& c, msg::DbRemoveAsync& m);
-  void handle(Connection& c, msg::DbSaveAsync& m);
-  void handle(Connection& c, msg::VarSetAsync& m);
-  void handle(Connection& c, msg::VarDelAsync& m);
-  void handle(Connection& c, msg::DbSyncAsync& m);
-  void handle(Connection& c, msg::DbRead& m);
+  // Its rows (catalogue.h, family databases): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(databases)
 
   // Room
   [[nodiscard]] Result<void> start() override;

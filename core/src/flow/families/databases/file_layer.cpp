@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The real FileLayer: POSIX calls, with errno turned into Errc::io_error (or not_found).
 #include "families/databases/file_layer.h"
 

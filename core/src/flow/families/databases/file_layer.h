@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FileLayer: the file operations of the database store (and replaceFile, which the users file
 // uses too), behind an interface so that a test can put a simulated disk underneath and cut its
 // power (tests/flow/database_durability_test.cpp):
@@ -8,7 +9,7 @@
 // journal writes on its own thread.
 #pragma once
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <filesystem>

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // PairDatabase: the pairs, their validation and their JSON form. The store and its files are in
 // database_store.cpp.
-#include <skrobot/flow/pair_database.h>
+#include <skrobot/hub/flow/pair_database.h>
 
 #include <algorithm>
 #include <cstdio>

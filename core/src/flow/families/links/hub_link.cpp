@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A link to another hub (see hub_link.h, docs/hub-links.md).
 #include "families/links/hub_link.h"
 
@@ -5,7 +6,7 @@
 #include "families/links/hub_route.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // HubLink: this hub's link to another (docs/hub-links.md). A satellite of the far hub, on this
 // hub's loop (skr::sat::Satellite: reconnection with backoff, subscriptions by name, request
 // timeouts), and an Endpoint here that owns the far hub's channels as "<hub>/<user>.<name>".
@@ -7,9 +8,9 @@
 
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/flow/messages.h>
-#include <skrobot/flow/server.h>  // HubLinkOptions
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/flow/messages.h>
+#include <skrobot/hub/flow/server.h>  // HubLinkOptions
 
 #include <cstdint>
 #include <functional>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One connection for two hubs that list each other (see hub_link.h, docs/hub-links.md, "One
 // connection"). The hub that dialled offers its channels over its connection (LINK_OFFER): the
 // far hub makes them channels owned by that connection, and the ordinary owner's frames do the
@@ -8,7 +9,7 @@
 #include "families/links/hub_route.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 #include <skrobot/satellite/satellite.h>
 
 namespace skr::flow {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Names and routes of a linked hub's channels (see hub_route.h).
 #include "families/links/hub_route.h"
 

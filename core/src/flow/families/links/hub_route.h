@@ -1,8 +1,9 @@
+// SPDX-License-Identifier: Apache-2.0
 // How a hub link names and routes the far hub's channels (docs/hub-links.md): pure functions of
 // what arrives over the link, kept apart so that a fuzz target drives them with any input.
 #pragma once
 
-#include <skrobot/flow/variant.h>
+#include <skrobot/runtime/flow/variant.h>
 
 #include <string>
 #include <string_view>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The links room: links dialled and accepted, routes, replicas; the HUB_LINK_HELLO, LINK_OFFER,
 // REPLICATE_* and TIME_PROBE rows. The links themselves are hub_link.cpp and
 // hub_link_shared.cpp, the replicas replica.cpp.
@@ -7,7 +8,7 @@
 #include "families/links/hub_route.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The links room: this hub's links to other hubs (hub_link.h: a satellite of the far hub on this
 // hub's loop, and an endpoint here that owns the far hub's channels as "<hub>/<user>.<name>"),
 // the far hubs that link in (HUB_LINK_HELLO, one shared connection for two hubs that list each
@@ -10,7 +11,7 @@
 #include "families/links/replica.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <functional>
 #include <memory>
@@ -58,11 +59,8 @@ class LinksRoom final : public Room {
   Result<void> stopReplica(const std::string& owner_user, const std::string& short_name,
                            uint32_t by);
 
-  void handle(Connection& c, msg::HubLinkHello& m);
-  void handle(Connection& c, msg::LinkOffer& m);
-  void handle(Connection& c, msg::ReplicateChannel& m);
-  void handle(Connection& c, msg::ReplicateStop& m);
-  void handle(Connection& c, msg::TimeProbe& m);
+  // Its rows (catalogue.h, family links): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(links)
 
   // Room
   void stop() noexcept override;

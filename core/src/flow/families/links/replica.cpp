@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // Replicas (see replica.h).
 #include "families/links/replica.h"
 
 #include "hub.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/name_pattern.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <algorithm>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Replica: a channel mirrored as a local channel of another name (docs/hub-links.md,
 // "Replicas"): typically a linked hub's camera as a local one. An Endpoint that owns
 // "<user>.<short_name>", subscribes to its source while the replica has subscribers, republishes
@@ -8,7 +9,7 @@
 
 #include "endpoint.h"
 
-#include <skrobot/flow/server.h>
+#include <skrobot/hub/flow/server.h>
 
 #include <cstdint>
 #include <string>

@@ -1,9 +1,10 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode's grants (see physical_paths.h).
 #include "families/physical/physical_paths.h"
 
-#include <skrobot/core/log.h>
-#include <skrobot/flow/access.h>
-#include <skrobot/flow/accounts.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/hub/flow/access.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <sodium.h>
 

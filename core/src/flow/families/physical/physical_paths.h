@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical mode (FlowProtocol 1.7, docs/physical-mode.md): the hub decides who may take a direct
 // or shared-memory path to a channel and tells both ends; the bytes then bypass it. It keeps each
 // channel's offer (the owner's endpoint and the kinds it serves) and each grant, moves a
@@ -8,9 +9,9 @@
 #include "families/channels/channel_table.h"
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/result.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <cstdint>
 #include <map>

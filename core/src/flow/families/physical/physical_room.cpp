@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PHYS_* commands of owners and subscribers.
 #include "families/physical/physical_room.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The physical room: direct and shared-memory paths between an owner and its subscribers
 // (physical_paths.h: offers, grants, one-time tokens, the switch and the fallback) and the PHYS_*
 // rows of the catalogue.
@@ -6,7 +7,7 @@
 #include "families/physical/physical_paths.h"
 #include "families/room.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 namespace skr::flow {
 
@@ -16,14 +17,8 @@ class PhysicalRoom final : public Room, public PhysicalPaths {
  public:
   explicit PhysicalRoom(Hub& hub);
 
-  void handle(Connection& c, msg::PhysOffer& m);
-  void handle(Connection& c, msg::PhysRequest& m);
-  void handle(Connection& c, msg::PhysState& m);
-  void handle(Connection& c, msg::PhysCount& m);
-  void handle(Connection& c, msg::PhysSwitched& m);
-  void handle(Connection& c, msg::PhysReceived& m);
-  void handle(Connection& c, msg::PhysFallback& m);
-  void handle(Connection& c, msg::PhysReplay& m);
+  // Its rows (catalogue.h, family physical): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(physical)
 
   // Room
   void endpointLeft(Endpoint& e) override;

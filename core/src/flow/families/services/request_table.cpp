@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The request table (see request_table.h). Nothing is dropped silently: a request that cannot
 // be queued, whose owner vanishes, or that times out, fails with an error to the caller.
 #include "families/services/request_table.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The request table: service requests waiting for their owner's answer. Routes a request to the
 // owner and its response back to the requester only, and fails what cannot be answered: a full
 // queue (overflow), an owner that goes away (owner_gone), a request past its deadline (timeout:
@@ -7,8 +8,8 @@
 #include "families/channels/channel_table.h"
 #include "endpoint.h"
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <functional>

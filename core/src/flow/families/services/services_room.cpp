@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // SERVICE_CALL (a synchronous connection waits for the answer), SERVICE_REQUEST and
 // SERVICE_REQUEST_TIMED (the answer comes as an event on the flow), SERVICE_RESPONSE.
 #include "families/services/services_room.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The services room: pending service requests (request_table.h: routing to the owner and back,
 // timeouts, owner-gone failures) and the SERVICE_* rows of the catalogue.
 #pragma once
@@ -5,7 +6,7 @@
 #include "families/room.h"
 #include "families/services/request_table.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 namespace skr::flow {
 
@@ -15,10 +16,8 @@ class ServicesRoom final : public Room, public RequestTable {
  public:
   explicit ServicesRoom(Hub& hub);
 
-  void handle(Connection& c, msg::ServiceCall& m);
-  void handle(Connection& c, msg::ServiceRequest& m);
-  void handle(Connection& c, msg::ServiceRequestTimed& m);
-  void handle(Connection& c, msg::ServiceResponse& m);
+  // Its rows (catalogue.h, family services): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(services)
 
   // Room
   void endpointLeft(Endpoint& e) override;

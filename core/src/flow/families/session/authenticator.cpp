@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // Authenticator: logins verified on one worker thread, answered on the loop thread.
-#include <skrobot/core/log.h>
-#include <skrobot/core/loop.h>
-#include <skrobot/flow/accounts.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/accounts.h>
 
 #include <sodium.h>
 

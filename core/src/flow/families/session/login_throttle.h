@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // Failed logins slow down the next ones, per user name and per source (a TCP peer's address, a
 // Unix peer's uid), with a delay that doubles with each failure: 0.25 s, 0.5 s, 1 s ... 4 s at
 // most (under the default login timeout). A success forgets both; an entry idle for ten minutes
 // is forgotten too, and the table is bounded. Main loop thread only.
 #pragma once
 
-#include <skrobot/core/clock.h>
+#include <skrobot/runtime/clock.h>
 
 #include <cstddef>
 #include <string>

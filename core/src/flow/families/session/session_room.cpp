@@ -1,10 +1,11 @@
+// SPDX-License-Identifier: Apache-2.0
 // LOGIN, GO_ASYNC and PING: a connection becomes a logged-in synchronous connection, then a flow.
 #include "families/session/session_room.h"
 
 #include "connection.h"
 #include "hub.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The session room: a connection's login (accounts, the authenticator's off-loop password checks,
 // the login throttle), its switch to a flow and PING; the LOGIN, GO_ASYNC and PING rows of the
 // catalogue. The connection's own state machine (login, authenticating, sync, flow) is in
@@ -7,8 +8,8 @@
 #include "families/room.h"
 #include "families/session/login_throttle.h"
 
-#include <skrobot/flow/accounts.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/messages.h>
 
 #include <memory>
 #include <vector>
@@ -25,9 +26,8 @@ class SessionRoom final : public Room {
   std::unique_ptr<Authenticator> auth;
   LoginThrottle throttle;
 
-  void handle(Connection& c, msg::Login& m);
-  void handle(Connection& c, msg::GoAsync& m);
-  void handle(Connection& c, msg::Ping& m);
+  // Its rows (catalogue.h, family session): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(session)
 
   // Room
   [[nodiscard]] Result<void> start() override;

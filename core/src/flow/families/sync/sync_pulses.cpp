@@ -1,7 +1,8 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse (see sync_pulses.h).
 #include "families/sync/sync_pulses.h"
 
-#include <skrobot/core/log.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

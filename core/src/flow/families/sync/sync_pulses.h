@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync pulse (protocol 1.4): sources are channels of kind sync; targets follow one, every
 // Nth pulse. A pulse goes to each target that finished its tick for the previous one (SYNC_DONE);
 // for a target still busy it is dropped and counted, and the count rides on the next pulse it
@@ -7,7 +8,7 @@
 #include "families/channels/channel_table.h"
 #include "endpoint.h"
 
-#include <skrobot/core/result.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <string>

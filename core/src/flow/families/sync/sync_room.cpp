@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // SYNC_PULSE, SYNC_FOLLOW, SYNC_UNFOLLOW and SYNC_DONE.
 #include "families/sync/sync_room.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The sync room: sync pulse sources and their targets (sync_pulses.h), what each flow follows in
 // its database, and the SYNC_* rows of the catalogue.
 #pragma once
@@ -5,7 +6,7 @@
 #include "families/room.h"
 #include "families/sync/sync_pulses.h"
 
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/flow/messages.h>
 
 namespace skr::flow {
 
@@ -18,10 +19,8 @@ class SyncRoom final : public Room, public SyncPulses {
   // The sources `e` follows, into its flow database ("sync_following").
   void noteFollowed(const Endpoint& e);
 
-  void handle(Connection& c, msg::SyncPulse& m);
-  void handle(Connection& c, msg::SyncFollow& m);
-  void handle(Connection& c, msg::SyncUnfollow& m);
-  void handle(Connection& c, msg::SyncDone& m);
+  // Its rows (catalogue.h, family sync): handle(Connection&, msg::X&) for each.
+  SKR_FLOW_ROOM_HANDLERS(sync)
 
   // Room
   void endpointLeft(Endpoint& e) override;

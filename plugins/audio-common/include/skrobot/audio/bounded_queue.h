@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A bounded FIFO between the loop thread and one worker thread. push() never blocks (it refuses
 // when full, so the loop thread is never held up); pop() blocks the worker until an item
 // arrives or the queue is closed.

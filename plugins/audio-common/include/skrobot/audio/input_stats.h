@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Writes a PcmInput's counters into the module's own database (keys frames, samples, malformed,
 // gaps, gap_samples, format_changes) when they changed. Loop thread, from start() until stop().
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reading PCM media frames (docs/channels.md, format 3) from an audio channel: parse, convert
 // the payload to samples, and count malformed frames and gaps in the sample counter.
 // Not thread-safe: use one PcmInput on one thread (the module's loop thread).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Producing PCM media frames on an audio channel: a running sample counter (seq) and the
 // channel properties of docs/channels.md.
 #pragma once

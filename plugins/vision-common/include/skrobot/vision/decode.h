@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Decoding of video media frames into OpenCV images (any thread).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The frame pipeline every vision module runs: subscribe to a video channel, keep only the
 // newest frame, decode and analyse it on worker threads, and hand the outcome back to the loop
 // thread, which publishes it.

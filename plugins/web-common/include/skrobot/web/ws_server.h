@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The HTTP + WebSocket server of the web modules (websocket-ui, foxglove-bridge): libwebsockets
 // on a thread of its own. A static library (skrobot_ws_server) linked into each module.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A satellite on a skr::Loop: the flow (one asynchronous connection to the hub) as an skr::Object
 // that emits typed signals, with channels, publishing, services and databases.
 //
@@ -28,10 +29,10 @@
 // `channelReady` / `subscribed` with the new ids.
 #pragma once
 
-#include <skrobot/core/clock.h>
-#include <skrobot/core/object.h>
-#include <skrobot/core/signal.h>
-#include <skrobot/flow/shm_ring.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/object.h>
+#include <skrobot/runtime/signal.h>
+#include <skrobot/runtime/flow/shm_ring.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <functional>

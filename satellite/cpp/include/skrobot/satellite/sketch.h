@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A sketch: a satellite written as setup() once and loop() at a steady rate, with virtual event
 // hooks. It owns its skr::Loop (loop() is its FastTick, from absolute deadlines) and a Satellite.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A synchronous connection to a hub: one request, one reply, in the calling thread.
 //
 // This is the short-lived connection of the FlowProtocol for look-ups that block (database
@@ -11,9 +12,9 @@
 // and closes.
 #pragma once
 
-#include <skrobot/core/result.h>
-#include <skrobot/flow/codec.h>
-#include <skrobot/flow/messages.h>
+#include <skrobot/runtime/result.h>
+#include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/messages.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>
@@ -24,16 +25,16 @@
 #include <string_view>
 #include <vector>
 
-namespace skr::sat {
+namespace skr::flow {
+class InBuffer;  // the runtime's (internal)
+}  // namespace skr::flow
 
-namespace detail {
-class InBuffer;
-}  // namespace detail
+namespace skr::sat {
 
 using ChannelInfo = flow::msg::ChannelInfo;
 using LoginInfo = flow::msg::LoginOk;
 
-// The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/flow/protocol.h,
+// The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/runtime/flow/protocol.h,
 // shared with the hub's modules (same name, one for one).
 using flow::toErrc;
 
@@ -193,7 +194,7 @@ class SyncClient {
   ConnectOptions options_;
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
-  std::unique_ptr<detail::InBuffer> in_;  // bytes from the hub not parsed yet
+  std::unique_ptr<flow::InBuffer> in_;     // bytes from the hub not parsed yet
 };
 
 template <class M>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Chunk compression: zstd and lz4 (the LZ4 frame format), as MCAP names them.
 #pragma once
 

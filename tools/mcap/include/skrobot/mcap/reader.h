@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An MCAP reader: indexed (footer, summary, then chunks by their index) or streaming (every
 // record from the start, which also reads a file cut short up to its last complete record).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // MCAP records (https://mcap.dev/spec, major version 0): opcodes, the records this library reads
 // and writes, and their byte encoding. All integers little-endian; strings, byte arrays and maps
 // carry a u32 byte length (the chunk's records and an attachment's data a u64 one).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An MCAP writer: messages in compressed chunks, each followed by its message indexes; on close,
 // the data end, the summary (schemas, channels, chunk indexes, metadata indexes, statistics),
 // the summary offsets and the footer.

@@ -1,0 +1,108 @@
+// SPDX-License-Identifier: Apache-2.0
+// The hub's statistics as data (docs/observability.md): per channel its messages, bytes and
+// drops per second over the last second and the last ten, and its subscribers; per flow its
+// traffic, output queue and pending requests; the main loop's late wake-ups. Published as JSON
+// on the streaming channel `hub.stats` each second while someone listens, and answered on
+// request by the service `hub.inspect` (command "stats"). The rates come from windows that the
+// hub's one-second tick closes (FlowServer::sampleRates), so every satellite, page and tool
+// (flowctl top, info, graph) reads the same figures, whoever asked before. Main loop thread only.
+#pragma once
+
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/hub/flow/server.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace skr::flow {
+
+// Per second over one window, rounded to 0.01 (0 for a window that covers no time yet).
+struct ChannelRates {
+  double hz = 0, bytes_per_s = 0, dropped_per_s = 0;
+};
+struct FlowRates {
+  double in_hz = 0, out_hz = 0, in_bytes_per_s = 0, out_bytes_per_s = 0, dropped_per_s = 0,
+         path_hz = 0;
+};
+
+// Counters since each channel or flow began, read at one instant (FlowServer::snapshot()), and
+// its rates over the windows that the last sampleRates() closed: the last second and the last
+// ten, or the time since it began when that is shorter (age_s, up to the last sample).
+struct ChannelCounters {
+  uint16_t id = 0;
+  std::string name;
+  ChannelKind kind = ChannelKind::streaming;
+  std::string mime;
+  uint32_t owner_flow = 0;  // 0: nobody connected (a blob channel kept for its owner)
+  std::vector<uint32_t> subscriber_flows;
+  std::vector<std::string> subscriber_paths;  // one per subscriber_flows: relay, direct or shm
+  uint64_t messages = 0, bytes = 0, dropped = 0;
+  uint32_t pending_requests = 0;
+  ChannelRates last_1s, last_10s;
+  double age_s = 0;
+};
+struct FlowCounters {
+  uint32_t id = 0;
+  std::string user, client, kind;  // kind: satellite, sync, module, link, replica
+  uint64_t messages_in = 0, bytes_in = 0, messages_out = 0, bytes_out = 0, dropped = 0;
+  uint64_t path_messages = 0, path_bytes = 0;  // of those out: what came on its paths
+  uint64_t queued_bytes = 0;
+  uint32_t pending_requests = 0;
+  FlowRates last_1s, last_10s;
+  double age_s = 0;
+};
+struct HubSnapshot {
+  Nanos at = 0;  // monotonic
+  uint64_t queue_limit =
+      0;  // server.subscriber_queue_bytes: a satellite's queue_fill is against it
+  // What the windows cover (seconds between the last samples; less on a hub younger than them)
+  // and the wall clock (ms since 1970) of the last sample, where they end.
+  double interval_s = 0, interval_10s_s = 0;
+  int64_t rates_until_ms = 0;
+  std::vector<ChannelCounters> channels;
+  std::vector<FlowCounters> flows;
+};
+
+// A snapshot as hub.stats carries it: a map of
+//   hub, time_ms (wall clock), interval_s, interval_10s_s, rates_until_ms,
+//   channels: [{name, kind, mime, owner, owner_flow, subscribers, subscriber_flows,
+//               subscriber_paths ("relay", "direct" or "shm", one per subscriber_flows),
+//               messages, bytes, dropped, hz, bytes_per_s, dropped_per_s, hz_10s,
+//               bytes_per_s_10s, dropped_per_s_10s, age_s, pending_requests}],
+//   flows: [{id, name ("<user>/<client>"), user, client, kind, messages_in, bytes_in,
+//            messages_out, bytes_out, dropped, in_hz, out_hz, in_bytes_per_s, out_bytes_per_s,
+//            dropped_per_s, path_messages, path_bytes, path_hz, the same rates with "_10s",
+//            age_s, queued_bytes, queue_fill, pending_requests}]
+// (HubStats adds "loop", the main loop's figures.)
+[[nodiscard]] Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name);
+
+class HubStats {
+ public:
+  // Creates hub.stats and hub.inspect as the in-process client "hub" ("statistics") and starts
+  // the one-second tick. Failures (a replica already named hub.stats, say) are logged.
+  HubStats(Loop& loop, FlowServer& server);
+  ~HubStats();
+  HubStats(const HubStats&) = delete;
+  HubStats& operator=(const HubStats&) = delete;
+  HubStats(HubStats&&) = delete;
+  HubStats& operator=(HubStats&&) = delete;
+
+  // The statistics now: totals as they stand, rates as of the last one-second tick (the same
+  // for every reader until the next), and the loop's figures.
+  [[nodiscard]] Variant current() const;
+
+ private:
+  void everySecond();
+
+  Loop& loop_;
+  FlowServer& server_;
+  std::unique_ptr<LocalClient> client_;
+  uint16_t stats_chan_ = 0, inspect_chan_ = 0;
+  bool watched_ = false;  // hub.stats has a subscriber
+  TickId tick_{};
+};
+
+}  // namespace skr::flow

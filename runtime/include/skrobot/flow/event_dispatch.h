@@ -1,0 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
+// moved to <skrobot/runtime/flow/event_dispatch.h>; this forwarding header goes in the next minor release
+#pragma once
+#include <skrobot/runtime/flow/event_dispatch.h>

@@ -57,8 +57,11 @@ class TransportPair : public ::testing::Test {
     // "localhost").
     Address listen_at = address;
     if (listen_at.kind != Address::Kind::local) listen_at.host = "127.0.0.1";
-    auto l = Listener::open(loop_, listen_at, std::move(options),
-                            [this](std::unique_ptr<Transport> t) { server_ = std::move(t); });
+    auto l = Listener::open(loop_, listen_at, std::move(options), [this](std::unique_ptr<Transport> t) {
+      // Started at once, as the hub does: a TLS server end handshakes once it reads.
+      server_ = std::move(t);
+      ASSERT_TRUE(server_->start(server_sink_));
+    });
     ASSERT_TRUE(l) << l.error().message;
     listener_ = std::move(l).value();
     if (address.kind != Address::Kind::local) address.port = listener_->port();
@@ -70,11 +73,11 @@ class TransportPair : public ::testing::Test {
     std::optional<Result<std::unique_ptr<Transport>>> opened;
     auto dialer = Dialer::open(loop_, address, client_tls,
                                [&](Result<std::unique_ptr<Transport>> r) { opened.emplace(std::move(r)); });
-    ASSERT_TRUE(loop_.runUntil([&] { return opened && server_; }, kWait));
+    ASSERT_TRUE(loop_.runUntil([&] { return opened.has_value(); }, kWait));
     ASSERT_TRUE(*opened) << opened->error().message;
+    ASSERT_TRUE(loop_.runUntil([&] { return server_ != nullptr; }, kWait));
     client_ = std::move(opened->value());
     ASSERT_TRUE(client_->start(client_sink_));
-    ASSERT_TRUE(server_->start(server_sink_));
   }
   // Written by the client with one gathered tryWrite, read by the server.
   void exchange() {

@@ -1,17 +1,19 @@
 // SPDX-License-Identifier: Apache-2.0
-// Opening a transport to a hub's address (skrobot/runtime/flow/transport.h): resolving on libuv's thread
-// pool, connecting, and for tls: the handshake, before the transport is handed over.
+// Opening a transport to a hub's address (skrobot/runtime/flow/transport.h): resolving on libuv's
+// thread pool, connecting to each resolved address in turn, and for tls: the handshake, before the
+// transport is handed over.
 #include "stream_transport.h"
 #include "tls_transport.h"
 
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/loop_handles.h>
 
+#include <cstring>
 #include <optional>
+#include <vector>
 
 namespace skr::flow::transport {
 namespace {
-
 
 std::string uvText(const std::string& what, int rc) {
   return what + ": " + uv_strerror(rc);
@@ -48,7 +50,6 @@ class StreamDialer final : public Dialer {
       fail(tls_->error().message);
       return;
     }
-    stream_ = std::make_unique<StreamTransport>(loop_, TransportKind::tcp);
     addrinfo hints{};
     hints.ai_family = AF_UNSPEC;
     hints.ai_socktype = SOCK_STREAM;
@@ -85,10 +86,28 @@ class StreamDialer final : public Dialer {
       fail(uvText("resolve " + address_.host, status));
       return;
     }
-    stream_->connect(res->ai_addr, [this](int st) { connected(st); });
+    // Every address the name has, tried in the resolver's order ("localhost" may give ::1 first
+    // while the hub listens on 127.0.0.1 only).
+    for (const addrinfo* a = res; a != nullptr; a = a->ai_next) {
+      if (a->ai_addrlen > sizeof(sockaddr_storage)) continue;
+      sockaddr_storage s{};
+      std::memcpy(&s, a->ai_addr, a->ai_addrlen);
+      candidates_.push_back(s);
+    }
+    connectNext();
+  }
+
+  void connectNext() {
+    const sockaddr_storage next = candidates_[tried_++];
+    stream_ = std::make_unique<StreamTransport>(loop_, TransportKind::tcp);
+    stream_->connect(reinterpret_cast<const sockaddr*>(&next), [this](int st) { connected(st); });
   }
 
   void connected(int status) {
+    if (status < 0 && tried_ < candidates_.size()) {
+      connectNext();
+      return;
+    }
     if (status < 0) {
       fail(uvText("connect", status));
       return;
@@ -139,6 +158,8 @@ class StreamDialer final : public Dialer {
   std::unique_ptr<StreamTransport> stream_;
   std::unique_ptr<TlsTransport> tls_transport_;
   Resolve* resolve_ = nullptr;
+  std::vector<sockaddr_storage> candidates_;  // tcp: and tls: the resolved addresses
+  size_t tried_ = 0;
   std::optional<Result<std::unique_ptr<Transport>>> outcome_;
   Timer report_;
 };

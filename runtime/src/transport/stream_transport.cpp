@@ -86,7 +86,7 @@ void StreamTransport::connect(const sockaddr* addr, std::function<void(int)> don
     if (h->owner != nullptr) h->connected(status);
   };
   if (int rc = uv_tcp_connect(&h_->connect, &h_->u.tcp, addr, cb); rc < 0) {
-    // Reported from the loop as every other outcome: through a failed write-less connect.
+    // Told at once; the dialer reports its outcome from the loop.
     h_->connected(rc);
   }
 }

@@ -15,8 +15,7 @@
 namespace skr::flow {
 namespace {
 
-constexpr size_t kReadChunk = 64 * 1024;
-constexpr size_t kKeepBuffer = 1 << 20;        // shrink buffers above this once they drain
+constexpr size_t kKeepBuffer = FrameInput::kKeepBuffer;  // shrink buffers above this once drained
 constexpr size_t kGiveAwayBytes = 256 * 1024;  // takeBody hands over the buffer from this size
 constexpr size_t kWriteSlice = 256 << 10;      // queued output is handed to the socket in slices
 
@@ -29,8 +28,8 @@ Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
 Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport)
     : hub_(hub),
       transport_(std::move(transport)),
-      splitter_(std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes,
-                          transport_->maxFrameBytes()})) {}
+      input_(std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes,
+                       transport_->maxFrameBytes()})) {}
 
 // The transport's closed() deletes a connection, possibly after the server is gone: close() has
 // already detached it from the server, so the destructor must not touch it.
@@ -58,46 +57,18 @@ void Connection::startReading() {
   reading_ = true;
 }
 
-void Connection::reserveRead(size_t want) {
-  if (rcap_ - rend_ >= want) return;
-  const size_t have = rend_ - rstart_;
-  if (rstart_ > 0) {
-    if (have > 0) std::memmove(rbuf_.get(), rbuf_.get() + rstart_, have);
-    rstart_ = 0;
-    rend_ = have;
-  }
-  if (rcap_ - rend_ < want) {
-    const size_t cap = rend_ + want;
-    auto bigger = std::make_unique_for_overwrite<char[]>(cap);  // no zero-fill
-    if (have > 0) std::memcpy(bigger.get(), rbuf_.get(), have);
-    rbuf_ = std::move(bigger);
-    rcap_ = cap;
-  }
-}
-
 SharedBytes Connection::takeBody(std::string_view part) {
   if (part.size() < kGiveAwayBytes) return SharedBytes(std::string(part));
-  std::shared_ptr<const char[]> taken(std::move(rbuf_));
-  const size_t have = rend_ - rstart_;
-  rcap_ = std::max(kReadChunk, have);
-  rbuf_ = std::make_unique_for_overwrite<char[]>(rcap_);
-  if (have > 0) std::memcpy(rbuf_.get(), taken.get() + rstart_, have);
-  rstart_ = 0;
-  rend_ = have;
-  return SharedBytes(std::move(taken), part);
+  return SharedBytes(input_.giveAway(), part);
 }
 
 std::span<char> Connection::readBuffer() {
-  const size_t have = rend_ - rstart_;
-  // Room for the rest of the frame being received (its length was checked against the limit by
-  // the splitter before rneed_ was set), and at least one chunk.
-  reserveRead(std::max(kReadChunk, rneed_ > have ? rneed_ - have : 0));
-  return {rbuf_.get() + rend_, rcap_ - rend_};
+  return input_.room();
 }
 
 void Connection::received(size_t n) {
   hub_.loop.noteActivity();
-  rend_ += n;
+  input_.commit(n);
   processInput();
 }
 
@@ -110,9 +81,7 @@ void Connection::message(std::string_view bytes) {
     protocolError("a message of " + std::to_string(bytes.size()) + " bytes is not one frame");
     return;
   }
-  reserveRead(bytes.size());
-  std::memcpy(rbuf_.get() + rend_, bytes.data(), bytes.size());
-  rend_ += bytes.size();
+  input_.append(bytes);
   processInput();
 }
 
@@ -134,15 +103,11 @@ void Connection::closed() noexcept {
 
 void Connection::processInput() {
   while (!blocked_ && state_ != State::closing) {
-    const auto n =
-        splitter_.next(reinterpret_cast<const uint8_t*>(rbuf_.get()) + rstart_, rend_ - rstart_);
-    if (n.status == FrameSplitter::Status::need_more) {
-      rneed_ = n.wanted;
-      break;
-    }
+    const auto n = input_.peek();
+    if (n.status == FrameSplitter::Status::need_more) break;
     if (n.status == FrameSplitter::Status::too_large) {
       protocolError("frame length " + std::to_string(n.announced) + " exceeds the limit of " +
-                    std::to_string(splitter_.maxFrameBytes()) + " bytes" +
+                    std::to_string(input_.splitter().maxFrameBytes()) + " bytes" +
                     (state_ == State::login ? " before login" : ""));
       return;
     }
@@ -151,20 +116,13 @@ void Connection::processInput() {
       return;
     }
     if (waitForPipeline(n.code)) break;  // handled once the pipeline's answers have left
-    rstart_ += n.consumed;                  // before handling: a handler may block and resume later
-    rneed_ = 0;
+    input_.consume(n);  // before handling: a handler may block and resume later
     ++hub_.stats.frames_in;
     ++traffic.messages_in;
     traffic.bytes_in += n.consumed;
     handleFrame(n.code, n.body);
   }
-  if (rstart_ == rend_) {
-    rstart_ = rend_ = 0;
-    if (rcap_ > kKeepBuffer) {
-      rbuf_.reset();
-      rcap_ = 0;
-    }
-  }
+  input_.settle();
 }
 
 void Connection::block() {
@@ -306,7 +264,7 @@ void Connection::authenticating(ValueEncoding enc) {
 
 void Connection::loggedIn(uint16_t minor) {
   minor_ = minor;
-  splitter_.setMaxFrameBytes(hub_.opt.max_frame_bytes);
+  input_.splitter().setMaxFrameBytes(std::min(hub_.opt.max_frame_bytes, transport_->maxFrameBytes()));
   state_ = State::sync;
 }
 

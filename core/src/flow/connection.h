@@ -8,6 +8,7 @@
 #pragma once
 
 #include "endpoint.h"
+#include "frame_input.h"
 
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/log.h>
@@ -179,8 +180,6 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   void closed() noexcept override;
 
   void processInput();
-  // Room for at least `want` more bytes at rbuf_ + rend_.
-  void reserveRead(size_t want);
   // A frame: checked against the catalogue and the session's state, then dispatched.
   void handleFrame(uint8_t code, std::string_view body);
   void dispatchFrame(uint8_t code, std::string_view body);
@@ -207,11 +206,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
-  FrameSplitter splitter_;
-
-  // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
-  std::unique_ptr<char[]> rbuf_;
-  size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
+  FrameInput input_;  // received bytes, frames split from them
   bool blocked_ = false;              // a sync reply is pending: do not parse further frames
   uint32_t pipeline_in_flight_ = 0;   // pipelined requests in the hub, not answered yet
   uint64_t pipeline_bytes_ = 0;       // the data they carry or ask for

@@ -15,9 +15,7 @@
 namespace skr::flow {
 namespace {
 
-constexpr size_t kKeepBuffer = FrameInput::kKeepBuffer;  // shrink buffers above this once drained
 constexpr size_t kGiveAwayBytes = 256 * 1024;  // takeBody hands over the buffer from this size
-constexpr size_t kWriteSlice = 256 << 10;      // queued output is handed to the socket in slices
 
 }  // namespace
 
@@ -44,7 +42,7 @@ std::string Connection::describe() const {
 }
 
 bool Connection::congested() const {
-  return out_.size() > hub_.opt.subscriber_queue_bytes;
+  return output_.queue().size() > hub_.opt.subscriber_queue_bytes;
 }
 
 void Connection::startReading() {
@@ -213,7 +211,7 @@ void Connection::replyError(ErrorCode error, const std::string& message) {
 }
 
 void Connection::replyOk() {
-  appendHeader(out_, Code::reply_ok, 0);
+  appendHeader(output_.queue(), Code::reply_ok, 0);
   ++traffic.messages_out;
   traffic.bytes_out += kFrameHeaderBytes;
   queued();
@@ -331,14 +329,7 @@ void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string
   std::memcpy(frame.data(), head.data(), head.size());
   ++traffic.messages_out;
   traffic.bytes_out += frame.size();
-  if (out_.empty() && whole_.empty()) {
-    out_.swap(frame);
-  } else {
-    // Queued whole rather than copied onto the output on the loop thread: what is in out_ goes
-    // first, then this frame, then what comes after it.
-    if (!out_.empty()) whole_.push_back(std::exchange(out_, std::string()));
-    whole_.push_back(std::move(frame));
-  }
+  output_.appendWhole(std::move(frame));  // not copied onto the queue on the loop thread
   queued();
 }
 
@@ -354,15 +345,14 @@ void Connection::widenSendBuffer() {
 
 void Connection::queued() {
   if (state_ == State::closing) {
-    out_.clear();
-    whole_.clear();
+    output_.clear();
     return;
   }
   const size_t hard =
       hub_.opt.subscriber_queue_bytes * 2 + hub_.opt.max_frame_bytes + (64u << 10);
-  if (out_.size() > hard) {
+  if (output_.queue().size() > hard) {
     log::warn(kLogSource, "FLOW-SLOW-CLIENT",
-              describe() + ": " + std::to_string(out_.size()) +
+              describe() + ": " + std::to_string(output_.queue().size()) +
                   " bytes of events and replies wait unread; closing");
     close("not reading");
     return;
@@ -372,11 +362,12 @@ void Connection::queued() {
 
 void Connection::onData(const Channel& ch, std::string_view payload) {
   if (state_ != State::flow) return;
+  std::string& out = output_.queue();
   const size_t frame = kFrameHeaderBytes + 2 + payload.size();
   const size_t limit = hub_.opt.subscriber_queue_bytes;
-  if (!out_.empty() && out_.size() + frame > limit) {
+  if (!out.empty() && out.size() + frame > limit) {
     dropOldestData(frame);
-    if (!out_.empty() && out_.size() + frame > limit) {
+    if (!out.empty() && out.size() + frame > limit) {
       ++dropped_[ch.id];
       ++ch.dropped;
       ++traffic.dropped;
@@ -385,9 +376,9 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
     }
   }
   // One resize and two copies: this runs once per subscriber per message.
-  const size_t at = out_.size();
-  out_.resize(at + frame);
-  char* p = out_.data() + at;
+  const size_t at = out.size();
+  out.resize(at + frame);
+  char* p = out.data() + at;
   const uint32_t length = static_cast<uint32_t>(1 + 2 + payload.size());
   std::memcpy(p, &length, 4);
   p[4] = static_cast<char>(Code::ev_data);
@@ -402,31 +393,32 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
 // A slow subscriber loses its oldest data frames; events and replies are kept. Drops a quarter
 // more than needed so that a subscriber that stays slow is not compacted for every frame.
 void Connection::dropOldestData(size_t needed) {
+  std::string& out = output_.queue();
   const size_t limit = hub_.opt.subscriber_queue_bytes;
   const size_t target = limit - std::min(limit, needed + limit / 4);
-  size_t size = out_.size();
+  size_t size = out.size();
   std::string kept;
-  kept.reserve(out_.size());
+  kept.reserve(out.size());
   size_t pos = 0;
   uint64_t dropped = 0;
-  while (pos + kFrameHeaderBytes <= out_.size()) {
+  while (pos + kFrameHeaderBytes <= out.size()) {
     uint32_t len = 0;
-    std::memcpy(&len, out_.data() + pos, 4);
+    std::memcpy(&len, out.data() + pos, 4);
     const size_t frame = 4 + static_cast<size_t>(len);
-    const auto code = static_cast<Code>(static_cast<uint8_t>(out_[pos + 4]));
+    const auto code = static_cast<Code>(static_cast<uint8_t>(out[pos + 4]));
     if (code == Code::ev_data && size > target) {
       uint16_t chan = 0;
-      std::memcpy(&chan, out_.data() + pos + 5, 2);
+      std::memcpy(&chan, out.data() + pos + 5, 2);
       ++dropped_[chan];
       ++dropped;
       if (const Channel* ch = hub_.channels.find(chan)) ++ch->dropped;
       size -= frame;
     } else {
-      kept.append(out_, pos, frame);
+      kept.append(out, pos, frame);
     }
     pos += frame;
   }
-  out_.swap(kept);
+  out.swap(kept);
   traffic.dropped += dropped;
   hub_.stats.data_frames_dropped += dropped;
   const Nanos now = monotonicNs();
@@ -440,150 +432,26 @@ void Connection::dropOldestData(size_t needed) {
 }
 
 void Connection::flush() {
-  if (writing_ || state_ == State::closing) return;
-  if (!dropped_.empty()) {
-    for (const auto& [chan, count] : dropped_) {
-      (void)encode(out_, msg::EvDropped{chan, count}, enc_);
-    }
-    dropped_.clear();
+  if (output_.writing() || state_ == State::closing) return;
+  for (const auto& [chan, count] : dropped_) {
+    (void)encode(output_.queue(), msg::EvDropped{chan, count}, enc_);
   }
-  if (!urgent_.empty() && atFrameBoundary()) {
-    if (!writeUrgent()) return;
+  dropped_.clear();
+  const auto done = output_.flush(*transport_);
+  if (!done) {
+    close(done.error().message.c_str());
+  } else if (*done && close_after_flush_) {
+    close("replies sent");
   }
-  if (inflight_off_ < inflight_.size()) {
-    writeSlice();
-    return;
-  }
-  releaseInflight();
-  if (!whole_.empty()) {
-    inflight_ = std::move(whole_.front());
-    whole_.pop_front();
-    writeSlice();
-    return;
-  }
-  if (out_.empty()) {
-    if (close_after_flush_) close("replies sent");
-    return;
-  }
-  // Try the transport directly first: when everything fits (the common case) no write is queued,
-  // and the loop does not have to watch the socket for writability.
-  const std::string_view direct = out_;
-  const auto sent = transport_->tryWrite({&direct, 1});
-  if (!sent) {
-    close(sent.error().message.c_str());
-    return;
-  }
-  if (*sent == out_.size()) {
-    if (out_.capacity() > kKeepBuffer) {
-      std::string().swap(out_);  // a burst is over: give the memory back
-    } else {
-      out_.clear();
-    }
-    if (close_after_flush_) close("replies sent");
-    return;
-  }
-  inflight_.swap(out_);
-  out_.clear();
-  inflight_off_ = *sent;
-  next_frame_ = 0;
-  writeSlice();
-}
-
-bool Connection::atFrameBoundary() {
-  if (inflight_off_ >= inflight_.size()) return true;
-  while (next_frame_ < inflight_off_) {
-    uint32_t len = 0;
-    std::memcpy(&len, inflight_.data() + next_frame_, 4);
-    next_frame_ += 4 + static_cast<size_t>(len);
-  }
-  return next_frame_ == inflight_off_;
-}
-
-bool Connection::writeUrgent() {
-  const std::string_view urgent = urgent_;
-  const auto sent = transport_->tryWrite({&urgent, 1});
-  if (!sent) {
-    close(sent.error().message.c_str());
-    return false;
-  }
-  if (*sent == urgent_.size()) {
-    urgent_.clear();
-    return true;
-  }
-  // The socket is full: the rest goes first, on its own.
-  urgent_wire_.assign(urgent_, *sent);
-  urgent_.clear();
-  writing_urgent_ = true;
-  writing_ = true;
-  const std::string_view rest = urgent_wire_;
-  if (auto r = transport_->write({&rest, 1}); !r) {
-    writing_ = false;
-    close(r.error().message.c_str());
-  }
-  return false;
-}
-
-void Connection::writeSlice() {
-  // Whole frames of at least kWriteSlice bytes, so that urgent frames wait behind one slice at
-  // most; a larger frame goes in slices of kWriteSlice too, so that no write holds the loop for
-  // long (urgent frames wait for its end: atFrameBoundary). A message-based transport takes
-  // whole frames only: a frame larger than a slice goes whole.
-  size_t end = inflight_.size();
-  {
-    size_t last_start = 0;  // where the last frame added below starts
-    while (next_frame_ < inflight_.size() &&
-           (next_frame_ <= inflight_off_ || next_frame_ - inflight_off_ < kWriteSlice)) {
-      last_start = next_frame_;
-      uint32_t len = 0;
-      std::memcpy(&len, inflight_.data() + next_frame_, 4);
-      next_frame_ += 4 + static_cast<size_t>(len);
-    }
-    end = std::min(next_frame_, inflight_.size());
-    if (end - inflight_off_ > kWriteSlice) {
-      if (last_start > inflight_off_) {
-        end = next_frame_ = last_start;  // the frames before the one that makes it too long
-      } else if (transport_->framing() == transport::Transport::Framing::stream) {
-        end = inflight_off_ + kWriteSlice;  // inside one frame larger than a slice
-      }
-    }
-  }
-  slice_end_ = end;
-  const std::string_view slice(inflight_.data() + inflight_off_, end - inflight_off_);
-  writing_ = true;
-  if (auto r = transport_->write({&slice, 1}); !r) {
-    writing_ = false;
-    close(r.error().message.c_str());
-  }
-}
-
-void Connection::releaseInflight() {
-  if (inflight_.capacity() > kKeepBuffer) {
-    std::string().swap(inflight_);
-  } else {
-    inflight_.clear();
-  }
-  inflight_off_ = next_frame_ = slice_end_ = 0;
 }
 
 void Connection::written(Result<void> result) {
-  writing_ = false;
   if (state_ == State::closing) return;
-  if (!result) {
-    close(result.error().message.c_str());
+  if (auto r = output_.written(std::move(result)); !r) {
+    close(r.error().message.c_str());
     return;
   }
-  if (writing_urgent_) {
-    writing_urgent_ = false;
-    urgent_wire_.clear();
-  } else {
-    inflight_off_ = slice_end_;
-  }
-  if (inflight_off_ < inflight_.size() || !urgent_.empty() || !whole_.empty() ||
-      !out_.empty() || !dropped_.empty() || close_after_flush_) {
-    flush();
-  } else {
-    releaseInflight();
-  }
+  if (output_.pending() || !dropped_.empty() || close_after_flush_) flush();
 }
 
 void Connection::onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,
@@ -618,7 +486,7 @@ void Connection::onPhysical(const msg::EvPhysMarker& m) {
 
 void Connection::sendUrgent(std::string_view frame) {
   if (state_ == State::closing) return;
-  urgent_.append(frame);
+  output_.appendUrgent(frame);
   ++traffic.messages_out;
   traffic.bytes_out += frame.size();
   hub_.markDirty(this);

@@ -9,6 +9,7 @@
 
 #include "endpoint.h"
 #include "frame_input.h"
+#include "output.h"
 
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/log.h>
@@ -17,7 +18,6 @@
 #include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/flow/transport.h>
 
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -78,12 +78,13 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // --- answers, for the rooms
   template <class M>
   void send(const M& m) {
-    const size_t before = out_.size();
-    if (!encode(out_, m, enc_)) {
+    std::string& out = output_.queue();
+    const size_t before = out.size();
+    if (!encode(out, m, enc_)) {
       log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
     }
     ++traffic.messages_out;
-    traffic.bytes_out += out_.size() - before;
+    traffic.bytes_out += out.size() - before;
     queued();
   }
   void replyOk();
@@ -143,7 +144,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   [[nodiscard]] const char* kind() const override {
     return !linked_hub.empty() ? "link" : state_ == State::sync ? "sync" : "satellite";
   }
-  [[nodiscard]] size_t queuedBytes() const override { return out_.size() + inflight_.size(); }
+  [[nodiscard]] size_t queuedBytes() const override { return output_.bytes(); }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,
@@ -188,17 +189,10 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   bool waitForPipeline(uint8_t code);
   void pipelineAnswered(uint64_t bytes);
 
-  void queued();  // after appending to out_: limits, then flush scheduling
+  void queued();  // after queueing output: limits, then flush scheduling
   // A frame that goes ahead of the output queued in the hub (a sync pulse): after the slice being
   // written, before everything else.
   void sendUrgent(std::string_view frame);
-  // Output: whether the next byte to write starts a frame (urgent frames go in only there); the
-  // urgent frames, written at once or on their own (false: the write is under way or failed);
-  // the next slice of inflight_; inflight_ done with.
-  bool atFrameBoundary();
-  bool writeUrgent();
-  void writeSlice();
-  void releaseInflight();
   void dropOldestData(size_t needed);
 
   Hub& hub_;
@@ -217,15 +211,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   bool reading_ = false;
   bool reading_started_ = false;  // the transport was started (later: resume)
 
-  // Output: frames accumulate in out_; inflight_ is being written, a slice at a time
-  // ([inflight_off_, slice_end_) now; next_frame_: a frame start at or past inflight_off_).
-  // Urgent frames wait in urgent_ (urgent_wire_ while the socket takes their rest). Blob data
-  // frames that arrive while output waits are queued whole in whole_, which goes before out_.
-  std::string out_, inflight_, urgent_, urgent_wire_;
-  std::deque<std::string> whole_;
-  size_t inflight_off_ = 0, slice_end_ = 0, next_frame_ = 0;
-  bool writing_urgent_ = false;
-  bool writing_ = false;
+  Output output_;
   bool close_after_flush_ = false;
   std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED
   Nanos last_drop_log_ = 0;

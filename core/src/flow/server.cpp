@@ -77,7 +77,9 @@ Result<void> FlowServer::Impl::start() {
 }
 
 Result<void> FlowServer::Impl::listenUnix() {
-  const Address where{.kind = Address::Kind::local, .path = unix_path};
+  Address where;
+  where.kind = Address::Kind::local;
+  where.path = unix_path;
   auto l = transport::Listener::open(
       loop, where, {}, [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); });
   if (!l) return l.error();

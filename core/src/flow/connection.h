@@ -1,26 +1,23 @@
 // SPDX-License-Identifier: Apache-2.0
-// One satellite connected over a socket (Unix or TCP, TLS on TCP): its session with the hub.
-// Reads bytes into a buffer that frames are parsed from in place, checks each frame against the
-// catalogue and the session's state (login, authenticating, sync, flow) and hands it to its room
-// (dispatch.h); keeps an output queue flushed once per loop iteration (many frames per write).
-// The rooms answer through the calls below. Main loop thread only.
-//
-// With TLS (useTls), received bytes are decrypted into the same read buffer and the same frame
-// splitter parses them; the output queue holds frames until flush() encrypts it as a whole.
+// One satellite connected over a transport (skrobot/runtime/flow/transport.h: Unix socket, TCP,
+// TLS on TCP, or a message-based one): its session with the hub. Receives bytes into a buffer that
+// frames are parsed from in place (a message-based transport's messages are one frame each), checks
+// each frame against the catalogue and the session's state (login, authenticating, sync, flow) and
+// hands it to its room (dispatch.h); keeps an output queue flushed once per loop iteration (many
+// frames per write). The rooms answer through the calls below. Main loop thread only.
 #pragma once
 
 #include "endpoint.h"
+#include "frame_input.h"
+#include "output.h"
 
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/runtime/flow/codec.h>
-#include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/transport.h>
 
-#include <uv.h>
-
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -35,24 +32,21 @@ class Connection;
 // The connection with endpoint id `id` in `hub`, if it is still there.
 [[nodiscard]] Connection* connectionOf(Hub& hub, uint32_t id) noexcept;
 
-class Connection final : public Endpoint {
+class Connection final : public Endpoint, private transport::Transport::Receiver {
  public:
   enum class State { login, authenticating, sync, flow, closing };
 
-  Connection(Hub& hub, Transport transport);
+  // Takes over an accepted transport; startReading() starts the session.
+  Connection(Hub& hub, std::unique_ptr<transport::Transport> transport);
   ~Connection() override;
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
   Connection(Connection&&) = delete;
   Connection& operator=(Connection&&) = delete;
 
-  // --- the socket (server.cpp accepts it)
-  // The libuv stream this connection reads and writes (initialised by the server's accept).
-  [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&handle_); }
+  // --- the transport (server.cpp accepts it)
   void startReading();
-  // Makes this a TLS connection: call after accept, before startReading().
-  void useTls(TlsSession session);
-  // Closes now: the connection leaves every room at once; memory goes with the close callback.
+  // Closes now: the connection leaves every room at once; memory goes once the transport closed.
   void close(const char* why) noexcept;
   // Sends what is queued, then closes.
   void closeAfterFlush(const char* why);
@@ -60,7 +54,11 @@ class Connection final : public Endpoint {
 
   [[nodiscard]] Hub& hub() noexcept { return hub_; }
   [[nodiscard]] State state() const noexcept { return state_; }
-  [[nodiscard]] Transport transport() const noexcept { return transport_; }
+  // What the accounts' rules see: a Unix socket, or the network (TCP, TLS, any other).
+  [[nodiscard]] Transport transport() const noexcept {
+    return transport_->kind() == transport::TransportKind::unix_socket ? Transport::unix_socket
+                                                            : Transport::tcp;
+  }
   Nanos login_deadline = 0;
   // Accepted beyond server.max_connections: its LOGIN is answered limit_exceeded, then it closes.
   bool over_limit = false;
@@ -80,12 +78,13 @@ class Connection final : public Endpoint {
   // --- answers, for the rooms
   template <class M>
   void send(const M& m) {
-    const size_t before = out_.size();
-    if (!encode(out_, m, enc_)) {
+    std::string& out = output_.queue();
+    const size_t before = out.size();
+    if (!encode(out, m, enc_)) {
       log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
     }
     ++traffic.messages_out;
-    traffic.bytes_out += out_.size() - before;
+    traffic.bytes_out += out.size() - before;
     queued();
   }
   void replyOk();
@@ -145,7 +144,7 @@ class Connection final : public Endpoint {
   [[nodiscard]] const char* kind() const override {
     return !linked_hub.empty() ? "link" : state_ == State::sync ? "sync" : "satellite";
   }
-  [[nodiscard]] size_t queuedBytes() const override { return out_.size() + inflight_.size(); }
+  [[nodiscard]] size_t queuedBytes() const override { return output_.bytes(); }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,
@@ -173,17 +172,15 @@ class Connection final : public Endpoint {
   [[nodiscard]] bool sees(const Channel& ch) const noexcept;
 
  private:
-  static void onAlloc(uv_handle_t* h, size_t suggested, uv_buf_t* buf);
-  static void onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf);
-  static void onWrite(uv_write_t* req, int status);
+  // Transport::Receiver
+  std::span<char> readBuffer() override;
+  void received(size_t n) override;
+  void message(std::string_view bytes) override;
+  void written(Result<void> result) override;
+  void ended(const transport::TransportEnd& end) override;
+  void closed() noexcept override;
 
   void processInput();
-  // Room for at least `want` more bytes at rbuf_ + rend_.
-  void reserveRead(size_t want);
-  void receiveTls(const char* data, size_t n);
-  // Refuses a peer that speaks the other language (plain on TLS, TLS on plain) or fails the TLS
-  // handshake: FLOW-TLS log line, `reply` sent as it is (an alert, a plain REPLY_ERROR), close.
-  void refuse(const std::string& why, std::string reply);
   // A frame: checked against the catalogue and the session's state, then dispatched.
   void handleFrame(uint8_t code, std::string_view body);
   void dispatchFrame(uint8_t code, std::string_view body);
@@ -192,33 +189,18 @@ class Connection final : public Endpoint {
   bool waitForPipeline(uint8_t code);
   void pipelineAnswered(uint64_t bytes);
 
-  void queued();  // after appending to out_: limits, then flush scheduling
+  void queued();  // after queueing output: limits, then flush scheduling
   // A frame that goes ahead of the output queued in the hub (a sync pulse): after the slice being
   // written, before everything else.
   void sendUrgent(std::string_view frame);
-  // Output: whether the next byte to write starts a frame (urgent frames go in only there); the
-  // urgent frames, written at once or on their own (false: the write is under way or failed);
-  // the next slice of inflight_; inflight_ done with.
-  bool atFrameBoundary();
-  bool writeUrgent();
-  void writeSlice();
-  void releaseInflight();
   void dropOldestData(size_t needed);
 
   Hub& hub_;
-  Transport transport_;
-  union Handle {
-    uv_pipe_t pipe;
-    uv_tcp_t tcp;
-  } handle_{};
+  std::unique_ptr<transport::Transport> transport_;
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
-  FrameSplitter splitter_;
-
-  // Read buffer: bytes [rstart_, rend_) are received and not yet parsed.
-  std::unique_ptr<char[]> rbuf_;
-  size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
+  FrameInput input_;  // received bytes, frames split from them
   bool blocked_ = false;              // a sync reply is pending: do not parse further frames
   uint32_t pipeline_in_flight_ = 0;   // pipelined requests in the hub, not answered yet
   uint64_t pipeline_bytes_ = 0;       // the data they carry or ask for
@@ -226,21 +208,10 @@ class Connection final : public Endpoint {
   bool pipeline_waiting_ = false;     // reading paused until a pipelined answer leaves
   uint8_t current_code_ = 0;          // the code of the frame being handled
   bool wide_send_buffer_ = false;     // widened for downloads (widenSendBuffer)
-  bool first_input_ = true;  // nothing received yet: a plain TCP port checks for a TLS peer
-  std::optional<TlsSession> tls_;
-  std::unique_ptr<char[]> tls_in_;  // ciphertext as read from the socket
   bool reading_ = false;
+  bool reading_started_ = false;  // the transport was started (later: resume)
 
-  // Output: frames accumulate in out_; inflight_ is being written, a slice at a time
-  // ([inflight_off_, slice_end_) now; next_frame_: a frame start at or past inflight_off_).
-  // Urgent frames wait in urgent_ (urgent_wire_ while the socket takes their rest). Blob data
-  // frames that arrive while output waits are queued whole in whole_, which goes before out_.
-  std::string out_, inflight_, urgent_, urgent_wire_;
-  std::deque<std::string> whole_;
-  size_t inflight_off_ = 0, slice_end_ = 0, next_frame_ = 0;
-  bool writing_urgent_ = false;
-  uv_write_t wreq_{};
-  bool writing_ = false;
+  Output output_;
   bool close_after_flush_ = false;
   std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED
   Nanos last_drop_log_ = 0;

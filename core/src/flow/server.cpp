@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// FlowServer: transports, connection lifecycle, output flushing and timeouts (server_impl.h).
+// FlowServer: listeners (transport.h), connection lifecycle, output flushing and timeouts
+// (server_impl.h).
 #include "server_impl.h"
 
 #include "connection.h"
@@ -7,16 +8,7 @@
 
 #include <skrobot/runtime/log.h>
 
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/stat.h>
-#include <sys/un.h>
-#include <unistd.h>
-
-#include <cctype>
-#include <cerrno>
 #include <csignal>
-#include <cstring>
 #include <vector>
 
 namespace skr::flow {
@@ -85,68 +77,35 @@ Result<void> FlowServer::Impl::start() {
 }
 
 Result<void> FlowServer::Impl::listenUnix() {
-  // A socket file left by a hub that crashed would make bind fail: remove it, but only if no
-  // hub answers on it (two hubs with the same app name must not steal each other's socket).
-  struct stat st {};
-  if (lstat(unix_path.c_str(), &st) == 0) {
-    if (!S_ISSOCK(st.st_mode)) {
-      return makeError(Errc::already_exists, unix_path + " exists and is not a socket");
-    }
-    const int probe = ::socket(AF_UNIX, SOCK_STREAM, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::strncpy(addr.sun_path, unix_path.c_str(), sizeof(addr.sun_path) - 1);
-    const bool live = ::connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-    ::close(probe);
-    if (live) return makeError(Errc::already_exists, "another hub listens on " + unix_path);
-    ::unlink(unix_path.c_str());
-  }
-  unix_listener = newUvHandle<uv_pipe_t>(this);
-  uv_pipe_init(loop.uv(), unix_listener, 0);
-  int rc = uv_pipe_bind(unix_listener, unix_path.c_str());
-  if (rc == 0) {
-    rc = uv_listen(reinterpret_cast<uv_stream_t*>(unix_listener), 128,
-                   [](uv_stream_t* l, int status) {
-                     if (status == 0) {
-                       static_cast<Impl*>(l->data)->accept(l, Transport::unix_socket);
-                     }
-                   });
-  }
-  if (rc != 0) {
-    closeUvHandle(unix_listener);
-    return makeError(Errc::io_error, "cannot listen on " + unix_path + ": " + uv_strerror(rc));
-  }
-  ::chmod(unix_path.c_str(), 0660);
+  Address where;
+  where.kind = Address::Kind::local;
+  where.path = unix_path;
+  auto l = transport::Listener::open(
+      loop, where, {}, [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); });
+  if (!l) return l.error();
+  unix_listener = std::move(l).value();
   log::info(kLogSource, "FLOW-LISTEN", "Unix socket " + unix_path);
   return {};
 }
 
 Result<void> FlowServer::Impl::listenTcp() {
-  sockaddr_storage addr{};
-  int rc =
-      uv_ip4_addr(opt.tcp_address.c_str(), opt.tcp_port, reinterpret_cast<sockaddr_in*>(&addr));
-  if (rc != 0) {
-    rc = uv_ip6_addr(opt.tcp_address.c_str(), opt.tcp_port, reinterpret_cast<sockaddr_in6*>(&addr));
+  transport::ListenOptions options;
+  Address address{.kind = Address::Kind::tcp, .host = opt.tcp_address, .port = opt.tcp_port};
+  if (tls) {
+    address.kind = Address::Kind::tls;
+    options.tls = *tls;
+    // A plain FlowProtocol client waits for the reply to its LOGIN: it is told in its language.
+    (void)encode(options.plain_peer_reply,
+                 msg::ReplyError{static_cast<uint16_t>(ErrorCode::protocol_error),
+                                 "this hub's TCP port speaks TLS: connect with a tls: address "
+                                 "(docs/security.md)"});
   }
-  if (rc != 0) return makeError(Errc::invalid_argument, "bad TCP address " + opt.tcp_address);
-  tcp_listener = newUvHandle<uv_tcp_t>(this);
-  uv_tcp_init(loop.uv(), tcp_listener);
-  rc = uv_tcp_bind(tcp_listener, reinterpret_cast<sockaddr*>(&addr), 0);
-  if (rc == 0) {
-    rc = uv_listen(reinterpret_cast<uv_stream_t*>(tcp_listener), 128,
-                   [](uv_stream_t* l, int status) {
-                     if (status == 0) static_cast<Impl*>(l->data)->accept(l, Transport::tcp);
-                   });
-  }
-  if (rc != 0) {
-    closeUvHandle(tcp_listener);
-    return makeError(Errc::io_error, "cannot listen on TCP " + opt.tcp_address + ":" +
-                                         std::to_string(opt.tcp_port) + ": " + uv_strerror(rc));
-  }
-  sockaddr_storage bound{};
-  int len = sizeof bound;
-  uv_tcp_getsockname(tcp_listener, reinterpret_cast<sockaddr*>(&bound), &len);
-  tcp_port = ntohs(reinterpret_cast<sockaddr_in*>(&bound)->sin_port);
+  auto l = transport::Listener::open(
+      loop, address, std::move(options),
+      [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); });
+  if (!l) return l.error();
+  tcp_listener = std::move(l).value();
+  tcp_port = tcp_listener->port();
   const std::string where = opt.tcp_address + ":" + std::to_string(tcp_port);
   if (tls) {
     log::info(kLogSource, "FLOW-LISTEN",
@@ -164,62 +123,10 @@ Result<void> FlowServer::Impl::listenTcp() {
   return {};
 }
 
-namespace {
-
-// "tcp:<address>" of a TCP peer, "uid:<n>" of a Unix one: what the login throttle counts by.
-std::string peerOf(uv_stream_t* stream, Transport transport) {
-  if (transport == Transport::tcp) {
-    sockaddr_storage peer{};
-    int len = sizeof peer;
-    char name[INET6_ADDRSTRLEN] = {};
-    if (uv_tcp_getpeername(reinterpret_cast<uv_tcp_t*>(stream), reinterpret_cast<sockaddr*>(&peer),
-                           &len) != 0) {
-      return "tcp:?";
-    }
-    if (peer.ss_family == AF_INET6) {
-      uv_ip6_name(reinterpret_cast<sockaddr_in6*>(&peer), name, sizeof name);
-    } else {
-      uv_ip4_name(reinterpret_cast<sockaddr_in*>(&peer), name, sizeof name);
-    }
-    return std::string("tcp:") + name;
-  }
-  uv_os_fd_t fd = -1;
-  ucred cred{};
-  socklen_t len = sizeof cred;
-  if (uv_fileno(reinterpret_cast<uv_handle_t*>(stream), &fd) != 0 ||
-      ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) {
-    return "unix:?";
-  }
-  return "uid:" + std::to_string(cred.uid);
-}
-
-}  // namespace
-
-void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
-  auto* c = new Connection(static_cast<Hub&>(*this), transport);
-  bool tls_failed = false;
-  if (transport == Transport::tcp && tls) {
-    auto session = TlsSession::open(*tls);
-    if (session) {
-      c->useTls(std::move(session).value());
-    } else {
-      log::error(kLogSource, "FLOW-TLS", session.error().message);
-      tls_failed = true;
-    }
-  }
-  if (transport == Transport::tcp) {
-    uv_tcp_init(loop.uv(), reinterpret_cast<uv_tcp_t*>(c->stream()));
-  } else {
-    uv_pipe_init(loop.uv(), reinterpret_cast<uv_pipe_t*>(c->stream()), 0);
-  }
-  c->stream()->data = c;
-  if (uv_accept(listener, c->stream()) != 0) {
-    uv_close(reinterpret_cast<uv_handle_t*>(c->stream()),
-             [](uv_handle_t* h) { delete static_cast<Connection*>(h->data); });
-    return;
-  }
-  if (transport == Transport::tcp) uv_tcp_nodelay(reinterpret_cast<uv_tcp_t*>(c->stream()), 1);
-  c->source = peerOf(c->stream(), transport);
+void FlowServer::Impl::accept(std::unique_ptr<transport::Transport> transport) {
+  const std::string source = transport->peer().source();
+  auto* c = new Connection(static_cast<Hub&>(*this), std::move(transport));
+  c->source = source;
   endpoints.add(*c);
   connections[c->id] = c;
   ++stats.connections_accepted;
@@ -237,10 +144,6 @@ void FlowServer::Impl::accept(uv_stream_t* listener, Transport transport) {
     }
     c->over_limit = true;
   }
-  if (tls_failed) {
-    c->close("no TLS session");  // never serve plain bytes on the TLS port
-    return;
-  }
   c->login_deadline = monotonicNs() + static_cast<Nanos>(opt.login_timeout_ms) * kNsPerMs;
   c->startReading();
 }
@@ -250,15 +153,12 @@ void FlowServer::Impl::stop() noexcept {
   std::vector<Connection*> all;
   for (auto& [id, c] : connections) all.push_back(c);
   for (Connection* c : all) c->close("hub stopping");
-  closeUvHandle(unix_listener);
-  closeUvHandle(tcp_listener);
+  unix_listener.reset();  // removes the socket file
+  tcp_listener.reset();
   closeUvHandle(flush_prepare);
   closeUvHandle(flush_check);
   closeUvHandle(sweep_timer);
-  if (started) {
-    ::unlink(unix_path.c_str());
-    started = false;
-  }
+  started = false;
   // The rooms in reverse: the authenticator's worker ended, what was asked of the blob store run,
   // the databases saved.
   auto order = lifecycle();

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
-// one room per family of the protocol); this adds the listeners (Unix socket, TCP, TLS on TCP),
+// one room per family of the protocol); this adds the listeners (transport.h: Unix socket, TCP,
+// TLS on TCP),
 // accepting connections, the loop's handles that flush output once per iteration and run the
 // sweep. Main loop thread only. docs/internals.md is the map.
 #pragma once
@@ -9,10 +10,12 @@
 
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/transport.h>
 
 #include <uv.h>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -27,8 +30,8 @@ struct FlowServer::Impl : Hub {
   // Loaded by start() when opt.tls is set: every TCP connection is then a TLS session on it.
   std::optional<TlsContext> tls;
 
-  uv_pipe_t* unix_listener = nullptr;
-  uv_tcp_t* tcp_listener = nullptr;
+  std::unique_ptr<transport::Listener> unix_listener;
+  std::unique_ptr<transport::Listener> tcp_listener;
   uv_prepare_t* flush_prepare = nullptr;
   uv_check_t* flush_check = nullptr;
   uv_timer_t* sweep_timer = nullptr;
@@ -37,7 +40,7 @@ struct FlowServer::Impl : Hub {
   void stop() noexcept;
   Result<void> listenUnix();
   Result<void> listenTcp();
-  void accept(uv_stream_t* listener, Transport transport);
+  void accept(std::unique_ptr<transport::Transport> transport);
 };
 
 }  // namespace skr::flow

@@ -285,15 +285,21 @@ void TlsSession::shutdown() noexcept {
   ERR_clear_error();
 }
 
-std::string TlsSession::describe() const {
-  std::string s = std::string(SSL_get_version(impl_->ssl)) + " " +
-                  SSL_CIPHER_get_name(SSL_get_current_cipher(impl_->ssl));
+std::string TlsSession::peerSubject() const {
+  std::string subject;
   if (X509* peer = SSL_get1_peer_certificate(impl_->ssl)) {
     char name[256] = {};
     X509_NAME_oneline(X509_get_subject_name(peer), name, sizeof name);
-    s += std::string(", peer ") + name;
+    subject = name;
     X509_free(peer);
   }
+  return subject;
+}
+
+std::string TlsSession::describe() const {
+  std::string s = std::string(SSL_get_version(impl_->ssl)) + " " +
+                  SSL_CIPHER_get_name(SSL_get_current_cipher(impl_->ssl));
+  if (const std::string peer = peerSubject(); !peer.empty()) s += ", peer " + peer;
   return s;
 }
 

@@ -1,25 +1,22 @@
 // SPDX-License-Identifier: Apache-2.0
-// One libuv stream to a hub (internal to the satellite library): connects, splits incoming bytes
-// into frames, and writes everything queued during one loop iteration in one write.
+// One connection to a hub (internal to the satellite library): opens a transport to the hub's
+// address (skrobot/runtime/flow/transport.h: Unix socket, TCP, TLS on TCP), splits the bytes it
+// receives into frames, and writes everything queued during one loop iteration in one write.
 //
-// A tls: address gets a TLS session (skrobot/runtime/flow/tls.h) on the TCP stream: onLinkConnected comes
-// once the handshake is done, frames are split from the decrypted bytes, and queued output is
-// encrypted as a whole at flush time.
-//
-// Loop thread only. A Link is heap-allocated by open() and deletes itself once libuv has closed
-// its handles: after close() by the owner (no callback follows), or after reporting a failure
-// through Handler::onLinkClosed (the owner must forget the pointer there, and not call close()).
+// Loop thread only. A Link is heap-allocated by open() and deletes itself once its transport has
+// closed: after close() by the owner (no callback follows), or after reporting a failure through
+// Handler::onLinkClosed (the owner must forget the pointer there, and not call close()).
 #pragma once
 
-#include <skrobot/runtime/flow/protocol.h>
-#include <skrobot/runtime/flow/tls.h>
-#include <skrobot/satellite/address.h>
+#include "frame_input.h"
 
-#include <uv.h>
+#include <skrobot/runtime/loop_handles.h>
+#include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/transport.h>
+#include <skrobot/satellite/address.h>
 
 #include <cstdint>
 #include <memory>
-#include <optional>
 #include <string>
 #include <string_view>
 
@@ -30,7 +27,7 @@ namespace skr::sat::detail {
 // and only when the process left it at its default. Called by every Link.
 void ignoreSigpipe();
 
-class Link {
+class Link final : private flow::transport::Transport::Receiver {
  public:
   class Handler {
    public:
@@ -52,7 +49,7 @@ class Link {
 
   // Starts connecting; failures come later through onLinkClosed. `tls` is required for a tls:
   // address (its failure is reported as the link's) and ignored otherwise.
-  [[nodiscard]] static Link* open(uv_loop_t* loop, const Address& address,
+  [[nodiscard]] static Link* open(Loop& loop, const Address& address,
                                   const Result<flow::TlsContext>* tls, uint32_t max_frame_bytes,
                                   Handler& handler);
   Link(const Link&) = delete;
@@ -71,59 +68,38 @@ class Link {
   [[nodiscard]] uint64_t writes() const noexcept { return writes_; }
 
  private:
-  enum class State { resolving, connecting, handshaking, open, failed, closed };
-  Link(uv_loop_t* loop, const Address& address, const Result<flow::TlsContext>* tls,
-       uint32_t max_frame_bytes, Handler& handler);
+  enum class State { connecting, open, failed, closed };
+  Link(Loop& loop, const Address& address, uint32_t max_frame_bytes, Handler& handler);
   ~Link() = default;
 
-  [[nodiscard]] uv_stream_t* stream() noexcept { return reinterpret_cast<uv_stream_t*>(&h_); }
-  void start();
-  void connectTcp(const sockaddr* addr);
+  void opened(Result<std::unique_ptr<flow::transport::Transport>> transport);
   void fail(std::string why, bool protocol = false);
-  void release();  // one outstanding handle or request finished; delete when none is left
-  void closeHandles() noexcept;
   void flush();
   void processInput();
-  void receiveTls(const char* data, size_t n);
-  void kick();  // flush at the end of this loop iteration
 
-  static void onResolved(uv_getaddrinfo_t* req, int status, addrinfo* res);
-  static void onConnect(uv_connect_t* req, int status);
-  static void onAlloc(uv_handle_t* h, size_t suggested, uv_buf_t* buf);
-  static void onRead(uv_stream_t* s, ssize_t nread, const uv_buf_t* buf);
-  static void onWrite(uv_write_t* req, int status);
-  static void onIdle(uv_idle_t* idle);
-  static void onClosed(uv_handle_t* h);
+  // Transport::Receiver
+  std::span<char> readBuffer() override { return input_.room(); }
+  void received(size_t n) override;
+  void message(std::string_view) override {}  // stream transports only
+  void written(Result<void> result) override;
+  void ended(const flow::transport::TransportEnd& end) override;
+  void closed() noexcept override { delete this; }
 
-  uv_loop_t* loop_;
+  Loop& loop_;
   Address address_;
-  std::optional<Result<flow::TlsContext>> tls_context_;  // tls: addresses
-  std::optional<flow::TlsSession> tls_;
-  std::unique_ptr<char[]> tls_in_;  // ciphertext as read
-  flow::FrameSplitter splitter_;
   Handler& handler_;
+  std::unique_ptr<flow::transport::Dialer> dialer_;
+  std::unique_ptr<flow::transport::Transport> transport_;
+  flow::FrameInput input_;
+  Timer turn_;  // at the end of this loop iteration: flush, or report the failure
   State state_ = State::connecting;
-  union {
-    uv_pipe_t pipe;
-    uv_tcp_t tcp;
-  } h_{};
-  uv_idle_t idle_{};
-  uv_connect_t connect_req_{};
-  uv_write_t write_req_{};
-  uv_getaddrinfo_t resolve_req_{};
-  int outstanding_ = 0;  // handles not closed yet + resolve in flight
-  bool handles_closing_ = false;
-  bool idle_active_ = false;
   bool writing_ = false;
   std::string failure_;
   bool failure_protocol_ = false;
 
-  std::string out_;       // queued, not yet handed to libuv
+  std::string out_;       // queued, not yet handed to the transport
   std::string inflight_;  // being written
   uint64_t writes_ = 0;
-
-  std::unique_ptr<char[]> rbuf_;
-  size_t rcap_ = 0, rstart_ = 0, rend_ = 0, rneed_ = 0;
 };
 
 }  // namespace skr::sat::detail

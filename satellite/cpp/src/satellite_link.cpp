@@ -99,7 +99,7 @@ void Satellite::Impl::connectNow() {
     // Certificates and keys are read once per satellite, not at every reconnection.
     tls_context = flow::TlsContext::create(flow::TlsRole::client, opt.connection.tls);
   }
-  link = detail::Link::open(self.loop().uv(), opt.connection.address,
+  link = detail::Link::open(self.loop(), opt.connection.address,
                             tls_context ? &*tls_context : nullptr, opt.connection.max_frame_bytes,
                             *this);
   armTimer(opt.handshake_timeout_ns);

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // flowctl, the built binary, against a real hub: every command and its error cases.
 #include <fstream>
+#include <algorithm>
+#include <set>
 #include <sstream>
 
 #include "sat_fixture.h"
@@ -102,7 +104,22 @@ TEST_F(Flowctl, NoHubAndWrongPassword) {
   EXPECT_TRUE(has(none, "no hub at local:")) << none.out;
   EXPECT_TRUE(has(none, "is skrobot running?")) << none.out;
   auto echo = background({"echo", "guest.later", "--wait"});
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // Stopped once flowctl's satellite is in flow: a flow of the hub's seen in two polls 300 ms
+  // apart (echo's first connection, a synchronous one that looks the channel up, is gone by
+  // then). A fixed wait lost the race under ASan.
+  std::set<uint64_t> seen;
+  ASSERT_TRUE(eventually([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    auto v = hubStats();
+    if (!v) return false;
+    std::set<uint64_t> now;
+    for (const auto& fl : *v->find("flows")->asList()) {
+      if (*fl.find("client") != Variant("stats")) now.insert(uint64_t(*fl.find("id")->asInt64()));
+    }
+    const bool again = std::ranges::any_of(now, [&](uint64_t id) { return seen.contains(id); });
+    seen = std::move(now);
+    return again;
+  })) << echo->output();
   hub_->stop();
   EXPECT_EQ(echo->wait(), 3);
   EXPECT_TRUE(echo->waitOutput("lost the hub")) << echo->output();

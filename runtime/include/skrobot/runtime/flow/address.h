@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// A hub's address, in the form ROBOT_ADDRESS and flowctl's --address take:
+// A hub's address, in the form ROBOT_ADDRESS and flowctl's --address take. The grammar, with the
+// schemes reserved for later (serial:, udp:, ws:, wss:), is docs/flow-protocol.md's "Addresses";
+// transport.h opens and listens on them.
 //
 //   local:/tmp/Robot        a Unix socket (the default)
 //   tcp:robot.local:9000    TCP; the port defaults to 9000; IPv6 as tcp:[::1]:9000

@@ -85,6 +85,8 @@ class TlsSession {
   void shutdown() noexcept;
   // "TLSv1.3 TLS_AES_256_GCM_SHA384, peer CN=..." for log lines, once established.
   [[nodiscard]] std::string describe() const;
+  // The subject of the certificate the peer sent ("/CN=robot"), empty when it sent none.
+  [[nodiscard]] std::string peerSubject() const;
 
  private:
   struct Impl;

@@ -1,0 +1,176 @@
+// SPDX-License-Identifier: Apache-2.0
+// Opening a transport to a hub's address (skrobot/runtime/flow/transport.h): resolving on libuv's
+// thread pool, connecting to each resolved address in turn, and for tls: the handshake, before the
+// transport is handed over.
+#include "stream_transport.h"
+#include "tls_transport.h"
+
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/loop_handles.h>
+
+#include <cstring>
+#include <optional>
+#include <vector>
+
+namespace skr::flow::transport {
+namespace {
+
+std::string uvText(const std::string& what, int rc) {
+  return what + ": " + uv_strerror(rc);
+}
+
+class StreamDialer final : public Dialer {
+ public:
+  StreamDialer(Loop& loop, const Address& address, const Result<TlsContext>* tls, Opened opened)
+      : loop_(loop),
+        address_(address),
+        opened_(std::move(opened)),
+        report_(loop, [this] { report(); }) {
+    if (address.kind == Address::Kind::tls) {
+      tls_ = tls != nullptr ? *tls : Result<TlsContext>(makeError(Errc::invalid_argument,
+                                                                  "TLS: no settings"));
+    }
+  }
+
+  ~StreamDialer() override {
+    if (resolve_ != nullptr) resolve_->owner = nullptr;  // its callback frees it
+  }
+  StreamDialer(const StreamDialer&) = delete;
+  StreamDialer& operator=(const StreamDialer&) = delete;
+  StreamDialer(StreamDialer&&) = delete;
+  StreamDialer& operator=(StreamDialer&&) = delete;
+
+  void start() {
+    if (address_.kind == Address::Kind::local) {
+      stream_ = std::make_unique<StreamTransport>(loop_, TransportKind::unix_socket);
+      stream_->connect(address_.path, [this](int status) { connected(status); });
+      return;
+    }
+    if (tls_ && !*tls_) {
+      fail(tls_->error().message);
+      return;
+    }
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    const std::string port = std::to_string(address_.port);
+    resolve_ = new Resolve;
+    resolve_->owner = this;
+    resolve_->req.data = resolve_;
+    const auto cb = [](uv_getaddrinfo_t* req, int status, addrinfo* res) {
+      auto* r = static_cast<Resolve*>(req->data);
+      if (r->owner != nullptr) {
+        r->owner->resolve_ = nullptr;
+        r->owner->resolved(status, res);
+      }
+      if (res != nullptr) uv_freeaddrinfo(res);
+      delete r;
+    };
+    if (int rc = uv_getaddrinfo(loop_.uv(), &resolve_->req, cb, address_.host.c_str(),
+                                port.c_str(), &hints);
+        rc < 0) {
+      delete resolve_;
+      resolve_ = nullptr;
+      fail(uvText("resolve " + address_.host, rc));
+    }
+  }
+
+ private:
+  struct Resolve {
+    uv_getaddrinfo_t req{};
+    StreamDialer* owner = nullptr;
+  };
+
+  void resolved(int status, addrinfo* res) {
+    if (status < 0 || res == nullptr) {
+      fail(uvText("resolve " + address_.host, status));
+      return;
+    }
+    // Every address the name has, tried in the resolver's order ("localhost" may give ::1 first
+    // while the hub listens on 127.0.0.1 only).
+    for (const addrinfo* a = res; a != nullptr; a = a->ai_next) {
+      if (a->ai_addrlen > sizeof(sockaddr_storage)) continue;
+      sockaddr_storage s{};
+      std::memcpy(&s, a->ai_addr, a->ai_addrlen);
+      candidates_.push_back(s);
+    }
+    connectNext();
+  }
+
+  void connectNext() {
+    const sockaddr_storage next = candidates_[tried_++];
+    stream_ = std::make_unique<StreamTransport>(loop_, TransportKind::tcp);
+    stream_->connect(reinterpret_cast<const sockaddr*>(&next), [this](int st) { connected(st); });
+  }
+
+  void connected(int status) {
+    if (status < 0 && tried_ < candidates_.size()) {
+      connectNext();
+      return;
+    }
+    if (status < 0) {
+      fail(uvText("connect", status));
+      return;
+    }
+    if (!tls_) {
+      finish(std::unique_ptr<Transport>(std::move(stream_)));
+      return;
+    }
+    auto session = TlsSession::open(**tls_, address_.host);
+    if (!session) {
+      fail(session.error().message);
+      return;
+    }
+    tls_transport_ = std::make_unique<TlsTransport>(loop_, std::move(stream_),
+                                                    std::move(session).value(), false);
+    tls_transport_->handshake([this](std::optional<TransportEnd> failed) {
+      if (!failed) {
+        finish(std::unique_ptr<Transport>(std::move(tls_transport_)));
+      } else if (failed->why == TransportEnd::Why::refused) {
+        fail("TLS with " + address_.toString() + ": " + failed->message);
+      } else if (failed->why == TransportEnd::Why::peer_closed) {
+        fail("TLS handshake with " + address_.toString() +
+             ": the hub closed the connection (is its TCP port plain? then use a tcp: address)");
+      } else {
+        fail("read: " + failed->message);
+      }
+    });
+  }
+
+  // Reported from the loop, never from inside open() or a transport's call.
+  void fail(std::string why) { finish(makeError(Errc::io_error, std::move(why))); }
+  void finish(Result<std::unique_ptr<Transport>> outcome) {
+    outcome_.emplace(std::move(outcome));
+    report_.startIn(0);
+  }
+  void report() {
+    auto outcome = std::move(*outcome_);
+    outcome_.reset();
+    tls_transport_.reset();
+    stream_.reset();
+    opened_(std::move(outcome));  // may destroy this
+  }
+
+  Loop& loop_;
+  Address address_;
+  Opened opened_;
+  std::optional<Result<TlsContext>> tls_;
+  std::unique_ptr<StreamTransport> stream_;
+  std::unique_ptr<TlsTransport> tls_transport_;
+  Resolve* resolve_ = nullptr;
+  std::vector<sockaddr_storage> candidates_;  // tcp: and tls: the resolved addresses
+  size_t tried_ = 0;
+  std::optional<Result<std::unique_ptr<Transport>>> outcome_;
+  Timer report_;
+};
+
+}  // namespace
+
+std::unique_ptr<Dialer> Dialer::open(Loop& loop, const Address& address,
+                                     const Result<TlsContext>* tls, Opened opened) {
+  auto dialer = std::make_unique<StreamDialer>(loop, address, tls, std::move(opened));
+  dialer->start();
+  return dialer;
+}
+
+}  // namespace skr::flow::transport

@@ -5,9 +5,9 @@
 // (exit 1, a line on stderr) when a hub cannot start or a satellite cannot connect.
 #pragma once
 
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include <errno.h>

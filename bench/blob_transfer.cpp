@@ -7,9 +7,9 @@
 //     ping-pong during a raw socket copy of the same size (two cores are shared either way).
 //
 //   blob_transfer [--quick] [--sizes MB,MB,...]    default sizes 1,100,1024; --quick: 1,16
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/loop.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <arpa/inet.h>

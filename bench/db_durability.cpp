@@ -12,9 +12,9 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/flow/server.h>
 
 #include <fcntl.h>
 #include <sys/vfs.h>

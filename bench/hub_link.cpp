@@ -10,10 +10,10 @@
 // their own loop threads, the caller a SyncClient. Two cores are shared by everything.
 //
 //   hub_link [--quick]
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/spread.h>
-#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include <unistd.h>

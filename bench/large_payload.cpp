@@ -27,9 +27,9 @@
 // throughput at least 0.5x memcpy; direct round trip within 1.3x the raw socket's.
 //
 //   large_payload [--quick]
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite.h>
 
 #include "bench_satellite.h"

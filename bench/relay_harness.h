@@ -5,12 +5,12 @@
 // subscriber, so that figures are delivered traffic). Everything fails by throwing Fail.
 #pragma once
 
-#include <skrobot/runtime/clock.h>
-#include <skrobot/runtime/loop.h>
-#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/hub/flow/hub_stats.h>
 #include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/loop.h>
 
 #include "temp_dir.h"
 

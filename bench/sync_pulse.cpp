@@ -13,9 +13,9 @@
 //
 // Targets are processes of this binary (--target): each follows the source with a Satellite and
 // answers each pulse at once (a target that keeps up), and reports its figures on stdout.
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/spread.h>
-#include <skrobot/hub/flow/server.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <spawn.h>

@@ -7,10 +7,10 @@
 //   fft_module_bench [--quick]
 #include "test_client.h"
 
+#include <skrobot/hub/flow/server.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/module_host.h>
-#include <skrobot/hub/flow/server.h>
 #include <skrobot/media_frame.hpp>
 
 #include <json/json.h>

@@ -19,11 +19,11 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
+#include <skrobot/hub/flow/server.h>
+#include <skrobot/hub/module_host.h>
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/module_host.h>
-#include <skrobot/hub/flow/server.h>
 #include <skrobot/media_frame.hpp>
 
 #include <json/json.h>

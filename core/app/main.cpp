@@ -1,15 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // skrobot: the hub executable. Loads the config, starts the modules on the main loop, runs until
 // SIGINT/SIGTERM, then stops the modules in reverse order and exits 0.
+#include <skrobot/hub/flow/hub_stats.h>
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/hub/hub_config.h>
 #include <skrobot/hub/install_layout.h>
+#include <skrobot/hub/module_host.h>
+#include <skrobot/plugin.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/loop_handles.h>
-#include <skrobot/hub/module_host.h>
-#include <skrobot/hub/flow/hub_stats.h>
-#include <skrobot/hub/flow/server.h>
-#include <skrobot/plugin.h>
 #include <skrobot/support/json.hpp>
 
 #include "user_command.h"

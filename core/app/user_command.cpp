@@ -2,9 +2,9 @@
 // `skrobot user ...`: add, remove, re-password and list the accounts of the users file.
 #include "user_command.h"
 
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/hub/hub_config.h>
 #include <skrobot/hub/install_layout.h>
-#include <skrobot/hub/flow/accounts.h>
 
 #include <sodium.h>
 #include <termios.h>

@@ -2,8 +2,8 @@
 // "hub_name" and "links" (see link_config.h).
 #include "link_config.h"
 
-#include <skrobot/runtime/flow/address.h>
 #include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/address.h>
 
 #include <sys/stat.h>
 

@@ -4,8 +4,8 @@
 #include "module_record.h"
 #include "paths.h"  // the runtime's physical mode (its owner side serves a module's paths)
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/runtime/flow/variant.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 #include <cstring>
@@ -226,7 +226,7 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
     paths_tick_ = loop.addTickHandler(Tick::one_sec, [this] { paths_->tick(); });
   }
   const auto kinds = uint8_t(((o.kinds & SKR_PATH_DIRECT) != 0 ? flow::msg::kPhysDirect : 0) |
-                            ((o.kinds & SKR_PATH_SHM) != 0 ? flow::msg::kPhysShm : 0));
+                             ((o.kinds & SKR_PATH_SHM) != 0 ? flow::msg::kPhysShm : 0));
   flow::shm::RingGeometry ring;
   if (o.ring_slots != 0) ring.slots = o.ring_slots;
   if (o.ring_readers != 0) ring.max_readers = o.ring_readers;

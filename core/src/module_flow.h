@@ -8,9 +8,9 @@
 // flow.
 #pragma once
 
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/plugin.h>
+#include <skrobot/runtime/loop.h>
 
 #include <cstdint>
 #include <map>

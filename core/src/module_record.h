@@ -6,9 +6,9 @@
 #include "shared_library.h"
 
 #include <skrobot/hub/hub_config.h>
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
+#include <skrobot/runtime/loop.h>
 
 #include <deque>
 #include <memory>

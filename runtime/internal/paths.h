@@ -9,9 +9,9 @@
 #pragma once
 
 #include <skrobot/runtime/clock.h>
-#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/runtime/flow/messages.h>
 #include <skrobot/runtime/flow/shm_ring.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <cstdint>
 #include <functional>
@@ -141,7 +141,7 @@ class Paths {
   void refusePeer(Peer& p, const std::string& why);
   void closePeer(int fd, const std::string& why);
   void connectPath(Path& p, const std::string& endpoint);
-  bool sendHello(Path& p);  // false: the path failed
+  bool sendHello(Path& p);                      // false: the path failed
   void onPathSocket(Path& p, unsigned events);  // FdWatch events
   void onPathEvent(Path& p);
   void pathFrames(Path& p);
@@ -189,7 +189,7 @@ class Paths {
   std::map<std::string, Wanted, std::less<>> wanted_;  // by full name
   std::map<uint16_t, std::unique_ptr<Path>> paths_;    // by channel id
   Stats stats_;
-  Spinner spin_;  // made when a ring is first polled
+  Spinner spin_;                                           // made when a ring is first polled
   const Path* reading_ = nullptr;                          // a ring callback runs for it
   std::unique_ptr<flow::shm::RingReader> retired_reader_;  // closed during that callback
 };

@@ -5,8 +5,8 @@
 // unchecked) are compiled against the frozen headers in tests/modules/abi/abi_compat_test.sh.
 #include "log_capture.h"
 
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/module_host.h>
+#include <skrobot/runtime/loop.h>
 #include <skrobot/support/json.hpp>
 
 #include <gtest/gtest.h>

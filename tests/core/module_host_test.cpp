@@ -2,10 +2,10 @@
 // The module host through its public interface, with the example module and the test modules
 // of tests/modules (one per failure case). No assertion depends on timing: loops run until a
 // condition holds, with generous time limits.
-#include <skrobot/runtime/log.h>
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
 
 #include <dlfcn.h>
 #include <gtest/gtest.h>

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // Users file, Authenticator and `skrobot user`. argon2id costs ~0.1 s per hash: each test notes
 // how many it spends (about 25 in all).
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/hub/hub_config.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/flow/accounts.h>
 #include "temp_dir.h"
 
 #include <fcntl.h>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// One mapping between wire errors and Errc (skrobot/runtime/flow/protocol.h): every code round-trips,
-// and a module (LocalClient) gets the Errc a socket satellite gets for the same failure.
-// tests/hub/errors_test.cpp expects the same codes from the C++ satellite library.
+// One mapping between wire errors and Errc (skrobot/runtime/flow/protocol.h): every code
+// round-trips, and a module (LocalClient) gets the Errc a socket satellite gets for the same
+// failure. tests/hub/errors_test.cpp expects the same codes from the C++ satellite library.
 #include "flow_fixture.h"
 
 #include <skrobot/runtime/flow/protocol.h>

@@ -18,10 +18,10 @@
 #include "temp_dir.h"
 #include "unix_relay.h"
 
-#include <skrobot/runtime/log.h>
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/flow/hub_stats.h>
 #include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <gtest/gtest.h>

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// A hub link's naming and routing rules (core/src/flow/families/links/hub_route.cpp, docs/hub-links.md).
+// A hub link's naming and routing rules (core/src/flow/families/links/hub_route.cpp,
+// docs/hub-links.md).
 #include "families/links/hub_route.h"
 
 #include <gtest/gtest.h>

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The hub's statistics (flow/hub_stats.h): rate windows over the last second and the last ten,
 // closed by the hub's one-second tick, the same for every reader; how hub.stats writes them.
-#include "rate_window.h"
 #include "flow_fixture.h"
+#include "rate_window.h"
 
 #include <skrobot/hub/flow/hub_stats.h>
 

@@ -5,8 +5,8 @@
 #include "flow_fixture.h"
 #include "log_capture.h"
 
-#include <skrobot/runtime/clock.h>
 #include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/clock.h>
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // PairDatabase and DatabaseStore: pairs, names, persistence across store instances, crash
 // leftovers and corrupt files.
-#include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/log.h>
 #include "log_capture.h"
 #include "temp_dir.h"
 

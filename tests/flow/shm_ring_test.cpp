@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// The shared-memory ring of physical mode (skrobot/runtime/flow/shm_ring.h): delivery in place, newest
-// wins, leases against slow readers, dead readers, and writers that break the rules; descriptors
-// passed to another process (skrobot/runtime/flow/fd_passing.h).
+// The shared-memory ring of physical mode (skrobot/runtime/flow/shm_ring.h): delivery in place,
+// newest wins, leases against slow readers, dead readers, and writers that break the rules;
+// descriptors passed to another process (skrobot/runtime/flow/fd_passing.h).
 #include <skrobot/runtime/flow/fd_passing.h>
 #include <skrobot/runtime/flow/shm_ring.h>
 

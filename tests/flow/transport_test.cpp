@@ -1,16 +1,16 @@
 // SPDX-License-Identifier: Apache-2.0
-// The transport layer (skrobot/runtime/flow/transport.h) on its own: Unix, TCP and TLS pairs made by a
-// Listener and a Dialer on one loop (gathered writes, pause and resume, how each end hears a
+// The transport layer (skrobot/runtime/flow/transport.h) on its own: Unix, TCP and TLS pairs made
+// by a Listener and a Dialer on one loop (gathered writes, pause and resume, how each end hears a
 // close or a refusal, peer identity, descriptors), and the hub's Connection over a message-based
 // test transport (one frame per message), the proof that the interface carries one.
 #include "server_impl.h"
 #include "temp_dir.h"
 
-#include <skrobot/runtime/loop.h>
-#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/flow/transport.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -57,11 +57,12 @@ class TransportPair : public ::testing::Test {
     // "localhost").
     Address listen_at = address;
     if (listen_at.kind != Address::Kind::local) listen_at.host = "127.0.0.1";
-    auto l = Listener::open(loop_, listen_at, std::move(options), [this](std::unique_ptr<Transport> t) {
-      // Started at once, as the hub does: a TLS server end handshakes once it reads.
-      server_ = std::move(t);
-      ASSERT_TRUE(server_->start(server_sink_));
-    });
+    auto l =
+        Listener::open(loop_, listen_at, std::move(options), [this](std::unique_ptr<Transport> t) {
+          // Started at once, as the hub does: a TLS server end handshakes once it reads.
+          server_ = std::move(t);
+          ASSERT_TRUE(server_->start(server_sink_));
+        });
     ASSERT_TRUE(l) << l.error().message;
     listener_ = std::move(l).value();
     if (address.kind != Address::Kind::local) address.port = listener_->port();
@@ -71,8 +72,9 @@ class TransportPair : public ::testing::Test {
   void dial(const Address& address, const Result<flow::TlsContext>* client_tls = nullptr) {
     server_.reset();
     std::optional<Result<std::unique_ptr<Transport>>> opened;
-    auto dialer = Dialer::open(loop_, address, client_tls,
-                               [&](Result<std::unique_ptr<Transport>> r) { opened.emplace(std::move(r)); });
+    auto dialer =
+        Dialer::open(loop_, address, client_tls,
+                     [&](Result<std::unique_ptr<Transport>> r) { opened.emplace(std::move(r)); });
     ASSERT_TRUE(loop_.runUntil([&] { return opened.has_value(); }, kWait));
     ASSERT_TRUE(*opened) << opened->error().message;
     ASSERT_TRUE(loop_.runUntil([&] { return server_ != nullptr; }, kWait));
@@ -188,11 +190,13 @@ TEST_F(TlsPair, TlsCarriesBytesBothWaysAndNamesTheCertificate) {
   exchange();
   const std::string_view back[] = {"and ", "back"};
   ASSERT_TRUE(server_->write(back));
-  ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.writes == 1 && client_sink_.bytes == "and back"; },
-                             kWait));
+  ASSERT_TRUE(loop_.runUntil(
+      [&] { return server_sink_.writes == 1 && client_sink_.bytes == "and back"; }, kWait));
   EXPECT_EQ(server_->kind(), TransportKind::tls);
-  EXPECT_EQ(server_->peer().source(), server_->peer().address.empty() ? "tcp:?" : "tcp:" + server_->peer().address);
-  EXPECT_NE(client_->peer().certificate.find("CN="), std::string::npos) << client_->peer().certificate;
+  EXPECT_EQ(server_->peer().source(),
+            server_->peer().address.empty() ? "tcp:?" : "tcp:" + server_->peer().address);
+  EXPECT_NE(client_->peer().certificate.find("CN="), std::string::npos)
+      << client_->peer().certificate;
   EXPECT_EQ(server_->descriptor(), -1);  // bytes are transformed: no zero-copy calls
 
   // close_notify: the peer hears a close, not a cut connection.
@@ -204,15 +208,15 @@ TEST_F(TlsPair, TlsCarriesBytesBothWaysAndNamesTheCertificate) {
 
 TEST_F(TlsPair, APlainClientIsToldInPlainAndRefused) {
   auto options = serverOptions();
-  auto l = Listener::open(loop_, Address{.kind = Address::Kind::tls, .host = "127.0.0.1", .port = 0},
-                          std::move(options),
-                          [this](std::unique_ptr<Transport> t) { server_ = std::move(t); });
+  auto l = Listener::open(
+      loop_, Address{.kind = Address::Kind::tls, .host = "127.0.0.1", .port = 0},
+      std::move(options), [this](std::unique_ptr<Transport> t) { server_ = std::move(t); });
   ASSERT_TRUE(l);
   listener_ = std::move(l).value();
   std::optional<Result<std::unique_ptr<Transport>>> opened;
-  auto dialer = Dialer::open(loop_, Address{.kind = Address::Kind::tcp, .host = "127.0.0.1",
-                                            .port = listener_->port()},
-                             nullptr, [&](auto r) { opened.emplace(std::move(r)); });
+  auto dialer = Dialer::open(
+      loop_, Address{.kind = Address::Kind::tcp, .host = "127.0.0.1", .port = listener_->port()},
+      nullptr, [&](auto r) { opened.emplace(std::move(r)); });
   ASSERT_TRUE(loop_.runUntil([&] { return opened && server_; }, kWait));
   ASSERT_TRUE(*opened);
   client_ = std::move(opened->value());
@@ -220,19 +224,20 @@ TEST_F(TlsPair, APlainClientIsToldInPlainAndRefused) {
   ASSERT_TRUE(server_->start(server_sink_));
   const std::string_view plain = "plain LOGIN";
   ASSERT_TRUE(client_->tryWrite({&plain, 1}));
-  ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.end && client_sink_.bytes == "speak TLS"; },
-                             kWait));
+  ASSERT_TRUE(
+      loop_.runUntil([&] { return server_sink_.end && client_sink_.bytes == "speak TLS"; }, kWait));
   EXPECT_EQ(server_sink_.end->why, TransportEnd::Why::refused);
 }
 
 TEST_F(TlsPair, ADialerReportsAFailedHandshake) {
   auto wrong = flow::TlsContext::create(flow::TlsRole::client, flow::TlsSettings{});  // system CAs
   ASSERT_TRUE(wrong);
-  auto l = Listener::open(loop_, Address{.kind = Address::Kind::tls, .host = "127.0.0.1", .port = 0},
-                          serverOptions(), [this](std::unique_ptr<Transport> t) {
-                            server_ = std::move(t);
-                            ASSERT_TRUE(server_->start(server_sink_));
-                          });
+  auto l =
+      Listener::open(loop_, Address{.kind = Address::Kind::tls, .host = "127.0.0.1", .port = 0},
+                     serverOptions(), [this](std::unique_ptr<Transport> t) {
+                       server_ = std::move(t);
+                       ASSERT_TRUE(server_->start(server_sink_));
+                     });
   ASSERT_TRUE(l);
   listener_ = std::move(l).value();
   std::optional<Result<std::unique_ptr<Transport>>> opened;

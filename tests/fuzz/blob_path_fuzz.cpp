@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as a blob channel path (BLOB_* requests carry them from any
-// satellite; core/src/flow/families/blobs/blob_path.h). splitPath must never crash; what it accepts must obey
-// the rules (no empty, ".", ".." component, no NUL or backslash, bounded lengths and depth) and
-// join back to the input; and opening it beneath a directory must stay beneath it.
+// satellite; core/src/flow/families/blobs/blob_path.h). splitPath must never crash; what it accepts
+// must obey the rules (no empty, ".", ".." component, no NUL or backslash, bounded lengths and
+// depth) and join back to the input; and opening it beneath a directory must stay beneath it.
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/blob_path_fuzz
 #include "families/blobs/blob_path.h"

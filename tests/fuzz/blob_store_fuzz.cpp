@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as the files a blob store reads at start
-// (<data_dir>/blobs/<channel>/owner and uploads/<id>.meta, core/src/flow/families/blobs/blob_store.cpp), as a
-// hub finds them after a crash or a hand edit. Opening must never crash; an upload it keeps must
-// be resumable (a size it holds no more than, a path the rules accept) or it is dropped.
+// (<data_dir>/blobs/<channel>/owner and uploads/<id>.meta,
+// core/src/flow/families/blobs/blob_store.cpp), as a hub finds them after a crash or a hand edit.
+// Opening must never crash; an upload it keeps must be resumable (a size it holds no more than, a
+// path the rules accept) or it is dropped.
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/blob_store_fuzz
 #include "families/blobs/blob_path.h"

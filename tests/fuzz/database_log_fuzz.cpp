@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as a database log (<data_dir>/db/<name>.log,
-// core/src/flow/families/databases/database_log.h), as the hub reads it at start after a crash. The reader must
-// never crash or allocate what a length field announces; its verdict must be consistent (a clean
-// log is read to its end, a torn or corrupt one stops at good_bytes); and every record it accepts
-// must encode again to the same bytes.
+// core/src/flow/families/databases/database_log.h), as the hub reads it at start after a crash. The
+// reader must never crash or allocate what a length field announces; its verdict must be consistent
+// (a clean log is read to its end, a torn or corrupt one stops at good_bytes); and every record it
+// accepts must encode again to the same bytes.
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/database_log_fuzz
 #include "families/databases/database_log.h"

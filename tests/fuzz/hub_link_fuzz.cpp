@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: what a linked hub sends about its channels. The bytes are an EV_CHAN_ADDED
 // body (a ChannelInfo: the name and the properties come from the far hub); its name and route
-// go through the link's naming and routing (core/src/flow/families/links/hub_route.cpp), whose promises are
-// checked: a taken name keeps the far name, or prefixes it with the link's hub; never one of
-// our own channels back; a route always ends with the link's hub.
+// go through the link's naming and routing (core/src/flow/families/links/hub_route.cpp), whose
+// promises are checked: a taken name keeps the far name, or prefixes it with the link's hub; never
+// one of our own channels back; a route always ends with the link's hub.
 #include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/flow/messages.h>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// Fuzz target: physical mode's path framing (skrobot/runtime/flow/path_framing.h), as a subscriber or an
-// owner reads it from the other end: frames split from any bytes, each decoded by its type, and
-// what decodes is encoded again to the same bytes.
+// Fuzz target: physical mode's path framing (skrobot/runtime/flow/path_framing.h), as a subscriber
+// or an owner reads it from the other end: frames split from any bytes, each decoded by its type,
+// and what decodes is encoded again to the same bytes.
 #include <skrobot/runtime/flow/path_framing.h>
 
 #include <cstdint>

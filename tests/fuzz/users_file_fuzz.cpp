@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: arbitrary bytes as the users file (<data_dir>/users.json: accounts, argon2id
-// hashes, roles, rules, limits; core/src/flow/families/session/accounts.cpp), which the hub reads at start and
-// on every change. Loading must never crash; an accepted file's accounts must have valid names
-// and rules that write back to JSON and read back equal.
+// hashes, roles, rules, limits; core/src/flow/families/session/accounts.cpp), which the hub reads
+// at start and on every change. Loading must never crash; an accepted file's accounts must have
+// valid names and rules that write back to JSON and read back equal.
 //
 //   cmake --preset fuzz && cmake --build --preset fuzz && build/fuzz/bin/users_file_fuzz
-#include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/log.h>
 
 #include <sys/mman.h>
 #include <sys/stat.h>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The hub's failures reach a C++ satellite as Errc values of the one mapping in
-// skrobot/runtime/flow/protocol.h. tests/flow/error_mapping_test.cpp causes the same failures from a
-// module (LocalClient) and expects the same codes.
+// skrobot/runtime/flow/protocol.h. tests/flow/error_mapping_test.cpp causes the same failures from
+// a module (LocalClient) and expects the same codes.
 #include <algorithm>
 #include <string>
 

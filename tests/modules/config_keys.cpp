@@ -37,5 +37,4 @@ constexpr skr_config_key kConfig[] = {
 
 }  // namespace
 
-SKR_MODULE_WITH_CONFIG(ConfigKeys, "config_keys", "1.0.0", "declares its config keys", 0,
-                           kConfig)
+SKR_MODULE_WITH_CONFIG(ConfigKeys, "config_keys", "1.0.0", "declares its config keys", 0, kConfig)

@@ -49,4 +49,4 @@ class OwnThread final : public skr::plugin::Module {
 }  // namespace
 
 SKR_MODULE(OwnThread, "own_thread", "0.1.0", "runs on its own loop thread",
-               SKR_MODULE_WANTS_OWN_THREAD)
+           SKR_MODULE_WANTS_OWN_THREAD)

@@ -6,8 +6,8 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/loop.h>
 
 #include <gtest/gtest.h>
 

@@ -2,8 +2,8 @@
 // A blocking FlowProtocol client for tests and benchmarks: one socket, explicit frames.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <deque>

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // flowctl play: re-create the channels of an MCAP recording and publish its messages with the
 // recorded timing (docs/recording.md).
-#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/mcap/reader.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 
 #include <algorithm>
 #include <cmath>

@@ -4,8 +4,8 @@
 // Threads: the satellite's loop receives (and time-stamps) messages and queues them; a disk
 // thread owns the mcap::Writer, so a slow disk never blocks the flow. The queue is bounded
 // (--queue-mb): past it messages are dropped and counted, never silently.
-#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/mcap/writer.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/media_frame.hpp>
 
 #include <atomic>

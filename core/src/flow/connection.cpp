@@ -26,8 +26,8 @@ Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
 Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport)
     : hub_(hub),
       transport_(std::move(transport)),
-      input_(std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes,
-                       transport_->maxFrameBytes()})) {}
+      input_(std::min(
+          {kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes, transport_->maxFrameBytes()})) {}
 
 // The transport's closed() deletes a connection, possibly after the server is gone: close() has
 // already detached it from the server, so the destructor must not touch it.
@@ -114,7 +114,7 @@ void Connection::processInput() {
       return;
     }
     if (waitForPipeline(n.code)) break;  // handled once the pipeline's answers have left
-    input_.consume(n);  // before handling: a handler may block and resume later
+    input_.consume(n);                   // before handling: a handler may block and resume later
     ++hub_.stats.frames_in;
     ++traffic.messages_in;
     traffic.bytes_in += n.consumed;
@@ -262,7 +262,8 @@ void Connection::authenticating(ValueEncoding enc) {
 
 void Connection::loggedIn(uint16_t minor) {
   minor_ = minor;
-  input_.splitter().setMaxFrameBytes(std::min(hub_.opt.max_frame_bytes, transport_->maxFrameBytes()));
+  input_.splitter().setMaxFrameBytes(
+      std::min(hub_.opt.max_frame_bytes, transport_->maxFrameBytes()));
   state_ = State::sync;
 }
 
@@ -342,14 +343,12 @@ void Connection::widenSendBuffer() {
   }
 }
 
-
 void Connection::queued() {
   if (state_ == State::closing) {
     output_.clear();
     return;
   }
-  const size_t hard =
-      hub_.opt.subscriber_queue_bytes * 2 + hub_.opt.max_frame_bytes + (64u << 10);
+  const size_t hard = hub_.opt.subscriber_queue_bytes * 2 + hub_.opt.max_frame_bytes + (64u << 10);
   if (output_.queue().size() > hard) {
     log::warn(kLogSource, "FLOW-SLOW-CLIENT",
               describe() + ": " + std::to_string(output_.queue().size()) +

@@ -11,12 +11,12 @@
 #include "frame_input.h"
 #include "output.h"
 
-#include <skrobot/runtime/clock.h>
-#include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/flow/transport.h>
+#include <skrobot/runtime/log.h>
 
 #include <functional>
 #include <map>
@@ -57,7 +57,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // What the accounts' rules see: a Unix socket, or the network (TCP, TLS, any other).
   [[nodiscard]] Transport transport() const noexcept {
     return transport_->kind() == transport::TransportKind::unix_socket ? Transport::unix_socket
-                                                            : Transport::tcp;
+                                                                       : Transport::tcp;
   }
   Nanos login_deadline = 0;
   // Accepted beyond server.max_connections: its LOGIN is answered limit_exceeded, then it closes.
@@ -200,14 +200,14 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
-  FrameInput input_;  // received bytes, frames split from them
-  bool blocked_ = false;              // a sync reply is pending: do not parse further frames
-  uint32_t pipeline_in_flight_ = 0;   // pipelined requests in the hub, not answered yet
-  uint64_t pipeline_bytes_ = 0;       // the data they carry or ask for
+  FrameInput input_;                 // received bytes, frames split from them
+  bool blocked_ = false;             // a sync reply is pending: do not parse further frames
+  uint32_t pipeline_in_flight_ = 0;  // pipelined requests in the hub, not answered yet
+  uint64_t pipeline_bytes_ = 0;      // the data they carry or ask for
   Family pipeline_family_ = Family::blobs;
-  bool pipeline_waiting_ = false;     // reading paused until a pipelined answer leaves
-  uint8_t current_code_ = 0;          // the code of the frame being handled
-  bool wide_send_buffer_ = false;     // widened for downloads (widenSendBuffer)
+  bool pipeline_waiting_ = false;  // reading paused until a pipelined answer leaves
+  uint8_t current_code_ = 0;       // the code of the frame being handled
+  bool wide_send_buffer_ = false;  // widened for downloads (widenSendBuffer)
   bool reading_ = false;
   bool reading_started_ = false;  // the transport was started (later: resume)
 

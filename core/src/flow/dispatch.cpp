@@ -46,8 +46,8 @@ void run(Room& room, Connection& c, std::string_view body, const DecodeLimits& l
 void dispatch(Hub& hub, Connection& c, uint8_t code, std::string_view body) {
   switch (code) {
 #define SKR_FLOW_DISPATCH(value, name, minor, dir, via, family, message, reply) \
-  case value:                                                                  \
-    return run<Direction::dir, msg::message>(hub.family, c, body,              \
+  case value:                                                                   \
+    return run<Direction::dir, msg::message>(hub.family, c, body,               \
                                              limitsOf(Family::family, hub.opt));
     SKR_FLOW_CATALOGUE(SKR_FLOW_DISPATCH)
 #undef SKR_FLOW_DISPATCH

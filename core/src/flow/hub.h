@@ -21,8 +21,8 @@
 #include "families/sync/sync_room.h"
 #include "rate_window.h"
 
-#include <skrobot/runtime/loop.h>
 #include <skrobot/hub/flow/server.h>
+#include <skrobot/runtime/loop.h>
 
 #include <array>
 #include <cstdint>

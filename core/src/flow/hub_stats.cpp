@@ -2,8 +2,8 @@
 // The hub's statistics: FlowServer::sampleRates() closes a second of every channel's and flow's
 // rate windows, FlowServer::snapshot() reads the counters and those windows, statsOf() writes
 // them as hub.stats carries them, HubStats samples and publishes each second (flow/hub_stats.h).
-#include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/hub_stats.h>
+#include <skrobot/runtime/log.h>
 
 #include "server_impl.h"
 

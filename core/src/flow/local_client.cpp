@@ -283,7 +283,8 @@ void LocalClient::syncDatabases(std::function<void(Result<void>)> done) {
   impl_->server.databases.store().barrier(std::move(done));
 }
 
-// --- blob channels: the checks of the blobs room (blobs_room.cpp), then the store -----------------------
+// --- blob channels: the checks of the blobs room (blobs_room.cpp), then the store
+// -----------------------
 
 namespace {
 // The store, once the path is known to be one (a bad path is refused at once, not later).

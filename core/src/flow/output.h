@@ -8,8 +8,8 @@
 // connection's; this is the mechanics. Main loop thread only.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/transport.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstddef>
 #include <deque>
@@ -32,8 +32,7 @@ class Output {
   [[nodiscard]] bool writing() const noexcept { return writing_; }
   // Whether anything is left to write (a write under way not counted).
   [[nodiscard]] bool pending() const noexcept {
-    return inflight_off_ < inflight_.size() || !urgent_.empty() || !whole_.empty() ||
-           !out_.empty();
+    return inflight_off_ < inflight_.size() || !urgent_.empty() || !whole_.empty() || !out_.empty();
   }
   void clear() noexcept;
 

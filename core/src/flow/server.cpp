@@ -49,8 +49,8 @@ Result<void> FlowServer::Impl::start() {
   sweep_timer = newUvHandle<uv_timer_t>(this);
   uv_timer_init(loop.uv(), sweep_timer);
   uv_timer_start(
-      sweep_timer,
-      [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(monotonicNs()); }, 20, 20);
+      sweep_timer, [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(monotonicNs()); }, 20,
+      20);
 
   if (opt.tcp_enabled && opt.tls) {
     // The certificate, key and CA files are read here, once, before the loop serves anyone.

@@ -3,8 +3,8 @@
 // (header-only: nothing here crosses the C seam of plugin.h).
 //
 // Result<T> holds either a T or an Error (a named code and a message). The codes cover the
-// FlowProtocol's wire errors one for one (skrobot/runtime/flow/protocol.h maps them both ways), plus the
-// local failures that never travel (config, ABI, module steps).
+// FlowProtocol's wire errors one for one (skrobot/runtime/flow/protocol.h maps them both ways),
+// plus the local failures that never travel (config, ABI, module steps).
 #pragma once
 
 #include <string>

@@ -660,5 +660,5 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(Agent, "agent", "1.0.0",
-                           "the robot agent: hears transcripts, matches intents, speaks and acts",
-                           0, kConfig)
+                       "the robot agent: hears transcripts, matches intents, speaks and acts", 0,
+                       kConfig)

@@ -116,5 +116,5 @@ constexpr skr_config_key kConfig[] = {
         .range(100, 60000),
 };
 
-SKR_MODULE_WITH_CONFIG(AudioIo, "audio-io", "1.0.0",
-                           "sound card capture and playback (PortAudio)", 0, kConfig)
+SKR_MODULE_WITH_CONFIG(AudioIo, "audio-io", "1.0.0", "sound card capture and playback (PortAudio)",
+                       0, kConfig)

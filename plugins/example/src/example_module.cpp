@@ -119,5 +119,5 @@ constexpr skr_config_key kConfig[] = {
         .range(1, 3'600'000),
 };
 
-SKR_MODULE_WITH_CONFIG(Example, "example", "1.0.0",
-                           "Tutorial: config, log, ticks, a worker thread", 0, kConfig)
+SKR_MODULE_WITH_CONFIG(Example, "example", "1.0.0", "Tutorial: config, log, ticks, a worker thread",
+                       0, kConfig)

@@ -114,4 +114,4 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(FaceDetect, "face-detect", "1.0.0",
-                           "faces on a video channel (OpenCV cascade or YuNet)", 0, kConfig)
+                       "faces on a video channel (OpenCV cascade or YuNet)", 0, kConfig)

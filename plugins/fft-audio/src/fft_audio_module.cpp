@@ -152,4 +152,4 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(FftAudio, "fft-audio", "1.0.0",
-                           "FFTW spectrum and band levels of an audio channel", 0, kConfig)
+                       "FFTW spectrum and band levels of an audio channel", 0, kConfig)

@@ -635,6 +635,6 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(skr::foxglove::FoxgloveBridge, "foxglove-bridge", "1.0.0",
-                           "serves channels, services and databases to Foxglove Studio and "
-                           "Lichtblick (foxglove.websocket.v1)",
-                           0, kConfig)
+                       "serves channels, services and databases to Foxglove Studio and "
+                       "Lichtblick (foxglove.websocket.v1)",
+                       0, kConfig)

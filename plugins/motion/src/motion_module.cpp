@@ -103,4 +103,4 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(Motion, "motion", "1.0.0",
-                           "moving regions and centre of motion on a video channel", 0, kConfig)
+                       "moving regions and centre of motion on a video channel", 0, kConfig)

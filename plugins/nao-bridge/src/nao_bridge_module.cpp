@@ -309,5 +309,5 @@ constexpr skr_config_key kConfig[] = {
 }  // namespace
 
 SKR_MODULE_WITH_CONFIG(NaoBridge, "nao-bridge", "1.0.0",
-                           "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0,
-                           kConfig)
+                       "a Nao robot (NAOqi 2.x over qi, or simulated) on the FlowNetwork", 0,
+                       kConfig)

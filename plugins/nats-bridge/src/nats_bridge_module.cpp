@@ -416,4 +416,4 @@ constexpr skr_config_key kConfig[] = {
 }  // namespace
 
 SKR_MODULE_WITH_CONFIG(NatsBridge, "nats-bridge", "1.0.0",
-                           "a hub's channels, services and databases on a NATS cluster", 0, kConfig)
+                       "a hub's channels, services and databases on a NATS cluster", 0, kConfig)

@@ -104,5 +104,5 @@ constexpr skr_config_key kConfig[] = {
         .oneOf(skr::vision::kCodeTypesChoices),
 };
 
-SKR_MODULE_WITH_CONFIG(QrCode, "qrcode", "1.0.0",
-                           "QR codes and barcodes on a video channel (zbar)", 0, kConfig)
+SKR_MODULE_WITH_CONFIG(QrCode, "qrcode", "1.0.0", "QR codes and barcodes on a video channel (zbar)",
+                       0, kConfig)

@@ -193,4 +193,4 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(Speech, "speech", "1.0.0", "espeak-ng speech with a phoneme timeline", 0,
-                           kConfig)
+                       kConfig)

@@ -82,4 +82,4 @@ constexpr skr_config_key kConfig[] = {skr::vision::kInputKey, skr::vision::worke
                                       skr::vision::kMaxFpsKey};
 
 SKR_MODULE_WITH_CONFIG(VideoMono, "video-mono", "1.0.0",
-                           "the grey (Y8) variant of a JPEG video channel", 0, kConfig)
+                       "the grey (Y8) variant of a JPEG video channel", 0, kConfig)

@@ -199,4 +199,4 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(VideoSource, "video-source", "1.0.0",
-                           "JPEG frames from a video file or a V4L2 camera", 0, kConfig)
+                       "JPEG frames from a video file or a V4L2 camera", 0, kConfig)

@@ -97,4 +97,4 @@ constexpr skr_config_key kConfig[] = {
 };
 
 SKR_MODULE_WITH_CONFIG(Vorbis, "vorbis", "1.0.0",
-                           "records audio channels to Ogg Vorbis and plays .ogg files", 0, kConfig)
+                       "records audio channels to Ogg Vorbis and plays .ogg files", 0, kConfig)

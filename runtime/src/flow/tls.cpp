@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// TLS through memory BIOs (skrobot/runtime/flow/tls.h). OpenSSL never touches a socket here: received
-// bytes go into the read BIO, what OpenSSL wants to send accumulates in the write BIO.
+// TLS through memory BIOs (skrobot/runtime/flow/tls.h). OpenSSL never touches a socket here:
+// received bytes go into the read BIO, what OpenSSL wants to send accumulates in the write BIO.
 #include <skrobot/runtime/flow/tls.h>
 
 #include <arpa/inet.h>

@@ -6,8 +6,8 @@
 #include "in_buffer.h"
 #include "paths.h"
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/runtime/flow/path_framing.h>
+#include <skrobot/runtime/log.h>
 
 #include <arpa/inet.h>
 #include <netinet/in.h>

@@ -121,9 +121,9 @@ void Paths::ensureTcpListener() {
   }
   auto watch = FdWatch::open(*host_.loop, fd, [this](unsigned) { onAccept(tcp_fd_, true); });
   if (!watch) {
-    log::warn(kLogSource, "SAT-PATH",
-              "cannot listen at " + where + ": " + watch.error().message +
-                  "; no direct paths over TCP");
+    log::warn(
+        kLogSource, "SAT-PATH",
+        "cannot listen at " + where + ": " + watch.error().message + "; no direct paths over TCP");
     closeFd(fd);
     host_.tcp_listen.clear();
     return;

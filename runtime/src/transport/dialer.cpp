@@ -27,8 +27,9 @@ class StreamDialer final : public Dialer {
         opened_(std::move(opened)),
         report_(loop, [this] { report(); }) {
     if (address.kind == Address::Kind::tls) {
-      tls_ = tls != nullptr ? *tls : Result<TlsContext>(makeError(Errc::invalid_argument,
-                                                                  "TLS: no settings"));
+      tls_ = tls != nullptr
+                 ? *tls
+                 : Result<TlsContext>(makeError(Errc::invalid_argument, "TLS: no settings"));
     }
   }
 
@@ -66,8 +67,8 @@ class StreamDialer final : public Dialer {
       if (res != nullptr) uv_freeaddrinfo(res);
       delete r;
     };
-    if (int rc = uv_getaddrinfo(loop_.uv(), &resolve_->req, cb, address_.host.c_str(),
-                                port.c_str(), &hints);
+    if (int rc = uv_getaddrinfo(loop_.uv(), &resolve_->req, cb, address_.host.c_str(), port.c_str(),
+                                &hints);
         rc < 0) {
       delete resolve_;
       resolve_ = nullptr;

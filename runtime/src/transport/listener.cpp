@@ -16,7 +16,6 @@
 namespace skr::flow::transport {
 namespace {
 
-
 class StreamListener final : public Listener {
  public:
   StreamListener(Loop& loop, const Address& address, ListenOptions options, Accepted accepted)
@@ -71,7 +70,8 @@ class StreamListener final : public Listener {
                        if (status == 0 && self != nullptr) self->accept();
                      });
     }
-    if (rc != 0) return makeError(Errc::io_error, "cannot listen on " + where + ": " + uv_strerror(rc));
+    if (rc != 0)
+      return makeError(Errc::io_error, "cannot listen on " + where + ": " + uv_strerror(rc));
     if (address_.kind == Address::Kind::local) {
       ::chmod(address_.path.c_str(), options_.socket_mode);
     } else {

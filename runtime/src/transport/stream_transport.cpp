@@ -19,8 +19,9 @@ Error uvError(const char* what, int rc) {
 class UvBuffers {
  public:
   explicit UvBuffers(std::span<const std::string_view> buffers) {
-    uv_buf_t* out = buffers.size() <= small_.size() ? small_.data()
-                                                     : (large_.resize(buffers.size()), large_.data());
+    uv_buf_t* out = buffers.size() <= small_.size()
+                        ? small_.data()
+                        : (large_.resize(buffers.size()), large_.data());
     for (size_t i = 0; i < buffers.size(); ++i) {
       out[i] = uv_buf_init(const_cast<char*>(buffers[i].data()),
                            static_cast<unsigned>(buffers[i].size()));
@@ -222,8 +223,6 @@ PeerIdentity StreamTransport::peer() const {
   if (fd >= 0 && ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0) id.uid = cred.uid;
   return id;
 }
-
-
 
 std::string_view transportKindName(TransportKind kind) noexcept {
   switch (kind) {

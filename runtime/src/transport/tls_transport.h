@@ -9,8 +9,8 @@
 // dialer, which hands the transport over once it is established.
 #pragma once
 
-#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/runtime/flow/transport.h>
+#include <skrobot/runtime/loop_handles.h>
 
 #include <functional>
 #include <memory>
@@ -49,26 +49,26 @@ class TlsTransport final : public Transport, private Transport::Receiver {
   void closed() noexcept override;
 
   void end(TransportEnd why);
-  void deliver();                                              // plaintext into rx_
+  void deliver();  // plaintext into rx_
   [[nodiscard]] Result<void> encrypt(std::span<const std::string_view> buffers);
-  [[nodiscard]] Result<void> sendNow();                        // what the layer below takes now
-  [[nodiscard]] Result<void> pump();                           // the rest, as a write below
+  [[nodiscard]] Result<void> sendNow();  // what the layer below takes now
+  [[nodiscard]] Result<void> pump();     // the rest, as a write below
 
   std::unique_ptr<Transport> below_;
   TlsSession session_;
   Transport::Receiver* rx_ = nullptr;
   std::function<void(std::optional<TransportEnd>)> handshake_done_;
   std::unique_ptr<char[]> cipher_in_;
-  std::string cipher_out_;    // encrypted, not handed below yet
-  std::string cipher_wire_;   // being written below
+  std::string cipher_out_;   // encrypted, not handed below yet
+  std::string cipher_wire_;  // being written below
   std::string plain_reply_;
-  Timer later_;               // deliver() after start(); a write with nothing to send
+  Timer later_;  // deliver() after start(); a write with nothing to send
   bool server_;
   bool first_input_ = true;
   bool below_writing_ = false;
-  bool user_write_ = false;   // a write() waits for its ciphertext to leave
+  bool user_write_ = false;  // a write() waits for its ciphertext to leave
   bool ended_ = false;
-  bool refused_ = false;     // no close_notify after a refusal
+  bool refused_ = false;  // no close_notify after a refusal
   bool closing_ = false;
 };
 

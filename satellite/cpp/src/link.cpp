@@ -36,8 +36,8 @@ Link::Link(Loop& loop, const Address& address, uint32_t max_frame_bytes, Handler
 Link* Link::open(Loop& loop, const Address& address, const Result<flow::TlsContext>* tls,
                  uint32_t max_frame_bytes, Handler& handler) {
   auto* link = new Link(loop, address, max_frame_bytes, handler);
-  link->dialer_ = transport::Dialer::open(
-      loop, address, tls, [link](auto t) { link->opened(std::move(t)); });
+  link->dialer_ =
+      transport::Dialer::open(loop, address, tls, [link](auto t) { link->opened(std::move(t)); });
   return link;
 }
 

@@ -10,9 +10,9 @@
 
 #include "frame_input.h"
 
-#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/runtime/flow/tls.h>
 #include <skrobot/runtime/flow/transport.h>
+#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>

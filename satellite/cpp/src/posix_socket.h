@@ -2,8 +2,8 @@
 // Blocking socket helpers for the synchronous connection (internal).
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/result.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>

@@ -3,8 +3,8 @@
 // requests. Everything runs on the satellite's loop thread.
 #pragma once
 
-#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/loop_handles.h>
 #include <skrobot/satellite/satellite.h>
 
 #include <map>
@@ -98,7 +98,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   State state = State::stopped;
   uint64_t generation = 0;  // bumped on every connection attempt; slots may change it
   detail::Link* link = nullptr;
-  Timer timer;  // handshake time-out, or the wait before the next connection attempt
+  Timer timer;               // handshake time-out, or the wait before the next connection attempt
   Nanos backoff_ns = 0;      // the delay before the next connection attempt
   Nanos flow_opened_ns = 0;  // steadyNowNs() when the current flow opened
   bool failure_logged = false;

@@ -99,9 +99,9 @@ void Satellite::Impl::connectNow() {
     // Certificates and keys are read once per satellite, not at every reconnection.
     tls_context = flow::TlsContext::create(flow::TlsRole::client, opt.connection.tls);
   }
-  link = detail::Link::open(self.loop(), opt.connection.address,
-                            tls_context ? &*tls_context : nullptr, opt.connection.max_frame_bytes,
-                            *this);
+  link =
+      detail::Link::open(self.loop(), opt.connection.address, tls_context ? &*tls_context : nullptr,
+                         opt.connection.max_frame_bytes, *this);
   armTimer(opt.handshake_timeout_ns);
 }
 
@@ -121,7 +121,7 @@ void Satellite::Impl::onTimer() {
     case State::going_async:
       guarded("a handshake time-out", [this] {
         drop("no answer from the hub within " +
-                   std::to_string(opt.handshake_timeout_ns / kNsPerMs) + " ms");
+             std::to_string(opt.handshake_timeout_ns / kNsPerMs) + " ms");
       });
       return;
     case State::stopped:

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Satellites recover by themselves: a hub restarted under them, and a "hub" that sends garbage.
-#include <skrobot/runtime/log.h>
 #include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/log.h>
 
 #include <poll.h>
 #include <sys/socket.h>

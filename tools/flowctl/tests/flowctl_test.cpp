@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // flowctl, the built binary, against a real hub: every command and its error cases.
-#include <fstream>
 #include <algorithm>
+#include <fstream>
 #include <set>
 #include <sstream>
 

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The MCAP reader (reader.h).
 #include <fcntl.h>
-#include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/mcap/reader.h>
+#include <skrobot/runtime/flow/bytes.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>

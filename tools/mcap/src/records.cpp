@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The byte encoding of MCAP records (records.h).
-#include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/mcap/records.h>
+#include <skrobot/runtime/flow/bytes.h>
 #include <zlib.h>
 
 #include <algorithm>

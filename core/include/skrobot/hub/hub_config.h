@@ -2,14 +2,14 @@
 // The hub's configuration, loaded from JSON and validated before anything starts.
 #pragma once
 
-#include <skrobot/hub/json_schema.h>
-#include <skrobot/runtime/log.h>
-#include <skrobot/runtime/loop.h>
-#include <skrobot/runtime/result.h>
 #include <skrobot/hub/flow/access.h>
 #include <skrobot/hub/flow/pair_database.h>
 #include <skrobot/hub/flow/server.h>
+#include <skrobot/hub/json_schema.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/log.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/result.h>
 
 #include <json/value.h>
 

@@ -14,8 +14,8 @@
 #pragma once
 
 #include <skrobot/runtime/clock.h>
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/catalogue.h>
+#include <skrobot/runtime/result.h>
 
 namespace skr::flow {
 
@@ -68,8 +68,9 @@ class Room {
 #define SKR_FLOW_PP_SECOND(...) SKR_FLOW_PP_SECOND_(__VA_ARGS__)
 #define SKR_FLOW_PP_SECOND_(a, b, ...) b
 #define SKR_FLOW_PP_SAME(a, b) SKR_FLOW_PP_SECOND(SKR_FLOW_PP_SAME_##a##_##b, 0, ~)
-#define SKR_FLOW_ROOM_DECLARE(room, family, dir, message) \
-  SKR_FLOW_PP_CAT(SKR_FLOW_ROOM_DECL_, SKR_FLOW_PP_CAT(SKR_FLOW_PP_SAME(room, family), _##dir))(message)
+#define SKR_FLOW_ROOM_DECLARE(room, family, dir, message)                                       \
+  SKR_FLOW_PP_CAT(SKR_FLOW_ROOM_DECL_, SKR_FLOW_PP_CAT(SKR_FLOW_PP_SAME(room, family), _##dir)) \
+  (message)
 #define SKR_FLOW_ROOM_DECL_1_to_hub(message) void handle(Connection& c, msg::message& m);
 #define SKR_FLOW_ROOM_DECL_1_to_client(message)
 #define SKR_FLOW_ROOM_DECL_0_to_hub(message)
@@ -94,4 +95,3 @@ class Room {
 #define SKR_FLOW_ROOM_ROW_physical(code, name, minor, dir, via, family, message, reply) SKR_FLOW_ROOM_DECLARE(physical, family, dir, message)
 #define SKR_FLOW_ROOM_ROW_admin(code, name, minor, dir, via, family, message, reply) SKR_FLOW_ROOM_DECLARE(admin, family, dir, message)
 // clang-format on
-

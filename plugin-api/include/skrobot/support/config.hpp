@@ -106,6 +106,6 @@ constexpr Key any(const char* key, const char* default_json, const char* descrip
                         sizeof(keys) / sizeof((keys)[0]))
 
 // Deprecated name (see plugin.hpp): this alias goes in the next minor release.
-#define SKROBOT_MODULE_WITH_CONFIG(...)                                                          \
+#define SKROBOT_MODULE_WITH_CONFIG(...)                                                           \
   _Pragma("GCC warning \"SKROBOT_MODULE_WITH_CONFIG is deprecated: use SKR_MODULE_WITH_CONFIG\"") \
-  SKR_MODULE_WITH_CONFIG(__VA_ARGS__)
+      SKR_MODULE_WITH_CONFIG(__VA_ARGS__)

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// moved to <skrobot/runtime/flow/name_pattern.h>; this forwarding header goes in the next minor release
+// moved to <skrobot/runtime/flow/name_pattern.h>; this forwarding header goes in the next minor
+// release
 #pragma once
 #include <skrobot/runtime/flow/name_pattern.h>

@@ -4,10 +4,10 @@
 // docs/cpp-satellites.md is the guide.
 #pragma once
 
+#include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/signal.h>
-#include <skrobot/runtime/flow/variant.h>
 #include <skrobot/satellite/address.h>
 #include <skrobot/satellite/satellite.h>
 #include <skrobot/satellite/sketch.h>

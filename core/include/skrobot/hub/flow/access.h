@@ -5,14 +5,14 @@
 //             "rules": {"publish": ["alice.**"], "subscribe": ["**", "!bob.secret"],
 //                       "call": ["speech.*"], "db_read": ["**"], "db_write": ["alice*"]}}
 //
-// Each rule is a list of channel-name patterns (runtime/include/skrobot/runtime/flow/name_pattern.h, the
-// one pattern syntax) naming what the user may do: publish (create and publish on its own
-// channels), subscribe, call (service channels), read databases (select them) and write them. A
-// rule left out is ["**"]: a user without rules keeps what every logged-in user could do before
-// rules existed. Ownership still applies on top: a user writes only named databases and its own
-// user, flow and channel databases. An administrator ("role": "admin") may do everything,
-// including removing any channel and writing any database. The development account and the
-// hub's modules have the defaults.
+// Each rule is a list of channel-name patterns
+// (runtime/include/skrobot/runtime/flow/name_pattern.h, the one pattern syntax) naming what the
+// user may do: publish (create and publish on its own channels), subscribe, call (service
+// channels), read databases (select them) and write them. A rule left out is ["**"]: a user without
+// rules keeps what every logged-in user could do before rules existed. Ownership still applies on
+// top: a user writes only named databases and its own user, flow and channel databases. An
+// administrator ("role": "admin") may do everything, including removing any channel and writing any
+// database. The development account and the hub's modules have the defaults.
 #pragma once
 
 #include <skrobot/runtime/flow/name_pattern.h>

@@ -13,8 +13,8 @@
 // this code owns are zeroed after use (best effort: copies the caller made are the caller's).
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/hub/flow/access.h>
+#include <skrobot/runtime/result.h>
 
 #include <array>
 #include <atomic>

@@ -8,9 +8,9 @@
 // (flowctl top, info, graph) reads the same figures, whoever asked before. Main loop thread only.
 #pragma once
 
+#include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/flow/server.h>
 
 #include <cstdint>
 #include <memory>

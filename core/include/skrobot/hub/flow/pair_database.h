@@ -7,8 +7,8 @@
 // Not thread-safe: the hub's loop thread owns the store and every database in it.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/variant.h>
+#include <skrobot/runtime/result.h>
 
 #include <json/value.h>
 

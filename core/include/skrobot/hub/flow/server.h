@@ -8,14 +8,14 @@
 // breaks the protocol closes that connection only, with a FLOW-PROTOCOL log line.
 #pragma once
 
-#include <skrobot/runtime/loop.h>
-#include <skrobot/runtime/result.h>
 #include <skrobot/hub/flow/access.h>
-#include <skrobot/runtime/flow/messages.h>
 #include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/messages.h>
 #include <skrobot/runtime/flow/protocol.h>
 #include <skrobot/runtime/flow/tls.h>
 #include <skrobot/runtime/flow/variant.h>
+#include <skrobot/runtime/loop.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <filesystem>

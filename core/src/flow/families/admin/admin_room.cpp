@@ -150,16 +150,15 @@ void AdminRoom::users(Connection& c, const std::string& command, const Variant& 
   const std::string target = *stringArg(args, "user");
   log::info(kLogSource, "FLOW-ADMIN", c.describe() + ": " + command + " " + target);
   c.block();  // answered when the worker is done
-  auth.changeUsers(std::move(change).value(),
-                   c.whenDone([command, target](Connection& c, const Result<void>& r) {
-                     if (r) {
-                       c.send(msg::ReplyValue{
-                           Variant(Variant::Map{{"done", command}, {"user", target}})});
-                     } else {
-                       c.reply(r);
-                     }
-                     c.unblock();
-                   }));
+  auth.changeUsers(std::move(change).value(), c.whenDone([command, target](Connection& c,
+                                                                           const Result<void>& r) {
+    if (r) {
+      c.send(msg::ReplyValue{Variant(Variant::Map{{"done", command}, {"user", target}})});
+    } else {
+      c.reply(r);
+    }
+    c.unblock();
+  }));
 }
 
 Result<Variant> AdminRoom::command(Connection& by, const std::string& command,

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "families/blobs/blob_store.h"
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/log.h>
 
 #include <dirent.h>
 #include <fcntl.h>

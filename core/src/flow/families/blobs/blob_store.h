@@ -13,8 +13,8 @@
 
 #include "families/blobs/blob_path.h"
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/variant.h>
+#include <skrobot/runtime/result.h>
 
 #include <condition_variable>
 #include <cstdint>

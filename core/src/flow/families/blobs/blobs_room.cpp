@@ -45,8 +45,8 @@ Result<void> BlobsRoom::start() {
                 s.name + ": its owner file names " + s.owner + ", not the channel's user");
       continue;
     }
-    auto added = hub_.channels.add(nullptr, s.owner, s.name.substr(prefix.size()),
-                                   ChannelKind::blob, "");
+    auto added =
+        hub_.channels.add(nullptr, s.owner, s.name.substr(prefix.size()), ChannelKind::blob, "");
     if (!added) {
       log::warn(kLogSource, "BLOB-STORE-SKIPPED", s.name + ": " + added.error().message);
       continue;
@@ -110,21 +110,20 @@ void BlobsRoom::detach(Endpoint& owner, Channel& ch) {
 void BlobsRoom::made(const Channel& ch, uint32_t owner_id, uint32_t tag,
                      std::function<void(Result<void>)> stored) {
   // On disk, on the store's thread; a store that cannot be made takes the channel with it.
-  store_->create(ch.name, ch.owner_user,
-                 [&hub = hub_, id = ch.id, hash = ch.hash, owner_id, tag,
-                  stored = std::move(stored)](Result<void> r) {
-                   Channel* now = hub.channels.find(id);
-                   if (!r && now != nullptr && now->hash == hash) {
-                     log::error(kLogSource, "BLOB-IO",
-                                "blob channel " + now->name + ": " + r.error().message);
-                     hub.channels.drop(*now);
-                     if (Endpoint* e = hub.endpoints.find(owner_id); e && e->receivesEvents()) {
-                       e->onError(Code::chan_add, tag, id, toErrorCode(r.error().code),
-                                  r.error().message);
-                     }
-                   }
-                   if (stored) stored(r);
-                 });
+  store_->create(
+      ch.name, ch.owner_user,
+      [&hub = hub_, id = ch.id, hash = ch.hash, owner_id, tag,
+       stored = std::move(stored)](Result<void> r) {
+        Channel* now = hub.channels.find(id);
+        if (!r && now != nullptr && now->hash == hash) {
+          log::error(kLogSource, "BLOB-IO", "blob channel " + now->name + ": " + r.error().message);
+          hub.channels.drop(*now);
+          if (Endpoint* e = hub.endpoints.find(owner_id); e && e->receivesEvents()) {
+            e->onError(Code::chan_add, tag, id, toErrorCode(r.error().code), r.error().message);
+          }
+        }
+        if (stored) stored(r);
+      });
 }
 
 Result<Channel*> BlobsRoom::channel(const Endpoint& e, uint16_t id, bool write) {
@@ -184,8 +183,8 @@ void BlobsRoom::refuseNow(Connection& c, Code code, const Error& e) {
 void BlobsRoom::refuse(Connection& c, Code code, const Error& e) {
   if (c.pipelineDepth() == 0 || !store_) return refuseNow(c, code, e);
   // Behind the answers still to come.
-  auto answer = c.pipelined<void>(
-      0, [code, e](Connection& c, Result<void>&) { refuseNow(c, code, e); });
+  auto answer =
+      c.pipelined<void>(0, [code, e](Connection& c, Result<void>&) { refuseNow(c, code, e); });
   store_->barrier([answer = std::move(answer)] { answer({}); });
 }
 
@@ -247,11 +246,10 @@ void BlobsRoom::handle(Connection& c, msg::BlobGet& m) {
   const uint32_t most =
       std::min<uint32_t>({m.max_bytes, BlobStore::kMaxChunk, hub_.opt.max_frame_bytes - 64});
   store_->get(c.id, ch->name, m.path, m.version, m.offset, most, blobDataHead(),
-              later<BlobStore::Read>(c, Code::blob_get, most,
-                                     [](Connection& c, Result<BlobStore::Read>& r) {
-                                       c.sendBlobData(r->version, r->total_size,
-                                                      std::move(r->data));
-                                     }));
+              later<BlobStore::Read>(
+                  c, Code::blob_get, most, [](Connection& c, Result<BlobStore::Read>& r) {
+                    c.sendBlobData(r->version, r->total_size, std::move(r->data));
+                  }));
   admitted(c);
 }
 
@@ -259,11 +257,11 @@ void BlobsRoom::handle(Connection& c, msg::BlobPut& m) {
   Channel* ch = channelFor(c, Code::blob_put, m.chan_id, true);
   if (ch == nullptr) return;
   const BlobQuota quota{uint64_t(c.limits.blob_mib) << 20, c.limits.blob_files};
-  store_->put(ch->name, quota, m.path, m.total_size, m.upload_id,
-              later<BlobStore::PutAt>(c, Code::blob_put, 0,
-                                      [](Connection& c, Result<BlobStore::PutAt>& r) {
-                                        c.send(msg::BlobPutOk{r->upload_id, r->offset});
-                                      }));
+  store_->put(
+      ch->name, quota, m.path, m.total_size, m.upload_id,
+      later<BlobStore::PutAt>(c, Code::blob_put, 0, [](Connection& c, Result<BlobStore::PutAt>& r) {
+        c.send(msg::BlobPutOk{r->upload_id, r->offset});
+      }));
   admitted(c);
 }
 
@@ -287,21 +285,22 @@ void BlobsRoom::handle(Connection& c, msg::BlobModify& m) {
   const BlobQuota quota{uint64_t(c.limits.blob_mib) << 20, c.limits.blob_files};
   const uint64_t bytes = m.data.bytes.size();
   store_->modify(ch->name, quota, m.path, m.offset, c.takeBody(m.data.bytes),
-                 later<BlobStore::Written>(
-                     c, Code::blob_modify, bytes,
-                     [chan = ch->id, hash = ch->hash](Connection& c, Result<BlobStore::Written>& r) {
-                       c.send(msg::BlobWritten{r->received, r->version});
-                       if (r->event) c.hub().blobs.changed(chan, hash, *r->event);
-                     }));
+                 later<BlobStore::Written>(c, Code::blob_modify, bytes,
+                                           [chan = ch->id, hash = ch->hash](
+                                               Connection& c, Result<BlobStore::Written>& r) {
+                                             c.send(msg::BlobWritten{r->received, r->version});
+                                             if (r->event)
+                                               c.hub().blobs.changed(chan, hash, *r->event);
+                                           }));
   admitted(c);
 }
 
 void BlobsRoom::handle(Connection& c, msg::BlobAbort& m) {
   Channel* ch = channelFor(c, Code::blob_abort, m.chan_id, true);
   if (ch == nullptr) return;
-  store_->abort(ch->name, m.upload_id,
-                later<void>(c, Code::blob_abort, 0,
-                            [](Connection& c, Result<void>&) { c.replyOk(); }));
+  store_->abort(
+      ch->name, m.upload_id,
+      later<void>(c, Code::blob_abort, 0, [](Connection& c, Result<void>&) { c.replyOk(); }));
   admitted(c);
 }
 

@@ -2,8 +2,8 @@
 // The channel table and the router (see channel_table.h).
 #include "families/channels/channel_table.h"
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/runtime/flow/name_pattern.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 

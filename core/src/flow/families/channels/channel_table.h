@@ -8,8 +8,8 @@
 #include "endpoint.h"
 #include "rate_window.h"
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/protocol.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <map>

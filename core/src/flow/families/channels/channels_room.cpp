@@ -23,8 +23,8 @@ Result<Channel*> ChannelsRoom::create(Endpoint& owner, const std::string& short_
 
 Result<Channel*> ChannelsRoom::createAs(Endpoint& owner, const std::string& user,
                                         const std::string& short_name, ChannelKind kind,
-                                        const std::string& mime, const Variant& props,
-                                        uint32_t tag, std::function<void(Result<void>)> stored) {
+                                        const std::string& mime, const Variant& props, uint32_t tag,
+                                        std::function<void(Result<void>)> stored) {
   if (!props.isNull() && !props.isMap()) {
     return makeError(Errc::invalid_argument, "channel properties must be a map");
   }

@@ -28,10 +28,9 @@ class ChannelsRoom final : public Room, public ChannelTable {
                           std::function<void(Result<void>)> stored = {});
   // The same, named "<user>.<short_name>" for a `user` other than the owner's: a hub link's
   // remote channels ("<hub>/<user>.<name>").
-  Result<Channel*> createAs(Endpoint& owner, const std::string& user,
-                            const std::string& short_name, ChannelKind kind,
-                            const std::string& mime, const Variant& props, uint32_t tag,
-                            std::function<void(Result<void>)> stored = {});
+  Result<Channel*> createAs(Endpoint& owner, const std::string& user, const std::string& short_name,
+                            ChannelKind kind, const std::string& mime, const Variant& props,
+                            uint32_t tag, std::function<void(Result<void>)> stored = {});
   // Takes a channel out; every room hears of it (Room::channelRemoved), then everyone is told.
   void drop(Channel& ch);
   // Only the owner (or an administrator) removes a channel.

@@ -9,9 +9,9 @@
 
 #include "endpoint.h"
 
-#include <skrobot/runtime/result.h>
-#include <skrobot/runtime/flow/messages.h>
 #include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/result.h>
 
 #include <filesystem>
 #include <functional>

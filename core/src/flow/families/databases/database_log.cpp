@@ -2,8 +2,8 @@
 // The database log's format (see database_log.h).
 #include "families/databases/database_log.h"
 
-#include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/flow/bytes.h>
 
 #include <json/writer.h>
 

@@ -10,8 +10,8 @@
 // (tests/fuzz/database_log_fuzz.cpp) feeds it anything.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/variant.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <string>

@@ -10,8 +10,8 @@
 #include "families/databases/file_layer.h"
 #include "json_errors.h"
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/pair_database.h>
+#include <skrobot/runtime/log.h>
 
 #include <json/reader.h>
 #include <json/writer.h>

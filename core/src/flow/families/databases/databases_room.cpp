@@ -116,7 +116,8 @@ void DatabasesRoom::handle(Connection& c, msg::DbCreate& m) {
 void DatabasesRoom::handle(Connection& c, msg::DbSave& m) {
   // Answered once the snapshot is written (by the journal's thread).
   c.block();
-  auto r = save(c, m.name, c.whenDone([](Connection& c, const Result<void>& r) { c.answerDone(r); }));
+  auto r =
+      save(c, m.name, c.whenDone([](Connection& c, const Result<void>& r) { c.answerDone(r); }));
   if (!r) c.answerDone(r);
 }
 

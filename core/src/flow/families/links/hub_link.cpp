@@ -20,8 +20,7 @@ constexpr size_t kSamplesKept = 8;
 
 }  // namespace
 
-HubLink::HubLink(Hub& hub, HubLinkOptions options)
-    : hub_(hub), opt_(std::move(options)) {
+HubLink::HubLink(Hub& hub, HubLinkOptions options) : hub_(hub), opt_(std::move(options)) {
   user = "hub/" + opt_.name;  // never an account: nobody logs in as it
   client_name = "hub link " + opt_.name;
   if (!opt_.account.empty()) {  // what the far hub may do here over a shared connection
@@ -181,7 +180,7 @@ void HubLink::added(const msg::ChannelInfo& info) {
   }
   const size_t dot = name.find('.');
   auto made = hub_.channels.createAs(*this, name.substr(0, dot), name.substr(dot + 1), kind,
-                                      info.mime, routedProps(info.props, route), 0);
+                                     info.mime, routedProps(info.props, route), 0);
   if (!made) {
     log::warn(kLinkLog, "HUB-LINK-CHANNEL",
               "hub " + opt_.name + ": " + info.name + " not shown here: " + made.error().message);
@@ -263,8 +262,8 @@ void HubLink::onRequest(const Channel& ch, uint64_t request, const std::string& 
       timeout_ms);
   if (!sent) {
     (void)hub_.services.respond(*this, local, request,
-                                   Variant("hub " + opt_.name + ": " + sent.error().message),
-                                   ErrorCode::owner_gone);
+                                Variant("hub " + opt_.name + ": " + sent.error().message),
+                                ErrorCode::owner_gone);
   }
 }
 

@@ -8,9 +8,9 @@
 
 #include "endpoint.h"
 
+#include <skrobot/hub/flow/server.h>  // HubLinkOptions
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/flow/messages.h>
-#include <skrobot/hub/flow/server.h>  // HubLinkOptions
 
 #include <cstdint>
 #include <functional>

@@ -18,7 +18,6 @@ namespace {
 constexpr const char* kLinkLog = "link";
 }  // namespace
 
-
 void LinksRoom::connect() {
   for (const HubLinkOptions& o : hub_.opt.links) {
     links_.push_back(std::make_unique<HubLink>(hub_, o));
@@ -134,9 +133,8 @@ Result<Channel*> LinksRoom::offered(Connection& c, const msg::LinkOffer& m) {
   }
   const size_t dot = name.find('.');
   return hub_.channels.createAs(c, name.substr(0, dot), name.substr(dot + 1), kind, m.mime,
-                         routedProps(m.props, route), m.tag);
+                                routedProps(m.props, route), m.tag);
 }
-
 
 Result<void> LinksRoom::replicate(const std::string& owner_user, const std::string& source,
                                   const std::string& short_name, const Endpoint* by) {
@@ -168,15 +166,15 @@ Result<void> LinksRoom::replicate(const std::string& owner_user, const std::stri
     return makeError(Errc::already_exists, "channel " + name + " exists");
   }
   replicas_.push_back(std::make_unique<Replica>(hub_, owner_user, short_name, source,
-                                               by != nullptr ? by->id : 0,
-                                               by != nullptr ? by->access : nullptr));
+                                                by != nullptr ? by->id : 0,
+                                                by != nullptr ? by->access : nullptr));
   replicas_.back()->start();
   log::info(kLogSource, "FLOW-REPLICA", replicas_.back()->describe() + " created");
   return {};
 }
 
-Result<void> LinksRoom::stopReplica(const std::string& owner_user,
-                                    const std::string& short_name, uint32_t by) {
+Result<void> LinksRoom::stopReplica(const std::string& owner_user, const std::string& short_name,
+                                    uint32_t by) {
   const auto it = std::find_if(replicas_.begin(), replicas_.end(), [&](const auto& r) {
     return r->ownerUser() == owner_user && r->shortName() == short_name && r->requester() == by;
   });
@@ -202,7 +200,6 @@ void LinksRoom::endpointLeft(Endpoint& e) {
   }
   if (shared_link != nullptr) shared_link->released();
 }
-
 
 void LinksRoom::flowOpened(Connection& c) {
   if (shared(c) != nullptr) askOffers(c);

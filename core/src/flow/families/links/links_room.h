@@ -29,9 +29,7 @@ class LinksRoom final : public Room {
 
   // The links of the config, dialled once the server listens, and the config's replicas.
   void connect();
-  [[nodiscard]] const std::vector<std::unique_ptr<HubLink>>& all() const noexcept {
-    return links_;
-  }
+  [[nodiscard]] const std::vector<std::unique_ptr<HubLink>>& all() const noexcept { return links_; }
   // The link that reaches hub `hub`: the link to it, else one that shows its channels. Null when
   // none is up.
   [[nodiscard]] HubLink* toward(std::string_view hub) const;

@@ -4,15 +4,15 @@
 
 #include "hub.h"
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/runtime/flow/name_pattern.h>
+#include <skrobot/runtime/log.h>
 
 #include <algorithm>
 
 namespace skr::flow {
 
-Replica::Replica(Hub& hub, std::string owner_user, std::string short_name,
-                 std::string source, uint32_t requester, std::shared_ptr<const AccessRules> rules)
+Replica::Replica(Hub& hub, std::string owner_user, std::string short_name, std::string source,
+                 uint32_t requester, std::shared_ptr<const AccessRules> rules)
     : hub_(hub),
       owner_user_(std::move(owner_user)),
       short_name_(std::move(short_name)),
@@ -51,7 +51,7 @@ void Replica::attach(const Channel& source) {
   if (local_id_ != 0 || source.kind != ChannelKind::streaming) return;
   source_id_ = source.id;
   auto made = hub_.channels.createAs(*this, owner_user_, short_name_, ChannelKind::streaming,
-                                      source.mime, propsOf(source), 0);
+                                     source.mime, propsOf(source), 0);
   if (!made) {
     log::warn(kLogSource, "FLOW-REPLICA", describe() + ": " + made.error().message);
     source_id_ = 0;

@@ -21,9 +21,8 @@ struct Hub;
 class Replica final : public Endpoint {
  public:
   // `requester`: the endpoint whose flow it lives with (0: the config's, the hub's lifetime).
-  Replica(Hub& hub, std::string owner_user, std::string short_name,
-          std::string source, uint32_t requester,
-          std::shared_ptr<const AccessRules> rules = nullptr);
+  Replica(Hub& hub, std::string owner_user, std::string short_name, std::string source,
+          uint32_t requester, std::shared_ptr<const AccessRules> rules = nullptr);
   ~Replica() override;  // its channel goes, everyone is told
   Replica(const Replica&) = delete;
   Replica& operator=(const Replica&) = delete;

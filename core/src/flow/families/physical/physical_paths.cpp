@@ -2,9 +2,9 @@
 // Physical mode's grants (see physical_paths.h).
 #include "families/physical/physical_paths.h"
 
-#include <skrobot/runtime/log.h>
 #include <skrobot/hub/flow/access.h>
 #include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/log.h>
 
 #include <sodium.h>
 

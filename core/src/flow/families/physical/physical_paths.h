@@ -6,12 +6,12 @@
 // breaks, and revokes grants when a subscriber unsubscribes or leaves. Main loop thread only.
 #pragma once
 
-#include "families/channels/channel_table.h"
 #include "endpoint.h"
+#include "families/channels/channel_table.h"
 
 #include <skrobot/runtime/clock.h>
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <map>

@@ -5,8 +5,8 @@
 // every request has one, the caller's or the hub's default). Main loop thread only.
 #pragma once
 
-#include "families/channels/channel_table.h"
 #include "endpoint.h"
+#include "families/channels/channel_table.h"
 
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/result.h>

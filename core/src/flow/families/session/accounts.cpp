@@ -2,9 +2,9 @@
 // The users file: validation, argon2id hashing, JSON load and crash-safe save.
 #include "families/databases/file_layer.h"
 
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/log.h>
-#include <skrobot/hub/flow/accounts.h>
 
 #include <json/reader.h>
 #include <json/writer.h>

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Authenticator: logins verified on one worker thread, answered on the loop thread.
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
-#include <skrobot/hub/flow/accounts.h>
 
 #include <sodium.h>
 

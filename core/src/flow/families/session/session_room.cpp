@@ -93,7 +93,7 @@ void SessionRoom::verify(Connection& c, msg::Login m) {
         c.access = auth->accessOf(user);
         throttle.succeeded(user, c.source);
         const uint32_t limit = c.access->limits().orElse(hub_.opt.user_limits).connections;
-        if (hub_.endpoints.holdingsOf(user).endpoints > limit) {    // this one included
+        if (hub_.endpoints.holdingsOf(user).endpoints > limit) {     // this one included
           const Error e = limitReached(user, "connections", limit);  // logged (FLOW-LIMIT)
           c.replyError(ErrorCode::limit_exceeded, e.message);
           c.closeAfterFlush("connection limit");

@@ -5,8 +5,8 @@
 // gets. Main loop thread only.
 #pragma once
 
-#include "families/channels/channel_table.h"
 #include "endpoint.h"
+#include "families/channels/channel_table.h"
 
 #include <skrobot/runtime/result.h>
 

@@ -9,9 +9,9 @@
 // against the bytes left before allocating, refuses trailing bytes, and bounds Variant nesting.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/result.h>
 
 #include <string>
 #include <string_view>

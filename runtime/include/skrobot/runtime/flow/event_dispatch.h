@@ -44,8 +44,8 @@ void runEvent(Handler& h, std::string_view body, const DecodeLimits& limits) {
 template <class Handler>
 void dispatchEvent(Handler& h, uint8_t code, std::string_view body, const DecodeLimits& limits) {
   switch (code) {
-#define SKR_FLOW_EVENT(value, name, minor, dir, via, family, message, reply) \
-  case value:                                                               \
+#define SKR_FLOW_EVENT(value, name, minor, dir, via, family, message, reply)   \
+  case value:                                                                  \
     detail::runEvent<Direction::dir, Via::via, msg::message>(h, body, limits); \
     return;
     SKR_FLOW_CATALOGUE(SKR_FLOW_EVENT)

@@ -21,11 +21,11 @@
 
 // The fields of a message struct, in wire order: defines io(f), which calls f(field) for each in
 // turn (codec.h's readers and writers), and field_names, the same list as text (describe.h).
-#define SKR_FLOW_FIELDS(...)                                                  \
-  static constexpr std::string_view field_names = #__VA_ARGS__;              \
-  template <class IO>                                                         \
-  bool io(IO& f) {                                                            \
-    return ::skr::flow::msg::visitFields(f __VA_OPT__(, ) __VA_ARGS__);       \
+#define SKR_FLOW_FIELDS(...)                                            \
+  static constexpr std::string_view field_names = #__VA_ARGS__;         \
+  template <class IO>                                                   \
+  bool io(IO& f) {                                                      \
+    return ::skr::flow::msg::visitFields(f __VA_OPT__(, ) __VA_ARGS__); \
   }
 
 namespace skr::flow::msg {

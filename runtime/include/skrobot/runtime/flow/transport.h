@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Transports: how the bytes of one FlowProtocol connection travel, on either side (the hub's
 // Connection, the satellite library's Link). One small interface, one implementation per kind:
-// Unix socket, TCP, and TLS as a layer over TCP (skrobot/runtime/flow/tls.h). Addresses are parsed by
-// skrobot/runtime/flow/address.h; their grammar is docs/flow-protocol.md's "Addresses".
+// Unix socket, TCP, and TLS as a layer over TCP (skrobot/runtime/flow/tls.h). Addresses are parsed
+// by skrobot/runtime/flow/address.h; their grammar is docs/flow-protocol.md's "Addresses".
 //
 //   Transport   one connection's pipe: reading into a receiver, pause/resume, gathered writes,
 //               close with a reason, who the peer is, the frame limit, descriptors.
@@ -38,9 +38,9 @@
 //   descriptor (memory, a multiplexed session).
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/address.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstddef>
 #include <cstdint>

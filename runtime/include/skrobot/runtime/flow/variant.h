@@ -5,8 +5,8 @@
 // JSON mapping. A Variant is a plain value: copies are deep, moves are cheap and leave null.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/bytes.h>
+#include <skrobot/runtime/result.h>
 
 #include <json/value.h>
 

@@ -1,13 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // Where the hub is and who we are: ROBOT_ADDRESS, ROBOT_USER, ROBOT_PASSWORD, and for tls:
 // addresses ROBOT_TLS_CA, ROBOT_TLS_CERT, ROBOT_TLS_KEY (docs/security.md).
-// The address forms are skr::flow::Address's (skrobot/runtime/flow/address.h, in the runtime library).
+// The address forms are skr::flow::Address's (skrobot/runtime/flow/address.h, in the runtime
+// library).
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/address.h>
 #include <skrobot/runtime/flow/protocol.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <string>

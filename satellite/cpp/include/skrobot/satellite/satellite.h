@@ -30,9 +30,9 @@
 #pragma once
 
 #include <skrobot/runtime/clock.h>
+#include <skrobot/runtime/flow/shm_ring.h>
 #include <skrobot/runtime/object.h>
 #include <skrobot/runtime/signal.h>
-#include <skrobot/runtime/flow/shm_ring.h>
 #include <skrobot/satellite/sync_client.h>
 
 #include <functional>

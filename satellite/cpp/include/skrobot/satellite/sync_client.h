@@ -12,9 +12,9 @@
 // and closes.
 #pragma once
 
-#include <skrobot/runtime/result.h>
 #include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/flow/messages.h>
+#include <skrobot/runtime/result.h>
 #include <skrobot/satellite/address.h>
 
 #include <cstdint>
@@ -34,8 +34,8 @@ namespace skr::sat {
 using ChannelInfo = flow::msg::ChannelInfo;
 using LoginInfo = flow::msg::LoginOk;
 
-// The Errc that a hub's FlowProtocol error maps onto: the one mapping of skrobot/runtime/flow/protocol.h,
-// shared with the hub's modules (same name, one for one).
+// The Errc that a hub's FlowProtocol error maps onto: the one mapping of
+// skrobot/runtime/flow/protocol.h, shared with the hub's modules (same name, one for one).
 using flow::toErrc;
 
 // Progress of a transfer: bytes done, bytes in all.
@@ -194,7 +194,7 @@ class SyncClient {
   ConnectOptions options_;
   LoginInfo login_;
   flow::ErrorCode last_error_ = flow::ErrorCode::ok;
-  std::unique_ptr<flow::InBuffer> in_;     // bytes from the hub not parsed yet
+  std::unique_ptr<flow::InBuffer> in_;  // bytes from the hub not parsed yet
 };
 
 template <class M>

@@ -4,7 +4,7 @@
 # once as there are cores (each fuzzer is one process on one core), the longest first.
 #   tools/fuzz.sh                        FUZZ_CHANGED_SECONDS (default 60) for each target whose
 #                                        code changed against a base, FUZZ_SECONDS (default 10)
-#                                        for the others, FUZZ_BUDGET (default 150) seconds in all
+#                                        for the others, FUZZ_BUDGET (default 100) seconds in all
 #                                        at most (tools/fuzz_plan.py says how it chooses;
 #                                        FUZZ_BASE=<commit> to choose the base)
 #   tools/fuzz.sh SECONDS_PER_TARGET     every target that long
@@ -21,7 +21,7 @@ if [ $# -gt 0 ]; then
   plan=$(for t in build/fuzz/bin/*_fuzz; do echo "$1 $(basename "$t") all alike"; done)
 else
   plan=$(python3 tools/fuzz_plan.py build/fuzz "${FUZZ_SECONDS:-10}" "${FUZZ_CHANGED_SECONDS:-60}" \
-         "${FUZZ_BUDGET:-150}" "$JOBS")
+         "${FUZZ_BUDGET:-100}" "$JOBS")
 fi
 
 # Runs one target; its exit status says whether it found a failure.

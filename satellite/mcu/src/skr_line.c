@@ -2,7 +2,8 @@
 #include "skr_line.h"
 
 uint16_t skr_line_crc16(uint16_t crc, const uint8_t* data, size_t n) {
-  /* Bit by bit: no table in a board's flash; a byte costs 8 shifts, far below a line's byte time. */
+  /* Bit by bit: no table in a board's flash; a byte costs 8 shifts, far below a line's byte time.
+   */
   for (size_t i = 0; i < n; ++i) {
     crc ^= (uint16_t)((uint16_t)data[i] << 8);
     for (uint8_t b = 0; b < 8; ++b) {
@@ -39,7 +40,7 @@ size_t skr_line_encode(const uint8_t* frame, size_t n, uint8_t* out, size_t cap)
 
   const size_t total = n + 3;
   size_t w = 0;
-  size_t code_at = w++;  /* where the current block's code byte goes */
+  size_t code_at = w++; /* where the current block's code byte goes */
   uint8_t code = 1;
   for (size_t i = 0; i < total; ++i) {
     const uint8_t byte = at(&s, i);

@@ -34,20 +34,20 @@ size_t skr_line_encode(const uint8_t* frame, size_t n, uint8_t* out, size_t cap)
 
 /* Counters a receiver keeps (what hub.stats shows for a serial line). */
 typedef struct {
-  uint32_t frames;       /* frames received whole and checked */
-  uint32_t bad_check;    /* dropped: the CRC did not match */
-  uint32_t bad_framing;  /* dropped: a COBS block cut short by a delimiter, or an empty frame */
-  uint32_t bad_version;  /* dropped: a framing version this receiver does not speak */
-  uint32_t too_long;     /* dropped: longer than the buffer */
+  uint32_t frames;      /* frames received whole and checked */
+  uint32_t bad_check;   /* dropped: the CRC did not match */
+  uint32_t bad_framing; /* dropped: a COBS block cut short by a delimiter, or an empty frame */
+  uint32_t bad_version; /* dropped: a framing version this receiver does not speak */
+  uint32_t too_long;    /* dropped: longer than the buffer */
 } skr_line_stats;
 
 typedef struct {
-  uint8_t* buf;    /* the caller's: version, frame and CRC as decoded */
+  uint8_t* buf; /* the caller's: version, frame and CRC as decoded */
   size_t cap;
   size_t len;
-  uint8_t left;    /* data bytes left in the current COBS block */
-  uint8_t zero;    /* 1: the current block ends with an implicit 0x00 */
-  uint8_t started; /* 1: a block began since the last delimiter */
+  uint8_t left;     /* data bytes left in the current COBS block */
+  uint8_t zero;     /* 1: the current block ends with an implicit 0x00 */
+  uint8_t started;  /* 1: a block began since the last delimiter */
   uint8_t dropping; /* 1: this frame is already lost; wait for the delimiter */
   skr_line_stats stats;
 } skr_line_rx;
@@ -60,7 +60,9 @@ void skr_line_rx_init(skr_line_rx* rx, uint8_t* buf, size_t cap);
  * dropped frame is counted in rx->stats, and decoding starts again after the next delimiter. */
 size_t skr_line_rx_byte(skr_line_rx* rx, uint8_t byte);
 
-static inline const uint8_t* skr_line_rx_frame(const skr_line_rx* rx) { return rx->buf + 1; }
+static inline const uint8_t* skr_line_rx_frame(const skr_line_rx* rx) {
+  return rx->buf + 1;
+}
 
 #ifdef __cplusplus
 }

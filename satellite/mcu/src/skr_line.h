@@ -28,8 +28,14 @@ extern "C" {
 
 uint16_t skr_line_crc16(uint16_t crc, const uint8_t* data, size_t n);
 
+/* Where a frame of n bytes at most may sit in `out` to be encoded in place (a board keeps one
+ * buffer): the encoder writes byte k of its output only after reading the frame's byte
+ * k - SKR_LINE_INPLACE_LEAD(n) + 1, so frame = out + SKR_LINE_INPLACE_LEAD(n) is safe. */
+#define SKR_LINE_INPLACE_LEAD(n) (2u + ((n) + 3u) / 254u)
+
 /* Encodes `frame` (n bytes) into `out` (cap bytes), delimiter included. Returns the bytes written,
- * 0 when cap is less than n + SKR_LINE_OVERHEAD(n). */
+ * 0 when cap is less than n + SKR_LINE_OVERHEAD(n). `frame` may lie inside `out`, at
+ * SKR_LINE_INPLACE_LEAD(n) bytes or more from its start (and not past it otherwise). */
 size_t skr_line_encode(const uint8_t* frame, size_t n, uint8_t* out, size_t cap);
 
 /* Counters a receiver keeps (what hub.stats shows for a serial line). */

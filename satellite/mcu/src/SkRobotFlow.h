@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: Apache-2.0
+// The board library for Arduino: a skrobot session (skr_flow.h) over any Stream (Serial, Serial1,
+// a UDP client). Declare it once, globally, and call poll() from loop():
+//
+//   SkRobotFlow flow(Serial);
+//   void setup() { Serial.begin(115200); flow.begin("robot", "secret", "uno"); ... }
+//   void loop() { flow.poll(); ... }
+//
+// Callbacks run inside poll(). Settings (SKR_RX_MAX, SKR_MAX_CHANNELS ...) are in skr_flow.h.
+#ifndef SKROBOT_FLOW_ARDUINO_H
+#define SKROBOT_FLOW_ARDUINO_H
+
+#include <Arduino.h>
+
+#include "skr_codes.h"
+#include "skr_flow.h"
+
+class SkRobotFlow {
+ public:
+  explicit SkRobotFlow(Stream& stream) : stream_(stream) {}
+
+  // Strings are kept, not copied: pass literals. Logging in starts at the first poll().
+  void begin(const char* user, const char* password, const char* client_name);
+  // A streaming channel <user>.<short_name>: its handle (>= 0), or -skr_status.
+  int channel(const char* short_name, const char* mime) { return skr_channel(&flow_, short_name, mime); }
+  // A service channel answered by `fn`.
+  int service(const char* short_name, skr_service_fn fn, void* user = nullptr) {
+    return skr_service_add(&flow_, short_name, fn, user);
+  }
+  // Subscriptions and sync sources by full name; declare them before the first poll().
+  skr_status subscribe(const char* full_name, skr_data_fn fn, void* user = nullptr) {
+    return skr_subscribe(&flow_, full_name, fn, user);
+  }
+  skr_status follow(const char* full_name, skr_pulse_fn fn, void* user = nullptr) {
+    return skr_follow(&flow_, full_name, fn, user);
+  }
+
+  void poll() { skr_poll(&flow_); }
+  bool connected() const { return skr_connected(&flow_) != 0; }
+  bool ready(int channel) const { return skr_channel_ready(&flow_, channel) != 0; }
+  skr_status publish(int channel, const void* data, size_t n) {
+    return skr_publish(&flow_, channel, data, n);
+  }
+  skr_status setVar(const char* key, int64_t v) { return skr_var_set_int64(&flow_, key, v); }
+  skr_status setVar(const char* key, const char* s) { return skr_var_set_string(&flow_, key, s); }
+  skr_status setVarFloat(const char* key, double v) { return skr_var_set_float64(&flow_, key, v); }
+  const skr_stats& stats() { return *skr_get_stats(&flow_); }
+  skr_flow& session() { return flow_; }
+
+ private:
+  static int read(void* ctx);
+  static void write(void* ctx, const uint8_t* data, size_t n);
+  static uint32_t clock(void* ctx);
+
+  Stream& stream_;
+  skr_flow flow_;
+};
+
+#endif  // SKROBOT_FLOW_ARDUINO_H

@@ -37,7 +37,9 @@ void writeBytes(void* ctx, const uint8_t* data, size_t n) {
   }
   if (l->out.stats.bad_check + l->out.stats.bad_framing + l->out.stats.too_long != 0) std::abort();
 }
-uint32_t millis(void* ctx) { return static_cast<Line*>(ctx)->clock; }
+uint32_t millis(void* ctx) {
+  return static_cast<Line*>(ctx)->clock;
+}
 
 void onData(void*, const uint8_t* p, size_t n) {
   if (n > SKR_RX_MAX) std::abort();
@@ -50,10 +52,14 @@ void onService(void*, const char* cmd, size_t cmd_n, const uint8_t* v, size_t vn
   double d;
   const char* s;
   size_t sn;
-  if (skr_value_string(v, vn, &s, &sn)) skr_put_string(answer, s, sn);
-  else if (skr_value_int64(v, vn, &i)) skr_put_int64(answer, i);
-  else if (skr_value_float64(v, vn, &d)) skr_put_float64(answer, d);
-  else skr_put_string(answer, cmd, cmd_n);
+  if (skr_value_string(v, vn, &s, &sn))
+    skr_put_string(answer, s, sn);
+  else if (skr_value_int64(v, vn, &i))
+    skr_put_int64(answer, i);
+  else if (skr_value_float64(v, vn, &d))
+    skr_put_float64(answer, d);
+  else
+    skr_put_string(answer, cmd, cmd_n);
 }
 
 }  // namespace

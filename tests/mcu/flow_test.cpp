@@ -52,7 +52,9 @@ struct Hub {
   }
   static uint32_t millis(void* ctx) { return static_cast<Hub*>(ctx)->clock; }
 
-  void raw(const std::string& bytes) { to_board.insert(to_board.end(), bytes.begin(), bytes.end()); }
+  void raw(const std::string& bytes) {
+    to_board.insert(to_board.end(), bytes.begin(), bytes.end());
+  }
   void frame(const std::string& f) {
     std::vector<uint8_t> line(f.size() + SKR_LINE_OVERHEAD(f.size()));
     const size_t n = skr_line_encode(reinterpret_cast<const uint8_t*>(f.data()), f.size(),
@@ -162,7 +164,8 @@ class Board : public ::testing::Test {
   void connect() {
     skr_poll(&f);
     hub.expect<msg::Login>();
-    hub.send(msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
+    hub.send(msg::LoginOk{
+        .connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
     skr_poll(&f);
     hub.limits();
     hub.send(msg::Ack{});
@@ -197,7 +200,8 @@ TEST_F(Board, LogsInWithLimitsThenGoesAsyncAndAddsItsChannels) {
   EXPECT_EQ(login.client_name, "uno");
   skr_poll(&f);
   EXPECT_TRUE(hub.sent.empty()) << "one request at a time";
-  hub.send(msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
+  hub.send(
+      msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
   skr_poll(&f);
   const Limits l = hub.limits();
   EXPECT_EQ(l.max_frame, SKR_RX_MAX);
@@ -281,7 +285,11 @@ TEST_F(Board, AnswersServiceRequests) {
                                    .requester = "guest",
                                    .value = Variant(int64_t{-5})});
   }
-  hub.send(msg::EvServiceRequest{.chan_id = 7, .request = 1, .command = "read_adc", .requester = "guest", .value = {}});  // not a service
+  hub.send(msg::EvServiceRequest{.chan_id = 7,
+                                 .request = 1,
+                                 .command = "read_adc",
+                                 .requester = "guest",
+                                 .value = {}});  // not a service
   skr_poll(&f);
   EXPECT_EQ(seen.commands, (std::vector<std::string>{"read_adc", "set_pwm", "unknown"}));
   const auto r1 = hub.expect<msg::ServiceResponse>();
@@ -414,9 +422,9 @@ TEST_F(Board, CountsAndIgnoresBadFrames) {
   hub.expect<msg::Subscribe>();
   const skr_stats before = *skr_get_stats(&f);
 
-  hub.frame(std::string("\x01\x00\x00", 3));                   // shorter than a header
-  hub.frame(std::string("\x09\x00\x00\x00\x97\x2a\x00", 7));   // length says more than came
-  hub.frame(std::string("\x02\x00\x00\x00\x97\x2a", 6));       // EV_DATA without its chan_id
+  hub.frame(std::string("\x01\x00\x00", 3));                  // shorter than a header
+  hub.frame(std::string("\x09\x00\x00\x00\x97\x2a\x00", 7));  // length says more than came
+  hub.frame(std::string("\x02\x00\x00\x00\x97\x2a", 6));      // EV_DATA without its chan_id
   std::string cut;
   ASSERT_TRUE(encode(cut, added(0, 50, 1, "guest.setpoint")));
   cut.resize(cut.size() - 30);  // EV_CHAN_ADDED cut inside ChannelInfo (its mime)
@@ -424,7 +432,10 @@ TEST_F(Board, CountsAndIgnoresBadFrames) {
   std::memcpy(cut.data(), &len, 4);
   hub.frame(cut);
   std::string svc;
-  ASSERT_TRUE(encode(svc, msg::EvServiceRequest{.chan_id = 8, .request = 1, .command = "read_adc", .requester = "guest", .value = {}}));
+  ASSERT_TRUE(encode(
+      svc,
+      msg::EvServiceRequest{
+          .chan_id = 8, .request = 1, .command = "read_adc", .requester = "guest", .value = {}}));
   svc.resize(svc.size() - 1);  // no value
   const uint32_t slen = static_cast<uint32_t>(svc.size() - 4);
   std::memcpy(svc.data(), &slen, 4);
@@ -438,9 +449,9 @@ TEST_F(Board, CountsAndIgnoresBadFrames) {
   skr_poll(&f);
   s = skr_get_stats(&f);
   EXPECT_EQ(s->line.too_long - before.line.too_long, 1u);
-  EXPECT_GE(s->line.bad_check + s->line.bad_framing - before.line.bad_check -
-                before.line.bad_framing,
-            2u);
+  EXPECT_GE(
+      s->line.bad_check + s->line.bad_framing - before.line.bad_check - before.line.bad_framing,
+      2u);
   EXPECT_TRUE(seen.data.empty());
   EXPECT_TRUE(seen.commands.empty());
   EXPECT_TRUE(hub.sent.empty()) << "nothing answered, nothing subscribed";

@@ -155,11 +155,13 @@ TEST(Line, EncodesInPlaceFromTheLead) {
   for (size_t size : {1u, 2u, 250u, 251u, 252u, 253u, 254u, 255u, 507u, 508u, 509u, 700u}) {
     for (int fill = 0; fill < 4; ++fill) {
       Bytes frame(size);
-      for (auto& b : frame) b = fill == 0 ? 0 : fill == 1 ? 0xFF : fill == 2 ? uint8_t(rng() % 3) : uint8_t(rng());
+      for (auto& b : frame)
+        b = fill == 0 ? 0 : fill == 1 ? 0xFF : fill == 2 ? uint8_t(rng() % 3) : uint8_t(rng());
       const Bytes want = encode(frame);
       Bytes buf(size + SKR_LINE_OVERHEAD(size));
       std::copy(frame.begin(), frame.end(), buf.begin() + SKR_LINE_INPLACE_LEAD(size));
-      const size_t n = skr_line_encode(buf.data() + SKR_LINE_INPLACE_LEAD(size), size, buf.data(), buf.size());
+      const size_t n =
+          skr_line_encode(buf.data() + SKR_LINE_INPLACE_LEAD(size), size, buf.data(), buf.size());
       ASSERT_EQ(Bytes(buf.begin(), buf.begin() + n), want) << size << " fill " << fill;
     }
   }

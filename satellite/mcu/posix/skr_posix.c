@@ -12,24 +12,34 @@
 
 static speed_t speed_of(unsigned baud) {
   switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 38400:
+      return B38400;
+    case 57600:
+      return B57600;
+    case 115200:
+      return B115200;
 #ifdef B230400
-    case 230400: return B230400;
+    case 230400:
+      return B230400;
 #endif
 #ifdef B460800
-    case 460800: return B460800;
+    case 460800:
+      return B460800;
 #endif
 #ifdef B500000
-    case 500000: return B500000;
+    case 500000:
+      return B500000;
 #endif
 #ifdef B1000000
-    case 1000000: return B1000000;
+    case 1000000:
+      return B1000000;
 #endif
-    default: return 0;
+    default:
+      return 0;
   }
 }
 

@@ -22,7 +22,9 @@ class SkRobotFlow {
   // Strings are kept, not copied: pass literals. Logging in starts at the first poll().
   void begin(const char* user, const char* password, const char* client_name);
   // A streaming channel <user>.<short_name>: its handle (>= 0), or -skr_status.
-  int channel(const char* short_name, const char* mime) { return skr_channel(&flow_, short_name, mime); }
+  int channel(const char* short_name, const char* mime) {
+    return skr_channel(&flow_, short_name, mime);
+  }
   // A service channel answered by `fn`.
   int service(const char* short_name, skr_service_fn fn, void* user = nullptr) {
     return skr_service_add(&flow_, short_name, fn, user);

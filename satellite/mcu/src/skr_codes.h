@@ -6,6 +6,7 @@
 #ifndef SKR_CODES_H
 #define SKR_CODES_H
 
+/* clang-format off */
 #define SKR_PROTOCOL_MAJOR 1u
 #define SKR_PROTOCOL_MINOR 11u
 
@@ -125,5 +126,6 @@
 #define SKR_KIND_SERVICE 2u
 #define SKR_KIND_BLOB 3u
 #define SKR_KIND_SYNC 4u
+/* clang-format on */
 
 #endif /* SKR_CODES_H */

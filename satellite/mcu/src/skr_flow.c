@@ -33,13 +33,20 @@ enum { ST_BACKOFF, ST_WAIT_LOGIN, ST_WAIT_LIMITS, ST_WAIT_ASYNC, ST_CONNECTED };
 
 const char* skr_strerror(skr_status s) {
   switch (s) {
-    case SKR_OK: return "ok";
-    case SKR_OFFLINE: return "offline";
-    case SKR_TOO_BIG: return "too big";
-    case SKR_FULL: return "table full";
-    case SKR_BAD_HANDLE: return "bad handle";
-    case SKR_BAD_NAME: return "bad name";
-    case SKR_BUSY: return "busy";
+    case SKR_OK:
+      return "ok";
+    case SKR_OFFLINE:
+      return "offline";
+    case SKR_TOO_BIG:
+      return "too big";
+    case SKR_FULL:
+      return "table full";
+    case SKR_BAD_HANDLE:
+      return "bad handle";
+    case SKR_BAD_NAME:
+      return "bad name";
+    case SKR_BUSY:
+      return "busy";
   }
   return "?";
 }
@@ -54,7 +61,9 @@ static void put_raw(skr_out* o, const void* p, size_t n) {
   memcpy(o->p + o->len, p, n);
   o->len += n;
 }
-static void put_u8(skr_out* o, uint8_t v) { put_raw(o, &v, 1); }
+static void put_u8(skr_out* o, uint8_t v) {
+  put_raw(o, &v, 1);
+}
 static void put_le(skr_out* o, uint32_t v, uint8_t n) {
   uint8_t b[4];
   for (uint8_t i = 0; i < n; ++i, v >>= 8) b[i] = (uint8_t)v;
@@ -64,9 +73,13 @@ static void put_str16(skr_out* o, const char* s, size_t n) {
   put_le(o, (uint32_t)n, 2);
   put_raw(o, s, n);
 }
-static void put_name(skr_out* o, const char* s) { put_str16(o, s, strlen(s)); }
+static void put_name(skr_out* o, const char* s) {
+  put_str16(o, s, strlen(s));
+}
 
-void skr_put_null(skr_out* o) { put_u8(o, 0x00); }
+void skr_put_null(skr_out* o) {
+  put_u8(o, 0x00);
+}
 void skr_put_bool(skr_out* o, int v) {
   put_u8(o, 0x01);
   put_u8(o, v ? 1 : 0);
@@ -138,8 +151,12 @@ static const uint8_t* get_str16(rd* r, size_t* n) {
 
 /* --- the session --------------------------------------------------------------------------- */
 
-static uint32_t now(skr_flow* f) { return f->io.millis(f->io.ctx); }
-static int reached(uint32_t t, uint32_t due) { return (int32_t)(t - due) >= 0; }
+static uint32_t now(skr_flow* f) {
+  return f->io.millis(f->io.ctx);
+}
+static int reached(uint32_t t, uint32_t due) {
+  return (int32_t)(t - due) >= 0;
+}
 
 static void lost(skr_flow* f) {
   f->state = ST_BACKOFF;
@@ -202,8 +219,8 @@ static void chan_add(skr_flow* f, uint32_t tag, uint8_t kind, const char* name, 
   put_u8(&o, kind);
   put_name(&o, name);
   put_name(&o, mime);
-  put_u8(&o, 0);     /* props: binary */
-  skr_put_null(&o);  /* none */
+  put_u8(&o, 0);    /* props: binary */
+  skr_put_null(&o); /* none */
   (void)skr_send_(f, &o);
 }
 
@@ -240,7 +257,8 @@ static void on_reply_ok(skr_flow* f, rd* r) {
       f->probe_ms = now(f);
       add_all(f);
       return;
-    default: return; /* a reply nobody waits for: nothing to do */
+    default:
+      return; /* a reply nobody waits for: nothing to do */
   }
 }
 
@@ -345,9 +363,10 @@ static void on_pulse(skr_flow* f, rd* r) {
   if (r->bad) return;
   skr_sub* s = sub_of(f, id, SKR_KIND_SYNC);
   if (!s) return;
-  s->fn.pulse(s->user, (uint32_t)seq[0] | (uint32_t)seq[1] << 8 | (uint32_t)seq[2] << 16 |
-                           (uint32_t)seq[3] << 24,
-              dropped);
+  s->fn.pulse(
+      s->user,
+      (uint32_t)seq[0] | (uint32_t)seq[1] << 8 | (uint32_t)seq[2] << 16 | (uint32_t)seq[3] << 24,
+      dropped);
   skr_out o;
   begin(f, &o, SKR_CODE_SYNC_DONE);
   put_le(&o, id, 2);
@@ -376,7 +395,9 @@ static void on_frame(skr_flow* f, const uint8_t* p, size_t n) {
   const int async = f->state >= ST_WAIT_ASYNC;
   size_t skip;
   switch (code) {
-    case SKR_CODE_REPLY_OK: on_reply_ok(f, &r); break;
+    case SKR_CODE_REPLY_OK:
+      on_reply_ok(f, &r);
+      break;
     case SKR_CODE_REPLY_ERROR: {
       const uint16_t e = (uint16_t)get_le(&r, 2);
       (void)get_str16(&r, &skip);
@@ -415,7 +436,8 @@ static void on_frame(skr_flow* f, const uint8_t* p, size_t n) {
     case SKR_CODE_EV_SYNC_PULSE:
       if (async) on_pulse(f, &r);
       break;
-    default: break; /* events this board has no use for (EV_TIME_PROBE: the hub is alive) */
+    default:
+      break; /* events this board has no use for (EV_TIME_PROBE: the hub is alive) */
   }
   if (r.bad) ++f->stats.frames_bad;
 }
@@ -479,7 +501,8 @@ int skr_channel(skr_flow* f, const char* short_name, const char* mime) {
   f->chans[k].name = short_name;
   f->chans[k].mime = mime ? mime : "";
   f->chans[k].id = 0;
-  if (f->state == ST_CONNECTED) chan_add(f, TAG_CHAN + k, SKR_KIND_STREAMING, short_name, f->chans[k].mime);
+  if (f->state == ST_CONNECTED)
+    chan_add(f, TAG_CHAN + k, SKR_KIND_STREAMING, short_name, f->chans[k].mime);
   return k;
 }
 
@@ -527,7 +550,9 @@ skr_status skr_follow(skr_flow* f, const char* full_name, skr_pulse_fn fn, void*
   return st;
 }
 
-int skr_connected(const skr_flow* f) { return f->state == ST_CONNECTED; }
+int skr_connected(const skr_flow* f) {
+  return f->state == ST_CONNECTED;
+}
 
 int skr_channel_ready(const skr_flow* f, int handle) {
   return handle >= 0 && handle < f->n_chans && f->state == ST_CONNECTED && f->chans[handle].id != 0;

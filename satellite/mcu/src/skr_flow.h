@@ -56,7 +56,8 @@ extern "C" {
 #ifndef SKR_SILENCE_MS /* nothing from the hub for this long: it is gone */
 #define SKR_SILENCE_MS 7000u
 #endif
-#ifndef SKR_BACKOFF_MS /* the first wait before logging in again; doubles up to SKR_BACKOFF_MAX_MS */
+#ifndef SKR_BACKOFF_MS /* the first wait before logging in again; doubles up to SKR_BACKOFF_MAX_MS \
+                        */
 #define SKR_BACKOFF_MS 500u
 #endif
 #ifndef SKR_BACKOFF_MAX_MS
@@ -147,9 +148,9 @@ struct skr_flow {
   uint8_t state;
   uint8_t in_handler;
   uint16_t backoff_ms;
-  uint32_t due_ms;     /* when the current wait ends (a login step, the back-off) */
-  uint32_t heard_ms;   /* when the hub last sent a frame */
-  uint32_t probe_ms;   /* when the last TIME_PROBE went */
+  uint32_t due_ms;   /* when the current wait ends (a login step, the back-off) */
+  uint32_t heard_ms; /* when the hub last sent a frame */
+  uint32_t probe_ms; /* when the last TIME_PROBE went */
   uint8_t n_chans, n_services, n_subs;
   skr_chan chans[SKR_MAX_CHANNELS];
 #if SKR_MAX_SERVICES > 0
@@ -170,7 +171,8 @@ void skr_init(skr_flow* f, const skr_io* io, const char* user, const char* passw
 /* Declares a streaming channel <user>.<short_name>, before or after connecting. Returns its
  * handle (>= 0) or -SKR_FULL / -SKR_BAD_NAME. */
 int skr_channel(skr_flow* f, const char* short_name, const char* mime);
-/* Declares a service channel: `fn` answers its requests. Returns >= 0 or -SKR_FULL/-SKR_BAD_NAME. */
+/* Declares a service channel: `fn` answers its requests. Returns >= 0 or -SKR_FULL/-SKR_BAD_NAME.
+ */
 int skr_service_add(skr_flow* f, const char* short_name, skr_service_fn fn, void* user);
 /* Subscribes to a channel by its full name (no spaces); follows it whenever it exists. */
 skr_status skr_subscribe(skr_flow* f, const char* full_name, skr_data_fn fn, void* user);

@@ -87,7 +87,7 @@ static void fd_write(void* ctx, const uint8_t* data, size_t n) {
       p.fd = fd;
       p.events = POLLOUT;
       p.revents = 0;
-      (void)poll(&p, 1, 100);
+      if (poll(&p, 1, 100) <= 0) return; /* stopped (XOFF, a full line): dropped, as on a board */
     } else {
       return; /* the line is gone: the session notices the silence and logs in again */
     }

@@ -14,8 +14,9 @@ extern "C" {
  * Returns the descriptor, or -1 with errno set (EINVAL: a baud rate termios does not know). */
 int skr_posix_open_tty(const char* device, unsigned baud);
 
-/* The skr_io over `fd` (non-blocking): read returns -1 when nothing waits, write retries until
- * every byte is out (polling the descriptor while it is full). */
+/* The skr_io over `fd` (non-blocking): read returns -1 when nothing waits; write waits while the
+ * descriptor is full, and drops the rest when it stays full for 100 ms (a stopped line: the
+ * session then notices the silence). */
 typedef struct {
   int fd;
 } skr_posix_ctx;

@@ -35,9 +35,9 @@ LINE = {
 # takes the syntax of NAME.
 BY_NAME = [
     ("*.c", "c++"), ("*.h", "c++"), ("*.cpp", "c++"), ("*.hpp", "c++"), ("*.inc", "c++"),
-    ("*.js", "c++"), ("*.mjs", "c++"),
+    ("*.js", "c++"), ("*.mjs", "c++"), ("*.ino", "c++"),
     ("CMakeLists.txt", "hash"), ("*.cmake", "hash"), ("*.py", "hash"), ("*.sh", "hash"),
-    ("*.toml", "hash"), ("*.pc", "hash"), ("*.service", "hash"),
+    ("*.toml", "hash"), ("*.pc", "hash"), ("*.service", "hash"), ("*.properties", "hash"),
     ("*.css", "css"), ("*.html", "html"),
 ]
 

@@ -104,6 +104,8 @@ class Session final : public Transport {
   void frame(std::string_view bytes, SerialStats& stats);
   void lineEnded(TransportEnd end);  // the port lets go of this session
   void roomOnLine();
+  // A client's session owns its port (openSerialSession).
+  void own(std::unique_ptr<SerialPort> port) noexcept { owned_ = std::move(port); }
 
  private:
   // Hands whole frames of `bytes` to the line while it has room: the bytes taken.
@@ -124,11 +126,13 @@ class Session final : public Transport {
   size_t written_off_ = 0;
   bool write_under_way_ = false;
   bool written_due_ = false;
-  Timer later_;  // callbacks from the loop, never from inside a call
+  Timer later_;                        // callbacks from the loop, never from inside a call
+  std::unique_ptr<SerialPort> owned_;  // last: destroyed after detach()
 };
 
 class Port final : public SerialPort {
  public:
+  // A client's port (accepted empty): one session, opened by openSession(); no LOGIN restarts.
   Port(Loop& loop, SerialOptions options, int fd, Accepted accepted, Lost lost)
       : loop_(loop),
         options_(std::move(options)),
@@ -173,17 +177,27 @@ class Port final : public SerialPort {
                                      reinterpret_cast<uint8_t*>(out_.data() + at), need);
     out_.resize(at + n);
     ++stats_.frames_out;
-    flush();
+    flush(false);  // the session is inside a write: no callback into it
     return true;
   }
   void leave(Session* s) noexcept {
     if (session_ == s) session_ = nullptr;
   }
+  std::unique_ptr<Session> openSession() {
+    PeerIdentity peer;
+    peer.kind = TransportKind::serial;
+    peer.device = options_.device;
+    peer.account = options_.account;
+    auto s = std::make_unique<Session>(loop_, this, std::move(peer), options_.max_frame);
+    session_ = s.get();
+    ++stats_.sessions;
+    return s;
+  }
 
  private:
   void onEvents(unsigned events) {
     if ((events & FdWatch::error) != 0) return fail("the device cannot be polled");
-    if ((events & FdWatch::writable) != 0) flush();
+    if ((events & FdWatch::writable) != 0) flush(true);
     if ((events & (FdWatch::readable | FdWatch::hangup)) != 0) read();
   }
 
@@ -209,6 +223,10 @@ class Port final : public SerialPort {
 
   void frame(std::string_view f) {
     ++stats_.frames_in;
+    if (!accepted_) {  // a client: its one session, whatever comes
+      if (session_ != nullptr) session_->frame(f, stats_);
+      return;
+    }
     // A LOGIN while a session is open: the board restarted; its old session ends.
     const bool login = f.size() > 4 && static_cast<uint8_t>(f[4]) == 0x01;
     if (session_ != nullptr && login) {
@@ -216,20 +234,14 @@ class Port final : public SerialPort {
       session_ = nullptr;
       old->lineEnded({TransportEnd::Why::peer_closed, "the board logged in again"});
     }
-    if (session_ == nullptr) {
-      PeerIdentity peer;
-      peer.kind = TransportKind::serial;
-      peer.device = options_.device;
-      peer.account = options_.account;
-      auto s = std::make_unique<Session>(loop_, this, std::move(peer), options_.max_frame);
-      session_ = s.get();
-      ++stats_.sessions;
-      accepted_(std::move(s));  // may close it at once (too many connections)
-    }
+    if (session_ == nullptr)
+      accepted_(openSession());  // may close it at once (too many connections)
     if (session_ != nullptr) session_->frame(f, stats_);
   }
 
-  void flush() {
+  // Writes what the line takes now; `notify`: tells a session whose write waits that there is
+  // room again (only from the loop: the line became writable).
+  void flush(bool notify) {
     while (out_off_ < out_.size()) {
       const ssize_t n = ::write(fd_, out_.data() + out_off_, out_.size() - out_off_);
       if (n < 0 && errno == EINTR) continue;
@@ -245,7 +257,7 @@ class Port final : public SerialPort {
     } else {
       watch_.watch(FdWatch::readable | FdWatch::writable);
     }
-    if (session_ != nullptr && out_.size() - out_off_ < options_.queue_bytes)
+    if (notify && session_ != nullptr && out_.size() - out_off_ < options_.queue_bytes)
       session_->roomOnLine();
   }
 
@@ -256,7 +268,7 @@ class Port final : public SerialPort {
       session_ = nullptr;
       s->lineEnded({TransportEnd::Why::error, options_.device + ": " + why});
     }
-    lost_(options_.device + ": " + why);  // may destroy this port: last
+    if (lost_) lost_(options_.device + ": " + why);  // may destroy this port: last
   }
 
   Loop& loop_;
@@ -424,6 +436,22 @@ Result<std::unique_ptr<SerialPort>> SerialPort::open(Loop& loop, SerialOptions o
       std::make_unique<Port>(loop, std::move(options), *fd, std::move(accepted), std::move(lost));
   if (auto r = port->watch(); !r) return r.error();
   return std::unique_ptr<SerialPort>(std::move(port));
+}
+
+Result<std::unique_ptr<Transport>> openSerialSession(Loop& loop, const std::string& device,
+                                                     uint32_t baud) {
+  auto fd = openSerialDevice(device, baud);
+  if (!fd) return fd.error();
+  SerialOptions options;
+  options.device = device;
+  options.baud = baud;
+  options.max_frame = 1u << 20;
+  options.queue_bytes = 64u << 10;
+  auto port = std::make_unique<Port>(loop, std::move(options), *fd, nullptr, nullptr);
+  if (auto r = port->watch(); !r) return r.error();
+  std::unique_ptr<Session> session = port->openSession();
+  session->own(std::move(port));
+  return std::unique_ptr<Transport>(std::move(session));
 }
 
 }  // namespace skr::flow::transport

@@ -53,6 +53,12 @@ struct SerialStats {
 // Errc::invalid_argument for a rate the system does not have.
 [[nodiscard]] Result<int> openSerialDevice(const std::string& device, uint32_t baud);
 
+// A client's end of a line (a satellite on a Linux board, `serial:` addresses): the device opened
+// raw and one session over it, owning the device. Opening a tty does not wait.
+[[nodiscard]] Result<std::unique_ptr<Transport>> openSerialSession(Loop& loop,
+                                                                   const std::string& device,
+                                                                   uint32_t baud);
+
 class SerialPort : public Listener {
  public:
   // Why a port stopped: the device went away (unplugged) or failed.

@@ -12,7 +12,11 @@
 # A library folder is an Arduino library (library.properties, src/): every .c and .cpp under its
 # src/ is compiled, and each library's src/ is on the include path of the sketch and of the others.
 #
+# Every sketch joins the target board_size, which prints the sketches' flash and RAM beyond the
+# sketch named `empty` (bench/board_size).
+#
 # Sets SKROBOT_ARDUINO_FOUND, and SKROBOT_ARDUINO_MISSING (what is missing) when it is not.
+include_guard(GLOBAL)
 
 set(SKROBOT_ARDUINO_AVR_DIR /usr/share/arduino/hardware/arduino/avr
     CACHE PATH "The Arduino AVR core (Debian's arduino-core-avr)")
@@ -87,6 +91,8 @@ add_custom_command(OUTPUT ${SKROBOT_ARDUINO_CORE}
   DEPENDS ${_skr_core_objects}
   COMMENT "AVR the Arduino core for the Uno" VERBATIM)
 add_custom_target(skrobot_arduino_core DEPENDS ${SKROBOT_ARDUINO_CORE})
+add_custom_target(board_size
+  COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/bench/board_size ${SKROBOT_ARDUINO_DIR} VERBATIM)
 
 function(skrobot_add_sketch name)
   cmake_parse_arguments(A "" "INO" "LIBRARIES" ${ARGN})
@@ -126,5 +132,5 @@ function(skrobot_add_sketch name)
     DEPENDS ${elf} ${PROJECT_SOURCE_DIR}/cmake/arduino_size.cmake VERBATIM)
   add_custom_target(sketch_${name} ALL DEPENDS ${elf} ${size})
   set_target_properties(sketch_${name} PROPERTIES ELF ${elf} SIZE_FILE ${size})
-  set_property(GLOBAL APPEND PROPERTY SKROBOT_SKETCHES ${name})
+  add_dependencies(board_size sketch_${name})
 endfunction()

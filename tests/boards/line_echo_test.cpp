@@ -118,6 +118,23 @@ TEST(BoardLineEcho, ResetAndEndAtASimulatedTime) {
   EXPECT_NE(board.output().find("resets 1"), std::string::npos) << board.output();
 }
 
+// The hub closes a port and opens it again (a protocol error, a restart): the board's terminal
+// stays usable.
+TEST(BoardLineEcho, PortClosedAndOpenedAgain) {
+  TempDir dir("skrobot-board");
+  SimBoard board(SIMAVR_RUNNER_BIN, LINE_ECHO_ELF, dir.path());
+  {
+    LinePort port(board.pty());
+    ASSERT_TRUE(port.ok()) << board.output();
+    EXPECT_EQ(port.next(), kBoot);
+  }
+  LinePort port(board.pty());
+  ASSERT_TRUE(port.ok());
+  ASSERT_TRUE(port.send(text("again")));
+  EXPECT_EQ(port.next(), text("again"));
+  EXPECT_TRUE(board.running());
+}
+
 TEST(BoardLineEcho, SeveralBoardsAtOnce) {
   TempDir dir("skrobot-board");
   SimBoard a(SIMAVR_RUNNER_BIN, LINE_ECHO_ELF, dir.path());

@@ -7,8 +7,9 @@
 #
 #   skrobot_add_sketch(<name> INO <file.ino> [LIBRARIES <library folder>...])
 #
-# builds <build>/boards/<name>/<name>.elf and <name>.size ("flash <bytes>" and "ram <bytes>", from
-# avr-size -C). Target sketch_<name>; its properties ELF and SIZE_FILE hold the two paths.
+# builds <build>/boards/<name>/<name>.elf (with the other .c and .cpp files of the .ino's
+# folder, as the IDE does) and <name>.size ("flash <bytes>" and "ram <bytes>", from avr-size -C).
+# Target sketch_<name>; its properties ELF and SIZE_FILE hold the two paths.
 # A library folder is an Arduino library (library.properties, src/): every .c and .cpp under its
 # src/ is compiled, and each library's src/ is on the include path of the sketch and of the others.
 #
@@ -55,12 +56,12 @@ set(_skr_avr_cxx -std=gnu++11 -fpermissive -fno-exceptions -fno-threadsafe-stati
     -Wno-error=narrowing)
 set(_skr_avr_asm -x assembler-with-cpp)
 
-# One custom command per source: <obj_dir>/<file>.o, with a depfile for the headers it includes.
-# `extra` are further flags (warnings, include folders); the object's path goes to `out_var`.
-function(_skrobot_avr_compile out_var src obj_dir extra)
-  get_filename_component(file ${src} NAME)
+# One custom command per source: <obj_dir>/<obj_name>.o, with a depfile for the headers it
+# includes. `extra` are further flags (warnings, include folders); the object's path goes to
+# `out_var`.
+function(_skrobot_avr_compile out_var src obj_dir obj_name extra)
   get_filename_component(ext ${src} LAST_EXT)
-  set(obj ${obj_dir}/${file}.o)
+  set(obj ${obj_dir}/${obj_name}.o)
   if(ext STREQUAL ".c")
     set(cmd ${SKROBOT_AVR_GCC} ${_skr_avr_common} ${_skr_avr_c})
   elseif(ext STREQUAL ".S")
@@ -82,7 +83,8 @@ file(GLOB _skr_core_sources ${SKROBOT_ARDUINO_AVR_DIR}/cores/arduino/*.c
      ${SKROBOT_ARDUINO_AVR_DIR}/cores/arduino/*.cpp ${SKROBOT_ARDUINO_AVR_DIR}/cores/arduino/*.S)
 set(_skr_core_objects "")
 foreach(src ${_skr_core_sources})
-  _skrobot_avr_compile(obj ${src} ${SKROBOT_ARDUINO_DIR}/core "-w")
+  get_filename_component(file ${src} NAME)
+  _skrobot_avr_compile(obj ${src} ${SKROBOT_ARDUINO_DIR}/core ${file} "-w")
   list(APPEND _skr_core_objects ${obj})
 endforeach()
 add_custom_command(OUTPUT ${SKROBOT_ARDUINO_CORE}
@@ -105,17 +107,32 @@ function(skrobot_add_sketch name)
   # sketch's functions; ours declare a function before they use it).
   file(CONFIGURE OUTPUT ${dir}/${name}.ino.cpp
        CONTENT "#include <Arduino.h>\n#include \"${ino}\"\n")
-  set(includes "")
+  # The sketch's folder: its other .c and .cpp files too, as the IDE compiles them.
+  get_filename_component(ino_dir ${ino} DIRECTORY)
+  set(includes -I${ino_dir})
   set(sources ${dir}/${name}.ino.cpp)
+  set(obj_names ${name}.ino.cpp)
+  file(GLOB sketch_sources CONFIGURE_DEPENDS ${ino_dir}/*.c ${ino_dir}/*.cpp)
+  foreach(src ${sketch_sources})
+    get_filename_component(file ${src} NAME)
+    list(APPEND sources ${src})
+    list(APPEND obj_names sketch/${file})
+  endforeach()
   foreach(lib ${A_LIBRARIES})
     get_filename_component(lib ${lib} ABSOLUTE)
+    get_filename_component(lib_name ${lib} NAME)
     list(APPEND includes -I${lib}/src)
     file(GLOB_RECURSE lib_sources CONFIGURE_DEPENDS ${lib}/src/*.c ${lib}/src/*.cpp)
-    list(APPEND sources ${lib_sources})
+    foreach(src ${lib_sources})
+      # <library>/<path under src/>: two files of one name in different folders stay apart.
+      file(RELATIVE_PATH rel ${lib}/src ${src})
+      list(APPEND sources ${src})
+      list(APPEND obj_names ${lib_name}/${rel})
+    endforeach()
   endforeach()
   set(objects "")
-  foreach(src ${sources})
-    _skrobot_avr_compile(obj ${src} ${dir}/obj "-Wall;-Wextra;${includes}")
+  foreach(src obj_name IN ZIP_LISTS sources obj_names)
+    _skrobot_avr_compile(obj ${src} ${dir}/obj ${obj_name} "-Wall;-Wextra;${includes}")
     list(APPEND objects ${obj})
   endforeach()
   set(elf ${dir}/${name}.elf)

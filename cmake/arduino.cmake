@@ -66,6 +66,10 @@ function(_skrobot_avr_compile out_var src obj_dir obj_name extra)
     set(cmd ${SKROBOT_AVR_GCC} ${_skr_avr_common} ${_skr_avr_c})
   elseif(ext STREQUAL ".S")
     set(cmd ${SKROBOT_AVR_GCC} ${_skr_avr_common} ${_skr_avr_asm})
+  elseif(ext STREQUAL ".ino")
+    # The IDE prepends #include <Arduino.h> to the sketch (it also writes prototypes for the
+    # sketch's functions: ours declare a function before they use it).
+    set(cmd ${SKROBOT_AVR_GXX} ${_skr_avr_common} ${_skr_avr_cxx} -x c++ -include Arduino.h)
   else()
     set(cmd ${SKROBOT_AVR_GXX} ${_skr_avr_common} ${_skr_avr_cxx})
   endif()
@@ -103,15 +107,11 @@ function(skrobot_add_sketch name)
   endif()
   get_filename_component(ino ${A_INO} ABSOLUTE)
   set(dir ${SKROBOT_ARDUINO_DIR}/${name})
-  # The IDE prepends #include <Arduino.h> to the .ino (it also writes prototypes for the
-  # sketch's functions; ours declare a function before they use it).
-  file(CONFIGURE OUTPUT ${dir}/${name}.ino.cpp
-       CONTENT "#include <Arduino.h>\n#include \"${ino}\"\n")
   # The sketch's folder: its other .c and .cpp files too, as the IDE compiles them.
   get_filename_component(ino_dir ${ino} DIRECTORY)
   set(includes -I${ino_dir})
-  set(sources ${dir}/${name}.ino.cpp)
-  set(obj_names ${name}.ino.cpp)
+  set(sources ${ino})
+  set(obj_names ${name}.ino)
   file(GLOB sketch_sources CONFIGURE_DEPENDS ${ino_dir}/*.c ${ino_dir}/*.cpp)
   foreach(src ${sketch_sources})
     get_filename_component(file ${src} NAME)

@@ -60,6 +60,8 @@ PACKAGES=(
   libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)
   dpkg-dev iproute2 curl systemd
+  # the board library's tests: Arduino sketches built for the Uno and run in simavr (tests/boards)
+  gcc-avr avr-libc arduino-core-avr libsimavr-dev libsimavrparts1 libelf-dev
 )
 
 # Node.js and npm for the web page's packages and its browser tests: Debian's, unless the machine

@@ -35,6 +35,7 @@ LINE = {
 # takes the syntax of NAME.
 BY_NAME = [
     ("*.c", "c++"), ("*.h", "c++"), ("*.cpp", "c++"), ("*.hpp", "c++"), ("*.inc", "c++"),
+    ("*.ino", "c++"),  # Arduino sketches (C++)
     ("*.js", "c++"), ("*.mjs", "c++"),
     ("CMakeLists.txt", "hash"), ("*.cmake", "hash"), ("*.py", "hash"), ("*.sh", "hash"),
     ("*.toml", "hash"), ("*.pc", "hash"), ("*.service", "hash"),

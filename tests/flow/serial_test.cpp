@@ -17,6 +17,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 
 namespace skr::test {
@@ -158,6 +159,52 @@ TEST_F(Serial, ABoardOnABoundPortPublishesSubscribesAndHearsOnlyOfItsChannels) {
   EXPECT_EQ(l.line.sessions, 1u);
   EXPECT_GT(l.line.frames_in, 5u);
   EXPECT_EQ(l.line.resyncs(), 0u);
+}
+
+TEST_F(Serial, ASlowLineKeepsTheNewestDataAndSendsEachFrameOnce) {
+  startBound();
+  TestClient alice = flowClient("alice", "right");
+  const uint16_t fast = addChannel(alice, "fast");
+  TestClient b = board();
+  smallSession(b, 256, "alice.fast");
+  ASSERT_TRUE(b.waitFor(Code::ev_chan_added));
+  ASSERT_TRUE(b.send(msg::Subscribe{1, fast}));
+  ASSERT_TRUE(eventually([&] {
+    HubSnapshot s;
+    onHub([&] { s = server_->snapshot(); });
+    for (const auto& c : s.channels) {
+      if (c.id == fast) return c.subscriber_flows.size() == 1;
+    }
+    return false;
+  }));
+  // Far more than the line's queue and the pseudo-terminal hold while the board does not read.
+  constexpr uint32_t kCount = 3000;
+  for (uint32_t i = 1; i <= kCount; ++i) {
+    std::string payload(100, 'x');
+    std::memcpy(payload.data(), &i, 4);
+    ASSERT_TRUE(alice.send(msg::Publish{fast, {payload}}));
+  }
+  ASSERT_TRUE(eventually([&] {
+    HubSnapshot s;
+    onHub([&] { s = server_->snapshot(); });
+    for (const auto& c : s.channels) {
+      if (c.id == fast) return c.messages == kCount;
+    }
+    return false;
+  }));
+  // Each frame arrives once, in order, and the last one arrives.
+  uint32_t last = 0, received = 0;
+  while (last != kCount) {
+    auto data = as<msg::EvData>(b.waitFor(Code::ev_data, 3000));
+    ASSERT_TRUE(data) << "after " << last;
+    uint32_t n = 0;
+    std::memcpy(&n, data->payload.bytes.data(), 4);
+    ASSERT_GT(n, last);
+    last = n;
+    ++received;
+  }
+  EXPECT_LT(received, kCount);  // the oldest were dropped, newest wins
+  EXPECT_GT(stats().data_frames_dropped, 0u);
 }
 
 TEST_F(Serial, ChannelsThatExistAreAnnouncedWhenTheBoardGoesAsync) {

@@ -5,7 +5,7 @@
 # as C++ after `#include <Arduino.h>`. The host compiler stays the project's: every AVR step is a
 # custom command. Included from tests/boards when the heavy tests are on.
 #
-#   skrobot_add_sketch(<name> INO <file.ino> [LIBRARIES <library folder>...])
+#   skrobot_add_sketch(<name> INO <file.ino> [LIBRARIES <library folder>...] [DEFINES NAME=value...])
 #
 # builds <build>/boards/<name>/<name>.elf (with the other .c and .cpp files of the .ino's
 # folder, as the IDE does) and <name>.size ("flash <bytes>" and "ram <bytes>", from avr-size -C).
@@ -101,7 +101,7 @@ add_custom_target(board_size
   COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/bench/board_size ${SKROBOT_ARDUINO_DIR} VERBATIM)
 
 function(skrobot_add_sketch name)
-  cmake_parse_arguments(A "" "INO" "LIBRARIES" ${ARGN})
+  cmake_parse_arguments(A "" "INO" "LIBRARIES;DEFINES" ${ARGN})
   if(NOT A_INO)
     message(FATAL_ERROR "skrobot_add_sketch(${name}): INO is required")
   endif()
@@ -130,9 +130,14 @@ function(skrobot_add_sketch name)
       list(APPEND obj_names ${lib_name}/${rel})
     endforeach()
   endforeach()
+  # DEFINES (NAME=value) reach the sketch and its libraries: a library's settings (SKR_RX_MAX...).
+  set(defines "")
+  foreach(d ${A_DEFINES})
+    list(APPEND defines -D${d})
+  endforeach()
   set(objects "")
   foreach(src obj_name IN ZIP_LISTS sources obj_names)
-    _skrobot_avr_compile(obj ${src} ${dir}/obj ${obj_name} "-Wall;-Wextra;${includes}")
+    _skrobot_avr_compile(obj ${src} ${dir}/obj ${obj_name} "-Wall;-Wextra;${includes};${defines}")
     list(APPEND objects ${obj})
   endforeach()
   set(elf ${dir}/${name}.elf)

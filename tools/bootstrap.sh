@@ -60,6 +60,8 @@ PACKAGES=(
   libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)
   dpkg-dev iproute2 curl systemd
+  # the board library's tests: Arduino sketches built for the Uno and run in simavr (tests/boards)
+  gcc-avr avr-libc arduino-core-avr libsimavr-dev libsimavrparts1 libelf-dev
 )
 
 # Node.js and npm for the web page's packages and its browser tests: Debian's, unless the machine
@@ -119,7 +121,15 @@ case "$MODE" in
     cpack --config build/release/CPackConfig.cmake -B build/packages > build/packages.log 2>&1 ||
       { cat build/packages.log; exit 1; }
     rm -rf build/packages/_CPack_Packages
-    ls -1 build/packages/*.deb
+    # The board library as an Arduino library: one folder to unzip into the sketchbook's libraries
+    # (docs/microcontrollers.md). The host build's files (CMakeLists.txt, posix/) stay out.
+    version=$(sed -n 's/^version=//p' satellite/mcu/library.properties)
+    rm -rf build/packages/arduino && mkdir -p build/packages/arduino/SkRobotFlow
+    cp -r satellite/mcu/library.properties satellite/mcu/README.md satellite/mcu/src \
+      satellite/mcu/examples build/packages/arduino/SkRobotFlow/
+    (cd build/packages/arduino && cmake -E tar cf "../SkRobotFlow-$version.zip" --format=zip SkRobotFlow)
+    rm -rf build/packages/arduino
+    ls -1 build/packages/*.deb build/packages/SkRobotFlow-*.zip
     echo "install them with: sudo apt install ./build/packages/skrobot_*.deb [./build/packages/skrobot-dev_*.deb]"
     ;;
   run)

@@ -35,7 +35,8 @@ LINE = {
 # takes the syntax of NAME.
 BY_NAME = [
     ("*.c", "c++"), ("*.h", "c++"), ("*.cpp", "c++"), ("*.hpp", "c++"), ("*.inc", "c++"),
-    ("*.js", "c++"), ("*.mjs", "c++"), ("*.ino", "c++"),
+    ("*.ino", "c++"),  # Arduino sketches (C++)
+    ("*.js", "c++"), ("*.mjs", "c++"),
     ("CMakeLists.txt", "hash"), ("*.cmake", "hash"), ("*.py", "hash"), ("*.sh", "hash"),
     ("*.toml", "hash"), ("*.pc", "hash"), ("*.service", "hash"), ("*.properties", "hash"),
     ("*.css", "css"), ("*.html", "html"),

@@ -189,6 +189,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.tcp_address = s.tcp_address;
   o.tcp_port = s.tcp_port;
   o.tls = s.tls;
+  o.serial = s.serial;
   o.max_frame_bytes = s.max_frame_bytes;
   o.subscriber_queue_bytes = s.subscriber_queue_bytes;
   o.max_connections = s.max_connections;

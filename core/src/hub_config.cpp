@@ -62,6 +62,10 @@ s::Schema loopSchema(bool with_defaults) {
   });
 }
 
+void absolutePath(const Json::Value& v, const std::string& path, s::Problems& out) {
+  if (!v.asString().starts_with("/")) out.push_back({path, "must be an absolute path (/dev/...)"});
+}
+
 void nameOrPath(const Json::Value& m, const std::string& path, s::Problems& out) {
   if (!m.isMember("name") && !m.isMember("path")) {
     out.push_back({path, "needs \"name\" (found on the module search path) or \"path\""});
@@ -218,6 +222,17 @@ void readModules(const Json::Value& list, const fs::path& base_dir, HubConfig& c
   }
 }
 
+// A serial port (docs/microcontrollers.md): the rate is checked when the port opens.
+s::Schema serialSchema() {
+  return s::object({
+      s::required("device", s::string().nonEmpty().check(absolutePath)),
+      s::optional("baud", s::integer().range(50, 4000000), 115200),
+      s::optional("account", s::string(), ""),
+      s::optional("max_frame", s::integer().range(64, 65536), 4096),
+      s::optional("queue_bytes", s::integer().range(256, 1 << 20), 4096),
+  });
+}
+
 s::Schema serverSchema() {
   return s::object({
       s::optional("unix_socket", s::boolean(), true),
@@ -231,6 +246,7 @@ s::Schema serverSchema() {
                              s::optional("client_ca", s::string(), ""),
                              s::optional("min_version", s::string().oneOf({"1.2", "1.3"}), "1.2"),
                          })),
+      s::optional("serial", s::arrayOf(serialSchema()), Json::arrayValue),
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
@@ -283,6 +299,15 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
       }
       tls.min_version = t["min_version"].asString();
       out.tls = std::move(tls);
+    }
+    for (const Json::Value& p : s["serial"]) {
+      flow::transport::SerialOptions port;
+      port.device = p["device"].asString();
+      port.baud = p["baud"].asUInt();
+      port.account = p["account"].asString();
+      port.max_frame = p["max_frame"].asUInt();
+      port.queue_bytes = p["queue_bytes"].asUInt();
+      out.serial.push_back(std::move(port));
     }
     out.max_frame_bytes = s["max_frame_bytes"].asUInt();
     out.subscriber_queue_bytes = s["subscriber_queue_bytes"].asUInt();

@@ -194,6 +194,23 @@ TEST(ConfigTest, WrongType) {
   EXPECT_EQ(errorOf("[]"), "test.json: $: expected object, got array");
 }
 
+TEST(ConfigTest, SerialPortsAreReadAndCheckedByPath) {
+  Result<HubConfig> r = parse(R"({"server": {"serial": [{"device": "/dev/ttyUSB*"},
+      {"device": "/dev/ttyACM0", "baud": 1000000, "account": "arm", "max_frame": 256}]}})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->server.serial.size(), 2u);
+  EXPECT_EQ(r->server.serial[0].device, "/dev/ttyUSB*");
+  EXPECT_EQ(r->server.serial[0].baud, 115200u);
+  EXPECT_EQ(r->server.serial[0].max_frame, 4096u);
+  EXPECT_EQ(r->server.serial[1].baud, 1000000u);
+  EXPECT_EQ(r->server.serial[1].account, "arm");
+  EXPECT_EQ(r->server.serial[1].max_frame, 256u);
+  EXPECT_EQ(errorOf(R"({"server": {"serial": [{"device": "ttyUSB0"}]}})"),
+            "test.json: $.server.serial[0].device: must be an absolute path (/dev/...)");
+  EXPECT_HAS(errorOf(R"({"server": {"serial": [{"device": "/dev/ttyS0", "baud": 9}]}})"),
+             "$.server.serial[0].baud");
+}
+
 TEST(ConfigTest, OutOfRange) {
   EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": 0}})"),
             "test.json: $.loop.fast_tick_ms: must be >= 0.1, got 0");

@@ -19,13 +19,6 @@ namespace {
 
 using namespace skr::flow;
 
-// TODO(issue 41): msg::SessionLimits once the catalogue has 0x16; read by hand until then.
-constexpr uint8_t kSessionLimits = 0x16;
-struct Limits {
-  uint32_t max_frame = 0, events = 0;
-  std::string watch;
-};
-
 struct Hub {
   std::deque<uint8_t> to_board;
   std::vector<uint8_t> rx_buf = std::vector<uint8_t>(4096 + SKR_LINE_RX_EXTRA);
@@ -93,15 +86,6 @@ struct Hub {
     EXPECT_TRUE(m.ok()) << (m.ok() ? "" : m.error().message);
     return m.ok() ? *m : M{};
   }
-  Limits limits() {
-    const std::string body = next(kSessionLimits);
-    ByteReader r(body);
-    Limits l;
-    std::string_view w;
-    EXPECT_TRUE(r.u32(l.max_frame) && r.u32(l.events) && r.str16(w) && r.empty()) << body.size();
-    l.watch = std::string(w);
-    return l;
-  }
 };
 
 msg::EvChanAdded added(uint32_t tag, uint16_t id, uint8_t kind, const std::string& name) {
@@ -167,7 +151,7 @@ class Board : public ::testing::Test {
     hub.send(msg::LoginOk{
         .connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
     skr_poll(&f);
-    hub.limits();
+    hub.expect<msg::SessionLimits>();
     hub.send(msg::Ack{});
     skr_poll(&f);
     hub.expect<msg::GoAsync>();
@@ -193,7 +177,8 @@ TEST_F(Board, LogsInWithLimitsThenGoesAsyncAndAddsItsChannels) {
   skr_poll(&f);
   const auto login = hub.expect<msg::Login>();
   EXPECT_EQ(login.major, 1);
-  EXPECT_EQ(login.minor, 12);
+  EXPECT_EQ(login.minor, kProtocolMinor);
+  EXPECT_GE(login.minor, 12);
   EXPECT_EQ(login.value_encoding, 0);
   EXPECT_EQ(login.user, "robot");
   EXPECT_EQ(login.password, "secret");
@@ -203,7 +188,7 @@ TEST_F(Board, LogsInWithLimitsThenGoesAsyncAndAddsItsChannels) {
   hub.send(
       msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
   skr_poll(&f);
-  const Limits l = hub.limits();
+  const auto l = hub.expect<msg::SessionLimits>();
   EXPECT_EQ(l.max_frame, SKR_RX_MAX);
   EXPECT_EQ(l.events, 0u);
   EXPECT_EQ(l.watch, "guest.setpoint robot.pulse");

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "test_client.h"
 
+#include "skr_line.h"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -9,8 +11,10 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <vector>
 
 namespace skr::test {
 
@@ -18,8 +22,40 @@ TestClient::~TestClient() {
   close();
 }
 
+struct TestClient::Line {
+  std::vector<uint8_t> buf = std::vector<uint8_t>(70000);
+  skr_line_rx rx{};
+  Line() { skr_line_rx_init(&rx, buf.data(), buf.size()); }
+};
+
+TestClient TestClient::overLine(int fd) {
+  TestClient c(fd);
+  c.line_ = std::make_shared<Line>();
+  return c;
+}
+
+bool TestClient::sendLineBytes(std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EAGAIN) {
+        pollfd p{fd_, POLLOUT, 0};
+        (void)::poll(&p, 1, 1000);
+        continue;
+      }
+      return false;
+    }
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+  return true;
+}
+
 TestClient::TestClient(TestClient&& o) noexcept
-    : fd_(o.fd_), buf_(std::move(o.buf_)), skipped_(std::move(o.skipped_)) {
+    : fd_(o.fd_),
+      buf_(std::move(o.buf_)),
+      skipped_(std::move(o.skipped_)),
+      line_(std::move(o.line_)) {
   o.fd_ = -1;
 }
 
@@ -30,6 +66,7 @@ TestClient& TestClient::operator=(TestClient&& o) noexcept {
     o.fd_ = -1;
     buf_ = std::move(o.buf_);
     skipped_ = std::move(o.skipped_);
+    line_ = std::move(o.line_);
   }
   return *this;
 }
@@ -69,6 +106,20 @@ Result<TestClient> TestClient::connectTcp(const std::string& host, uint16_t port
 }
 
 bool TestClient::sendRaw(std::string_view bytes) {
+  if (line_) {
+    std::string wire;
+    while (bytes.size() >= 4) {
+      uint32_t len = 0;
+      std::memcpy(&len, bytes.data(), 4);
+      const size_t n = std::min(bytes.size(), 4 + static_cast<size_t>(len));
+      std::vector<uint8_t> out(n + SKR_LINE_OVERHEAD(n));
+      const size_t w = skr_line_encode(reinterpret_cast<const uint8_t*>(bytes.data()), n,
+                                       out.data(), out.size());
+      wire.append(reinterpret_cast<const char*>(out.data()), w);
+      bytes.remove_prefix(n);
+    }
+    return sendLineBytes(wire);
+  }
   while (!bytes.empty()) {
     const ssize_t n = ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
     if (n < 0) {
@@ -84,9 +135,16 @@ bool TestClient::fill(int timeout_ms) {
   pollfd p{fd_, POLLIN, 0};
   if (::poll(&p, 1, timeout_ms) <= 0) return false;
   char tmp[65536];
-  const ssize_t n = ::recv(fd_, tmp, sizeof tmp, 0);
+  const ssize_t n = line_ ? ::read(fd_, tmp, sizeof tmp) : ::recv(fd_, tmp, sizeof tmp, 0);
   if (n <= 0) return false;
-  buf_.append(tmp, static_cast<size_t>(n));
+  if (!line_) {
+    buf_.append(tmp, static_cast<size_t>(n));
+    return true;
+  }
+  for (ssize_t i = 0; i < n; ++i) {
+    const size_t len = skr_line_rx_byte(&line_->rx, static_cast<uint8_t>(tmp[i]));
+    if (len != 0) buf_.append(reinterpret_cast<const char*>(skr_line_rx_frame(&line_->rx)), len);
+  }
   return true;
 }
 

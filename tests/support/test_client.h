@@ -31,6 +31,11 @@ class TestClient {
 
   [[nodiscard]] static Result<TestClient> connectUnix(const std::string& path);
   [[nodiscard]] static Result<TestClient> connectTcp(const std::string& host, uint16_t port);
+  // A board's end of a serial line (a pseudo-terminal's master, raw): frames travel in the line
+  // framing of satellite/mcu/src/skr_line.h. Takes the descriptor.
+  [[nodiscard]] static TestClient overLine(int fd);
+  // Bytes written to the line as they are (noise, a frame cut short), bypassing the framing.
+  bool sendLineBytes(std::string_view bytes);
 
   // LOGIN and wait for the reply.
   // `minor`: the protocol minor the client announces (an older client's).
@@ -68,12 +73,14 @@ class TestClient {
 
  private:
   explicit TestClient(int fd) : fd_(fd) {}
+  struct Line;
   std::optional<Frame> readFrame(int timeout_ms);
   bool fill(int timeout_ms);
 
   int fd_ = -1;
   std::string buf_;
   std::deque<Frame> skipped_;
+  std::shared_ptr<Line> line_;  // set for a serial line
 };
 
 // A decoded message that owns the frame its payload views point into.

@@ -55,6 +55,24 @@ std::string topTable(const Variant& stats, const std::string& sort, size_t rows)
                   "OUT HZ", "QUEUE", "DROP/S", "PENDING");
     out += line + slow;
   }
+  // Serial lines (server.serial): their traffic and what the line's checks dropped.
+  const Variant::List& serial = list(stats, "serial");
+  if (!serial.empty()) {
+    std::snprintf(line, sizeof line, "\n%-32s %-8s %10s %10s %9s %9s %8s %8s\n", "SERIAL PORT",
+                  "STATE", "BYTES IN", "BYTES OUT", "FRAMES IN", "BAD CHECK", "RESYNCS",
+                  "SESSIONS");
+    out += line;
+    for (const Variant& p : serial) {
+      const char* state = at(p, "in_session").asBool().value_or(false) ? "session"
+                          : at(p, "open").asBool().value_or(false)     ? "open"
+                                                                       : "away";
+      std::snprintf(line, sizeof line, "%-32s %-8s %10s %10s %9.0f %9.0f %8.0f %8.0f\n",
+                    str(p, "device").c_str(), state, human(num(p, "bytes_in")).c_str(),
+                    human(num(p, "bytes_out")).c_str(), num(p, "frames_in"), num(p, "bad_check"),
+                    num(p, "resyncs"), num(p, "sessions"));
+      out += line;
+    }
+  }
   return out;
 }
 

@@ -91,6 +91,7 @@ function render() {
   const g = buildGraph(stats, { showHub: $('show-hub').checked, filter: $('filter').value });
   graph.update(g);
   renderTable(stats);
+  renderSerial(stats);
   renderDetails();
   const channels = [...g.nodes.values()].filter((n) => n.type === 'channel').length;
   const flows = g.nodes.size - channels;
@@ -111,6 +112,21 @@ function renderTable(stats) {
     tr.append(text('td', c.name), text('td', String(c.hz)), text('td', `${formatBytes(c.bytes_per_s)}/s`),
       text('td', String(c.subscribers)), text('td', String(c.dropped)));
     tr.addEventListener('click', () => graph.select(`c:${c.name}`));
+    return tr;
+  }));
+}
+
+// Boards on serial lines (server.serial), with what the line's checks dropped.
+function renderSerial(stats) {
+  const ports = stats.serial || [];
+  $('serial').hidden = ports.length === 0;
+  $('serial').tBodies[0].replaceChildren(...ports.map((p) => {
+    const tr = document.createElement('tr');
+    if (p.bad_check > 0 || p.resyncs > 0) tr.className = 'drop';
+    const state = p.in_session ? 'session' : p.open ? 'open' : 'away';
+    tr.append(text('td', p.device), text('td', state), text('td', formatBytes(p.bytes_in)),
+      text('td', formatBytes(p.bytes_out)), text('td', String(p.bad_check)),
+      text('td', String(p.resyncs)), text('td', String(p.sessions)));
     return tr;
   }));
 }

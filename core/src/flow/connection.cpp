@@ -26,8 +26,9 @@ Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
 Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport)
     : hub_(hub),
       transport_(std::move(transport)),
-      input_(std::min(
-          {kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes, transport_->maxFrameBytes()})) {}
+      input_(
+          std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes, transport_->maxFrameBytes()})),
+      queue_limit_(hub.opt.subscriber_queue_bytes) {}
 
 // The transport's closed() deletes a connection, possibly after the server is gone: close() has
 // already detached it from the server, so the destructor must not touch it.
@@ -42,7 +43,7 @@ std::string Connection::describe() const {
 }
 
 bool Connection::congested() const {
-  return output_.queue().size() > hub_.opt.subscriber_queue_bytes;
+  return output_.queue().size() > queue_limit_;
 }
 
 void Connection::startReading() {
@@ -324,6 +325,10 @@ void Connection::closeAfterFlush(const char* why) {
 // --- output ----------------------------------------------------------------------------------
 
 void Connection::sendBlobData(uint64_t version, uint64_t total_size, std::string frame) {
+  if (max_frame_ != 0 && frame.size() > max_frame_) {
+    tooLarge(true);
+    return;
+  }
   std::string head;
   (void)encode(head, msg::BlobData{version, total_size, {}});
   ByteWriter(head).patchU32(0, static_cast<uint32_t>(frame.size() - 4));
@@ -348,7 +353,7 @@ void Connection::queued() {
     output_.clear();
     return;
   }
-  const size_t hard = hub_.opt.subscriber_queue_bytes * 2 + hub_.opt.max_frame_bytes + (64u << 10);
+  const size_t hard = queue_limit_ * 2 + hub_.opt.max_frame_bytes + (64u << 10);
   if (output_.queue().size() > hard) {
     log::warn(kLogSource, "FLOW-SLOW-CLIENT",
               describe() + ": " + std::to_string(output_.queue().size()) +
@@ -363,7 +368,14 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
   if (state_ != State::flow) return;
   std::string& out = output_.queue();
   const size_t frame = kFrameHeaderBytes + 2 + payload.size();
-  const size_t limit = hub_.opt.subscriber_queue_bytes;
+  if (max_frame_ != 0 && frame > max_frame_) {
+    ++frames_too_large;
+    ++ch.dropped;
+    ++traffic.dropped;
+    ++hub_.stats.data_frames_dropped;
+    return;
+  }
+  const size_t limit = queue_limit_;
   if (!out.empty() && out.size() + frame > limit) {
     dropOldestData(frame);
     if (!out.empty() && out.size() + frame > limit) {
@@ -393,7 +405,7 @@ void Connection::onData(const Channel& ch, std::string_view payload) {
 // more than needed so that a subscriber that stays slow is not compacted for every frame.
 void Connection::dropOldestData(size_t needed) {
   std::string& out = output_.queue();
-  const size_t limit = hub_.opt.subscriber_queue_bytes;
+  const size_t limit = queue_limit_;
   const size_t target = limit - std::min(limit, needed + limit / 4);
   size_t size = out.size();
   std::string kept;
@@ -485,6 +497,10 @@ void Connection::onPhysical(const msg::EvPhysMarker& m) {
 
 void Connection::sendUrgent(std::string_view frame) {
   if (state_ == State::closing) return;
+  if (max_frame_ != 0 && frame.size() > max_frame_) {
+    ++frames_too_large;
+    return;
+  }
   output_.appendUrgent(frame);
   ++traffic.messages_out;
   traffic.bytes_out += frame.size();
@@ -523,20 +539,42 @@ void Connection::onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode
   }
 }
 
+void Connection::limitSession(uint32_t max_frame, bool channel_events, NameFilter watch) {
+  max_frame_ = max_frame;
+  channel_events_ = channel_events;
+  watch_ = std::move(watch);
+}
+
+bool Connection::hearsOf(const Channel& ch) const {
+  if (channel_events_ || ch.owner == this) return true;
+  const auto in = [this](const std::vector<Endpoint*>& list) {
+    return std::find(list.begin(), list.end(), this) != list.end();
+  };
+  return in(ch.subscribers) || in(ch.physical) || watch_.selects(ch.name);
+}
+
+void Connection::tooLarge(bool reply) {
+  ++frames_too_large;
+  if (reply) replyError(ErrorCode::limit_exceeded, "reply above the session's frame limit");
+}
+
 bool Connection::sees(const Channel& ch) const noexcept {
   return minor_ >= minorOfKind(ch.kind);
 }
 
 void Connection::onChannelAdded(const Channel& ch, uint32_t tag) {
-  if (state_ == State::flow && sees(ch)) send(msg::EvChanAdded{tag, hub_.channels.info(ch)});
+  if (state_ == State::flow && sees(ch) && hearsOf(ch))
+    send(msg::EvChanAdded{tag, hub_.channels.info(ch)});
 }
 
 void Connection::onChannelRemoved(const Channel& ch) {
-  if (state_ == State::flow && sees(ch)) send(msg::EvChanRemoved{ch.id, ch.hash, ch.name});
+  if (state_ == State::flow && sees(ch) && hearsOf(ch))
+    send(msg::EvChanRemoved{ch.id, ch.hash, ch.name});
 }
 
 void Connection::onChannelHeader(const Channel& ch) {
-  if (state_ == State::flow && sees(ch)) send(msg::EvChanHeader{hub_.channels.info(ch)});
+  if (state_ == State::flow && sees(ch) && hearsOf(ch))
+    send(msg::EvChanHeader{hub_.channels.info(ch)});
 }
 
 void Connection::onBlobChanged(const Channel& ch, const BlobEvent& ev) {

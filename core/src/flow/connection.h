@@ -15,6 +15,7 @@
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/flow/bytes.h>
 #include <skrobot/runtime/flow/codec.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/runtime/flow/transport.h>
 #include <skrobot/runtime/log.h>
 
@@ -65,6 +66,8 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   bool flush_queued = false;
   // Where it comes from, for the login throttle: "tcp:<address>" or "uid:<n>" (set at accept).
   std::string source;
+  // A serial port's board logs in as the account its port is bound to, without a password.
+  std::string bound_account;
 
   // --- the session's steps (the session room decides them)
   // LOGIN read: values are sent in `enc`; reading pauses until the password is checked.
@@ -74,6 +77,20 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   void loggedIn(uint16_t minor);
   // GO_ASYNC: it is a flow now.
   void becomeFlow();
+  // SESSION_LIMITS (1.12): frames above `max_frame` (0: none) are never sent to it; channel events
+  // only about its own channels, its subscriptions and those `watch` selects, unless
+  // `channel_events`.
+  void limitSession(uint32_t max_frame, bool channel_events, NameFilter watch);
+  // The data it may wait to be sent before its oldest data frames are dropped (newest wins);
+  // server.subscriber_queue_bytes unless the transport's listener set a smaller one (a serial
+  // line).
+  void limitQueue(size_t bytes) noexcept { queue_limit_ = bytes; }
+  // Whether channel events about `ch` reach it (always, unless it limited its session).
+  [[nodiscard]] bool hearsOf(const Channel& ch) const;
+  // Whether it watches channels by name (SESSION_LIMITS with a watch and no channel events).
+  [[nodiscard]] bool watches() const noexcept { return !channel_events_ && !watch_.empty(); }
+  // Frames not sent because they were above its SESSION_LIMITS frame limit.
+  uint64_t frames_too_large = 0;
 
   // --- answers, for the rooms
   template <class M>
@@ -82,6 +99,11 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
     const size_t before = out.size();
     if (!encode(out, m, enc_)) {
       log::error(kLogSource, "FLOW-INTERNAL", describe() + ": a field exceeds its wire limit");
+    }
+    if (max_frame_ != 0 && out.size() - before > max_frame_) {
+      out.resize(before);
+      tooLarge(M::code == Code::reply_ok || M::code == Code::reply_error);
+      return;
     }
     ++traffic.messages_out;
     traffic.bytes_out += out.size() - before;
@@ -190,6 +212,8 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   void pipelineAnswered(uint64_t bytes);
 
   void queued();  // after queueing output: limits, then flush scheduling
+  // A frame above the session's limit was not sent: counted; a reply becomes REPLY_ERROR.
+  void tooLarge(bool reply);
   // A frame that goes ahead of the output queued in the hub (a sync pulse): after the slice being
   // written, before everything else.
   void sendUrgent(std::string_view frame);
@@ -212,6 +236,10 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   bool reading_started_ = false;  // the transport was started (later: resume)
 
   Output output_;
+  size_t queue_limit_;      // data frames wait up to this many bytes (limitQueue)
+  uint32_t max_frame_ = 0;  // SESSION_LIMITS: the largest frame sent to it; 0 none
+  bool channel_events_ = true;
+  NameFilter watch_;
   bool close_after_flush_ = false;
   std::map<uint16_t, uint32_t> dropped_;  // per channel since the last EV_DROPPED
   Nanos last_drop_log_ = 0;

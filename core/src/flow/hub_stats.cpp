@@ -109,6 +109,11 @@ HubSnapshot FlowServer::snapshot() const {
     f.age_s = seconds(e.rates.age());
     out.flows.push_back(std::move(f));
   });
+  if (s.serial_ports) {
+    for (auto& port : s.serial_ports->view()) {
+      out.serial.push_back({port.device, port.open, port.in_session, port.stats});
+    }
+  }
   std::sort(out.flows.begin(), out.flows.end(),
             [](const FlowCounters& a, const FlowCounters& b) { return a.id < b.id; });
   return out;
@@ -185,13 +190,35 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
         {"pending_requests", static_cast<uint64_t>(f.pending_requests)},
     });
   }
+  Variant::List serial;
+  for (const SerialCounters& p : snapshot.serial) {
+    const transport::SerialStats& l = p.line;
+    serial.emplace_back(Variant::Map{
+        {"device", p.device},
+        {"open", p.open},
+        {"in_session", p.in_session},
+        {"bytes_in", l.bytes_in},
+        {"bytes_out", l.bytes_out},
+        {"frames_in", l.frames_in},
+        {"frames_out", l.frames_out},
+        {"bad_check", l.bad_check},
+        {"bad_framing", l.bad_framing},
+        {"bad_version", l.bad_version},
+        {"too_long", l.too_long},
+        {"overrun", l.overrun},
+        {"dropped_out", l.dropped_out},
+        {"resyncs", l.resyncs()},
+        {"sessions", l.sessions},
+    });
+  }
   return Variant::Map{{"hub", hub_name},
                       {"time_ms", wallMs()},
                       {"interval_s", snapshot.interval_s},
                       {"interval_10s_s", snapshot.interval_10s_s},
                       {"rates_until_ms", snapshot.rates_until_ms},
                       {"channels", std::move(channels)},
-                      {"flows", std::move(flows)}};
+                      {"flows", std::move(flows)},
+                      {"serial", std::move(serial)}};
 }
 
 HubStats::HubStats(Loop& loop, FlowServer& server) : loop_(loop), server_(server) {

@@ -71,6 +71,12 @@ Result<void> FlowServer::Impl::start() {
       return r;
     }
   }
+  serial_ports = std::make_unique<SerialPorts>(
+      loop, opt.serial,
+      [this](std::unique_ptr<transport::Transport> t, const transport::SerialOptions& port) {
+        accept(std::move(t), &port);
+      });
+  serial_ports->start();
   started = true;
   links.connect();
   return {};
@@ -123,10 +129,16 @@ Result<void> FlowServer::Impl::listenTcp() {
   return {};
 }
 
-void FlowServer::Impl::accept(std::unique_ptr<transport::Transport> transport) {
+void FlowServer::Impl::accept(std::unique_ptr<transport::Transport> transport,
+                              const transport::SerialOptions* serial) {
   const std::string source = transport->peer().source();
   auto* c = new Connection(static_cast<Hub&>(*this), std::move(transport));
   c->source = source;
+  if (serial != nullptr) {
+    c->bound_account = serial->account;
+    // A line carries a few KB/s: its data waits in a small queue, newest wins.
+    c->limitQueue(serial->queue_bytes);
+  }
   endpoints.add(*c);
   connections[c->id] = c;
   ++stats.connections_accepted;
@@ -155,6 +167,7 @@ void FlowServer::Impl::stop() noexcept {
   for (Connection* c : all) c->close("hub stopping");
   unix_listener.reset();  // removes the socket file
   tcp_listener.reset();
+  serial_ports.reset();
   closeUvHandle(flush_prepare);
   closeUvHandle(flush_check);
   closeUvHandle(sweep_timer);

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
 // one room per family of the protocol); this adds the listeners (transport.h: Unix socket, TCP,
-// TLS on TCP),
-// accepting connections, the loop's handles that flush output once per iteration and run the
-// sweep. Main loop thread only. docs/internals.md is the map.
+// TLS on TCP; serial_ports.h), accepting connections, the loop's handles that flush output once per
+// iteration and run the sweep. Main loop thread only. docs/internals.md is the map.
 #pragma once
 
 #include "hub.h"
+#include "serial_ports.h"
 
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/flow/tls.h>
@@ -32,6 +32,7 @@ struct FlowServer::Impl : Hub {
 
   std::unique_ptr<transport::Listener> unix_listener;
   std::unique_ptr<transport::Listener> tcp_listener;
+  std::unique_ptr<SerialPorts> serial_ports;  // server.serial
   uv_prepare_t* flush_prepare = nullptr;
   uv_check_t* flush_check = nullptr;
   uv_timer_t* sweep_timer = nullptr;
@@ -40,7 +41,9 @@ struct FlowServer::Impl : Hub {
   void stop() noexcept;
   Result<void> listenUnix();
   Result<void> listenTcp();
-  void accept(std::unique_ptr<transport::Transport> transport);
+  // A connection, or a serial line's session (`serial`: its port's settings).
+  void accept(std::unique_ptr<transport::Transport> transport,
+              const transport::SerialOptions* serial = nullptr);
 };
 
 }  // namespace skr::flow

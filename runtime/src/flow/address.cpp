@@ -7,6 +7,7 @@ namespace skr::flow {
 
 std::string Address::toString() const {
   if (kind == Kind::local) return "local:" + path;
+  if (kind == Kind::serial) return "serial:" + path + "@" + std::to_string(baud);
   const bool v6 = host.find(':') != std::string::npos;
   return std::string(kind == Kind::tls ? "tls:" : "tcp:") + (v6 ? "[" + host + "]" : host) + ":" +
          std::to_string(port);
@@ -14,15 +15,31 @@ std::string Address::toString() const {
 
 Result<Address> Address::parse(std::string_view text) {
   const auto bad = [&](const std::string& why) {
-    return makeError(Errc::invalid_argument,
-                     "bad hub address \"" + std::string(text) + "\": " + why +
-                         " (expected local:/path, tcp:host[:port] or tls:host[:port])");
+    return makeError(
+        Errc::invalid_argument,
+        "bad hub address \"" + std::string(text) + "\": " + why +
+            " (expected local:/path, tcp:host[:port], tls:host[:port] or serial:/dev/path[@baud])");
   };
   Address a;
   if (text.starts_with("local:")) {
     a.path = std::string(text.substr(6));
     if (a.path.empty()) return bad("empty socket path");
     if (a.path.size() >= 108) return bad("socket path longer than 107 bytes");
+    return a;
+  }
+  if (text.starts_with("serial:")) {
+    a.kind = Kind::serial;
+    std::string_view rest = text.substr(7);
+    const size_t at = rest.rfind('@');
+    a.path = std::string(rest.substr(0, at));
+    if (!a.path.starts_with("/")) return bad("the device must be an absolute path");
+    if (at != std::string_view::npos) {
+      const std::string_view rate = rest.substr(at + 1);
+      const auto [end, ec] = std::from_chars(rate.data(), rate.data() + rate.size(), a.baud);
+      if (ec != std::errc() || end != rate.data() + rate.size() || a.baud == 0) {
+        return bad("the rate after '@' must be a number of baud");
+      }
+    }
     return a;
   }
   if (text.starts_with("tcp:")) {

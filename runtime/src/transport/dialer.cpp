@@ -5,6 +5,7 @@
 #include "stream_transport.h"
 #include "tls_transport.h"
 
+#include <skrobot/runtime/flow/serial.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/loop_handles.h>
 
@@ -167,8 +168,27 @@ class StreamDialer final : public Dialer {
 
 }  // namespace
 
+// A serial line opens at once; the answer still comes from the loop.
+class SerialDialer final : public Dialer {
+ public:
+  SerialDialer(Loop& loop, const Address& address, Opened opened)
+      : result_(openSerialSession(loop, address.path, address.baud)),
+        opened_(std::move(opened)),
+        report_(loop, [this] { opened_(std::move(result_)); }) {
+    report_.startIn(0);
+  }
+
+ private:
+  Result<std::unique_ptr<Transport>> result_;
+  Opened opened_;
+  Timer report_;
+};
+
 std::unique_ptr<Dialer> Dialer::open(Loop& loop, const Address& address,
                                      const Result<TlsContext>* tls, Opened opened) {
+  if (address.kind == Address::Kind::serial) {
+    return std::make_unique<SerialDialer>(loop, address, std::move(opened));
+  }
   auto dialer = std::make_unique<StreamDialer>(loop, address, tls, std::move(opened));
   dialer->start();
   return dialer;

@@ -234,6 +234,8 @@ std::string_view transportKindName(TransportKind kind) noexcept {
       return "tls";
     case TransportKind::memory:
       return "memory";
+    case TransportKind::serial:
+      return "serial";
   }
   return "?";
 }
@@ -242,6 +244,7 @@ std::string PeerIdentity::source() const {
   if (kind == TransportKind::unix_socket) {
     return uid >= 0 ? "uid:" + std::to_string(uid) : std::string("unix:?");
   }
+  if (kind == TransportKind::serial) return "serial:" + device;
   return address.empty() ? std::string("tcp:?") : "tcp:" + address;
 }
 

@@ -4,6 +4,7 @@
 #include <skrobot/runtime/loop.h>
 
 #include <csignal>
+#include <cstring>
 #include <mutex>
 
 namespace skr::sat::detail {
@@ -145,6 +146,17 @@ void Link::ended(const transport::TransportEnd& end) {
 
 void Link::received(size_t n) {
   input_.commit(n);
+  processInput();
+}
+
+void Link::message(std::string_view bytes) {
+  uint32_t length = 0;
+  if (bytes.size() >= 4) std::memcpy(&length, bytes.data(), 4);
+  if (bytes.size() < 5 || length + size_t{4} != bytes.size()) {
+    fail("a message of " + std::to_string(bytes.size()) + " bytes is not one frame", true);
+    return;
+  }
+  input_.append(bytes);
   processInput();
 }
 

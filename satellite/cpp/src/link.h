@@ -80,7 +80,7 @@ class Link final : private flow::transport::Transport::Receiver {
   // Transport::Receiver
   std::span<char> readBuffer() override { return input_.room(); }
   void received(size_t n) override;
-  void message(std::string_view) override {}  // stream transports only
+  void message(std::string_view bytes) override;  // one whole frame (a serial line's)
   void written(Result<void> result) override;
   void ended(const flow::transport::TransportEnd& end) override;
   void closed() noexcept override { delete this; }

@@ -49,6 +49,12 @@ int connectWithin(int fd, const sockaddr* addr, socklen_t len, uint32_t timeout_
 }  // namespace
 
 Result<int> connectSocket(const Address& a, uint32_t timeout_ms) {
+  if (a.kind == Address::Kind::serial) {
+    // The line carries one session: a second connection would end the flow's.
+    return makeError(Errc::unsupported,
+                     "a serial: address carries one session, the flow; synchronous requests need "
+                     "a local:, tcp: or tls: address");
+  }
   if (a.kind == Address::Kind::local) {
     const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (fd < 0) return makeError(Errc::io_error, std::string("socket: ") + std::strerror(errno));

@@ -35,9 +35,16 @@ TEST(AddressTest, ParsesLocalAndTcp) {
   ASSERT_TRUE(tls6);
   EXPECT_EQ(tls6->port, 9000);
   EXPECT_EQ(tls6->toString(), "tls:[::1]:9000");
-  for (const char* bad :
-       {"", "local:", "udp:x", "tcp:", "tcp:host:", "tcp:host:0", "tcp:host:70000", "tcp:host:9x",
-        "tcp:[::1", "tls:", "tls:host:0", "ssl:host"}) {
+  auto serial = Address::parse("serial:/dev/ttyUSB0@1000000");
+  ASSERT_TRUE(serial);
+  EXPECT_EQ(serial->kind, Address::Kind::serial);
+  EXPECT_EQ(serial->path, "/dev/ttyUSB0");
+  EXPECT_EQ(serial->baud, 1000000u);
+  EXPECT_EQ(serial->toString(), "serial:/dev/ttyUSB0@1000000");
+  EXPECT_EQ(Address::parse("serial:/dev/ttyACM0")->baud, 115200u);
+  for (const char* bad : {"", "local:", "udp:x", "serial:", "serial:ttyUSB0", "serial:/dev/x@",
+                          "serial:/dev/x@9k", "tcp:", "tcp:host:", "tcp:host:0", "tcp:host:70000",
+                          "tcp:host:9x", "tcp:[::1", "tls:", "tls:host:0", "ssl:host"}) {
     auto r = Address::parse(bad);
     EXPECT_FALSE(r) << bad;
     if (!r) {

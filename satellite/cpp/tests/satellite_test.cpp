@@ -1,6 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // Two or more C++ satellites through a real hub: channels, data, properties, services, databases.
+#include <fcntl.h>
+#include <poll.h>
+#include <stdlib.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <mutex>
+#include <thread>
+
 #include "sat_fixture.h"
 
 namespace skr::sat::test {
@@ -365,6 +374,80 @@ TEST_F(OverTcp, PublishAndSubscribeWithARealAccount) {
   guest.start();
   ASSERT_TRUE(eventually([&] { return guest.events.count("error:") >= 1; }));
   EXPECT_FALSE(guest.connected());
+}
+
+// Two pseudo-terminals joined back to back: what is written to one's slave is read from the
+// other's, as on a cable between two serial ports.
+class NullModem {
+ public:
+  NullModem() {
+    for (auto& end : ends_) {
+      end.master = ::posix_openpt(O_RDWR | O_NOCTTY);
+      EXPECT_GE(end.master, 0);
+      EXPECT_EQ(::grantpt(end.master), 0);
+      EXPECT_EQ(::unlockpt(end.master), 0);
+      end.slave = ::ptsname(end.master);
+      termios t{};
+      ::tcgetattr(end.master, &t);
+      ::cfmakeraw(&t);
+      ::tcsetattr(end.master, TCSANOW, &t);
+    }
+    thread_ = std::thread([this] { copy(); });
+  }
+  ~NullModem() {
+    stop_ = true;
+    thread_.join();
+    for (auto& end : ends_) ::close(end.master);
+  }
+  NullModem(const NullModem&) = delete;
+  NullModem& operator=(const NullModem&) = delete;
+  [[nodiscard]] const std::string& device(int i) const { return ends_[i].slave; }
+
+ private:
+  void copy() {
+    char buf[4096];
+    while (!stop_) {
+      pollfd p[2] = {{ends_[0].master, POLLIN, 0}, {ends_[1].master, POLLIN, 0}};
+      if (::poll(p, 2, 50) <= 0) continue;
+      for (int i = 0; i < 2; ++i) {
+        if ((p[i].revents & POLLIN) == 0) continue;
+        const ssize_t n = ::read(ends_[i].master, buf, sizeof buf);
+        if (n > 0) (void)!::write(ends_[1 - i].master, buf, static_cast<size_t>(n));
+      }
+    }
+  }
+  struct End {
+    int master = -1;
+    std::string slave;
+  };
+  End ends_[2];
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+class OverSerial : public SatTest {};
+
+TEST_F(OverSerial, ASatelliteOnASerialLinePublishesToOneOnTheSocket) {
+  NullModem line;
+  hub_ = std::make_unique<HubProcess>(
+      SKROBOT_BIN, dir_.path(), "alice",
+      R"(, "serial": [{"device": ")" + line.device(0) + R"(", "account": "alice"}])");
+  startHub();
+  SatelliteOptions o = options("board");
+  auto serial = Address::parse("serial:" + line.device(1) + "@115200");
+  ASSERT_TRUE(serial) << serial.error().message;
+  o.connection.address = *serial;
+  o.connection.user = "alice";
+  SatOnThread board(o);
+  auto sub = satellite("socket");
+  ASSERT_TRUE(board.on([](Satellite& s) { return s.addChannel({.name = "analog"}); }));
+  sub->on([](Satellite& s) { s.subscribe("alice.analog"); });
+  board.start();
+  ASSERT_TRUE(eventually([&] { return board.events.count("start:alice.analog") == 1; }))
+      << board.events.dump() << hubLog();
+  ASSERT_TRUE(board.on([](Satellite& s) { return s.publish("analog", "512"); }));
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:alice.analog:512") == 1; }))
+      << sub->events.dump() << hubLog();
 }
 
 }  // namespace

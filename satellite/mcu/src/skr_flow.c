@@ -5,15 +5,8 @@
 
 #include <string.h>
 
-/* TODO(issue 41): the coordinator adds SESSION_LIMITS (0x16, 1.12) to the catalogue; then
- * skr_codes.h defines both and these go. */
-#ifndef SKR_CODE_SESSION_LIMITS
-#define SKR_CODE_SESSION_LIMITS 0x16u
-#endif
 #if SKR_PROTOCOL_MINOR < 12
-#define SKR_LOGIN_MINOR 12u /* SESSION_LIMITS needs 1.12 */
-#else
-#define SKR_LOGIN_MINOR SKR_PROTOCOL_MINOR
+#error "skr_codes.h predates SESSION_LIMITS (1.12): regenerate it with tools/flow-catalogue --write"
 #endif
 
 #if SKR_RX_MAX < 64
@@ -179,7 +172,7 @@ static void login(skr_flow* f) {
   skr_out o;
   begin(f, &o, SKR_CODE_LOGIN);
   put_le(&o, SKR_PROTOCOL_MAJOR, 2);
-  put_le(&o, SKR_LOGIN_MINOR, 2);
+  put_le(&o, SKR_PROTOCOL_MINOR, 2);
   put_u8(&o, 0); /* values in binary */
   put_name(&o, f->user);
   put_name(&o, f->password);

@@ -44,7 +44,8 @@ struct ServerConfig {
   bool tcp_enabled = false;
   std::string tcp_address = "127.0.0.1";
   uint16_t tcp_port = 9000;
-  std::optional<flow::TlsSettings> tls;  // "server.tls": the TCP listener speaks TLS
+  std::optional<flow::TlsSettings> tls;                // "server.tls": the TCP listener speaks TLS
+  std::vector<flow::transport::SerialOptions> serial;  // "server.serial": boards' ports
   uint32_t max_frame_bytes = 16u << 20;
   size_t subscriber_queue_bytes = 8u << 20;
   size_t max_connections = 1024;

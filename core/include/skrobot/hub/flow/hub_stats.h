@@ -54,6 +54,12 @@ struct FlowCounters {
   FlowRates last_1s, last_10s;
   double age_s = 0;
 };
+// A serial port of server.serial: its line's counters since it was last opened.
+struct SerialCounters {
+  std::string device;
+  bool open = false, in_session = false;
+  transport::SerialStats line;
+};
 struct HubSnapshot {
   Nanos at = 0;  // monotonic
   uint64_t queue_limit =
@@ -64,6 +70,7 @@ struct HubSnapshot {
   int64_t rates_until_ms = 0;
   std::vector<ChannelCounters> channels;
   std::vector<FlowCounters> flows;
+  std::vector<SerialCounters> serial;
 };
 
 // A snapshot as hub.stats carries it: a map of
@@ -75,7 +82,9 @@ struct HubSnapshot {
 //   flows: [{id, name ("<user>/<client>"), user, client, kind, messages_in, bytes_in,
 //            messages_out, bytes_out, dropped, in_hz, out_hz, in_bytes_per_s, out_bytes_per_s,
 //            dropped_per_s, path_messages, path_bytes, path_hz, the same rates with "_10s",
-//            age_s, queued_bytes, queue_fill, pending_requests}]
+//            age_s, queued_bytes, queue_fill, pending_requests}],
+//   serial: [{device, open, in_session, bytes_in, bytes_out, frames_in, frames_out, bad_check,
+//             bad_framing, bad_version, too_long, overrun, dropped_out, resyncs, sessions}]
 // (HubStats adds "loop", the main loop's figures.)
 [[nodiscard]] Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name);
 

@@ -12,6 +12,7 @@
 #include <skrobot/hub/flow/pair_database.h>
 #include <skrobot/runtime/flow/messages.h>
 #include <skrobot/runtime/flow/protocol.h>
+#include <skrobot/runtime/flow/serial.h>
 #include <skrobot/runtime/flow/tls.h>
 #include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/loop.h>
@@ -62,6 +63,9 @@ struct ServerOptions {
   // Set: the TCP listener speaks TLS only (certificate and key required; ca_file set: clients
   // must present a certificate it signed). The files are loaded by start().
   std::optional<TlsSettings> tls;
+  // Serial ports whose boards are satellites (a device may be a glob: each match is a port);
+  // opened at start and whenever a listed device appears. docs/microcontrollers.md.
+  std::vector<transport::SerialOptions> serial;
   uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
   // Streaming data queued for one subscriber beyond this is dropped, oldest first.
   size_t subscriber_queue_bytes = 8u << 20;

@@ -76,36 +76,48 @@ void SessionRoom::handle(Connection& c, msg::Login& m) {
 }
 
 void SessionRoom::verify(Connection& c, msg::Login m) {
-  auth->verify(
-      m.user, std::move(m.password), c.transport(),
-      c.whenAlive<LoginResult>([this, user = m.user, minor = std::min(m.minor, kProtocolMinor)](
-                                   Connection& c, LoginResult r) {
-        if (!r.ok) {
-          ++hub_.stats.logins_failed;
-          throttle.failed(user, c.source, monotonicNs());
-          log::warn(kLogSource, "FLOW-AUTH-FAILED",
-                    c.describe() + ": login as \"" + user + "\" refused (" + r.reason + ")");
-          c.replyError(ErrorCode::auth_failed, "wrong user name or password");
-          c.closeAfterFlush("login refused");
-          return;
-        }
-        c.user = user;
-        c.access = auth->accessOf(user);
-        throttle.succeeded(user, c.source);
-        const uint32_t limit = c.access->limits().orElse(hub_.opt.user_limits).connections;
-        if (hub_.endpoints.holdingsOf(user).endpoints > limit) {     // this one included
-          const Error e = limitReached(user, "connections", limit);  // logged (FLOW-LIMIT)
-          c.replyError(ErrorCode::limit_exceeded, e.message);
-          c.closeAfterFlush("connection limit");
-          return;
-        }
-        c.loggedIn(minor);
-        hub_.loggedIn(c);
-        c.send(msg::LoginOk{kProtocolMajor, kProtocolMinor, c.id, hub_.opt.app_name, c.user,
-                            c.current_db});
-        log::info(kLogSource, "FLOW-LOGIN", c.describe() + " logged in");
-        c.unblock();
-      }));
+  const uint16_t minor = std::min(m.minor, kProtocolMinor);
+  if (!c.bound_account.empty()) {
+    // A serial port bound to an account: the port is the credential (docs/microcontrollers.md).
+    LoginResult r;
+    r.ok = (m.user.empty() || m.user == c.bound_account) && auth->hasUser(c.bound_account);
+    r.reason = r.ok ? "bound port" : "the port is bound to \"" + c.bound_account + "\"";
+    finishLogin(c, c.bound_account, minor, std::move(r));
+    return;
+  }
+  auth->verify(m.user, std::move(m.password), c.transport(),
+               c.whenAlive<LoginResult>([this, user = m.user, minor](Connection& c, LoginResult r) {
+                 finishLogin(c, user, minor, std::move(r));
+               }));
+}
+
+void SessionRoom::finishLogin(Connection& c, const std::string& user, uint16_t minor,
+                              LoginResult r) {
+  if (!r.ok) {
+    ++hub_.stats.logins_failed;
+    throttle.failed(user, c.source, monotonicNs());
+    log::warn(kLogSource, "FLOW-AUTH-FAILED",
+              c.describe() + ": login as \"" + user + "\" refused (" + r.reason + ")");
+    c.replyError(ErrorCode::auth_failed, "wrong user name or password");
+    c.closeAfterFlush("login refused");
+    return;
+  }
+  c.user = user;
+  c.access = auth->accessOf(user);
+  throttle.succeeded(user, c.source);
+  const uint32_t limit = c.access->limits().orElse(hub_.opt.user_limits).connections;
+  if (hub_.endpoints.holdingsOf(user).endpoints > limit) {     // this one included
+    const Error e = limitReached(user, "connections", limit);  // logged (FLOW-LIMIT)
+    c.replyError(ErrorCode::limit_exceeded, e.message);
+    c.closeAfterFlush("connection limit");
+    return;
+  }
+  c.loggedIn(minor);
+  hub_.loggedIn(c);
+  c.send(
+      msg::LoginOk{kProtocolMajor, kProtocolMinor, c.id, hub_.opt.app_name, c.user, c.current_db});
+  log::info(kLogSource, "FLOW-LOGIN", c.describe() + " logged in");
+  c.unblock();
 }
 
 void SessionRoom::sweep(Nanos now) {
@@ -126,6 +138,40 @@ void SessionRoom::handle(Connection& c, msg::GoAsync&) {
   c.becomeFlow();
   log::debug(kLogSource, "FLOW-ASYNC", c.describe() + " is now a flow");
   hub_.links.flowOpened(c);
+  // A small session learns the channels it watches that exist already.
+  if (c.watches()) {
+    hub_.channels.forEach([&](const Channel& ch) {
+      if (ch.owner != &c) c.onChannelAdded(ch, 0);
+    });
+  }
+}
+
+void SessionRoom::handle(Connection& c, msg::SessionLimits& m) {
+  // A frame limit below a ChannelInfo with a short name would starve the session.
+  constexpr uint32_t kSmallestFrame = 64;
+  if (m.max_frame != 0 && m.max_frame < kSmallestFrame) {
+    c.replyError(ErrorCode::invalid_argument,
+                 "max_frame " + std::to_string(m.max_frame) + " is below 64 bytes");
+    return;
+  }
+  if ((m.events & ~msg::session_events_all) != 0) {
+    c.replyError(ErrorCode::invalid_argument, "unknown event bits in SESSION_LIMITS");
+    return;
+  }
+  std::vector<std::string> patterns;
+  for (size_t at = 0; at < m.watch.size();) {
+    const size_t space = std::min(m.watch.find(' ', at), m.watch.size());
+    if (space > at) patterns.emplace_back(m.watch, at, space - at);
+    at = space + 1;
+  }
+  auto watch = NameFilter::parse(patterns);
+  if (!watch) {
+    c.replyError(ErrorCode::invalid_argument, "watch: " + watch.error().message);
+    return;
+  }
+  c.limitSession(m.max_frame, (m.events & msg::session_events_channels) != 0,
+                 std::move(watch).value());
+  c.replyOk();
 }
 
 void SessionRoom::handle(Connection& c, msg::Ping& m) {

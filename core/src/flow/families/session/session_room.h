@@ -38,6 +38,8 @@ class SessionRoom final : public Room {
   // Verifies a LOGIN (after the throttle's delay, if any), off the loop; the answer comes back to
   // the connection if it is still there.
   void verify(Connection& c, msg::Login m);
+  // The answer to a LOGIN once its password (or its port's binding) was checked.
+  void finishLogin(Connection& c, const std::string& user, uint16_t minor, LoginResult r);
 
   // Logins held back by the throttle: verified by sweep() once `at` has passed.
   struct DelayedLogin {

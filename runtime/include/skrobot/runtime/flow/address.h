@@ -7,6 +7,8 @@
 //   tcp:robot.local:9000    TCP; the port defaults to 9000; IPv6 as tcp:[::1]:9000
 //   tls:robot.local:9000    TCP with TLS (docs/security.md); the hub's certificate must name
 //                           the host as written here (a DNS name or an IP address)
+//   serial:/dev/ttyUSB0@115200  a serial line (flow/serial.h), one session at a time; the rate
+//                           defaults to 115200
 //
 // Parsing only: nothing here resolves a name or opens a socket.
 #pragma once
@@ -23,17 +25,20 @@ constexpr uint16_t kDefaultTcpPort = 9000;
 constexpr std::string_view kDefaultAddress = "local:/tmp/Robot";
 
 struct Address {
-  enum class Kind { local, tcp, tls };
+  enum class Kind { local, tcp, tls, serial };
   Kind kind = Kind::local;
-  std::string path = "/tmp/Robot";  // Kind::local
+  std::string path = "/tmp/Robot";  // Kind::local; Kind::serial: the device
   std::string host;                 // Kind::tcp and tls: a name or a numeric address
   uint16_t port = kDefaultTcpPort;  // Kind::tcp and tls
+  uint32_t baud = 115200;           // Kind::serial
 
-  [[nodiscard]] bool isNetwork() const noexcept { return kind != Kind::local; }
-  // "local:/tmp/Robot", "tcp:host:9000" or "tls:host:9000", the form parse() reads.
+  // TCP and TLS: where a password crosses a network (a serial line is a cable).
+  [[nodiscard]] bool isNetwork() const noexcept { return kind == Kind::tcp || kind == Kind::tls; }
+  // "local:/tmp/Robot", "tcp:host:9000", "tls:host:9000" or "serial:/dev/ttyUSB0@115200", the
+  // form parse() reads.
   [[nodiscard]] std::string toString() const;
-  // Parses "local:/path", "tcp:host[:port]" or "tls:host[:port]". Errc::invalid_argument,
-  // naming what is wrong.
+  // Parses "local:/path", "tcp:host[:port]", "tls:host[:port]" or "serial:/dev/path[@baud]".
+  // Errc::invalid_argument, naming what is wrong.
   [[nodiscard]] static Result<Address> parse(std::string_view text);
 };
 

@@ -129,6 +129,19 @@ struct Ping {
   Rest echo;
   SKR_FLOW_FIELDS(echo)
 };
+// SESSION_LIMITS (1.12): a small session (a board on a serial line or UDP) states, after LOGIN
+// and before GO_ASYNC, the largest frame it takes and which broadcast events it wants.
+struct SessionLimits {
+  static constexpr Code code = Code::session_limits;
+  uint32_t max_frame = 0;  // the largest frame the hub sends it, length field included; 0: none
+  uint32_t events = 0;     // SessionEvents bits
+  std::string watch;       // a channel-name filter, patterns separated by spaces
+  SKR_FLOW_FIELDS(max_frame, events, watch)
+};
+enum SessionEvents : uint32_t {
+  session_events_channels = 1,  // every channel's EV_CHAN_ADDED, _REMOVED and _HEADER
+  session_events_all = session_events_channels,
+};
 // PING's answer: the same bytes.
 struct Pong {
   static constexpr Code code = Code::reply_ok;

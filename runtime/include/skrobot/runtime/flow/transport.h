@@ -58,8 +58,8 @@ class Loop;
 
 namespace skr::flow::transport {
 
-enum class TransportKind : uint8_t { unix_socket, tcp, tls, memory };
-// "unix", "tcp", "tls", "memory": log lines, statistics.
+enum class TransportKind : uint8_t { unix_socket, tcp, tls, memory, serial };
+// "unix", "tcp", "tls", "memory", "serial": log lines, statistics.
 [[nodiscard]] std::string_view transportKindName(TransportKind kind) noexcept;
 
 // Who is at the other end: what the login throttle counts by and what permission rules read.
@@ -68,8 +68,12 @@ struct PeerIdentity {
   int64_t uid = -1;         // Unix socket: the peer process's uid (SO_PEERCRED); -1 unknown
   std::string address;      // TCP, TLS: the peer's numeric address; empty when unknown
   std::string certificate;  // TLS: the subject of the certificate the peer sent; empty if none
+  std::string device;       // serial: the device the line is on
+  std::string account;      // serial: the account the port is bound to (it logs in without a
+                            // password); empty: the board logs in with its own credentials
 
-  // "uid:<n>" for a Unix peer, "tcp:<address>" for TCP and TLS ("unix:?", "tcp:?" unknown).
+  // "uid:<n>" for a Unix peer, "tcp:<address>" for TCP and TLS ("unix:?", "tcp:?" unknown),
+  // "serial:<device>" for a board on a serial line.
   [[nodiscard]] std::string source() const;
 };
 

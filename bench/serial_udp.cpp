@@ -24,6 +24,8 @@ using namespace skr;
 using skr::bench::InProcessHub;
 using skr::bench::Sat;
 using skr::bench::waitFor;
+using skr::boards::test::LineRelay;
+using skr::boards::test::SimBoard;
 
 struct Row {
   uint32_t baud = 0;
@@ -94,11 +96,12 @@ void measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
     std::exit(1);
   }
   const auto setSize = [&](int size) {
-    auto r = sub.on([&](sat::Satellite& s) {
-      return s.call("robot.control", "size", flow::Variant(static_cast<int64_t>(size)));
+    std::optional<Result<flow::Variant>> r;
+    sub.on([&](sat::Satellite& s) {
+      r.emplace(s.call("robot.control", "size", flow::Variant(static_cast<int64_t>(size))));
     });
-    if (!r) {
-      std::fprintf(stderr, "serial_udp: robot.control: %s\n", r.error().message.c_str());
+    if (!*r) {
+      std::fprintf(stderr, "serial_udp: robot.control: %s\n", r->error().message.c_str());
       std::exit(1);
     }
   };

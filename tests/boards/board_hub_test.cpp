@@ -16,6 +16,8 @@ namespace skr::sat::test {
 namespace {
 
 using skr::test::TempDir;
+using skr::boards::test::LineRelay;
+using skr::boards::test::SimBoard;
 
 // The hub with the account "robot" (the sketch's user), its serial port bound to it.
 std::unique_ptr<HubProcess> hubOn(const fs::path& dir, const std::string& device) {
@@ -55,7 +57,8 @@ TEST_F(Board, TheExampleSketchPublishesAnswersFollowsAndComesBackAfterAReset) {
   auto cpp = reader();
   // The board logs in, creates robot.analog and publishes at 50 Hz of simulated time.
   ASSERT_TRUE(eventually([&] { return analogCount(*cpp) >= 20; }, 30000))
-      << cpp->events.dump() << hubLog() << board.output();
+      << cpp->events.dump() << hubLog() << board.output()
+      << (hubStats() ? flow::variantToJsonText(*hubStats()) : std::string("no stats"));
 
   // A Python satellite reads it too.
   const fs::path py_out = dir_.path() / "python.log";

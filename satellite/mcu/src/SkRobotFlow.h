@@ -15,6 +15,12 @@
 #include "skr_codes.h"
 #include "skr_flow.h"
 
+// Bytes kept aside while a write waits for room: the stream's receive buffer (64 bytes on an Uno)
+// would otherwise overflow while a frame goes out and the hub's answers come in.
+#ifndef SKR_STASH
+#define SKR_STASH 64
+#endif
+
 class SkRobotFlow {
  public:
   explicit SkRobotFlow(Stream& stream) : stream_(stream) {}
@@ -54,8 +60,14 @@ class SkRobotFlow {
   static void write(void* ctx, const uint8_t* data, size_t n);
   static uint32_t clock(void* ctx);
 
+  // Moves what has arrived into the stash (while a write waits).
+  void drain();
+
   Stream& stream_;
   skr_flow flow_;
+  uint8_t stash_[SKR_STASH];
+  uint8_t stash_head_ = 0;
+  uint8_t stash_count_ = 0;
 };
 
 #endif  // SKROBOT_FLOW_ARDUINO_H

@@ -179,6 +179,10 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
       } else if (info->minor > minor_) {
         replyError(ErrorCode::unsupported,
                    name + " is newer than this connection's protocol 1." + std::to_string(minor_));
+      } else if (info->family == Family::blobs &&
+                 transport_->kind() == transport::TransportKind::udp) {
+        // A datagram carries one frame below the path's MTU: blob transfers are not for UDP.
+        replyError(ErrorCode::unsupported, name + ": no blob transfers on a UDP session");
       } else {
         dispatchFrame(code, body);
       }

@@ -18,7 +18,7 @@ extern "C" {
 #define SKR_UDP_MAX_DATAGRAM 1500u /* the largest datagram sent or received */
 #endif
 
-typedef struct {
+typedef struct skr_udp {
   int fd;
   skr_udp_session s;
   uint8_t rx[SKR_UDP_MAX_DATAGRAM];

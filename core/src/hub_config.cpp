@@ -258,13 +258,13 @@ s::Schema serverSchema() {
                          })),
       s::optional("serial", s::arrayOf(serialSchema()), Json::arrayValue),
       // Boards' UDP sessions (docs/microcontrollers.md): off unless set, the address explicit.
-      s::optional("udp", s::object({
-                             s::required("address", s::string().nonEmpty().check(numericAddress)),
-                             s::optional("port", s::integer().range(0, 65535), 9001),
-                             s::optional("max_datagram", s::integer().range(128, 65507), 1200),
-                             s::optional("session_timeout_ms", s::integer().range(100, 3600000),
-                                         10000),
-                         })),
+      s::optional("udp",
+                  s::object({
+                      s::required("address", s::string().nonEmpty().check(numericAddress)),
+                      s::optional("port", s::integer().range(0, 65535), 9001),
+                      s::optional("max_datagram", s::integer().range(128, 65507), 1200),
+                      s::optional("session_timeout_ms", s::integer().range(100, 3600000), 10000),
+                  })),
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
       s::optional("max_connections", s::integer().range(1, 100000), 1024),

@@ -114,7 +114,8 @@ HubSnapshot FlowServer::snapshot() const {
       out.serial.push_back({port.device, port.open, port.in_session, port.stats});
     }
   }
-  if (s.udp_port) out.udp = UdpCounters{s.udp_port->port(), s.udp_port->sessions(), s.udp_port->stats()};
+  if (s.udp_port)
+    out.udp = UdpCounters{s.udp_port->port(), s.udp_port->sessions(), s.udp_port->stats()};
   std::sort(out.flows.begin(), out.flows.end(),
             [](const FlowCounters& a, const FlowCounters& b) { return a.id < b.id; });
   return out;

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
 // one room per family of the protocol); this adds the listeners (transport.h: Unix socket, TCP,
-// TLS on TCP; serial_ports.h; udp_port.h), accepting connections, the loop's handles that flush output once per
-// iteration and run the sweep. Main loop thread only. docs/internals.md is the map.
+// TLS on TCP; serial_ports.h; udp_port.h), accepting connections, the loop's handles that flush
+// output once per iteration and run the sweep. Main loop thread only. docs/internals.md is the map.
 #pragma once
 
 #include "hub.h"

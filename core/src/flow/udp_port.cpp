@@ -158,9 +158,8 @@ class Port final : public UdpPort {
     if (!w) return w.error();
     watch_ = std::move(w).value();
     watch_.watch(FdWatch::readable);
-    const Nanos every =
-        std::clamp<Nanos>(static_cast<Nanos>(options_.session_timeout_ms) * kNsPerMs / 4,
-                          10 * kNsPerMs, kNsPerSec);
+    const Nanos every = std::clamp<Nanos>(
+        static_cast<Nanos>(options_.session_timeout_ms) * kNsPerMs / 4, 10 * kNsPerMs, kNsPerSec);
     sweep_.startEvery(every);
     sockaddr_storage a{};
     socklen_t len = sizeof a;
@@ -357,8 +356,9 @@ class Port final : public UdpPort {
     }
     for (Session* s : idle) {
       ++stats_.timeouts;
-      end(s, {TransportEnd::Why::error, "no datagram for " +
-                                            std::to_string(options_.session_timeout_ms) + " ms"},
+      end(s,
+          {TransportEnd::Why::error,
+           "no datagram for " + std::to_string(options_.session_timeout_ms) + " ms"},
           true);
     }
   }
@@ -367,7 +367,8 @@ class Port final : public UdpPort {
   // (it is closing itself).
   void end(Session* s, TransportEnd why, bool tell) noexcept {
     if (sessions_.erase(s->id) == 0) return;
-    if (tell) sendTo(s->where, udp::makeNumbered(udp::Type::close, s->key, s->id, ++s->seq_out, {}));
+    if (tell)
+      sendTo(s->where, udp::makeNumbered(udp::Type::close, s->key, s->id, ++s->seq_out, {}));
     if (!why.message.empty()) s->ended(std::move(why));
   }
 
@@ -516,12 +517,12 @@ Result<std::unique_ptr<UdpPort>> UdpPort::open(Loop& loop, transport::UdpOptions
     const int err = errno;
     ::freeaddrinfo(res);
     if (fd >= 0) ::close(fd);
-    return makeError(Errc::io_error, "UDP " + options.address + ":" + service + ": " +
-                                         std::strerror(err));
+    return makeError(Errc::io_error,
+                     "UDP " + options.address + ":" + service + ": " + std::strerror(err));
   }
   ::freeaddrinfo(res);
-  auto port = std::make_unique<Port>(loop, std::move(options), fd, std::move(key_of),
-                                     std::move(accepted));
+  auto port =
+      std::make_unique<Port>(loop, std::move(options), fd, std::move(key_of), std::move(accepted));
   if (auto r = port->start(); !r) return r.error();
   return std::unique_ptr<UdpPort>(std::move(port));
 }

@@ -71,7 +71,11 @@ std::optional<Numbered> parseNumbered(std::string_view d) noexcept {
   }
   if (*t == Type::close && d.size() != kDataOverhead) return std::nullopt;
   const size_t body = d.size() - 8;
-  return Numbered{*t, get32(d, 2), get32(d, 6), d.substr(10, body - 10), d.substr(0, body),
+  return Numbered{*t,
+                  get32(d, 2),
+                  get32(d, 6),
+                  d.substr(10, body - 10),
+                  d.substr(0, body),
                   bytesAt<8>(d, body)};
 }
 
@@ -123,8 +127,7 @@ std::string makeCookie(const Nonce& nonce, const Key& cookie) {
   return out;
 }
 
-std::string makeAccept(const Key& key, const Nonce& client, uint32_t session,
-                       const Nonce& server) {
+std::string makeAccept(const Key& key, const Nonce& client, uint32_t session, const Nonce& server) {
   std::string out{static_cast<char>(Type::accept), static_cast<char>(kVersion)};
   append(out, client);
   put32(out, session);

@@ -21,9 +21,9 @@ using Mac64 = std::array<uint8_t, 8>;
 
 constexpr uint8_t kVersion = 1;
 enum class Type : uint8_t { hello = 1, cookie = 2, open = 3, accept = 4, data = 5, close = 6 };
-constexpr size_t kHelloBytes = 64;   // a HELLO below this is not answered (no amplification)
-constexpr size_t kCookieBytes = 26;  // type, version, client nonce, cookie
-constexpr size_t kAcceptBytes = 38;  // type, version, client nonce, session, server nonce, mac
+constexpr size_t kHelloBytes = 64;    // a HELLO below this is not answered (no amplification)
+constexpr size_t kCookieBytes = 26;   // type, version, client nonce, cookie
+constexpr size_t kAcceptBytes = 38;   // type, version, client nonce, session, server nonce, mac
 constexpr size_t kDataOverhead = 18;  // type, version, session, seq, mac
 constexpr size_t kMaxUser = 64;
 

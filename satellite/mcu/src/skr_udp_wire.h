@@ -32,7 +32,7 @@ extern "C" {
 #define SKR_UDP_DATA 5u
 #define SKR_UDP_CLOSE 6u
 
-#define SKR_UDP_HELLO_BYTES 64u  /* a HELLO is padded to this at least; a COOKIE is 26 */
+#define SKR_UDP_HELLO_BYTES 64u /* a HELLO is padded to this at least; a COOKIE is 26 */
 #define SKR_UDP_COOKIE_BYTES 26u
 #define SKR_UDP_ACCEPT_BYTES 38u
 #define SKR_UDP_DATA_OVERHEAD 18u /* type, version, session, seq, mac */

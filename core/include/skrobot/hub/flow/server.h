@@ -13,8 +13,8 @@
 #include <skrobot/runtime/flow/messages.h>
 #include <skrobot/runtime/flow/protocol.h>
 #include <skrobot/runtime/flow/serial.h>
-#include <skrobot/runtime/flow/udp.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/udp.h>
 #include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/result.h>

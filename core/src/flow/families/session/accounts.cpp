@@ -181,9 +181,9 @@ Result<UsersFile> UsersFile::load(const fs::path& path) {
       udp_key = udpKeyFromBase64(u["udp_key"].isString() ? u["udp_key"].asString() : "");
       if (!udp_key) return corrupt(at + ".udp_key is not the base64 of 16 bytes");
     }
-    file.users_[name] = Entry{u["hash"].asString(), u["created"].asString(),
-                              std::make_shared<const AccessRules>(std::move(access.value())),
-                              udp_key};
+    file.users_[name] =
+        Entry{u["hash"].asString(), u["created"].asString(),
+              std::make_shared<const AccessRules>(std::move(access.value())), udp_key};
   }
   return file;
 }

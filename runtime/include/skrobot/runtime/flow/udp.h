@@ -23,20 +23,20 @@ struct UdpOptions {
 struct UdpStats {
   uint64_t datagrams_in = 0, datagrams_out = 0;
   uint64_t bytes_in = 0, bytes_out = 0;
-  uint64_t cookies_sent = 0;    // COOKIEs answering HELLOs (no state kept)
-  uint64_t short_hello = 0;     // HELLOs below 64 bytes: not answered
-  uint64_t bad_cookie = 0;      // OPENs with a cookie this hub did not give (or too old)
-  uint64_t bad_mac = 0;         // OPENs and DATA whose MAC did not hold, OPENs of keyless users
-  uint64_t unknown_session = 0; // DATA or CLOSE for no session
-  uint64_t malformed = 0;       // cut short, another version or type, not a whole frame
-  uint64_t replayed = 0;        // a sequence number seen already or older than the window
-  uint64_t lost = 0;            // sequence numbers skipped and not arrived since
-  uint64_t reordered = 0;       // arrived after a later one (delivered)
-  uint64_t too_large = 0;       // frames not sent: above max_datagram
-  uint64_t send_failed = 0;     // datagrams the system refused (a full socket buffer)
-  uint64_t overrun = 0;         // frames dropped: a paused session had too many waiting
-  uint64_t sessions = 0;        // sessions opened
-  uint64_t timeouts = 0;        // sessions ended by session_timeout_ms
+  uint64_t cookies_sent = 0;     // COOKIEs answering HELLOs (no state kept)
+  uint64_t short_hello = 0;      // HELLOs below 64 bytes: not answered
+  uint64_t bad_cookie = 0;       // OPENs with a cookie this hub did not give (or too old)
+  uint64_t bad_mac = 0;          // OPENs and DATA whose MAC did not hold, OPENs of keyless users
+  uint64_t unknown_session = 0;  // DATA or CLOSE for no session
+  uint64_t malformed = 0;        // cut short, another version or type, not a whole frame
+  uint64_t replayed = 0;         // a sequence number seen already or older than the window
+  uint64_t lost = 0;             // sequence numbers skipped and not arrived since
+  uint64_t reordered = 0;        // arrived after a later one (delivered)
+  uint64_t too_large = 0;        // frames not sent: above max_datagram
+  uint64_t send_failed = 0;      // datagrams the system refused (a full socket buffer)
+  uint64_t overrun = 0;          // frames dropped: a paused session had too many waiting
+  uint64_t sessions = 0;         // sessions opened
+  uint64_t timeouts = 0;         // sessions ended by session_timeout_ms
 };
 
 }  // namespace skr::flow::transport

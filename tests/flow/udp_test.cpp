@@ -276,6 +276,14 @@ TEST_F(Udp, TheSessionsAccountLogsInAndBlobsAreRefused) {
   auto err = as<msg::ReplyError>(r);
   ASSERT_TRUE(err);
   EXPECT_EQ(err->error, static_cast<uint16_t>(ErrorCode::unsupported));
+  // A reply that no datagram carries (max_datagram 512) is refused, not lost.
+  TestClient alice = flowClient("alice", "right");
+  for (int i = 0; i < 12; ++i) addChannel(alice, "a-rather-long-channel-name-" + std::to_string(i));
+  r = b.call(msg::ChanList{});
+  ASSERT_TRUE(r);
+  err = as<msg::ReplyError>(r);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->error, static_cast<uint16_t>(ErrorCode::limit_exceeded));
   // A keyless account opens no session.
   EXPECT_FALSE(TestClient::overUdp("127.0.0.1", port_, "keyless", kBoardKey));
   EXPECT_GE(udp().stats.bad_mac, 1u);

@@ -336,13 +336,22 @@ TEST_F(Udp, TheHandshakeNeverAnswersWithMoreThanItGotAndKeepsNoState) {
   EXPECT_EQ(*again, *accept);
   EXPECT_TRUE(
       skr_udp_take_accept(&s, reinterpret_cast<const uint8_t*>(accept->data()), accept->size()));
+  EXPECT_EQ(udp().open_sessions, 1u);
+  // Once that session ended, the same OPEN is a replay: no new session.
+  m = skr_udp_make_close(&s, open, sizeof open);
+  raw.sendTo(port_, open, m);
+  ASSERT_TRUE(eventually([&] { return udp().open_sessions == 0; }));
+  m = skr_udp_make_open(&s, "board", cookie, open, sizeof open);
+  raw.sendTo(port_, open, m);
+  EXPECT_FALSE(raw.recv(300));
   const UdpCounters u = udp();
   EXPECT_EQ(u.stats.short_hello, 1u);
   EXPECT_EQ(u.stats.cookies_sent, 1u);
   EXPECT_EQ(u.stats.bad_cookie, 1u);
   EXPECT_EQ(u.stats.bad_mac, 1u);
   EXPECT_EQ(u.stats.sessions, 1u);
-  EXPECT_EQ(u.open_sessions, 1u);
+  EXPECT_EQ(u.stats.replayed, 1u);
+  EXPECT_EQ(u.open_sessions, 0u);
 }
 
 TEST_F(Udp, ForgedAndReplayedDatagramsAreDroppedAndCounted) {

@@ -272,17 +272,27 @@ class Port final : public UdpPort {
       ++stats_.bad_mac;
       return;
     }
-    // The same OPEN again (its ACCEPT was lost): the same answer. A new one from the same board
-    // and account (it restarted): the old session ends.
+    // The same OPEN again (its ACCEPT was lost): the same answer while its session lives; after
+    // that, a replay (its cookie still holds). A new one from the same board and account (it
+    // restarted): the old session ends.
     for (auto& [id, s] : sessions_) {
-      if (s->user != o->user || s->where.bytes() != peer) continue;
-      if (s->client_nonce == o->nonce) {
+      if (s->user == o->user && s->where.bytes() == peer && s->client_nonce == o->nonce) {
         sendTo(from, s->accept);
         return;
       }
+    }
+    std::string tag(o->user);
+    tag.append(reinterpret_cast<const char*>(o->nonce.data()), o->nonce.size());
+    if (opened_.contains(tag)) {
+      ++stats_.replayed;
+      return;
+    }
+    for (auto& [id, s] : sessions_) {
+      if (s->user != o->user || s->where.bytes() != peer) continue;
       end(s, {TransportEnd::Why::peer_closed, "the board opened a new session"}, true);
       break;
     }
+    remember(std::move(tag));
     uint32_t id = 0;
     while (id == 0 || sessions_.contains(id)) id = randombytes_random();
     udp::Nonce server_nonce{};
@@ -347,8 +357,23 @@ class Port final : public UdpPort {
     s->frame(m->frame, stats_);
   }
 
+  // An OPEN that made a session, for as long as its cookie could hold. Only OPENs with a valid
+  // cookie and MAC get here (a key holder's); a bounded list all the same.
+  void remember(std::string tag) {
+    constexpr size_t kMaxOpened = 4096;
+    if (opened_.size() >= kMaxOpened) {
+      auto oldest =
+          std::min_element(opened_.begin(), opened_.end(),
+                           [](const auto& a, const auto& b) { return a.second < b.second; });
+      opened_.erase(oldest);
+    }
+    opened_[std::move(tag)] = monotonicNs();
+  }
+
   void sweep() {
     const Nanos now = monotonicNs();
+    std::erase_if(opened_,
+                  [now](const auto& e) { return now - e.second > 2 * kMinute + kNsPerSec; });
     const Nanos limit = static_cast<Nanos>(options_.session_timeout_ms) * kNsPerMs;
     std::vector<Session*> idle;
     for (auto& [id, s] : sessions_) {
@@ -397,6 +422,7 @@ class Port final : public UdpPort {
   uint16_t port_ = 0;
   udp::Key secret_{};  // the cookies' key, random per start
   std::unordered_map<uint32_t, Session*> sessions_;
+  std::map<std::string, Nanos> opened_;  // user | client nonce of the OPENs that made a session
   transport::UdpStats stats_;
 };
 

@@ -29,15 +29,15 @@ struct UdpStats {
   uint64_t bad_mac = 0;          // OPENs and DATA whose MAC did not hold, OPENs of keyless users
   uint64_t unknown_session = 0;  // DATA or CLOSE for no session
   uint64_t malformed = 0;        // cut short, another version or type, not a whole frame
-  uint64_t replayed = 0;     // and OPENs made again after their session ended         // a sequence
-                             // number seen already or older than the window
-  uint64_t lost = 0;         // sequence numbers skipped and not arrived since
-  uint64_t reordered = 0;    // arrived after a later one (delivered)
-  uint64_t too_large = 0;    // frames not sent: above max_datagram
-  uint64_t send_failed = 0;  // datagrams the system refused (a full socket buffer)
-  uint64_t overrun = 0;      // frames dropped: a paused session had too many waiting
-  uint64_t sessions = 0;     // sessions opened
-  uint64_t timeouts = 0;     // sessions ended by session_timeout_ms
+  uint64_t replayed = 0;         // a sequence number seen already or older than the window; an OPEN
+                                 // made again after its session ended
+  uint64_t lost = 0;             // sequence numbers skipped and not arrived since
+  uint64_t reordered = 0;        // arrived after a later one (delivered)
+  uint64_t too_large = 0;        // frames not sent: above max_datagram
+  uint64_t send_failed = 0;      // datagrams the system refused (a full socket buffer)
+  uint64_t overrun = 0;          // frames dropped: a paused session had too many waiting
+  uint64_t sessions = 0;         // sessions opened
+  uint64_t timeouts = 0;         // sessions ended by session_timeout_ms
 };
 
 }  // namespace skr::flow::transport

@@ -190,6 +190,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.tcp_port = s.tcp_port;
   o.tls = s.tls;
   o.serial = s.serial;
+  o.udp = s.udp;
   o.max_frame_bytes = s.max_frame_bytes;
   o.subscriber_queue_bytes = s.subscriber_queue_bytes;
   o.max_connections = s.max_connections;

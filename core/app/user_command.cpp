@@ -39,6 +39,7 @@ constexpr const char* kUsage =
     "       skrobot user role NAME admin|user             [--users FILE | --config FILE]\n"
     "       skrobot user rule NAME ACTION [PATTERN...]    [--users FILE | --config FILE]\n"
     "       skrobot user limit NAME WHAT N                [--users FILE | --config FILE]\n"
+    "       skrobot user key NAME [--remove]              [--users FILE | --config FILE]\n"
     "\n"
     "  --users FILE      the users file (default: $SKROBOT_USERS, else the one the hub's\n"
     "                    config names: accounts.users_file, else <data_dir>/users.json)\n"
@@ -51,6 +52,8 @@ constexpr const char* kUsage =
     "pattern syntax ('**', 'bob.*', '!bob.secret'); none: back to '**' (docs/security.md).\n"
     "WHAT: connections, channels, databases, pending_requests, blob_mib or blob_files;\n"
     "      N 0: the hub's limit.\n"
+    "key: a new random 16-byte key for NAME's board (UDP sessions, server.udp), printed once in\n"
+    "     hex for the board's sketch and replacing any older one; --remove: no UDP sessions.\n"
     "The hub reads roles and rules at login: restart it, or reconnect, to apply a change.\n"
     "Exit codes: 0 done, 1 the operation failed, 2 usage. See docs/accounts.md.\n";
 
@@ -61,6 +64,7 @@ struct Args {
   std::optional<fs::path> users;
   std::optional<fs::path> config;
   bool password_stdin = false;
+  bool remove = false;  // key --remove
 };
 
 int usage(const std::string& problem) {
@@ -181,6 +185,8 @@ std::string parse(int argc, char** argv, Args& out) {
       out.config = fs::path(argv[++i]);
     } else if (a == "--password-stdin") {
       out.password_stdin = true;
+    } else if (a == "--remove" && out.verb == "key") {
+      out.remove = true;
     } else if (a.size() > 1 && a[0] == '-' && !(out.verb == "rule" && out.values.size() >= 1)) {
       return "unknown option " + std::string(a);
     } else if (out.verb.empty()) {
@@ -194,8 +200,8 @@ std::string parse(int argc, char** argv, Args& out) {
     }
   }
   if (out.verb.empty()) return "missing command";
-  const std::vector<std::string_view> verbs = {"add",  "del",  "passwd", "list",
-                                               "show", "role", "rule",   "limit"};
+  const std::vector<std::string_view> verbs = {"add",  "del",  "passwd", "list", "show",
+                                               "role", "rule", "limit",  "key"};
   if (std::find(verbs.begin(), verbs.end(), out.verb) == verbs.end()) {
     return "unknown command " + out.verb;
   }
@@ -279,6 +285,31 @@ int run(const Args& args, const fs::path& path) {
         "blob_files %s\n",
         shown(l.connections).c_str(), shown(l.channels).c_str(), shown(l.databases).c_str(),
         shown(l.pending_requests).c_str(), shown(l.blob_mib).c_str(), shown(l.blob_files).c_str());
+    return kExitOk;
+  }
+  if (args.verb == "key") {
+    if (!file.contains(args.name)) return failed("no user " + args.name + " in " + path.string());
+    std::optional<skr::flow::UdpKey> key;
+    if (!args.remove) {
+      if (auto ready = skr::flow::sodiumReady(); !ready) return failed(ready.error().message);
+      key.emplace();
+      randombytes_buf(key->data(), key->size());
+    }
+    if (auto set = file.setUdpKey(args.name, key); !set) return failed(set.error().message);
+    if (const int rc = save(file); rc != kExitOk) return rc;
+    if (!key) {
+      std::printf("removed the UDP key of %s\n", args.name.c_str());
+      return kExitOk;
+    }
+    char hex[2 * 16 + 1];
+    sodium_bin2hex(hex, sizeof hex, key->data(), key->size());
+    sodium_memzero(key->data(), key->size());
+    std::printf("%s\n", hex);
+    std::fprintf(stderr,
+                 "the UDP key of %s (shown once: put it in the board's sketch; the hub reads it "
+                 "at its next start or reload)\n",
+                 args.name.c_str());
+    sodium_memzero(hex, sizeof hex);
     return kExitOk;
   }
   if (args.verb == "del") {

@@ -3,6 +3,7 @@
 
 #include "link_config.h"
 
+#include <arpa/inet.h>
 #include <json/reader.h>
 
 #include <algorithm>
@@ -64,6 +65,15 @@ s::Schema loopSchema(bool with_defaults) {
 
 void absolutePath(const Json::Value& v, const std::string& path, s::Problems& out) {
   if (!v.asString().starts_with("/")) out.push_back({path, "must be an absolute path (/dev/...)"});
+}
+
+// server.udp.address: an IPv4 or IPv6 address, never a name (a UDP port is bound explicitly).
+void numericAddress(const Json::Value& v, const std::string& path, s::Problems& out) {
+  unsigned char buf[16];
+  const std::string a = v.asString();
+  if (::inet_pton(AF_INET, a.c_str(), buf) != 1 && ::inet_pton(AF_INET6, a.c_str(), buf) != 1) {
+    out.push_back({path, "must be a numeric IPv4 or IPv6 address (127.0.0.1, 0.0.0.0, ::)"});
+  }
 }
 
 void nameOrPath(const Json::Value& m, const std::string& path, s::Problems& out) {
@@ -247,6 +257,14 @@ s::Schema serverSchema() {
                              s::optional("min_version", s::string().oneOf({"1.2", "1.3"}), "1.2"),
                          })),
       s::optional("serial", s::arrayOf(serialSchema()), Json::arrayValue),
+      // Boards' UDP sessions (docs/microcontrollers.md): off unless set, the address explicit.
+      s::optional("udp",
+                  s::object({
+                      s::required("address", s::string().nonEmpty().check(numericAddress)),
+                      s::optional("port", s::integer().range(0, 65535), 9001),
+                      s::optional("max_datagram", s::integer().range(128, 65507), 1200),
+                      s::optional("session_timeout_ms", s::integer().range(100, 3600000), 10000),
+                  })),
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
@@ -308,6 +326,14 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
       port.max_frame = p["max_frame"].asUInt();
       port.queue_bytes = p["queue_bytes"].asUInt();
       out.serial.push_back(std::move(port));
+    }
+    if (const Json::Value& u = s["udp"]; u.isObject()) {
+      flow::transport::UdpOptions udp;
+      udp.address = u["address"].asString();
+      udp.port = static_cast<uint16_t>(u["port"].asUInt());
+      udp.max_datagram = u["max_datagram"].asUInt();
+      udp.session_timeout_ms = u["session_timeout_ms"].asUInt();
+      out.udp = std::move(udp);
     }
     out.max_frame_bytes = s["max_frame_bytes"].asUInt();
     out.subscriber_queue_bytes = s["subscriber_queue_bytes"].asUInt();

@@ -211,6 +211,31 @@ TEST(ConfigTest, SerialPortsAreReadAndCheckedByPath) {
              "$.server.serial[0].baud");
 }
 
+TEST(ConfigTest, TheUdpPortIsOffUnlessSetAndNeedsANumericAddress) {
+  Result<HubConfig> r = parse(R"({"server": {}})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(r->server.udp);
+  r = parse(R"({"server": {"udp": {"address": "0.0.0.0"}}})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_TRUE(r->server.udp);
+  EXPECT_EQ(r->server.udp->port, 9001);
+  EXPECT_EQ(r->server.udp->max_datagram, 1200u);
+  EXPECT_EQ(r->server.udp->session_timeout_ms, 10000u);
+  r = parse(R"({"server": {"udp": {"address": "::1", "port": 9100, "max_datagram": 512,
+      "session_timeout_ms": 3000}}})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->server.udp->address, "::1");
+  EXPECT_EQ(r->server.udp->port, 9100);
+  EXPECT_EQ(r->server.udp->max_datagram, 512u);
+  EXPECT_EQ(r->server.udp->session_timeout_ms, 3000u);
+  EXPECT_HAS(errorOf(R"({"server": {"udp": {}}})"), "$.server.udp.address");
+  EXPECT_EQ(errorOf(R"({"server": {"udp": {"address": "localhost"}}})"),
+            "test.json: $.server.udp.address: must be a numeric IPv4 or IPv6 address (127.0.0.1, "
+            "0.0.0.0, ::)");
+  EXPECT_HAS(errorOf(R"({"server": {"udp": {"address": "0.0.0.0", "max_datagram": 64}}})"),
+             "$.server.udp.max_datagram");
+}
+
 TEST(ConfigTest, OutOfRange) {
   EXPECT_EQ(errorOf(R"({"loop": {"fast_tick_ms": 0}})"),
             "test.json: $.loop.fast_tick_ms: must be >= 0.1, got 0");

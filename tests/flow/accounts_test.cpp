@@ -8,6 +8,7 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sodium.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -350,6 +351,53 @@ CliRun runCli(std::vector<std::string> args, const std::string& input = "") {
   ::dup2(saved_stdin, STDIN_FILENO);
   ::close(saved_stdin);
   return run;
+}
+
+TEST(UserCommand, KeyMakesABoardsUdpKeyPrintsItOnceAndRemovesIt) {  // 1 argon2id
+  TempDir dir;
+  const std::string file = (dir.path() / "users.json").string();
+  {
+    auto users = UsersFile::load(file);
+    ASSERT_TRUE(users);
+    ASSERT_TRUE(users->add("board", "pw"));
+    ASSERT_TRUE(users->save());
+  }
+  auto key = runCli({"key", "board", "--users", file});
+  ASSERT_EQ(key.rc, 0) << key.err;
+  ASSERT_EQ(key.out.size(), 33u) << key.out;  // 32 hex digits and a newline
+  UdpKey printed{};
+  ASSERT_EQ(
+      sodium_hex2bin(printed.data(), printed.size(), key.out.data(), 32, nullptr, nullptr, nullptr),
+      0);
+  EXPECT_EQ(readFile(file).find(key.out.substr(0, 32)), std::string::npos);  // base64 there
+  auto users = UsersFile::load(file);
+  ASSERT_TRUE(users);
+  ASSERT_TRUE(users->udpKeyOf("board"));
+  EXPECT_EQ(*users->udpKeyOf("board"), printed);
+  EXPECT_TRUE(users->verify("board", "pw"));  // the password stays
+
+  auto again = runCli({"key", "board", "--users", file});
+  ASSERT_EQ(again.rc, 0) << again.err;
+  EXPECT_NE(again.out, key.out);
+  auto removed = runCli({"key", "board", "--remove", "--users", file});
+  EXPECT_EQ(removed.rc, 0) << removed.err;
+  users = UsersFile::load(file);
+  ASSERT_TRUE(users);
+  EXPECT_FALSE(users->udpKeyOf("board"));
+  EXPECT_EQ(runCli({"key", "nobody", "--users", file}).rc, 1);
+  EXPECT_EQ(runCli({"list", "--remove", "--users", file}).rc, 2);
+}
+
+TEST(UsersFile, AUdpKeyThatIsNotSixteenBytesIsRefused) {
+  TempDir dir;
+  const auto file = dir.path() / "users.json";
+  const std::string hash(dummyPasswordHash());
+  writeFile(file,
+            R"({"format": 1, "users": {"b": {"hash": ")" + hash + R"(", "udp_key": "AAAA"}}})");
+  auto users = UsersFile::load(file);
+  ASSERT_FALSE(users);
+  EXPECT_NE(users.error().message.find("users.b.udp_key"), std::string::npos)
+      << users.error().message;
 }
 
 TEST(UserCommand, AddListPasswdDel) {  // 3 argon2id

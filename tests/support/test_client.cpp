@@ -2,6 +2,7 @@
 #include "test_client.h"
 
 #include "skr_line.h"
+#include "skr_udp.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -51,11 +52,28 @@ bool TestClient::sendLineBytes(std::string_view bytes) {
   return true;
 }
 
+Result<TestClient> TestClient::overUdp(const std::string& host, uint16_t port,
+                                       const std::string& user,
+                                       const std::array<uint8_t, 16>& key) {
+  auto u = std::make_shared<skr_udp>();
+  if (skr_udp_open(u.get(), host.c_str(), port, user.c_str(), key.data(), 3000) != 0) {
+    return makeError(Errc::io_error, "no UDP session with " + host + ":" + std::to_string(port));
+  }
+  TestClient c(u->fd);
+  c.udp_ = std::move(u);
+  return c;
+}
+
+skr_udp* TestClient::udp() const noexcept {
+  return udp_.get();
+}
+
 TestClient::TestClient(TestClient&& o) noexcept
     : fd_(o.fd_),
       buf_(std::move(o.buf_)),
       skipped_(std::move(o.skipped_)),
-      line_(std::move(o.line_)) {
+      line_(std::move(o.line_)),
+      udp_(std::move(o.udp_)) {
   o.fd_ = -1;
 }
 
@@ -67,11 +85,16 @@ TestClient& TestClient::operator=(TestClient&& o) noexcept {
     buf_ = std::move(o.buf_);
     skipped_ = std::move(o.skipped_);
     line_ = std::move(o.line_);
+    udp_ = std::move(o.udp_);
   }
   return *this;
 }
 
 void TestClient::close() {
+  if (udp_ && fd_ >= 0) {
+    skr_udp_close(udp_.get());  // sends CLOSE and closes the socket
+    fd_ = -1;
+  }
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
 }
@@ -106,6 +129,18 @@ Result<TestClient> TestClient::connectTcp(const std::string& host, uint16_t port
 }
 
 bool TestClient::sendRaw(std::string_view bytes) {
+  if (udp_) {
+    while (bytes.size() >= 4) {
+      uint32_t len = 0;
+      std::memcpy(&len, bytes.data(), 4);
+      const size_t n = std::min(bytes.size(), 4 + static_cast<size_t>(len));
+      if (skr_udp_send(udp_.get(), reinterpret_cast<const uint8_t*>(bytes.data()), n) != 0) {
+        return false;
+      }
+      bytes.remove_prefix(n);
+    }
+    return true;
+  }
   if (line_) {
     std::string wire;
     while (bytes.size() >= 4) {
@@ -132,6 +167,13 @@ bool TestClient::sendRaw(std::string_view bytes) {
 }
 
 bool TestClient::fill(int timeout_ms) {
+  if (udp_) {
+    const uint8_t* frame = nullptr;
+    size_t n = 0;
+    if (skr_udp_poll(udp_.get(), timeout_ms, &frame, &n) != 1) return false;
+    buf_.append(reinterpret_cast<const char*>(frame), n);
+    return true;
+  }
   pollfd p{fd_, POLLIN, 0};
   if (::poll(&p, 1, timeout_ms) <= 0) return false;
   char tmp[65536];

@@ -5,12 +5,15 @@
 #include <skrobot/runtime/flow/codec.h>
 #include <skrobot/runtime/result.h>
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
+
+struct skr_udp;
 
 namespace skr::test {
 
@@ -36,6 +39,13 @@ class TestClient {
   [[nodiscard]] static TestClient overLine(int fd);
   // Bytes written to the line as they are (noise, a frame cut short), bypassing the framing.
   bool sendLineBytes(std::string_view bytes);
+  // A board's UDP session (satellite/mcu/posix/skr_udp.h) with the hub at host:port as `user`
+  // with its key: one frame per datagram. The handshake is done here (io_error when it fails).
+  [[nodiscard]] static Result<TestClient> overUdp(const std::string& host, uint16_t port,
+                                                  const std::string& user,
+                                                  const std::array<uint8_t, 16>& key);
+  // The UDP session's state (its sequence numbers, its counters); null for other clients.
+  [[nodiscard]] skr_udp* udp() const noexcept;
 
   // LOGIN and wait for the reply.
   // `minor`: the protocol minor the client announces (an older client's).
@@ -81,6 +91,7 @@ class TestClient {
   std::string buf_;
   std::deque<Frame> skipped_;
   std::shared_ptr<Line> line_;  // set for a serial line
+  std::shared_ptr<skr_udp> udp_;  // set for a UDP session
 };
 
 // A decoded message that owns the frame its payload views point into.

@@ -28,7 +28,9 @@ Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport
       transport_(std::move(transport)),
       input_(
           std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes, transport_->maxFrameBytes()})),
-      queue_limit_(hub.opt.subscriber_queue_bytes) {}
+      queue_limit_(hub.opt.subscriber_queue_bytes) {
+  if (transport_->kind() == transport::TransportKind::udp) max_frame_ = transport_->maxFrameBytes();
+}
 
 // The transport's closed() deletes a connection, possibly after the server is gone: close() has
 // already detached it from the server, so the destructor must not touch it.
@@ -179,6 +181,10 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
       } else if (info->minor > minor_) {
         replyError(ErrorCode::unsupported,
                    name + " is newer than this connection's protocol 1." + std::to_string(minor_));
+      } else if (info->family == Family::blobs &&
+                 transport_->kind() == transport::TransportKind::udp) {
+        // A datagram carries one frame below the path's MTU: blob transfers are not for UDP.
+        replyError(ErrorCode::unsupported, name + ": no blob transfers on a UDP session");
       } else {
         dispatchFrame(code, body);
       }
@@ -541,6 +547,12 @@ void Connection::onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode
 
 void Connection::limitSession(uint32_t max_frame, bool channel_events, NameFilter watch) {
   max_frame_ = max_frame;
+  // A datagram carries one frame: nothing larger is sent on a UDP session, whatever the board
+  // said (a reply above it becomes limit_exceeded rather than a datagram never sent).
+  if (transport_->kind() == transport::TransportKind::udp) {
+    const uint32_t datagram = transport_->maxFrameBytes();
+    max_frame_ = max_frame_ == 0 ? datagram : std::min(max_frame_, datagram);
+  }
   channel_events_ = channel_events;
   watch_ = std::move(watch);
 }

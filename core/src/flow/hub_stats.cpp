@@ -114,6 +114,8 @@ HubSnapshot FlowServer::snapshot() const {
       out.serial.push_back({port.device, port.open, port.in_session, port.stats});
     }
   }
+  if (s.udp_port)
+    out.udp = UdpCounters{s.udp_port->port(), s.udp_port->sessions(), s.udp_port->stats()};
   std::sort(out.flows.begin(), out.flows.end(),
             [](const FlowCounters& a, const FlowCounters& b) { return a.id < b.id; });
   return out;
@@ -211,14 +213,40 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
         {"sessions", l.sessions},
     });
   }
-  return Variant::Map{{"hub", hub_name},
-                      {"time_ms", wallMs()},
-                      {"interval_s", snapshot.interval_s},
-                      {"interval_10s_s", snapshot.interval_10s_s},
-                      {"rates_until_ms", snapshot.rates_until_ms},
-                      {"channels", std::move(channels)},
-                      {"flows", std::move(flows)},
-                      {"serial", std::move(serial)}};
+  Variant::Map out{{"hub", hub_name},
+                   {"time_ms", wallMs()},
+                   {"interval_s", snapshot.interval_s},
+                   {"interval_10s_s", snapshot.interval_10s_s},
+                   {"rates_until_ms", snapshot.rates_until_ms},
+                   {"channels", std::move(channels)},
+                   {"flows", std::move(flows)},
+                   {"serial", std::move(serial)}};
+  if (snapshot.udp) {
+    const transport::UdpStats& u = snapshot.udp->stats;
+    out["udp"] = Variant::Map{
+        {"port", static_cast<uint64_t>(snapshot.udp->port)},
+        {"open_sessions", snapshot.udp->open_sessions},
+        {"datagrams_in", u.datagrams_in},
+        {"datagrams_out", u.datagrams_out},
+        {"bytes_in", u.bytes_in},
+        {"bytes_out", u.bytes_out},
+        {"cookies_sent", u.cookies_sent},
+        {"short_hello", u.short_hello},
+        {"bad_cookie", u.bad_cookie},
+        {"bad_mac", u.bad_mac},
+        {"unknown_session", u.unknown_session},
+        {"malformed", u.malformed},
+        {"replayed", u.replayed},
+        {"lost", u.lost},
+        {"reordered", u.reordered},
+        {"too_large", u.too_large},
+        {"send_failed", u.send_failed},
+        {"overrun", u.overrun},
+        {"sessions", u.sessions},
+        {"timeouts", u.timeouts},
+    };
+  }
+  return out;
 }
 
 HubStats::HubStats(Loop& loop, FlowServer& server) : loop_(loop), server_(server) {

@@ -71,6 +71,12 @@ Result<void> FlowServer::Impl::start() {
       return r;
     }
   }
+  if (opt.udp) {
+    if (auto r = listenUdp(); !r) {
+      stop();
+      return r;
+    }
+  }
   serial_ports = std::make_unique<SerialPorts>(
       loop, opt.serial,
       [this](std::unique_ptr<transport::Transport> t, const transport::SerialOptions& port) {
@@ -129,9 +135,23 @@ Result<void> FlowServer::Impl::listenTcp() {
   return {};
 }
 
+Result<void> FlowServer::Impl::listenUdp() {
+  // The key is looked up in the users file the authenticator holds in memory: no file I/O here.
+  auto port = UdpPort::open(
+      loop, *opt.udp, [this](std::string_view user) { return session.auth->udpKeyOf(user); },
+      [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); });
+  if (!port) return port.error();
+  udp_port = std::move(port).value();
+  log::info(kLogSource, "FLOW-LISTEN",
+            "UDP " + opt.udp->address + ":" + std::to_string(udp_port->port()) +
+                " (boards with a key: skrobot user key NAME)");
+  return {};
+}
+
 void FlowServer::Impl::accept(std::unique_ptr<transport::Transport> transport,
                               const transport::SerialOptions* serial) {
-  const std::string source = transport->peer().source();
+  const transport::PeerIdentity peer = transport->peer();
+  const std::string source = peer.source();
   auto* c = new Connection(static_cast<Hub&>(*this), std::move(transport));
   c->source = source;
   if (serial != nullptr) {
@@ -139,6 +159,8 @@ void FlowServer::Impl::accept(std::unique_ptr<transport::Transport> transport,
     // A line carries a few KB/s: its data waits in a small queue, newest wins.
     c->limitQueue(serial->queue_bytes);
   }
+  // A UDP session was opened with an account's key: that account logs in, without a password.
+  if (peer.kind == transport::TransportKind::udp) c->bound_account = peer.account;
   endpoints.add(*c);
   connections[c->id] = c;
   ++stats.connections_accepted;
@@ -168,6 +190,7 @@ void FlowServer::Impl::stop() noexcept {
   unix_listener.reset();  // removes the socket file
   tcp_listener.reset();
   serial_ports.reset();
+  udp_port.reset();
   closeUvHandle(flush_prepare);
   closeUvHandle(flush_check);
   closeUvHandle(sweep_timer);
@@ -203,6 +226,9 @@ std::string FlowServer::unixPath() const {
 }
 uint16_t FlowServer::tcpPort() const noexcept {
   return impl_->tcp_port;
+}
+uint16_t FlowServer::udpPort() const noexcept {
+  return impl_->udp_port ? impl_->udp_port->port() : 0;
 }
 const ServerStats& FlowServer::stats() const noexcept {
   return impl_->stats;

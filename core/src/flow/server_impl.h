@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
 // one room per family of the protocol); this adds the listeners (transport.h: Unix socket, TCP,
-// TLS on TCP; serial_ports.h), accepting connections, the loop's handles that flush output once per
-// iteration and run the sweep. Main loop thread only. docs/internals.md is the map.
+// TLS on TCP; serial_ports.h; udp_port.h), accepting connections, the loop's handles that flush
+// output once per iteration and run the sweep. Main loop thread only. docs/internals.md is the map.
 #pragma once
 
 #include "hub.h"
 #include "serial_ports.h"
+#include "udp_port.h"
 
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/flow/tls.h>
@@ -33,6 +34,7 @@ struct FlowServer::Impl : Hub {
   std::unique_ptr<transport::Listener> unix_listener;
   std::unique_ptr<transport::Listener> tcp_listener;
   std::unique_ptr<SerialPorts> serial_ports;  // server.serial
+  std::unique_ptr<UdpPort> udp_port;          // server.udp
   uv_prepare_t* flush_prepare = nullptr;
   uv_check_t* flush_check = nullptr;
   uv_timer_t* sweep_timer = nullptr;
@@ -41,6 +43,7 @@ struct FlowServer::Impl : Hub {
   void stop() noexcept;
   Result<void> listenUnix();
   Result<void> listenTcp();
+  Result<void> listenUdp();
   // A connection, or a serial line's session (`serial`: its port's settings).
   void accept(std::unique_ptr<transport::Transport> transport,
               const transport::SerialOptions* serial = nullptr);

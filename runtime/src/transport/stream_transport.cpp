@@ -236,6 +236,8 @@ std::string_view transportKindName(TransportKind kind) noexcept {
       return "memory";
     case TransportKind::serial:
       return "serial";
+    case TransportKind::udp:
+      return "udp";
   }
   return "?";
 }
@@ -245,6 +247,7 @@ std::string PeerIdentity::source() const {
     return uid >= 0 ? "uid:" + std::to_string(uid) : std::string("unix:?");
   }
   if (kind == TransportKind::serial) return "serial:" + device;
+  if (kind == TransportKind::udp) return "udp:" + address;
   return address.empty() ? std::string("tcp:?") : "tcp:" + address;
 }
 

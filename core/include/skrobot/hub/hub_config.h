@@ -46,6 +46,7 @@ struct ServerConfig {
   uint16_t tcp_port = 9000;
   std::optional<flow::TlsSettings> tls;                // "server.tls": the TCP listener speaks TLS
   std::vector<flow::transport::SerialOptions> serial;  // "server.serial": boards' ports
+  std::optional<flow::transport::UdpOptions> udp;      // "server.udp": boards' UDP sessions
   uint32_t max_frame_bytes = 16u << 20;
   size_t subscriber_queue_bytes = 8u << 20;
   size_t max_connections = 1024;

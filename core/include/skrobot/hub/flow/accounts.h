@@ -6,7 +6,8 @@
 //   {"format": 1,
 //    "users": {"alice": {"hash": "$argon2id$v=19$m=65536,t=2,p=1$...",
 //                        "created": "2026-01-02T03:04:05Z",
-//                        "role": "admin", "rules": {...}}}}   (role and rules: flow/access.h)
+//                        "role": "admin", "rules": {...},   (role and rules: flow/access.h)
+//                        "udp_key": "<base64 of 16 bytes>"}}}  (a board's key: server.udp)
 //
 // User names are 1..64 characters of [A-Za-z0-9_-] (no '.': channel names are "<user>.<short>").
 // Passwords are 1..1024 bytes, any content. A password is never logged or stored; the buffers
@@ -42,6 +43,8 @@ constexpr size_t kMaxUserNameBytes = 64;
 constexpr size_t kMinPasswordBytes = 1;
 constexpr size_t kMaxPasswordBytes = 1024;
 constexpr int kUsersFileFormat = 1;
+// A board's key for UDP sessions (SipHash-2-4's 16 bytes; docs/flow-protocol.md, "UDP").
+using UdpKey = std::array<uint8_t, 16>;
 
 // Errc::invalid_argument with the reason when `name` is not a valid user name.
 [[nodiscard]] Result<void> validateUserName(std::string_view name);
@@ -93,6 +96,10 @@ class UsersFile {
   [[nodiscard]] std::shared_ptr<const AccessRules> accessOf(std::string_view user) const;
   // not_found when absent.
   [[nodiscard]] Result<void> setAccess(std::string_view user, AccessRules access);
+  // The key `user`'s board opens UDP sessions with (server.udp); nullopt when it has none.
+  [[nodiscard]] std::optional<UdpKey> udpKeyOf(std::string_view user) const;
+  // Sets (or with nullopt removes) that key. not_found when the user is absent.
+  [[nodiscard]] Result<void> setUdpKey(std::string_view user, std::optional<UdpKey> key);
 
   [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
 
@@ -101,6 +108,7 @@ class UsersFile {
     std::string hash;                           // crypto_pwhash_str format, "$argon2id$..."
     std::string created;                        // ISO-8601 UTC
     std::shared_ptr<const AccessRules> access;  // null: the defaults
+    std::optional<UdpKey> udp_key;
   };
   std::filesystem::path path_;
   std::map<std::string, Entry, std::less<>> users_;
@@ -185,6 +193,9 @@ class Authenticator {
 
   // True when the users file (as last loaded) has `user`.
   [[nodiscard]] bool hasUser(std::string_view user) const;
+  // The UDP key of `user` in the users file as last loaded; nullopt when none. Never blocks on
+  // file I/O (the UDP port asks on the loop thread).
+  [[nodiscard]] std::optional<UdpKey> udpKeyOf(std::string_view user) const;
   // The role and rules of `user` in the users file as last loaded (the defaults when unknown).
   [[nodiscard]] std::shared_ptr<const AccessRules> accessOf(std::string_view user) const;
 

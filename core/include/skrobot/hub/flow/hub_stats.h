@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,12 @@ struct SerialCounters {
   bool open = false, in_session = false;
   transport::SerialStats line;
 };
+// server.udp's port: its counters since the hub started, and the sessions open now.
+struct UdpCounters {
+  uint16_t port = 0;
+  uint64_t open_sessions = 0;
+  transport::UdpStats stats;
+};
 struct HubSnapshot {
   Nanos at = 0;  // monotonic
   uint64_t queue_limit =
@@ -71,6 +78,7 @@ struct HubSnapshot {
   std::vector<ChannelCounters> channels;
   std::vector<FlowCounters> flows;
   std::vector<SerialCounters> serial;
+  std::optional<UdpCounters> udp;  // set when server.udp is
 };
 
 // A snapshot as hub.stats carries it: a map of
@@ -85,6 +93,9 @@ struct HubSnapshot {
 //            age_s, queued_bytes, queue_fill, pending_requests}],
 //   serial: [{device, open, in_session, bytes_in, bytes_out, frames_in, frames_out, bad_check,
 //             bad_framing, bad_version, too_long, overrun, dropped_out, resyncs, sessions}]
+//   udp (when server.udp is set): {port, open_sessions, datagrams_in, datagrams_out, bytes_in,
+//        bytes_out, cookies_sent, short_hello, bad_cookie, bad_mac, unknown_session, malformed,
+//        replayed, lost, reordered, too_large, send_failed, overrun, sessions, timeouts}
 // (HubStats adds "loop", the main loop's figures.)
 [[nodiscard]] Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name);
 

@@ -14,6 +14,7 @@
 #include <skrobot/runtime/flow/protocol.h>
 #include <skrobot/runtime/flow/serial.h>
 #include <skrobot/runtime/flow/tls.h>
+#include <skrobot/runtime/flow/udp.h>
 #include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/result.h>
@@ -66,6 +67,8 @@ struct ServerOptions {
   // Serial ports whose boards are satellites (a device may be a glob: each match is a port);
   // opened at start and whenever a listed device appears. docs/microcontrollers.md.
   std::vector<transport::SerialOptions> serial;
+  // Set: boards' UDP sessions on this address and port (per-board keys, docs/microcontrollers.md).
+  std::optional<transport::UdpOptions> udp;
   uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
   // Streaming data queued for one subscriber beyond this is dropped, oldest first.
   size_t subscriber_queue_bytes = 8u << 20;
@@ -159,6 +162,7 @@ class FlowServer {
   [[nodiscard]] const ServerOptions& options() const noexcept;
   [[nodiscard]] std::string unixPath() const;
   [[nodiscard]] uint16_t tcpPort() const noexcept;  // the bound port (useful with port 0)
+  [[nodiscard]] uint16_t udpPort() const noexcept;  // server.udp's bound port; 0 without one
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
   [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's

@@ -50,6 +50,24 @@ Result<std::string> hashPassword(std::string_view password) {
   return std::string(out);
 }
 
+// A UDP key in the users file: the base64 (original variant, padded) of its 16 bytes.
+std::string udpKeyToBase64(const UdpKey& key) {
+  char out[sodium_base64_ENCODED_LEN(16, sodium_base64_VARIANT_ORIGINAL)];
+  sodium_bin2base64(out, sizeof out, key.data(), key.size(), sodium_base64_VARIANT_ORIGINAL);
+  return out;
+}
+
+std::optional<UdpKey> udpKeyFromBase64(const std::string& text) {
+  UdpKey key{};
+  size_t n = 0;
+  if (sodium_base642bin(key.data(), key.size(), text.data(), text.size(), nullptr, &n, nullptr,
+                        sodium_base64_VARIANT_ORIGINAL) != 0 ||
+      n != key.size()) {
+    return std::nullopt;
+  }
+  return key;
+}
+
 Error fileError(const fs::path& path, const std::string& what, int err) {
   return makeError(Errc::io_error,
                    "users file " + path.string() + ": " + what + ": " + errnoText(err));
@@ -158,8 +176,14 @@ Result<UsersFile> UsersFile::load(const fs::path& path) {
     }
     auto access = AccessRules::fromJson(u, at);
     if (!access) return corrupt(access.error().message);
-    file.users_[name] = Entry{u["hash"].asString(), u["created"].asString(),
-                              std::make_shared<const AccessRules>(std::move(access.value()))};
+    std::optional<UdpKey> udp_key;
+    if (!u["udp_key"].isNull()) {
+      udp_key = udpKeyFromBase64(u["udp_key"].isString() ? u["udp_key"].asString() : "");
+      if (!udp_key) return corrupt(at + ".udp_key is not the base64 of 16 bytes");
+    }
+    file.users_[name] =
+        Entry{u["hash"].asString(), u["created"].asString(),
+              std::make_shared<const AccessRules>(std::move(access.value())), udp_key};
   }
   return file;
 }
@@ -173,6 +197,7 @@ Result<void> UsersFile::save() const {
     users[name]["hash"] = e.hash;
     users[name]["created"] = e.created;
     if (e.access) e.access->toJson(users[name]);
+    if (e.udp_key) users[name]["udp_key"] = udpKeyToBase64(*e.udp_key);
   }
   Json::StreamWriterBuilder writer;
   writer["indentation"] = "  ";
@@ -259,6 +284,19 @@ Result<void> UsersFile::setAccess(std::string_view user, AccessRules access) {
   const auto it = users_.find(user);
   if (it == users_.end()) return makeError(Errc::not_found, "no user " + std::string(user));
   it->second.access = std::make_shared<const AccessRules>(std::move(access));
+  return {};
+}
+
+std::optional<UdpKey> UsersFile::udpKeyOf(std::string_view user) const {
+  const auto it = users_.find(user);
+  if (it == users_.end()) return std::nullopt;
+  return it->second.udp_key;
+}
+
+Result<void> UsersFile::setUdpKey(std::string_view user, std::optional<UdpKey> key) {
+  const auto it = users_.find(user);
+  if (it == users_.end()) return makeError(Errc::not_found, "no user " + std::string(user));
+  it->second.udp_key = key;
   return {};
 }
 

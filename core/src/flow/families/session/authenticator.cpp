@@ -189,6 +189,11 @@ bool Authenticator::hasUser(std::string_view user) const {
   return users_.contains(user);
 }
 
+std::optional<UdpKey> Authenticator::udpKeyOf(std::string_view user) const {
+  std::lock_guard lock(users_mutex_);
+  return users_.udpKeyOf(user);
+}
+
 std::shared_ptr<const AccessRules> Authenticator::accessOf(std::string_view user) const {
   std::lock_guard lock(users_mutex_);
   return users_.accessOf(user);

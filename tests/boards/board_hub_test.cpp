@@ -114,6 +114,21 @@ TEST_F(Board, TheExampleSketchPublishesAnswersFollowsAndComesBackAfterAReset) {
   EXPECT_NE(top.find(board.pty()), std::string::npos) << top;
 }
 
+// docs/microcontrollers.md's first sketch, as written there: its counter and its LED service.
+TEST_F(Board, TheFirstSketchOfTheDocsRunsAsWritten) {
+  SimBoard board(SIMAVR_RUNNER_BIN, FIRST_SKETCH_ELF, dir_.path());
+  ASSERT_FALSE(board.pty().empty()) << board.output();
+  hub_ = hubOn(dir_.path(), board.pty());
+  startHub();
+  auto s = satellite("reader");
+  s->on([](Satellite& x) { x.subscribe("robot.counter"); });
+  ASSERT_TRUE(eventually([&] { return s->events.count("data:robot.counter:") >= 10; }, 30000))
+      << hubLog() << board.output();
+  EXPECT_NE(flowctl(dir_.path(), {"call", "robot.led", "on"}).find("on"), std::string::npos);
+  const std::string off = flowctl(dir_.path(), {"call", "robot.led", "off"});
+  EXPECT_NE(off.find("off"), std::string::npos) << off;
+}
+
 TEST_F(Board, ANoisyLineIsResynchronisedAndDataGoesOn) {
   SimBoard board(SIMAVR_RUNNER_BIN, ANALOG_PUBLISHER_ELF, dir_.path());
   ASSERT_FALSE(board.pty().empty()) << board.output();

@@ -60,6 +60,9 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
     return transport_->kind() == transport::TransportKind::unix_socket ? Transport::unix_socket
                                                                        : Transport::tcp;
   }
+  [[nodiscard]] transport::TransportKind transportKind() const noexcept {
+    return transport_->kind();
+  }
   Nanos login_deadline = 0;
   // Accepted beyond server.max_connections: its LOGIN is answered limit_exceeded, then it closes.
   bool over_limit = false;

@@ -78,11 +78,14 @@ void SessionRoom::handle(Connection& c, msg::Login& m) {
 void SessionRoom::verify(Connection& c, msg::Login m) {
   const uint16_t minor = std::min(m.minor, kProtocolMinor);
   if (!c.bound_account.empty()) {
-    // A serial port bound to an account: the port is the credential (docs/microcontrollers.md).
+    // The transport already knows the account: a serial port bound to it (the port is the
+    // credential) or a UDP session opened with its key (docs/microcontrollers.md).
     LoginResult r;
     r.ok = (m.user.empty() || m.user == c.bound_account) && auth->hasUser(c.bound_account);
-    r.reason = r.ok ? "bound port" : "the port is bound to \"" + c.bound_account + "\"";
-    finishLogin(c, c.bound_account, minor, std::move(r));
+    r.reason = r.ok ? "bound to the account"
+                    : "this " + std::string(transport::transportKindName(c.transportKind())) +
+                          " session is bound to account \"" + c.bound_account + "\"";
+    finishLogin(c, r.ok ? c.bound_account : m.user, minor, std::move(r));
     return;
   }
   auth->verify(m.user, std::move(m.password), c.transport(),

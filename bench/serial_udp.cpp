@@ -51,9 +51,8 @@ void measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
   std::unique_ptr<LineRelay> pacer;
   std::string device = board.pty();
   if (relay) {
-    pacer = std::make_unique<LineRelay>(
-        LINE_RELAY_BIN, board.pty(), dir,
-        std::vector<std::string>{"--baud", std::to_string(baud)});
+    pacer = std::make_unique<LineRelay>(LINE_RELAY_BIN, board.pty(), dir,
+                                        std::vector<std::string>{"--baud", std::to_string(baud)});
     device = pacer->pty();
   }
   const std::string name = "b" + std::to_string(baud) + (relay ? "r" : "d");
@@ -88,25 +87,29 @@ void measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
     });
   });
   const auto subscribedTo = [&](const char* channel) {
-    return waitFor([&] { return sub.on([&](sat::Satellite& s) { return s.channel(channel) != nullptr; }); },
-                   60000);
+    return waitFor(
+        [&] { return sub.on([&](sat::Satellite& s) { return s.channel(channel) != nullptr; }); },
+        60000);
   };
-  if (!subscribedTo("robot.bench") || !subscribedTo("robot.pong")) {
+  if (!subscribedTo("robot.bench") || !subscribedTo("robot.pong") ||
+      !subscribedTo("robot.control")) {
     std::fprintf(stderr, "serial_udp: the board did not log in\n%s\n", board.output().c_str());
     std::exit(1);
   }
+  // The board's service; false (said on stdout) when it does not answer.
   const auto setSize = [&](int size) {
     std::optional<Result<flow::Variant>> r;
     sub.on([&](sat::Satellite& s) {
       r.emplace(s.call("robot.control", "size", flow::Variant(static_cast<int64_t>(size))));
     });
     if (!*r) {
-      std::fprintf(stderr, "serial_udp: robot.control: %s\n", r->error().message.c_str());
-      std::exit(1);
+      std::printf("%-9u %-7s robot.control: %s\n", baud, relay ? "relay" : "direct",
+                  r->error().message.c_str());
     }
+    return r->ok();
   };
   for (int size : {8, 32, 128}) {
-    setSize(size);
+    if (!setSize(size)) return;
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the line fills
     const uint64_t before = messages.load();
     const Nanos t0 = monotonicNs();
@@ -117,7 +120,7 @@ void measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
     std::printf("%-9u %-7s %5d B %10.1f msg/s %8.0f B/s %8.1f %%\n", baud,
                 relay ? "relay" : "direct", size, rate, rate * size, share * 100);
   }
-  setSize(0);
+  (void)setSize(0);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   std::vector<double> rtt_ms;
   for (int i = 1; i <= pings; ++i) {
@@ -136,15 +139,19 @@ void measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
       rtt_ms.push_back(static_cast<double>(pong_at[static_cast<size_t>(i)] - sent) / 1e6);
     }
   }
-  std::printf("%-9u %-7s ping    round trip p50 %.2f ms p99 %.2f ms (%zu of %d); one way ~%.2f ms\n",
-              baud, relay ? "relay" : "direct", percentile(rtt_ms, 0.5), percentile(rtt_ms, 0.99),
-              rtt_ms.size(), pings, percentile(rtt_ms, 0.5) / 2);
+  std::printf(
+      "%-9u %-7s ping    round trip p50 %.2f ms p99 %.2f ms (%zu of %d); one way ~%.2f ms\n", baud,
+      relay ? "relay" : "direct", percentile(rtt_ms, 0.5), percentile(rtt_ms, 0.99), rtt_ms.size(),
+      pings, percentile(rtt_ms, 0.5) / 2);
   board.stop();
-  std::printf("          simulator: %s\n", [&] {
-    const std::string out = board.output();
-    const size_t at = out.rfind("SIM ");
-    return at == std::string::npos ? std::string("?") : out.substr(at, out.find('\n', at) - at);
-  }().c_str());
+  std::printf("          simulator: %s\n",
+              [&] {
+                const std::string out = board.output();
+                const size_t at = out.rfind("SIM ");
+                return at == std::string::npos ? std::string("?")
+                                               : out.substr(at, out.find('\n', at) - at);
+              }()
+                  .c_str());
 }
 
 }  // namespace
@@ -152,7 +159,8 @@ void measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
 int main(int argc, char** argv) {
   const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
   skr::test::TempDir dir("skrobot-bench-serial");
-  std::printf("Boards on serial lines: an Uno in simavr (real-time speed), the board library, the hub\n");
+  std::printf(
+      "Boards on serial lines: an Uno in simavr (real-time speed), the board library, the hub\n");
   std::printf("%-9s %-7s %7s %16s %12s %10s\n", "BAUD", "LINE", "PAYLOAD", "RATE", "PAYLOAD B/S",
               "SHARE");
   measure(dir.path(), 115200, SERIAL_BENCH_115200_ELF, false, quick ? 1.0 : 3.0, quick ? 10 : 50);

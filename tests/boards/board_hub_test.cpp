@@ -15,9 +15,9 @@
 namespace skr::sat::test {
 namespace {
 
-using skr::test::TempDir;
 using skr::boards::test::LineRelay;
 using skr::boards::test::SimBoard;
+using skr::test::TempDir;
 
 // The hub with the account "robot" (the sketch's user), its serial port bound to it.
 std::unique_ptr<HubProcess> hubOn(const fs::path& dir, const std::string& device) {

@@ -18,6 +18,7 @@
  * board's terminal hung up) one line of counters:
  * `RELAY to_board bytes B dropped D flipped F inserted I to_hub bytes ... lost_unplugged L`. */
 #define _GNU_SOURCE
+#include <sys/prctl.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
@@ -180,6 +181,8 @@ static int parse_u64(const char* text, uint64_t* out) {
 }
 
 int main(int argc, char** argv) {
+  /* A test or benchmark that dies (an assertion, exit()) takes this process with it. */
+  prctl(PR_SET_PDEATHSIG, SIGTERM);
   const char* tty = NULL;
   const char* link = NULL;
   uint64_t baud = 0, seed = 1, unplug_at_ms = 0, replug_after_ms = 0;

@@ -13,6 +13,7 @@
  * one line `SIM simulated <ms> ms in <ms> ms wall (<x>x) resets <n>` on stdout. simavr's own
  * messages go to stderr. */
 #define _GNU_SOURCE
+#include <sys/prctl.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -80,6 +81,8 @@ static int make_raw(const char* name) {
 }
 
 int main(int argc, char** argv) {
+  /* A test or benchmark that dies (an assertion, exit()) takes this process with it. */
+  prctl(PR_SET_PDEATHSIG, SIGTERM);
   const char* elf = NULL;
   uint64_t limit_ms = 0, reset_at_ms = 0;
   int has_limit = 0, has_reset_at = 0, realtime = 0;

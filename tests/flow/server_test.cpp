@@ -578,7 +578,7 @@ TEST_F(Server, HubToSatelliteCodesCloseTheSenderAndUnassignedOnesAreUnsupported)
     }
   }
   EXPECT_EQ(stats().protocol_errors, closed);
-  for (uint8_t unassigned : {uint8_t(0x16), uint8_t(0x51), uint8_t(0xCA), uint8_t(0xE3)}) {
+  for (uint8_t unassigned : {uint8_t(0x17), uint8_t(0x51), uint8_t(0xCA), uint8_t(0xE3)}) {
     ASSERT_EQ(flow::codeInfo(unassigned), nullptr);
     TestClient sync = syncClient();
     ASSERT_TRUE(sync.sendRaw(std::string("\x01\x00\x00\x00", 4) + char(unassigned)));

@@ -5,12 +5,23 @@
 // For 115200 and 1,000,000 baud and payloads of 8, 32 and 128 bytes: messages per second and the
 // share of the line's bytes (baud / 10 a second) that carry payload; and the latency from the
 // board's publish to a subscriber's callback, half the round trip of a ping it echoes.
+// Over UDP on loopback (server.udp, the board library's POSIX side, satellite/mcu/posix/skr_udp.h):
+// a PING answered by the hub against a raw UDP echo measured in the same run, and the rate of
+// 64-byte PUBLISHes a Unix-socket subscriber receives.
 //
 //   serial_udp [--quick]     --quick: one rate, shorter windows (the test suite's run)
 #include "bench_satellite.h"
 #include "sim_board.h"
 
 #include <skrobot/hub/flow/accounts.h>
+#include <skrobot/runtime/flow/codec.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "test_client.h"
 
 #include <algorithm>
 #include <atomic>
@@ -155,6 +166,132 @@ bool measure(const std::filesystem::path& dir, uint32_t baud, const char* elf, b
   return true;
 }
 
+// A UDP port free now on loopback.
+uint16_t freeUdpPort() {
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(fd);
+  return ntohs(a.sin_port);
+}
+
+// Round trips of an 8-byte datagram through a thread that echoes it: the floor, in ms.
+std::vector<double> rawUdpEcho(int n) {
+  const int server = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ::bind(server, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  ::getsockname(server, reinterpret_cast<sockaddr*>(&a), &len);
+  std::thread echo([&] {
+    char buf[64];
+    for (int i = 0; i < n; ++i) {
+      sockaddr_in from{};
+      socklen_t fl = sizeof from;
+      const ssize_t got =
+          ::recvfrom(server, buf, sizeof buf, 0, reinterpret_cast<sockaddr*>(&from), &fl);
+      if (got > 0) ::sendto(server, buf, static_cast<size_t>(got), 0,
+                            reinterpret_cast<sockaddr*>(&from), fl);
+    }
+  });
+  const int client = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ::connect(client, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  std::vector<double> rtt;
+  char buf[64] = "12345678";
+  for (int i = 0; i < n; ++i) {
+    const Nanos t0 = monotonicNs();
+    (void)!::send(client, buf, 8, 0);
+    if (::recv(client, buf, sizeof buf, 0) == 8) {
+      rtt.push_back(static_cast<double>(monotonicNs() - t0) / 1e6);
+    }
+  }
+  echo.join();
+  ::close(client);
+  ::close(server);
+  return rtt;
+}
+
+// A board's UDP session (the POSIX side of the board library) against the hub: PING round trips
+// beside the raw echo, and the rate of PUBLISHes a socket subscriber receives.
+bool measureUdp(const std::filesystem::path& dir, int pings, double window_s) {
+  const uint16_t port = freeUdpPort();
+  const flow::UdpKey key{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
+  InProcessHub hub(dir, "udp", [&](flow::ServerOptions& o) {
+    auto users = flow::UsersFile::load(o.users_file);
+    if (!users || !users->add("robot", "unused-password") || !users->setUdpKey("robot", key) ||
+        !users->save()) {
+      std::exit(1);
+    }
+    flow::transport::UdpOptions udp;
+    udp.address = "127.0.0.1";
+    udp.port = port;
+    o.udp = udp;
+  });
+  auto board = test::TestClient::overUdp("127.0.0.1", port, "robot", key);
+  if (!board) {
+    std::printf("udp: %s\n", board.error().message.c_str());
+    return false;
+  }
+  if (!board->login("robot", "")) {
+    std::printf("udp: the board's login failed\n");
+    return false;
+  }
+  const std::vector<double> raw = rawUdpEcho(pings);
+  std::vector<double> hub_rtt;
+  for (int i = 0; i < pings; ++i) {
+    const Nanos t0 = monotonicNs();
+    auto r = board->call(flow::msg::Ping{{"12345678"}});
+    if (r && r->kind() == flow::Code::reply_ok) {
+      hub_rtt.push_back(static_cast<double>(monotonicNs() - t0) / 1e6);
+    }
+  }
+  const double raw50 = percentile(raw, 0.5), hub50 = percentile(hub_rtt, 0.5);
+  std::printf("udp       ping    hub p50 %.1f us p99 %.1f us; raw UDP echo p50 %.1f us p99 %.1f us; "
+              "%.2fx\n",
+              hub50 * 1000, percentile(hub_rtt, 0.99) * 1000, raw50 * 1000,
+              percentile(raw, 0.99) * 1000, raw50 > 0 ? hub50 / raw50 : 0.0);
+  // Throughput: the board publishes 64-byte payloads; a Unix-socket satellite counts them.
+  if (!board->call(flow::msg::GoAsync{})) return false;
+  flow::msg::ChanAdd add;
+  add.tag = 1;
+  add.kind = static_cast<uint8_t>(flow::ChannelKind::streaming);
+  add.short_name = "stream";
+  add.props = flow::Variant(flow::Variant::Map{});
+  if (!board->send(add)) return false;
+  auto added = test::as<flow::msg::EvChanAdded>(board->waitFor(flow::Code::ev_chan_added));
+  if (!added) return false;
+  Sat sub(hub, "reader");
+  std::atomic<uint64_t> got{0};
+  sub.on([&](sat::Satellite& s) {
+    s.subscribe("robot.stream");
+    s.dataView.connect(&s, [&](uint16_t, std::string_view) { ++got; });
+  });
+  if (!waitFor([&] { return sub.on([](sat::Satellite& s) { return s.channel("robot.stream") != nullptr; }); })) {
+    return false;
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the subscription is in place
+  const std::string payload(64, 'x');
+  uint64_t sent = 0;
+  const Nanos t0 = monotonicNs();
+  const Nanos end = t0 + static_cast<Nanos>(window_s * 1e9);
+  while (monotonicNs() < end) {
+    (void)board->send(flow::msg::Publish{added->info.id, {payload}});
+    ++sent;
+    if (sent % 64 == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const double secs = static_cast<double>(monotonicNs() - t0) / 1e9;
+  std::printf("udp       64 B    sent %.0f msg/s, received %.0f msg/s (%.1f %% of those sent)\n",
+              static_cast<double>(sent) / window_s, static_cast<double>(got.load()) / secs,
+              sent > 0 ? 100.0 * static_cast<double>(got.load()) / static_cast<double>(sent) : 0.0);
+  return !hub_rtt.empty();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -172,5 +309,7 @@ int main(int argc, char** argv) {
     measure(dir.path(), 1000000, SERIAL_BENCH_1000000_ELF, false, 3.0, 50);
     measure(dir.path(), 1000000, SERIAL_BENCH_1000000_ELF, true, 3.0, 50);
   }
-  return ok ? 0 : 1;
+  std::printf("\nBoards over UDP on loopback\n");
+  const bool udp_ok = measureUdp(dir.path(), quick ? 200 : 2000, quick ? 0.5 : 2.0);
+  return ok && udp_ok ? 0 : 1;
 }

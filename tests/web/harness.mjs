@@ -55,7 +55,7 @@ export async function waitFor(what, fn, timeoutMs = 30000, everyMs = 100) {
 // build's module directory) and `users` ([{name, password, role, rules: {action: [patterns]}}],
 // added to its users file first).
 // Resolves once it logged HUB-READY.
-export async function startHub(modules, { users = [] } = {}) {
+export async function startHub(modules, { users = [], server = {} } = {}) {
   const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-web-'));
   const socket = path.join(dir, 'hub.sock');
   const usersFile = path.join(dir, 'data', 'users.json');
@@ -72,7 +72,7 @@ export async function startHub(modules, { users = [] } = {}) {
     }
   }
   const config = {
-    app_name: 'WebTest', server: { unix_path: socket }, data_dir: path.join(dir, 'data'),
+    app_name: 'WebTest', server: { unix_path: socket, ...server }, data_dir: path.join(dir, 'data'),
     accounts: { dev_account: { user: 'guest', password: 'password' } },
     module_paths: [env.moduleDir], modules,
   };

@@ -20,9 +20,10 @@ test('the network page shows the hub live, previews channels and edits with the 
   assert.ok(existsSync(JPEG), `${JPEG} (Debian's opencv-doc) is missing`);
   const port = await freePort();
   // Edits from the page act as websocket-ui's account: an administrator may write any database.
+  // Boards' UDP port on (loopback, any free port): the page lists it with the serial ports.
   const hub = await startHub([
     { name: 'websocket-ui', account: 'netadmin', config: { port, network_token: TOKEN } },
-  ], { users: [{ name: 'netadmin', role: 'admin' }] });
+  ], { users: [{ name: 'netadmin', role: 'admin' }], server: { udp: { address: '127.0.0.1', port: 0 } } });
   t.after(() => hub.stop());
   const traffic = spawn('python3', [path.join(env.source, 'tests/web/network_traffic.py'),
     '--channels', String(CHANNELS), '--jpeg', JPEG], {
@@ -45,6 +46,12 @@ test('the network page shows the hub live, previews channels and edits with the 
   page.on('pageerror', (e) => errors.push(e.message));
   const shots = outDir('network_browser');
   await page.goto(`http://127.0.0.1:${port}/network`);
+
+  // Boards' lines: the UDP port, no session open.
+  await waitFor("the boards' lines table", async () =>
+    !(await page.locator('#serial').isHidden()), 30000);
+  const line = await page.locator('#serial tbody tr').first().textContent();
+  assert.match(line, /^udp :\d+0 open/, line);
 
   // Every channel and both flows of the satellite, with publish and subscribe edges.
   const want = CHANNELS + 4;

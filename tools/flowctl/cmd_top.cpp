@@ -73,6 +73,19 @@ std::string topTable(const Variant& stats, const std::string& sort, size_t rows)
       out += line;
     }
   }
+  // Boards over UDP (server.udp): sessions, traffic and what the checks refused.
+  const Variant& udp = at(stats, "udp");
+  if (udp.find("port") != nullptr) {
+    std::snprintf(line, sizeof line, "\n%-10s %8s %12s %12s %8s %8s %8s %9s\n", "UDP PORT",
+                  "SESSIONS", "DATAGR. IN", "DATAGR. OUT", "BAD MAC", "REPLAYED", "LOST",
+                  "REORDERED");
+    out += line;
+    std::snprintf(line, sizeof line, "%-10.0f %8.0f %12.0f %12.0f %8.0f %8.0f %8.0f %9.0f\n",
+                  num(udp, "port"), num(udp, "open_sessions"), num(udp, "datagrams_in"),
+                  num(udp, "datagrams_out"), num(udp, "bad_mac"), num(udp, "replayed"),
+                  num(udp, "lost"), num(udp, "reordered"));
+    out += line;
+  }
   return out;
 }
 

@@ -116,17 +116,29 @@ function renderTable(stats) {
   }));
 }
 
-// Boards on serial lines (server.serial), with what the line's checks dropped.
+// Boards' lines: serial ports (server.serial) and the UDP port (server.udp), with what their
+// checks dropped (a bad CRC or framing; a bad MAC, a replay, a lost datagram).
 function renderSerial(stats) {
-  const ports = stats.serial || [];
-  $('serial').hidden = ports.length === 0;
-  $('serial').tBodies[0].replaceChildren(...ports.map((p) => {
+  const rows = (stats.serial || []).map((p) => ({
+    port: p.device,
+    state: p.in_session ? 'session' : p.open ? 'open' : 'away',
+    in: p.bytes_in, out: p.bytes_out,
+    dropped: p.bad_check + p.bad_framing + p.bad_version + p.too_long,
+    sessions: p.sessions,
+  }));
+  if (stats.udp) {
+    const u = stats.udp;
+    rows.push({
+      port: `udp :${u.port}`, state: `${u.open_sessions} open`, in: u.bytes_in, out: u.bytes_out,
+      dropped: u.bad_mac + u.replayed + u.lost + u.malformed + u.unknown_session, sessions: u.sessions,
+    });
+  }
+  $('serial').hidden = rows.length === 0;
+  $('serial').tBodies[0].replaceChildren(...rows.map((r) => {
     const tr = document.createElement('tr');
-    if (p.bad_check > 0 || p.resyncs > 0) tr.className = 'drop';
-    const state = p.in_session ? 'session' : p.open ? 'open' : 'away';
-    tr.append(text('td', p.device), text('td', state), text('td', formatBytes(p.bytes_in)),
-      text('td', formatBytes(p.bytes_out)), text('td', String(p.bad_check)),
-      text('td', String(p.resyncs)), text('td', String(p.sessions)));
+    if (r.dropped > 0) tr.className = 'drop';
+    tr.append(text('td', r.port), text('td', r.state), text('td', formatBytes(r.in)),
+      text('td', formatBytes(r.out)), text('td', String(r.dropped)), text('td', String(r.sessions)));
     return tr;
   }));
 }

@@ -18,7 +18,6 @@
  * board's terminal hung up) one line of counters:
  * `RELAY to_board bytes B dropped D flipped F inserted I to_hub bytes ... lost_unplugged L`. */
 #define _GNU_SOURCE
-#include <sys/prctl.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
@@ -28,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>

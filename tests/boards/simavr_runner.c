@@ -13,7 +13,6 @@
  * one line `SIM simulated <ms> ms in <ms> ms wall (<x>x) resets <n>` on stdout. simavr's own
  * messages go to stderr. */
 #define _GNU_SOURCE
-#include <sys/prctl.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -21,6 +20,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>

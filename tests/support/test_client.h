@@ -90,7 +90,7 @@ class TestClient {
   int fd_ = -1;
   std::string buf_;
   std::deque<Frame> skipped_;
-  std::shared_ptr<Line> line_;  // set for a serial line
+  std::shared_ptr<Line> line_;    // set for a serial line
   std::shared_ptr<skr_udp> udp_;  // set for a UDP session
 };
 

@@ -131,14 +131,7 @@ TEST_F(Serial, ABoardOnABoundPortPublishesSubscribesAndHearsOnlyOfItsChannels) {
 
   // What it subscribes to reaches it unless the frame is above its limit.
   ASSERT_TRUE(b.send(msg::Subscribe{2, setpoint}));
-  ASSERT_TRUE(eventually([&] {
-    HubSnapshot s;
-    onHub([&] { s = server_->snapshot(); });
-    for (const auto& c : s.channels) {
-      if (c.id == setpoint) return c.subscriber_flows.size() == 1;
-    }
-    return false;
-  }));
+  ASSERT_TRUE(eventually([&] { return subscribersOf(setpoint) == 1; }));
   ASSERT_TRUE(alice.send(msg::Publish{setpoint, {std::string(200, 'x')}}));
   ASSERT_TRUE(alice.send(msg::Publish{setpoint, {"small"}}));
   data = as<msg::EvData>(b.waitFor(Code::ev_data));
@@ -169,14 +162,7 @@ TEST_F(Serial, ASlowLineKeepsTheNewestDataAndSendsEachFrameOnce) {
   smallSession(b, 256, "alice.fast");
   ASSERT_TRUE(b.waitFor(Code::ev_chan_added));
   ASSERT_TRUE(b.send(msg::Subscribe{1, fast}));
-  ASSERT_TRUE(eventually([&] {
-    HubSnapshot s;
-    onHub([&] { s = server_->snapshot(); });
-    for (const auto& c : s.channels) {
-      if (c.id == fast) return c.subscriber_flows.size() == 1;
-    }
-    return false;
-  }));
+  ASSERT_TRUE(eventually([&] { return subscribersOf(fast) == 1; }));
   // Far more than the line's queue and the pseudo-terminal hold while the board does not read.
   constexpr uint32_t kCount = 3000;
   for (uint32_t i = 1; i <= kCount; ++i) {

@@ -225,14 +225,7 @@ TEST_F(Udp, ABoardLogsInPublishesSubscribesAndAnswersAServiceCall) {
 
   // What it subscribes to reaches it.
   ASSERT_TRUE(b.send(msg::Subscribe{2, setpoint}));
-  ASSERT_TRUE(eventually([&] {
-    HubSnapshot s;
-    onHub([&] { s = server_->snapshot(); });
-    for (const auto& c : s.channels) {
-      if (c.id == setpoint) return c.subscriber_flows.size() == 1;
-    }
-    return false;
-  }));
+  ASSERT_TRUE(eventually([&] { return subscribersOf(setpoint) == 1; }));
   ASSERT_TRUE(alice.send(msg::Publish{setpoint, {"small"}}));
   data = as<msg::EvData>(b.waitFor(Code::ev_data));
   ASSERT_TRUE(data);

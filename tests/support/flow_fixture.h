@@ -6,6 +6,7 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
+#include <skrobot/hub/flow/hub_stats.h>
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/loop.h>
 
@@ -106,6 +107,15 @@ class FlowFixture : public ::testing::Test {
     }
   }
 
+  // The subscribers channel `id` has now, as the hub's statistics count them (0: no such channel).
+  size_t subscribersOf(uint16_t id) {
+    flow::HubSnapshot s;
+    onHub([&] { s = server_->snapshot(); });
+    for (const auto& c : s.channels) {
+      if (c.id == id) return c.subscriber_flows.size();
+    }
+    return 0;
+  }
   TempDir dir_;
   flow::ServerOptions opts_;
   std::unique_ptr<LoopThread> hub_;

@@ -320,6 +320,20 @@ TEST_F(Serial, AnUnboundPortTakesABoardsOwnAccountButNeverTheDevelopmentOne) {
   EXPECT_EQ(ok->user, "alice");
 }
 
+TEST_F(Serial, ADeviceNotPluggedInYetIsListedAwayAndOpenedWhenItAppears) {
+  const auto link = dir_.path() / "ttyLATE";
+  startWith(link.string(), "board");
+  const SerialCounters before = line();
+  EXPECT_EQ(before.device, link.string());
+  EXPECT_FALSE(before.open);
+  pty_ = Pty::open();
+  std::filesystem::create_symlink(pty_.slave, link);
+  ASSERT_TRUE(eventually([&] { return line().open; }, 5000));
+  TestClient b = board();
+  auto ok = b.login("", "");
+  ASSERT_TRUE(ok) << ok.error().message;
+}
+
 TEST_F(Serial, ADeviceThatGoesAwayIsReopenedWhenItComesBack) {
   // The config names a glob; the device is a link to the current pseudo-terminal.
   pty_ = Pty::open();

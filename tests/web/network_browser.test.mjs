@@ -20,10 +20,15 @@ test('the network page shows the hub live, previews channels and edits with the 
   assert.ok(existsSync(JPEG), `${JPEG} (Debian's opencv-doc) is missing`);
   const port = await freePort();
   // Edits from the page act as websocket-ui's account: an administrator may write any database.
-  // Boards' UDP port on (loopback, any free port): the page lists it with the serial ports.
+  // Boards' lines: the UDP port on (loopback, any free port) and a serial port whose device is
+  // not plugged in; the page lists both.
+  const tty = `/tmp/skrobot-network-browser-${process.pid}-tty`;
   const hub = await startHub([
     { name: 'websocket-ui', account: 'netadmin', config: { port, network_token: TOKEN } },
-  ], { users: [{ name: 'netadmin', role: 'admin' }], server: { udp: { address: '127.0.0.1', port: 0 } } });
+  ], {
+    users: [{ name: 'netadmin', role: 'admin' }],
+    server: { udp: { address: '127.0.0.1', port: 0 }, serial: [{ device: tty, baud: 115200 }] },
+  });
   t.after(() => hub.stop());
   const traffic = spawn('python3', [path.join(env.source, 'tests/web/network_traffic.py'),
     '--channels', String(CHANNELS), '--jpeg', JPEG], {
@@ -47,11 +52,13 @@ test('the network page shows the hub live, previews channels and edits with the 
   const shots = outDir('network_browser');
   await page.goto(`http://127.0.0.1:${port}/network`);
 
-  // Boards' lines: the UDP port, no session open.
+  // Boards' lines: the serial port away (its device absent), the UDP port with no session open.
   await waitFor("the boards' lines table", async () =>
     !(await page.locator('#serial').isHidden()), 30000);
-  const line = await page.locator('#serial tbody tr').first().textContent();
-  assert.match(line, /^udp :\d+0 open/, line);
+  const lines = await page.locator('#serial tbody tr').allTextContents();
+  assert.equal(lines.length, 2, lines.join(' | '));
+  assert.ok(lines[0].startsWith(`${tty}away0 B0 B00`), lines[0]);
+  assert.match(lines[1], /^udp :\d+0 open/, lines[1]);
 
   // Every channel and both flows of the satellite, with publish and subscribe edges.
   const want = CHANNELS + 4;

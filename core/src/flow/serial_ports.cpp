@@ -5,7 +5,10 @@
 
 #include <skrobot/runtime/log.h>
 
+#include <fnmatch.h>
 #include <glob.h>
+
+#include <algorithm>
 
 namespace skr::flow {
 namespace {
@@ -85,6 +88,13 @@ std::vector<SerialPorts::PortView> SerialPorts::view() const {
     out.push_back({device, true, port->inSession(), port->stats()});
   }
   for (const auto& [device, stats] : closed_) out.push_back({device, false, false, stats});
+  // A configured device (or glob) not seen yet is listed too, away: plugged in nowhere so far.
+  for (const transport::SerialOptions& entry : config_) {
+    const bool seen = std::any_of(out.begin(), out.end(), [&](const PortView& v) {
+      return ::fnmatch(entry.device.c_str(), v.device.c_str(), FNM_PATHNAME) == 0;
+    });
+    if (!seen) out.push_back({entry.device, false, false, {}});
+  }
   return out;
 }
 

@@ -35,7 +35,8 @@ class SerialPorts {
     bool in_session = false;
     transport::SerialStats stats;
   };
-  // Every device seen since start, open or not (hub.stats).
+  // Every device seen since start, open or not, and each configured device or glob not seen yet
+  // (hub.stats).
   [[nodiscard]] std::vector<PortView> view() const;
 
  private:

@@ -18,6 +18,9 @@
 #
 # Sets SKROBOT_ARDUINO_FOUND, and SKROBOT_ARDUINO_MISSING (what is missing) when it is not.
 include_guard(GLOBAL)
+# This file's folder: its helpers are found from here, also when another project includes it
+# (tests/boards/arduino_zip_test.sh builds the zip's examples in a project of its own).
+set(_skr_arduino_cmake_dir ${CMAKE_CURRENT_LIST_DIR})
 
 set(SKROBOT_ARDUINO_AVR_DIR /usr/share/arduino/hardware/arduino/avr
     CACHE PATH "The Arduino AVR core (Debian's arduino-core-avr)")
@@ -98,7 +101,8 @@ add_custom_command(OUTPUT ${SKROBOT_ARDUINO_CORE}
   COMMENT "AVR the Arduino core for the Uno" VERBATIM)
 add_custom_target(skrobot_arduino_core DEPENDS ${SKROBOT_ARDUINO_CORE})
 add_custom_target(board_size
-  COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/bench/board_size ${SKROBOT_ARDUINO_DIR} VERBATIM)
+  COMMAND /usr/bin/python3 ${_skr_arduino_cmake_dir}/../bench/board_size ${SKROBOT_ARDUINO_DIR}
+  VERBATIM)
 
 function(skrobot_add_sketch name)
   cmake_parse_arguments(A "" "INO" "LIBRARIES;DEFINES" ${ARGN})
@@ -150,8 +154,8 @@ function(skrobot_add_sketch name)
     COMMENT "AVR link boards/${name}/${name}.elf" VERBATIM)
   add_custom_command(OUTPUT ${size}
     COMMAND ${CMAKE_COMMAND} -DAVR_SIZE=${SKROBOT_AVR_SIZE} -DELF=${elf} -DOUT=${size}
-            -P ${PROJECT_SOURCE_DIR}/cmake/arduino_size.cmake
-    DEPENDS ${elf} ${PROJECT_SOURCE_DIR}/cmake/arduino_size.cmake VERBATIM)
+            -P ${_skr_arduino_cmake_dir}/arduino_size.cmake
+    DEPENDS ${elf} ${_skr_arduino_cmake_dir}/arduino_size.cmake VERBATIM)
   add_custom_target(sketch_${name} ALL DEPENDS ${elf} ${size})
   set_target_properties(sketch_${name} PROPERTIES ELF ${elf} SIZE_FILE ${size})
   add_dependencies(board_size sketch_${name})

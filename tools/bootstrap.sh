@@ -121,14 +121,8 @@ case "$MODE" in
     cpack --config build/release/CPackConfig.cmake -B build/packages > build/packages.log 2>&1 ||
       { cat build/packages.log; exit 1; }
     rm -rf build/packages/_CPack_Packages
-    # The board library as an Arduino library: one folder to unzip into the sketchbook's libraries
-    # (docs/microcontrollers.md). The host build's files (CMakeLists.txt, posix/) stay out.
-    version=$(sed -n 's/^version=//p' satellite/mcu/library.properties)
-    rm -rf build/packages/arduino && mkdir -p build/packages/arduino/SkRobotFlow
-    cp -r satellite/mcu/library.properties satellite/mcu/README.md satellite/mcu/src \
-      satellite/mcu/examples build/packages/arduino/SkRobotFlow/
-    (cd build/packages/arduino && cmake -E tar cf "../SkRobotFlow-$version.zip" --format=zip SkRobotFlow)
-    rm -rf build/packages/arduino
+    # The board library as an Arduino library zip (docs/microcontrollers.md).
+    cmake -DSOURCE=satellite/mcu -DOUT=build/packages -P cmake/arduino_zip.cmake > /dev/null
     ls -1 build/packages/*.deb build/packages/SkRobotFlow-*.zip
     echo "install them with: sudo apt install ./build/packages/skrobot_*.deb [./build/packages/skrobot-dev_*.deb]"
     ;;

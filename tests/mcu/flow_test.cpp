@@ -302,6 +302,47 @@ TEST_F(Board, SetsVariablesOfItsFlow) {
   EXPECT_EQ(c.value, Variant(1.5));
 }
 
+// What skr_var_get answered: the values (binary Variants), "null" for a failed read.
+void onValue(void* user, const uint8_t* value, size_t len) {
+  static_cast<Seen*>(user)->data.push_back(
+      value ? std::string(reinterpret_cast<const char*>(value), len) : std::string("null"));
+}
+
+TEST_F(Board, ReadsVariablesOneAtATime) {
+  EXPECT_EQ(skr_var_get(&f, "robot", "gain", onValue, &seen), SKR_OFFLINE);
+  connect();
+  ASSERT_EQ(skr_var_get(&f, "robot", "gain", onValue, &seen), SKR_OK);
+  EXPECT_EQ(skr_var_get(&f, "robot", "rate_hz", onValue, &seen), SKR_BUSY);
+  const auto read = hub.expect<msg::DbRead>();
+  EXPECT_EQ(read.db, "robot");
+  EXPECT_EQ(read.what, uint8_t(msg::DbReadWhat::get));
+  EXPECT_EQ(read.key, "gain");
+  // An answer with another tag is not this read's.
+  hub.send(msg::EvDbValue{read.tag + 1, Variant(int64_t{1})});
+  hub.send(msg::EvDbValue{read.tag, Variant(int64_t{42})});
+  skr_poll(&f);
+  ASSERT_EQ(seen.data.size(), 1u);
+  int64_t v = 0;
+  ASSERT_TRUE(skr_value_int64(reinterpret_cast<const uint8_t*>(seen.data[0].data()),
+                              seen.data[0].size(), &v));
+  EXPECT_EQ(v, 42);
+  // A refused read answers null; the next read may go.
+  ASSERT_EQ(skr_var_get(&f, "robot", "missing", onValue, &seen), SKR_OK);
+  const auto again = hub.expect<msg::DbRead>();
+  EXPECT_NE(again.tag, read.tag);
+  hub.send(msg::EvError{uint8_t(Code::db_read), again.tag, 0, uint16_t(ErrorCode::not_found),
+                        "no such key"});
+  skr_poll(&f);
+  ASSERT_EQ(seen.data.size(), 2u);
+  EXPECT_EQ(seen.data[1], "null");
+  // A read pending when the session is lost gets no answer; the next session may read again.
+  ASSERT_EQ(skr_var_get(&f, "robot", "gain", onValue, &seen), SKR_OK);
+  hub.frame(errorFrame(uint16_t(ErrorCode::not_logged_in)));
+  skr_poll(&f);
+  EXPECT_FALSE(skr_connected(&f));
+  EXPECT_EQ(seen.data.size(), 2u);
+}
+
 TEST_F(Board, ReadsValues) {
   std::string v;
   ByteWriter w(v);

@@ -52,6 +52,11 @@ class SkRobotFlow {
   skr_status setVar(const char* key, int64_t v) { return skr_var_set_int64(&flow_, key, v); }
   skr_status setVar(const char* key, const char* s) { return skr_var_set_string(&flow_, key, s); }
   skr_status setVarFloat(const char* key, double v) { return skr_var_set_float64(&flow_, key, v); }
+  // Reads `key` of database `db` (the board's own: its account's name); the value comes to `fn`
+  // in a later poll() (read it with skr_value_*), a null pointer when the read failed.
+  skr_status getVar(const char* db, const char* key, skr_value_fn fn, void* user = nullptr) {
+    return skr_var_get(&flow_, db, key, fn, user);
+  }
   const skr_stats& stats() { return *skr_get_stats(&flow_); }
   skr_flow& session() { return flow_; }
 

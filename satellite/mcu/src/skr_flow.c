@@ -23,6 +23,7 @@ enum { ST_BACKOFF, ST_WAIT_LOGIN, ST_WAIT_LIMITS, ST_WAIT_ASYNC, ST_CONNECTED };
 #define TAG_SERVICE 0x200u
 #define TAG_SUB 0x300u
 #define TAG_PROBE 0x400u
+#define TAG_READ 0x500u
 
 const char* skr_strerror(skr_status s) {
   switch (s) {
@@ -152,6 +153,7 @@ static int reached(uint32_t t, uint32_t due) {
 }
 
 static void lost(skr_flow* f) {
+  f->read_fn = 0; /* its answer will not come */
   f->state = ST_BACKOFF;
   f->due_ms = now(f) + f->backoff_ms;
   f->backoff_ms = f->backoff_ms >= SKR_BACKOFF_MAX_MS / 2 ? SKR_BACKOFF_MAX_MS : f->backoff_ms * 2;
@@ -372,6 +374,14 @@ static void on_error(skr_flow* f, uint16_t error) {
   f->stats.last_error = error;
 }
 
+/* The answer to the pending skr_var_get with `tag`: its value, or 0 when it failed. */
+static void on_read(skr_flow* f, uint32_t tag, const uint8_t* value, size_t len) {
+  skr_value_fn fn = f->read_fn;
+  if (!fn || tag != (TAG_READ | f->read_tag)) return;
+  f->read_fn = 0; /* before the call: the callback may read again */
+  fn(f->read_user, value, len);
+}
+
 /* One frame off the line. A frame that does not match its layout is dropped and counted. */
 static void on_frame(skr_flow* f, const uint8_t* p, size_t n) {
   rd r;
@@ -401,11 +411,14 @@ static void on_frame(skr_flow* f, const uint8_t* p, size_t n) {
       break;
     }
     case SKR_CODE_EV_ERROR: {
-      (void)take(&r, 1 + 4 + 2);
+      const uint8_t command = (uint8_t)get_le(&r, 1);
+      const uint32_t tag = get_le(&r, 4);
+      (void)take(&r, 2);
       const uint16_t e = (uint16_t)get_le(&r, 2);
       (void)get_str16(&r, &skip);
       if (r.bad) break;
       on_error(f, e);
+      if (command == SKR_CODE_DB_READ) on_read(f, tag, 0, 0);
       if (e == SKR_ERROR_NOT_LOGGED_IN && f->state != ST_BACKOFF) lost(f);
       break;
     }
@@ -429,6 +442,16 @@ static void on_frame(skr_flow* f, const uint8_t* p, size_t n) {
     case SKR_CODE_EV_SYNC_PULSE:
       if (async) on_pulse(f, &r);
       break;
+    case SKR_CODE_EV_DB_VALUE: {
+      const uint32_t tag = get_le(&r, 4);
+      const uint8_t enc = (uint8_t)get_le(&r, 1); /* the board asks for binary values */
+      if (r.bad || enc != 0 || r.left == 0) {
+        r.bad = 1;
+        break;
+      }
+      if (async) on_read(f, tag, r.p, r.left);
+      break;
+    }
     default:
       break; /* events this board has no use for (EV_TIME_PROBE: the hub is alive) */
   }
@@ -597,6 +620,23 @@ skr_status skr_var_set_string(skr_flow* f, const char* key, const char* s) {
   if (st != SKR_OK) return st;
   skr_put_string(&o, s, strlen(s));
   return skr_send_(f, &o);
+}
+
+skr_status skr_var_get(skr_flow* f, const char* db, const char* key, skr_value_fn fn, void* user) {
+  if (f->in_handler || f->read_fn) return SKR_BUSY;
+  if (f->state != ST_CONNECTED) return SKR_OFFLINE;
+  skr_out o;
+  begin(f, &o, SKR_CODE_DB_READ);
+  put_le(&o, TAG_READ | (uint8_t)(f->read_tag + 1), 4);
+  put_name(&o, db);
+  put_u8(&o, 0); /* get */
+  put_name(&o, key);
+  const skr_status st = skr_send_(f, &o);
+  if (st != SKR_OK) return st;
+  ++f->read_tag;
+  f->read_fn = fn;
+  f->read_user = user;
+  return SKR_OK;
 }
 
 /* --- reading values ------------------------------------------------------------------------ */

@@ -109,6 +109,9 @@ typedef void (*skr_service_fn)(void* user, const char* cmd, size_t cmd_len, cons
 /* A sync pulse (seq 1, 2, ...; dropped: pulses lost since the last one). SYNC_DONE is sent when
  * the callback returns. */
 typedef void (*skr_pulse_fn)(void* user, uint32_t seq, uint32_t dropped);
+/* The answer to skr_var_get: the value (a binary Variant, len bytes, valid during the call; read
+ * it with skr_value_*), or value 0 when the read failed (no such key or database, no right). */
+typedef void (*skr_value_fn)(void* user, const uint8_t* value, size_t len);
 
 typedef struct {
   skr_line_stats line;   /* the line's own counters (bad CRC, framing, too long) */
@@ -157,6 +160,9 @@ struct skr_flow {
   skr_service services[SKR_MAX_SERVICES];
 #endif
   skr_sub subs[SKR_MAX_SUBS];
+  skr_value_fn read_fn; /* the pending skr_var_get, 0 when none */
+  void* read_user;
+  uint8_t read_tag; /* its tag's low byte */
   skr_stats stats;
   skr_line_rx rx;
   uint8_t rx_buf[SKR_RX_BUF];
@@ -191,6 +197,10 @@ skr_status skr_publish(skr_flow* f, int handle, const void* data, size_t n);
 /* VAR_SET_ASYNC in the flow's current database: describe channels as any satellite does. */
 skr_status skr_var_set_int64(skr_flow* f, const char* key, int64_t v);
 skr_status skr_var_set_string(skr_flow* f, const char* key, const char* s);
+/* DB_READ (1.6) of `key` in database `db` (a board's own variables: the database named after the
+ * account it logged in as). The answer comes to `fn` inside a later skr_poll(). One read at a
+ * time (SKR_BUSY while one is pending); a read pending when the session is lost gets no answer. */
+skr_status skr_var_get(skr_flow* f, const char* db, const char* key, skr_value_fn fn, void* user);
 
 /* --- values (binary Variants) --------------------------------------------------------------- */
 void skr_put_null(skr_out* o);

@@ -10,12 +10,8 @@
 #include <unistd.h>
 
 #include <atomic>
-#include <fstream>
 #include <mutex>
-#include <regex>
 #include <thread>
-
-#include <skrobot/runtime/flow/udp.h>
 
 #include "sat_fixture.h"
 
@@ -457,56 +453,7 @@ TEST_F(OverSerial, ASatelliteOnASerialLinePublishesToOneOnTheSocket) {
       << sub->events.dump() << hubLog();
 }
 
-// A hub with server.udp on 127.0.0.1 (a free port) and alice, whose UDP key `skrobot user key`
-// made; satellites reach it at udp:127.0.0.1:<port> with that key.
-class OverUdp : public SatTest {
- protected:
-  void startUdpHub(uint32_t session_timeout_ms = 10000) {
-    udp_port_ = freeUdpPort();
-    ASSERT_NE(udp_port_, 0);
-    hub_ = std::make_unique<HubProcess>(
-        SKROBOT_BIN, dir_.path(), "alice",
-        R"(, "udp": {"address": "127.0.0.1", "port": )" + std::to_string(udp_port_) +
-            R"(, "session_timeout_ms": )" + std::to_string(session_timeout_ms) + "}");
-    const fs::path log = dir_.path() / "user-key.log";
-    Child key(
-        {SKROBOT_BIN, "user", "key", "alice", "--users", (dir_.path() / "users.json").string()}, {},
-        log);
-    key.wait();
-    std::ifstream in(log);
-    std::string line;
-    while (std::getline(in, line)) {
-      if (std::regex_match(line, std::regex("[0-9a-f]{32}"))) key_hex_ = line;
-    }
-    ASSERT_EQ(key_hex_.size(), 32u) << "skrobot user key printed no key";
-    startHub();
-  }
-  [[nodiscard]] SatelliteOptions udpOptions(const std::string& name) const {
-    SatelliteOptions o = options(name);
-    o.connection.address = Address::parse("udp:127.0.0.1:" + std::to_string(udp_port_)).value();
-    o.connection.user = "alice";
-    o.connection.password.clear();  // a UDP session's LOGIN needs none
-    o.connection.udp_key = flow::transport::parseUdpKey(key_hex_).value();
-    return o;
-  }
-  static uint16_t freeUdpPort() {
-    const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    uint16_t port = 0;
-    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
-        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
-      port = ntohs(a.sin_port);
-    }
-    ::close(fd);
-    return port;
-  }
-
-  uint16_t udp_port_ = 0;
-  std::string key_hex_;
-};
+class OverUdp : public SatTest {};
 
 TEST_F(OverUdp, ASatelliteOnUdpPublishesAndSubscribesThroughTheHub) {
   startUdpHub();

@@ -42,29 +42,9 @@ TEST(AddressTest, ParsesLocalAndTcp) {
   EXPECT_EQ(serial->baud, 1000000u);
   EXPECT_EQ(serial->toString(), "serial:/dev/ttyUSB0@1000000");
   EXPECT_EQ(Address::parse("serial:/dev/ttyACM0")->baud, 115200u);
-  for (const char* bad : {"",
-                          "local:",
-                          "serial:",
-                          "serial:ttyUSB0",
-                          "serial:/dev/x@",
-                          "serial:/dev/x@9k",
-                          "tcp:",
-                          "tcp:host:",
-                          "tcp:host:0",
-                          "tcp:host:70000",
-                          "tcp:host:9x",
-                          "tcp:[::1",
-                          "tls:",
-                          "tls:host:0",
-                          "ssl:host",
-                          "udp:",
-                          "udp:host:",
-                          "udp:host:0",
-                          "udp:host:65536",
-                          "udp:[::1",
-                          "udp:[::1]x",
-                          "udp::9001",
-                          "ws:host"}) {
+  for (const char* bad : {"", "local:", "serial:", "serial:ttyUSB0", "serial:/dev/x@",
+                          "serial:/dev/x@9k", "tcp:", "tcp:host:", "tcp:host:0", "tcp:host:70000",
+                          "tcp:host:9x", "tcp:[::1", "tls:", "tls:host:0", "ssl:host", "ws:host"}) {
     auto r = Address::parse(bad);
     EXPECT_FALSE(r) << bad;
     if (!r) {
@@ -91,6 +71,12 @@ TEST(AddressTest, ParsesUdp) {
   EXPECT_EQ(v6->host, "fd00::20");
   EXPECT_EQ(v6->toString(), "udp:[fd00::20]:9001");
   EXPECT_EQ(Address::parse(v6->toString())->host, "fd00::20");
+  for (const char* bad : {"udp:", "udp:host:", "udp:host:0", "udp:host:65536", "udp:[::1",
+                          "udp:[::1]x", "udp::9001"}) {
+    auto r = Address::parse(bad);
+    EXPECT_FALSE(r) << bad;
+    if (!r) EXPECT_NE(r.error().message.find("udp:host[:port]"), std::string::npos);
+  }
 }
 
 TEST(AddressTest, UdpKeyFromTheEnvironment) {

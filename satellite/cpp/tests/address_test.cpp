@@ -75,7 +75,9 @@ TEST(AddressTest, ParsesUdp) {
                           "udp:[::1]x", "udp::9001"}) {
     auto r = Address::parse(bad);
     EXPECT_FALSE(r) << bad;
-    if (!r) EXPECT_NE(r.error().message.find("udp:host[:port]"), std::string::npos);
+    if (!r) {
+      EXPECT_NE(r.error().message.find("udp:host[:port]"), std::string::npos);
+    }
   }
 }
 

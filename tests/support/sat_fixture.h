@@ -2,15 +2,20 @@
 // Satellites on loop threads of their own, recording their signals, against a real hub.
 #pragma once
 
+#include <skrobot/runtime/flow/udp.h>
 #include <skrobot/satellite.h>
 #include <skrobot/satellite/sync_client.h>
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 
 #include <algorithm>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <regex>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -158,6 +163,55 @@ class SatTest : public ::testing::Test {
     }
     return s;
   }
+  // A hub with server.udp on 127.0.0.1 (a free port) besides its socket, and the account alice
+  // (TCP on too) with the UDP key that `skrobot user key` made: udpAddress() and udp_key_hex_.
+  void startUdpHub(uint32_t session_timeout_ms = 10000) {
+    udp_port_ = freeUdpPort();
+    ASSERT_NE(udp_port_, 0);
+    hub_ = std::make_unique<HubProcess>(
+        SKROBOT_BIN, dir_.path(), "alice",
+        R"(, "udp": {"address": "127.0.0.1", "port": )" + std::to_string(udp_port_) +
+            R"(, "session_timeout_ms": )" + std::to_string(session_timeout_ms) + "}");
+    const fs::path log = dir_.path() / "user-key.log";
+    Child key(
+        {SKROBOT_BIN, "user", "key", "alice", "--users", (dir_.path() / "users.json").string()}, {},
+        log);
+    key.wait();
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (std::regex_match(line, std::regex("[0-9a-f]{32}"))) udp_key_hex_ = line;
+    }
+    ASSERT_EQ(udp_key_hex_.size(), 32u) << "skrobot user key printed no key";
+    startHub();
+  }
+  [[nodiscard]] std::string udpAddress() const {
+    return "udp:127.0.0.1:" + std::to_string(udp_port_);
+  }
+  // Satellite options for alice over udp: with her key.
+  [[nodiscard]] SatelliteOptions udpOptions(const std::string& name) const {
+    SatelliteOptions o = options(name);
+    o.connection.address = Address::parse(udpAddress()).value();
+    o.connection.user = "alice";
+    o.connection.password.clear();  // a UDP session's LOGIN needs none
+    o.connection.udp_key = flow::transport::parseUdpKey(udp_key_hex_).value();
+    return o;
+  }
+  static uint16_t freeUdpPort() {
+    const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    uint16_t port = 0;
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
+      port = ntohs(a.sin_port);
+    }
+    ::close(fd);
+    return port;
+  }
+
   [[nodiscard]] std::string hubLog() const { return hub_ ? hub_->log() : ""; }
   // The hub's statistics (hub.inspect "stats", docs/observability.md); empty when it does not
   // answer.
@@ -171,6 +225,8 @@ class SatTest : public ::testing::Test {
 
   TempDir dir_;
   std::unique_ptr<HubProcess> hub_;
+  uint16_t udp_port_ = 0;
+  std::string udp_key_hex_;
 };
 
 }  // namespace skr::sat::test

@@ -55,6 +55,9 @@ int fail(int code, const std::string& message);
 int exitFor(const skr::Error& error);
 // Connects the synchronous connection, or explains why not (and sets `code`).
 std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code);
+// serial: and udp: addresses carry the flow only (connectSync refuses them): commands that run on
+// a flow skip their synchronous checks there.
+[[nodiscard]] bool flowOnly(const Cli& cli);
 // Parses a number argument; false (after printing a usage error) when it is not one.
 bool parseNumber(const std::string& text, const char* what, double& out);
 // Parses a JSON value argument; nullopt (after a usage error that says how to quote) when it is

@@ -72,7 +72,7 @@ int cmdEcho(const Cli& cli) {
   double count = 0;
   if (count_text && !parseNumber(*count_text, "--count", count)) return kUsage;
   const std::string& name = rest[0];
-  {
+  if (!flowOnly(cli)) {  // serial:, udp: no synchronous check: waits for the channel (--wait)
     int code = kOk;
     auto sync = connectSync(cli, code);
     if (!sync) return code;

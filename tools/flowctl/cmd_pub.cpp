@@ -45,7 +45,14 @@ int cmdPub(const Cli& cli) {
   }
 
   std::string full = rest[0], short_name;
-  {
+  if (flowOnly(cli)) {  // no synchronous check: the hub refuses a channel that is not ours
+    const std::string prefix = cli.connect.user + ".";
+    if (full.find('.') == std::string::npos) full = prefix + full;
+    if (!full.starts_with(prefix)) {
+      return fail(kDenied, full + " is not yours: you publish on " + prefix + "<name> channels");
+    }
+    short_name = full.substr(prefix.size());
+  } else {
     int code = kOk;
     auto sync = connectSync(cli, code);
     if (!sync) return code;

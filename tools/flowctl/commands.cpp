@@ -312,8 +312,10 @@ constexpr std::string_view kOverviewHead =
 Commands:
 )";
 constexpr std::string_view kOverviewTail = R"(Global options:
-  --address ADDR    local:/path, tcp:host[:port] or tls:host[:port]
-                    (default: $ROBOT_ADDRESS, else local:/tmp/Robot)
+  --address ADDR    local:/path, tcp:host[:port], tls:host[:port], serial:/dev/path[@baud]
+                    or udp:host[:port] (default: $ROBOT_ADDRESS, else local:/tmp/Robot);
+                    serial: and udp: carry the flow only: commands that ask the hub
+                    synchronously need one of the first three
   --user NAME       (default: $ROBOT_USER, else guest)
   --password PW     (default: $ROBOT_PASSWORD, else password)
   --ca FILE         tls: the CA certificate that signed the hub's (default: $ROBOT_TLS_CA, else
@@ -321,6 +323,10 @@ constexpr std::string_view kOverviewTail = R"(Global options:
   --cert FILE, --key FILE
                     tls: a client certificate and its key, for a hub that asks for one
                     (default: $ROBOT_TLS_CERT, $ROBOT_TLS_KEY)
+  --udp-key-file FILE
+                    udp: a file holding the account's key in hex, as `skrobot user key NAME`
+                    printed it (default: $ROBOT_UDP_KEY, the hex itself, else the file
+                    $ROBOT_UDP_KEY_FILE)
   --json            machine-readable output (one JSON document, or one JSON line per message)
 
 Exit codes: 0 ok, 1 refused or failed, 2 usage, 3 no hub (or hub lost), 4 login refused,

@@ -96,6 +96,11 @@ std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code) {
   return std::nullopt;
 }
 
+bool flowOnly(const Cli& cli) {
+  const auto kind = cli.connect.address.kind;
+  return kind == skr::sat::Address::Kind::serial || kind == skr::sat::Address::Kind::udp;
+}
+
 bool parseNumber(const std::string& text, const char* what, double& out) {
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
   if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(out) || out < 0) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // flowctl: an operator's tool for a running hub, as handy as redis-cli. main reads the global
 // options and hands the command to its row's handler (commands.h: the table of commands).
+#include <skrobot/runtime/flow/udp.h>
 #include <skrobot/runtime/log.h>
 
 #include <cstdlib>
@@ -34,8 +35,10 @@ int main(int argc, char** argv) {
     if (!positional_only) {
       std::string* target = nullptr;
       std::string address;
+      std::string udp_key_file;
       std::string name = a.substr(0, a.find('='));
       if (name == "--address") target = &address;
+      if (name == "--udp-key-file") target = &udp_key_file;
       if (name == "--user") target = &cli.connect.user;
       if (name == "--password") target = &cli.connect.password;
       if (name == "--ca") target = &cli.connect.tls.ca_file;
@@ -54,6 +57,11 @@ int main(int argc, char** argv) {
           if (!parsed) return fail(kUsage, parsed.error().message);
           cli.connect.address = std::move(parsed).value();
           address_given = true;
+        }
+        if (target == &udp_key_file) {
+          auto key = skr::flow::transport::readUdpKeyFile(udp_key_file);
+          if (!key) return fail(kUsage, "--udp-key-file: " + key.error().message);
+          cli.connect.udp_key = *key;
         }
         continue;
       }

@@ -5,6 +5,8 @@
 #include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/loop_handles.h>
 
+#include "message_session.h"
+
 #include <arpa/inet.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -15,7 +17,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <deque>
 #include <map>
 #include <optional>
 #include <unordered_map>
@@ -70,38 +71,19 @@ struct Peer {
 
 class Port;
 
-// One board's session: a Transport with one frame per datagram.
-class Session final : public Transport {
+// One board's session (message_session.h): one frame per datagram; its carrier is the port.
+class Session final : public transport::MessageSession {
  public:
   Session(Loop& loop, Port* port, PeerIdentity peer, uint32_t max_frame)
-      : port_(port),
-        peer_(std::move(peer)),
-        max_frame_(max_frame),
-        later_(loop, [this] { deliver(); }) {}
+      : MessageSession(loop, TransportKind::udp, std::move(peer), max_frame, kPendingBytes,
+                       "the UDP session ended"),
+        port_(port) {}
   ~Session() override { detach(); }
 
-  [[nodiscard]] TransportKind kind() const noexcept override { return TransportKind::udp; }
-  [[nodiscard]] Framing framing() const noexcept override { return Framing::messages; }
-  [[nodiscard]] Result<void> start(Receiver& receiver) override {
-    receiver_ = &receiver;
-    if (!pending_.empty() || end_) later_.startIn(0);
-    return {};
-  }
-  void pause() noexcept override { paused_ = true; }
-  [[nodiscard]] Result<void> resume() override {
-    paused_ = false;
-    if (!pending_.empty() || end_) later_.startIn(0);
-    return {};
-  }
-  [[nodiscard]] Result<size_t> tryWrite(std::span<const std::string_view> buffers) override;
-  [[nodiscard]] Result<void> write(std::span<const std::string_view> buffers) override;
-  void close(std::string_view reason) noexcept override;
-  [[nodiscard]] PeerIdentity peer() const override { return peer_; }
-  [[nodiscard]] uint32_t maxFrameBytes() const noexcept override { return max_frame_; }
-
   // From the port.
-  void frame(std::string_view bytes, transport::UdpStats& stats);
-  void ended(TransportEnd end);  // the port lets go of this session
+  void frame(std::string_view bytes, transport::UdpStats& stats) {
+    if (!received(bytes)) ++stats.overrun;  // a board that does not wait for its answers
+  }
 
   // The port's bookkeeping of the session.
   uint32_t id = 0;
@@ -115,22 +97,11 @@ class Session final : public Transport {
   Nanos last_in = 0;
 
  private:
-  // Sends the whole frames of `bytes`: the bytes taken (all of them: UDP drops, never waits).
-  size_t send(std::string_view bytes);
-  void deliver();
-  void detach() noexcept;
+  // UDP drops, never waits: every frame is taken.
+  bool sendFrame(std::string_view frame) override;
+  void leaveCarrier() noexcept override;
 
-  Port* port_;
-  PeerIdentity peer_;
-  uint32_t max_frame_;
-  Receiver* receiver_ = nullptr;
-  bool paused_ = false;
-  bool closing_ = false;
-  bool written_due_ = false;
-  std::deque<std::string> pending_;  // frames received while paused
-  size_t pending_bytes_ = 0;
-  std::optional<TransportEnd> end_;
-  Timer later_;  // callbacks from the loop, never from inside a call
+  Port* port_;  // while attached()
 };
 
 class Port final : public UdpPort {
@@ -394,7 +365,7 @@ class Port final : public UdpPort {
     if (sessions_.erase(s->id) == 0) return;
     if (tell)
       sendTo(s->where, udp::makeNumbered(udp::Type::close, s->key, s->id, ++s->seq_out, {}));
-    if (!why.message.empty()) s->ended(std::move(why));
+    if (!why.message.empty()) s->carrierEnded(std::move(why));
   }
 
   void sendTo(const Peer& to, const std::string& d) noexcept {
@@ -426,96 +397,13 @@ class Port final : public UdpPort {
   transport::UdpStats stats_;
 };
 
-void Session::detach() noexcept {
-  Port* p = port_;
-  port_ = nullptr;
-  if (p != nullptr) p->leave(this);
+bool Session::sendFrame(std::string_view frame) {
+  port_->sendFrame(*this, frame);
+  return true;
 }
 
-void Session::frame(std::string_view bytes, transport::UdpStats& stats) {
-  if (closing_) return;
-  if (paused_ || receiver_ == nullptr || !pending_.empty()) {
-    if (pending_bytes_ + bytes.size() > kPendingBytes) {
-      ++stats.overrun;  // a board that does not wait for its answers
-      return;
-    }
-    pending_bytes_ += bytes.size();
-    pending_.emplace_back(bytes);
-    return;
-  }
-  receiver_->message(bytes);
-}
-
-void Session::ended(TransportEnd end) {
-  port_ = nullptr;
-  pending_.clear();
-  pending_bytes_ = 0;
-  if (closing_) return;
-  end_ = std::move(end);
-  later_.startIn(0);
-}
-
-size_t Session::send(std::string_view bytes) {
-  size_t pos = 0;
-  while (pos + 4 <= bytes.size()) {
-    uint32_t len = 0;
-    std::memcpy(&len, bytes.data() + pos, 4);
-    const size_t whole = 4 + static_cast<size_t>(len);
-    if (whole > bytes.size() - pos) break;  // not a whole frame: never given by the connection
-    if (port_ != nullptr) port_->sendFrame(*this, bytes.substr(pos, whole));
-    pos += whole;
-  }
-  return pos;
-}
-
-Result<size_t> Session::tryWrite(std::span<const std::string_view> buffers) {
-  if (port_ == nullptr || closing_) return makeError(Errc::io_error, "the UDP session ended");
-  if (buffers.size() == 1) return send(buffers[0]);
-  std::string all;
-  for (std::string_view b : buffers) all.append(b);
-  return send(all);
-}
-
-Result<void> Session::write(std::span<const std::string_view> buffers) {
-  if (port_ == nullptr || closing_) return makeError(Errc::io_error, "the UDP session ended");
-  std::string all;
-  for (std::string_view b : buffers) all.append(b);
-  (void)send(all);
-  written_due_ = true;
-  later_.startIn(0);
-  return {};
-}
-
-void Session::close(std::string_view) noexcept {
-  if (closing_) return;
-  closing_ = true;
-  detach();
-  pending_.clear();
-  later_.startIn(0);
-}
-
-void Session::deliver() {
-  if (receiver_ == nullptr) return;
-  if (closing_) {
-    receiver_->closed();  // may destroy this: last
-    return;
-  }
-  if (written_due_) {
-    written_due_ = false;
-    receiver_->written({});
-    if (closing_) return;
-  }
-  while (!paused_ && !pending_.empty() && !closing_) {
-    const std::string f = std::move(pending_.front());
-    pending_.pop_front();
-    pending_bytes_ -= f.size();
-    receiver_->message(f);
-  }
-  if (end_ && !closing_ && pending_.empty()) {
-    const TransportEnd end = *end_;
-    end_.reset();
-    receiver_->ended(end);
-  }
+void Session::leaveCarrier() noexcept {
+  port_->leave(this);
 }
 
 }  // namespace

@@ -9,8 +9,8 @@ std::string Address::toString() const {
   if (kind == Kind::local) return "local:" + path;
   if (kind == Kind::serial) return "serial:" + path + "@" + std::to_string(baud);
   const bool v6 = host.find(':') != std::string::npos;
-  return std::string(kind == Kind::tls ? "tls:" : "tcp:") + (v6 ? "[" + host + "]" : host) + ":" +
-         std::to_string(port);
+  const char* scheme = kind == Kind::tls ? "tls:" : kind == Kind::udp ? "udp:" : "tcp:";
+  return std::string(scheme) + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
 }
 
 Result<Address> Address::parse(std::string_view text) {
@@ -18,7 +18,8 @@ Result<Address> Address::parse(std::string_view text) {
     return makeError(
         Errc::invalid_argument,
         "bad hub address \"" + std::string(text) + "\": " + why +
-            " (expected local:/path, tcp:host[:port], tls:host[:port] or serial:/dev/path[@baud])");
+            " (expected local:/path, tcp:host[:port], tls:host[:port], serial:/dev/path[@baud] or "
+            "udp:host[:port])");
   };
   Address a;
   if (text.starts_with("local:")) {
@@ -46,6 +47,9 @@ Result<Address> Address::parse(std::string_view text) {
     a.kind = Kind::tcp;
   } else if (text.starts_with("tls:")) {
     a.kind = Kind::tls;
+  } else if (text.starts_with("udp:")) {
+    a.kind = Kind::udp;
+    a.port = kDefaultUdpPort;
   } else {
     return bad("unknown transport");
   }

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // Opening a transport to a hub's address (skrobot/runtime/flow/transport.h): resolving on libuv's
-// thread pool, connecting to each resolved address in turn, and for tls: the handshake, before the
-// transport is handed over.
+// thread pool, connecting to each resolved address in turn, and for tls: the handshake, for udp:
+// the session's handshake (udp_client.h), before the transport is handed over.
 #include "stream_transport.h"
 #include "tls_transport.h"
+#include "udp_client.h"
 
 #include <skrobot/runtime/flow/serial.h>
 #include <skrobot/runtime/loop.h>
@@ -20,16 +21,19 @@ std::string uvText(const std::string& what, int rc) {
   return what + ": " + uv_strerror(rc);
 }
 
+// local:, tcp: and tls: (a stream), and udp: (resolved the same way, then udp_client.h).
 class StreamDialer final : public Dialer {
  public:
-  StreamDialer(Loop& loop, const Address& address, const Result<TlsContext>* tls, Opened opened)
+  StreamDialer(Loop& loop, const Address& address, const DialOptions& options, Opened opened)
       : loop_(loop),
         address_(address),
+        options_(options),
         opened_(std::move(opened)),
         report_(loop, [this] { report(); }) {
+    options_.tls = nullptr;  // kept in tls_, by value
     if (address.kind == Address::Kind::tls) {
-      tls_ = tls != nullptr
-                 ? *tls
+      tls_ = options.tls != nullptr
+                 ? *options.tls
                  : Result<TlsContext>(makeError(Errc::invalid_argument, "TLS: no settings"));
     }
   }
@@ -52,9 +56,16 @@ class StreamDialer final : public Dialer {
       fail(tls_->error().message);
       return;
     }
+    const bool udp = address_.kind == Address::Kind::udp;
+    if (udp && !options_.udp_key) {
+      fail(address_.toString() + ": a udp: session is opened with the account's key, and none " +
+           "was given (ROBOT_UDP_KEY, ROBOT_UDP_KEY_FILE or flowctl's --udp-key-file: the hex " +
+           "that `skrobot user key " + options_.udp_user + "` printed)");
+      return;
+    }
     addrinfo hints{};
     hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_socktype = udp ? SOCK_DGRAM : SOCK_STREAM;
     const std::string port = std::to_string(address_.port);
     resolve_ = new Resolve;
     resolve_->owner = this;
@@ -94,13 +105,38 @@ class StreamDialer final : public Dialer {
       if (a->ai_addrlen > sizeof(sockaddr_storage)) continue;
       sockaddr_storage s{};
       std::memcpy(&s, a->ai_addr, a->ai_addrlen);
-      candidates_.push_back(s);
+      candidates_.emplace_back(s, a->ai_addrlen);
     }
-    connectNext();
+    if (address_.kind == Address::Kind::udp) {
+      handshakeNext();
+    } else {
+      connectNext();
+    }
+  }
+
+  // udp: the handshake with each address in turn while the system says its port is closed.
+  void handshakeNext() {
+    const auto& [to, len] = candidates_[tried_++];
+    auto session = UdpClientSession::open(loop_, to, len, options_);
+    if (!session) {
+      fail(address_.toString() + ": " + session.error().message);
+      return;
+    }
+    udp_ = std::move(session).value();
+    udp_->handshake([this](std::optional<TransportEnd> failed) {
+      if (!failed) {
+        finish(std::unique_ptr<Transport>(std::move(udp_)));
+      } else if (failed->why == TransportEnd::Why::refused && tried_ < candidates_.size()) {
+        report_.startIn(0);  // the next address, from the loop: udp_ is inside this call
+        next_udp_ = true;
+      } else {
+        fail(address_.toString() + " as \"" + options_.udp_user + "\": " + failed->message);
+      }
+    });
   }
 
   void connectNext() {
-    const sockaddr_storage next = candidates_[tried_++];
+    const sockaddr_storage next = candidates_[tried_++].first;
     stream_ = std::make_unique<StreamTransport>(loop_, TransportKind::tcp);
     stream_->connect(reinterpret_cast<const sockaddr*>(&next), [this](int st) { connected(st); });
   }
@@ -146,21 +182,31 @@ class StreamDialer final : public Dialer {
     report_.startIn(0);
   }
   void report() {
+    if (next_udp_) {
+      next_udp_ = false;
+      udp_.reset();
+      handshakeNext();
+      return;
+    }
     auto outcome = std::move(*outcome_);
     outcome_.reset();
     tls_transport_.reset();
     stream_.reset();
+    udp_.reset();
     opened_(std::move(outcome));  // may destroy this
   }
 
   Loop& loop_;
   Address address_;
+  DialOptions options_;
   Opened opened_;
   std::optional<Result<TlsContext>> tls_;
   std::unique_ptr<StreamTransport> stream_;
   std::unique_ptr<TlsTransport> tls_transport_;
+  std::unique_ptr<UdpClientSession> udp_;
+  bool next_udp_ = false;  // report(): the next address's handshake
   Resolve* resolve_ = nullptr;
-  std::vector<sockaddr_storage> candidates_;  // tcp: and tls: the resolved addresses
+  std::vector<std::pair<sockaddr_storage, socklen_t>> candidates_;  // the resolved addresses
   size_t tried_ = 0;
   std::optional<Result<std::unique_ptr<Transport>>> outcome_;
   Timer report_;
@@ -184,12 +230,12 @@ class SerialDialer final : public Dialer {
   Timer report_;
 };
 
-std::unique_ptr<Dialer> Dialer::open(Loop& loop, const Address& address,
-                                     const Result<TlsContext>* tls, Opened opened) {
+std::unique_ptr<Dialer> Dialer::open(Loop& loop, const Address& address, const DialOptions& options,
+                                     Opened opened) {
   if (address.kind == Address::Kind::serial) {
     return std::make_unique<SerialDialer>(loop, address, std::move(opened));
   }
-  auto dialer = std::make_unique<StreamDialer>(loop, address, tls, std::move(opened));
+  auto dialer = std::make_unique<StreamDialer>(loop, address, options, std::move(opened));
   dialer->start();
   return dialer;
 }

@@ -155,6 +155,11 @@ Result<std::unique_ptr<Listener>> Listener::open(Loop& loop, const Address& addr
   if (address.kind == Address::Kind::tls && !options.tls) {
     return makeError(Errc::invalid_argument, "a tls: listener needs its TLS context");
   }
+  if (address.kind == Address::Kind::serial || address.kind == Address::Kind::udp) {
+    return makeError(Errc::invalid_argument,
+                     "serial: and udp: are the hub's server.serial and server.udp, not listeners "
+                     "of an address");
+  }
   auto listener =
       std::make_unique<StreamListener>(loop, address, std::move(options), std::move(accepted));
   if (auto r = listener->listen(); !r) return r.error();

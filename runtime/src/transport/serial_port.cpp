@@ -4,6 +4,7 @@
 #include <skrobot/runtime/flow/serial.h>
 #include <skrobot/runtime/loop_handles.h>
 
+#include "message_session.h"
 #include "skr_line.h"
 
 #include <fcntl.h>
@@ -12,8 +13,6 @@
 
 #include <cerrno>
 #include <cstring>
-#include <deque>
-#include <optional>
 #include <vector>
 
 namespace skr::flow::transport {
@@ -71,62 +70,27 @@ constexpr size_t kPendingBytes = 64u << 10;
 
 class Port;
 
-// One session on the line: a Transport with one frame per message.
-class Session final : public Transport {
+// One session on the line (message_session.h); its carrier is the port.
+class Session final : public MessageSession {
  public:
   Session(Loop& loop, Port* port, PeerIdentity peer, uint32_t max_frame)
-      : port_(port),
-        peer_(std::move(peer)),
-        max_frame_(max_frame),
-        later_(loop, [this] { deliver(); }) {}
-  ~Session() override;
-
-  [[nodiscard]] TransportKind kind() const noexcept override { return TransportKind::serial; }
-  [[nodiscard]] Framing framing() const noexcept override { return Framing::messages; }
-  [[nodiscard]] Result<void> start(Receiver& receiver) override {
-    receiver_ = &receiver;
-    if (!pending_.empty() || end_) later_.startIn(0);
-    return {};
-  }
-  void pause() noexcept override { paused_ = true; }
-  [[nodiscard]] Result<void> resume() override {
-    paused_ = false;
-    if (!pending_.empty()) later_.startIn(0);
-    return {};
-  }
-  [[nodiscard]] Result<size_t> tryWrite(std::span<const std::string_view> buffers) override;
-  [[nodiscard]] Result<void> write(std::span<const std::string_view> buffers) override;
-  void close(std::string_view reason) noexcept override;
-  [[nodiscard]] PeerIdentity peer() const override { return peer_; }
-  [[nodiscard]] uint32_t maxFrameBytes() const noexcept override { return max_frame_; }
+      : MessageSession(loop, TransportKind::serial, std::move(peer), max_frame, kPendingBytes,
+                       "the serial session ended"),
+        port_(port) {}
+  ~Session() override { detach(); }
 
   // From the port.
-  void frame(std::string_view bytes, SerialStats& stats);
-  void lineEnded(TransportEnd end);  // the port lets go of this session
-  void roomOnLine();
+  void frame(std::string_view bytes, SerialStats& stats) {
+    if (!received(bytes)) ++stats.overrun;
+  }
   // A client's session owns its port (openSerialSession).
   void own(std::unique_ptr<SerialPort> port) noexcept { owned_ = std::move(port); }
 
  private:
-  // Hands whole frames of `bytes` to the line while it has room: the bytes taken.
-  size_t toLine(std::string_view bytes);
-  void deliver();
-  void detach() noexcept;
+  bool sendFrame(std::string_view frame) override;
+  void leaveCarrier() noexcept override;
 
-  Port* port_;
-  PeerIdentity peer_;
-  uint32_t max_frame_;
-  Receiver* receiver_ = nullptr;
-  bool paused_ = false;
-  bool closing_ = false;
-  std::deque<std::string> pending_;  // frames received while paused
-  size_t pending_bytes_ = 0;
-  std::optional<TransportEnd> end_;
-  std::string writing_;  // what write() was given and the line has not taken yet
-  size_t written_off_ = 0;
-  bool write_under_way_ = false;
-  bool written_due_ = false;
-  Timer later_;                        // callbacks from the loop, never from inside a call
+  Port* port_;                         // while attached()
   std::unique_ptr<SerialPort> owned_;  // last: destroyed after detach()
 };
 
@@ -143,7 +107,8 @@ class Port final : public SerialPort {
     skr_line_rx_init(&rx_, rx_buf_.data(), rx_buf_.size());
   }
   ~Port() override {
-    if (session_ != nullptr) session_->lineEnded({TransportEnd::Why::error, "serial port closed"});
+    if (session_ != nullptr)
+      session_->carrierEnded({TransportEnd::Why::error, "serial port closed"});
     watch_.stop();
     watch_ = {};
     ::close(fd_);
@@ -232,7 +197,7 @@ class Port final : public SerialPort {
     if (session_ != nullptr && login) {
       Session* old = session_;
       session_ = nullptr;
-      old->lineEnded({TransportEnd::Why::peer_closed, "the board logged in again"});
+      old->carrierEnded({TransportEnd::Why::peer_closed, "the board logged in again"});
     }
     if (session_ == nullptr)
       accepted_(openSession());  // may close it at once (too many connections)
@@ -258,7 +223,7 @@ class Port final : public SerialPort {
       watch_.watch(FdWatch::readable | FdWatch::writable);
     }
     if (notify && session_ != nullptr && out_.size() - out_off_ < options_.queue_bytes)
-      session_->roomOnLine();
+      session_->carrierRoom();
   }
 
   void fail(const std::string& why) {
@@ -266,7 +231,7 @@ class Port final : public SerialPort {
     if (session_ != nullptr) {
       Session* s = session_;
       session_ = nullptr;
-      s->lineEnded({TransportEnd::Why::error, options_.device + ": " + why});
+      s->carrierEnded({TransportEnd::Why::error, options_.device + ": " + why});
     }
     if (lost_) lost_(options_.device + ": " + why);  // may destroy this port: last
   }
@@ -285,110 +250,12 @@ class Port final : public SerialPort {
   SerialStats stats_;
 };
 
-Session::~Session() {
-  detach();
+bool Session::sendFrame(std::string_view frame) {
+  return port_->send(frame);
 }
 
-void Session::detach() noexcept {
-  if (port_ != nullptr) port_->leave(this);
-  port_ = nullptr;
-}
-
-void Session::frame(std::string_view bytes, SerialStats& stats) {
-  if (closing_) return;
-  if (paused_ || receiver_ == nullptr || !pending_.empty()) {
-    if (pending_bytes_ + bytes.size() > kPendingBytes) {
-      ++stats.overrun;
-      return;
-    }
-    pending_bytes_ += bytes.size();
-    pending_.emplace_back(bytes);
-    return;
-  }
-  receiver_->message(bytes);
-}
-
-void Session::lineEnded(TransportEnd end) {
-  port_ = nullptr;
-  pending_.clear();  // what the ended session had not read yet is moot
-  pending_bytes_ = 0;
-  if (closing_) return;
-  end_ = std::move(end);
-  later_.startIn(0);
-}
-
-size_t Session::toLine(std::string_view bytes) {
-  size_t pos = 0;
-  while (port_ != nullptr && pos + 4 <= bytes.size()) {
-    uint32_t len = 0;
-    std::memcpy(&len, bytes.data() + pos, 4);
-    const size_t whole = 4 + static_cast<size_t>(len);
-    if (whole > bytes.size() - pos) break;  // not a whole frame: never given by the connection
-    if (!port_->send(bytes.substr(pos, whole))) break;
-    pos += whole;
-  }
-  return pos;
-}
-
-Result<size_t> Session::tryWrite(std::span<const std::string_view> buffers) {
-  if (port_ == nullptr || closing_) return makeError(Errc::io_error, "the serial session ended");
-  if (write_under_way_) return size_t{0};
-  if (buffers.size() == 1) return toLine(buffers[0]);
-  std::string all;
-  for (std::string_view b : buffers) all.append(b);
-  return toLine(all);
-}
-
-Result<void> Session::write(std::span<const std::string_view> buffers) {
-  if (port_ == nullptr || closing_) return makeError(Errc::io_error, "the serial session ended");
-  writing_.clear();
-  for (std::string_view b : buffers) writing_.append(b);
-  written_off_ = 0;
-  write_under_way_ = true;
-  roomOnLine();
-  return {};
-}
-
-void Session::roomOnLine() {
-  if (!write_under_way_) return;
-  written_off_ += toLine(std::string_view(writing_).substr(written_off_));
-  if (written_off_ < writing_.size() && port_ != nullptr) return;
-  write_under_way_ = false;
-  writing_.clear();
-  written_due_ = true;
-  later_.startIn(0);
-}
-
-void Session::close(std::string_view) noexcept {
-  if (closing_) return;
-  closing_ = true;
-  detach();
-  pending_.clear();
-  later_.startIn(0);
-}
-
-void Session::deliver() {
-  if (receiver_ == nullptr) return;
-  if (closing_) {
-    receiver_->closed();  // may destroy this: last
-    return;
-  }
-  if (written_due_) {
-    written_due_ = false;
-    receiver_->written({});
-    if (closing_) return;
-  }
-  while (!paused_ && !pending_.empty() && !closing_) {
-    const std::string f = std::move(pending_.front());
-    pending_.pop_front();
-    pending_bytes_ -= f.size();
-    receiver_->message(f);
-  }
-  if (end_ && !closing_ && pending_.empty()) {
-    const TransportEnd end = *end_;
-    end_.reset();
-    receiver_->ended(end);
-  }
+void Session::leaveCarrier() noexcept {
+  port_->leave(this);
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
+#include <skrobot/runtime/flow/udp.h>
 #include <skrobot/satellite/address.h>
 
 #include <cerrno>
@@ -24,6 +25,15 @@ Result<ConnectOptions> ConnectOptions::fromEnvironment(std::string client_name) 
   o.tls.ca_file = env("ROBOT_TLS_CA");
   o.tls.cert_file = env("ROBOT_TLS_CERT");
   o.tls.key_file = env("ROBOT_TLS_KEY");
+  if (const std::string hex = env("ROBOT_UDP_KEY"); !hex.empty()) {
+    auto key = flow::transport::parseUdpKey(hex);
+    if (!key) return makeError(key.error().code, "ROBOT_UDP_KEY: " + key.error().message);
+    o.udp_key = *key;
+  } else if (const std::string file = env("ROBOT_UDP_KEY_FILE"); !file.empty()) {
+    auto key = flow::transport::readUdpKeyFile(file);
+    if (!key) return makeError(key.error().code, "ROBOT_UDP_KEY_FILE: " + key.error().message);
+    o.udp_key = *key;
+  }
   return o;
 }
 

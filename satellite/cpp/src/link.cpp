@@ -34,11 +34,11 @@ Link::Link(Loop& loop, const Address& address, uint32_t max_frame_bytes, Handler
   ignoreSigpipe();
 }
 
-Link* Link::open(Loop& loop, const Address& address, const Result<flow::TlsContext>* tls,
+Link* Link::open(Loop& loop, const Address& address, const transport::DialOptions& dial,
                  uint32_t max_frame_bytes, Handler& handler) {
   auto* link = new Link(loop, address, max_frame_bytes, handler);
   link->dialer_ =
-      transport::Dialer::open(loop, address, tls, [link](auto t) { link->opened(std::move(t)); });
+      transport::Dialer::open(loop, address, dial, [link](auto t) { link->opened(std::move(t)); });
   return link;
 }
 

@@ -47,11 +47,11 @@ class Link final : private flow::transport::Transport::Receiver {
     Handler& operator=(Handler&&) = default;
   };
 
-  // Starts connecting; failures come later through onLinkClosed. `tls` is required for a tls:
-  // address (its failure is reported as the link's) and ignored otherwise.
+  // Starts connecting; failures come later through onLinkClosed. `dial.tls` is required for a
+  // tls: address (its failure is reported as the link's), the udp_ settings for a udp: one.
   [[nodiscard]] static Link* open(Loop& loop, const Address& address,
-                                  const Result<flow::TlsContext>* tls, uint32_t max_frame_bytes,
-                                  Handler& handler);
+                                  const flow::transport::DialOptions& dial,
+                                  uint32_t max_frame_bytes, Handler& handler);
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
   Link(Link&&) = delete;

@@ -49,11 +49,13 @@ int connectWithin(int fd, const sockaddr* addr, socklen_t len, uint32_t timeout_
 }  // namespace
 
 Result<int> connectSocket(const Address& a, uint32_t timeout_ms) {
-  if (a.kind == Address::Kind::serial) {
-    // The line carries one session: a second connection would end the flow's.
+  if (a.kind == Address::Kind::serial || a.kind == Address::Kind::udp) {
+    // The line carries one session: a second connection would end the flow's. A UDP session
+    // carries frames of one datagram and may lose them: no place for blocking requests.
     return makeError(Errc::unsupported,
-                     "a serial: address carries one session, the flow; synchronous requests need "
-                     "a local:, tcp: or tls: address");
+                     std::string(a.kind == Address::Kind::serial ? "a serial:" : "a udp:") +
+                         " address carries one session, the flow; synchronous requests need a "
+                         "local:, tcp: or tls: address");
   }
   if (a.kind == Address::Kind::local) {
     const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);

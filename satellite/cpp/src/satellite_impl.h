@@ -98,9 +98,10 @@ struct Satellite::Impl final : detail::Link::Handler {
   State state = State::stopped;
   uint64_t generation = 0;  // bumped on every connection attempt; slots may change it
   detail::Link* link = nullptr;
-  Timer timer;               // handshake time-out, or the wait before the next connection attempt
-  Nanos backoff_ns = 0;      // the delay before the next connection attempt
-  Nanos flow_opened_ns = 0;  // steadyNowNs() when the current flow opened
+  Timer timer;                 // handshake time-out, or the wait before the next connection attempt
+  Nanos backoff_ns = 0;        // the delay before the next connection attempt
+  Nanos flow_opened_ns = 0;    // steadyNowNs() when the current flow opened
+  uint32_t udp_keepalive = 0;  // one-second ticks of a udp: flow (onOneSecond)
   bool failure_logged = false;
   bool stopping = false;  // stop() is closing: no retry
   Nanos last_drop_log_ns = 0;

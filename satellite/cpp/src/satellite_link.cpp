@@ -99,9 +99,13 @@ void Satellite::Impl::connectNow() {
     // Certificates and keys are read once per satellite, not at every reconnection.
     tls_context = flow::TlsContext::create(flow::TlsRole::client, opt.connection.tls);
   }
-  link =
-      detail::Link::open(self.loop(), opt.connection.address, tls_context ? &*tls_context : nullptr,
-                         opt.connection.max_frame_bytes, *this);
+  flow::transport::DialOptions dial;
+  dial.tls = tls_context ? &*tls_context : nullptr;
+  dial.udp_user = opt.connection.user;
+  dial.udp_key = opt.connection.udp_key;
+  dial.udp_handshake_ms = opt.connection.timeout_ms;
+  link = detail::Link::open(self.loop(), opt.connection.address, dial,
+                            opt.connection.max_frame_bytes, *this);
   armTimer(opt.handshake_timeout_ns);
 }
 
@@ -321,9 +325,14 @@ void Satellite::Impl::onFlowOpen() {
 }
 
 // Channels of ours that the hub refused for a moment (the old connection's copy still there)
-// are asked for again once a second, a few times.
+// are asked for again once a second, a few times. A udp: flow sends a TIME_PROBE every 2 s, as a
+// board does: the hub ends a UDP session that sends nothing for its session_timeout_ms, and the
+// answers keep our side's silence limit from passing (udp_client.h).
 void Satellite::Impl::onOneSecond() {
   if (!flowOpen()) return;
+  if (opt.connection.address.kind == Address::Kind::udp && ++udp_keepalive % 2 == 0) {
+    send(msg::TimeProbe{0, static_cast<uint64_t>(realtimeNs())});
+  }
   paths->tick();
   for (auto& [name, o] : own) {
     if (o.id == 0 && o.tag == 0 && o.retries > 0 && o.retries < 10) sendChanAdd(o);

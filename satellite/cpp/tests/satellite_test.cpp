@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 // Two or more C++ satellites through a real hub: channels, data, properties, services, databases.
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <stdlib.h>
+#include <sys/socket.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -448,6 +451,78 @@ TEST_F(OverSerial, ASatelliteOnASerialLinePublishesToOneOnTheSocket) {
   ASSERT_TRUE(board.on([](Satellite& s) { return s.publish("analog", "512"); }));
   ASSERT_TRUE(eventually([&] { return sub->events.count("data:alice.analog:512") == 1; }))
       << sub->events.dump() << hubLog();
+}
+
+class OverUdp : public SatTest {};
+
+TEST_F(OverUdp, ASatelliteOnUdpPublishesAndSubscribesThroughTheHub) {
+  startUdpHub();
+  SatOnThread board(udpOptions("board"));
+  auto socket = satellite("socket");
+  ASSERT_TRUE(board.on([](Satellite& s) { return s.addChannel({.name = "analog"}); }));
+  ASSERT_TRUE(socket->on([](Satellite& s) { return s.addChannel({.name = "led"}); }));
+  board.on([](Satellite& s) { s.subscribe("guest.led"); });
+  socket->on([](Satellite& s) { s.subscribe("alice.analog"); });
+  board.start();
+  // Publishing: the board's channel has a subscriber on the socket.
+  ASSERT_TRUE(eventually([&] { return board.events.count("start:alice.analog") == 1; }))
+      << board.events.dump() << hubLog();
+  ASSERT_TRUE(board.on([](Satellite& s) { return s.publish("analog", "512"); }));
+  ASSERT_TRUE(eventually([&] { return socket->events.count("data:alice.analog:512") == 1; }))
+      << socket->events.dump() << hubLog();
+  // Subscribing: the socket's channel reaches the board over UDP.
+  ASSERT_TRUE(eventually([&] { return socket->events.count("start:guest.led") == 1; }))
+      << socket->events.dump() << board.events.dump() << hubLog();
+  ASSERT_TRUE(socket->on([](Satellite& s) { return s.publish("led", "on"); }));
+  ASSERT_TRUE(eventually([&] { return board.events.count("data:guest.led:on") == 1; }))
+      << board.events.dump() << hubLog();
+  EXPECT_EQ(board.events.count("connected"), 1u) << board.events.dump();
+}
+
+// The hub ends a UDP session that sends nothing for session_timeout_ms: the satellite's flow
+// keeps itself alive (a TIME_PROBE every 2 s), so an idle subscriber stays connected.
+TEST_F(OverUdp, AnIdleSatelliteKeepsItsSession) {
+  startUdpHub(3000);
+  SatOnThread board(udpOptions("board"));
+  auto socket = satellite("socket");
+  ASSERT_TRUE(socket->on([](Satellite& s) { return s.addChannel({.name = "led"}); }));
+  board.on([](Satellite& s) { s.subscribe("guest.led"); });
+  board.start();
+  ASSERT_TRUE(eventually([&] { return socket->events.count("start:guest.led") == 1; }))
+      << socket->events.dump() << board.events.dump() << hubLog();
+  std::this_thread::sleep_for(std::chrono::milliseconds(5000));  // past the hub's 3000 ms
+  ASSERT_TRUE(socket->on([](Satellite& s) { return s.publish("led", "on"); }));
+  ASSERT_TRUE(eventually([&] { return board.events.count("data:guest.led:on") == 1; }))
+      << board.events.dump() << hubLog();
+  EXPECT_EQ(board.events.count("connected"), 1u) << board.events.dump();
+  EXPECT_EQ(board.events.count("disconnected"), 0u) << board.events.dump();
+}
+
+TEST_F(OverUdp, AWrongKeyIsAClearErrorAfterTheHandshakeTimeout) {
+  startUdpHub();
+  SatelliteOptions o = udpOptions("board");
+  (*o.connection.udp_key)[0] ^= 1;
+  o.connection.timeout_ms = 1000;
+  o.reconnect = false;
+  SatOnThread board(o);
+  board.start();
+  ASSERT_TRUE(eventually([&] { return board.events.count("error:") == 1; }))
+      << board.events.dump() << hubLog();
+  const std::string error = board.events.with("error:")[0];
+  EXPECT_NE(error.find("the hub answered the HELLO but not the OPEN within 1000 ms: the key is "
+                       "not account \"alice\"'s"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("udp:127.0.0.1:" + std::to_string(udp_port_)), std::string::npos) << error;
+  EXPECT_FALSE(board.connected());
+  // No key at all: said at once.
+  o.connection.udp_key.reset();
+  SatOnThread keyless(o);
+  keyless.start();
+  ASSERT_TRUE(eventually([&] { return keyless.events.count("error:") == 1; }))
+      << keyless.events.dump();
+  EXPECT_NE(keyless.events.with("error:")[0].find("ROBOT_UDP_KEY"), std::string::npos)
+      << keyless.events.dump();
 }
 
 }  // namespace

@@ -496,5 +496,33 @@ TEST_F(Flowctl, BlobFiles) {
   EXPECT_EQ(flowctl({"blob", "copy", "maps", "a"}).code, 2);
 }
 
+// udp: addresses (docs/flow-protocol.md, "Addresses"): the key from a file, never the command
+// line; pub runs on the flow alone, the synchronous commands are refused with the reason.
+class FlowctlOverUdp : public Flowctl {
+ protected:
+  void SetUp() override { startUdpHub(); }
+};
+
+TEST_F(FlowctlOverUdp, PubOverUdpAndSyncCommandsRefused) {
+  const fs::path key = dir_.path() / "alice.key";
+  std::ofstream(key) << udp_key_hex_ << "\n";
+  auto sub = satellite("sub");
+  sub->on([](Satellite& s) { s.subscribe("alice.greeting"); });
+  const std::vector<std::string> env = {"ROBOT_ADDRESS=" + udpAddress(), "ROBOT_USER=alice"};
+  auto pub = flowctl(
+      {"--udp-key-file", key.string(), "pub", "greeting", "hello", "--wait-ms", "5000"}, {}, env);
+  EXPECT_EQ(pub.code, 0) << pub.out << hubLog();
+  EXPECT_TRUE(has(pub, "published 1 message (5 bytes) on alice.greeting")) << pub.out;
+  EXPECT_TRUE(eventually([&] { return sub->events.count("data:alice.greeting:hello") == 1; }))
+      << sub->events.dump() << hubLog();
+  auto ls = flowctl({"--udp-key-file", key.string(), "ls"}, {}, env);
+  EXPECT_EQ(ls.code, 1) << ls.out;
+  EXPECT_TRUE(has(ls, "a udp: address carries one session, the flow")) << ls.out;
+  auto bad =
+      flowctl({"--udp-key-file", (dir_.path() / "none.key").string(), "pub", "x", "y"}, {}, env);
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_TRUE(has(bad, "--udp-key-file: UDP key file")) << bad.out;
+}
+
 }  // namespace
 }  // namespace skr::sat::test

@@ -42,6 +42,7 @@
 #include <skrobot/runtime/flow/tls.h>
 #include <skrobot/runtime/result.h>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -197,6 +198,24 @@ class Listener {
   [[nodiscard]] virtual uint16_t port() const noexcept = 0;
 };
 
+// The 16 bytes of an account's UDP key (`skrobot user key NAME`; flow/udp.h parses its hex).
+using UdpKey = std::array<uint8_t, 16>;
+
+// What dialling an address needs beyond the address.
+struct DialOptions {
+  // tls: the client's context (required there: its error is the dialer's).
+  const Result<TlsContext>* tls = nullptr;
+  // udp: the account whose key opens the session (its LOGIN must name the same) and that key.
+  std::string udp_user;
+  std::optional<UdpKey> udp_key;
+  // udp: how long the handshake may take (HELLO, then OPEN, each sent again every 200 ms); the
+  // largest datagram sent (the hub's server.udp.max_datagram: a larger frame is not sent); and how
+  // long an open session may hear nothing from the hub before it ends.
+  uint32_t udp_handshake_ms = 5000;
+  uint32_t udp_max_datagram = 1200;
+  uint32_t udp_silence_ms = 10000;
+};
+
 class Dialer {
  public:
   using Opened = std::function<void(Result<std::unique_ptr<Transport>>)>;
@@ -206,8 +225,18 @@ class Dialer {
   // dialer's). `opened` is called once, from the loop, with the transport (not started) or the
   // reason ("connect: connection refused", "TLS with tls:host:9000: certificate verify
   // failed..."). Destroying the dialer first cancels it: `opened` is not called.
+  // A udp: address sends the handshake to the resolved address (the next one when the system
+  // says the port is closed) and hands over the session once the hub accepts it: "no answer to
+  // the UDP handshake..." when it does not within options.udp_handshake_ms, naming the likely
+  // cause (no key, a key that is not the account's, no server.udp there).
   [[nodiscard]] static std::unique_ptr<Dialer> open(Loop& loop, const Address& address,
-                                                    const Result<TlsContext>* tls, Opened opened);
+                                                    const DialOptions& options, Opened opened);
+  [[nodiscard]] static std::unique_ptr<Dialer> open(Loop& loop, const Address& address,
+                                                    const Result<TlsContext>* tls, Opened opened) {
+    DialOptions options;
+    options.tls = tls;
+    return open(loop, address, options, std::move(opened));
+  }
   Dialer() = default;
   virtual ~Dialer() = default;
   Dialer(const Dialer&) = delete;

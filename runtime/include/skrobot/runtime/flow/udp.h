@@ -2,11 +2,16 @@
 // FlowProtocol over UDP for boards (an ESP32 on WiFi): server.udp's settings and what hub.stats
 // shows of the port. The datagrams (a stateless cookie exchange, a per-board key, a MAC on every
 // datagram, sequence numbers) are docs/flow-protocol.md's "UDP"; the board's side is
-// satellite/mcu/src/skr_udp_wire.h, the hub's core/src/flow/udp_port.h.
+// satellite/mcu/src/skr_udp_wire.h, the hub's core/src/flow/udp_port.h, a client's (udp:
+// addresses) runtime/src/transport/udp_client.h through transport::Dialer.
 #pragma once
+
+#include <skrobot/runtime/flow/transport.h>
+#include <skrobot/runtime/result.h>
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 namespace skr::flow::transport {
 
@@ -39,5 +44,12 @@ struct UdpStats {
   uint64_t sessions = 0;         // sessions opened
   uint64_t timeouts = 0;         // sessions ended by session_timeout_ms
 };
+
+// An account's key as `skrobot user key NAME` prints it: 32 hex digits (white space around them
+// is ignored). Errc::invalid_argument otherwise; the message never repeats the text.
+[[nodiscard]] Result<UdpKey> parseUdpKey(std::string_view hex);
+// The key in a file that holds its hex (ROBOT_UDP_KEY_FILE, flowctl --udp-key-file): the file's
+// errors name it (Errc::not_found, Errc::io_error), and a bad key is Errc::invalid_argument.
+[[nodiscard]] Result<UdpKey> readUdpKeyFile(const std::string& path);
 
 }  // namespace skr::flow::transport

@@ -17,7 +17,8 @@
 // callback is on that loop's thread. Callbacks never come from inside a call (start, write,
 // close...), always from the loop itself.
 //
-// Room for the transports to come, in this shape (not written yet):
+// The shapes of the kinds beyond a byte stream (the first two written: serial lines and UDP, on
+// runtime/internal message_session.h; the third is to come):
 // - Message-based transports (UDP datagrams, WebSocket messages): framing() is `messages`; the
 //   receiver gets message() with one whole frame per message (length prefix included, never
 //   split or joined), and writes are given whole frames that the transport sends one per message

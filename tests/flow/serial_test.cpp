@@ -81,6 +81,16 @@ class Serial : public FlowFixture {
     ASSERT_EQ(r->kind(), Code::reply_ok);
   }
 
+  // A new pseudo-terminal behind `link`: the hub opens it and a board logs in on it.
+  void plugIn(const std::filesystem::path& link) {
+    pty_ = Pty::open();
+    std::filesystem::create_symlink(pty_.slave, link);
+    ASSERT_TRUE(eventually([&] { return line().open; }, 5000));
+    TestClient b = board();
+    auto ok = b.login("", "");
+    ASSERT_TRUE(ok) << ok.error().message;
+  }
+
   SerialCounters line() {
     HubSnapshot s;
     onHub([&] { s = server_->snapshot(); });
@@ -326,12 +336,7 @@ TEST_F(Serial, ADeviceNotPluggedInYetIsListedAwayAndOpenedWhenItAppears) {
   const SerialCounters before = line();
   EXPECT_EQ(before.device, link.string());
   EXPECT_FALSE(before.open);
-  pty_ = Pty::open();
-  std::filesystem::create_symlink(pty_.slave, link);
-  ASSERT_TRUE(eventually([&] { return line().open; }, 5000));
-  TestClient b = board();
-  auto ok = b.login("", "");
-  ASSERT_TRUE(ok) << ok.error().message;
+  plugIn(link);
 }
 
 TEST_F(Serial, ADeviceThatGoesAwayIsReopenedWhenItComesBack) {
@@ -351,12 +356,7 @@ TEST_F(Serial, ADeviceThatGoesAwayIsReopenedWhenItComesBack) {
   ASSERT_TRUE(eventually([&] { return log.sawTag("SERIAL-LOST"); }));
   ASSERT_TRUE(eventually([&] { return !line().open; }));
   // Plugged again (another pseudo-terminal behind the same name).
-  pty_ = Pty::open();
-  std::filesystem::create_symlink(pty_.slave, link);
-  ASSERT_TRUE(eventually([&] { return line().open; }, 5000));
-  TestClient b = board();
-  auto ok = b.login("", "");
-  ASSERT_TRUE(ok) << ok.error().message;
+  plugIn(link);
 }
 
 }  // namespace

@@ -3,8 +3,9 @@
 // skr_flow.h) through skr_poll, with its clock moving. The first byte picks the form: raw line
 // bytes, or frames ([u8 n][n bytes][u8 ms/16]) that the harness wraps in the line framing so that
 // the session's decoder sees them whole, or (bit 1) the same frames given whole to a session
-// without a line (io.read NULL, skr_input_frame: the UDP transport's way). Whatever arrives, every frame the board sends is whole
-// (its length field matches) and within SKR_TX_MAX, and a callback never sees more than arrived.
+// without a line (io.read NULL, skr_input_frame: the UDP transport's way). Whatever arrives, every
+// frame the board sends is whole (its length field matches) and within SKR_TX_MAX, and a callback
+// never sees more than arrived.
 #include "skr_flow.h"
 
 #include <cstdint>
@@ -93,7 +94,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (whole) {
       const size_t n = data[i++];
       const size_t take = n < size - i ? n : size - i;
-      std::vector<uint8_t> frame(data + i, data + i + take);  // exactly its bytes: ASan sees overreads
+      std::vector<uint8_t> frame(data + i,
+                                 data + i + take);  // exactly its bytes: ASan sees overreads
       skr_input_frame(&f, frame.data(), frame.size());
       i += take;
       l.clock += i < size ? data[i++] * 16u : 0;

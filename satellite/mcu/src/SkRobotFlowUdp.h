@@ -6,7 +6,10 @@
 //
 //   WiFiUDP udp;
 //   SkRobotFlowUdp flow(udp, IPAddress(192, 168, 1, 10), 9001);
-//   void setup() { (join the network); flow.begin("robot", "00112233445566778899aabbccddeeff", "esp32"); ... }
+//   void setup() {
+//     (join the network)
+//     flow.begin("robot", "00112233445566778899aabbccddeeff", "esp32");  // user, key, client
+//   }
 //   void loop() { flow.poll(); ... }
 //
 // The account is the key's: the hub takes no other (and no password). Callbacks run inside
@@ -77,7 +80,8 @@ inline bool SkRobotFlowUdp::begin(const char* user, const char* key_hex, const c
   return begin(user, key, client_name);
 }
 
-inline bool SkRobotFlowUdp::begin(const char* user, const uint8_t key[16], const char* client_name) {
+inline bool SkRobotFlowUdp::begin(const char* user, const uint8_t key[16],
+                                  const char* client_name) {
   skr_udp_port p;
   p.ctx = this;
   p.send = send;
@@ -89,7 +93,7 @@ inline bool SkRobotFlowUdp::begin(const char* user, const uint8_t key[16], const
 
 // One datagram, piece by piece: the UDP class gathers them (no copy here).
 inline void SkRobotFlowUdp::send(void* ctx, const uint8_t* head, size_t head_n, const uint8_t* body,
-                          size_t body_n, const uint8_t* tail, size_t tail_n) {
+                                 size_t body_n, const uint8_t* tail, size_t tail_n) {
   SkRobotFlowUdp& f = *static_cast<SkRobotFlowUdp*>(ctx);
   if (!f.udp_.beginPacket(f.hub_, f.port_)) return;
   f.udp_.write(head, head_n);

@@ -54,13 +54,25 @@ unsigned long micros(void) {
              std::chrono::steady_clock::now() - kStart)
       .count();
 }
-void delay(unsigned long ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
+void delay(unsigned long ms) {
+  std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+}
 void pinMode(uint8_t, uint8_t) {}
-int analogRead(uint8_t) { return analog_reads++ & 0x3FF; }
-void analogWrite(uint8_t pin, int value) { analog_writes[pin & 31] = value; }
-char* itoa(int value, char* s, int radix) { return format(value, false, s, radix); }
-char* utoa(unsigned value, char* s, int radix) { return format(value, true, s, radix); }
-char* ltoa(long value, char* s, int radix) { return format(value, false, s, radix); }
+int analogRead(uint8_t) {
+  return analog_reads++ & 0x3FF;
+}
+void analogWrite(uint8_t pin, int value) {
+  analog_writes[pin & 31] = value;
+}
+char* itoa(int value, char* s, int radix) {
+  return format(value, false, s, radix);
+}
+char* utoa(unsigned value, char* s, int radix) {
+  return format(value, true, s, radix);
+}
+char* ltoa(long value, char* s, int radix) {
+  return format(value, false, s, radix);
+}
 char* ultoa(unsigned long value, char* s, int radix) {
   return format((long long)value, true, s, radix);
 }
@@ -70,13 +82,19 @@ char* dtostrf(double value, signed char width, unsigned char precision, char* s)
 }
 }
 
-long random(long howbig) { return howbig <= 0 ? 0 : (long)(rng() % (unsigned long)howbig); }
+long random(long howbig) {
+  return howbig <= 0 ? 0 : (long)(rng() % (unsigned long)howbig);
+}
 long random(long howsmall, long howbig) {
   return howsmall >= howbig ? howsmall : howsmall + random(howbig - howsmall);
 }
-void randomSeed(unsigned long seed) { rng.seed((unsigned)seed); }
+void randomSeed(unsigned long seed) {
+  rng.seed((unsigned)seed);
+}
 
-int skr_host_last_analog_write(uint8_t pin) { return analog_writes[pin & 31]; }
+int skr_host_last_analog_write(uint8_t pin) {
+  return analog_writes[pin & 31];
+}
 
 void WiFiUDP::route(uint16_t from, uint16_t to) {
   sketch_port = from;
@@ -105,9 +123,13 @@ int WiFiUDP::beginPacket(IPAddress ip, uint16_t port) {
   return fd_ >= 0 ? 1 : 0;
 }
 
-int WiFiUDP::beginPacket(const char*, uint16_t) { return 0; }  // names are not resolved here
+int WiFiUDP::beginPacket(const char*, uint16_t) {
+  return 0;
+}  // names are not resolved here
 
-size_t WiFiUDP::write(uint8_t b) { return write(&b, 1); }
+size_t WiFiUDP::write(uint8_t b) {
+  return write(&b, 1);
+}
 
 size_t WiFiUDP::write(const uint8_t* buffer, size_t size) {
   if (size > sizeof out_ - out_len_) size = sizeof out_ - out_len_;
@@ -131,8 +153,7 @@ int WiFiUDP::parsePacket() {
   sockaddr_in a{};
   socklen_t len = sizeof a;
   in_len_ = in_at_ = 0;
-  const ssize_t n =
-      ::recvfrom(fd_, in_, sizeof in_, 0, reinterpret_cast<sockaddr*>(&a), &len);
+  const ssize_t n = ::recvfrom(fd_, in_, sizeof in_, 0, reinterpret_cast<sockaddr*>(&a), &len);
   if (n <= 0) return 0;
   const uint8_t* ip = reinterpret_cast<const uint8_t*>(&a.sin_addr.s_addr);
   remote_ip_ = IPAddress(ip[0], ip[1], ip[2], ip[3]);
@@ -142,9 +163,13 @@ int WiFiUDP::parsePacket() {
   return (int)n;
 }
 
-int WiFiUDP::available() { return (int)(in_len_ - in_at_); }
+int WiFiUDP::available() {
+  return (int)(in_len_ - in_at_);
+}
 
-int WiFiUDP::read() { return in_at_ < in_len_ ? in_[in_at_++] : -1; }
+int WiFiUDP::read() {
+  return in_at_ < in_len_ ? in_[in_at_++] : -1;
+}
 
 int WiFiUDP::read(unsigned char* buffer, size_t len) {
   if (len > in_len_ - in_at_) len = in_len_ - in_at_;
@@ -153,4 +178,6 @@ int WiFiUDP::read(unsigned char* buffer, size_t len) {
   return (int)len;
 }
 
-int WiFiUDP::peek() { return in_at_ < in_len_ ? in_[in_at_] : -1; }
+int WiFiUDP::peek() {
+  return in_at_ < in_len_ ? in_[in_at_] : -1;
+}

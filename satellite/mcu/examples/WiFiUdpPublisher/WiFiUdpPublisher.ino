@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// WiFiUdpPublisher: an ESP32 on a skrobot hub over WiFi, in UDP datagrams (docs/microcontrollers.md,
-// "UDP over WiFi"). On the hub: server.udp in its config, and the board's key:
+// WiFiUdpPublisher: an ESP32 on a skrobot hub over WiFi, in UDP datagrams
+// (docs/microcontrollers.md, "UDP over WiFi"). On the hub: server.udp in its config, and the board's key:
 //   skrobot user key robot        -> 32 hex digits, put them in BOARD_KEY below
 // - publishes analogRead(ADC_PIN) at 10 Hz on <user>.analog (2 bytes, little-endian);
 // - subscribes to SETPOINT_CHANNEL: its first byte goes to the PWM pin;

@@ -2,8 +2,10 @@
 // libFuzzer target: arbitrary bytes from the line into the board's session (satellite/mcu/src/
 // skr_flow.h) through skr_poll, with its clock moving. The first byte picks the form: raw line
 // bytes, or frames ([u8 n][n bytes][u8 ms/16]) that the harness wraps in the line framing so that
-// the session's decoder sees them whole. Whatever arrives, every frame the board sends is whole
-// (its length field matches) and within SKR_TX_MAX, and a callback never sees more than arrived.
+// the session's decoder sees them whole, or (bit 1) the same frames given whole to a session
+// without a line (io.read NULL, skr_input_frame: the UDP transport's way). Whatever arrives, every
+// frame the board sends is whole (its length field matches) and within SKR_TX_MAX, and a callback
+// never sees more than arrived.
 #include "skr_flow.h"
 
 #include <cstdint>
@@ -24,6 +26,13 @@ struct Line {
 int readByte(void* ctx) {
   auto* l = static_cast<Line*>(ctx);
   return l->at < l->stop ? l->in[l->at++] : -1;
+}
+// A session without a line gets whole frames.
+void writeFrame(void*, const uint8_t* f, size_t n) {
+  uint32_t len;
+  if (n < 5 || n > SKR_TX_MAX) std::abort();
+  std::memcpy(&len, f, 4);
+  if (len != n - 4) std::abort();
 }
 void writeBytes(void* ctx, const uint8_t* data, size_t n) {
   auto* l = static_cast<Line*>(ctx);
@@ -70,7 +79,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static skr_flow f;
   l = Line{};
   skr_line_rx_init(&l.out, l.out_buf.data(), l.out_buf.size());
-  skr_io io{&l, readByte, writeBytes, millis};
+  const bool whole = data[0] & 2;
+  skr_io io{&l, whole ? nullptr : readByte, whole ? writeFrame : writeBytes, millis};
   skr_init(&f, &io, "robot", "secret", "fuzz");
   const int ch = skr_channel(&f, "analog", "application/x-u16le");
   skr_service_add(&f, "board", onService, nullptr);
@@ -81,7 +91,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const bool frames = data[0] & 1;
   size_t i = 1;
   while (i < size) {
-    if (frames) {
+    if (whole) {
+      const size_t n = data[i++];
+      const size_t take = n < size - i ? n : size - i;
+      std::vector<uint8_t> frame(data + i,
+                                 data + i + take);  // exactly its bytes: ASan sees overreads
+      skr_input_frame(&f, frame.data(), frame.size());
+      i += take;
+      l.clock += i < size ? data[i++] * 16u : 0;
+    } else if (frames) {
       const size_t n = data[i++];
       const size_t take = n < size - i ? n : size - i;
       std::vector<uint8_t> enc(take + SKR_LINE_OVERHEAD(take));

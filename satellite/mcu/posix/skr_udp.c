@@ -16,7 +16,7 @@ static long long now_ms(void) {
   return (long long)t.tv_sec * 1000 + t.tv_nsec / 1000000;
 }
 
-static int random_bytes(uint8_t* out, size_t n) {
+int skr_udp_random(uint8_t* out, size_t n) {
   const int fd = open("/dev/urandom", O_RDONLY | O_CLOEXEC);
   size_t got = 0;
   if (fd < 0) return -1;
@@ -60,21 +60,14 @@ static int exchange(skr_udp* u, size_t out_n, long long deadline, int step, uint
   }
 }
 
-int skr_udp_open(skr_udp* u, const char* host, uint16_t port, const char* user,
-                 const uint8_t key[16], int timeout_ms) {
+int skr_udp_socket(const char* host, uint16_t port) {
   struct addrinfo hints;
   struct addrinfo* res = 0;
   char service[8];
-  uint8_t nonce[8];
-  uint8_t cookie[16];
-  size_t n;
-  const long long deadline = now_ms() + timeout_ms;
-  u->fd = -1;
-  skr_udp_init(&u->s, key);
+  int fd;
   memset(&hints, 0, sizeof hints);
   hints.ai_family = AF_UNSPEC;
   hints.ai_socktype = SOCK_DGRAM;
-  service[0] = '\0';
   {
     /* snprintf is stdio: the port's digits by hand. */
     char digits[6];
@@ -88,15 +81,26 @@ int skr_udp_open(skr_udp* u, const char* host, uint16_t port, const char* user,
     service[j] = '\0';
   }
   if (getaddrinfo(host, service, &hints, &res) != 0 || res == 0) return -1;
-  u->fd = socket(res->ai_family, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (u->fd < 0 || connect(u->fd, res->ai_addr, res->ai_addrlen) != 0) {
+  fd = socket(res->ai_family, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0 || connect(fd, res->ai_addr, res->ai_addrlen) != 0) {
     freeaddrinfo(res);
-    if (u->fd >= 0) close(u->fd);
-    u->fd = -1;
+    if (fd >= 0) close(fd);
     return -1;
   }
   freeaddrinfo(res);
-  if (random_bytes(nonce, sizeof nonce) != 0) goto fail;
+  return fd;
+}
+
+int skr_udp_open(skr_udp* u, const char* host, uint16_t port, const char* user,
+                 const uint8_t key[16], int timeout_ms) {
+  uint8_t nonce[8];
+  uint8_t cookie[16];
+  size_t n;
+  const long long deadline = now_ms() + timeout_ms;
+  skr_udp_init(&u->s, key);
+  u->fd = skr_udp_socket(host, port);
+  if (u->fd < 0) return -1;
+  if (skr_udp_random(nonce, sizeof nonce) != 0) goto fail;
   n = skr_udp_make_hello(&u->s, user, nonce, u->tx, sizeof u->tx);
   if (n == 0 || exchange(u, n, deadline, SKR_UDP_COOKIE, cookie) != 0) goto fail;
   n = skr_udp_make_open(&u->s, user, cookie, u->tx, sizeof u->tx);

@@ -39,6 +39,11 @@ int skr_udp_poll(skr_udp* u, int timeout_ms, const uint8_t** frame, size_t* n);
 /* Sends CLOSE (when a session is open) and closes the socket. */
 void skr_udp_close(skr_udp* u);
 
+/* The parts the transports share: a UDP socket connected to host:port (a descriptor, or -1), and
+ * n random bytes from /dev/urandom (0, or -1). */
+int skr_udp_socket(const char* host, uint16_t port);
+int skr_udp_random(uint8_t* out, size_t n);
+
 #ifdef __cplusplus
 }
 #endif

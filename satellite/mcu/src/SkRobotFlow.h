@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The board library for Arduino: a skrobot session (skr_flow.h) over any Stream (Serial, Serial1,
-// a UDP client). Declare it once, globally, and call poll() from loop():
+// SoftwareSerial; over UDP, WiFiUDP or EthernetUDP: SkRobotFlowUdp.h). Declare it once, globally,
+// and call poll() from loop():
 //
 //   SkRobotFlow flow(Serial);
 //   void setup() { Serial.begin(115200); flow.begin("robot", "secret", "uno"); ... }
@@ -12,8 +13,7 @@
 
 #include <Arduino.h>
 
-#include "skr_codes.h"
-#include "skr_flow.h"
+#include "SkRobotFlowBase.h"
 
 // Bytes kept aside while a write waits for room: the stream's receive buffer (64 bytes on an Uno)
 // would otherwise overflow while a frame goes out and the hub's answers come in.
@@ -21,44 +21,15 @@
 #define SKR_STASH 64
 #endif
 
-class SkRobotFlow {
+class SkRobotFlow : public SkRobotFlowBase {
  public:
   explicit SkRobotFlow(Stream& stream) : stream_(stream) {}
 
   // Strings are kept, not copied: pass literals. Logging in starts at the first poll().
   void begin(const char* user, const char* password, const char* client_name);
-  // A streaming channel <user>.<short_name>: its handle (>= 0), or -skr_status.
-  int channel(const char* short_name, const char* mime) {
-    return skr_channel(&flow_, short_name, mime);
-  }
-  // A service channel answered by `fn`.
-  int service(const char* short_name, skr_service_fn fn, void* user = nullptr) {
-    return skr_service_add(&flow_, short_name, fn, user);
-  }
-  // Subscriptions and sync sources by full name; declare them before the first poll().
-  skr_status subscribe(const char* full_name, skr_data_fn fn, void* user = nullptr) {
-    return skr_subscribe(&flow_, full_name, fn, user);
-  }
-  skr_status follow(const char* full_name, skr_pulse_fn fn, void* user = nullptr) {
-    return skr_follow(&flow_, full_name, fn, user);
-  }
+  // channel(), service(), subscribe(), follow(), publish(), setVar() ...: SkRobotFlowBase.h.
 
   void poll() { skr_poll(&flow_); }
-  bool connected() const { return skr_connected(&flow_) != 0; }
-  bool ready(int channel) const { return skr_channel_ready(&flow_, channel) != 0; }
-  skr_status publish(int channel, const void* data, size_t n) {
-    return skr_publish(&flow_, channel, data, n);
-  }
-  skr_status setVar(const char* key, int64_t v) { return skr_var_set_int64(&flow_, key, v); }
-  skr_status setVar(const char* key, const char* s) { return skr_var_set_string(&flow_, key, s); }
-  skr_status setVarFloat(const char* key, double v) { return skr_var_set_float64(&flow_, key, v); }
-  // Reads `key` of database `db` (the board's own: its account's name); the value comes to `fn`
-  // in a later poll() (read it with skr_value_*), a null pointer when the read failed.
-  skr_status getVar(const char* db, const char* key, skr_value_fn fn, void* user = nullptr) {
-    return skr_var_get(&flow_, db, key, fn, user);
-  }
-  const skr_stats& stats() { return *skr_get_stats(&flow_); }
-  skr_flow& session() { return flow_; }
 
  private:
   static int read(void* ctx);
@@ -69,7 +40,6 @@ class SkRobotFlow {
   void drain();
 
   Stream& stream_;
-  skr_flow flow_;
   uint8_t stash_[SKR_STASH];
   uint8_t stash_head_ = 0;
   uint8_t stash_count_ = 0;

@@ -107,6 +107,10 @@ skr_status skr_send_(skr_flow* f, skr_out* o) {
   }
   uint32_t n = (uint32_t)(o->len - 4);
   for (uint8_t i = 0; i < 4; ++i, n >>= 8) o->p[i] = (uint8_t)n;
+  if (!f->io.read) { /* whole frames: the transport frames them */
+    f->io.write(f->io.ctx, o->p, o->len);
+    return SKR_OK;
+  }
   const size_t w = skr_line_encode(o->p, o->len, f->tx_buf, sizeof f->tx_buf);
   f->io.write(f->io.ctx, f->tx_buf, w);
   return SKR_OK;
@@ -474,7 +478,7 @@ void skr_init(skr_flow* f, const skr_io* io, const char* user, const char* passw
 void skr_poll(skr_flow* f) {
   if (f->in_handler) return;
   int c;
-  while ((c = f->io.read(f->io.ctx)) >= 0) {
+  while (f->io.read && (c = f->io.read(f->io.ctx)) >= 0) {
     const size_t n = skr_line_rx_byte(&f->rx, (uint8_t)c);
     if (n > 0) on_frame(f, skr_line_rx_frame(&f->rx), n);
   }
@@ -501,6 +505,25 @@ void skr_poll(skr_flow* f) {
       if (reached(t, f->due_ms)) lost(f);
       break;
   }
+}
+
+void skr_input_frame(skr_flow* f, const uint8_t* frame, size_t n) {
+  if (f->in_handler) return;
+  if (n > SKR_RX_MAX) {
+    ++f->rx.stats.too_long;
+    return;
+  }
+  ++f->rx.stats.frames;
+  on_frame(f, frame, n);
+}
+
+void skr_restart(skr_flow* f) {
+  f->state = ST_BACKOFF;
+  f->due_ms = now(f);
+}
+
+uint8_t* skr_frame_buffer(skr_flow* f) {
+  return f->rx_buf;
 }
 
 static int bad_name(const char* s) {

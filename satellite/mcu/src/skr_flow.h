@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* A board's session with a hub over a byte line (docs/flow-protocol.md; the line: skr_line.h).
+/* A board's session with a hub over a byte line (docs/flow-protocol.md; the line: skr_line.h),
+ * or over a transport of whole frames (UDP datagrams: skr_udp_link.h).
  *
  * C99, no heap, no stdio, no floats unless a float helper is called. Everything lives in one
  * skr_flow the user declares (static), its sizes set at compile time by the SKR_* settings below.
@@ -82,7 +83,9 @@ typedef enum {
 } skr_status;
 const char* skr_strerror(skr_status s);
 
-/* How the session reaches its line. read: one byte (0..255), or -1 when none is waiting. */
+/* How the session reaches its line. read: one byte (0..255), or -1 when none is waiting; write:
+ * the line's bytes. For a transport of whole frames (UDP), read is NULL: write then gets one whole
+ * frame per call (no line framing) and frames come in through skr_input_frame(). */
 typedef struct {
   void* ctx;
   int (*read)(void* ctx);
@@ -187,6 +190,15 @@ skr_status skr_follow(skr_flow* f, const char* full_name, skr_pulse_fn fn, void*
 
 /* Reads what the line holds and runs the session: call it from the loop, often. */
 void skr_poll(skr_flow* f);
+/* A transport of whole frames (io.read NULL): one frame from the hub, its 4 length bytes included
+ * (a frame longer than SKR_RX_MAX is dropped and counted in stats.line.too_long). */
+void skr_input_frame(skr_flow* f, const uint8_t* frame, size_t n);
+/* The transport has a new line to the hub (a new UDP session): the session ends and logs in again
+ * at the next skr_poll(), without a back-off. */
+void skr_restart(skr_flow* f);
+/* A transport of whole frames may receive a frame into this buffer (SKR_RX_BUF bytes) before
+ * skr_input_frame(): the line's buffer, unused without a line. */
+uint8_t* skr_frame_buffer(skr_flow* f);
 /* 1 once the session is a flow (GO_ASYNC answered). */
 int skr_connected(const skr_flow* f);
 /* 1 when the channel has its id (publishing goes out). */

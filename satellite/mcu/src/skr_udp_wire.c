@@ -86,15 +86,29 @@ int skr_udp_take_accept(skr_udp_session* s, const uint8_t* in, size_t n) {
   return 1;
 }
 
+int skr_udp_seal(skr_udp_session* s, uint8_t type, const uint8_t* frame, size_t n,
+                 uint8_t head[SKR_UDP_HEAD_BYTES], uint8_t mac[8]) {
+  skr_siphash_ctx c;
+  if (s->session == 0) return 0;
+  head[0] = type;
+  head[1] = SKR_UDP_VERSION;
+  put32(head + 2, s->session);
+  put32(head + 6, ++s->seq_out);
+  skr_siphash_init(&c, s->session_key, 8);
+  skr_siphash_update(&c, head, SKR_UDP_HEAD_BYTES);
+  skr_siphash_update(&c, frame, n);
+  skr_siphash_final(&c, mac);
+  return 1;
+}
+
 static size_t make_numbered(skr_udp_session* s, uint8_t type, const uint8_t* frame, size_t n,
                             uint8_t* out, size_t cap) {
-  if (s->session == 0 || cap < SKR_UDP_DATA_OVERHEAD || n > cap - SKR_UDP_DATA_OVERHEAD) return 0;
-  out[0] = type;
-  out[1] = SKR_UDP_VERSION;
-  put32(out + 2, s->session);
-  put32(out + 6, ++s->seq_out);
-  if (n > 0) memmove(out + 10, frame, n);
-  skr_siphash(s->session_key, out, 10 + n, out + 10 + n, 8);
+  uint8_t head[SKR_UDP_HEAD_BYTES], mac[8];
+  if (cap < SKR_UDP_DATA_OVERHEAD || n > cap - SKR_UDP_DATA_OVERHEAD) return 0;
+  if (!skr_udp_seal(s, type, frame, n, head, mac)) return 0;
+  if (n > 0) memmove(out + SKR_UDP_HEAD_BYTES, frame, n);
+  memcpy(out, head, SKR_UDP_HEAD_BYTES);
+  memcpy(out + SKR_UDP_HEAD_BYTES + n, mac, 8);
   return n + SKR_UDP_DATA_OVERHEAD;
 }
 
@@ -128,25 +142,37 @@ int skr_udp_window(uint32_t* highest, uint64_t* window, skr_udp_stats* stats, ui
   return 1;
 }
 
-int skr_udp_take(skr_udp_session* s, const uint8_t* in, size_t n, size_t* off, size_t* len) {
-  uint8_t mac[8];
-  if (n < SKR_UDP_DATA_OVERHEAD || in[1] != SKR_UDP_VERSION ||
-      (in[0] != SKR_UDP_DATA && in[0] != SKR_UDP_CLOSE) || s->session == 0 ||
-      get32(in + 2) != s->session) {
+int skr_udp_take_parts(skr_udp_session* s, const uint8_t* head, const uint8_t* frame, size_t n,
+                       const uint8_t* mac) {
+  uint8_t want[8];
+  skr_siphash_ctx c;
+  if (head[1] != SKR_UDP_VERSION || (head[0] != SKR_UDP_DATA && head[0] != SKR_UDP_CLOSE) ||
+      s->session == 0 || get32(head + 2) != s->session) {
     ++s->stats.other;
     return SKR_UDP_RX_NONE;
   }
-  skr_siphash(s->session_key, in, n - 8, mac, 8);
-  if (!skr_siphash_equal(mac, in + n - 8, 8)) {
+  skr_siphash_init(&c, s->session_key, 8);
+  skr_siphash_update(&c, head, SKR_UDP_HEAD_BYTES);
+  skr_siphash_update(&c, frame, n);
+  skr_siphash_final(&c, want);
+  if (!skr_siphash_equal(want, mac, 8)) {
     ++s->stats.bad_mac;
     return SKR_UDP_RX_NONE;
   }
-  if (!skr_udp_window(&s->seq_in, &s->window, &s->stats, get32(in + 6))) return SKR_UDP_RX_NONE;
-  if (in[0] == SKR_UDP_CLOSE) {
+  if (!skr_udp_window(&s->seq_in, &s->window, &s->stats, get32(head + 6))) return SKR_UDP_RX_NONE;
+  if (head[0] == SKR_UDP_CLOSE) {
     s->session = 0;
     return SKR_UDP_RX_CLOSE;
   }
-  *off = 10;
-  *len = n - SKR_UDP_DATA_OVERHEAD;
   return SKR_UDP_RX_DATA;
+}
+
+int skr_udp_take(skr_udp_session* s, const uint8_t* in, size_t n, size_t* off, size_t* len) {
+  if (n < SKR_UDP_DATA_OVERHEAD) {
+    ++s->stats.other;
+    return SKR_UDP_RX_NONE;
+  }
+  *off = SKR_UDP_HEAD_BYTES;
+  *len = n - SKR_UDP_DATA_OVERHEAD;
+  return skr_udp_take_parts(s, in, in + SKR_UDP_HEAD_BYTES, *len, in + n - 8);
 }

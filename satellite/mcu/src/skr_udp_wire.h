@@ -70,6 +70,12 @@ size_t skr_udp_make_open(const skr_udp_session* s, const char* user, const uint8
 size_t skr_udp_make_data(skr_udp_session* s, const uint8_t* frame, size_t n, uint8_t* out,
                          size_t cap);
 size_t skr_udp_make_close(skr_udp_session* s, uint8_t* out, size_t cap);
+/* The same in parts, for a transport that sends a datagram piece by piece (Arduino's UDP): numbers
+ * it and writes its head (SKR_UDP_HEAD_BYTES: type, version, session, seq) and the MAC of head
+ * and frame (8 bytes); the datagram is head | frame | mac. 0 when no session is open, else 1. */
+#define SKR_UDP_HEAD_BYTES 10u
+int skr_udp_seal(skr_udp_session* s, uint8_t type, const uint8_t* frame, size_t n,
+                 uint8_t head[SKR_UDP_HEAD_BYTES], uint8_t mac[8]);
 
 /* 1 when `in` is the COOKIE answering this handshake's HELLO (the cookie copied out), else 0. */
 int skr_udp_take_cookie(const skr_udp_session* s, const uint8_t* in, size_t n, uint8_t cookie[16]);
@@ -80,6 +86,9 @@ int skr_udp_take_accept(skr_udp_session* s, const uint8_t* in, size_t n);
 #define SKR_UDP_RX_DATA 1  /* a frame: in[*off .. *off + *len) */
 #define SKR_UDP_RX_CLOSE 2 /* the hub ended the session (s->session is 0 now) */
 int skr_udp_take(skr_udp_session* s, const uint8_t* in, size_t n, size_t* off, size_t* len);
+/* The same for a datagram read in parts: head (SKR_UDP_HEAD_BYTES), frame (n bytes), mac (8). */
+int skr_udp_take_parts(skr_udp_session* s, const uint8_t* head, const uint8_t* frame, size_t n,
+                       const uint8_t* mac);
 
 /* The replay window, shared by both ends' rules: 1 when `seq` is new (and now recorded), 0 when
  * it is a duplicate or older than the window (counted as replayed). */

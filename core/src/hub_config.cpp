@@ -240,6 +240,7 @@ s::Schema serialSchema() {
       s::optional("account", s::string(), ""),
       s::optional("max_frame", s::integer().range(64, 65536), 4096),
       s::optional("queue_bytes", s::integer().range(256, 1 << 20), 4096),
+      s::optional("pace", s::integer().range(0, 1 << 22), 0),
   });
 }
 
@@ -325,6 +326,7 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
       port.account = p["account"].asString();
       port.max_frame = p["max_frame"].asUInt();
       port.queue_bytes = p["queue_bytes"].asUInt();
+      port.pace = p["pace"].asUInt();
       out.serial.push_back(std::move(port));
     }
     if (const Json::Value& u = s["udp"]; u.isObject()) {

@@ -20,10 +20,12 @@ using skr::boards::test::SimBoard;
 using skr::test::TempDir;
 
 // The hub with the account "robot" (the sketch's user), its serial port bound to it.
-std::unique_ptr<HubProcess> hubOn(const fs::path& dir, const std::string& device) {
-  return std::make_unique<HubProcess>(
-      SKROBOT_BIN, dir, "robot",
-      R"(, "serial": [{"device": ")" + device + R"(", "account": "robot"}])");
+std::unique_ptr<HubProcess> hubOn(const fs::path& dir, const std::string& device,
+                                  uint32_t baud = 115200) {
+  return std::make_unique<HubProcess>(SKROBOT_BIN, dir, "robot",
+                                      R"(, "serial": [{"device": ")" + device +
+                                          R"(", "account": "robot", "baud": )" +
+                                          std::to_string(baud) + "}]");
 }
 
 // flowctl against the hub of `dir`; its output.
@@ -127,6 +129,27 @@ TEST_F(Board, TheFirstSketchOfTheDocsRunsAsWritten) {
   EXPECT_NE(flowctl(dir_.path(), {"call", "robot.led", "on"}).find("on"), std::string::npos);
   const std::string off = flowctl(dir_.path(), {"call", "robot.led", "off"});
   EXPECT_NE(off.find("off"), std::string::npos) << off;
+}
+
+// At 1,000,000 baud the hub's answers come faster than an Uno reads them while it writes: the
+// board adds its channels one at a time, so that their answers never overflow its receive buffer
+// (before: the answers to its two CHAN_ADDs were lost together, and the board, logged in, never
+// published nor answered).
+TEST_F(Board, AOneMegabaudBoardAnswersItsServiceAndPublishes) {
+  SimBoard board(SIMAVR_RUNNER_BIN, ANALOG_PUBLISHER_1000000_ELF, dir_.path());
+  ASSERT_FALSE(board.pty().empty()) << board.output();
+  hub_ = hubOn(dir_.path(), board.pty(), 1000000);
+  startHub();
+  auto cpp = reader();
+  const auto line = [&] {
+    auto stats = hubStats();
+    return stats ? flow::variantToJsonText((*stats->find("serial")->asList())[0])
+                 : std::string("no stats");
+  };
+  ASSERT_TRUE(eventually([&] { return analogCount(*cpp) >= 10; }, 15000))
+      << cpp->events.dump() << hubLog() << line();
+  const std::string answer = flowctl(dir_.path(), {"call", "robot.board", "set_pwm", "77"});
+  EXPECT_NE(answer.find("77"), std::string::npos) << answer << line();
 }
 
 TEST_F(Board, ANoisyLineIsResynchronisedAndDataGoesOn) {

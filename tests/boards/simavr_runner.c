@@ -25,6 +25,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <avr_uart.h>
 #include <parts/uart_pty.h>
 #include <sim_avr.h>
 #include <sim_elf.h>
@@ -126,6 +127,15 @@ int main(int argc, char** argv) {
   static uart_pty_t pty;
   uart_pty_init(avr, &pty);
   uart_pty_connect(&pty, '0');
+  /* simavr sleeps a microsecond (usleep: some 60 us on Linux) each time the firmware reads the
+   * UART's status with nothing received or sent (AVR_UART_FLAG_POLL_SLEEP, on by default), as
+   * the Arduino core does before each byte it writes: at 1,000,000 baud the simulator then fell
+   * behind the wall clock (0.74x) and the board sent a tenth of what its line carries. Without
+   * it, --realtime's pacing is what keeps the simulator from spinning ahead. */
+  uint32_t uart_flags = 0;
+  avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &uart_flags);
+  uart_flags &= ~(uint32_t)AVR_UART_FLAG_POLL_SLEEP;
+  avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &uart_flags);
   if (pty.port[0].s == 0 || pty.port[0].slavename[0] == '\0') {
     fprintf(stderr, "SIM-PTY no pseudo-terminal\n");
     return 1;

@@ -159,9 +159,11 @@ class Board : public ::testing::Test {
     skr_poll(&f);
     ASSERT_TRUE(skr_connected(&f));
     const auto a = hub.expect<msg::ChanAdd>();
+    ASSERT_TRUE(hub.sent.empty()) << "one CHAN_ADD at a time";
+    hub.send(added(a.tag, 7, a.kind, "robot.analog"));
+    skr_poll(&f);
     const auto b = hub.expect<msg::ChanAdd>();
     hub.send(added(b.tag, 8, b.kind, "robot.board"));
-    hub.send(added(a.tag, 7, a.kind, "robot.analog"));
     skr_poll(&f);
     ASSERT_TRUE(skr_channel_ready(&f, analog));
   }
@@ -204,12 +206,61 @@ TEST_F(Board, LogsInWithLimitsThenGoesAsyncAndAddsItsChannels) {
   EXPECT_EQ(a.short_name, "analog");
   EXPECT_EQ(a.mime, "application/x-u16le");
   EXPECT_TRUE(a.props.isNull());
+  // One at a time: the service's CHAN_ADD waits for the answer to the first (at 1,000,000 baud
+  // the answers to both, sent at once, overflowed an Uno's receive buffer).
+  EXPECT_TRUE(hub.sent.empty()) << "a second CHAN_ADD before the first was answered";
+  hub.send(added(a.tag, 7, a.kind, "robot.analog"));
+  skr_poll(&f);
   const auto s = hub.expect<msg::ChanAdd>();
   EXPECT_EQ(s.kind, 2);
   EXPECT_EQ(s.short_name, "board");
   EXPECT_NE(a.tag, s.tag);
   EXPECT_TRUE(hub.sent.empty());
   EXPECT_EQ(skr_get_stats(&f)->logins, 1u);
+}
+
+// The board's side of the session up to its first CHAN_ADD (GO_ASYNC answered).
+void goAsync(Hub& hub, skr_flow& f) {
+  skr_poll(&f);
+  hub.expect<msg::Login>();
+  hub.send(
+      msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
+  skr_poll(&f);
+  hub.expect<msg::SessionLimits>();
+  hub.send(msg::Ack{});
+  skr_poll(&f);
+  hub.expect<msg::GoAsync>();
+  hub.send(msg::Ack{});
+  skr_poll(&f);
+}
+
+TEST_F(Board, LogsInAgainWhenAChannelsAnswerIsLost) {
+  goAsync(hub, f);
+  const auto a = hub.expect<msg::ChanAdd>();
+  // Its EV_CHAN_ADDED never comes (lost on the line); the probes' answers keep the hub alive.
+  for (uint32_t t = 0; t < SKR_REPLY_TIMEOUT_MS; t += 500) {
+    hub.clock += 500;
+    hub.send(msg::EvTimeProbe{.tag = 0x400, .t1 = 1, .t2 = 1, .t3 = 2});
+    skr_poll(&f);
+  }
+  EXPECT_FALSE(skr_connected(&f)) << "a channel without its id, and the session goes on";
+  hub.sent.clear();
+  hub.clock += SKR_BACKOFF_MS;
+  skr_poll(&f);
+  hub.expect<msg::Login>();
+  EXPECT_EQ(skr_get_stats(&f)->logins, 2u);
+  (void)a;
+}
+
+TEST_F(Board, ARefusedChannelLetsTheNextOneGo) {
+  goAsync(hub, f);
+  const auto a = hub.expect<msg::ChanAdd>();
+  hub.send(msg::EvError{
+      .command = SKR_CODE_CHAN_ADD, .tag = a.tag, .chan_id = 0, .error = 6, .message = "exists"});
+  skr_poll(&f);
+  EXPECT_EQ(hub.expect<msg::ChanAdd>().short_name, "board");
+  EXPECT_FALSE(skr_channel_ready(&f, analog));
+  EXPECT_EQ(skr_get_stats(&f)->errors, 1u);
 }
 
 TEST_F(Board, LearnsChannelIdsFromTagsAndPublishesOnlyThen) {

@@ -76,7 +76,8 @@ void SerialPorts::open(const transport::SerialOptions& entry, const std::string&
   }
   failing_.erase(device);
   log::info(kLogSource, "SERIAL-OPEN",
-            device + " at " + std::to_string(options.baud) + " baud" +
+            device + " at " + std::to_string(options.baud) + " baud, paced at " +
+                std::to_string(transport::pacedBytesPerSecond(options)) + " B/s" +
                 (options.account.empty() ? "" : ", bound to account \"" + options.account + "\""));
   open_[device] = std::move(port).value();
   closed_.erase(device);

@@ -11,6 +11,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <vector>
@@ -97,18 +98,26 @@ class Session final : public MessageSession {
 class Port final : public SerialPort {
  public:
   // A client's port (accepted empty): one session, opened by openSession(); no LOGIN restarts.
-  Port(Loop& loop, SerialOptions options, int fd, Accepted accepted, Lost lost)
+  // pace_bytes_per_s: what the line is given at most (0: all it takes), in bursts of at most
+  // kPaceBurstBytes.
+  Port(Loop& loop, SerialOptions options, int fd, Accepted accepted, Lost lost,
+       uint32_t pace_bytes_per_s)
       : loop_(loop),
         options_(std::move(options)),
         fd_(fd),
         accepted_(std::move(accepted)),
         lost_(std::move(lost)),
-        rx_buf_(options_.max_frame + SKR_LINE_RX_EXTRA) {
+        rx_buf_(options_.max_frame + SKR_LINE_RX_EXTRA),
+        pace_(pace_bytes_per_s),
+        credit_(kPaceBurstBytes),
+        credit_at_(monotonicNs()) {
     skr_line_rx_init(&rx_, rx_buf_.data(), rx_buf_.size());
+    if (pace_ > 0) pace_timer_ = Timer(loop_, [this] { flush(true); });
   }
   ~Port() override {
     if (session_ != nullptr)
       session_->carrierEnded({TransportEnd::Why::error, "serial port closed"});
+    pace_timer_.stop();
     watch_.stop();
     watch_ = {};
     ::close(fd_);
@@ -204,23 +213,52 @@ class Port final : public SerialPort {
     if (session_ != nullptr) session_->frame(f, stats_);
   }
 
-  // Writes what the line takes now; `notify`: tells a session whose write waits that there is
-  // room again (only from the loop: the line became writable).
+  // The bytes the pace lets go now (SIZE_MAX: unpaced).
+  size_t allowance() {
+    if (pace_ == 0) return SIZE_MAX;
+    const Nanos now = monotonicNs();
+    credit_ = std::min(static_cast<double>(kPaceBurstBytes),
+                       credit_ + static_cast<double>(now - credit_at_) * pace_ / 1e9);
+    credit_at_ = now;
+    return static_cast<size_t>(credit_);
+  }
+
+  // Writes what the line takes now, within the pace; `notify`: tells a session whose write waits
+  // that there is room again (only from the loop: the line became writable, or the pace let more
+  // go).
   void flush(bool notify) {
-    while (out_off_ < out_.size()) {
-      const ssize_t n = ::write(fd_, out_.data() + out_off_, out_.size() - out_off_);
+    size_t allowed = allowance();
+    bool full = false;
+    while (out_off_ < out_.size() && allowed > 0) {
+      const size_t want = std::min(out_.size() - out_off_, allowed);
+      const ssize_t n = ::write(fd_, out_.data() + out_off_, want);
       if (n < 0 && errno == EINTR) continue;
-      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        full = true;
+        break;
+      }
       if (n < 0) return fail(std::strerror(errno));
       out_off_ += static_cast<size_t>(n);
       stats_.bytes_out += static_cast<uint64_t>(n);
+      if (pace_ > 0) {
+        allowed -= static_cast<size_t>(n);
+        credit_ -= static_cast<double>(n);
+      }
     }
     if (out_off_ == out_.size()) {
       out_.clear();
       out_off_ = 0;
       watch_.watch(FdWatch::readable);
-    } else {
+    } else if (full) {
       watch_.watch(FdWatch::readable | FdWatch::writable);
+    } else {  // the pace holds the rest back: on when the next burst is due
+      watch_.watch(FdWatch::readable);
+      if (!pace_timer_.active()) {
+        const double need =
+            static_cast<double>(std::min<size_t>(kPaceBurstBytes, out_.size() - out_off_)) -
+            credit_;
+        pace_timer_.startIn(static_cast<Nanos>(std::max(need, 1.0) * 1e9 / pace_));
+      }
     }
     if (notify && session_ != nullptr && out_.size() - out_off_ < options_.queue_bytes)
       session_->carrierRoom();
@@ -248,6 +286,10 @@ class Port final : public SerialPort {
   size_t out_off_ = 0;
   Session* session_ = nullptr;
   SerialStats stats_;
+  uint32_t pace_;     // bytes a second, 0: unpaced
+  double credit_;     // bytes the pace lets go now (a token bucket of kPaceBurstBytes)
+  Nanos credit_at_;   // when credit_ was brought up to date
+  Timer pace_timer_;  // the next burst, while the pace holds bytes back
 };
 
 bool Session::sendFrame(std::string_view frame) {
@@ -299,8 +341,9 @@ Result<std::unique_ptr<SerialPort>> SerialPort::open(Loop& loop, SerialOptions o
   }
   auto fd = openSerialDevice(options.device, options.baud);
   if (!fd) return fd.error();
-  auto port =
-      std::make_unique<Port>(loop, std::move(options), *fd, std::move(accepted), std::move(lost));
+  const uint32_t pace = pacedBytesPerSecond(options);
+  auto port = std::make_unique<Port>(loop, std::move(options), *fd, std::move(accepted),
+                                     std::move(lost), pace);
   if (auto r = port->watch(); !r) return r.error();
   return std::unique_ptr<SerialPort>(std::move(port));
 }
@@ -314,7 +357,7 @@ Result<std::unique_ptr<Transport>> openSerialSession(Loop& loop, const std::stri
   options.baud = baud;
   options.max_frame = 1u << 20;
   options.queue_bytes = 64u << 10;
-  auto port = std::make_unique<Port>(loop, std::move(options), *fd, nullptr, nullptr);
+  auto port = std::make_unique<Port>(loop, std::move(options), *fd, nullptr, nullptr, 0);
   if (auto r = port->watch(); !r) return r.error();
   std::unique_ptr<Session> session = port->openSession();
   session->own(std::move(port));

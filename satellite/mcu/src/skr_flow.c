@@ -24,6 +24,8 @@ enum { ST_BACKOFF, ST_WAIT_LOGIN, ST_WAIT_LIMITS, ST_WAIT_ASYNC, ST_CONNECTED };
 #define TAG_SUB 0x300u
 #define TAG_PROBE 0x400u
 #define TAG_READ 0x500u
+/* skr_flow.adding when no CHAN_ADD waits for its answer. */
+#define NOT_ADDING 0xFFu
 
 const char* skr_strerror(skr_status s) {
   switch (s) {
@@ -175,6 +177,7 @@ static void login(skr_flow* f) {
   for (i = 0; i < f->n_services; ++i) f->services[i].id = 0;
 #endif
   for (i = 0; i < f->n_subs; ++i) f->subs[i].id = 0;
+  f->adding = NOT_ADDING;
   skr_out o;
   begin(f, &o, SKR_CODE_LOGIN);
   put_le(&o, SKR_PROTOCOL_MAJOR, 2);
@@ -223,14 +226,40 @@ static void chan_add(skr_flow* f, uint32_t tag, uint8_t kind, const char* name, 
   (void)skr_send_(f, &o);
 }
 
-static void add_all(skr_flow* f) {
-  uint8_t i;
-  for (i = 0; i < f->n_chans; ++i)
-    chan_add(f, TAG_CHAN + i, SKR_KIND_STREAMING, f->chans[i].name, f->chans[i].mime);
+/* The channels are added one at a time: the next CHAN_ADD goes when the hub has answered the last
+ * one (EV_CHAN_ADDED, or EV_ERROR with its tag). An Uno keeps 127 received bytes while it writes
+ * (the serial ring and SKR_STASH): every CHAN_ADD sent at once would bring back more answers
+ * than that (each EV_CHAN_ADDED is longer than its CHAN_ADD), and at 1,000,000 baud they arrive
+ * before the board has read the first. An answer that does not come within SKR_REPLY_TIMEOUT_MS
+ * (lost on a noisy line) starts the session again: a channel without its id is never used. */
+
+/* The table entry `k` counts channels first, then services. */
+static void add_from(skr_flow* f, uint8_t k) {
+  for (; k < f->n_chans; ++k) {
+    if (f->chans[k].id != 0) continue;
+    f->adding = k;
+    f->due_ms = now(f) + SKR_REPLY_TIMEOUT_MS;
+    chan_add(f, TAG_CHAN + k, SKR_KIND_STREAMING, f->chans[k].name, f->chans[k].mime);
+    return;
+  }
 #if SKR_MAX_SERVICES > 0
-  for (i = 0; i < f->n_services; ++i)
+  for (; k < f->n_chans + f->n_services; ++k) {
+    const uint8_t i = (uint8_t)(k - f->n_chans);
+    if (f->services[i].id != 0) continue;
+    f->adding = k;
+    f->due_ms = now(f) + SKR_REPLY_TIMEOUT_MS;
     chan_add(f, TAG_SERVICE + i, SKR_KIND_SERVICE, f->services[i].name, "");
+    return;
+  }
 #endif
+  f->adding = NOT_ADDING;
+}
+
+/* Whether `tag` is the CHAN_ADD waiting for its answer. */
+static int adding_tag(const skr_flow* f, uint32_t tag) {
+  if (f->adding == NOT_ADDING) return 0;
+  return f->adding < f->n_chans ? tag == TAG_CHAN + f->adding
+                                : tag == TAG_SERVICE + (uint32_t)(f->adding - f->n_chans);
 }
 
 static void on_reply_ok(skr_flow* f, rd* r) {
@@ -254,7 +283,7 @@ static void on_reply_ok(skr_flow* f, rd* r) {
       f->state = ST_CONNECTED;
       f->backoff_ms = SKR_BACKOFF_MS;
       f->probe_ms = now(f);
-      add_all(f);
+      add_from(f, 0);
       return;
     default:
       return; /* a reply nobody waits for: nothing to do */
@@ -283,6 +312,7 @@ static void on_chan_added(skr_flow* f, rd* r) {
 #if SKR_MAX_SERVICES > 0
   if ((tag & ~0xFFu) == TAG_SERVICE && k < f->n_services) f->services[k].id = id;
 #endif
+  if (adding_tag(f, tag)) add_from(f, (uint8_t)(f->adding + 1));
   for (uint8_t i = 0; i < f->n_subs; ++i) {
     skr_sub* s = &f->subs[i];
     if (s->kind != kind || !same(s->name, name, n)) continue;
@@ -423,7 +453,11 @@ static void on_frame(skr_flow* f, const uint8_t* p, size_t n) {
       if (r.bad) break;
       on_error(f, e);
       if (command == SKR_CODE_DB_READ) on_read(f, tag, 0, 0);
-      if (e == SKR_ERROR_NOT_LOGGED_IN && f->state != ST_BACKOFF) lost(f);
+      if (e == SKR_ERROR_NOT_LOGGED_IN && f->state != ST_BACKOFF) {
+        lost(f);
+      } else if (f->state == ST_CONNECTED && adding_tag(f, tag)) {
+        add_from(f, (uint8_t)(f->adding + 1)); /* refused (last_error says why): the next one */
+      }
       break;
     }
     case SKR_CODE_EV_CHAN_ADDED:
@@ -472,6 +506,7 @@ void skr_init(skr_flow* f, const skr_io* io, const char* user, const char* passw
   f->state = ST_BACKOFF;
   f->backoff_ms = SKR_BACKOFF_MS;
   f->due_ms = now(f);
+  f->adding = NOT_ADDING;
   skr_line_rx_init(&f->rx, f->rx_buf, sizeof f->rx_buf);
 }
 
@@ -488,7 +523,8 @@ void skr_poll(skr_flow* f) {
       if (reached(t, f->due_ms)) login(f);
       break;
     case ST_CONNECTED:
-      if (reached(t, f->heard_ms + SKR_SILENCE_MS)) {
+      if (reached(t, f->heard_ms + SKR_SILENCE_MS) ||
+          (f->adding != NOT_ADDING && reached(t, f->due_ms))) {
         lost(f);
       } else if (reached(t, f->probe_ms + SKR_PROBE_MS)) {
         /* Liveness on a flow (PING is synchronous): the hub answers EV_TIME_PROBE. */
@@ -540,8 +576,7 @@ int skr_channel(skr_flow* f, const char* short_name, const char* mime) {
   f->chans[k].name = short_name;
   f->chans[k].mime = mime ? mime : "";
   f->chans[k].id = 0;
-  if (f->state == ST_CONNECTED)
-    chan_add(f, TAG_CHAN + k, SKR_KIND_STREAMING, short_name, f->chans[k].mime);
+  if (f->state == ST_CONNECTED && f->adding == NOT_ADDING) add_from(f, 0);
   return k;
 }
 
@@ -554,7 +589,7 @@ int skr_service_add(skr_flow* f, const char* short_name, skr_service_fn fn, void
   f->services[k].fn = fn;
   f->services[k].user = user;
   f->services[k].id = 0;
-  if (f->state == ST_CONNECTED) chan_add(f, TAG_SERVICE + k, SKR_KIND_SERVICE, short_name, "");
+  if (f->state == ST_CONNECTED && f->adding == NOT_ADDING) add_from(f, 0);
   return k;
 #else
   (void)f, (void)short_name, (void)fn, (void)user;

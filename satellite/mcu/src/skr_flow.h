@@ -14,10 +14,11 @@
  *   loop: skr_poll(&f); skr_publish(&f, analog, bytes, 2);
  *
  * The session: LOGIN -> SESSION_LIMITS (SKR_RX_MAX, no broadcast events, a watch made of the
- * subscriptions' names) -> GO_ASYNC -> CHAN_ADD of every declared channel (ids learnt from the
- * EV_CHAN_ADDED carrying each one's tag) and SUBSCRIBE / SYNC_FOLLOW when a watched channel's
- * EV_CHAN_ADDED arrives. Lost sessions (REPLY_ERROR, not_logged_in, no reply in time, a silent hub)
- * start again from LOGIN after a back-off. A connected board sends TIME_PROBE every SKR_PROBE_MS:
+ * subscriptions' names) -> GO_ASYNC -> CHAN_ADD of every declared channel, one at a time (each
+ * one's id learnt from the EV_CHAN_ADDED carrying its tag, and the next sent then) and SUBSCRIBE /
+ * SYNC_FOLLOW when a watched channel's EV_CHAN_ADDED arrives. Lost sessions (REPLY_ERROR,
+ * not_logged_in, no reply in time, a channel's EV_CHAN_ADDED lost, a silent hub) start again
+ * from LOGIN after a back-off. A connected board sends TIME_PROBE every SKR_PROBE_MS:
  * the hub answers EV_TIME_PROBE on the flow, so a hub that says nothing for SKR_SILENCE_MS is gone.
  */
 #ifndef SKR_FLOW_H
@@ -154,10 +155,11 @@ struct skr_flow {
   uint8_t state;
   uint8_t in_handler;
   uint16_t backoff_ms;
-  uint32_t due_ms;   /* when the current wait ends (a login step, the back-off) */
+  uint32_t due_ms;   /* when the current wait ends (a login step, the back-off, a CHAN_ADD) */
   uint32_t heard_ms; /* when the hub last sent a frame */
   uint32_t probe_ms; /* when the last TIME_PROBE went */
   uint8_t n_chans, n_services, n_subs;
+  uint8_t adding; /* the channel (then service) whose CHAN_ADD waits for its answer; 0xFF none */
   skr_chan chans[SKR_MAX_CHANNELS];
 #if SKR_MAX_SERVICES > 0
   skr_service services[SKR_MAX_SERVICES];

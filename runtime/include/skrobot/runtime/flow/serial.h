@@ -31,7 +31,20 @@ struct SerialOptions {
   // connection's queue then drops the oldest data: newest wins).
   uint32_t queue_bytes = 4096;
   std::string account;  // PeerIdentity::account of its sessions
+  // Bytes a second the hub sends on the line at most, in bursts of kPaceBurstBytes at most; 0:
+  // automatic (pacedBytesPerSecond). A board's CPU reads slower than a fast line brings bytes
+  // while it encodes or checks a frame: an Uno keeps 63 bytes meanwhile (docs/microcontrollers.md,
+  // "Fast lines").
+  uint32_t pace = 0;
 };
+
+// The automatic pace: the line's rate (baud / 10 bytes a second), at most kBoardPaceBytesPerSecond.
+inline constexpr uint32_t kBoardPaceBytesPerSecond = 50000;
+inline constexpr uint32_t kPaceBurstBytes = 32;
+[[nodiscard]] constexpr uint32_t pacedBytesPerSecond(const SerialOptions& o) noexcept {
+  if (o.pace != 0) return o.pace;
+  return o.baud / 10 < kBoardPaceBytesPerSecond ? o.baud / 10 : kBoardPaceBytesPerSecond;
+}
 
 // What went through the line, for hub.stats.
 struct SerialStats {

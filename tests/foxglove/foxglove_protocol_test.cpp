@@ -218,9 +218,9 @@ TEST(FoxgloveConvert, CompressedImage) {
 
 TEST(FoxgloveConvert, RawImageInFoxglovesEncodings) {
   // bgr8 2x1: step = width * 3.
-  auto out = fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::bgr8, 2, 1, "foobar", 0,
-                                                   1700000000123456789),
-                          "cam");
+  auto out = fg::rawImage(
+      *skr::media::makeRawFrame(skr::media::Format::bgr8, 2, 1, "foobar", 0, 1700000000123456789),
+      "cam");
   ASSERT_TRUE(out);
   auto v = parse(out->json);
   EXPECT_EQ(v["data"], "Zm9vYmFy");
@@ -233,20 +233,19 @@ TEST(FoxgloveConvert, RawImageInFoxglovesEncodings) {
   EXPECT_EQ(v["timestamp"]["nsec"].asUInt64(), 123456789u);
   EXPECT_EQ(out->time_ns, 1700000000123456789u);
   // mono16: two bytes a pixel; nv12: step is the luma row.
-  v = parse(fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::mono16, 2, 1, "abcd"), "c")
-                ->json);
+  v = parse(
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::mono16, 2, 1, "abcd"), "c")->json);
   EXPECT_EQ(v["encoding"], "mono16");
   EXPECT_EQ(v["step"], 4);
   // i420 becomes nv12: Y plane, then U and V interleaved.
-  v = parse(fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::i420, 2, 2, "YYYYUV"), "c")
-                ->json);
+  v = parse(
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::i420, 2, 2, "YYYYUV"), "c")->json);
   EXPECT_EQ(v["encoding"], "nv12");
   EXPECT_EQ(v["step"], 2);
   EXPECT_EQ(v["data"], fg::base64("YYYYUV"));
-  v = parse(fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::i420, 4, 2,
-                                                   "YYYYYYYYuuvv"),
-                         "c")
-                ->json);
+  v = parse(
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::i420, 4, 2, "YYYYYYYYuuvv"), "c")
+          ->json);
   EXPECT_EQ(v["data"], fg::base64("YYYYYYYYuvuv"));
   // JPEG, audio and broken frames are not raw images.
   skr::media::FrameHeader h;

@@ -30,8 +30,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (frame->payload.size() != skr::media::rawPayloadBytes(*info, h.width, h.height)) {
       std::abort();
     }
-    auto raw = skr::media::makeRawFrame(h.format, h.width, h.height, frame->payload, h.seq,
-                                        h.capture_ns);
+    auto raw =
+        skr::media::makeRawFrame(h.format, h.width, h.height, frame->payload, h.seq, h.capture_ns);
     if (!raw || (h.flags == 0 && *raw != again)) std::abort();
   }
   return 0;

@@ -60,8 +60,8 @@ TEST(DecodeFrame, EveryRawEncodingGivesTheSamePicture) {
   cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
   struct Case {
     media::Format format;
-    cv::Mat pixels;      // as the encoding packs them
-    double tolerance;    // lossy conversions (chroma subsampling, 16-bit) differ a little
+    cv::Mat pixels;    // as the encoding packs them
+    double tolerance;  // lossy conversions (chroma subsampling, 16-bit) differ a little
   };
   cv::Mat rgb, rgba, bgra, deep, i420, nv12;
   cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
@@ -76,10 +76,10 @@ TEST(DecodeFrame, EveryRawEncodingGivesTheSamePicture) {
     nv12.data[y + 2 * i] = i420.data[y + i];
     nv12.data[y + 2 * i + 1] = i420.data[y + q + i];
   }
-  const Case cases[] = {{media::Format::bgr8, bgr, 0},    {media::Format::rgb8, rgb, 0},
-                        {media::Format::rgba8, rgba, 0},  {media::Format::bgra8, bgra, 0},
-                        {media::Format::y8, grey, 0},     {media::Format::mono16, deep, 0},
-                        {media::Format::i420, i420, 0},   {media::Format::nv12, nv12, 0}};
+  const Case cases[] = {{media::Format::bgr8, bgr, 0},   {media::Format::rgb8, rgb, 0},
+                        {media::Format::rgba8, rgba, 0}, {media::Format::bgra8, bgra, 0},
+                        {media::Format::y8, grey, 0},    {media::Format::mono16, deep, 0},
+                        {media::Format::i420, i420, 0},  {media::Format::nv12, nv12, 0}};
   cv::Mat from_i420;
   cv::cvtColor(i420, from_i420, cv::COLOR_YUV2BGR_I420);
   for (const auto& c : cases) {

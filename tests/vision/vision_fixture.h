@@ -83,11 +83,11 @@ inline std::string rawFrame(const cv::Mat& bgr, std::string_view encoding, std::
   if (encoding == "mono8") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2GRAY);
   if (encoding == "i420") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2YUV_I420);
   if (info == nullptr || pixels.empty()) return {};
-  auto msg = media::makeRawFrame(
-      info->format, static_cast<std::uint16_t>(bgr.cols), static_cast<std::uint16_t>(bgr.rows),
-      std::string_view(reinterpret_cast<const char*>(pixels.data),
-                       pixels.total() * pixels.elemSize()),
-      seq);
+  auto msg = media::makeRawFrame(info->format, static_cast<std::uint16_t>(bgr.cols),
+                                 static_cast<std::uint16_t>(bgr.rows),
+                                 std::string_view(reinterpret_cast<const char*>(pixels.data),
+                                                  pixels.total() * pixels.elemSize()),
+                                 seq);
   return msg ? *msg : std::string();
 }
 

@@ -325,10 +325,9 @@ int check(const std::string& src, bool write) {
   // docs/channels.md's vocabulary table, from media_frame.hpp.
   const std::string channels_path = src + "/docs/channels.md";
   auto channels = slurp(channels_path);
-  auto channels_updated =
-      channels ? withReference(*channels, flowcat::mediaMarkdown(), flowcat::kMediaBegin,
-                               flowcat::kMediaEnd)
-               : std::nullopt;
+  auto channels_updated = channels ? withReference(*channels, flowcat::mediaMarkdown(),
+                                                   flowcat::kMediaBegin, flowcat::kMediaEnd)
+                                   : std::nullopt;
   if (!channels_updated) {
     std::printf("%s: no media vocabulary between the markers\n", channels_path.c_str());
     ++problems;

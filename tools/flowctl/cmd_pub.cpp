@@ -29,7 +29,8 @@ int cmdPub(const Cli& cli) {
   skr::flow::Variant props = skr::flow::Variant::Map{};
   if (props_text) {
     auto v = skr::flow::variantFromJsonText(*props_text);
-    if (!v || !v->isMap()) return fail(kUsage, "--props: a JSON object, e.g. '{\"encoding\":\"bgr8\"}'");
+    if (!v || !v->isMap())
+      return fail(kUsage, "--props: a JSON object, e.g. '{\"encoding\":\"bgr8\"}'");
     props = std::move(*v);
   }
 
@@ -72,7 +73,9 @@ int cmdPub(const Cli& cli) {
   const skr::Nanos tick =
       rate > 0 ? static_cast<skr::Nanos>(1e9 / rate) : skr::Nanos{skr::kNsPerMs};
   Session s(cli, std::max<skr::Nanos>(tick, 1000));
-  if (auto added = s.satellite.addChannel({.name = short_name, .mime = mime, .props = std::move(props)}); !added) {
+  if (auto added =
+          s.satellite.addChannel({.name = short_name, .mime = mime, .props = std::move(props)});
+      !added) {
     return fail(kUsage, added.error().message);
   }
   skr::Nanos ready_ns = 0;

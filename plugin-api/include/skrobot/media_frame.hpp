@@ -13,7 +13,8 @@
 //   24     2     video: width  | audio: channels
 //   26     2     video: height | audio: 0
 //   28     4     video: 0      | audio: sample rate in Hz
-//   32     ...   payload: the JPEG file, packed raw pixels (rawPayloadBytes), or interleaved samples
+//   32     ...   payload: the JPEG file, packed raw pixels (rawPayloadBytes), or interleaved
+//   samples
 //
 // All little-endian. A message shorter than its header, with a wrong magic, a header size under
 // 32, an unknown format, or a raw payload that is not exactly rawPayloadBytes(width, height) is
@@ -79,7 +80,8 @@ inline constexpr EncodingInfo kEncodings[] = {
      "FT_VIDEO_DATA"},
 };
 
-// The property `message_encoding` of a channel of media frames (MCAP's word for what one message is).
+// The property `message_encoding` of a channel of media frames (MCAP's word for what one message
+// is).
 inline constexpr std::string_view kMessageEncoding = "skrobot.media";
 
 inline constexpr const EncodingInfo* encodingInfo(Format f) {
@@ -94,7 +96,9 @@ inline constexpr const EncodingInfo* encodingInfo(std::string_view encoding) {
   }
   return nullptr;
 }
-inline constexpr bool isRaw(const EncodingInfo& e) { return e.bits_per_pixel != 0; }
+inline constexpr bool isRaw(const EncodingInfo& e) {
+  return e.bits_per_pixel != 0;
+}
 
 // Bytes of a raw payload of width x height; 0 when `e` is not raw or the size is not allowed
 // (zero, or odd for nv12/i420).

@@ -48,8 +48,8 @@ class VideoSource final : public skr::plugin::Module {
     const auto& jpeg = *skr::media::encodingInfo(skr::media::Format::jpeg);
     skr::support::addMediaProperties(props, jpeg);
     props["source"] = params_.file.empty() ? params_.device : params_.file;
-    out_ = skr::plugin::StreamChannel(host_, "video", std::string(jpeg.mime), skr::support::writeJson(props),
-                                      [this](bool first) {
+    out_ = skr::plugin::StreamChannel(host_, "video", std::string(jpeg.mime),
+                                      skr::support::writeJson(props), [this](bool first) {
                                         {
                                           std::lock_guard lock(mutex_);
                                           active_ = first;

@@ -111,6 +111,8 @@ TEST_F(Speech, EnglishThenItalianWithTimelinesBeforeTheirAudio) {
   ASSERT_TRUE(props);
   EXPECT_EQ(*props->find("sample_rate"), Variant(int64_t{22050}));
   EXPECT_EQ(*props->find("format"), Variant("s16le"));
+  EXPECT_EQ(*props->find("encoding"), Variant("s16le"));
+  EXPECT_EQ(*props->find("message_encoding"), Variant("skrobot.media"));
 
   const std::string en = "Hello, I am the robot. Nice to meet you.";
   const Json::Value a = call("say", R"({"text":")" + en + R"("})");

@@ -21,17 +21,19 @@ let port;
 let uiPort;
 const publishers = [];
 
-function mediaFrame(seq, jpeg) {
+function mediaFrame(seq, payload, format = 1, width = 128, height = 128) {
   const h = Buffer.alloc(32);
   h.write('SKMF', 0, 'latin1');
   h.writeUInt16LE(32, 4);
-  h.writeUInt8(1, 6);
+  h.writeUInt8(format, 6);
   h.writeBigUInt64LE(BigInt(seq), 8);
   h.writeBigInt64LE(1700000000123456789n, 16);
-  h.writeUInt16LE(128, 24);
-  h.writeUInt16LE(128, 26);
-  return Buffer.concat([h, jpeg]);
+  h.writeUInt16LE(width, 24);
+  h.writeUInt16LE(height, 26);
+  return Buffer.concat([h, payload]);
 }
+// 8x4 bgr8 pixels (format 5, docs/channels.md), every byte different.
+const rawPixels = Buffer.from(Array.from({ length: 8 * 4 * 3 }, (_, i) => i));
 
 // `flowctl pub` at 20 Hz until the test ends.
 function publish(channel, args) {
@@ -111,12 +113,16 @@ before(async () => {
   writeFileSync(path.join(dir, 'frame'), mediaFrame(1, jpeg));
   publish('guest.numbers', ['{"n":1,"x":0.5}', '--mime', 'application/json']);
   publish('guest.camera', ['--file', path.join(dir, 'frame'), '--mime', 'image/jpeg']);
+  writeFileSync(path.join(dir, 'raw'), mediaFrame(2, rawPixels, 5, 8, 4));
+  publish('guest.raw', ['--file', path.join(dir, 'raw'), '--mime', 'application/octet-stream',
+    '--props', '{"message_encoding":"skrobot.media","encoding":"bgr8","width":8,"height":4}']);
   publish('guest.secret', ['{"pin":1234}', '--mime', 'application/json']);
   publish('guest.faces', ['{"capture_ns":1700000000123456789,"width":128,"height":128,'
     + '"faces":[{"x":10,"y":20,"w":30,"h":40,"score":0.9}]}', '--mime', 'application/json']);
   await waitFor('the publishers\' channels', async () => {
     const ls = await hub.flowctl('ls');
-    return ['guest.numbers', 'guest.camera', 'guest.faces', 'guest.secret'].every((c) => ls.includes(c));
+    return ['guest.numbers', 'guest.camera', 'guest.faces', 'guest.secret', 'guest.raw']
+      .every((c) => ls.includes(c));
   });
 });
 
@@ -144,6 +150,10 @@ test('serverInfo names the capabilities; channels and services are advertised', 
   // The advertised schemas have the reference schemas' required fields.
   assert.deepEqual(JSON.parse(cam.schema).required, schemas.CompressedImage.required);
   assert.deepEqual(JSON.parse(faces.schema).required, schemas.ImageAnnotations.required);
+  await waitFor('the raw channel', () => seen.channels.has('guest.raw'), 10000);
+  const raw = seen.channels.get('guest.raw');
+  assert.equal(raw.schemaName, 'foxglove.RawImage');
+  assert.deepEqual(JSON.parse(raw.schema).required, schemas.RawImage.required);
   assert.ok(seen.services.has('hub.inspect'));
   assert.ok(seen.services.get('hub.inspect').request.schema);
   client.close();
@@ -188,6 +198,24 @@ test('data flows while subscribed, in the reference schemas, and stops after uns
   // The log counts what the bridge forwarded (the camera's frames are converted on its thread).
   await waitFor('the counts in the log', () =>
     /FOXGLOVE-CLIENT client \d+ left: .*; [1-9]\d* messages forwarded, \d+ that could not be converted skipped, \d+ replaced/.test(hub.log));
+});
+
+test('raw frames come as foxglove.RawImage in the reference schema', { timeout: 60000 }, async () => {
+  const { client, seen } = await connect();
+  await waitFor('the raw channel', () => seen.channels.has('guest.raw'), 10000);
+  const sub = client.subscribe(seen.channels.get('guest.raw').id);
+  await waitFor('a raw image', () => seen.messages.some((m) => m.subscriptionId === sub), 10000);
+  const msg = seen.messages.find((m) => m.subscriptionId === sub);
+  assert.equal(msg.timestamp, 1700000000123456789n, 'log time = capture time');
+  const img = decode(msg);
+  assert.deepEqual(validate(schemas.RawImage, img), []);
+  assert.equal(img.encoding, 'bgr8');
+  assert.equal(img.width, 8);
+  assert.equal(img.height, 4);
+  assert.equal(img.step, 24);
+  assert.deepEqual(Buffer.from(img.data, 'base64'), rawPixels);
+  client.unsubscribe(sub);
+  client.close();
 });
 
 test('the Nao\'s joints come by name, to plot', { timeout: 60000 }, async () => {

@@ -216,6 +216,50 @@ TEST(FoxgloveConvert, CompressedImage) {
   EXPECT_FALSE(fg::compressedImage(skr::media::makeFrame(h, "abcd"), "cam"));
 }
 
+TEST(FoxgloveConvert, RawImageInFoxglovesEncodings) {
+  // bgr8 2x1: step = width * 3.
+  auto out = fg::rawImage(
+      *skr::media::makeRawFrame(skr::media::Format::bgr8, 2, 1, "foobar", 0, 1700000000123456789),
+      "cam");
+  ASSERT_TRUE(out);
+  auto v = parse(out->json);
+  EXPECT_EQ(v["data"], "Zm9vYmFy");
+  EXPECT_EQ(v["encoding"], "bgr8");
+  EXPECT_EQ(v["width"], 2);
+  EXPECT_EQ(v["height"], 1);
+  EXPECT_EQ(v["step"], 6);
+  EXPECT_EQ(v["frame_id"], "cam");
+  EXPECT_EQ(v["timestamp"]["sec"].asUInt64(), 1700000000u);
+  EXPECT_EQ(v["timestamp"]["nsec"].asUInt64(), 123456789u);
+  EXPECT_EQ(out->time_ns, 1700000000123456789u);
+  // mono16: two bytes a pixel; nv12: step is the luma row.
+  v = parse(
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::mono16, 2, 1, "abcd"), "c")->json);
+  EXPECT_EQ(v["encoding"], "mono16");
+  EXPECT_EQ(v["step"], 4);
+  // i420 becomes nv12: Y plane, then U and V interleaved.
+  v = parse(
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::i420, 2, 2, "YYYYUV"), "c")->json);
+  EXPECT_EQ(v["encoding"], "nv12");
+  EXPECT_EQ(v["step"], 2);
+  EXPECT_EQ(v["data"], fg::base64("YYYYUV"));
+  v = parse(
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::i420, 4, 2, "YYYYYYYYuuvv"), "c")
+          ->json);
+  EXPECT_EQ(v["data"], fg::base64("YYYYYYYYuvuv"));
+  // JPEG, audio and broken frames are not raw images.
+  skr::media::FrameHeader h;
+  h.format = skr::media::Format::jpeg;
+  EXPECT_FALSE(fg::rawImage(skr::media::makeFrame(h, "foo"), "cam"));
+  EXPECT_FALSE(fg::rawImage("not a frame", "cam"));
+  EXPECT_TRUE(fg::isRawImageEncoding("rgba8"));
+  EXPECT_TRUE(fg::isRawImageEncoding("i420"));
+  EXPECT_FALSE(fg::isRawImageEncoding("jpeg"));
+  EXPECT_FALSE(fg::isRawImageEncoding("s16le"));
+  EXPECT_EQ(fg::schemaName(fg::Shape::raw_image, ""), "foxglove.RawImage");
+  EXPECT_EQ(parse(fg::schemaText(fg::Shape::raw_image))["required"].size(), 7u);
+}
+
 TEST(FoxgloveConvert, Annotations) {
   auto faces = fg::imageAnnotations(
       R"({"capture_ns":5,"width":640,"height":360,"faces":[{"x":10,"y":20,"w":30,"h":40,"score":0.5}]})");

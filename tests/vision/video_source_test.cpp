@@ -74,6 +74,9 @@ TEST_F(VideoSource, PublishesJpegFramesOfTheConfiguredSizeAndLoopsTheFile) {
   EXPECT_EQ(info->props.find("fps")->asDouble(), 60.0);
   EXPECT_EQ(*info->props.find("pixel_format"), flow::Variant("yuvj420p"));
   EXPECT_EQ(*info->props.find("codec"), flow::Variant("jpeg"));
+  EXPECT_EQ(*info->props.find("encoding"), flow::Variant("jpeg"));
+  EXPECT_EQ(*info->props.find("message_encoding"), flow::Variant("skrobot.media"));
+  EXPECT_EQ(info->mime, "image/jpeg");
 
   TestClient sub = subscribe("src.video");
   const std::int64_t before = wallNs();
@@ -199,6 +202,7 @@ TEST_F(VideoSource, ChainSharesOneMonoVariantBetweenDetectors) {
   EXPECT_EQ(mono->subscribers, 2u);
   EXPECT_EQ(*mono->props.find("pixel_format"), flow::Variant("gray"));
   EXPECT_EQ(*mono->props.find("codec"), flow::Variant("raw"));
+  EXPECT_EQ(*mono->props.find("encoding"), flow::Variant("mono8"));
   EXPECT_EQ(*mono->props.find("width"), flow::Variant(int64_t{640}));
   EXPECT_EQ(*mono->props.find("height"), flow::Variant(int64_t{360}));
   EXPECT_EQ(mono->props.find("fps")->asDouble(), 30.0);

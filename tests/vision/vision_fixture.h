@@ -71,6 +71,26 @@ inline std::string y8Frame(const cv::Mat& grey, std::uint64_t seq) {
       h, std::string_view(reinterpret_cast<const char*>(pixels.data), pixels.total()));
 }
 
+// A raw media frame of `encoding` ("bgr8", "rgb8", ...) holding `bgr` (CV_8UC3), converted as
+// a camera would deliver it.
+inline std::string rawFrame(const cv::Mat& bgr, std::string_view encoding, std::uint64_t seq) {
+  const auto* info = media::encodingInfo(encoding);
+  cv::Mat pixels;
+  if (encoding == "bgr8") pixels = bgr.clone();
+  if (encoding == "rgb8") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2RGB);
+  if (encoding == "rgba8") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2RGBA);
+  if (encoding == "bgra8") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2BGRA);
+  if (encoding == "mono8") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2GRAY);
+  if (encoding == "i420") cv::cvtColor(bgr, pixels, cv::COLOR_BGR2YUV_I420);
+  if (info == nullptr || pixels.empty()) return {};
+  auto msg = media::makeRawFrame(info->format, static_cast<std::uint16_t>(bgr.cols),
+                                 static_cast<std::uint16_t>(bgr.rows),
+                                 std::string_view(reinterpret_cast<const char*>(pixels.data),
+                                                  pixels.total() * pixels.elemSize()),
+                                 seq);
+  return msg ? *msg : std::string();
+}
+
 // The area of `a` covered by `b`, as a fraction of `a`.
 inline double coveredBy(const cv::Rect& a, const cv::Rect& b) {
   return a.area() > 0 ? static_cast<double>((a & b).area()) / a.area() : 0.0;

@@ -16,6 +16,7 @@ int cmdPub(const Cli& cli) {
   const auto rate_text = args.option("--rate");
   const std::string mime = args.option("--mime").value_or("text/plain");
   const auto wait_text = args.option("--wait-ms");
+  const auto props_text = args.option("--props");
   const bool variant = args.flag("--variant");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
@@ -25,6 +26,13 @@ int cmdPub(const Cli& cli) {
   if (rate_text && !parseNumber(*rate_text, "--rate", rate)) return kUsage;
   if (wait_text && !parseNumber(*wait_text, "--wait-ms", wait_ms)) return kUsage;
   const bool forever = rate > 0 && !repeat_text;
+  skr::flow::Variant props = skr::flow::Variant::Map{};
+  if (props_text) {
+    auto v = skr::flow::variantFromJsonText(*props_text);
+    if (!v || !v->isMap())
+      return fail(kUsage, "--props: a JSON object, e.g. '{\"encoding\":\"bgr8\"}'");
+    props = std::move(*v);
+  }
 
   std::string payload;
   if (rest.size() == 2) {
@@ -72,7 +80,9 @@ int cmdPub(const Cli& cli) {
   const skr::Nanos tick =
       rate > 0 ? static_cast<skr::Nanos>(1e9 / rate) : skr::Nanos{skr::kNsPerMs};
   Session s(cli, std::max<skr::Nanos>(tick, 1000));
-  if (auto added = s.satellite.addChannel({.name = short_name, .mime = mime}); !added) {
+  if (auto added =
+          s.satellite.addChannel({.name = short_name, .mime = mime, .props = std::move(props)});
+      !added) {
     return fail(kUsage, added.error().message);
   }
   skr::Nanos ready_ns = 0;

@@ -67,6 +67,8 @@ constexpr Command kCommands[] = {
   --rate HZ      publish HZ times a second
   --variant      PAYLOAD is JSON: publish its binary Variant encoding
   --mime TYPE    the channel's mime type when flowctl creates it (default text/plain)
+  --props JSON   the channel's properties when flowctl creates it (an object: its database,
+                 e.g. '{"encoding":"bgr8","width":640,"height":480}', docs/channels.md)
   --wait-ms MS   when flowctl created the channel, wait up to MS for a first subscriber before
                  publishing (default 1000; 0: do not wait)
 )",

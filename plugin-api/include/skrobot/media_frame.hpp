@@ -1,21 +1,24 @@
 // SPDX-License-Identifier: Apache-2.0
-// The media frame header that every video and audio message on a channel starts with
-// (docs/channels.md). Header-only, no dependencies, usable by modules, satellites and tests.
+// The media frame header that every video and audio message on a channel starts with, and the
+// vocabulary that says what a channel carries (docs/channels.md). Header-only, no dependencies,
+// usable by modules, satellites and tests.
 //
 //   offset size  field
 //   0      4     magic "SKMF"
 //   4      2     header size in bytes (32; readers skip what they do not know)
-//   6      1     format: 1 JPEG, 2 Y8 (8-bit grey), 3 PCM signed 16-bit little-endian
+//   6      1     format: a code of kEncodings (1 JPEG, 2 mono8, 3 PCM s16le, 4..10 raw pixels)
 //   7      1     flags (0; reserved)
 //   8      8     seq: video: frame number; audio: index of the first sample since the stream began
 //   16     8     capture time, nanoseconds since the Unix epoch (0 when unknown)
 //   24     2     video: width  | audio: channels
 //   26     2     video: height | audio: 0
 //   28     4     video: 0      | audio: sample rate in Hz
-//   32     ...   payload: the JPEG file, width*height grey bytes, or interleaved samples
+//   32     ...   payload: the JPEG file, packed raw pixels (rawPayloadBytes), or interleaved
+//   samples
 //
 // All little-endian. A message shorter than its header, with a wrong magic, a header size under
-// 32, or a Y8 payload that does not match width*height is refused by parseMediaFrame.
+// 32, an unknown format, or a raw payload that is not exactly rawPayloadBytes(width, height) is
+// refused by parseFrame before its payload is touched.
 #pragma once
 
 #include <cstdint>
@@ -26,7 +29,119 @@
 
 namespace skr::media {
 
-enum class Format : std::uint8_t { jpeg = 1, y8 = 2, pcm_s16le = 3 };
+// Format codes of the header's byte 6. y8 is the encoding mono8 (its older name).
+enum class Format : std::uint8_t {
+  jpeg = 1,
+  y8 = 2,
+  pcm_s16le = 3,
+  rgb8 = 4,
+  bgr8 = 5,
+  rgba8 = 6,
+  bgra8 = 7,
+  mono16 = 8,  // little-endian
+  nv12 = 9,    // Y plane, then interleaved U,V at half resolution
+  i420 = 10,   // Y plane, then U plane, then V plane, each chroma plane at half resolution
+};
+
+// The one table of what a channel carries: per format code, the channel property `encoding`
+// (ROS sensor_msgs/Image names; `jpeg` compressed; `s16le` audio), the size of a raw payload, and
+// the older keys derived from it (docs/channels.md "Vocabulary"). PySketch's copy
+// (satellite/python/PySketch/mediacodes.py) is generated from it by tools/flow-catalogue.
+struct EncodingInfo {
+  Format format;
+  std::string_view encoding;      // property `encoding`
+  bool video;                     // false: audio
+  std::uint8_t bits_per_pixel;    // raw pixels: payload = width*height*bits/8; 0: variable size
+  bool even_size;                 // width and height must be even (chroma at half resolution)
+  std::string_view mime;          // the channel's mime type
+  std::string_view pixel_format;  // older key `pixel_format` (FFmpeg's name; video only)
+  std::string_view codec;         // older key `codec` (video only)
+  std::string_view flow_type;     // older key `flow_type` (PySketch's Flow_T name)
+};
+
+inline constexpr EncodingInfo kEncodings[] = {
+    {Format::jpeg, "jpeg", true, 0, false, "image/jpeg", "yuvj420p", "jpeg", "FT_VIDEO_DATA"},
+    {Format::y8, "mono8", true, 8, false, "application/octet-stream", "gray", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::pcm_s16le, "s16le", false, 0, false, "audio/L16", "", "", "FT_AUDIO_DATA"},
+    {Format::rgb8, "rgb8", true, 24, false, "application/octet-stream", "rgb24", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::bgr8, "bgr8", true, 24, false, "application/octet-stream", "bgr24", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::rgba8, "rgba8", true, 32, false, "application/octet-stream", "rgba", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::bgra8, "bgra8", true, 32, false, "application/octet-stream", "bgra", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::mono16, "mono16", true, 16, false, "application/octet-stream", "gray16le", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::nv12, "nv12", true, 12, true, "application/octet-stream", "nv12", "raw",
+     "FT_VIDEO_DATA"},
+    {Format::i420, "i420", true, 12, true, "application/octet-stream", "yuv420p", "raw",
+     "FT_VIDEO_DATA"},
+};
+
+// The property `message_encoding` of a channel of media frames (MCAP's word for what one message
+// is).
+inline constexpr std::string_view kMessageEncoding = "skrobot.media";
+
+inline constexpr const EncodingInfo* encodingInfo(Format f) {
+  for (const auto& e : kEncodings) {
+    if (e.format == f) return &e;
+  }
+  return nullptr;
+}
+inline constexpr const EncodingInfo* encodingInfo(std::string_view encoding) {
+  for (const auto& e : kEncodings) {
+    if (e.encoding == encoding) return &e;
+  }
+  return nullptr;
+}
+inline constexpr bool isRaw(const EncodingInfo& e) {
+  return e.bits_per_pixel != 0;
+}
+
+// Bytes of a raw payload of width x height; 0 when `e` is not raw or the size is not allowed
+// (zero, or odd for nv12/i420).
+inline constexpr std::size_t rawPayloadBytes(const EncodingInfo& e, std::uint16_t width,
+                                             std::uint16_t height) {
+  if (!isRaw(e) || width == 0 || height == 0) return 0;
+  if (e.even_size && (width % 2 != 0 || height % 2 != 0)) return 0;
+  return static_cast<std::size_t>(width) * height * e.bits_per_pixel / 8;
+}
+
+// A channel property derived from the vocabulary (key, value as a string).
+struct Property {
+  std::string_view key;
+  std::string_view value;
+};
+// Cap of what channelProperties returns.
+inline constexpr std::size_t kMaxDerivedProperties = 7;
+struct Properties {
+  Property items[kMaxDerivedProperties];
+  std::size_t size = 0;
+  const Property* begin() const { return items; }
+  const Property* end() const { return items + size; }
+};
+
+// The string properties of a channel of media frames in `e`: message_encoding and encoding, and
+// the older keys derived from them (video: pixel_format, codec; audio: format; both: flow_type,
+// data_type), so readers of either vocabulary understand it. Numbers (width, height, fps,
+// sample_rate, channels) are the producer's; the mime type is e.mime.
+inline constexpr Properties channelProperties(const EncodingInfo& e) {
+  Properties p;
+  auto add = [&p](std::string_view k, std::string_view v) { p.items[p.size++] = {k, v}; };
+  add("message_encoding", kMessageEncoding);
+  add("encoding", e.encoding);
+  if (e.video) {
+    add("pixel_format", e.pixel_format);
+    add("codec", e.codec);
+  } else {
+    add("format", e.encoding);
+  }
+  add("flow_type", e.flow_type);
+  add("data_type", "T_BYTEARRAY");
+  return p;
+}
 
 inline constexpr std::size_t kHeaderBytes = 32;
 inline constexpr char kMagic[4] = {'S', 'K', 'M', 'F'};
@@ -92,9 +207,9 @@ inline std::optional<Frame> parseFrame(std::string_view msg) {
   const auto header_bytes = detail::get<std::uint16_t>(msg.data() + 4);
   if (header_bytes < kHeaderBytes || header_bytes > msg.size()) return std::nullopt;
   Frame f;
-  const auto format = static_cast<std::uint8_t>(msg[6]);
-  if (format < 1 || format > 3) return std::nullopt;
-  f.header.format = static_cast<Format>(format);
+  const auto* info = encodingInfo(static_cast<Format>(static_cast<std::uint8_t>(msg[6])));
+  if (info == nullptr) return std::nullopt;
+  f.header.format = info->format;
   f.header.flags = static_cast<std::uint8_t>(msg[7]);
   f.header.seq = detail::get<std::uint64_t>(msg.data() + 8);
   f.header.capture_ns = static_cast<std::int64_t>(detail::get<std::uint64_t>(msg.data() + 16));
@@ -102,23 +217,37 @@ inline std::optional<Frame> parseFrame(std::string_view msg) {
   const auto b = detail::get<std::uint16_t>(msg.data() + 26);
   const auto rate = detail::get<std::uint32_t>(msg.data() + 28);
   f.payload = msg.substr(header_bytes);
-  switch (f.header.format) {
-    case Format::pcm_s16le:
-      f.header.channels = a;
-      f.header.sample_rate = rate;
-      if (a == 0 || rate == 0 || f.payload.size() % (2u * a) != 0) return std::nullopt;
-      break;
-    case Format::y8:
-      f.header.width = a;
-      f.header.height = b;
-      if (static_cast<std::size_t>(a) * b != f.payload.size() || a == 0) return std::nullopt;
-      break;
-    case Format::jpeg:
-      f.header.width = a;
-      f.header.height = b;
-      break;
+  if (!info->video) {
+    f.header.channels = a;
+    f.header.sample_rate = rate;
+    if (a == 0 || rate == 0 || f.payload.size() % (2u * a) != 0) return std::nullopt;
+    return f;
+  }
+  f.header.width = a;
+  f.header.height = b;
+  if (isRaw(*info)) {
+    const auto bytes = rawPayloadBytes(*info, a, b);
+    if (bytes == 0 || bytes != f.payload.size()) return std::nullopt;
   }
   return f;
+}
+
+// A raw video frame of `encoding` (a raw row of kEncodings) from packed pixels; nullopt when the
+// encoding is not raw or `pixels` is not exactly rawPayloadBytes(width, height).
+inline std::optional<std::string> makeRawFrame(Format encoding, std::uint16_t width,
+                                               std::uint16_t height, std::string_view pixels,
+                                               std::uint64_t seq = 0, std::int64_t capture_ns = 0) {
+  const auto* info = encodingInfo(encoding);
+  if (info == nullptr || !isRaw(*info)) return std::nullopt;
+  const auto bytes = rawPayloadBytes(*info, width, height);
+  if (bytes == 0 || bytes != pixels.size()) return std::nullopt;
+  FrameHeader h;
+  h.format = encoding;
+  h.seq = seq;
+  h.capture_ns = capture_ns;
+  h.width = width;
+  h.height = height;
+  return makeFrame(h, pixels);
 }
 
 // Samples in an audio frame's payload (per channel).

@@ -190,10 +190,12 @@ class FoxgloveBridge final : public skr::plugin::Module {
         shape = Shape::joints;
       } else if (e.mime == "image/jpeg") {
         shape = Shape::image;
+      } else if (rawImageChannel(e.name)) {
+        shape = Shape::raw_image;
       } else if (e.mime == "application/json" || e.mime.ends_with("+json")) {
         shape = Shape::json;
       }
-      if (!shape) return;  // audio, grey frames, bytes: nothing Foxglove shows from JSON
+      if (!shape) return;  // audio, bytes: nothing Foxglove shows from JSON
       const std::uint32_t id = next_id_++;
       Chan& c = chans_[id];
       c.id = id;
@@ -211,6 +213,14 @@ class FoxgloveBridge final : public skr::plugin::Module {
       }
       sendAll(unadvertise({id}));
     }
+  }
+
+  // A channel whose `encoding` property names raw pixels (docs/channels.md): foxglove.RawImage.
+  bool rawImageChannel(const std::string& name) const {
+    auto encoding = skr::plugin::dbGet(host_, name, "encoding");
+    if (!encoding) return false;
+    auto parsed = skr::support::parseJson(*encoding);
+    return parsed && parsed->isString() && isRawImageEncoding(parsed->asString());
   }
 
   ChannelInfo channelInfo(const Chan& c) const {
@@ -244,6 +254,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
                 message = std::string(payload), to = std::move(to)] {
       std::optional<Converted> out;
       if (shape == Shape::image) out = compressedImage(message, name);
+      if (shape == Shape::raw_image) out = rawImage(message, name);
       if (shape == Shape::annotations) out = imageAnnotations(message);
       if (shape == Shape::joints) out = jointPositions(message, joints);
       if (!out) {

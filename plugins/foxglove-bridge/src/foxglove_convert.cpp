@@ -30,6 +30,24 @@ std::string compressedImageSchema() {
          R"("required":["timestamp","frame_id","data","format"]})";
 }
 
+std::string rawImageSchema() {
+  return std::string(R"({"title":"foxglove.RawImage","type":"object","properties":{)") +
+         R"("timestamp":)" + kTimeSchema + R"(,"frame_id":{"type":"string"},)" +
+         R"("width":{"type":"integer","minimum":0},"height":{"type":"integer","minimum":0},)" +
+         R"("encoding":{"type":"string"},"step":{"type":"integer","minimum":0},)" +
+         R"("data":{"type":"string","contentEncoding":"base64"}},)" +
+         R"("required":["timestamp","frame_id","width","height","encoding","step","data"]})";
+}
+
+// `"timestamp":{...}}` of a capture time, closing the object written by hand.
+void appendTimestampAndClose(std::string& out, std::int64_t ns) {
+  out += R"(,"timestamp":{"nsec":)";
+  out += std::to_string(ns % 1000000000);
+  out += R"(,"sec":)";
+  out += std::to_string(ns / 1000000000);
+  out += "}}";
+}
+
 std::string imageAnnotationsSchema() {
   const std::string color = kColorSchema;
   const std::string point = kPoint2Schema;
@@ -121,6 +139,8 @@ std::string schemaName(Shape shape, const std::string& mime) {
   switch (shape) {
     case Shape::image:
       return "foxglove.CompressedImage";
+    case Shape::raw_image:
+      return "foxglove.RawImage";
     case Shape::annotations:
       return "foxglove.ImageAnnotations";
     case Shape::joints:
@@ -135,6 +155,8 @@ std::string schemaText(Shape shape) {
   switch (shape) {
     case Shape::image:
       return compressedImageSchema();
+    case Shape::raw_image:
+      return rawImageSchema();
     case Shape::annotations:
       return imageAnnotationsSchema();
     case Shape::joints:
@@ -158,11 +180,50 @@ std::optional<Converted> compressedImage(std::string_view message, const std::st
   appendBase64(out, frame->payload);
   out += R"(","format":"jpeg","frame_id":)";
   out += skr::support::jsonQuote(frame_id);
-  out += R"(,"timestamp":{"nsec":)";
-  out += std::to_string(ns % 1000000000);
-  out += R"(,"sec":)";
-  out += std::to_string(ns / 1000000000);
-  out += "}}";
+  appendTimestampAndClose(out, ns);
+  return Converted{std::move(out), static_cast<std::uint64_t>(ns)};
+}
+
+bool isRawImageEncoding(std::string_view encoding) {
+  const auto* e = skr::media::encodingInfo(encoding);
+  return e != nullptr && e->video && skr::media::isRaw(*e);
+}
+
+std::optional<Converted> rawImage(std::string_view message, const std::string& frame_id) {
+  auto frame = skr::media::parseFrame(message);
+  if (!frame) return std::nullopt;
+  const auto& h = frame->header;
+  const auto* e = skr::media::encodingInfo(h.format);
+  if (!e->video || !skr::media::isRaw(*e)) return std::nullopt;
+  // parseFrame checked the payload's size; rows are packed, so step is width * bytes per pixel
+  // (the luma row for nv12).
+  std::string_view pixels = frame->payload;
+  std::string nv12;
+  std::string_view encoding = e->encoding;
+  if (h.format == skr::media::Format::i420) {  // Foxglove has nv12, not i420
+    const std::size_t luma = static_cast<std::size_t>(h.width) * h.height, quarter = luma / 4;
+    nv12.assign(pixels.substr(0, luma));
+    nv12.resize(luma + 2 * quarter);
+    for (std::size_t i = 0; i < quarter; ++i) {
+      nv12[luma + 2 * i] = pixels[luma + i];
+      nv12[luma + 2 * i + 1] = pixels[luma + quarter + i];
+    }
+    pixels = nv12;
+    encoding = "nv12";
+  }
+  const std::size_t step = e->even_size ? h.width : h.width * (e->bits_per_pixel / 8u);
+  const std::int64_t ns = std::max<std::int64_t>(h.capture_ns, 0);
+  std::string out;
+  out.reserve(pixels.size() / 3 * 4 + 160 + frame_id.size());
+  out += R"({"data":")";
+  appendBase64(out, pixels);
+  out += R"(","encoding":")";
+  out += encoding;
+  out += R"(","frame_id":)";
+  out += skr::support::jsonQuote(frame_id);
+  out += R"(,"height":)" + std::to_string(h.height) + R"(,"step":)" + std::to_string(step) +
+         R"(,"width":)" + std::to_string(h.width);
+  appendTimestampAndClose(out, ns);
   return Converted{std::move(out), static_cast<std::uint64_t>(ns)};
 }
 

@@ -17,6 +17,7 @@ namespace skr::foxglove {
 enum class Shape {
   json,         // a JSON channel as it is
   image,        // a media frame holding a JPEG: foxglove.CompressedImage
+  raw_image,    // a media frame of raw pixels (docs/channels.md): foxglove.RawImage
   annotations,  // face or motion detections (JSON): foxglove.ImageAnnotations
   joints,       // {"angles": [...]} with the channel's "names": the angles by name, to plot
 };
@@ -40,6 +41,14 @@ struct Converted {
 // nullopt for anything else.
 [[nodiscard]] std::optional<Converted> compressedImage(std::string_view message,
                                                        const std::string& frame_id);
+// A media frame of raw pixels as foxglove.RawImage JSON (encodings as Foxglove names them: rgb8,
+// bgr8, rgba8, bgra8, mono8, mono16, nv12; i420 is sent as nv12, its chroma planes interleaved);
+// nullopt for anything else.
+[[nodiscard]] std::optional<Converted> rawImage(std::string_view message,
+                                                const std::string& frame_id);
+// Whether a channel of this `encoding` property is shown as foxglove.RawImage.
+[[nodiscard]] bool isRawImageEncoding(std::string_view encoding);
+
 // face-detect's {"capture_ns", "faces": [{"x","y","w","h","score"}]} or motion's
 // {"capture_ns", "regions": [{"x","y","w","h"}], "center"} as foxglove.ImageAnnotations JSON
 // (boxes as closed line loops, scores as texts); nullopt when it is neither.

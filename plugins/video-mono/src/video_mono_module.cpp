@@ -5,6 +5,7 @@
 // detectors in its database "<name>" (frames, processed, skipped, malformed, ...).
 #include <skrobot/vision/pipeline.h>
 #include <skrobot/media_frame.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <optional>
 
@@ -17,12 +18,12 @@ class VideoMono final : public skr::plugin::Module {
 
   void start() override {
     Json::Value props(Json::objectValue);
-    props["pixel_format"] = "gray";
-    props["codec"] = "raw";
+    const auto& mono8 = *skr::media::encodingInfo(skr::media::Format::y8);
+    skr::support::addMediaProperties(props, mono8);
     props["source"] = options_.input;
     // Start and stop at a later pulse, not inside the hub's subscribe call.
     out_ = skr::plugin::StreamChannel(
-        host_, "mono", "application/octet-stream", skr::support::writeJson(props),
+        host_, "mono", std::string(mono8.mime), skr::support::writeJson(props),
         [this](bool first) { host_.post([this, first] { setActive(first); }); });
   }
   void stop() override {

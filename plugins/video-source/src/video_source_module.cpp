@@ -10,6 +10,7 @@
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <atomic>
 #include <chrono>
@@ -44,11 +45,11 @@ class VideoSource final : public skr::plugin::Module {
     props["width"] = params_.width;
     props["height"] = params_.height;
     props["fps"] = params_.fps;
-    props["pixel_format"] = "yuvj420p";
-    props["codec"] = "jpeg";
+    const auto& jpeg = *skr::media::encodingInfo(skr::media::Format::jpeg);
+    skr::support::addMediaProperties(props, jpeg);
     props["source"] = params_.file.empty() ? params_.device : params_.file;
-    out_ = skr::plugin::StreamChannel(host_, "video", "image/jpeg", skr::support::writeJson(props),
-                                      [this](bool first) {
+    out_ = skr::plugin::StreamChannel(host_, "video", std::string(jpeg.mime),
+                                      skr::support::writeJson(props), [this](bool first) {
                                         {
                                           std::lock_guard lock(mutex_);
                                           active_ = first;

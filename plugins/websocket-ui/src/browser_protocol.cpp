@@ -31,7 +31,7 @@ Inbound parseBinary(std::string_view message, const InboundLimits& limits) {
       }
       if (frame->payload.empty()) return Refusal{kCloseUnsupported, "empty audio frame"};
       return MicFrame{h, frame->payload};
-    case skr::media::Format::y8:
+    default:
       break;
   }
   return Refusal{kCloseUnsupported, "browsers send JPEG or PCM frames only"};

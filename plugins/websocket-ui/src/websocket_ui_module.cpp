@@ -16,6 +16,7 @@
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -80,14 +81,15 @@ class WebsocketUi final : public skr::plugin::Module {
     camera["width"] = camera_width_;
     camera["height"] = camera_height_;
     camera["fps"] = camera_fps_;
-    camera["pixel_format"] = "yuvj420p";
-    camera["codec"] = "jpeg";
-    camera_ = StreamChannel(host_, "camera", "image/jpeg", writeJson(camera));
+    const auto& jpeg = *skr::media::encodingInfo(skr::media::Format::jpeg);
+    skr::support::addMediaProperties(camera, jpeg);
+    camera_ = StreamChannel(host_, "camera", std::string(jpeg.mime), writeJson(camera));
     Json::Value mic(Json::objectValue);
     mic["sample_rate"] = limits_.mic_sample_rate;
     mic["channels"] = 1;
-    mic["format"] = "s16le";
-    mic_ = StreamChannel(host_, "mic", "audio/L16", writeJson(mic));
+    const auto& pcm = *skr::media::encodingInfo(skr::media::Format::pcm_s16le);
+    skr::support::addMediaProperties(mic, pcm);
+    mic_ = StreamChannel(host_, "mic", std::string(pcm.mime), writeJson(mic));
     Json::Value say(Json::objectValue);
     say["commands"] = "say, expression";
     say["value"] =

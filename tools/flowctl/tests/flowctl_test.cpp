@@ -392,6 +392,21 @@ TEST_F(Flowctl, StatisticsTopInfoGraphHzAndBw) {
   EXPECT_EQ(pub->wait(), 0);
 }
 
+TEST_F(Flowctl, PubGivesTheChannelItCreatesItsProperties) {
+  auto bad = flowctl({"pub", "p", "x", "--props", "[1]"});
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_TRUE(has(bad, "--props: a JSON object")) << bad.out;
+  auto pub = background(
+      {"pub", "guest.p", "x", "--rate", "20", "--props", R"({"encoding":"bgr8","width":8})"});
+  Ran info;
+  EXPECT_TRUE(eventually([&] {
+    info = flowctl({"info", "guest.p"});
+    return has(info, R"("encoding":"bgr8")") && has(info, R"("width":8)");
+  })) << info.out;
+  pub->signal(SIGINT);
+  EXPECT_EQ(pub->wait(), 0);
+}
+
 TEST_F(Flowctl, CallsServices) {
   auto o = owner();
   auto ok = flowctl({"call", "guest.adder", "add", "[41]"});

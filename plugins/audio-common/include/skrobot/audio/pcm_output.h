@@ -7,6 +7,7 @@
 
 #include <skrobot/media_frame.hpp>
 #include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <cstdint>
 #include <string>
@@ -15,12 +16,13 @@ namespace skr::audio {
 
 inline constexpr std::uint32_t kDefaultRate = 22050;
 
-// {"sample_rate":R,"channels":C,"format":"s16le"}: the database of an audio channel.
+// {"sample_rate":R,"channels":C,"encoding":"s16le",...}: the database of an audio channel (with
+// the older keys derived from the encoding, docs/channels.md).
 inline std::string audioProps(std::uint32_t sample_rate, std::uint16_t channels) {
   Json::Value v(Json::objectValue);
   v["sample_rate"] = sample_rate;
   v["channels"] = channels;
-  v["format"] = "s16le";
+  support::addMediaProperties(v, *media::encodingInfo(media::Format::pcm_s16le));
   return support::writeJson(v);
 }
 

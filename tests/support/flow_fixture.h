@@ -6,6 +6,7 @@
 #include "temp_dir.h"
 #include "test_client.h"
 
+#include <skrobot/hub/flow/accounts.h>
 #include <skrobot/hub/flow/hub_stats.h>
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/loop.h>
@@ -43,6 +44,34 @@ class FlowFixture : public ::testing::Test {
     return r;
   }
   void startHub() { ASSERT_TRUE(startHub(defaults())); }
+
+  // A hub for boards over UDP: the accounts alice (password "right") and board ("board-secret",
+  // UDP key `key`), and a UDP port on 127.0.0.1 (0: any free one). A restart passes the port it
+  // had and keeps the users file. Returns the port (0 when the hub did not start).
+  uint16_t startUdpBoardHub(const flow::UdpKey& key, uint16_t port = 0) {
+    auto o = defaults();
+    o.users_file = dir_.path() / "users.json";
+    if (port == 0) {
+      auto users = flow::UsersFile::load(o.users_file);
+      EXPECT_TRUE(users);
+      if (!users || !users->add("alice", "right") || !users->add("board", "board-secret") ||
+          !users->setUdpKey("board", key) || !users->save()) {
+        ADD_FAILURE() << "cannot write " << o.users_file;
+        return 0;
+      }
+    }
+    flow::transport::UdpOptions udp;
+    udp.address = "127.0.0.1";
+    udp.port = port;
+    o.udp = udp;
+    if (auto r = startHub(o); !r) {
+      ADD_FAILURE() << r.error().message;
+      return 0;
+    }
+    uint16_t bound = 0;
+    onHub([&] { bound = server_->udpPort(); });
+    return bound;
+  }
 
   void stopHub() {
     if (!hub_) return;

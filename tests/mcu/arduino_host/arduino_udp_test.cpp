@@ -32,22 +32,7 @@ constexpr UdpKey kKey = {0x00, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77,
 class ArduinoUdp : public FlowFixture {
  protected:
   void start(uint16_t port = 0) {
-    auto o = defaults();
-    o.users_file = dir_.path() / "users.json";
-    if (port == 0) {
-      auto users = UsersFile::load(o.users_file);
-      ASSERT_TRUE(users);
-      ASSERT_TRUE(users->add("alice", "right"));
-      ASSERT_TRUE(users->add("board", "board-secret"));
-      ASSERT_TRUE(users->setUdpKey("board", kKey));
-      ASSERT_TRUE(users->save());
-    }
-    transport::UdpOptions udp;
-    udp.address = "127.0.0.1";
-    udp.port = port;
-    o.udp = udp;
-    ASSERT_TRUE(startHub(o));
-    onHub([&] { port_ = server_->udpPort(); });
+    port_ = startUdpBoardHub(kKey, port);
     ASSERT_NE(port_, 0);
     WiFiUDP::route(HUB_PORT, port_);
   }

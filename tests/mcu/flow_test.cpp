@@ -130,6 +130,21 @@ void onService(void* user, const char* cmd, size_t cmd_n, const uint8_t* value, 
   if (c == "set_pwm") skr_put_string(answer, "ok", 2);
 }
 
+// The board's side of the session up to its first CHAN_ADD (GO_ASYNC answered).
+void goAsync(Hub& hub, skr_flow& f) {
+  skr_poll(&f);
+  hub.expect<msg::Login>();
+  hub.send(
+      msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
+  skr_poll(&f);
+  hub.expect<msg::SessionLimits>();
+  hub.send(msg::Ack{});
+  skr_poll(&f);
+  hub.expect<msg::GoAsync>();
+  hub.send(msg::Ack{});
+  skr_poll(&f);
+}
+
 class Board : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -146,17 +161,7 @@ class Board : public ::testing::Test {
 
   // Takes the board from its LOGIN to a flow with its channels' ids (analog 7, board 8).
   void connect() {
-    skr_poll(&f);
-    hub.expect<msg::Login>();
-    hub.send(msg::LoginOk{
-        .connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
-    skr_poll(&f);
-    hub.expect<msg::SessionLimits>();
-    hub.send(msg::Ack{});
-    skr_poll(&f);
-    hub.expect<msg::GoAsync>();
-    hub.send(msg::Ack{});
-    skr_poll(&f);
+    goAsync(hub, f);
     ASSERT_TRUE(skr_connected(&f));
     const auto a = hub.expect<msg::ChanAdd>();
     ASSERT_TRUE(hub.sent.empty()) << "one CHAN_ADD at a time";
@@ -217,21 +222,6 @@ TEST_F(Board, LogsInWithLimitsThenGoesAsyncAndAddsItsChannels) {
   EXPECT_NE(a.tag, s.tag);
   EXPECT_TRUE(hub.sent.empty());
   EXPECT_EQ(skr_get_stats(&f)->logins, 1u);
-}
-
-// The board's side of the session up to its first CHAN_ADD (GO_ASYNC answered).
-void goAsync(Hub& hub, skr_flow& f) {
-  skr_poll(&f);
-  hub.expect<msg::Login>();
-  hub.send(
-      msg::LoginOk{.connection_id = 3, .app_name = "hub", .user = "robot", .current_db = "robot"});
-  skr_poll(&f);
-  hub.expect<msg::SessionLimits>();
-  hub.send(msg::Ack{});
-  skr_poll(&f);
-  hub.expect<msg::GoAsync>();
-  hub.send(msg::Ack{});
-  skr_poll(&f);
 }
 
 TEST_F(Board, LogsInAgainWhenAChannelsAnswerIsLost) {

@@ -105,15 +105,6 @@ class UdpFlow : public FlowFixture {
     ASSERT_NE(port_, 0);
   }
 
-  // The id of the channel named `name` (0: none yet).
-  uint16_t channelId(const std::string& name) {
-    HubSnapshot s;
-    onHub([&] { s = server_->snapshot(); });
-    for (const auto& c : s.channels) {
-      if (c.name == name) return c.id;
-    }
-    return 0;
-  }
   UdpCounters udp() {
     HubSnapshot s;
     onHub([&] { s = server_->snapshot(); });

@@ -48,6 +48,16 @@ class FlowFixture : public ::testing::Test {
   // A hub for boards over UDP: the accounts alice (password "right") and board ("board-secret",
   // UDP key `key`), and a UDP port on 127.0.0.1 (0: any free one). A restart passes the port it
   // had and keeps the users file. Returns the port (0 when the hub did not start).
+  // The id of the channel named `name` in the hub's table (0: none yet).
+  uint16_t channelId(const std::string& name) {
+    flow::HubSnapshot s;
+    onHub([&] { s = server_->snapshot(); });
+    for (const auto& c : s.channels) {
+      if (c.name == name) return c.id;
+    }
+    return 0;
+  }
+
   uint16_t startUdpBoardHub(const flow::UdpKey& key, uint16_t port = 0) {
     auto o = defaults();
     o.users_file = dir_.path() / "users.json";

@@ -52,14 +52,6 @@ class ArduinoUdp : public FlowFixture {
       }
     });
   }
-  uint16_t channelId(const std::string& name) {
-    HubSnapshot s;
-    onHub([&] { s = server_->snapshot(); });
-    for (const auto& c : s.channels) {
-      if (c.name == name) return c.id;
-    }
-    return 0;
-  }
   // Two readings of board.analog, the second later than the first.
   void expectAnalog() {
     TestClient alice = flowClient("alice", "right");

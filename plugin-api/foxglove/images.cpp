@@ -35,8 +35,7 @@ Error bad(std::string why) {
 }
 
 // An unsigned integer member no larger than `max`.
-std::optional<std::uint64_t> unsignedOf(const Json::Value& in, const char* key,
-                                        std::uint64_t max) {
+std::optional<std::uint64_t> unsignedOf(const Json::Value& in, const char* key, std::uint64_t max) {
   const Json::Value& v = in[key];
   if (!v.isIntegral() || (v.isInt64() && v.asInt64() < 0) || v.asUInt64() > max) {
     return std::nullopt;

@@ -264,8 +264,8 @@ TEST(FoxgloveConvert, RawImageInFoxglovesEncodings) {
 TEST(FoxgloveConvert, ImageMessagesGiveTheirFramesBack) {
   for (const auto& e : skr::media::kEncodings) {
     if (!e.video) continue;
-    std::string pixels(e.format == skr::media::Format::jpeg ? 50 : skr::media::rawPayloadBytes(e, 4, 2),
-                       '\0');
+    std::string pixels(
+        e.format == skr::media::Format::jpeg ? 50 : skr::media::rawPayloadBytes(e, 4, 2), '\0');
     for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<char>(i * 37 + 11);
     skr::media::FrameHeader h;
     h.format = e.format;
@@ -290,11 +290,11 @@ TEST(FoxgloveConvert, ImageMessagesGiveTheirFramesBack) {
     s.replace(s.find(from), from.size(), to);
     return s;
   };
-  for (const auto& bad : {std::string("{}"), std::string("not json"),
-                          replace("\"seq\":0", "\"seq\":-1"),
-                          replace("\"encoding\":\"bgr8\"", "\"encoding\":\"jpeg\""),
-                          replace("\"width\":2", "\"width\":3"),
-                          replace("Zm9vYmFy", "Zm9vYmF*"), replace("Zm9vYmFy", "Zm9vYmE=")}) {
+  for (const auto& bad :
+       {std::string("{}"), std::string("not json"), replace("\"seq\":0", "\"seq\":-1"),
+        replace("\"encoding\":\"bgr8\"", "\"encoding\":\"jpeg\""),
+        replace("\"width\":2", "\"width\":3"), replace("Zm9vYmFy", "Zm9vYmF*"),
+        replace("Zm9vYmFy", "Zm9vYmE=")}) {
     auto r = fg::mediaFrameOf(bad);
     ASSERT_FALSE(r) << bad;
     EXPECT_EQ(r.error().code, skr::Errc::parse_error) << bad;

@@ -240,10 +240,10 @@ int cmdRecord(const Cli& cli) {
       Item item;
       item.kind = Item::Kind::schema;
       const bool raw = image == Image::raw;
-      item.schema = {it->second,
-                     std::string(raw ? skr::foxglove::kRawImage : skr::foxglove::kCompressedImage),
-                     "jsonschema",
-                     raw ? skr::foxglove::rawImageSchema() : skr::foxglove::compressedImageSchema()};
+      item.schema = {
+          it->second, std::string(raw ? skr::foxglove::kRawImage : skr::foxglove::kCompressedImage),
+          "jsonschema",
+          raw ? skr::foxglove::rawImageSchema() : skr::foxglove::compressedImageSchema()};
       disk.push(std::move(item));
     }
     return it->second;
@@ -281,13 +281,13 @@ int cmdRecord(const Cli& cli) {
       r.image = imageOf(info.props);
       Item item;
       item.kind = Item::Kind::channel;
-      item.channel = {r.id,
-                      schemaFor(r.image),
-                      info.name,
-                      r.image != Image::none ? std::string("json")
-                                             : mcapmap::encodingForMime(info.mime),
-                      {{std::string(mcapmap::kMimeKey), info.mime},
-                       {std::string(mcapmap::kOwnerKey), info.owner}}};
+      item.channel = {
+          r.id,
+          schemaFor(r.image),
+          info.name,
+          r.image != Image::none ? std::string("json") : mcapmap::encodingForMime(info.mime),
+          {{std::string(mcapmap::kMimeKey), info.mime},
+           {std::string(mcapmap::kOwnerKey), info.owner}}};
       disk.push(std::move(item));
     }
     by_hub_id[info.id] = &r;
@@ -352,9 +352,10 @@ int cmdRecord(const Cli& cli) {
     code = fail(kFailed, "closing " + *output + ": " + r.error().message);
   }
   uint64_t messages = 0, bytes = 0, dropped = 0, gaps = 0, unconverted = 0;
+  const auto unconverted_by_id = disk.unconverted();
   for (auto& [key, r] : recorded) {
-    if (auto u = disk.unconverted(); u.count(r.id) != 0) {
-      r.unconverted = u.at(r.id);
+    if (const auto u = unconverted_by_id.find(r.id); u != unconverted_by_id.end()) {
+      r.unconverted = u->second;
       r.messages -= r.unconverted;
       unconverted += r.unconverted;
     }

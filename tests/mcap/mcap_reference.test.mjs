@@ -371,3 +371,20 @@ test('image channels are recorded as Foxglove images and played back as the same
     assert.deepEqual(echoes[i].out.trim().split('\n'), sent[k.name].map((s) => s.frame.toString('hex')), k.name);
   }
 });
+
+test('a message of an image channel that is not such a frame is counted, not recorded', async () => {
+  const file = path.join(dir, 'not-image.mcap');
+  const rec = await startRecorder(file, ['guest.notframe']);
+  await flowctl('pub', 'guest.notframe', 'not a frame', '--repeat', '3', '--mime',
+    'application/octet-stream', '--props', '{"encoding":"bgr8","width":4,"height":2}', '--wait-ms', '5000');
+  await sleep(200);
+  rec.proc.kill('SIGINT');
+  assert.equal((await rec.exited).code, 0, rec.out);
+  const summary = JSON.parse(rec.out.slice(rec.out.indexOf('{')));
+  assert.equal(summary.unconverted, 3, rec.out);
+  assert.equal(summary.channels[0].unconverted, 3, rec.out);
+  assert.equal(summary.messages, 0, rec.out);
+  assert.match(rec.out, /RECORD-NOT-IMAGE 3 messages/);
+  const reader = await McapIndexedReader.Initialize({ readable: readable(readFileSync(file)), decompressHandlers });
+  assert.equal(reader.statistics.messageCount, 0n);
+});

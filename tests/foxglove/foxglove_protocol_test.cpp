@@ -299,6 +299,14 @@ TEST(FoxgloveConvert, ImageMessagesGiveTheirFramesBack) {
     ASSERT_FALSE(r) << bad;
     EXPECT_EQ(r.error().code, skr::Errc::parse_error) << bad;
   }
+  // Written otherwise (an escape in the base64, a nested "data" first), the same frame.
+  const std::string frame = *skr::media::makeRawFrame(skr::media::Format::bgr8, 2, 1, "foobar");
+  for (const auto& other :
+       {replace("Zm9vYmFy", "Zm9v\\u0059mFy"), "{\"x\":{\"data\":\"QUJD\"}," + good.substr(1)}) {
+    auto r = fg::mediaFrameOf(other);
+    ASSERT_TRUE(r) << other << ": " << r.error().message;
+    EXPECT_EQ(*r, frame) << other;
+  }
   EXPECT_EQ(fg::unbase64("Zm8="), "fo");
   EXPECT_EQ(fg::unbase64("Zg=="), "f");
   EXPECT_EQ(fg::unbase64(""), "");

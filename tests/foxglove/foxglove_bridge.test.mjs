@@ -10,7 +10,7 @@ import os from 'node:os';
 import path from 'node:path';
 import { after, before, test } from 'node:test';
 
-import { env, freePort, sleep, startHub, waitFor, webRequire } from '../web/harness.mjs';
+import { env, freePort, sleep, startHub, validate, waitFor, webRequire } from '../web/harness.mjs';
 
 const WebSocket = webRequire('ws');
 const { FoxgloveClient } = webRequire('@foxglove/ws-protocol');
@@ -68,34 +68,6 @@ async function connect() {
 }
 
 const decode = (m) => JSON.parse(Buffer.from(m.data.buffer, m.data.byteOffset, m.data.byteLength).toString());
-
-// Enough of JSON schema for the foxglove schemas: type, properties, required, items, bounds.
-function validate(schema, value, where = '$') {
-  const errors = [];
-  const t = schema.type;
-  const typeOk = {
-    object: () => value !== null && typeof value === 'object' && !Array.isArray(value),
-    array: () => Array.isArray(value),
-    string: () => typeof value === 'string',
-    number: () => typeof value === 'number',
-    integer: () => Number.isInteger(value),
-    boolean: () => typeof value === 'boolean',
-  };
-  if (t && !(Array.isArray(t) ? t : [t]).some((x) => typeOk[x]?.())) {
-    return [`${where}: not ${t}`];
-  }
-  if (schema.enum && !schema.enum.includes(value)) errors.push(`${where}: not in enum`);
-  if (schema.minimum !== undefined && value < schema.minimum) errors.push(`${where}: < minimum`);
-  if (schema.maximum !== undefined && value > schema.maximum) errors.push(`${where}: > maximum`);
-  if (t === 'object') {
-    for (const r of schema.required ?? []) if (!(r in value)) errors.push(`${where}.${r}: missing`);
-    for (const [k, s] of Object.entries(schema.properties ?? {})) {
-      if (k in value) errors.push(...validate(s, value[k], `${where}.${k}`));
-    }
-  }
-  if (t === 'array' && schema.items) value.forEach((v, i) => errors.push(...validate(schema.items, v, `${where}[${i}]`)));
-  return errors;
-}
 
 before(async () => {
   port = await freePort();

@@ -260,6 +260,60 @@ TEST(FoxgloveConvert, RawImageInFoxglovesEncodings) {
   EXPECT_EQ(parse(fg::schemaText(fg::Shape::raw_image))["required"].size(), 7u);
 }
 
+// flowctl play makes the recorded frame again from the image message, byte for byte.
+TEST(FoxgloveConvert, ImageMessagesGiveTheirFramesBack) {
+  for (const auto& e : skr::media::kEncodings) {
+    if (!e.video) continue;
+    std::string pixels(
+        e.format == skr::media::Format::jpeg ? 50 : skr::media::rawPayloadBytes(e, 4, 2), '\0');
+    for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<char>(i * 37 + 11);
+    skr::media::FrameHeader h;
+    h.format = e.format;
+    h.seq = 0xfedcba9876543210u;
+    h.capture_ns = 1700000000123456789;
+    h.width = 4;
+    h.height = 2;
+    const std::string frame = skr::media::makeFrame(h, pixels);
+    auto image = e.format == skr::media::Format::jpeg ? fg::compressedImage(frame, "cam")
+                                                      : fg::rawImage(frame, "cam");
+    ASSERT_TRUE(image) << e.encoding;
+    EXPECT_EQ(parse(image->json)["seq"].asUInt64(), h.seq) << e.encoding;
+    auto back = fg::mediaFrameOf(image->json);
+    ASSERT_TRUE(back) << e.encoding << ": " << back.error().message;
+    EXPECT_EQ(*back, frame) << e.encoding;
+  }
+  // What is not such a message is refused with the reason.
+  const std::string good =
+      fg::rawImage(*skr::media::makeRawFrame(skr::media::Format::bgr8, 2, 1, "foobar"), "c")->json;
+  auto replace = [&](const std::string& from, const std::string& to) {
+    std::string s = good;
+    s.replace(s.find(from), from.size(), to);
+    return s;
+  };
+  for (const auto& bad :
+       {std::string("{}"), std::string("not json"), replace("\"seq\":0", "\"seq\":-1"),
+        replace("\"encoding\":\"bgr8\"", "\"encoding\":\"jpeg\""),
+        replace("\"width\":2", "\"width\":3"), replace("Zm9vYmFy", "Zm9vYmF*"),
+        replace("Zm9vYmFy", "Zm9vYmE=")}) {
+    auto r = fg::mediaFrameOf(bad);
+    ASSERT_FALSE(r) << bad;
+    EXPECT_EQ(r.error().code, skr::Errc::parse_error) << bad;
+  }
+  // Written otherwise (an escape in the base64, a nested "data" first), the same frame.
+  const std::string frame = *skr::media::makeRawFrame(skr::media::Format::bgr8, 2, 1, "foobar");
+  for (const auto& other :
+       {replace("Zm9vYmFy", "Zm9v\\u0059mFy"), "{\"x\":{\"data\":\"QUJD\"}," + good.substr(1)}) {
+    auto r = fg::mediaFrameOf(other);
+    ASSERT_TRUE(r) << other << ": " << r.error().message;
+    EXPECT_EQ(*r, frame) << other;
+  }
+  EXPECT_EQ(fg::unbase64("Zm8="), "fo");
+  EXPECT_EQ(fg::unbase64("Zg=="), "f");
+  EXPECT_EQ(fg::unbase64(""), "");
+  EXPECT_FALSE(fg::unbase64("Zg="));
+  EXPECT_FALSE(fg::unbase64("Z==="));
+}
+
 TEST(FoxgloveConvert, Annotations) {
   auto faces = fg::imageAnnotations(
       R"({"capture_ns":5,"width":640,"height":360,"faces":[{"x":10,"y":20,"w":30,"h":40,"score":0.5}]})");

@@ -2,7 +2,9 @@
 // flowctl record, play and mcap against the reference MCAP implementation, @mcap/core (with
 // @mcap/support's zstd and lz4): every file flowctl writes reads with McapIndexedReader, a
 // recorder killed with SIGKILL leaves a file McapStreamReader reads (CRCs checked) up to its last
-// chunk, and flowctl reads what McapWriter writes.
+// chunk, and flowctl reads what McapWriter writes. Image channels are written as
+// foxglove.RawImage / foxglove.CompressedImage (checked against @foxglove/schemas) and played back
+// as the same media frames.
 import assert from 'node:assert/strict';
 import { spawn, execFile } from 'node:child_process';
 import { mkdtempSync, readFileSync, writeFileSync, rmSync } from 'node:fs';
@@ -11,12 +13,13 @@ import path from 'node:path';
 import { promisify } from 'node:util';
 import { after, before, test } from 'node:test';
 
-import { env, sleep, startHub, waitFor, webRequire } from '../web/harness.mjs';
+import { env, sleep, startHub, validate, waitFor, webRequire } from '../web/harness.mjs';
 
 const run = promisify(execFile);
 const { McapIndexedReader, McapStreamReader, McapWriter } = webRequire('@mcap/core');
 const { loadDecompressHandlers } = webRequire('@mcap/support');
 const zstd = webRequire('@foxglove/wasm-zstd');
+const schemas = webRequire('@foxglove/schemas/jsonschema');
 
 let hub;
 let dir;
@@ -270,3 +273,118 @@ for (const mode of ['zstd', 'none', 'unchunked']) {
       sent.filter((s) => s.topic === 'robot.points').map((s) => s.data.toString()));
   });
 }
+
+// A media frame (docs/channels.md): format code, seq, capture time, size, payload.
+function mediaFrame(format, seq, captureNs, width, height, payload) {
+  const h = Buffer.alloc(32);
+  h.write('SKMF', 0, 'latin1');
+  h.writeUInt16LE(32, 4);
+  h.writeUInt8(format, 6);
+  h.writeBigUInt64LE(BigInt(seq), 8);
+  h.writeBigInt64LE(captureNs, 16);
+  h.writeUInt16LE(width, 24);
+  h.writeUInt16LE(height, 26);
+  return Buffer.concat([h, payload]);
+}
+
+test('image channels are recorded as Foxglove images and played back as the same frames', async () => {
+  // 4x2 frames: rgb8 (format 4), mono16 (8), i420 (10, recorded as nv12) and a JPEG (1).
+  const kinds = [
+    { name: 'rgb', format: 4, encoding: 'rgb8', bytes: 24, schema: 'RawImage', step: 12 },
+    { name: 'depth', format: 8, encoding: 'mono16', bytes: 16, schema: 'RawImage', step: 8 },
+    { name: 'yuv', format: 10, encoding: 'i420', bytes: 12, schema: 'RawImage', step: 4 },
+    { name: 'jpg', format: 1, encoding: 'jpeg', bytes: 40, schema: 'CompressedImage' },
+  ];
+  const file = path.join(dir, 'images.mcap');
+  const rec = await startRecorder(file, kinds.map((k) => `guest.${k.name}`));
+  const sent = {};
+  for (const [i, k] of kinds.entries()) {
+    sent[k.name] = [];
+    // Two runs of `flowctl pub` (each re-creates the channel), each frame published twice.
+    for (const run of [0, 1]) {
+      const pixels = Buffer.from(Array.from({ length: k.bytes }, (_, b) => (b * 13 + i * 31 + run * 7) & 0xff));
+      const frame = mediaFrame(k.format, 100 + run, 1700000000123456789n + BigInt(run), 4, 2, pixels);
+      const frameFile = path.join(dir, `${k.name}-${run}.frame`);
+      writeFileSync(frameFile, frame);
+      const props = { message_encoding: 'skrobot.media', encoding: k.encoding, width: 4, height: 2 };
+      const mime = k.format === 1 ? 'image/jpeg' : 'application/octet-stream';
+      await flowctl('pub', `guest.${k.name}`, '--file', frameFile, '--repeat', '2', '--mime', mime,
+        '--props', JSON.stringify(props), '--wait-ms', '5000');
+      sent[k.name].push({ frame, pixels, seq: 100 + run, nsec: 123456789 + run }, { frame, pixels, seq: 100 + run, nsec: 123456789 + run });
+    }
+  }
+  await sleep(200);
+  rec.proc.kill('SIGINT');
+  assert.equal((await rec.exited).code, 0, rec.out);
+  const summary = JSON.parse(rec.out.slice(rec.out.indexOf('{')));
+  assert.equal(summary.messages, 16, rec.out);
+  assert.ok(!summary.unconverted, rec.out);  // every message was a frame of its channel's kind
+
+  // Read with the reference reader: each image channel is `json` with the Foxglove schema, and
+  // each message validates against @foxglove/schemas with the frame's pixels, seq and time.
+  const reader = await McapIndexedReader.Initialize({ readable: readable(readFileSync(file)), decompressHandlers });
+  const messages = [];
+  for await (const m of reader.readMessages()) messages.push(m);
+  const got = byTopic(reader.channelsById, messages);
+  for (const k of kinds) {
+    const channel = [...reader.channelsById.values()].find((c) => c.topic === `guest.${k.name}`);
+    assert.equal(channel.messageEncoding, 'json', k.name);
+    const schema = reader.schemasById.get(channel.schemaId);
+    assert.equal(schema.name, `foxglove.${k.schema}`);
+    assert.equal(schema.encoding, 'jsonschema');
+    assert.deepEqual(JSON.parse(new TextDecoder().decode(schema.data)).required, schemas[k.schema].required);
+    assert.equal(got[`guest.${k.name}`].length, 4, k.name);
+    got[`guest.${k.name}`].forEach((m, n) => {
+      const img = JSON.parse(Buffer.from(m.data).toString());
+      assert.deepEqual(validate(schemas[k.schema], img), [], k.name);
+      const want = sent[k.name][n];
+      assert.equal(img.frame_id, `guest.${k.name}`);
+      assert.deepEqual(img.timestamp, { sec: 1700000000, nsec: want.nsec });
+      assert.equal(img.seq, want.seq);
+      assert.equal(m.publishTime, 1700000000000000000n + BigInt(want.nsec), 'publish time = capture time');
+      let pixels = want.pixels;
+      if (k.encoding === 'i420') {  // shown as nv12: U and V interleaved
+        pixels = Buffer.concat([pixels.subarray(0, 8), Buffer.from([pixels[8], pixels[10], pixels[9], pixels[11]])]);
+      }
+      assert.deepEqual(Buffer.from(img.data, 'base64'), pixels, k.name);
+      if (k.schema === 'RawImage') {
+        assert.equal(img.encoding, k.encoding === 'i420' ? 'nv12' : k.encoding);
+        assert.deepEqual([img.width, img.height, img.step], [4, 2, k.step]);
+      } else {
+        assert.equal(img.format, 'jpeg');
+      }
+    });
+  }
+
+  // Play it: each channel comes back with the same frames, byte for byte.
+  const echoes = kinds.map((k) => {
+    const echo = spawn(env.flowctl, ['--address', hub.address, 'echo', `guest.${k.name}`, '--wait',
+      '--count', '4', '--format', 'hex'], { stdio: ['ignore', 'pipe', 'pipe'] });
+    const e = { out: '', exited: new Promise((resolve) => echo.on('exit', resolve)) };
+    echo.stdout.on('data', (d) => { e.out += d; });
+    return e;
+  });
+  const played = JSON.parse((await flowctl('--json', 'play', file, '--wait-ms', '5000')).stdout);
+  assert.equal(played.messages, 16);
+  for (const [i, k] of kinds.entries()) {
+    assert.equal(await Promise.race([echoes[i].exited, sleep(10000).then(() => 'timeout')]), 0, k.name);
+    assert.deepEqual(echoes[i].out.trim().split('\n'), sent[k.name].map((s) => s.frame.toString('hex')), k.name);
+  }
+});
+
+test('a message of an image channel that is not such a frame is counted, not recorded', async () => {
+  const file = path.join(dir, 'not-image.mcap');
+  const rec = await startRecorder(file, ['guest.notframe']);
+  await flowctl('pub', 'guest.notframe', 'not a frame', '--repeat', '3', '--mime',
+    'application/octet-stream', '--props', '{"encoding":"bgr8","width":4,"height":2}', '--wait-ms', '5000');
+  await sleep(200);
+  rec.proc.kill('SIGINT');
+  assert.equal((await rec.exited).code, 0, rec.out);
+  const summary = JSON.parse(rec.out.slice(rec.out.indexOf('{')));
+  assert.equal(summary.unconverted, 3, rec.out);
+  assert.equal(summary.channels[0].unconverted, 3, rec.out);
+  assert.equal(summary.messages, 0, rec.out);
+  assert.match(rec.out, /RECORD-NOT-IMAGE 3 messages/);
+  const reader = await McapIndexedReader.Initialize({ readable: readable(readFileSync(file)), decompressHandlers });
+  assert.equal(reader.statistics.messageCount, 0n);
+});

@@ -35,6 +35,35 @@ export async function freePort() {
 
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
+// Enough of JSON schema for the foxglove schemas (@foxglove/schemas/jsonschema): type, properties,
+// required, items, bounds. The errors found, [] when none.
+export function validate(schema, value, where = '$') {
+  const errors = [];
+  const t = schema.type;
+  const typeOk = {
+    object: () => value !== null && typeof value === 'object' && !Array.isArray(value),
+    array: () => Array.isArray(value),
+    string: () => typeof value === 'string',
+    number: () => typeof value === 'number',
+    integer: () => Number.isInteger(value),
+    boolean: () => typeof value === 'boolean',
+  };
+  if (t && !(Array.isArray(t) ? t : [t]).some((x) => typeOk[x]?.())) {
+    return [`${where}: not ${t}`];
+  }
+  if (schema.enum && !schema.enum.includes(value)) errors.push(`${where}: not in enum`);
+  if (schema.minimum !== undefined && value < schema.minimum) errors.push(`${where}: < minimum`);
+  if (schema.maximum !== undefined && value > schema.maximum) errors.push(`${where}: > maximum`);
+  if (t === 'object') {
+    for (const r of schema.required ?? []) if (!(r in value)) errors.push(`${where}.${r}: missing`);
+    for (const [k, s] of Object.entries(schema.properties ?? {})) {
+      if (k in value) errors.push(...validate(s, value[k], `${where}.${k}`));
+    }
+  }
+  if (t === 'array' && schema.items) value.forEach((v, i) => errors.push(...validate(schema.items, v, `${where}[${i}]`)));
+  return errors;
+}
+
 // Polls fn() until it returns a truthy value; throws with `what` after timeoutMs.
 export async function waitFor(what, fn, timeoutMs = 30000, everyMs = 100) {
   const until = Date.now() + timeoutMs;

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // flowctl play: re-create the channels of an MCAP recording and publish its messages with the
-// recorded timing (docs/recording.md).
+// recorded timing (docs/recording.md). Foxglove image messages written by flowctl record become
+// media frames again.
+#include <skrobot/foxglove/images.h>
 #include <skrobot/mcap/reader.h>
 #include <skrobot/runtime/flow/name_pattern.h>
 
@@ -150,11 +152,13 @@ int cmdPlay(const Cli& cli) {
   auto reader = mcap::Reader::open(rest[0]);
   if (!reader) return fail(kFailed, reader.error().message);
   std::map<uint16_t, mcap::Channel> channels;
+  std::map<uint16_t, std::string> schema_names;
   std::vector<PropertyChange> changes;
   std::optional<Messages> messages;
   auto summary = reader->readSummary();
   if (summary && !summary->chunks.empty()) {
     channels = summary->channels;
+    for (const auto& [id, schema] : summary->schemas) schema_names[id] = schema.name;
     for (const auto& index : summary->metadata) {
       if (index.name != mcapmap::kPropertiesName) continue;
       auto m = reader->readMetadata(index);
@@ -165,7 +169,8 @@ int cmdPlay(const Cli& cli) {
   } else if (summary || summary.error().code == skr::Errc::not_found) {
     // No index, or messages outside chunks (which no index covers): read it all.
     std::vector<OwnedMessage> owned;
-    auto end = reader->scan({.channel = [&](const mcap::Channel& c) { channels[c.id] = c; },
+    auto end = reader->scan({.schema = [&](const mcap::Schema& x) { schema_names[x.id] = x.name; },
+                             .channel = [&](const mcap::Channel& c) { channels[c.id] = c; },
                              .message =
                                  [&](const mcap::Message& m) {
                                    owned.push_back({m.channel_id, m.log_time, std::string(m.data)});
@@ -199,6 +204,8 @@ int cmdPlay(const Cli& cli) {
     uint16_t hub_id = 0;
     Variant::Map properties;
     uint64_t published = 0;
+    bool image = false;  // Foxglove image messages: published as media frames
+    uint64_t unreadable = 0;
   };
   std::map<uint16_t, Played> played;  // by MCAP channel id
   std::set<std::string> names;
@@ -226,7 +233,11 @@ int cmdPlay(const Cli& cli) {
       return fail(kUsage,
                   "two recorded channels would both be " + me + "." + name + ": --remap one");
     }
-    played[id] = {c.topic, name, mcapmap::mimeOf(c), 0, {}, 0};
+    const auto schema = schema_names.find(c.schema_id);
+    const bool image = c.message_encoding == "json" && schema != schema_names.end() &&
+                       (schema->second == skr::foxglove::kRawImage ||
+                        schema->second == skr::foxglove::kCompressedImage);
+    played[id] = {c.topic, name, mcapmap::mimeOf(c), 0, {}, 0, image, 0};
   }
   if (played.empty()) return fail(kNotFound, "no channel of " + rest[0] + " to play");
 
@@ -359,7 +370,21 @@ int cmdPlay(const Cli& cli) {
         }
       }
       auto& p = played.at(pending->channel_id);
-      if (auto r = s.satellite.publish(p.hub_id, pending->data); !r) {
+      std::string frame;
+      if (p.image) {
+        auto made = skr::foxglove::mediaFrameOf(pending->data);
+        if (!made) {
+          if (p.unreadable++ == 0) {
+            std::fprintf(stderr, "flowctl: PLAY-NOT-IMAGE %s: %s (skipped)\n", p.topic.c_str(),
+                         made.error().message.c_str());
+          }
+          if (!fetch()) return;
+          continue;
+        }
+        frame = std::move(made).value();
+      }
+      if (auto r = s.satellite.publish(p.hub_id, p.image ? std::string_view(frame) : pending->data);
+          !r) {
         return s.end(kFailed, r.error().message);
       }
       ++p.published;
@@ -375,8 +400,10 @@ int cmdPlay(const Cli& cli) {
   if (cli.json) {
     Variant::List list;
     for (const auto& [id, p] : played) {
-      list.emplace_back(Variant::Map{
-          {"recorded", p.topic}, {"name", me + "." + p.short_name}, {"messages", p.published}});
+      list.emplace_back(Variant::Map{{"recorded", p.topic},
+                                     {"name", me + "." + p.short_name},
+                                     {"messages", p.published},
+                                     {"unreadable", p.unreadable}});
     }
     std::printf("%s\n", skr::flow::variantToJsonText(
                             Variant::Map{{"messages", sent},

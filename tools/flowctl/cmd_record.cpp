@@ -3,7 +3,9 @@
 //
 // Threads: the satellite's loop receives (and time-stamps) messages and queues them; a disk
 // thread owns the mcap::Writer, so a slow disk never blocks the flow. The queue is bounded
-// (--queue-mb): past it messages are dropped and counted, never silently.
+// (--queue-mb): past it messages are dropped and counted, never silently. Media frames of image
+// channels are turned into Foxglove's image messages (JSON, base64) there too.
+#include <skrobot/foxglove/images.h>
 #include <skrobot/mcap/writer.h>
 #include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/media_frame.hpp>
@@ -26,9 +28,14 @@ using skr::flow::Variant;
 
 namespace {
 
+// How a channel's messages are written: as they came, or as a Foxglove image message.
+enum class Image { none, raw, compressed };
+
 // What the loop hands the disk thread.
 struct Item {
-  enum class Kind { channel, message, metadata } kind = Kind::message;
+  enum class Kind { schema, channel, message, metadata } kind = Kind::message;
+  Image image = Image::none;  // a message: converted on the disk thread
+  mcap::Schema schema;
   mcap::Channel channel;
   mcap::Metadata metadata;
   uint16_t id = 0;
@@ -78,6 +85,11 @@ class DiskThread {
     return peak_;
   }
   [[nodiscard]] uint64_t fileBytes() const { return file_bytes_.load(); }
+  // Messages of an image channel that were not a frame of its kind (not written), by MCAP id.
+  [[nodiscard]] std::map<uint16_t, uint64_t> unconverted() {
+    std::lock_guard lock(m_);
+    return unconverted_;
+  }
 
  private:
   // What an item holds in memory, roughly (so that small messages count too).
@@ -109,11 +121,24 @@ class DiskThread {
   }
   void write(Item& item) {
     switch (item.kind) {
+      case Item::Kind::schema:
+        return check(writer_.addSchema(std::move(item.schema)));
       case Item::Kind::channel:
         return check(writer_.addChannel(std::move(item.channel)));
       case Item::Kind::metadata:
         return check(writer_.writeMetadata(item.metadata));
       case Item::Kind::message:
+        if (item.image != Image::none) {
+          auto image = item.image == Image::raw
+                           ? skr::foxglove::rawImage(item.data, item.channel.topic)
+                           : skr::foxglove::compressedImage(item.data, item.channel.topic);
+          if (!image) {
+            std::lock_guard lock(m_);
+            ++unconverted_[item.id];
+            return;
+          }
+          item.data = std::move(image->json);
+        }
         return check(
             writer_.write({item.id, item.sequence, item.log_time, item.publish_time, item.data}));
     }
@@ -133,6 +158,7 @@ class DiskThread {
   size_t queued_ = 0, peak_ = 0;
   bool closing_ = false;
   std::string failure_;
+  std::map<uint16_t, uint64_t> unconverted_;
   skr::Result<void> result_;
   std::atomic<uint64_t> file_bytes_{0};
   std::thread thread_;
@@ -142,12 +168,25 @@ class DiskThread {
 struct Recorded {
   std::string name;
   uint16_t id = 0;
+  Image image = Image::none;
   uint32_t sequence = 0;
-  uint64_t messages = 0, bytes = 0, dropped = 0;
+  uint64_t messages = 0, bytes = 0, dropped = 0, unconverted = 0;
   // Media frames: the next seq expected, and frames the seq says were lost before us.
   std::optional<uint64_t> next_seq;
   uint64_t gaps = 0;
 };
+
+// Image channels (docs/recording.md): a raw `encoding` property is recorded as
+// foxglove.RawImage, `jpeg` as foxglove.CompressedImage.
+Image imageOf(const Variant& props) {
+  const auto* map = props.asMap();
+  if (map == nullptr) return Image::none;
+  const auto it = map->find("encoding");
+  if (it == map->end() || !it->second.isString()) return Image::none;
+  const std::string& encoding = *it->second.asString();
+  if (skr::foxglove::isRawImageEncoding(encoding)) return Image::raw;
+  return encoding == "jpeg" ? Image::compressed : Image::none;
+}
 
 }  // namespace
 
@@ -192,6 +231,23 @@ int cmdRecord(const Cli& cli) {
   std::map<uint16_t, Recorded*> by_hub_id;   // the hub's channel id now
   uint16_t next_id = 1;
   bool out_of_ids = false;
+  // The Foxglove schemas, written once each before the first channel that uses them.
+  std::map<Image, uint16_t> schema_ids;
+  auto schemaFor = [&](Image image) -> uint16_t {
+    if (image == Image::none) return 0;
+    auto [it, added] = schema_ids.try_emplace(image, uint16_t(schema_ids.size() + 1));
+    if (added) {
+      Item item;
+      item.kind = Item::Kind::schema;
+      const bool raw = image == Image::raw;
+      item.schema = {
+          it->second, std::string(raw ? skr::foxglove::kRawImage : skr::foxglove::kCompressedImage),
+          "jsonschema",
+          raw ? skr::foxglove::rawImageSchema() : skr::foxglove::compressedImageSchema()};
+      disk.push(std::move(item));
+    }
+    return it->second;
+  };
 
   auto wanted = [&](const sat::ChannelInfo& info) {
     if (info.kind != uint8_t(skr::flow::ChannelKind::streaming)) return false;
@@ -222,14 +278,16 @@ int cmdRecord(const Cli& cli) {
       }
       r.name = info.name;
       r.id = next_id++;
+      r.image = imageOf(info.props);
       Item item;
       item.kind = Item::Kind::channel;
-      item.channel = {r.id,
-                      0,
-                      info.name,
-                      mcapmap::encodingForMime(info.mime),
-                      {{std::string(mcapmap::kMimeKey), info.mime},
-                       {std::string(mcapmap::kOwnerKey), info.owner}}};
+      item.channel = {
+          r.id,
+          schemaFor(r.image),
+          info.name,
+          r.image != Image::none ? std::string("json") : mcapmap::encodingForMime(info.mime),
+          {{std::string(mcapmap::kMimeKey), info.mime},
+           {std::string(mcapmap::kOwnerKey), info.owner}}};
       disk.push(std::move(item));
     }
     by_hub_id[info.id] = &r;
@@ -254,6 +312,8 @@ int cmdRecord(const Cli& cli) {
     Recorded& r = *found->second;
     Item item;
     item.id = r.id;
+    item.image = r.image;
+    if (r.image != Image::none) item.channel.topic = r.name;  // the image's frame_id
     item.log_time = static_cast<uint64_t>(skr::realtimeNs());
     item.publish_time = item.log_time;
     if (auto frame = skr::media::parseFrame(payload)) {
@@ -291,8 +351,14 @@ int cmdRecord(const Cli& cli) {
   if (auto r = disk.finish(); !r && code == kOk) {
     code = fail(kFailed, "closing " + *output + ": " + r.error().message);
   }
-  uint64_t messages = 0, bytes = 0, dropped = 0, gaps = 0;
-  for (const auto& [key, r] : recorded) {
+  uint64_t messages = 0, bytes = 0, dropped = 0, gaps = 0, unconverted = 0;
+  const auto unconverted_by_id = disk.unconverted();
+  for (auto& [key, r] : recorded) {
+    if (const auto u = unconverted_by_id.find(r.id); u != unconverted_by_id.end()) {
+      r.unconverted = u->second;
+      r.messages -= r.unconverted;
+      unconverted += r.unconverted;
+    }
     messages += r.messages;
     bytes += r.bytes;
     dropped += r.dropped;
@@ -305,6 +371,7 @@ int cmdRecord(const Cli& cli) {
                                          {"messages", r.messages},
                                          {"bytes", r.bytes},
                                          {"dropped", r.dropped},
+                                         {"unconverted", r.unconverted},
                                          {"media_gaps", r.gaps}});
     }
     std::printf("%s\n", skr::flow::variantToJsonText(
@@ -314,6 +381,7 @@ int cmdRecord(const Cli& cli) {
                                          {"bytes", bytes},
                                          {"file_bytes", disk.fileBytes()},
                                          {"dropped", dropped},
+                                         {"unconverted", unconverted},
                                          {"media_gaps", gaps},
                                          {"peak_queue_bytes", uint64_t(disk.peakQueued())},
                                          {"channels", std::move(channels)}})
@@ -328,11 +396,20 @@ int cmdRecord(const Cli& cli) {
                   (unsigned long long)r.messages, (unsigned long long)r.bytes);
       if (r.dropped != 0) std::printf("  %llu DROPPED (queue full)", (unsigned long long)r.dropped);
       if (r.gaps != 0) std::printf("  %llu lost before us (seq gaps)", (unsigned long long)r.gaps);
+      if (r.unconverted != 0) {
+        std::printf("  %llu NOT RECORDED (not an image frame)", (unsigned long long)r.unconverted);
+      }
       std::printf("\n");
     }
   }
   if (out_of_ids)
     std::fprintf(stderr, "flowctl: more than 65535 channels: the rest not recorded\n");
+  if (unconverted != 0) {
+    std::fprintf(stderr,
+                 "flowctl: RECORD-NOT-IMAGE %llu messages of image channels were not media frames "
+                 "of the channel's encoding: not recorded\n",
+                 (unsigned long long)unconverted);
+  }
   if (dropped != 0) {
     std::fprintf(stderr, "flowctl: %llu messages dropped: the disk did not keep up\n",
                  (unsigned long long)dropped);

@@ -14,44 +14,16 @@ constexpr skr::support::JsonLimits kDetectionLimits{16, 4u << 20};
 
 // The foxglove.* schemas, written for the fields this bridge fills (the field names and
 // required lists of @foxglove/schemas 2.1.0; tests/foxglove checks them against it).
-constexpr const char* kTimeSchema =
-    R"({"type":"object","properties":{"sec":{"type":"integer","minimum":0},)"
-    R"("nsec":{"type":"integer","minimum":0,"maximum":999999999}}})";
 constexpr const char* kColorSchema =
     R"({"type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},)"
     R"("b":{"type":"number"},"a":{"type":"number"}}})";
 constexpr const char* kPoint2Schema =
     R"({"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"}}})";
 
-std::string compressedImageSchema() {
-  return std::string(R"({"title":"foxglove.CompressedImage","type":"object","properties":{)") +
-         R"("timestamp":)" + kTimeSchema + R"(,"frame_id":{"type":"string"},)" +
-         R"("data":{"type":"string","contentEncoding":"base64"},"format":{"type":"string"}},)" +
-         R"("required":["timestamp","frame_id","data","format"]})";
-}
-
-std::string rawImageSchema() {
-  return std::string(R"({"title":"foxglove.RawImage","type":"object","properties":{)") +
-         R"("timestamp":)" + kTimeSchema + R"(,"frame_id":{"type":"string"},)" +
-         R"("width":{"type":"integer","minimum":0},"height":{"type":"integer","minimum":0},)" +
-         R"("encoding":{"type":"string"},"step":{"type":"integer","minimum":0},)" +
-         R"("data":{"type":"string","contentEncoding":"base64"}},)" +
-         R"("required":["timestamp","frame_id","width","height","encoding","step","data"]})";
-}
-
-// `"timestamp":{...}}` of a capture time, closing the object written by hand.
-void appendTimestampAndClose(std::string& out, std::int64_t ns) {
-  out += R"(,"timestamp":{"nsec":)";
-  out += std::to_string(ns % 1000000000);
-  out += R"(,"sec":)";
-  out += std::to_string(ns / 1000000000);
-  out += "}}";
-}
-
 std::string imageAnnotationsSchema() {
   const std::string color = kColorSchema;
   const std::string point = kPoint2Schema;
-  const std::string time = kTimeSchema;
+  const std::string time(timeSchema());
   const std::string circle =
       R"({"type":"object","properties":{"timestamp":)" + time + R"(,"position":)" + point +
       R"(,"diameter":{"type":"number"},"thickness":{"type":"number"},"fill_color":)" + color +
@@ -104,37 +76,6 @@ Json::Value point(double x, double y) {
 
 }  // namespace
 
-void appendBase64(std::string& out, std::string_view bytes) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const std::size_t at = out.size();
-  out.resize(at + (bytes.size() + 2) / 3 * 4);
-  char* o = out.data() + at;
-  const auto* in = reinterpret_cast<const unsigned char*>(bytes.data());
-  std::size_t i = 0;
-  for (; i + 3 <= bytes.size(); i += 3) {
-    const std::uint32_t v = in[i] << 16 | in[i + 1] << 8 | in[i + 2];
-    *o++ = kAlphabet[v >> 18 & 63];
-    *o++ = kAlphabet[v >> 12 & 63];
-    *o++ = kAlphabet[v >> 6 & 63];
-    *o++ = kAlphabet[v & 63];
-  }
-  if (const std::size_t rest = bytes.size() - i; rest > 0) {
-    std::uint32_t v = in[i] << 16;
-    if (rest == 2) v |= in[i + 1] << 8;
-    *o++ = kAlphabet[v >> 18 & 63];
-    *o++ = kAlphabet[v >> 12 & 63];
-    *o++ = rest == 2 ? kAlphabet[v >> 6 & 63] : '=';
-    *o++ = '=';
-  }
-}
-
-std::string base64(std::string_view bytes) {
-  std::string out;
-  appendBase64(out, bytes);
-  return out;
-}
-
 std::string schemaName(Shape shape, const std::string& mime) {
   switch (shape) {
     case Shape::image:
@@ -167,64 +108,6 @@ std::string schemaText(Shape shape) {
       break;
   }
   return R"({"type":"object"})";
-}
-
-std::optional<Converted> compressedImage(std::string_view message, const std::string& frame_id) {
-  auto frame = skr::media::parseFrame(message);
-  if (!frame || frame->header.format != skr::media::Format::jpeg) return std::nullopt;
-  // Written by hand: base64 needs no escaping, and writeJson checks every byte's UTF-8.
-  const std::int64_t ns = std::max<std::int64_t>(frame->header.capture_ns, 0);
-  std::string out;
-  out.reserve(frame->payload.size() / 3 * 4 + 128 + frame_id.size());
-  out += R"({"data":")";
-  appendBase64(out, frame->payload);
-  out += R"(","format":"jpeg","frame_id":)";
-  out += skr::support::jsonQuote(frame_id);
-  appendTimestampAndClose(out, ns);
-  return Converted{std::move(out), static_cast<std::uint64_t>(ns)};
-}
-
-bool isRawImageEncoding(std::string_view encoding) {
-  const auto* e = skr::media::encodingInfo(encoding);
-  return e != nullptr && e->video && skr::media::isRaw(*e);
-}
-
-std::optional<Converted> rawImage(std::string_view message, const std::string& frame_id) {
-  auto frame = skr::media::parseFrame(message);
-  if (!frame) return std::nullopt;
-  const auto& h = frame->header;
-  const auto* e = skr::media::encodingInfo(h.format);
-  if (!e->video || !skr::media::isRaw(*e)) return std::nullopt;
-  // parseFrame checked the payload's size; rows are packed, so step is width * bytes per pixel
-  // (the luma row for nv12).
-  std::string_view pixels = frame->payload;
-  std::string nv12;
-  std::string_view encoding = e->encoding;
-  if (h.format == skr::media::Format::i420) {  // Foxglove has nv12, not i420
-    const std::size_t luma = static_cast<std::size_t>(h.width) * h.height, quarter = luma / 4;
-    nv12.assign(pixels.substr(0, luma));
-    nv12.resize(luma + 2 * quarter);
-    for (std::size_t i = 0; i < quarter; ++i) {
-      nv12[luma + 2 * i] = pixels[luma + i];
-      nv12[luma + 2 * i + 1] = pixels[luma + quarter + i];
-    }
-    pixels = nv12;
-    encoding = "nv12";
-  }
-  const std::size_t step = e->even_size ? h.width : h.width * (e->bits_per_pixel / 8u);
-  const std::int64_t ns = std::max<std::int64_t>(h.capture_ns, 0);
-  std::string out;
-  out.reserve(pixels.size() / 3 * 4 + 160 + frame_id.size());
-  out += R"({"data":")";
-  appendBase64(out, pixels);
-  out += R"(","encoding":")";
-  out += encoding;
-  out += R"(","frame_id":)";
-  out += skr::support::jsonQuote(frame_id);
-  out += R"(,"height":)" + std::to_string(h.height) + R"(,"step":)" + std::to_string(step) +
-         R"(,"width":)" + std::to_string(h.width);
-  appendTimestampAndClose(out, ns);
-  return Converted{std::move(out), static_cast<std::uint64_t>(ns)};
 }
 
 std::optional<Converted> imageAnnotations(std::string_view message) {

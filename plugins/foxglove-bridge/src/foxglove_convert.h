@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // What foxglove-bridge turns hub messages into (docs/foxglove.md), and the JSON schemas it
-// advertises with them. Pure functions; any thread.
+// advertises with them (images: skrobot/foxglove/images.h). Pure functions; any thread.
 #pragma once
+
+#include <skrobot/foxglove/images.h>
 
 #include <json/value.h>
 
@@ -22,32 +24,10 @@ enum class Shape {
   joints,       // {"angles": [...]} with the channel's "names": the angles by name, to plot
 };
 
-// Standard base64 with padding.
-[[nodiscard]] std::string base64(std::string_view bytes);
-void appendBase64(std::string& out, std::string_view bytes);
-
 // The schema name and JSON schema text advertised for a shape (json: a permissive object
 // schema, named after the mime type).
 [[nodiscard]] std::string schemaName(Shape shape, const std::string& mime);
 [[nodiscard]] std::string schemaText(Shape shape);
-
-// A converted message and its log time (ns since the epoch; 0: the receipt time).
-struct Converted {
-  std::string json;
-  std::uint64_t time_ns = 0;
-};
-
-// A media frame (skrobot/media_frame.hpp) with a JPEG as foxglove.CompressedImage JSON;
-// nullopt for anything else.
-[[nodiscard]] std::optional<Converted> compressedImage(std::string_view message,
-                                                       const std::string& frame_id);
-// A media frame of raw pixels as foxglove.RawImage JSON (encodings as Foxglove names them: rgb8,
-// bgr8, rgba8, bgra8, mono8, mono16, nv12; i420 is sent as nv12, its chroma planes interleaved);
-// nullopt for anything else.
-[[nodiscard]] std::optional<Converted> rawImage(std::string_view message,
-                                                const std::string& frame_id);
-// Whether a channel of this `encoding` property is shown as foxglove.RawImage.
-[[nodiscard]] bool isRawImageEncoding(std::string_view encoding);
 
 // face-detect's {"capture_ns", "faces": [{"x","y","w","h","score"}]} or motion's
 // {"capture_ns", "regions": [{"x","y","w","h"}], "center"} as foxglove.ImageAnnotations JSON

@@ -118,6 +118,13 @@ int cmdEcho(const Cli& cli) {
     });
   }
   if (queue_text) {
+    // A request above the hub's cap: subscribed with the cap, and said so (the library's own
+    // log line is below flowctl's level).
+    s.satellite.error.connect(&s.satellite, [](const skr::sat::FlowError& e) {
+      if (e.command == uint8_t(skr::flow::Code::subscribe_queue)) {
+        std::fprintf(stderr, "flowctl: %s\n", e.message.c_str());
+      }
+    });
     s.satellite.subscribe(name, static_cast<size_t>(queue));
   } else {
     s.satellite.subscribe(name);

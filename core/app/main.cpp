@@ -193,6 +193,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.udp = s.udp;
   o.max_frame_bytes = s.max_frame_bytes;
   o.subscriber_queue_bytes = s.subscriber_queue_bytes;
+  o.subscriber_queue_max_bytes = s.subscriber_queue_max_bytes;
   o.max_connections = s.max_connections;
   o.login_timeout_ms = s.login_timeout_ms;
   o.max_pending_requests = s.max_pending_requests;

@@ -268,6 +268,7 @@ s::Schema serverSchema() {
                   })),
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
+      s::optional("subscriber_queue_max_bytes", s::integer().range(64 << 10, 1 << 30), 64 << 20),
       s::optional("max_connections", s::integer().range(1, 100000), 1024),
       s::optional("login_timeout_ms", s::integer().range(100, 600000), 5000),
       s::optional("max_pending_requests", s::integer().range(1, 1000000), 1024),
@@ -339,6 +340,7 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
     }
     out.max_frame_bytes = s["max_frame_bytes"].asUInt();
     out.subscriber_queue_bytes = s["subscriber_queue_bytes"].asUInt();
+    out.subscriber_queue_max_bytes = s["subscriber_queue_max_bytes"].asUInt();
     out.max_connections = s["max_connections"].asUInt();
     out.login_timeout_ms = s["login_timeout_ms"].asUInt();
     out.max_pending_requests = s["max_pending_requests"].asUInt();

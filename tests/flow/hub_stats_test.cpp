@@ -277,7 +277,6 @@ FlowCounters flow(uint32_t id, std::string user, std::string client, std::string
 
 TEST(HubStatsJson, ChannelsAndFlowsAsHubStatsCarriesThem) {
   HubSnapshot s;
-  s.queue_limit = 1000;
   s.interval_s = 1.0;
   s.interval_10s_s = 10.0;
   s.rates_until_ms = 1234;
@@ -294,6 +293,7 @@ TEST(HubStatsJson, ChannelsAndFlowsAsHubStatsCarriesThem) {
   s.flows = {flow(1, "guest", "cam", "satellite"), flow(2, "viewer", "page", "module")};
   s.flows[0].messages_in = 160;
   s.flows[0].queued_bytes = 250;
+  s.flows[0].queue_bytes = 1000;  // its queue's size: queue_fill is against it
   s.flows[0].last_1s.in_hz = 30.0;
   s.flows[0].last_10s.in_hz = 28.5;
   s.flows[1].queued_bytes = 999;
@@ -325,6 +325,7 @@ TEST(HubStatsJson, ChannelsAndFlowsAsHubStatsCarriesThem) {
   EXPECT_EQ(field(cam_flow, "name"), Variant("guest/cam"));
   EXPECT_EQ(field(cam_flow, "in_hz"), Variant(30.0));
   EXPECT_EQ(field(cam_flow, "in_hz_10s"), Variant(28.5));
+  EXPECT_EQ(field(cam_flow, "queue_bytes"), Variant(uint64_t{1000}));
   EXPECT_EQ(field(cam_flow, "queue_fill"), Variant(0.25));
   EXPECT_EQ(field(item(v, "flows", 1), "queue_fill"), Variant(0.0));  // a module queues nothing
 }

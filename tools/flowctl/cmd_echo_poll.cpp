@@ -63,6 +63,7 @@ int cmdEcho(const Cli& cli) {
   const auto count_text = args.option("--count");
   const bool rate = args.flag("--rate");
   const bool wait = args.flag("--wait");
+  const auto queue_text = args.option("--queue");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
   if (rest.size() != 1) return usageError(cli);
@@ -71,6 +72,9 @@ int cmdEcho(const Cli& cli) {
   }
   double count = 0;
   if (count_text && !parseNumber(*count_text, "--count", count)) return kUsage;
+  double queue = 0;
+  if (queue_text && !parseNumber(*queue_text, "--queue", queue)) return kUsage;
+  if (queue > 4294967295.0) return fail(kUsage, "--queue is at most 4294967295 bytes");
   const std::string& name = rest[0];
   if (!flowOnly(cli)) {  // serial:, udp: no synchronous check: waits for the channel (--wait)
     int code = kOk;
@@ -113,7 +117,18 @@ int cmdEcho(const Cli& cli) {
       window_msgs = window_bytes = 0;
     });
   }
-  s.satellite.subscribe(name);
+  if (queue_text) {
+    // A request above the hub's cap: subscribed with the cap, and said so (the library's own
+    // log line is below flowctl's level).
+    s.satellite.error.connect(&s.satellite, [](const skr::sat::FlowError& e) {
+      if (e.command == uint8_t(skr::flow::Code::subscribe_queue)) {
+        std::fprintf(stderr, "flowctl: %s\n", e.message.c_str());
+      }
+    });
+    s.satellite.subscribe(name, static_cast<size_t>(queue));
+  } else {
+    s.satellite.subscribe(name);
+  }
   return s.run();
 }
 

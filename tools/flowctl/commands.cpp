@@ -35,12 +35,15 @@ constexpr Command kCommands[] = {
      .usage = "usage: flowctl echo CHANNEL [options]",
      .help =
          R"(usage: flowctl echo CHANNEL [--format auto|text|hex|json] [--count N] [--rate] [--wait]
+                    [--queue BYTES]
   Subscribes to a streaming channel and prints each message.
   --format    auto (text when printable, else hex; the default), text, hex, or json (a
               binary Variant payload or JSON text, shown as JSON)
   --count N   stop after N messages
   --rate      print messages/s and bytes/s once a second instead of the data
   --wait      wait for the channel to appear instead of failing (exit 5) when it is absent
+  --queue N   ask the hub to hold up to N bytes for this subscription before it drops the
+              oldest (FlowProtocol 1.13; clamped to server.subscriber_queue_max_bytes)
 )",
      .run = cmdEcho},
     {.name = "poll",

@@ -28,6 +28,7 @@ Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport
       transport_(std::move(transport)),
       input_(
           std::min({kPreLoginMaxFrameBytes, hub.opt.max_frame_bytes, transport_->maxFrameBytes()})),
+      base_queue_(hub.opt.subscriber_queue_bytes),
       queue_limit_(hub.opt.subscriber_queue_bytes) {
   if (transport_->kind() == transport::TransportKind::udp) max_frame_ = transport_->maxFrameBytes();
 }
@@ -448,6 +449,27 @@ void Connection::dropOldestData(size_t needed) {
   }
 }
 
+size_t Connection::askQueue(uint16_t chan_id, size_t bytes) {
+  const size_t cap = queue_fixed_ ? base_queue_ : hub_.opt.subscriber_queue_max_bytes;
+  const size_t granted = std::min(bytes, cap);
+  if (granted == 0) {
+    queue_asked_.erase(chan_id);
+  } else {
+    queue_asked_[chan_id] = granted;
+  }
+  resizeQueue();
+  return granted;
+}
+
+void Connection::releaseQueue(uint16_t chan_id) {
+  if (queue_asked_.erase(chan_id) != 0) resizeQueue();
+}
+
+void Connection::resizeQueue() noexcept {
+  queue_limit_ = base_queue_;
+  for (const auto& [chan, bytes] : queue_asked_) queue_limit_ = std::max(queue_limit_, bytes);
+}
+
 void Connection::flush() {
   if (output_.writing() || state_ == State::closing) return;
   for (const auto& [chan, count] : dropped_) {
@@ -580,6 +602,7 @@ void Connection::onChannelAdded(const Channel& ch, uint32_t tag) {
 }
 
 void Connection::onChannelRemoved(const Channel& ch) {
+  releaseQueue(ch.id);
   if (state_ == State::flow && sees(ch) && hearsOf(ch))
     send(msg::EvChanRemoved{ch.id, ch.hash, ch.name});
 }

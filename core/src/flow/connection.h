@@ -86,8 +86,19 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   void limitSession(uint32_t max_frame, bool channel_events, NameFilter watch);
   // The data it may wait to be sent before its oldest data frames are dropped (newest wins);
   // server.subscriber_queue_bytes unless the transport's listener set a smaller one (a serial
-  // line).
-  void limitQueue(size_t bytes) noexcept { queue_limit_ = bytes; }
+  // line), which SUBSCRIBE_QUEUE does not raise.
+  void limitQueue(size_t bytes) noexcept {
+    base_queue_ = bytes;
+    queue_fixed_ = true;
+    resizeQueue();
+  }
+  // SUBSCRIBE_QUEUE (1.13): the subscription to `chan_id` asks for `bytes` of queue (0: the
+  // default). Clamped to server.subscriber_queue_max_bytes (to the listener's queue after
+  // limitQueue); returns what it was granted. The queue, one for the connection, is the larger
+  // of the default and every grant of a subscription it still holds.
+  size_t askQueue(uint16_t chan_id, size_t bytes);
+  // The subscription to `chan_id` ended (unsubscribed, or the channel went): its grant goes.
+  void releaseQueue(uint16_t chan_id);
   // Whether channel events about `ch` reach it (always, unless it limited its session).
   [[nodiscard]] bool hearsOf(const Channel& ch) const;
   // Whether it watches channels by name (SESSION_LIMITS with a watch and no channel events).
@@ -170,6 +181,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
     return !linked_hub.empty() ? "link" : state_ == State::sync ? "sync" : "satellite";
   }
   [[nodiscard]] size_t queuedBytes() const override { return output_.bytes(); }
+  [[nodiscard]] size_t queueLimitBytes() const override { return queue_limit_; }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,
@@ -221,6 +233,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // written, before everything else.
   void sendUrgent(std::string_view frame);
   void dropOldestData(size_t needed);
+  void resizeQueue() noexcept;  // queue_limit_ from base_queue_ and queue_asked_
 
   Hub& hub_;
   std::unique_ptr<transport::Transport> transport_;
@@ -239,8 +252,11 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   bool reading_started_ = false;  // the transport was started (later: resume)
 
   Output output_;
-  size_t queue_limit_;      // data frames wait up to this many bytes (limitQueue)
-  uint32_t max_frame_ = 0;  // SESSION_LIMITS: the largest frame sent to it; 0 none
+  size_t base_queue_;   // server.subscriber_queue_bytes, or the listener's (limitQueue)
+  size_t queue_limit_;  // data frames wait up to this many bytes (resizeQueue)
+  std::map<uint16_t, size_t> queue_asked_;  // SUBSCRIBE_QUEUE grants by channel
+  bool queue_fixed_ = false;                // the listener's queue (limitQueue): not raised
+  uint32_t max_frame_ = 0;                  // SESSION_LIMITS: the largest frame sent to it; 0 none
   bool channel_events_ = true;
   NameFilter watch_;
   bool close_after_flush_ = false;

@@ -77,6 +77,8 @@ class Endpoint {
   // hub), "replica"; and the bytes waiting in its output queue (in-process ones have none).
   [[nodiscard]] virtual const char* kind() const = 0;
   [[nodiscard]] virtual size_t queuedBytes() const { return 0; }
+  // Its subscriber queue's size (SUBSCRIBE_QUEUE may raise it): 0 for in-process ones.
+  [[nodiscard]] virtual size_t queueLimitBytes() const { return 0; }
 
   // Data published on a channel it subscribes to; `payload` is valid during the call only.
   virtual void onData(const Channel& ch, std::string_view payload) = 0;

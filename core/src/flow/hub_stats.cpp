@@ -59,7 +59,6 @@ HubSnapshot FlowServer::snapshot() const {
   const Impl& s = *impl_;
   HubSnapshot out;
   out.at = s.opt.stats_clock();
-  out.queue_limit = s.opt.subscriber_queue_bytes;
   out.interval_s = seconds(s.rate_ticks.over(1).span_ns);
   out.interval_10s_s = seconds(s.rate_ticks.over(RateWindow<0>::kLongest).span_ns);
   out.rates_until_ms = s.rates_until_ms;
@@ -103,6 +102,7 @@ HubSnapshot FlowServer::snapshot() const {
     f.path_messages = e.traffic.path_messages;
     f.path_bytes = e.traffic.path_bytes;
     f.queued_bytes = e.queuedBytes();
+    f.queue_bytes = e.queueLimitBytes();
     f.pending_requests = e.pending_requests;
     f.last_1s = flowRates(e.rates.over(1));
     f.last_10s = flowRates(e.rates.over(Endpoint::Rates::kLongest));
@@ -184,9 +184,10 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
         {"path_hz_10s", f.last_10s.path_hz},
         {"age_s", f.age_s},
         {"queued_bytes", f.queued_bytes},
-        {"queue_fill", queued && snapshot.queue_limit > 0
+        {"queue_bytes", f.queue_bytes},
+        {"queue_fill", queued && f.queue_bytes > 0
                            ? std::round(static_cast<double>(f.queued_bytes) * 1000 /
-                                        static_cast<double>(snapshot.queue_limit)) /
+                                        static_cast<double>(f.queue_bytes)) /
                                  1000
                            : 0.0},
         {"pending_requests", static_cast<uint64_t>(f.pending_requests)},

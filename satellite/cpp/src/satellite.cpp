@@ -4,6 +4,8 @@
 
 #include <skrobot/runtime/flow/name_pattern.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 
 namespace skr::sat {
@@ -157,6 +159,21 @@ void Satellite::subscribe(std::string name) {
   if (auto it = impl_->by_name.find(n); it != impl_->by_name.end()) impl_->attach(n, it->second);
 }
 
+void Satellite::subscribe(std::string name, size_t queue_bytes) {
+  const auto bytes = static_cast<uint32_t>(std::min<size_t>(queue_bytes, UINT32_MAX));
+  auto q = impl_->queues.find(name);
+  if (q != impl_->queues.end() && q->second == bytes) return;
+  impl_->queues.insert_or_assign(name, bytes);
+  auto s = impl_->subs.find(name);
+  if (s != impl_->subs.end() && s->second != 0) {  // attached: the new size at once
+    if (impl_->flowOpen() && impl_->login.minor >= 13) {
+      impl_->send(msg::SubscribeQueue{impl_->nextTag(), s->second, bytes});
+    }
+    return;
+  }
+  subscribe(std::move(name));  // attach() asks for the queue
+}
+
 Result<void> Satellite::subscribe(uint16_t chan_id) {
   const ChannelInfo* info = channel(chan_id);
   if (info == nullptr)
@@ -172,6 +189,7 @@ void Satellite::unsubscribe(std::string_view name) {
     impl_->paths->onUnsubscribed(it->second);
     impl_->send(msg::Unsubscribe{impl_->nextTag(), it->second});
   }
+  if (auto q = impl_->queues.find(name); q != impl_->queues.end()) impl_->queues.erase(q);
   impl_->subs.erase(it);
 }
 

@@ -197,6 +197,13 @@ void Satellite::Impl::onHubError(const msg::EvError& ev) {
       return;
     }
   }
+  if (command == Code::subscribe_queue &&
+      static_cast<flow::ErrorCode>(ev.error) == flow::ErrorCode::limit_exceeded) {
+    // Subscribed all the same, with the hub's cap as our queue.
+    log::warn(kLogSource, "SAT-QUEUE-CLAMPED", ev.message);
+    self.error.emit(ev);
+    return;
+  }
   std::string what = std::string(flow::codeName(ev.command));
   if (command == Code::chan_add && ev.tag != 0) {
     for (auto& [name, o] : own) {
@@ -217,6 +224,8 @@ void Satellite::Impl::attach(const std::string& name, uint16_t id) {
   subs[name] = id;
   if (auto f = follows.find(name); f != follows.end()) {
     send(msg::SyncFollow{nextTag(), id, f->second});
+  } else if (auto q = queues.find(name); q != queues.end() && login.minor >= 13) {
+    send(msg::SubscribeQueue{nextTag(), id, q->second});
   } else {
     send(msg::Subscribe{nextTag(), id});
   }

@@ -122,6 +122,7 @@ struct Satellite::Impl final : detail::Link::Handler {
   std::map<std::string, Own, std::less<>> own;           // short name -> our channel
   std::map<std::string, uint16_t, std::less<>> subs;     // full name -> id attached (0: waiting)
   std::map<std::string, uint32_t, std::less<>> follows;  // sync sources in subs -> every
+  std::map<std::string, uint32_t, std::less<>> queues;   // subs with a queue asked for -> bytes
   std::map<uint32_t, ResponseHandler> pending;           // request tag -> handler
   std::map<uint32_t, ResponseHandler> reads;             // DB_READ tag -> handler
   std::vector<uint32_t> orphan_tags;  // CHAN_ADDs in flight for channels removed meanwhile

@@ -87,6 +87,25 @@ TEST_F(Satellites, FirstAndLastSubscriberEvents) {
   EXPECT_FALSE(pub->on([](Satellite& s) { return s.hasSubscribers("camera"); }));
 }
 
+TEST_F(Satellites, ASubscriptionAsksForItsQueueAndHearsWhenItIsClamped) {
+  auto pub = satellite("pub");
+  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "video"}); }));
+  ASSERT_TRUE(eventually([&] { return pub->events.count("ready:guest.video") == 1; }));
+  auto sub = satellite("sub");
+  // Within the hub's cap (server.subscriber_queue_max_bytes, 64 MiB by default): no answer.
+  sub->on([](Satellite& s) { s.subscribe("guest.video", size_t{32} << 20); });
+  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.video") == 1; }));
+  // Above it: clamped, told, and still subscribed.
+  sub->on([](Satellite& s) { s.subscribe("guest.video", size_t{1} << 30); });
+  ASSERT_TRUE(eventually([&] { return sub->events.count("error:") == 1; })) << sub->events.dump();
+  EXPECT_EQ(sub->events.count("error:subscribed with a queue of 67108864 bytes"), 1u)
+      << sub->events.dump();
+  EXPECT_TRUE(sub->on([](Satellite& s) { return s.isSubscribed("guest.video"); }));
+  pub->on([](Satellite& s) { ASSERT_TRUE(s.publish("video", "frame")); });
+  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.video:frame") == 1; }));
+  EXPECT_EQ(subscribers("guest.video"), 1u);
+}
+
 TEST_F(Satellites, ChannelPropertiesAreReadByAnother) {
   auto pub = satellite("mic");
   ASSERT_TRUE(pub->on([](Satellite& s) {

@@ -8,7 +8,7 @@
 
 /* clang-format off */
 #define SKR_PROTOCOL_MAJOR 1u
-#define SKR_PROTOCOL_MINOR 12u
+#define SKR_PROTOCOL_MINOR 13u
 
 /* Codes: the minor that introduced each is in the comment. */
 #define SKR_CODE_LOGIN 0x01u /* 1.0 */
@@ -50,6 +50,7 @@
 #define SKR_CODE_DB_SYNC_ASYNC 0x4Eu /* 1.2 */
 #define SKR_CODE_SERVICE_REQUEST_TIMED 0x4Fu /* 1.4 */
 #define SKR_CODE_DB_READ 0x50u /* 1.6 */
+#define SKR_CODE_SUBSCRIBE_QUEUE 0x51u /* 1.13 */
 #define SKR_CODE_REPLY_OK 0x80u /* 1.0 */
 #define SKR_CODE_REPLY_ERROR 0x81u /* 1.0 */
 #define SKR_CODE_EV_DB_CHANGED 0x90u /* 1.0 */

@@ -4,7 +4,7 @@
 """FlowProtocol's code table, error codes, channel kinds and path frames (docs/flow-protocol.md)."""
 from __future__ import print_function, division, absolute_import
 
-CATALOGUE_MINOR = 12
+CATALOGUE_MINOR = 13
 
 # (name, code, minor, direction, connection, family)
 CODES = (
@@ -47,6 +47,7 @@ CODES = (
     ("DB_SYNC_ASYNC", 0x4E, 2, "to_hub", "flow", "databases"),
     ("SERVICE_REQUEST_TIMED", 0x4F, 4, "to_hub", "flow", "services"),
     ("DB_READ", 0x50, 6, "to_hub", "flow", "databases"),
+    ("SUBSCRIBE_QUEUE", 0x51, 13, "to_hub", "flow", "channels"),
     ("REPLY_OK", 0x80, 0, "to_client", "sync", "session"),
     ("REPLY_ERROR", 0x81, 0, "to_client", "sync", "session"),
     ("EV_DB_CHANGED", 0x90, 0, "to_client", "flow", "databases"),

@@ -39,13 +39,15 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
+# 1.13: SUBSCRIBE_QUEUE, a subscription's own queue size (FlowSat.subscribeChannel's queueBytes);
+# 1.12 brings nothing PySketch sends or must read (SESSION_LIMITS is for boards);
 # 1.11: PHYS_FALLBACK, a broken direct path resumed with what the owner kept (flowpaths);
 # 1.10: PHYS_RECEIVED, what came on a path, reported once a second (flowpaths);
 # 1.9: EV_PHYS_MARKER, the subscriber's marker with the owner's message number (flowpaths);
 # 1.8 changes only PHYS_OFFER, which PySketch never sends; 1.7: physical mode, subscriber side;
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
-PROTOCOL_MINOR = 11
+PROTOCOL_MINOR = 13
 
 # Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
 # kPathShm) and in PHYS_REQUEST's `paths` bits.

@@ -103,6 +103,7 @@ from PySketch.flowsync import FlowSync
 TIMED_REQUEST_MINOR = CODE_MINOR[Code.SERVICE_REQUEST_TIMED]
 SYNC_MINOR = CODE_MINOR[Code.SYNC_PULSE]  # the sync pulse
 REPLICA_MINOR = CODE_MINOR[Code.REPLICATE_CHANNEL]  # and REPLICATE_STOP
+QUEUE_MINOR = CODE_MINOR[Code.SUBSCRIBE_QUEUE]  # a subscription's own queue size
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
@@ -209,6 +210,7 @@ class FlowSat(AbstractFlow):
         self._pendingAdds = {}             # tag -> short name
         self._wantedSubs = set()           # channel names this satellite subscribes to
         self._subscribedIDs = set()        # ... and their ids on this connection
+        self._wantedQueues = {}            # channel name -> queue bytes asked for (1.13)
         self._pendingRequests = {}         # tag -> chanID
         self._pendingSyncs = {}            # tag -> callback of syncDatabases()
         self._selectedDb = None            # what setCurrentDbName asked for
@@ -953,7 +955,12 @@ class FlowSat(AbstractFlow):
                                                                       self._userName))
                 self._reportError(command, name, error, message)
                 return
-        elif command == Code.SUBSCRIBE:
+        elif command == Code.SUBSCRIBE_QUEUE and error == Error_T.limit_exceeded.value:
+            # Subscribed all the same, with the hub's cap as its queue.
+            self._logOnce((command, chan, error), "FlowSat: %s: %s" % (name, message))
+            self._reportError(command, name, error, message)
+            return
+        elif command in (Code.SUBSCRIBE, Code.SUBSCRIBE_QUEUE):
             self._subscribedIDs.discard(chan)
         elif command == Code.PHYS_STATE:
             self._paths.onStateRefused(chan)
@@ -1294,10 +1301,21 @@ class FlowSat(AbstractFlow):
         return self._send(frame(Code.CHAN_SET_PROPS,
                                 u32(self._nextTag()) + u16(chanID) + encodeValue(props)))
 
-    def _subscribe(self, chanID):
-        if chanID in self._subscribedIDs:
+    def _subscribe(self, chanID, force=False):
+        if chanID in self._subscribedIDs and not force:
             return True
-        if self._send(frame(Code.SUBSCRIBE, u32(self._nextTag()) + u16(chanID))):
+        ch = self._channels.get(chanID)
+        queue = self._wantedQueues.get(ch.name) if ch is not None else None
+        if queue is not None and self.hubMinor >= QUEUE_MINOR:
+            sent = self._send(frame(Code.SUBSCRIBE_QUEUE,
+                                    u32(self._nextTag()) + u16(chanID) + u32(queue)))
+        else:
+            if queue is not None:
+                self._logOnce(("queue", self.connectionID), "FlowSat: this hub (FlowProtocol "
+                              "1.%d) sizes no queue per subscription (1.%d): %s gets its default"
+                              % (self.hubMinor, QUEUE_MINOR, ch.name))
+            sent = self._send(frame(Code.SUBSCRIBE, u32(self._nextTag()) + u16(chanID)))
+        if sent:
             self._subscribedIDs.add(chanID)
             self._pathsFor(chanID)
             return True
@@ -1315,11 +1333,28 @@ class FlowSat(AbstractFlow):
             return
         self._paths.onSubscribed(ch.name, chanID)
 
-    def subscribeChannel(self, chan):
+    def subscribeChannel(self, chan, queueBytes=None):
         """Subscribes to a streaming channel, given its chanID, its name or its FlowChannel.
         The subscription is kept by name: it comes back after a reconnection or when the
-        channel reappears."""
+        channel reappears. queueBytes: what the hub may hold for this subscription before it
+        drops the oldest data (video: a few frames, docs/python-satellites.md "Queue sizes");
+        the hub clamps it to its server.subscriber_queue_max_bytes (then the error callback
+        hears limit_exceeded, and the subscription stands). None: the hub's default. Needs a hub
+        of FlowProtocol 1.13; an older one gives its default (logged once). Called again on a
+        subscribed channel, it changes the size."""
         chan = self._chanKey(chan)
+        name = None
+        if isinstance(chan, (str, text_type)):
+            name = chan
+        else:
+            ch = self._channels.get(chan)
+            name = ch.name if ch is not None else None
+        changed = False
+        if name is not None:
+            if queueBytes is not None:
+                queueBytes = max(0, min(int(queueBytes), 0xFFFFFFFF))
+                changed = self._wantedQueues.get(name) != queueBytes
+                self._wantedQueues[name] = queueBytes
         if isinstance(chan, (str, text_type)):
             self._wantedSubs.add(chan)
             ch = self._byName.get(chan)
@@ -1330,7 +1365,7 @@ class FlowSat(AbstractFlow):
         if ch is not None:
             self._wantedSubs.add(ch.name)
             ch.isSubscribed = True
-        return self._subscribe(chan)
+        return self._subscribe(chan, force=changed and self.hubMinor >= QUEUE_MINOR)
 
     def unsubscribeChannel(self, chan):
         chan = self._chanKey(chan)
@@ -1343,6 +1378,7 @@ class FlowSat(AbstractFlow):
         ch = self._channels.get(chan)
         if ch is not None:
             self._wantedSubs.discard(ch.name)
+            self._wantedQueues.pop(ch.name, None)
             ch.isSubscribed = False
         self._subscribedIDs.discard(chan)
         self._paths.onUnsubscribed(chan)

@@ -74,9 +74,10 @@ def waitUntil(cond, timeout=TIMEOUT, step=0.01):
 class Hub(object):
     """A hub on /tmp/<unique app name>, with guest/password and optionally the echo module."""
 
-    def __init__(self, name, echo_module=False, hub_name=None, links=(), modules=()):
+    def __init__(self, name, echo_module=False, hub_name=None, links=(), modules=(), server=None):
         """hub_name and links (other Hub objects, linked with guest/password): hub links;
-        modules: names of more test modules (<name>.so in SKROBOT_TEST_MODULE_DIR) to load."""
+        modules: names of more test modules (<name>.so in SKROBOT_TEST_MODULE_DIR) to load;
+        server: keys of the config's "server" object."""
         self.dir = tempfile.mkdtemp(prefix="pysat-")
         self.app = "pysat-%s-%d-%d" % (name, os.getpid(), next(_counter))
         self.address = "local:/tmp/" + self.app
@@ -86,6 +87,8 @@ class Hub(object):
             "log": {"level": "info"},
             "accounts": {"dev_account": {"user": "guest", "password": "password"}},
         }
+        if server:
+            cfg["server"] = dict(server)
         if echo_module:
             cfg["modules"] = [{"path": os.path.join(moduleDir(), "test_channel_echo.so")}]
         for m in modules:
@@ -242,10 +245,11 @@ class HubTestCase(unittest.TestCase):
     """Starts a hub before each test and stops it after; satellites made with sat() are closed."""
     echo_module = False
     modules = ()  # more test modules to load (Hub's modules)
+    server = None  # keys of the hub config's "server" object
 
     def setUp(self):
         self.hub = Hub(self.id().split(".")[-1][5:20].replace("_", "-") or "t",
-                       self.echo_module, modules=self.modules)
+                       self.echo_module, modules=self.modules, server=self.server)
         self.addCleanup(self.hub.close)
         self.hub.start()
         self._sats = []

@@ -173,6 +173,18 @@ TEST_F(Flowctl, ListsChannels) {
   EXPECT_TRUE(has(bad, "pattern 1 'guest.***'")) << bad.out;
 }
 
+TEST_F(Flowctl, EchoAsksForItsQueue) {
+  EXPECT_EQ(flowctl({"echo", "guest.q", "--queue", "lots"}).code, 2);
+  // Above the hub's cap (64 MiB): clamped and said so; echo goes on and prints the data.
+  auto echo = background({"echo", "guest.q", "--wait", "--count", "1", "--queue", "1073741824"});
+  EXPECT_EQ(flowctl({"pub", "q", "frame", "--wait-ms", "5000"}).code, 0);
+  EXPECT_EQ(echo->wait(), 0) << echo->output();
+  EXPECT_NE(echo->output().find("flowctl: subscribed with a queue of 67108864 bytes"),
+            std::string::npos)
+      << echo->output();
+  EXPECT_NE(echo->output().find("frame\n"), std::string::npos) << echo->output();
+}
+
 TEST_F(Flowctl, EchoWhatPubPublishes) {
   EXPECT_EQ(flowctl({"echo", "guest.nothing"}).code, 5);
   auto echo = background({"echo", "guest.hello", "--wait", "--count", "3"});

@@ -49,6 +49,7 @@ struct ServerConfig {
   std::optional<flow::transport::UdpOptions> udp;      // "server.udp": boards' UDP sessions
   uint32_t max_frame_bytes = 16u << 20;
   size_t subscriber_queue_bytes = 8u << 20;
+  size_t subscriber_queue_max_bytes = 64u << 20;  // the cap of SUBSCRIBE_QUEUE's requests
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;

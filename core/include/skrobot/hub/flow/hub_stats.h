@@ -51,6 +51,7 @@ struct FlowCounters {
   uint64_t messages_in = 0, bytes_in = 0, messages_out = 0, bytes_out = 0, dropped = 0;
   uint64_t path_messages = 0, path_bytes = 0;  // of those out: what came on its paths
   uint64_t queued_bytes = 0;
+  uint64_t queue_bytes = 0;  // its queue's size (server.subscriber_queue_bytes or SUBSCRIBE_QUEUE)
   uint32_t pending_requests = 0;
   FlowRates last_1s, last_10s;
   double age_s = 0;
@@ -69,8 +70,6 @@ struct UdpCounters {
 };
 struct HubSnapshot {
   Nanos at = 0;  // monotonic
-  uint64_t queue_limit =
-      0;  // server.subscriber_queue_bytes: a satellite's queue_fill is against it
   // What the windows cover (seconds between the last samples; less on a hub younger than them)
   // and the wall clock (ms since 1970) of the last sample, where they end.
   double interval_s = 0, interval_10s_s = 0;

@@ -72,6 +72,10 @@ struct ServerOptions {
   uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
   // Streaming data queued for one subscriber beyond this is dropped, oldest first.
   size_t subscriber_queue_bytes = 8u << 20;
+  // The most a subscription may ask for with SUBSCRIBE_QUEUE (1.13): a larger request is clamped
+  // to it. A connection's queue is the larger of subscriber_queue_bytes and what its
+  // subscriptions were granted.
+  size_t subscriber_queue_max_bytes = 64u << 20;
   size_t max_connections = 1024;
   uint32_t login_timeout_ms = 5000;
   size_t max_pending_requests = 1024;   // unanswered service requests per channel

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Channels made, changed and removed, with their databases and the events everyone gets; the
-// CHAN_*, SUBSCRIBE, UNSUBSCRIBE, PUBLISH and POLL_* rows.
+// CHAN_*, SUBSCRIBE, SUBSCRIBE_QUEUE, UNSUBSCRIBE, PUBLISH and POLL_* rows.
 #include "families/channels/channels_room.h"
 
 #include "connection.h"
@@ -202,8 +202,27 @@ void ChannelsRoom::handle(Connection& c, msg::Subscribe& m) {
   c.refused(Code::subscribe, m.tag, m.chan_id, subscribeAndTell(c, m.chan_id));
 }
 
+void ChannelsRoom::handle(Connection& c, msg::SubscribeQueue& m) {
+  if (auto r = subscribeAndTell(c, m.chan_id); !r) {
+    c.refused(Code::subscribe_queue, m.tag, m.chan_id, r);
+    return;
+  }
+  const size_t granted = c.askQueue(m.chan_id, m.queue_bytes);
+  if (granted >= m.queue_bytes) return;
+  // Subscribed all the same: the subscriber hears what it got, the operator why.
+  const std::string what = "subscribed with a queue of " + std::to_string(granted) +
+                           " bytes, not the " + std::to_string(m.queue_bytes) +
+                           " asked (server.subscriber_queue_max_bytes)";
+  const Channel* ch = find(m.chan_id);
+  log::warn(
+      kLogSource, "FLOW-QUEUE-CLAMPED",
+      c.describe() + ": " + (ch != nullptr ? ch->name : std::to_string(m.chan_id)) + ": " + what);
+  c.onError(Code::subscribe_queue, m.tag, m.chan_id, ErrorCode::limit_exceeded, what);
+}
+
 void ChannelsRoom::handle(Connection& c, msg::Unsubscribe& m) {
   c.refused(Code::unsubscribe, m.tag, m.chan_id, unsubscribeAndTell(c, m.chan_id));
+  c.releaseQueue(m.chan_id);
 }
 
 void ChannelsRoom::handle(Connection& c, msg::Publish& m) {

@@ -68,6 +68,7 @@
   X(0x4E, db_sync_async,         2,  to_hub,    flow,      databases, DbSyncAsync,         None)                \
   X(0x4F, service_request_timed, 4,  to_hub,    flow,      services,  ServiceRequestTimed, None)                \
   X(0x50, db_read,               6,  to_hub,    flow,      databases, DbRead,              None)                \
+  X(0x51, subscribe_queue,       13, to_hub,    flow,      channels,  SubscribeQueue,      None)                \
   /* replies */                                                                                  \
   X(0x80, reply_ok,              0,  to_client, sync,      session,   Ack,                 None)                \
   X(0x81, reply_error,           0,  to_client, sync,      session,   ReplyError,          None)                \

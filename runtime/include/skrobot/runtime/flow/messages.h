@@ -228,6 +228,14 @@ struct TagChan {
 using ChanRemove = TagChan<Code::chan_remove>;
 using Subscribe = TagChan<Code::subscribe>;
 using Unsubscribe = TagChan<Code::unsubscribe>;
+// 1.13: SUBSCRIBE with the queue this subscription asks for (the hub clamps it to its cap).
+struct SubscribeQueue {
+  static constexpr Code code = Code::subscribe_queue;
+  uint32_t tag = 0;
+  uint16_t chan_id = 0;
+  uint32_t queue_bytes = 0;  // 0: the hub's default (server.subscriber_queue_bytes)
+  SKR_FLOW_FIELDS(tag, chan_id, queue_bytes)
+};
 struct Publish {
   static constexpr Code code = Code::publish;
   uint16_t chan_id = 0;

@@ -200,6 +200,13 @@ class Satellite : public Object {
   // Subscribes by full name ("<user>.<name>"): at once when the channel exists, else as soon as
   // it appears; kept when the channel is re-created and across reconnections. Idempotent.
   void subscribe(std::string name);
+  // The same, asking the hub for a queue of `queue_bytes` for this subscription (FlowProtocol
+  // 1.13, docs/cpp-satellites.md "Queue sizes for video"): what the hub holds for us before it
+  // drops our oldest data. The hub clamps it to its server.subscriber_queue_max_bytes and then
+  // emits `error` (SUBSCRIBE_QUEUE, limit_exceeded, what it granted): we stay subscribed. Our
+  // queue is the larger of the hub's default and every such grant; 0 asks for the default. A
+  // hub older than 1.13 gives the default. Called again, it changes the request.
+  void subscribe(std::string name, size_t queue_bytes);
   // Subscribes to the channel that has this id now (kept by its name, as above).
   [[nodiscard]] Result<void> subscribe(uint16_t chan_id);
   void unsubscribe(std::string_view name);

@@ -15,6 +15,7 @@ import sys
 from PySketch.flowproto import (
     ChanKind_T, Code, DEFAULT_ADDRESS, DEFAULT_PORT, Flow_T, FlowError, PROTOCOL_MAJOR,
     PROTOCOL_MINOR, ProtocolError, Reader, Variant_T, frame, str16, text_type)
+from PySketch.frameinput import FrameInput
 
 # The name a satellite gives the hub when the sketch sets none (the executor sets it to the
 # sketch's file name).
@@ -300,8 +301,7 @@ class AbstractFlow(object):
         self._address = None
         self._tls = None
         self._sock = None
-        self._inbuf = bytearray()
-        self._inpos = 0
+        self._input = FrameInput()
         self.connectionID = None
         self.hubMinor = 0
         self.hubAppName = None
@@ -370,27 +370,18 @@ class AbstractFlow(object):
         message = r.str16("message")
         return FlowError(code, message)
 
-    def _nextFrame(self):
-        """(code, body) of the next complete frame in the input buffer, or None."""
-        buf = self._inbuf
-        have = len(buf) - self._inpos
-        if have < 4:
-            return None
-        n = struct.unpack_from("<I", buf, self._inpos)[0]
-        if n == 0:
-            raise ProtocolError("frame length 0")
-        if have < 4 + n:
-            return None
-        start = self._inpos
-        code = buf[start + 4]
-        body = bytes(buf[start + 5:start + 4 + n])
-        self._inpos = start + 4 + n
-        return code, body
+    def setMaxFrameBytes(self, n):
+        """The largest frame taken from the hub (default 16 MiB, as the hub's
+        server.max_frame_bytes and the C++ library): a longer announced length breaks the
+        connection before anything is allocated for it (logged SAT-PROTOCOL)."""
+        self._input.maxFrameBytes = int(n)
 
-    def _compactInput(self):
-        if self._inpos:
-            del self._inbuf[:self._inpos]
-            self._inpos = 0
+    def _nextFrame(self):
+        """(code, body) of the next complete frame in the input buffer (body: bytes), or None."""
+        f = self._input.next()
+        if f is None:
+            return None
+        return f[0], self._input.body(f[1], f[2])
 
     def _closeSocket(self):
         if self._sock is not None:
@@ -399,6 +390,5 @@ class AbstractFlow(object):
             except (socket.error, OSError):
                 pass
         self._sock = None
-        self._inbuf = bytearray()
-        self._inpos = 0
+        self._input.clear()
 

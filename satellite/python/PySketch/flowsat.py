@@ -83,6 +83,7 @@ import select
 import socket
 import ssl
 import struct
+import sys
 import time
 import traceback
 from collections import OrderedDict
@@ -112,6 +113,17 @@ _BACKOFF_MAX = 2.0             # ... up to this
 _STABLE_ONLINE = 5.0           # a connection online this long resets the delay to the minimum
 _GATHER = hasattr(socket.socket, "sendmsg")  # Python 3: a frame's head and payload in one write
 _PUBLISH_HEAD = struct.Struct("<IBH")        # u32 length, u8 PUBLISH, u16 chanID
+_CHAN_ID = struct.Struct("<H")
+_READ_ONLY = hasattr(memoryview, "toreadonly")  # Python 3.8+: views handed out are read-only
+
+
+def _releaseView(view):
+    """Ends a memoryview handed to a callback (Python 3; under 2.7 it ends when the last
+    reference goes)."""
+    try:
+        view.release()
+    except (BufferError, AttributeError):
+        pass
 
 
 def _callableName(f):
@@ -203,6 +215,7 @@ class FlowSat(AbstractFlow):
         self._tlsWants = None      # the TLS handshake waits for "read" or "write"
         self._deferred = []        # channels listed at login, announced at the next tick
         self._hold = False         # connect(): leave events in the buffer for tick()
+        self._keptView = False     # a view callback kept its view: logged once
 
         self._channels = OrderedDict()     # chanID -> FlowChannel
         self._byName = {}                  # name -> FlowChannel
@@ -573,12 +586,22 @@ class FlowSat(AbstractFlow):
         self._readAvailable()
 
     def _readAvailable(self):
+        """Reads what the hub sent into the flow's input (FrameInput: one buffer reused, no copy
+        per read) and dispatches each frame as soon as it is whole, so that the buffer holds a
+        frame and a read rather than all that waits."""
         sock = self._sock
         gen = self._gen
+        inp = self._input
+        tls = isinstance(sock, ssl.SSLSocket)
         eof = None
         while True:
             try:
-                data = sock.recv(262144)
+                room = inp.room()
+                got = inp.recvInto(sock)
+            except ProtocolError as e:  # a frame over the limit: refused before its allocation
+                log.err("FlowSat: SAT-PROTOCOL broken frame from the hub: %s" % e)
+                self._lost("protocol error")
+                return
             except (ssl.SSLWantReadError, ssl.SSLWantWriteError):
                 break
             except ssl.SSLError as e:
@@ -589,13 +612,15 @@ class FlowSat(AbstractFlow):
                     break
                 eof = str(e)
                 break
-            if not data:
+            if not got:
                 eof = "the hub closed the connection"
                 break
-            self._inbuf.extend(data)
+            self._processBuffered()
+            if gen != self._gen:
+                return
             # A TLS socket returns one record per call and may hold more decrypted bytes than
             # select() can see: read until it would block.
-            if len(data) < 262144 and not isinstance(sock, ssl.SSLSocket):
+            if got < room and not tls:
                 break
         self._processBuffered()
         if gen == self._gen and eof is not None:
@@ -604,6 +629,7 @@ class FlowSat(AbstractFlow):
     def _processBuffered(self):
         """Dispatches the frames already received (and the channels listed at login)."""
         gen = self._gen
+        inp = self._input
         try:
             while gen == self._gen:
                 if self._hold and self._state == "online":
@@ -611,24 +637,24 @@ class FlowSat(AbstractFlow):
                 if self._deferred:
                     self._announceListed()
                     continue
-                f = self._nextFrame()
+                f = inp.next()
                 if f is None:
                     break
-                self._handle(f[0], f[1])
+                code, start, end = f
+                if code == Code.EV_DATA and self._state == "online":
+                    self._relayedData(start, end)
+                else:
+                    self._handle(code, inp.body(start, end))
         except Exception as e:
             if e is self._userError:
                 self._userError = None
-                if gen == self._gen:
-                    self._compactInput()
                 raise
             if not isinstance(e, (ProtocolError, struct.error)):
                 raise
             if gen == self._gen:
-                log.err("FlowSat: broken frame from the hub: %s" % e)
+                log.err("FlowSat: SAT-PROTOCOL broken frame from the hub: %s" % e)
                 self._lost("protocol error")
             return
-        if gen == self._gen:
-            self._compactInput()
 
     def _announceListed(self):
         todo, self._deferred = self._deferred, []
@@ -821,11 +847,7 @@ class FlowSat(AbstractFlow):
 
     def _event(self, code, body):
         r = Reader(body)
-        if code == Code.EV_DATA:
-            chan = r.u16()
-            if self._onGrab is not None or self._onGrabView is not None:
-                self._deliverData(chan, r.rest())
-        elif code == Code.EV_CHAN_ADDED:
+        if code == Code.EV_CHAN_ADDED:
             tag = r.u32()
             info = ChannelInfo.read(r)
             r.done("EV_CHAN_ADDED")
@@ -983,19 +1005,49 @@ class FlowSat(AbstractFlow):
             self._call("error", self._onError,
                        FlowError(error, message, codeName(command), chanName))
 
-    def _deliverData(self, chan, data):
-        """A message of a subscribed channel (bytes), relayed or from a direct path."""
-        if self._onGrabView is not None:
-            view = memoryview(data)
-            try:
+    def _relayedData(self, start, end):
+        """EV_DATA whose body is the flow input's buf[start:end]: delivered in place."""
+        if end - start < 2:
+            raise ProtocolError("EV_DATA of %d bytes" % (end - start))
+        if self._onGrab is None and self._onGrabView is None:
+            return
+        inp = self._input
+        chan = _CHAN_ID.unpack_from(inp.buf, start)[0]
+        inp.pin()
+        try:
+            self._deliverData(chan, inp.buf, start + 2, end)
+        finally:
+            inp.unpin()
+
+    def _deliverData(self, chan, data, start=0, end=None):
+        """A message of a subscribed channel: data[start:end] (bytes from a direct path, or the
+        flow's input buffer), relayed or from a direct path. The view callback gets a read-only
+        memoryview of it in place, released when it returns; the bytes callback one copy."""
+        refs = sys.getrefcount(data)
+        whole = memoryview(data)
+        view = whole[start:end]
+        mine = (whole, view)
+        if _READ_ONLY:
+            view = view.toreadonly()
+        try:
+            if self._onGrabView is not None:
                 self._call("grab-data-view", self._onGrabView, chan, view)
-            finally:
-                try:
-                    view.release()
-                except (BufferError, AttributeError):
-                    pass
-        if self._onGrab is not None:
-            self._call("grab-data", self._onGrab, chan, data)
+            if self._onGrab is not None:
+                if isinstance(data, bytes) and start == 0 and end is None:
+                    payload = data  # from a direct path: already a copy of its own
+                else:
+                    payload = view.tobytes()  # str under Python 2.7
+                self._call("grab-data", self._onGrab, chan, payload)
+        finally:
+            for v in mine + (view,):
+                _releaseView(v)
+        del whole, view, mine, v
+        if sys.getrefcount(data) > refs and not self._keptView and data is self._input.buf:
+            # Something made from the view outlived the call (a slice, a numpy array): it is
+            # still valid memory, but the input buffer is reused under it.
+            self._keptView = True
+            log.wrn("FlowSat: a grab-data-view callback kept its view of channel %d (a numpy "
+                    "array?): it shows later messages; copy what you keep" % chan)
 
     def _call(self, kind, f, *args):
         """Runs a sketch's callback. Its exception is logged as the sketch's, with its

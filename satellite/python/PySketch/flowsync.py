@@ -85,16 +85,13 @@ class FlowSync(AbstractFlow, BlobRequests):
         while True:
             f = self._nextFrame()
             if f is not None:
-                self._compactInput()
                 return f
             left = deadline - now()
             if left <= 0:
                 raise FlowError(Error_T.timeout, "no reply from the hub in %.1f s" % self._timeout)
             self._sock.settimeout(left)
-            data = self._sock.recv(65536)
-            if not data:
+            if not self._input.recvInto(self._sock):
                 raise FlowError(Error_T.io_error, "the hub closed the connection")
-            self._inbuf.extend(data)
 
     def _roundTrip(self, data, timeout=None):
         deadline = now() + (timeout if timeout is not None else self._timeout)

@@ -205,7 +205,7 @@ class _DropsItsFlow(FlowSat):
             self._outbuf.extend(b"\0\0\0\0")
             self._flush()
         else:
-            self._inbuf.extend(b"\0\0\0\0")
+            self._input.append(b"\0\0\0\0")
 
 
 class ReconnectDelays(HubTestCase):

@@ -33,8 +33,9 @@ Callbacks (all run inside tick() or connect()):
     setStopChanPubReqCallBack(f(ch))     ... and lost its last (ch.isPublishingEnabled follows)
     setGrabDataCallBack(f(chanID, data)) data (bytes) on a subscribed channel
     setGrabDataViewCallBack(f(chanID, view)) the same data as a read-only memoryview, before
-                                         the bytes callback; from a shared-memory path it is the
-                                         slot in place (no copy), valid only during the call
+                                         the bytes callback, in place (no copy): relayed, in the
+                                         flow's input buffer; from a shared-memory path, the
+                                         ring's slot. Valid only during the call
     setRequestCallBack(f(chanID, hash, cmdName, value))  a request on an owned service channel;
                                          answer with sendServiceResponse(chanID, hash, value)
     setResponseCallBack(f(chanID, value)) the answer to sendServiceRequest (f(value) works too)
@@ -304,9 +305,12 @@ class FlowSat(AbstractFlow):
 
     def setGrabDataViewCallBack(self, f):
         """f(chanID, view): each message on a subscribed channel as a read-only memoryview,
-        before the grab-data callback (which still gets bytes, when set). From a shared-memory
-        path the view is the ring's slot itself, no copy (ringArray(view) makes a numpy array of
-        it): it is valid only until f returns; copy what you keep (bytes(view))."""
+        before the grab-data callback (which still gets bytes, when set), without a copy:
+        relayed, where the message lies in the flow's input buffer (frameinput.py); from a
+        shared-memory path, the ring's slot itself. mediaframe.parse_frame(view).array() or
+        ringArray(view) make a numpy array of it. It is valid only until f returns (the view is
+        released then; an array made from it shows later messages): copy what you keep
+        (view.tobytes(), array.copy())."""
         self._onGrabView = f
 
     def setRequestCallBack(self, f):

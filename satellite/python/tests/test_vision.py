@@ -50,7 +50,7 @@ class FaceDetectFromPython(HubTestCase):
                         self.hub.log()[-2000:])
         self.assertTrue(s.subscribeChannel("face-detect.faces"))
         camera = s.channelByName("guest.camera")
-        self.assertTrue(pump([s], lambda: camera.isPublishingEnabled(), LONG), self.hub.log()[-2000:])
+        self.assertTrue(pump([s], lambda: camera.isPublishingEnabled, LONG), self.hub.log()[-2000:])
 
         seq = 0
         for path in (MESSI, ASTRONAUT):

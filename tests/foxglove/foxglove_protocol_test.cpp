@@ -187,14 +187,6 @@ TEST(FoxgloveEncode, ConnectionGraphDiff) {
   EXPECT_EQ(gone["removedTopics"][0], "x.cam");
 }
 
-TEST(FoxgloveConvert, Base64) {
-  EXPECT_EQ(fg::base64(""), "");
-  EXPECT_EQ(fg::base64("f"), "Zg==");
-  EXPECT_EQ(fg::base64("fo"), "Zm8=");
-  EXPECT_EQ(fg::base64("foo"), "Zm9v");
-  EXPECT_EQ(fg::base64(std::string("\xff\xfe\x00", 3)), "//4A");
-}
-
 TEST(FoxgloveConvert, CompressedImage) {
   skr::media::FrameHeader h;
   h.format = skr::media::Format::jpeg;

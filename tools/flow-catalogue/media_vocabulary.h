@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 // The media vocabulary (plugin-api/include/skrobot/media_frame.hpp, kEncodings) written out for
-// PySketch (satellite/python/PySketch/mediacodes.py) and for docs/channels.md's table.
+// PySketch (satellite/python/PySketch/mediacodes.py) and for docs/channels.md's table; and the
+// check that no module or tool writes a media mime type as a literal of its own.
 #pragma once
 
 #include <skrobot/media_frame.hpp>
 
+#include <filesystem>
+#include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace flowcat {
 
@@ -75,6 +80,50 @@ inline std::string mediaMarkdown() {
       << (e.video ? "-" : cell(e.encoding)) << " | " << cell(e.flow_type) << " |\n";
   }
   return o.str();
+}
+
+// Lines of plugins/ and tools/ that write a media mime type of kEncodings as a string
+// literal ("audio/L16", 'image/jpeg') instead of taking it from the table: "path:line: text"
+// each. Tests, fuzz targets, generated copies and file-extension tables (a web server's
+// {".jpg", "image/jpeg"}: what a file is, not what a channel carries) are not media vocabulary.
+inline std::vector<std::string> mediaLiterals(const std::string& src) {
+  namespace fs = std::filesystem;
+  std::set<std::string> quoted;
+  for (const auto& e : skr::media::kEncodings) {
+    if (e.mime == "application/octet-stream") continue;  // any bytes: not a media fact
+    quoted.insert("\"" + std::string(e.mime) + "\"");
+    quoted.insert("'" + std::string(e.mime) + "'");
+  }
+  const std::set<std::string> exts = {".cpp", ".h", ".hpp", ".c", ".js", ".mjs"};
+  std::vector<std::string> found;
+  for (const char* top : {"plugins", "tools"}) {
+    const fs::path root = fs::path(src) / top;
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(root, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      const auto name = it->path().filename().string();
+      if (it->is_directory() &&
+          (name == "tests" || name == "fuzz" || name == "node_modules" || name == "flow-catalogue")) {
+        it.disable_recursion_pending();
+        continue;
+      }
+      if (!it->is_regular_file() || exts.count(it->path().extension().string()) == 0) {
+        continue;
+      }
+      std::ifstream in(it->path());
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n) {
+        if (line.find("{\".") != std::string::npos) continue;  // an extension table
+        for (const auto& q : quoted) {
+          if (line.find(q) == std::string::npos) continue;
+          found.push_back(fs::relative(it->path(), src).string() + ":" + std::to_string(n) +
+                          ": " + line);
+          break;
+        }
+      }
+    }
+  }
+  return found;
 }
 
 }  // namespace flowcat

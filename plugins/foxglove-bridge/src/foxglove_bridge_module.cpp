@@ -13,6 +13,7 @@
 #include "foxglove_protocol.h"
 
 #include <skrobot/web/ws_server.h>
+#include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/plugin_watch.hpp>
 #include <skrobot/support/config.hpp>
@@ -188,7 +189,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
         shape = Shape::annotations;
       } else if (joints_.count(e.name) != 0) {
         shape = Shape::joints;
-      } else if (e.mime == "image/jpeg") {
+      } else if (e.mime == skr::media::encodingInfo(skr::media::Format::jpeg)->mime) {
         shape = Shape::image;
       } else if (rawImageChannel(e.name)) {
         shape = Shape::raw_image;

@@ -9,8 +9,8 @@
 //   flow-catalogue --write SOURCE_DIR   rewrites the generated files and the docs' reference
 //
 //   (and the media vocabulary of plugin-api/include/skrobot/media_frame.hpp: PySketch's
-//   mediacodes.py, the pages' web/js/media-codes.js and the table of docs/channels.md; and that plugins/, tools/ and web/js write
-//   no media mime type as a literal of their own)
+//   mediacodes.py, the pages' web/js/media-codes.js and the table of docs/channels.md; and that
+//   plugins/, tools/ and web/js write no media mime type as a literal of their own)
 //
 // The docs' other tables (one per family, with notes) are checked too: each row's code, name,
 // minor and fields must be the catalogue's.
@@ -341,9 +341,10 @@ int check(const std::string& src, bool write) {
   }
   // The media vocabulary's mime types are taken from the table, never written out again.
   for (const auto& line : flowcat::mediaLiterals(src)) {
-    std::printf("%s\n  a media mime type as a literal: take it from skr::media::kEncodings "
-                "(media_frame.hpp) or web/js/media-codes.js\n",
-                line.c_str());
+    std::printf(
+        "%s\n  a media mime type as a literal: take it from skr::media::kEncodings "
+        "(media_frame.hpp) or web/js/media-codes.js\n",
+        line.c_str());
     ++problems;
   }
   if (problems > 0) {

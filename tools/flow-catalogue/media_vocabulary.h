@@ -73,11 +73,9 @@ inline std::string mediaJavaScript() {
        "export const ENCODINGS = Object.freeze([\n";
   for (const auto& e : media::kEncodings) {
     o << "  Object.freeze({ encoding: '" << e.encoding
-      << "', format: " << static_cast<int>(e.format)
-      << ", video: " << (e.video ? "true" : "false")
+      << "', format: " << static_cast<int>(e.format) << ", video: " << (e.video ? "true" : "false")
       << ", bitsPerPixel: " << static_cast<int>(e.bits_per_pixel)
-      << ", evenSize: " << (e.even_size ? "true" : "false") << ", mime: '" << e.mime
-      << "' }),\n";
+      << ", evenSize: " << (e.even_size ? "true" : "false") << ", mime: '" << e.mime << "' }),\n";
   }
   o << "]);\n";
   return o.str();
@@ -132,8 +130,8 @@ inline std::vector<std::string> mediaLiterals(const std::string& src) {
     for (auto it = fs::recursive_directory_iterator(root, ec);
          !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
       const auto name = it->path().filename().string();
-      if (it->is_directory() &&
-          (name == "tests" || name == "fuzz" || name == "node_modules" || name == "flow-catalogue")) {
+      if (it->is_directory() && (name == "tests" || name == "fuzz" || name == "node_modules" ||
+                                 name == "flow-catalogue")) {
         it.disable_recursion_pending();
         continue;
       }
@@ -147,8 +145,8 @@ inline std::vector<std::string> mediaLiterals(const std::string& src) {
         if (line.find("{\".") != std::string::npos) continue;  // an extension table
         for (const auto& q : quoted) {
           if (line.find(q) == std::string::npos) continue;
-          found.push_back(fs::relative(it->path(), src).string() + ":" + std::to_string(n) +
-                          ": " + line);
+          found.push_back(fs::relative(it->path(), src).string() + ":" + std::to_string(n) + ": " +
+                          line);
           break;
         }
       }

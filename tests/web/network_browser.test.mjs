@@ -135,7 +135,7 @@ test('the network page shows the hub live, previews channels and edits with the 
   assert.deepEqual(await page.evaluate(() => {
     const c = document.querySelector('#preview canvas.frame');
     return [c.width, c.height, [...c.getContext('2d').getImageData(10, 5, 1, 1).data]];
-  }), [64, 48, [40, 25, 100, 255]], 'rgb8 (x * 4, y * 5, 100) at (10, 5)');
+  }), [16, 12, [40, 25, 100, 255]], 'rgb8 (x * 4, y * 5, 100) at (10, 5)');
   await pick('guest.audio');
   await waitFor('the audio level', async () => {
     const level = Number(await page.locator('#preview').getAttribute('data-level'));

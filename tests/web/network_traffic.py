@@ -70,7 +70,7 @@ def main():
     print("ready", flush=True)
 
     gray = bytes(((x + y) * 2) & 0xFF for y in range(48) for x in range(64))
-    colour = bytes(v for y in range(48) for x in range(64) for v in (x * 4, y * 5, 100))
+    colour = bytes(v for y in range(12) for x in range(16) for v in (x * 4, y * 5, 100))
     rate, seq, tick = 22050, 0, 0
     while True:
         now = time.time()
@@ -80,7 +80,7 @@ def main():
         if tick % 10 == 0:  # 5 Hz
             owner.publish(ids["camera"], frame(JPEG, tick, width, height, 0, jpeg))
             owner.publish(ids["gray"], frame(Y8, tick, 64, 48, 0, gray))
-            owner.publish(ids["colour"], frame(RGB8, tick, 64, 48, 0, colour))
+            owner.publish(ids["colour"], frame(RGB8, tick, 16, 12, 0, colour))
             face = {"seq": tick, "width": width, "height": height,
                     "faces": [{"x": width // 4, "y": height // 4, "w": width // 3,
                                "h": height // 3, "score": 0.9}]}

@@ -18,6 +18,7 @@ import os
 import signal
 import socket
 import struct
+import sys
 import tempfile
 import threading
 import time
@@ -53,9 +54,11 @@ def number(payload):
 class Publisher(Sketch):
     """paths_publisher as a subprocess, driven by commands on its stdin."""
 
-    def __init__(self, hub, kinds, slot=65536, channel="frames", rate=None):
-        """rate: its loop's frequency (Hz; 200 by default), that of `slow`."""
-        Sketch.__init__(self, [publisherBin(), hub.address, channel, kinds, str(slot)] +
+    def __init__(self, hub, kinds, slot=65536, channel="frames", rate=None, command=None):
+        """rate: its loop's frequency (Hz; 200 by default), that of `slow`; command: the owner
+        to run (default: the C++ paths_publisher; PYTHON_OWNER: its PySketch twin)."""
+        Sketch.__init__(self, (command or [publisherBin()]) +
+                        [hub.address, channel, kinds, str(slot)] +
                         ([str(rate)] if rate else []), env=None, stdin=True)
 
     def count(self, pattern):
@@ -92,10 +95,17 @@ class Publisher(Sketch):
                 pass
 
 
+# The PySketch owner (tests/paths_publisher.py, PySketch/flowowner.py), for PathsWithAHub's
+# subclass in test_paths_owner.py.
+PYTHON_OWNER = [sys.executable, "-m", "tests.paths_publisher"]
+
+
 @unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
 class PathsWithAHub(HubTestCase):
+    OWNER = None  # the channel owner's command (None: the C++ paths_publisher)
+
     def publisher(self, kinds, slot=65536, rate=None):
-        p = Publisher(self.hub, kinds, slot, rate=rate)
+        p = Publisher(self.hub, kinds, slot, rate=rate, command=self.OWNER)
         self.addCleanup(p.close)
         if not waitUntil(lambda: p.count("^ready ") > 0, TIMEOUT):
             raise AssertionError("paths_publisher not ready:\n" + p.output())

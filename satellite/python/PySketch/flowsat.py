@@ -1554,7 +1554,7 @@ class FlowSat(AbstractFlow):
         if self._state == "online":
             view = self._owner.beginPublish(chanID)
             if view is not None:
-                self._slots[chanID] = view
+                self._slots[chanID] = (view, True)
                 return view
         n = size
         spec = self._specs.get(self._shortName(chanID))
@@ -1566,7 +1566,7 @@ class FlowSat(AbstractFlow):
         if buf is None or len(buf) < n:
             buf = self._scratch[chanID] = bytearray(n)
         view = memoryview(buf)[:n]
-        self._slots[chanID] = view
+        self._slots[chanID] = (view, False)
         return view
 
     def commitPublish(self, chan, size, capture_ns=0):
@@ -1575,13 +1575,14 @@ class FlowSat(AbstractFlow):
         relayed. Returns bool (False: no beginPublish before, size beyond the buffer, or
         offline)."""
         chanID = self._chanID(chan)
-        view = self._slots.pop(chanID, None) if chanID is not None else None
+        view, inRing = self._slots.pop(chanID, (None, False)) if chanID is not None else \
+            (None, False)
         if view is None:
             return False
         try:
             if size < 0 or size > len(view):
                 return False
-            if not isinstance(view.obj, bytearray):  # a ring slot
+            if inRing:
                 done = self._owner.commitPublish(chanID, size, capture_ns)
                 if done is None:
                     return False
@@ -1590,11 +1591,14 @@ class FlowSat(AbstractFlow):
                     return self._sendPublish(chanID, data) if relay else True
                 finally:
                     data.release()
-            with view[:size] as data:
+            data = view[:size] if _GATHER else view[:size].tobytes()
+            try:
                 if self._owner.serves(chanID) and self._state == "online":
                     if not self._owner.publish(chanID, data, capture_ns):
                         return True
                 return self._sendPublish(chanID, data)
+            finally:
+                _releaseView(data)
         finally:
             _releaseView(view)
 
@@ -1603,7 +1607,7 @@ class FlowSat(AbstractFlow):
         for k in ([chanID] if chanID is not None else list(self._slots)):
             view = self._slots.pop(k, None)
             if view is not None:
-                _releaseView(view)
+                _releaseView(view[0])
 
     def _shortName(self, chanID):
         ch = self._channels.get(chanID)

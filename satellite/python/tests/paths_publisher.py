@@ -11,6 +11,9 @@ Its messages: bytes 0-7 the message number (u64, little-endian, from 1), byte i 
   zc N SIZE    the same, each filled in a ring slot in place (beginPublish / commitPublish)
   slow N SIZE  N messages, one per loop (RATE_HZ), then                 -> "published <last>"
   ts N SIZE    the same, bytes 8-15 CLOCK_MONOTONIC in ns when published
+  frames N W H N bgr8 media frames of W x H, one per loop, each built in place with numpy
+               (beginPublish, mediaframe.frame_slot): header seq = the message number, pixel
+               byte i = (i + number) & 0xFF; then                       -> "published <last>"
   reset        resetPaths()                                            -> "reset"
   stats        -> "stats served_shm=<n> served_direct=<n>"
   quit         exits 0
@@ -62,6 +65,7 @@ class Publisher(object):
         self.slowLeft = 0
         self.slowSize = 64
         self.stamp = False
+        self.frames = None          # (left, width, height) of a `frames` command
         self.counted = False
         self.pending = b""
         self.running = True
@@ -88,6 +92,21 @@ class Publisher(object):
             struct.pack_into("<q", buf, 8, int(time.monotonic() * 1e9))
         self.sat.publish(self.full, buf)
 
+    def publishFrame(self):
+        import numpy
+        from PySketch import mediaframe
+        left, w, h = self.frames
+        view = self.sat.beginPublish(self.full)
+        self.number += 1
+        img, size = mediaframe.frame_slot(view, "bgr8", w, h, seq=self.number)
+        base = numpy.arange(w * h * 3, dtype=numpy.uint32).astype(numpy.uint8).reshape(h, w, 3)
+        numpy.add(base, numpy.uint8(self.number & 0xFF), out=img)  # wraps: (i + n) & 0xFF
+        del img
+        self.sat.commitPublish(self.full, size, self.number)
+        self.frames = (left - 1, w, h) if left > 1 else None
+        if self.frames is None:
+            say("published %d" % self.number)
+
     def command(self, line):
         parts = line.split()
         if not parts:
@@ -111,6 +130,8 @@ class Publisher(object):
             say("published %d" % self.number)
         elif what in ("slow", "ts"):
             self.slowLeft, self.slowSize, self.stamp = n, size, what == "ts"
+        elif what == "frames":
+            self.frames = (n, int(parts[2]), int(parts[3]))
         elif what == "reset":
             self.sat.resetPaths()
             say("reset")
@@ -145,6 +166,8 @@ class Publisher(object):
                 self.slowLeft -= 1
                 if self.slowLeft == 0:
                     say("published %d" % self.number)
+            if self.frames:
+                self.publishFrame()
             self.sat.tick()
         self.sat.close()
         return 0

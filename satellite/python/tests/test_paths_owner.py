@@ -4,15 +4,116 @@
 test_paths.py's hub tests (PathsWithAHub) again, with tests/paths_publisher.py (the PySketch twin
 of the C++ paths_publisher) as the owner: shared memory in place, a direct path in order, a
 switch that loses nothing, fallback without loss or duplicates, a slow reader, the hub's counts,
-an owner killed, a hub restarted.
+an owner killed, a hub restarted. Then numpy frames built in place in the owner's ring slots
+(beginPublish, mediaframe.frame_slot) read by a numpy subscriber; and under Python 2.7
+(run_py27.sh) a channel declared with paths= is relayed.
 """
+import signal
 import unittest
 
+from PySketch.flowproto import PATH_DIRECT, PATH_SHM
 from tests import test_paths
+from tests.compat import PY2
+from tests.hubtest import HubTestCase, pump, tickFor
+
+try:
+    import numpy
+except ImportError:
+    numpy = None
 
 
 class PathsFromAPythonOwner(test_paths.PathsWithAHub):
     OWNER = test_paths.PYTHON_OWNER
+
+
+W, H = 320, 240
+
+
+@unittest.skipUnless(test_paths.PATHS and numpy is not None, "Python 3 and numpy")
+class NumpyFramesInPlace(HubTestCase):
+    """bgr8 frames filled by numpy in the owner's ring slots, checked byte for byte by a numpy
+    subscriber that reads them in place: at 30 Hz none is skipped; resetPaths on the owner and
+    then its death fall back to the relay without a wrong or repeated frame."""
+
+    def test_frames_in_place_to_a_numpy_subscriber(self):
+        from PySketch import mediaframe
+        pub = test_paths.Publisher(self.hub, "shm", slot=32 + W * H * 3, rate=30,
+                                   command=test_paths.PYTHON_OWNER)
+        self.addCleanup(pub.close)
+        s = self.connected()
+        base = numpy.arange(W * H * 3, dtype=numpy.uint32).astype(numpy.uint8).reshape(H, W, 3)
+        seen, bad = [], []
+
+        def onView(chan, view):
+            f = mediaframe.parse_frame(view)
+            img = f.array()
+            if not numpy.array_equal(img, base + numpy.uint8(f.seq & 0xFF)):
+                bad.append(f.seq)
+            seen.append(f.seq)
+            del img, f
+        s.setGrabDataViewCallBack(onView)
+        s.usePaths("guest.frames", PATH_SHM)
+        s.subscribeChannel("guest.frames")
+        self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
+        # Frames until one comes by the path.
+        ok = pump([s], lambda: (pub.count("^published") > len(seen) or
+                                pub.do("frames 1 %d %d" % (W, H), "^published", [s]) or True)
+                  and s.pathStats()["path_messages"] > 0, test_paths.LONG)
+        self.assertTrue(ok, (s.pathStats(), pub.output()))
+        tickFor([s], 0.2)
+        before = s.pathStats()
+        del seen[:]
+        pub.do("frames 60 %d %d" % (W, H), "^published", [s], timeout=20)
+        last = int(pub.last().split()[1])
+        self.assertTrue(pump([s], lambda: last in seen), (seen, s.pathStats()))
+        st = s.pathStats()
+        self.assertEqual(seen, list(range(last - 59, last + 1)), "each frame once, none skipped")
+        self.assertEqual(bad, [], "byte for byte")
+        self.assertEqual(st["path_messages"] - before["path_messages"], 60, "by the ring")
+        self.assertEqual((st["missed"], st["torn"]), (before["missed"], 0))
+        # The owner breaks its paths: relayed meanwhile, in order, none twice, none wrong.
+        pub.send("reset")
+        pub.do("frames 30 %d %d" % (W, H), "^published", [s], timeout=20)
+        last = int(pub.last().split()[1])
+        self.assertTrue(pump([s], lambda: last in seen), (seen[-5:], s.pathStats()))
+        self.assertGreaterEqual(s.pathStats()["fallbacks"], 1)
+        self.assertEqual(seen, sorted(set(seen)))
+        self.assertEqual(bad, [])
+        # The owner dies while it streams: the subscriber stays online, its channel goes.
+        removed = []
+        s.setDelChanCallBack(lambda ch: removed.append(ch.name))
+        pub.send("frames 1000 %d %d" % (W, H))
+        n = len(seen)
+        self.assertTrue(pump([s], lambda: len(seen) > n + 5))
+        pub.kill(signal.SIGKILL)
+        self.assertTrue(pump([s], lambda: "guest.frames" in removed), s.pathStats())
+        tickFor([s], 0.5)
+        self.assertTrue(s.isOnline())
+        self.assertEqual(seen, sorted(set(seen)))
+        self.assertEqual(bad, [])
+
+
+class OwnerUnderPython2(HubTestCase):
+    @unittest.skipUnless(PY2 or not test_paths.PATHS, "Python 2.7 only (run_py27.sh)")
+    def test_a_channel_with_paths_is_relayed(self):
+        """paths= is accepted and logged once; publish and beginPublish/commitPublish (a buffer
+        of the flow's) go through the hub."""
+        pub = test_paths.Publisher(self.hub, "both", command=test_paths.PYTHON_OWNER)
+        self.addCleanup(pub.close)
+        s = self.connected()
+        got = []
+        s.setGrabDataCallBack(lambda chan, data: got.append(test_paths.number(data)))
+        s.subscribeChannel("guest.frames")
+        self.assertTrue(pump([s], lambda: pub.count("^subscribed") > 0), pub.output())
+        pub.do("pub 5 64", "^published", [s])
+        pub.do("zc 5 3000", "^published", [s])
+        last = int(pub.last().split()[1])
+        self.assertEqual(last, 10, pub.output())
+        self.assertTrue(pump([s], lambda: last in got), (got, pub.output()))
+        self.assertEqual(got, list(range(1, 11)))
+        pub.do("stats", "^stats", [s])
+        self.assertIn("served_shm=0 served_direct=0", pub.last())
+        self.assertEqual(pub.count("cannot offer paths"), 1, pub.output())
 
 
 if __name__ == "__main__":

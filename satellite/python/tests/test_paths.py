@@ -294,6 +294,28 @@ class PathsWithAHub(HubTestCase):
         self.assertGreaterEqual(st["missed"] - before["missed"], 200 - len(got))
         self.assertEqual((st["torn"], st["fallbacks"]), (0, 0))
 
+    def test_a_slot_being_read_is_not_rewritten(self):
+        """The owner publishes 200 messages at once while the reader holds its first slot for
+        0.3 s: the lease keeps that slot as it was (no torn read, the same message after)."""
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+        held = []
+
+        def hold(chan, view):
+            if not held:
+                first = number(view)
+                pub.send("pub 200 64")
+                time.sleep(0.3)   # the owner wraps its ring of 4 slots many times meanwhile
+                held.append((first, number(view)))
+        s.setGrabDataViewCallBack(hold)
+        before = s.pathStats()
+        pub.do("pub 1 64", "^published", [s])
+        self.assertTrue(pump([s], lambda: held and pub.count("^published") >= 3), pub.output())
+        tickFor([s], 0.2)
+        self.assertEqual(held[0][0], held[0][1], "the slot was rewritten while it was read")
+        self.assertEqual(s.pathStats()["torn"], before["torn"])
+
     def test_the_hub_counts_what_comes_on_the_path(self):
         """PHYS_RECEIVED (1.10): the hub's statistics of our flow include what came on the path
         (messages and bytes out, path_messages, path_bytes) and what we skipped (dropped)."""

@@ -6,15 +6,19 @@ of the C++ paths_publisher) as the owner: shared memory in place, a direct path 
 switch that loses nothing, fallback without loss or duplicates, a slow reader, the hub's counts,
 an owner killed, a hub restarted. Then numpy frames built in place in the owner's ring slots
 (beginPublish, mediaframe.frame_slot) read by a numpy subscriber; and under Python 2.7
-(run_py27.sh) a channel declared with paths= is relayed.
+(run_py27.sh) a channel declared with paths= is relayed. A C++ subscriber
+(satellite/cpp/tests/paths_subscriber.cpp) reads a Python owner's ring, and its direct path
+falls back without loss when the owner resets its paths.
 """
+import os
+import re
 import signal
 import unittest
 
 from PySketch.flowproto import PATH_DIRECT, PATH_SHM
 from tests import test_paths
 from tests.compat import PY2
-from tests.hubtest import HubTestCase, pump, tickFor
+from tests.hubtest import TIMEOUT, HubTestCase, Sketch, pump, tickFor, waitUntil
 
 try:
     import numpy
@@ -91,6 +95,87 @@ class NumpyFramesInPlace(HubTestCase):
         self.assertTrue(s.isOnline())
         self.assertEqual(seen, sorted(set(seen)))
         self.assertEqual(bad, [])
+
+
+def subscriberBin():
+    path = os.environ.get("SKROBOT_PATHS_SUBSCRIBER")
+    if not path or not os.path.exists(path):
+        raise unittest.SkipTest("no paths_subscriber (set SKROBOT_PATHS_SUBSCRIBER)")
+    return path
+
+
+class CppSubscriber(Sketch):
+    """paths_subscriber as a subprocess: its stats as a dict of ints."""
+
+    def __init__(self, hub, kinds):
+        Sketch.__init__(self, [subscriberBin(), hub.address, "guest.frames", kinds], env=None,
+                        stdin=True)
+
+    def stats(self):
+        before = len(self.matching("^stats "))
+        self.send("stats")
+        if not waitUntil(lambda: len(self.matching("^stats ")) > before, TIMEOUT):
+            raise AssertionError("no stats:\n" + self.output())
+        line = self.matching("^stats ")[-1]
+        return dict((k, int(v)) for k, v in re.findall(r"(\w+)=(\d+)", line))
+
+    def close(self):
+        if self.proc.poll() is None:
+            try:
+                self.send("quit")
+            except (IOError, OSError):
+                pass
+            if not waitUntil(lambda: self.proc.poll() is not None, TIMEOUT):
+                self.proc.kill()
+        self.proc.wait()
+        self.reader.join(TIMEOUT)
+        for f in (self.proc.stdin, self.proc.stdout):
+            f.close()
+
+
+@unittest.skipUnless(test_paths.PATHS, "paths need Python 3 (recvmsg, memfd)")
+class CppSubscriberOnAPythonOwner(HubTestCase):
+    def setUpPair(self, kinds):
+        sub = CppSubscriber(self.hub, kinds)
+        self.addCleanup(sub.close)
+        pub = test_paths.Publisher(self.hub, kinds, command=test_paths.PYTHON_OWNER)
+        self.addCleanup(pub.close)
+        self.assertTrue(waitUntil(lambda: pub.count("^subscribed") > 0, TIMEOUT), pub.output())
+        # Messages until one comes by the path.
+        for _ in range(300):
+            pub.do("pub 1 64", "^published")
+            if sub.stats()["path_messages"] > 0:
+                break
+        self.assertGreater(sub.stats()["path_messages"], 0, (sub.output(), pub.output()))
+        return pub, sub
+
+    def test_shared_memory(self):
+        pub, sub = self.setUpPair("shm")
+        before = sub.stats()["path_messages"]
+        for _ in range(20):   # one at a time, each waited for: newest wins loses none then
+            pub.do("zc 1 40000", "^published")
+            last = int(pub.last().split()[1])
+            self.assertTrue(waitUntil(lambda: sub.stats()["last"] >= last), sub.stats())
+        st = sub.stats()
+        self.assertEqual(st["path_messages"] - before, 20, st)
+        self.assertEqual((st["bad"], st["torn"], st["ordered"], st["fallbacks"]), (0, 0, 1, 0))
+
+    def test_direct_path_falls_back_without_loss(self):
+        pub, sub = self.setUpPair("direct")
+        sub.send("clear")
+        sub.waitFor("^cleared")
+        first = int(pub.last().split()[1]) + 1
+        pub.do("pub 100 64", "^published")
+        pub.send("reset")   # and at once more, before the hub hears of the break
+        for _ in range(10):
+            pub.do("pub 20 64", "^published")
+        last = int(pub.last().split()[1])
+        self.assertTrue(waitUntil(lambda: sub.stats()["last"] >= last, TIMEOUT), sub.stats())
+        st = sub.stats()
+        self.assertEqual((st["first"], st["last"], st["got"]), (first, last, last - first + 1),
+                         "every message once (1.11: the owner replays what the path lost)")
+        self.assertEqual((st["ordered"], st["gaps"], st["bad"]), (1, 0, 0), st)
+        self.assertGreaterEqual(st["fallbacks"], 1)
 
 
 class OwnerUnderPython2(HubTestCase):

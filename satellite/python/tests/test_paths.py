@@ -348,6 +348,37 @@ class PathsWithAHub(HubTestCase):
         self.assertGreaterEqual(f["messages_out"], f["path_messages"])
         self.assertGreaterEqual(f["bytes_out"], f["path_bytes"])
 
+    def test_the_owner_counts_what_goes_on_paths_only(self):
+        """EV_PHYS_RELAY 0 (every subscriber has a path): the owner publishes to the hub no more
+        and counts instead (PHYS_COUNT): the channel's messages grow, the owner's flow's do
+        not."""
+        from PySketch.flowsync import FlowSync
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+        stats = FlowSync(self.hub.address, "guest", "password")
+        self.assertTrue(stats.connect())
+        self.addCleanup(stats.close)
+
+        def now():
+            st = stats.serviceCall("hub.inspect", "stats")
+            ch = [c for c in st["channels"] if c["name"] == "guest.frames"][0]
+            owner = [f for f in st["flows"] if f["id"] == ch["owner_flow"]][0]
+            return ch["messages"], owner["messages_in"]
+        tickFor([s], 1.5)   # the owner heard EV_PHYS_RELAY 0, and counted what came before
+        m0, in0 = now()
+        pub.do("pub 50 64", "^published", [s])
+        seen = [None]
+
+        def counted():
+            seen[0] = now()
+            return seen[0][0] >= m0 + 50
+        self.assertTrue(pump([s], counted), (m0, in0, seen[0]))
+        tickFor([s], 1.2)
+        m1, in1 = now()
+        self.assertEqual(m1 - m0, 50, "PHYS_COUNT: the hub counts them once")
+        self.assertLess(in1 - in0, 10, "not published to the hub (%d frames in)" % (in1 - in0))
+
     def deadOwner(self, kinds, kind):
         pub = self.publisher(kinds)
         s = self.subscriber(kind)

@@ -2,9 +2,10 @@
 """Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7;
 its marker of 1.9).
 
-A channel's owner (a C++ satellite: PhysicalOptions) may offer to send its messages straight to
-its subscribers, over a Unix socket of its own (a *direct* path) or through a ring of slots in
-shared memory (*shm*), while the hub keeps deciding who may read what. A FlowSat asks for it with
+A channel's owner (a C++ satellite: PhysicalOptions; a module; a FlowSat: flowowner.py) may
+offer to send its messages straight to its subscribers, over a Unix socket of its own (a *direct*
+path) or through a ring of slots in shared memory (*shm*), while the hub keeps deciding who may
+read what. A FlowSat asks for it with
 
     sat.usePaths("robot.camera", PATH_SHM | PATH_DIRECT)
     sat.subscribeChannel("robot.camera")
@@ -47,8 +48,8 @@ to the hub and to the owner:
   1 s, 2 s, 4 s, ... up to 30 s (the C++ library's backoff); a refused PHYS_REQUEST is logged
   (SAT-PATH-REFUSED), not handed to the error callback.
 
-Shared memory (shmring.RingReader) reads the layout of runtime/include/skrobot/runtime/flow/shm_ring.h: a 4 KB
-header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
+Shared memory (shmring.RingReader) reads the layout of
+runtime/include/skrobot/runtime/flow/shm_ring.h: a 4 KB header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
 wins: a busy reader reads the latest message and counts those it missed. A slot is leased while
 it is read, and its sequence number (a seqlock: odd while written) is checked before and after:
 a changed number is a torn read, never delivered to the bytes callback (the view callback has

@@ -44,7 +44,8 @@ PROTOCOL_MAJOR = 1
 # 1.11: PHYS_FALLBACK, a broken direct path resumed with what the owner kept (flowpaths);
 # 1.10: PHYS_RECEIVED, what came on a path, reported once a second (flowpaths);
 # 1.9: EV_PHYS_MARKER, the subscriber's marker with the owner's message number (flowpaths);
-# 1.8 changes only PHYS_OFFER, which PySketch never sends; 1.7: physical mode, subscriber side;
+# 1.8 changes only PHYS_OFFER (a TCP endpoint, which PySketch's owner does not offer); 1.7:
+# physical mode, subscriber (flowpaths) and owner (flowowner);
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
 PROTOCOL_MINOR = 13

@@ -502,23 +502,25 @@ class Owner(object):
             except OSError as e:
                 return self._refuse(p, str(e))
             try:
-                p.sock.setblocking(True)  # WELCOME is small: it fits in a fresh socket
-                socket.send_fds(p.sock, [ok], [ringFd, pageFd, eventFd])
-                p.sock.setblocking(False)
+                # WELCOME is small: a fresh socket takes it whole, without waiting.
+                sent = socket.send_fds(p.sock, [ok], [ringFd, pageFd, eventFd])
             except (socket.error, OSError) as e:
-                sv.ring.removeReader(lease)
-                return self._closePeer(p, str(e))
+                sent = -1
+                why = str(e)
             finally:
                 for fd in (ringFd, pageFd, eventFd):
                     closeFd(fd)
+            if sent != len(ok):
+                sv.ring.removeReader(lease)
+                return self._closePeer(p, why if sent < 0 else "cannot write WELCOME")
             p.lease = lease
             self._stats["served_shm"] += 1
         elif path == PATH_DIRECT:
             try:
-                p.sock.setblocking(True)
-                p.sock.sendall(ok)
-                p.sock.setblocking(False)
+                sent = p.sock.send(ok)
             except (socket.error, OSError):
+                sent = -1
+            if sent != len(ok):
                 return self._closePeer(p, "cannot write WELCOME")
             self._stats["served_direct"] += 1
         else:

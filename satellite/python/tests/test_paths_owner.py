@@ -6,7 +6,8 @@ of the C++ paths_publisher) as the owner: shared memory in place, a direct path 
 switch that loses nothing, fallback without loss or duplicates, a slow reader, the hub's counts,
 an owner killed, a hub restarted. Then numpy frames built in place in the owner's ring slots
 (beginPublish, mediaframe.frame_slot) read by a numpy subscriber; and under Python 2.7
-(run_py27.sh) a channel declared with paths= is relayed. A C++ subscriber
+(run_py27.sh) a channel declared with paths= is relayed. Without a hub: grants (once, for their
+kind and channel, within 10 s). A C++ subscriber
 (satellite/cpp/tests/paths_subscriber.cpp) reads a Python owner's ring, and its direct path
 falls back without loss when the owner resets its paths.
 """
@@ -176,6 +177,90 @@ class CppSubscriberOnAPythonOwner(HubTestCase):
                          "every message once (1.11: the owner replays what the path lost)")
         self.assertEqual((st["ordered"], st["gaps"], st["bad"]), (1, 0, 0), st)
         self.assertGreaterEqual(st["fallbacks"], 1)
+
+
+class _FakeFlow(object):
+    """What Owner uses of a FlowSat: frames sent (code, body) kept."""
+    hubMinor = 13
+
+    def __init__(self):
+        self.sent = []
+        self.tag = 0
+
+    def _nextTag(self):
+        self.tag += 1
+        return self.tag
+
+    def _send(self, data):
+        self.sent.append((bytearray(data)[4], bytes(data[5:])))
+        return True
+
+
+@unittest.skipUnless(test_paths.PATHS, "paths need Python 3 (recvmsg, memfd)")
+class OwnerGrants(unittest.TestCase):
+    """Without a hub: a grant lets one HELLO in, once, for its kind, within 10 s; anything else
+    is answered WELCOME with an error (SAT-PATH-REFUSED)."""
+
+    def setUp(self):
+        from PySketch import flowowner
+        self.fo = flowowner
+        self.flow = _FakeFlow()
+        self.owner = flowowner.Owner(self.flow)
+        self.addCleanup(self.owner.close)
+        self.owner.serve(7, "guest.frames", PATH_SHM | PATH_DIRECT, (4, 4096, 4))
+        code, body = self.flow.sent[-1]
+        self.assertEqual(code, 0xF0)  # PHYS_OFFER
+        self.endpoint = body[9:].decode()
+        self.assertTrue(self.endpoint.startswith("unix:/tmp/skrobot-path-"), self.endpoint)
+
+    def later(self, seconds):
+        """The owner's clock `seconds` ahead from now on."""
+        now = self.fo._now
+        self.fo._now = lambda: now() + seconds
+        self.addCleanup(setattr, self.fo, "_now", now)
+
+    def hello(self, kind, token, channel="guest.frames"):
+        """Connects, says HELLO, runs the owner until it answers: (error, descriptors)."""
+        import socket
+        import struct
+        c = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.addCleanup(c.close)
+        c.connect(self.endpoint[5:])
+        name, tok = channel.encode(), token.encode()
+        body = struct.pack("<BBH", 1, kind, len(name)) + name + struct.pack("<H", len(tok)) + tok
+        c.sendall(struct.pack("<IB", len(body) + 1, self.fo.HELLO) + body)
+        c.settimeout(0.01)
+        for i in range(200):
+            self.owner.ready(self.owner.fds())
+            if i == 20:   # a HELLO without its grant waits 2 s for it: 3 s later, refused
+                self.later(3.0)
+                self.owner.tick()
+            try:
+                data, fds, _, _ = socket.recv_fds(c, 4096, 8)
+                break
+            except socket.timeout:
+                continue
+        else:
+            self.fail("no WELCOME")
+        for fd in fds:
+            os.close(fd)
+        self.assertEqual(data[4], self.fo.WELCOME)
+        return struct.unpack_from("<H", data, 5)[0], len(fds)
+
+    def test_a_token_is_good_once_for_its_kind(self):
+        self.owner.onGrant(7, 42, "guest/sub", PATH_SHM, "t1")
+        self.assertEqual(self.hello(PATH_DIRECT, "t1"), (5, 0), "not the kind granted")
+        self.owner.onGrant(7, 42, "guest/sub", PATH_SHM, "t2")
+        self.assertEqual(self.hello(PATH_SHM, "t2"), (0, 3), "the ring, its lease, its eventfd")
+        self.assertEqual(self.owner.stats()["served_shm"], 1)
+        self.assertEqual(self.hello(PATH_SHM, "t2"), (5, 0), "once")
+        self.owner.onGrant(7, 42, "guest/sub", PATH_DIRECT, "t3")
+        self.assertEqual(self.hello(PATH_DIRECT, "t3", "guest.other"), (5, 0), "its channel")
+
+    def test_a_token_expires_after_10_s(self):
+        self.owner.onGrant(7, 42, "guest/sub", PATH_DIRECT, "t1")
+        self.later(10.5)
+        self.assertEqual(self.hello(PATH_DIRECT, "t1"), (5, 0))
 
 
 class OwnerUnderPython2(HubTestCase):

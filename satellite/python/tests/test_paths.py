@@ -6,7 +6,10 @@ $SKROBOT_PATHS_PUBLISHER, else looked for next to $SKROBOT_BIN): shared-memory d
 content checked in place (memoryview, numpy), a direct path in order, fallback without
 duplicates when the path breaks mid-stream, a slow reader (newest wins, missed counted), an
 owner killed while its reader reads, a path that cannot be had, a hub that speaks 1.6, and
-subscribers that switch to their paths while the owner publishes without pause (nothing lost).
+subscribers that switch to their paths while the owner publishes without pause (nothing lost), a
+slot held by its reader while the owner wraps the ring (the lease), and an owner that counts
+instead of publishing once nobody is relayed (PHYS_COUNT). test_paths_owner.py runs PathsWithAHub
+again with a PySketch owner (OWNER).
 Without a hub: the ring reader against rings made here (refused, torn, out of bounds) and a fake
 owner that breaks the path framing, and the marker rules (EV_PHYS_MARKER's number, the old
 EV_PHYS_RELAY 0, a switch cancelled by a break, the read-ahead before the marker).

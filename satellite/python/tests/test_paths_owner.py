@@ -5,11 +5,11 @@ test_paths.py's hub tests (PathsWithAHub) again, with tests/paths_publisher.py (
 of the C++ paths_publisher) as the owner: shared memory in place, a direct path in order, a
 switch that loses nothing, fallback without loss or duplicates, a slow reader, the hub's counts,
 an owner killed, a hub restarted. Then numpy frames built in place in the owner's ring slots
-(beginPublish, mediaframe.frame_slot) read by a numpy subscriber; and under Python 2.7
-(run_py27.sh) a channel declared with paths= is relayed. Without a hub: grants (once, for their
-kind and channel, within 10 s). A C++ subscriber
-(satellite/cpp/tests/paths_subscriber.cpp) reads a Python owner's ring, and its direct path
-falls back without loss when the owner resets its paths.
+(beginPublish, mediaframe.frame_slot) read by a numpy subscriber; a C++ subscriber
+(satellite/cpp/tests/paths_subscriber.cpp) on a Python owner's ring, and on its direct path that
+falls back without loss when the owner resets its paths; without a hub, grants (once, for their
+kind and channel, within 10 s); under Python 2.7 (run_py27.sh), a channel declared with paths=
+is relayed.
 """
 import os
 import re

@@ -44,7 +44,7 @@ PACKAGES=(
   clang libclang-rt-14-dev
   python3 python3-pip python3-setuptools python3-lib2to3
   # vision modules, and their test data (opencv-doc, python3-skimage, qrencode)
-  libopencv-dev opencv-data opencv-doc python3-skimage python3-numpy qrencode libzbar-dev
+  libopencv-dev opencv-data opencv-doc python3-skimage python3-numpy python3-opencv qrencode libzbar-dev
   # audio modules, and the null sound device of their tests
   libfftw3-dev portaudio19-dev libasound2-dev alsa-utils libespeak-ng-dev espeak-ng
   libvorbis-dev libogg-dev sox

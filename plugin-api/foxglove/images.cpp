@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <skrobot/foxglove/images.h>
+#include <skrobot/base64.hpp>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/support/json.hpp>
 
@@ -21,18 +22,6 @@ void appendTimestampAndClose(std::string& out, std::int64_t ns) {
   out += std::to_string(ns / 1000000000);
   out += "}}";
 }
-
-// Each byte's value as a base64 digit; 64: not one.
-constexpr auto kBase64Values = [] {
-  std::array<std::uint8_t, 256> t{};
-  t.fill(64);
-  constexpr std::string_view digits =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  for (std::size_t i = 0; i < digits.size(); ++i) {
-    t[static_cast<unsigned char>(digits[i])] = static_cast<std::uint8_t>(i);
-  }
-  return t;
-}();
 
 Error bad(std::string why) {
   return makeError(Errc::parse_error, "not an image message of a media frame: " + std::move(why));
@@ -73,67 +62,6 @@ bool atTopLevel(std::string_view prefix) {
 
 }  // namespace
 
-void appendBase64(std::string& out, std::string_view bytes) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const std::size_t at = out.size();
-  out.resize(at + (bytes.size() + 2) / 3 * 4);
-  char* o = out.data() + at;
-  const auto* in = reinterpret_cast<const unsigned char*>(bytes.data());
-  std::size_t i = 0;
-  for (; i + 3 <= bytes.size(); i += 3) {
-    const std::uint32_t v = in[i] << 16 | in[i + 1] << 8 | in[i + 2];
-    *o++ = kAlphabet[v >> 18 & 63];
-    *o++ = kAlphabet[v >> 12 & 63];
-    *o++ = kAlphabet[v >> 6 & 63];
-    *o++ = kAlphabet[v & 63];
-  }
-  if (const std::size_t rest = bytes.size() - i; rest > 0) {
-    std::uint32_t v = in[i] << 16;
-    if (rest == 2) v |= in[i + 1] << 8;
-    *o++ = kAlphabet[v >> 18 & 63];
-    *o++ = kAlphabet[v >> 12 & 63];
-    *o++ = rest == 2 ? kAlphabet[v >> 6 & 63] : '=';
-    *o++ = '=';
-  }
-}
-
-std::string base64(std::string_view bytes) {
-  std::string out;
-  appendBase64(out, bytes);
-  return out;
-}
-
-std::optional<std::string> unbase64(std::string_view text) {
-  if (text.size() % 4 != 0) return std::nullopt;
-  std::size_t pad = 0;
-  if (!text.empty() && text.back() == '=') pad = text[text.size() - 2] == '=' ? 2 : 1;
-  std::string out(text.size() / 4 * 3 - pad, '\0');
-  const auto* in = reinterpret_cast<const unsigned char*>(text.data());
-  char* o = out.data();
-  const std::size_t whole = text.size() - (pad != 0 ? 4 : 0);  // groups without padding
-  std::uint8_t bad = 0;
-  for (std::size_t i = 0; i < whole; i += 4) {
-    const std::uint8_t a = kBase64Values[in[i]], b = kBase64Values[in[i + 1]];
-    const std::uint8_t c = kBase64Values[in[i + 2]], d = kBase64Values[in[i + 3]];
-    bad |= (a | b | c | d) & 64;
-    const std::uint32_t v = std::uint32_t{a} << 18 | std::uint32_t{b} << 12 | c << 6 | d;
-    *o++ = static_cast<char>(v >> 16);
-    *o++ = static_cast<char>(v >> 8 & 0xff);
-    *o++ = static_cast<char>(v & 0xff);
-  }
-  if (pad != 0) {  // the last group: 2 or 3 digits, then '='
-    const std::uint8_t a = kBase64Values[in[whole]], b = kBase64Values[in[whole + 1]];
-    const std::uint8_t c = pad == 1 ? kBase64Values[in[whole + 2]] : 0;
-    bad |= (a | b | c) & 64;
-    const std::uint32_t v = std::uint32_t{a} << 18 | std::uint32_t{b} << 12 | c << 6;
-    *o++ = static_cast<char>(v >> 16);
-    if (pad == 1) *o++ = static_cast<char>(v >> 8 & 0xff);
-  }
-  if (bad != 0) return std::nullopt;
-  return out;
-}
-
 std::string_view timeSchema() {
   return kTimeSchema;
 }
@@ -163,7 +91,7 @@ std::optional<Converted> compressedImage(std::string_view message, const std::st
   std::string out;
   out.reserve(frame->payload.size() / 3 * 4 + 160 + frame_id.size());
   out += R"({"data":")";
-  appendBase64(out, frame->payload);
+  base64::append(out, frame->payload);
   out += R"(","format":"jpeg","frame_id":)";
   out += skr::support::jsonQuote(frame_id);
   out += R"(,"height":)" + std::to_string(h.height) + R"(,"seq":)" + std::to_string(h.seq) +
@@ -205,7 +133,7 @@ std::optional<Converted> rawImage(std::string_view message, const std::string& f
   std::string out;
   out.reserve(pixels.size() / 3 * 4 + 200 + frame_id.size());
   out += R"({"data":")";
-  appendBase64(out, pixels);
+  base64::append(out, pixels);
   out += R"(","encoding":")";
   out += encoding;
   if (i420) out += R"(","frame_encoding":"i420)";
@@ -259,7 +187,7 @@ Result<std::string> mediaFrameOf(std::string_view json) {
   if (!seq || !width || !height || !sec || !nsec) {
     return bad("\"seq\", \"width\", \"height\" and \"timestamp\" {sec, nsec} are needed");
   }
-  auto data = unbase64(data_text);
+  auto data = base64::decode(data_text);
   if (!data) return bad("\"data\" is not base64");
   skr::media::FrameHeader h;
   h.seq = *seq;

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
+#include <skrobot/base64.hpp>
 #include <skrobot/support/json.hpp>
 
 #include <json/reader.h>
@@ -323,23 +324,8 @@ std::string_view jsonTypeName(const Json::Value& value) noexcept {
 }
 
 Json::Value jsonBytes(std::string_view bytes) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string text;
-  text.reserve((bytes.size() + 2) / 3 * 4);
-  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
-  for (std::size_t i = 0; i < bytes.size(); i += 3) {
-    const std::size_t left = std::min<std::size_t>(3, bytes.size() - i);
-    std::uint32_t n = std::uint32_t{p[i]} << 16;
-    if (left > 1) n |= std::uint32_t{p[i + 1]} << 8;
-    if (left > 2) n |= p[i + 2];
-    text += kAlphabet[(n >> 18) & 63];
-    text += kAlphabet[(n >> 12) & 63];
-    text += left > 1 ? kAlphabet[(n >> 6) & 63] : '=';
-    text += left > 2 ? kAlphabet[n & 63] : '=';
-  }
   Json::Value v(Json::objectValue);
-  v["$base64"] = std::move(text);
+  v["$base64"] = base64::encode(bytes);
   return v;
 }
 

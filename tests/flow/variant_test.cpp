@@ -581,6 +581,11 @@ TEST(VariantJsonTest, Base64Vectors) {
   EXPECT_EQ(base64Decode("-_8="), std::nullopt);  // the URL alphabet is not standard base64
   EXPECT_EQ(base64Decode("Zg="), std::nullopt);
   EXPECT_EQ(base64Decode("Zg==Zg=="), std::nullopt);
+  EXPECT_EQ(base64Decode("Zh=="), std::nullopt);  // unused bits must be zero
+  EXPECT_EQ(base64Decode("Zm9="), std::nullopt);
+  EXPECT_EQ(base64Decode("===="), std::nullopt);
+  EXPECT_EQ(base64Decode("Zm=v"), std::nullopt);
+  EXPECT_EQ(base64Encode(std::string("\xff\xfe\x00", 3)), "//4A");
 }
 
 TEST(VariantJsonTest, ParseErrors) {

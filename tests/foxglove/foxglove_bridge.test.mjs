@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // foxglove-bridge in a real hub, against the reference client @foxglove/ws-protocol 0.8.0 and the
 // schemas of @foxglove/schemas 2.1.0 (web/node_modules): serverInfo, advertised channels and
-// their schemas, data while subscribed (and none after), a service call, parameters backed by
+// their schemas, data while subscribed (and none after), a channel advertised again when its
+// properties change its schema, a service call, parameters backed by
 // databases (a refused set too), the connection graph, and a malformed client closed alone.
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
@@ -187,6 +188,61 @@ test('raw frames come as foxglove.RawImage in the reference schema', { timeout: 
   assert.equal(img.step, 24);
   assert.deepEqual(Buffer.from(img.data, 'base64'), rawPixels);
   client.unsubscribe(sub);
+  client.close();
+});
+
+test('a channel told its raw encoding after it was created is advertised as foxglove.RawImage', { timeout: 60000 }, async (t) => {
+  // A satellite creates guest.late without properties (bytes: nothing Foxglove shows), then sets
+  // them with CHAN_SET_PROPS.
+  const sat = spawn('python3', [path.join(env.source, 'tests/foxglove/late_properties.py')], {
+    env: { ...process.env, ROBOT_ADDRESS: hub.address, PYTHONPATH: path.join(env.source, 'satellite/python') },
+    stdio: ['pipe', 'pipe', 'pipe'],
+  });
+  let out = '';
+  sat.stdout.on('data', (d) => { out += d; });
+  sat.stderr.on('data', (d) => { out += d; });
+  t.after(() => sat.kill('SIGKILL'));
+  await waitFor('the late satellite', () => {
+    if (sat.exitCode !== null) throw new Error(`late_properties.py exited ${sat.exitCode}: ${out}`);
+    return out.includes('ready');
+  }, 30000);
+  const props = (p) => sat.stdin.write(`props ${JSON.stringify(p)}\n`);
+  const { client, seen } = await connect();
+  const unadvertised = [];
+  client.on('unadvertise', (ids) => unadvertised.push(...ids));
+  await waitFor('the other channels', () => seen.channels.has('guest.numbers'), 10000);
+  assert.ok((await hub.flowctl('ls')).includes('guest.late'));
+  await sleep(300);
+  assert.equal(seen.channels.has('guest.late'), false, 'bytes are not advertised');
+
+  props({ message_encoding: 'skrobot.media', encoding: 'rgb8', width: 4, height: 2 });
+  await waitFor('guest.late advertised', () => seen.channels.has('guest.late'), 10000);
+  const first = seen.channels.get('guest.late');
+  assert.equal(first.schemaName, 'foxglove.RawImage');
+  assert.deepEqual(JSON.parse(first.schema).required, schemas.RawImage.required);
+  const sub = client.subscribe(first.id);
+  await waitFor('a raw image', () => seen.messages.some((m) => m.subscriptionId === sub), 10000);
+  const img = decode(seen.messages.find((m) => m.subscriptionId === sub));
+  assert.deepEqual(validate(schemas.RawImage, img), []);
+  assert.deepEqual([img.encoding, img.width, img.height, img.step], ['rgb8', 4, 2, 12]);
+  assert.deepEqual(Buffer.from(img.data, 'base64'), Buffer.from(Array.from({ length: 24 }, (_, i) => i)));
+
+  // Its encoding removed: unadvertised, and the client's subscription ends with it.
+  props({ encoding: null });
+  await waitFor('guest.late unadvertised', () => unadvertised.includes(first.id), 10000);
+  assert.equal(seen.channels.has('guest.late'), false);
+  await sleep(300);
+  const count = seen.messages.filter((m) => m.subscriptionId === sub).length;
+  await sleep(700);
+  assert.equal(seen.messages.filter((m) => m.subscriptionId === sub).length, count, 'no message after unadvertise');
+
+  // A raw encoding again: advertised under a new id.
+  props({ encoding: 'bgr8' });
+  await waitFor('guest.late advertised again', () => seen.channels.has('guest.late'), 10000);
+  const second = seen.channels.get('guest.late');
+  assert.notEqual(second.id, first.id);
+  assert.equal(second.schemaName, 'foxglove.RawImage');
+  assert.match(hub.log, /FOXGLOVE-READVERTISE guest\.late: its properties changed its schema from none to foxglove\.RawImage/);
   client.close();
 });
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The network page (/network) in Debian's chromium against a real hub with 200 channels
 // (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
-// table, previews of JSON, JPEG, gray, audio and detections, a channel's properties, and editing a
+// table, previews of JSON, JPEG, gray, rgb8, audio and detections, a channel's properties, and editing a
 // variable with and without the token. Then the avatar demo's hub (config/default.json): its graph
 // at "fit" on a 1280x720 and a 1920x1080 page, and the wheel's zoom. Screenshots go to
 // <build>/test-output/network_browser/ (docs/images/network-*.jpg are two of them).
@@ -61,7 +61,7 @@ test('the network page shows the hub live, previews channels and edits with the 
   assert.match(lines[1], /^udp :\d+0 open/, lines[1]);
 
   // Every channel and both flows of the satellite, with publish and subscribe edges.
-  const want = CHANNELS + 4;
+  const want = CHANNELS + 5;
   await waitFor(`${want} channel nodes`, async () =>
     (await page.locator('#graph .node.channel').count()) >= want, 30000);
   assert.equal(await page.locator('#graph .node.channel[data-id^="c:hub."]').count(), 0,
@@ -129,6 +129,13 @@ test('the network page shows the hub live, previews channels and edits with the 
     const c = document.querySelector('#preview canvas.frame');
     return [c.width, c.height, [...c.getContext('2d').getImageData(10, 5, 1, 1).data]];
   }), [64, 48, [30, 30, 30, 255]], 'gray level (x + y) * 2 at (10, 5)');
+  await pick('guest.colour');
+  await waitFor('the rgb8 preview', async () =>
+    (await page.locator('#preview').getAttribute('data-kind')) === 'raw', 10000);
+  assert.deepEqual(await page.evaluate(() => {
+    const c = document.querySelector('#preview canvas.frame');
+    return [c.width, c.height, [...c.getContext('2d').getImageData(10, 5, 1, 1).data]];
+  }), [16, 12, [40, 25, 100, 255]], 'rgb8 (x * 4, y * 5, 100) at (10, 5)');
   await pick('guest.audio');
   await waitFor('the audio level', async () => {
     const level = Number(await page.locator('#preview').getAttribute('data-level'));

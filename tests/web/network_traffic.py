@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
 """Traffic for the network page's browser test (network_browser.test.mjs), as user guest:
---channels JSON channels (guest.c000...) at 1 Hz, a JPEG camera, gray frames, audio, face
+--channels JSON channels (guest.c000...) at 1 Hz, a JPEG camera, gray and rgb8 frames, audio, face
 detections whose properties name the camera as their source, and a second flow subscribed to
 the first ten JSON channels. Needs ROBOT_ADDRESS; runs until killed."""
 import argparse
@@ -13,7 +13,7 @@ import time
 from PySketch.flowproto import Flow_T, Variant_T
 from PySketch.flowsat import FlowSat
 
-JPEG, Y8, PCM = 1, 2, 3
+JPEG, Y8, PCM, RGB8 = 1, 2, 3, 4
 
 
 def frame(fmt, seq, a, b, rate, payload):
@@ -55,6 +55,8 @@ def main():
                                   props={"index": int(n[1:])})
     owner.addStreamingChannel(Flow_T.FT_VIDEO_DATA, Variant_T.T_BYTEARRAY, "camera", "image/jpeg")
     owner.addStreamingChannel(Flow_T.FT_VIDEO_DATA, Variant_T.T_BYTEARRAY, "gray", "image/x-gray")
+    owner.addStreamingChannel(Flow_T.FT_VIDEO_DATA, Variant_T.T_BYTEARRAY, "colour",
+                              "application/octet-stream", props={"encoding": "rgb8"})
     owner.addStreamingChannel(Flow_T.FT_AUDIO_DATA, Variant_T.T_BYTEARRAY, "audio", "audio/L16")
     owner.addStreamingChannel(Flow_T.FT_BLOB, Variant_T.T_STRING, "faces", "application/json",
                               props={"source": "guest.camera"})
@@ -64,10 +66,11 @@ def main():
         listener.tick()
     for n in names[:10]:
         listener.subscribeChannel("guest." + n)
-    ids = dict((n, owner.channelID("guest." + n)) for n in names + ["camera", "gray", "audio", "faces"])
+    ids = dict((n, owner.channelID("guest." + n)) for n in names + ["camera", "gray", "colour", "audio", "faces"])
     print("ready", flush=True)
 
     gray = bytes(((x + y) * 2) & 0xFF for y in range(48) for x in range(64))
+    colour = bytes(v for y in range(12) for x in range(16) for v in (x * 4, y * 5, 100))
     rate, seq, tick = 22050, 0, 0
     while True:
         now = time.time()
@@ -77,6 +80,7 @@ def main():
         if tick % 10 == 0:  # 5 Hz
             owner.publish(ids["camera"], frame(JPEG, tick, width, height, 0, jpeg))
             owner.publish(ids["gray"], frame(Y8, tick, 64, 48, 0, gray))
+            owner.publish(ids["colour"], frame(RGB8, tick, 16, 12, 0, colour))
             face = {"seq": tick, "width": width, "height": height,
                     "faces": [{"x": width // 4, "y": height // 4, "w": width // 3,
                                "h": height // 3, "score": 0.9}]}

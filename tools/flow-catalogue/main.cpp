@@ -9,7 +9,8 @@
 //   flow-catalogue --write SOURCE_DIR   rewrites the generated files and the docs' reference
 //
 //   (and the media vocabulary of plugin-api/include/skrobot/media_frame.hpp: PySketch's
-//   mediacodes.py and the table of docs/channels.md)
+//   mediacodes.py, the pages' web/js/media-codes.js and the table of docs/channels.md; and that
+//   plugins/, tools/ and web/js write no media mime type as a literal of their own)
 //
 // The docs' other tables (one per family, with notes) are checked too: each row's code, name,
 // minor and fields must be the catalogue's.
@@ -295,6 +296,7 @@ int check(const std::string& src, bool write) {
       {src + "/satellite/python/PySketch/flowcodes.py", python()},
       {src + "/satellite/mcu/src/skr_codes.h", cHeader()},
       {src + "/satellite/python/PySketch/mediacodes.py", flowcat::mediaPython()},
+      {src + "/web/js/media-codes.js", flowcat::mediaJavaScript()},
   };
   for (const auto& [path, text] : generated) {
     auto have = slurp(path);
@@ -335,6 +337,14 @@ int check(const std::string& src, bool write) {
     std::ofstream(channels_path, std::ios::binary) << *channels_updated;
   } else if (*channels_updated != *channels) {
     std::printf("%s: the media vocabulary differs from media_frame.hpp\n", channels_path.c_str());
+    ++problems;
+  }
+  // The media vocabulary's mime types are taken from the table, never written out again.
+  for (const auto& line : flowcat::mediaLiterals(src)) {
+    std::printf(
+        "%s\n  a media mime type as a literal: take it from skr::media::kEncodings "
+        "(media_frame.hpp) or web/js/media-codes.js\n",
+        line.c_str());
     ++problems;
   }
   if (problems > 0) {

@@ -185,7 +185,9 @@ Image imageOf(const Variant& props) {
   if (it == map->end() || !it->second.isString()) return Image::none;
   const std::string& encoding = *it->second.asString();
   if (skr::foxglove::isRawImageEncoding(encoding)) return Image::raw;
-  return encoding == "jpeg" ? Image::compressed : Image::none;
+  return encoding == skr::media::encodingInfo(skr::media::Format::jpeg)->encoding
+             ? Image::compressed
+             : Image::none;
 }
 
 }  // namespace

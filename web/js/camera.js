@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The camera: preview in a <video>, and JPEG frames of the configured size and rate to the hub.
-import { FORMAT, makeFrame } from './media-frame.js';
+import { FORMAT, JPEG_MIME, makeFrame } from './media-frame.js';
 
 export class Camera {
   constructor(video, link) {
@@ -57,7 +57,7 @@ export class Camera {
     const ctx = this.canvas.getContext('2d', { willReadFrequently: true });
     ctx.drawImage(this.video, 0, 0, width, height); // scaled to the channel's size
     const captureMs = Date.now();
-    const url = this.canvas.toDataURL('image/jpeg', quality);
+    const url = this.canvas.toDataURL(JPEG_MIME, quality);
     const b64 = atob(url.slice(url.indexOf(',') + 1));
     const jpeg = new Uint8Array(b64.length);
     for (let i = 0; i < b64.length; i++) jpeg[i] = b64.charCodeAt(i);

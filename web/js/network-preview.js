@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // The network page's preview of a channel's last message: JSON pretty-printed, text as text, JPEG
-// and gray frames as images (with a detector's boxes drawn on the frame they belong to), audio as
+// and raw frames (every raw encoding of media-codes.js) as images (with a detector's boxes drawn on the frame they belong to), audio as
 // a level meter and a spectrum, anything else as a hex dump. Content is shown as text, never as
 // markup.
-import { FORMAT, parseFrame } from './media-frame.js';
+import { FORMAT, JPEG_MIME, isRawImage, parseFrame, rawToRgba } from './media-frame.js';
 import { detectionBoxes } from './network-model.js';
 
 const MAX_TEXT = 20000;
+
+// A frame the preview draws: JPEG or raw pixels.
+const isImage = (frame) => frame.format === FORMAT.jpeg || isRawImage(frame);
 const FFT_SIZE = 1024;
 
 // A preview message from websocket-ui: u16 name length, name, the channel's message.
@@ -99,7 +102,7 @@ export class Preview {
     if (name !== this.channel && name !== this.source) return false;
     const frame = parseFrame(payload);
     if (name === this.source) {
-      if (frame && (frame.format === FORMAT.jpeg || frame.format === FORMAT.y8)) {
+      if (frame && isImage(frame)) {
         this.frameBitmap = await this.bitmap(frame);
         this.drawDetections();
       }
@@ -109,7 +112,7 @@ export class Preview {
     this.root.dataset.count = String(this.count);
     if (frame) {
       if (frame.format === FORMAT.pcm) return this.showAudio(frame), true;
-      if (frame.format === FORMAT.jpeg || frame.format === FORMAT.y8) {
+      if (isImage(frame)) {
         this.frameBitmap = await this.bitmap(frame);
         this.showImage(frame);
         return true;
@@ -145,16 +148,9 @@ export class Preview {
   }
 
   async bitmap(frame) {
-    if (frame.format === FORMAT.jpeg) return createImageBitmap(new Blob([frame.payload], { type: 'image/jpeg' }));
-    const { width, height } = frame;
-    const gray = new Uint8Array(frame.payload);
-    if (!width || !height || gray.length < width * height) return null;
-    const rgba = new ImageData(width, height);
-    for (let i = 0; i < width * height; i++) {
-      rgba.data[4 * i] = rgba.data[4 * i + 1] = rgba.data[4 * i + 2] = gray[i];
-      rgba.data[4 * i + 3] = 255;
-    }
-    return createImageBitmap(rgba);
+    if (frame.format === FORMAT.jpeg) return createImageBitmap(new Blob([frame.payload], { type: JPEG_MIME }));
+    // parseFrame checked the raw payload's size against the width and height.
+    return createImageBitmap(new ImageData(rawToRgba(frame), frame.width, frame.height));
   }
 
   canvas(width, height) {
@@ -172,7 +168,8 @@ export class Preview {
     if (!this.frameBitmap) return;
     const c = this.canvas(this.frameBitmap.width, this.frameBitmap.height);
     c.getContext('2d').drawImage(this.frameBitmap, 0, 0);
-    this.root.dataset.kind = frame.format === FORMAT.jpeg ? 'jpeg' : 'gray';
+    const gray = frame.encoding === 'mono8' || frame.encoding === 'mono16';
+    this.root.dataset.kind = frame.format === FORMAT.jpeg ? 'jpeg' : gray ? 'gray' : 'raw';
     c.title = `frame ${frame.seq}, ${frame.width}x${frame.height}`;
   }
 

@@ -46,7 +46,7 @@ class AudioIo final : public skr::plugin::Module {
     const std::string db(host_.name());
     dbSet(host_, db, "state", "\"starting\"");
     if (options_.capture) {
-      capture_ = StreamChannel(host_, "capture", "audio/L16",
+      capture_ = StreamChannel(host_, "capture", skr::audio::pcmMime(),
                                skr::audio::audioProps(options_.sample_rate, 1));
     }
     skr::audio::DeviceEvents events;

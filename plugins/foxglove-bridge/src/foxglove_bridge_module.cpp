@@ -7,12 +7,14 @@
 // channels, subscriptions, requests and databases are touched on the loop thread only. Camera
 // frames, annotations and joints are converted on a ConvertWorker thread (newest wins per
 // channel), which sends them itself (WsServer::send may be called from any thread). A hub
-// channel is subscribed only while some client subscribes to it.
+// channel is subscribed only while some client subscribes to it. A channel's schema follows its
+// `encoding` property (a database watch per channel whose schema it decides).
 #include "convert_worker.h"
 #include "foxglove_convert.h"
 #include "foxglove_protocol.h"
 
 #include <skrobot/web/ws_server.h>
+#include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/plugin_watch.hpp>
 #include <skrobot/support/config.hpp>
@@ -156,6 +158,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
     host_.log.info("FOXGLOVE-STOP", counts());
     second_.reset();
     for (auto& [id, c] : chans_) c.sub.reset();
+    followed_.clear();
     db_watches_.clear();
     watch_.reset();
     requester_.reset();
@@ -182,37 +185,91 @@ class FoxgloveBridge final : public skr::plugin::Module {
     }
     if (e.kind != SKR_CHANNEL_STREAMING) return;
     if (e.added) {
-      if (channel_ids_.count(e.name) != 0) return;
-      std::optional<Shape> shape;
-      if (annotations_.count(e.name) != 0) {
-        shape = Shape::annotations;
-      } else if (joints_.count(e.name) != 0) {
-        shape = Shape::joints;
-      } else if (e.mime == "image/jpeg") {
-        shape = Shape::image;
-      } else if (rawImageChannel(e.name)) {
-        shape = Shape::raw_image;
-      } else if (e.mime == "application/json" || e.mime.ends_with("+json")) {
-        shape = Shape::json;
+      if (channel_ids_.count(e.name) != 0 || followed_.count(e.name) != 0) return;
+      if (dependsOnProperties(e.name, e.mime)) follow(e.name, e.mime);
+      if (auto shape = shapeOf(e.name, e.mime)) advertiseChannel(e.name, e.mime, *shape);
+    } else {
+      followed_.erase(e.name);  // ends its database watch
+      if (auto it = channel_ids_.find(e.name); it != channel_ids_.end()) {
+        unadvertiseChannel(it->second);
       }
-      if (!shape) return;  // audio, bytes: nothing Foxglove shows from JSON
-      const std::uint32_t id = next_id_++;
-      Chan& c = chans_[id];
-      c.id = id;
-      c.name = e.name;
-      c.mime = e.mime;
-      c.shape = *shape;
-      channel_ids_[e.name] = id;
-      sendAll(advertise({channelInfo(c)}));
-    } else if (auto it = channel_ids_.find(e.name); it != channel_ids_.end()) {
-      const std::uint32_t id = it->second;
-      channel_ids_.erase(it);
-      chans_.erase(id);  // drops the hub subscription
-      for (auto& [conn, client] : clients_) {
-        std::erase_if(client.subs, [id](const auto& s) { return s.second == id; });
-      }
-      sendAll(unadvertise({id}));
     }
+  }
+
+  // What Foxglove is shown of a streaming channel: nullopt for audio and bytes (nothing it
+  // shows from JSON). The config and a JPEG mime decide for good; otherwise the `encoding`
+  // property decides (a raw one: foxglove.RawImage), then the mime (JSON).
+  std::optional<Shape> shapeOf(const std::string& name, const std::string& mime) const {
+    if (annotations_.count(name) != 0) return Shape::annotations;
+    if (joints_.count(name) != 0) return Shape::joints;
+    if (mime == skr::media::encodingInfo(skr::media::Format::jpeg)->mime) return Shape::image;
+    if (rawImageChannel(name)) return Shape::raw_image;
+    if (mime == "application/json" || mime.ends_with("+json")) return Shape::json;
+    return std::nullopt;
+  }
+  bool dependsOnProperties(const std::string& name, const std::string& mime) const {
+    return annotations_.count(name) == 0 && joints_.count(name) == 0 &&
+           mime != skr::media::encodingInfo(skr::media::Format::jpeg)->mime;
+  }
+
+  void advertiseChannel(const std::string& name, const std::string& mime, Shape shape) {
+    const std::uint32_t id = next_id_++;
+    Chan& c = chans_[id];
+    c.id = id;
+    c.name = name;
+    c.mime = mime;
+    c.shape = shape;
+    channel_ids_[name] = id;
+    sendAll(advertise({channelInfo(c)}));
+  }
+
+  // Unadvertising ends the clients' subscriptions to the channel (foxglove.websocket.v1: an
+  // unadvertised channel's subscriptions are gone) and drops the hub subscription.
+  void unadvertiseChannel(std::uint32_t id) {
+    auto it = chans_.find(id);
+    if (it == chans_.end()) return;
+    channel_ids_.erase(it->second.name);
+    chans_.erase(it);
+    for (auto& [conn, client] : clients_) {
+      std::erase_if(client.subs, [id](const auto& s) { return s.second == id; });
+    }
+    sendAll(unadvertise({id}));
+  }
+
+  // Follows the properties of a channel whose shape they decide: a satellite may set them after
+  // creating the channel (CHAN_SET_PROPS, or a write to the channel's database).
+  void follow(const std::string& name, const std::string& mime) {
+    Followed f{mime, {}};
+    try {
+      f.watch = skr::plugin::DatabaseWatch(
+          host_, name, [this, name](const std::string& key, const std::optional<std::string>&) {
+            // Told on the loop thread, during the database's change: decided after it.
+            if (key == "encoding" || key.empty()) host_.post([this, name] { reconsider(name); });
+          });
+    } catch (const std::exception& e) {
+      host_.log.warn("FOXGLOVE-PROPERTIES", "cannot follow the properties of ", name, ": ",
+                     e.what(), "; its schema is decided once");
+      return;
+    }
+    followed_.insert_or_assign(name, std::move(f));
+  }
+
+  // A followed channel's `encoding` changed: when its shape changed too, it is unadvertised and
+  // advertised again under a new id, with its new schema.
+  void reconsider(const std::string& name) {
+    auto f = followed_.find(name);
+    if (f == followed_.end()) return;  // gone meanwhile
+    const auto shape = shapeOf(name, f->second.mime);
+    const auto old = channel_ids_.find(name);
+    const std::optional<Shape> had = old == channel_ids_.end()
+                                         ? std::nullopt
+                                         : std::optional<Shape>(chans_.at(old->second).shape);
+    if (shape == had) return;
+    if (old != channel_ids_.end()) unadvertiseChannel(old->second);
+    if (shape) advertiseChannel(name, f->second.mime, *shape);
+    host_.log.info("FOXGLOVE-READVERTISE", name, ": its properties changed its schema from ",
+                   had ? schemaName(*had, f->second.mime) : std::string("none"), " to ",
+                   shape ? schemaName(*shape, f->second.mime) : std::string("none"));
   }
 
   // A channel whose `encoding` property names raw pixels (docs/channels.md): foxglove.RawImage.
@@ -606,6 +663,12 @@ class FoxgloveBridge final : public skr::plugin::Module {
   std::uint32_t next_id_ = 1;  // channel and service ids share one counter
   std::map<std::uint32_t, Chan> chans_;
   std::map<std::string, std::uint32_t> channel_ids_;
+  // Streaming channels whose properties decide their shape (advertised or not), by name.
+  struct Followed {
+    std::string mime;
+    skr::plugin::DatabaseWatch watch;
+  };
+  std::map<std::string, Followed> followed_;
   std::map<std::string, std::uint32_t> services_;
   std::map<std::uint32_t, std::string> service_names_;
   std::map<std::uint64_t, Client> clients_;

@@ -52,7 +52,7 @@ class Speech final : public skr::plugin::Module {
 
   void start() override {
     using namespace skr::plugin;
-    voice_out_ = StreamChannel(host_, "voice", "audio/L16",
+    voice_out_ = StreamChannel(host_, "voice", skr::audio::pcmMime(),
                                skr::audio::audioProps(skr::audio::kDefaultRate, 1));
     phonemes_ = StreamChannel(host_, "phonemes", "application/json", "{}");
     say_ = ServiceChannel(host_, "say", [this](const ServiceRequest& r) { onSay(r); });

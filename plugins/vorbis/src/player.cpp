@@ -21,7 +21,7 @@ void Player::start() {
     host_.configError("play", error);
     throw plugin::Failure(SKR_ERR_CONFIG, error);
   }
-  out_ = plugin::StreamChannel(host_, "playback", "audio/L16",
+  out_ = plugin::StreamChannel(host_, "playback", pcmMime(),
                                audioProps(reader_.sampleRate(), reader_.channels()),
                                [this](bool first) { setListening(first); });
   plugin::dbSet(host_, std::string(host_.name()), "playing", "false");

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// Variant accessors, equality, UTF-8 validation and base64. The binary codec is in
-// variant_binary.cpp, the JSON mapping in variant_json.cpp.
+// Variant accessors, equality, UTF-8 validation and base64 (skrobot/base64.hpp). The binary codec
+// is in variant_binary.cpp, the JSON mapping in variant_json.cpp.
 #include <skrobot/runtime/flow/variant.h>
+#include <skrobot/base64.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -193,75 +194,12 @@ bool isValidUtf8(std::string_view s) noexcept {
   return true;
 }
 
-namespace {
-constexpr char kBase64Alphabet[] =
-    "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
-int base64Value(char c) noexcept {
-  if (c >= 'A' && c <= 'Z') return c - 'A';
-  if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-  if (c >= '0' && c <= '9') return c - '0' + 52;
-  if (c == '+') return 62;
-  if (c == '/') return 63;
-  return -1;
-}
-}  // namespace
-
 std::string base64Encode(std::string_view bytes) {
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
-  size_t i = 0;
-  for (; i + 3 <= bytes.size(); i += 3) {
-    const uint32_t n = (uint32_t{p[i]} << 16) | (uint32_t{p[i + 1]} << 8) | p[i + 2];
-    out += kBase64Alphabet[(n >> 18) & 63];
-    out += kBase64Alphabet[(n >> 12) & 63];
-    out += kBase64Alphabet[(n >> 6) & 63];
-    out += kBase64Alphabet[n & 63];
-  }
-  const size_t left = bytes.size() - i;
-  if (left > 0) {
-    const uint32_t n = (uint32_t{p[i]} << 16) | (left == 2 ? uint32_t{p[i + 1]} << 8 : 0);
-    out += kBase64Alphabet[(n >> 18) & 63];
-    out += kBase64Alphabet[(n >> 12) & 63];
-    out += left == 2 ? kBase64Alphabet[(n >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
+  return base64::encode(bytes);
 }
 
 std::optional<std::string> base64Decode(std::string_view text) {
-  if (text.size() % 4 != 0) return std::nullopt;
-  size_t pad = 0;
-  if (!text.empty() && text.back() == '=')
-    pad = text.size() >= 2 && text[text.size() - 2] == '=' ? 2 : 1;
-  std::string out;
-  out.reserve(text.size() / 4 * 3);
-  for (size_t i = 0; i < text.size(); i += 4) {
-    const bool last = i + 4 == text.size();
-    const size_t digits = last ? 4 - pad : 4;
-    uint32_t n = 0;
-    for (size_t j = 0; j < 4; ++j) {
-      int v = 0;
-      if (j < digits) {
-        v = base64Value(text[i + j]);
-        if (v < 0) return std::nullopt;
-      }
-      n = (n << 6) | static_cast<uint32_t>(v);
-    }
-    out += static_cast<char>((n >> 16) & 0xFF);
-    if (digits == 2) {
-      if ((n & 0xFFFF) != 0) return std::nullopt;  // unused bits must be zero
-      break;
-    }
-    out += static_cast<char>((n >> 8) & 0xFF);
-    if (digits == 3) {
-      if ((n & 0xFF) != 0) return std::nullopt;
-      break;
-    }
-    out += static_cast<char>(n & 0xFF);
-  }
-  return out;
+  return base64::decode(text);
 }
 
 }  // namespace skr::flow

@@ -2,9 +2,10 @@
 """Physical mode for PySketch, the subscriber's side (docs/physical-mode.md, FlowProtocol 1.7;
 its marker of 1.9).
 
-A channel's owner (a C++ satellite: PhysicalOptions) may offer to send its messages straight to
-its subscribers, over a Unix socket of its own (a *direct* path) or through a ring of slots in
-shared memory (*shm*), while the hub keeps deciding who may read what. A FlowSat asks for it with
+A channel's owner (a C++ satellite: PhysicalOptions; a module; a FlowSat: flowowner.py) may
+offer to send its messages straight to its subscribers, over a Unix socket of its own (a *direct*
+path) or through a ring of slots in shared memory (*shm*), while the hub keeps deciding who may
+read what. A FlowSat asks for it with
 
     sat.usePaths("robot.camera", PATH_SHM | PATH_DIRECT)
     sat.subscribeChannel("robot.camera")
@@ -47,8 +48,8 @@ to the hub and to the owner:
   1 s, 2 s, 4 s, ... up to 30 s (the C++ library's backoff); a refused PHYS_REQUEST is logged
   (SAT-PATH-REFUSED), not handed to the error callback.
 
-Shared memory (RingReader) reads the layout of runtime/include/skrobot/runtime/flow/shm_ring.h: a 4 KB
-header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
+Shared memory (shmring.RingReader) reads the layout of
+runtime/include/skrobot/runtime/flow/shm_ring.h: a 4 KB header, then slots of a page-aligned stride (a 64-byte slot header, then the payload). Newest
 wins: a busy reader reads the latest message and counts those it missed. A slot is leased while
 it is read, and its sequence number (a seqlock: odd while written) is checked before and after:
 a changed number is a torn read, never delivered to the bytes callback (the view callback has
@@ -68,13 +69,11 @@ delivered as good.
 from __future__ import print_function, division, absolute_import
 
 import errno
-import mmap
 import os
 import select
 import socket
 import struct
 import sys
-import threading
 import time
 
 from PySketch import log
@@ -83,6 +82,8 @@ from PySketch.flowcodes import PATH_FRAMES
 from PySketch.flowproto import (
     FALLBACK_MINOR, PATH_DIRECT, PATH_SHM, RECEIVED_MINOR, physFallback, physReceived, physRequest,
     physState, utf8)
+from PySketch.shmring import RingReader, RingRefused
+from PySketch.shmring import closeFd as _closeFd, releaseView as _release
 
 try:
     import fcntl
@@ -105,23 +106,6 @@ MAX_DATA_FRAME = MAX_DATA_BYTES + 32   # what the C++ subscriber accepts (kMaxDa
 _DATA_HEAD = 16                        # u64 seq, i64 capture_ns
 MAX_PASSED_FDS = 8                     # skrobot/runtime/flow/fd_passing.h
 
-# --- the ring (runtime/src/flow/shm_ring.cpp) --------------------------------------------------
-_MAGIC = 0x47524B53  # "SKRG"
-_VERSION = 1
-_PAGE = 4096
-_SLOT_HEADER = 64
-_MAX_SLOTS = 4096
-_MAX_READERS = 64
-_MAX_SLOT_BYTES = 1 << 32
-_SEALS = 0x0002 | 0x0004  # F_SEAL_SHRINK | F_SEAL_GROW
-_F_GET_SEALS = getattr(fcntl, "F_GET_SEALS", 1034)
-_FIXED = struct.Struct("=IHHIIQQq")   # magic, version, header_bytes, slots, max_readers,
-#                                       slot_bytes, slot_stride, lease_timeout_ns
-_LATEST_AT = 64                        # Header::latest, alignas(64)
-_WORD = struct.Struct("@Q")            # one aligned load or store (the atomics)
-_IWORD = struct.Struct("@q")
-_SLOT = struct.Struct("=QQq")          # seq, size, capture_ns
-
 _RETRY_MIN = 1.0   # seconds: kRetryMinNs, doubled for each failure after the first (5 at most) ...
 _RETRY_MAX = 30.0  # ... up to kRetryMaxNs
 _HEARTBEAT = 1.0   # seconds between heartbeats of an idle lease
@@ -131,24 +115,7 @@ _MAX_READS = 64              # ... and how many of them at a time (16 MB)
 _MAX_BEFORE_MARKER = 16 << 20  # what a direct path reads ahead before its marker (kMaxBeforeMarker)
 _ALL = 1 << 64               # `after` of EV_PHYS_RELAY 0: every message waiting was relayed
 
-_fenceLock = threading.Lock()
-
-
-def _fence():
-    """A full barrier on x86-64 (a locked instruction), between the lease and the slot check."""
-    _fenceLock.acquire()
-    _fenceLock.release()
-
-
-def _monotonicNs():
-    return time.monotonic_ns()
-
-
 _now = getattr(time, "monotonic", time.time)
-
-
-def _strideFor(slotBytes):
-    return (_SLOT_HEADER + slotBytes + _PAGE - 1) // _PAGE * _PAGE
 
 
 def _hungUp(sock):
@@ -161,24 +128,6 @@ def _hungUp(sock):
         return False
 
 
-def _closeFd(fd):
-    if fd is not None and fd >= 0:
-        try:
-            os.close(fd)
-        except OSError:
-            pass
-
-
-def _release(view):
-    """Ends a memoryview handed to a callback; False when the callback kept something made from
-    it (a numpy array): the mapping then stays alive as long as that does."""
-    try:
-        view.release()
-        return True
-    except (BufferError, AttributeError):
-        return False
-
-
 def ringArray(view, dtype="uint8"):
     """A numpy array over `view` (the grab-data-view callback's memoryview) without a copy, or
     None without numpy. Read-only for shared memory; valid only during the callback."""
@@ -187,193 +136,6 @@ def ringArray(view, dtype="uint8"):
     except ImportError:
         return None
     return numpy.frombuffer(view, dtype=dtype)
-
-
-class RingRefused(Exception):
-    """A ring (or its descriptors) that the reader will not map."""
-
-
-def _sealedSize(fd, what):
-    try:
-        seals = fcntl.fcntl(fd, _F_GET_SEALS)
-    except (OSError, IOError) as e:
-        raise RingRefused("%s is not a memfd (%s)" % (what, os.strerror(e.errno or 0)))
-    if (seals & _SEALS) != _SEALS:
-        raise RingRefused("%s is not sealed against resizing" % what)
-    return os.fstat(fd).st_size
-
-
-def _isEventFd(fd):
-    try:
-        return os.readlink("/proc/self/fd/%d" % fd) == "anon_inode:[eventfd]"
-    except OSError:
-        return False
-
-
-class _Claim(object):
-    __slots__ = ("slot", "beginSeq", "start", "size", "seq", "captureNs", "missed")
-
-
-class RingReader(object):
-    """The reading end of a shared-memory ring (shm_ring.h's RingReader): maps the ring
-    read-only and its lease page read-write, and reads the newest message in place."""
-
-    def __init__(self):
-        self.eventFd = -1
-        self._ring = None       # mmap, read-only
-        self._view = None       # memoryview of it, for the callbacks' slices
-        self._lease = None      # mmap of our lease page
-        self.size = 0
-        self.slots = self.slotBytes = self.stride = 0
-        self.maxReaders = 0
-        self.leaseTimeoutNs = 0
-        self.lastSeq = 0
-        self.received = self.missed = self.torn = 0
-        self.keptViews = 0      # callbacks that kept something made from their view
-
-    @classmethod
-    def open(cls, ringFd, leaseFd, eventFd):
-        """Maps a ring received from its owner, taking the three descriptors (closed on failure
-        too, the ring's and the lease page's once mapped). RingRefused with the reason."""
-        r = cls()
-        r.eventFd = eventFd
-        try:
-            size = _sealedSize(ringFd, "the ring")
-            leaseSize = _sealedSize(leaseFd, "the lease page")
-            if size < 2 * _PAGE or leaseSize < _PAGE:
-                raise RingRefused("too small")
-            if not _isEventFd(eventFd):
-                raise RingRefused("the wake-up descriptor is not an eventfd")
-            try:
-                r._ring = mmap.mmap(ringFd, size, mmap.MAP_SHARED, mmap.PROT_READ)
-            except (OSError, ValueError, OverflowError) as e:
-                raise RingRefused("cannot map the ring: %s" % e)
-            r.size = size
-            # The header as a copy: the writer may change it under us.
-            (magic, version, headerBytes, slots, maxReaders, slotBytes, stride,
-             leaseTimeout) = _FIXED.unpack_from(r._ring, 0)
-            if magic != _MAGIC or version != _VERSION or headerBytes != _PAGE:
-                raise RingRefused("not a ring of version %d" % _VERSION)
-            if (slots < 2 or slots > _MAX_SLOTS or slotBytes == 0 or slotBytes > _MAX_SLOT_BYTES or
-                    maxReaders == 0 or maxReaders > _MAX_READERS or leaseTimeout <= 0 or
-                    stride != _strideFor(slotBytes) or _PAGE + slots * stride != size):
-                raise RingRefused("its geometry does not add up")
-            r.slots, r.slotBytes, r.stride = slots, slotBytes, stride
-            r.maxReaders, r.leaseTimeoutNs = maxReaders, leaseTimeout
-            try:
-                r._lease = mmap.mmap(leaseFd, _PAGE, mmap.MAP_SHARED,
-                                     mmap.PROT_READ | mmap.PROT_WRITE)
-            except (OSError, ValueError) as e:
-                raise RingRefused("cannot map the lease page: %s" % e)
-            _WORD.pack_into(r._lease, 0, 0)
-            r.heartbeat()
-            r._view = memoryview(r._ring)
-            # Messages before we came are not ours to miss.
-            r.lastSeq = _WORD.unpack_from(r._ring, _LATEST_AT)[0] >> 16
-            fl = fcntl.fcntl(eventFd, fcntl.F_GETFL)
-            fcntl.fcntl(eventFd, fcntl.F_SETFL, fl | os.O_NONBLOCK)
-        except RingRefused:
-            r.close()
-            raise
-        except (OSError, IOError, ValueError, struct.error) as e:
-            r.close()
-            raise RingRefused(str(e))
-        finally:
-            _closeFd(ringFd)
-            _closeFd(leaseFd)
-        return r
-
-    def fileno(self):
-        return self.eventFd
-
-    def drain(self):
-        try:
-            os.read(self.eventFd, 8)
-        except (OSError, IOError):
-            pass
-
-    def heartbeat(self):
-        if self._lease is not None:
-            _IWORD.pack_into(self._lease, 8, _monotonicNs())
-
-    def claim(self):
-        """Leases the newest message not read yet: a _Claim, None (nothing new, or the writer
-        keeps overtaking us: its next wake-up brings us back), or False (torn: counted)."""
-        if self._ring is None:
-            return None
-        ring, lease = self._ring, self._lease
-        for _ in range(4):
-            latest = _WORD.unpack_from(ring, _LATEST_AT)[0]
-            seq, slot = latest >> 16, latest & 0xFFFF
-            if seq == 0 or seq <= self.lastSeq:
-                return None
-            if slot >= self.slots:
-                self.torn += 1
-                self.lastSeq = seq
-                return False
-            _IWORD.pack_into(lease, 8, _monotonicNs())
-            _WORD.pack_into(lease, 0, slot + 1)
-            _fence()
-            head = _PAGE + slot * self.stride
-            begin = _WORD.unpack_from(ring, head)[0]
-            if begin != 2 * seq:
-                # Rewritten already, or being written: look at the newest again.
-                _WORD.pack_into(lease, 0, 0)
-                continue
-            _, size, captureNs = _SLOT.unpack_from(ring, head)
-            if size > self.slotBytes:
-                _WORD.pack_into(lease, 0, 0)
-                self.torn += 1
-                self.lastSeq = seq
-                return False
-            c = _Claim()
-            c.slot, c.beginSeq, c.seq, c.captureNs = slot, begin, seq, captureNs
-            c.start = head + _SLOT_HEADER
-            c.size = size
-            c.missed = seq - self.lastSeq - 1
-            return c
-        return None
-
-    def view(self, c):
-        """The claimed slot's bytes in place (read-only memoryview)."""
-        return self._view[c.start:c.start + c.size]
-
-    def copy(self, c):
-        """The claimed slot's bytes (a copy), or None when the ring was closed meanwhile."""
-        if self._ring is None:
-            return None
-        return self._ring[c.start:c.start + c.size]
-
-    def release(self, c):
-        """Ends a claim: True when the slot did not change during the read, False (torn, or the
-        ring was closed meanwhile: a callback unsubscribed)."""
-        if self._ring is None:
-            return False
-        _fence()
-        end = _WORD.unpack_from(self._ring, _PAGE + c.slot * self.stride)[0]
-        _WORD.pack_into(self._lease, 0, 0)
-        self.lastSeq = c.seq
-        if end != c.beginSeq:
-            self.torn += 1
-            return False
-        self.received += 1
-        self.missed += c.missed
-        return True
-
-    def close(self):
-        """Unmaps (a mapping a callback kept a view of stays until that view goes)."""
-        if self._view is not None:
-            _release(self._view)
-            self._view = None
-        for m in (self._ring, self._lease):
-            if m is not None:
-                try:
-                    m.close()
-                except (BufferError, OSError, ValueError):
-                    pass
-        self._ring = self._lease = None
-        _closeFd(self.eventFd)
-        self.eventFd = -1
 
 
 class _Path(object):

@@ -44,7 +44,8 @@ PROTOCOL_MAJOR = 1
 # 1.11: PHYS_FALLBACK, a broken direct path resumed with what the owner kept (flowpaths);
 # 1.10: PHYS_RECEIVED, what came on a path, reported once a second (flowpaths);
 # 1.9: EV_PHYS_MARKER, the subscriber's marker with the owner's message number (flowpaths);
-# 1.8 changes only PHYS_OFFER, which PySketch never sends; 1.7: physical mode, subscriber side;
+# 1.8 changes only PHYS_OFFER (a TCP endpoint, which PySketch's owner does not offer); 1.7:
+# physical mode, subscriber (flowpaths) and owner (flowowner);
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
 PROTOCOL_MINOR = 13
@@ -383,6 +384,29 @@ def physReceived(chanID, messages, nbytes, missed):
     return frame(Code.PHYS_RECEIVED, struct.pack("<HQQQ", chanID, messages, nbytes, missed))
 
 
+def physOffer(tag, chanID, paths, endpoint):
+    """PHYS_OFFER: the owner serves these kinds (bits) of paths of `chanID` at `endpoint`."""
+    return frame(Code.PHYS_OFFER, struct.pack("<IHB", tag, chanID, paths) + str16(endpoint))
+
+
+def physCount(chanID, messages, nbytes):
+    """PHYS_COUNT: what the owner delivered on paths only since its last count."""
+    return frame(Code.PHYS_COUNT, struct.pack("<HQQ", chanID, messages, nbytes))
+
+
+def physSwitched(chanID, subscriber, switchID, seq):
+    """PHYS_SWITCHED (1.9): the answer to EV_PHYS_SWITCH, with the owner's last message number
+    on that subscriber's path."""
+    return frame(Code.PHYS_SWITCHED, struct.pack("<HIIQ", chanID, subscriber, switchID, seq))
+
+
+def physReplayHead(chanID, subscriber, resumeID, done, lost, size):
+    """PHYS_REPLAY (1.11) without its payload (`size` bytes, written after it): a kept message
+    (done 0) or the end with the `lost` count (done 1, no payload)."""
+    return struct.pack("<IBHIIBQ", 1 + 19 + size, Code.PHYS_REPLAY, chanID, subscriber, resumeID,
+                       done, lost)
+
+
 def _sortKey(item):
     return utf8(item[0])
 
@@ -663,6 +687,31 @@ def decodePhysRevoke(body):
     r = Reader(body)
     out = (r.u16("chan_id"), r.u32("subscriber"))
     r.done("EV_PHYS_REVOKE")
+    return out
+
+
+def decodePhysGrant(body):
+    """EV_PHYS_GRANT: (chanID, subscriber, name, path, token)."""
+    r = Reader(body)
+    out = (r.u16("chan_id"), r.u32("subscriber"), r.str16("name"), r.u8("path"),
+           r.str16("token"))
+    r.done("EV_PHYS_GRANT")
+    return out
+
+
+def decodePhysSwitch(body):
+    """EV_PHYS_SWITCH (1.9): (chanID, subscriber, switchID)."""
+    r = Reader(body)
+    out = (r.u16("chan_id"), r.u32("subscriber"), r.u32("switch_id"))
+    r.done("EV_PHYS_SWITCH")
+    return out
+
+
+def decodePhysResume(body):
+    """EV_PHYS_RESUME (1.11): (chanID, subscriber, resumeID, after)."""
+    r = Reader(body)
+    out = (r.u16("chan_id"), r.u32("subscriber"), r.u32("resume_id"), r.u64("after"))
+    r.done("EV_PHYS_RESUME")
     return out
 
 

@@ -72,7 +72,9 @@ the hub for a shared-memory or direct path to a channel's owner whenever the flo
 it; data then comes to the same callbacks, and through the hub again whenever the path breaks.
 With a hub and an owner of 1.9, nothing published while the subscriber switches to its path is
 lost (EV_PHYS_MARKER). pathStats() counts it. Python 3 only: under Python 2.7 the channel stays
-relayed.
+relayed. As an owner (flowowner.py): addStreamingChannel(..., paths=PATH_SHM | PATH_DIRECT,
+slotBytes=N) offers the channel's paths; beginPublish(chan) gives a ring slot to fill in place and
+commitPublish(chan, size) publishes it (Python 2.7: the channel is relayed).
 
 Not thread-safe: call it from the sketch's thread only.
 """
@@ -94,11 +96,13 @@ from PySketch.abstractflow import (
     AbstractFlow, FlowChannel, enumLookup, openSocket, tlsCheckHost, tlsFailure, validShortName,
     wrapTls)
 from PySketch.elapsedtime import ElapsedTime, now
+from PySketch.flowowner import OWNER_SUPPORTED, Owner
 from PySketch.flowpaths import Paths
 from PySketch.flowproto import (
     CODE_MINOR, PATH_DIRECT, PATH_SHM, PATHS_MINOR, ChanKind_T, ChannelInfo, Code, EnumValue,
-    Error_T, Flow_T, FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysMarker,
-    decodePhysPath, decodePhysRelay, decodePhysRevoke, encodeValue, errorName, frame,
+    Error_T, Flow_T, FlowError, ProtocolError, Reader, Variant_T, codeName, decodePhysGrant,
+    decodePhysMarker, decodePhysPath, decodePhysRelay, decodePhysResume, decodePhysRevoke,
+    decodePhysSwitch, encodeValue, errorName, frame,
     integer_types, payloadBuffer, releaseViews, str16, text_type, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
 
@@ -116,11 +120,12 @@ _GATHER = hasattr(socket.socket, "sendmsg")  # Python 3: a frame's head and payl
 _PUBLISH_HEAD = struct.Struct("<IBH")        # u32 length, u8 PUBLISH, u16 chanID
 _CHAN_ID = struct.Struct("<H")
 _READ_ONLY = hasattr(memoryview, "toreadonly")  # Python 3.8+: views handed out are read-only
+_SAID = set()                                # what is logged once per process
 
 
 def _releaseView(view):
-    """Ends a memoryview handed to a callback (Python 3; under 2.7 it ends when the last
-    reference goes)."""
+    """Ends a view of ours (Python 3; under 2.7 it ends with its last reference); one a sketch
+    made a numpy array of stays until that goes."""
     try:
         view.release()
     except (BufferError, AttributeError):
@@ -231,6 +236,9 @@ class FlowSat(AbstractFlow):
         self._tag = 0
         self._errorsLogged = {}
         self._paths = Paths(self)          # physical mode, the subscriber's side
+        self._owner = Owner(self)          # ... and the owner's
+        self._scratch = {}                 # chanID -> beginPublish's buffer without a ring slot
+        self._slots = {}                   # chanID -> the ring slot beginPublish gave
 
         self._onNewChan = None
         self._onDelChan = None
@@ -404,6 +412,7 @@ class FlowSat(AbstractFlow):
         """Disconnects; the hub removes this satellite's channels."""
         self._wanted = False
         self._drop()
+        self._owner.close()   # the listener's socket file and the rings go too
         self._state = "closed"
         self._forgetChannels(callbacks=False)
 
@@ -481,6 +490,8 @@ class FlowSat(AbstractFlow):
         self._pendingSyncs = {}
         self._deferred = []
         self._paths.reset()
+        self._owner.reset()
+        self._dropSlots()
         if self._state != "closed":
             self._state = "offline"
 
@@ -545,6 +556,9 @@ class FlowSat(AbstractFlow):
                            (self._state == "tls" and self._tlsWants == "write")) else []
         rlist = [sock] + self._paths.fds()
         wlist += self._paths.connecting()
+        if self._state == "online":
+            rlist += self._owner.fds()
+            wlist += self._owner.writing()
         try:
             r, w, _ = select.select(rlist, wlist, [], max(0.0, timeout))
         except (select.error, OSError, ValueError) as e:
@@ -561,9 +575,12 @@ class FlowSat(AbstractFlow):
             try:
                 if connected:
                     self._paths.writable(connected)
+                    self._owner.writable(connected)
                 if paths:
                     self._paths.ready(paths)
+                    self._owner.ready(paths)
                 self._paths.tick()
+                self._owner.tick()
             except Exception as e:
                 if e is self._userError:  # a callback's, logged: raised out of tick()
                     self._userError = None
@@ -855,8 +872,11 @@ class FlowSat(AbstractFlow):
             tag = r.u32()
             info = ChannelInfo.read(r)
             r.done("EV_CHAN_ADDED")
-            self._pendingAdds.pop(tag, None)
+            short = self._pendingAdds.pop(tag, None)
             ch = self._addChannel(info)
+            spec = self._specs.get(short) if short is not None else None
+            if spec is not None and spec.get("paths") and self.hubMinor >= PATHS_MINOR:
+                self._owner.serve(info.chanID, info.name, spec["paths"], spec["ring"])
             self._autoSubscribe(ch)
             if self._onNewChan is not None:
                 self._call("new-channel", self._onNewChan, ch)
@@ -871,6 +891,8 @@ class FlowSat(AbstractFlow):
                 del self._byName[ch.name]
             self._subscribedIDs.discard(chan)
             self._paths.onUnsubscribed(chan)
+            self._owner.unserve(chan)
+            self._dropSlots(chan)
             ch.isPublishingEnabled = False
             ch.isSubscribed = False
             if self._onDelChan is not None:
@@ -961,11 +983,21 @@ class FlowSat(AbstractFlow):
         elif code == Code.EV_PHYS_PATH:
             self._paths.onPath(*decodePhysPath(body))
         elif code == Code.EV_PHYS_RELAY:
-            self._paths.onRelay(*decodePhysRelay(body))
+            chan, needed = decodePhysRelay(body)
+            if not self._owner.onRelay(chan, needed):  # ours, or a channel we follow
+                self._paths.onRelay(chan, needed)
         elif code == Code.EV_PHYS_MARKER:
             self._paths.onMarker(*decodePhysMarker(body))
         elif code == Code.EV_PHYS_REVOKE:
-            self._paths.onRevoke(decodePhysRevoke(body)[0])
+            chan, subscriber = decodePhysRevoke(body)
+            self._owner.onRevoke(chan, subscriber)
+            self._paths.onRevoke(chan)
+        elif code == Code.EV_PHYS_GRANT:
+            self._owner.onGrant(*decodePhysGrant(body))
+        elif code == Code.EV_PHYS_SWITCH:
+            self._owner.onSwitch(*decodePhysSwitch(body))
+        elif code == Code.EV_PHYS_RESUME:
+            self._owner.onResume(*decodePhysResume(body))
         # Anything else (a later minor version's events) is ignored.
 
     def _commandFailed(self, command, tag, chan, error, message):
@@ -1192,7 +1224,7 @@ class FlowSat(AbstractFlow):
         m = enumLookup(Variant_T, v)
         return m.name if m is not None else None
 
-    def _addSpec(self, kind, name, mime, props):
+    def _addSpec(self, kind, name, mime, props, paths=0, ring=None):
         if not validShortName(name):
             log.err("FlowSat: bad channel name %r: 1 to 128 of A-Z a-z 0-9 _ - . "
                     "(not starting with '.')" % (name,))
@@ -1203,7 +1235,8 @@ class FlowSat(AbstractFlow):
         if props is not None and not isinstance(props, dict):
             log.err("FlowSat: channel properties must be a dict")
             return False
-        self._specs[name] = {"kind": kind, "mime": mime or "", "props": dict(props or {})}
+        self._specs[name] = {"kind": kind, "mime": mime or "", "props": dict(props or {}),
+                             "paths": paths, "ring": ring}
         if self._state == "online":
             self._sendChanAdd(name)
         return True
@@ -1217,7 +1250,8 @@ class FlowSat(AbstractFlow):
         self._send(frame(Code.CHAN_ADD, body))
 
     def addStreamingChannel(self, flow_type=Flow_T.FT_BLOB, data_type=Variant_T.T_BYTEARRAY,
-                            name=None, mime="", props=None):
+                            name=None, mime="", props=None, paths=0, ringSlots=4,
+                            slotBytes=None, ringReaders=4):
         """Creates the streaming channel "<user>.<name>". Its id arrives with the new-channel
         callback. `props` (a dict) become the channel's database; flow_type and data_type are
         added to it as "flow_type" and "data_type" (their names). Returns bool: the command was
@@ -1225,7 +1259,27 @@ class FlowSat(AbstractFlow):
         still refuse it later, typically because another satellite owns a channel of that name:
         that is logged as the sketch's error (SAT-CHANNEL-REFUSED) and reported to the error
         callback with the channel's name. Before connect() or while reconnecting, the channel
-        is created as soon as the flow is online."""
+        is created as soon as the flow is online.
+
+        paths (PATH_SHM, PATH_DIRECT bits; physical mode, flowowner.py): this satellite offers
+        the channel's subscribers paths of these kinds, after each login. PATH_SHM needs
+        slotBytes, the largest message, and takes ringSlots (>= 2) slots for at most
+        ringReaders readers at once. Python 3 on Linux and a hub of 1.7; otherwise logged once,
+        and the channel is relayed."""
+        if paths:
+            paths = int(paths) & (PATH_DIRECT | PATH_SHM)
+            if paths & PATH_SHM and not (isinstance(slotBytes, integer_types) and slotBytes > 0):
+                log.err("FlowSat: channel %s: paths=PATH_SHM needs slotBytes (the largest "
+                        "message, > 0)" % name)
+                return False
+            if not OWNER_SUPPORTED:
+                if "owner" not in _SAID:
+                    _SAID.add("owner")
+                    log.wrn("FlowSat: this Python (%d.%d) cannot offer paths (no memfd, eventfd "
+                            "or descriptor passing): %s stays relayed by the hub"
+                            % (sys.version_info[0], sys.version_info[1], name))
+                paths = 0
+        ring = (int(ringSlots), int(slotBytes or 0), int(ringReaders))
         p = dict(props or {}) if isinstance(props, dict) or props is None else props
         if isinstance(p, dict):
             ft = self._flowTypeName(flow_type)
@@ -1234,7 +1288,7 @@ class FlowSat(AbstractFlow):
                 p["flow_type"] = ft
             if dt is not None and "data_type" not in p:
                 p["data_type"] = dt
-        return self._addSpec(ChanKind_T.CK_STREAMING.value, name, mime, p)
+        return self._addSpec(ChanKind_T.CK_STREAMING.value, name, mime, p, paths, ring)
 
     def addServiceChannel(self, name, mime="", props=None):
         """Creates the service channel "<user>.<name>". Returns bool."""
@@ -1466,14 +1520,18 @@ class FlowSat(AbstractFlow):
         return True
 
     def pathStats(self):
-        """The subscriber's path figures, as the C++ library's pathStats(): served_direct and
-        served_shm (always 0: PySketch serves no paths), path_messages (received on paths),
+        """The path figures, as the C++ library's pathStats(): served_direct and served_shm
+        (the subscribers our channels' paths serve now), path_messages (received on paths),
         dropped_before_marker, torn, fallbacks and missed (shared memory: published while this
         reader was busy, never read)."""
-        return self._paths.stats()
+        st = self._paths.stats()
+        st.update(self._owner.stats())
+        return st
 
     def resetPaths(self):
-        """Closes every path as if it broke: relayed again, asked again after the backoff."""
+        """Closes every path as if it broke, ours to our subscribers included: relayed again,
+        asked again after the backoff."""
+        self._owner.closeAll("reset by the application")
         self._paths.closeAll("reset by the application")
 
     def channelByID(self, chanID):
@@ -1516,9 +1574,94 @@ class FlowSat(AbstractFlow):
         try:
             if chanID is None:
                 return False
+            if self._owner.serves(chanID):
+                if self._state != "online":
+                    return False
+                # Our paths first (a copy into a ring slot); the hub only while someone is
+                # relayed.
+                if not self._owner.publish(chanID, payload, 0):
+                    return True
             return self._sendPublish(chanID, payload)
         finally:
             releaseViews(views)
+
+    def beginPublish(self, chan, size=None):
+        """A writable memoryview to build the next message of the owned channel `chan` in
+        place: a free slot of its shared-memory ring (len = slotBytes; no copy for its readers),
+        or, without a ring slot (no ring, every slot leased, Python 2.7, offline), a buffer of
+        this flow's reused for the channel (len = slotBytes, or `size` for a channel without
+        one). Fill the first bytes, then commitPublish(chan, size). Valid until commitPublish;
+        None for an unknown channel, or without slotBytes or size. With numpy:
+            a = numpy.frombuffer(view, numpy.uint8, count=h * w * 3).reshape(h, w, 3)
+        (mediaframe.frame_slot writes a media header and gives the pixel area)."""
+        chanID = self._chanID(chan)
+        if chanID is None:
+            return None
+        self._dropSlots(chanID)
+        if self._state == "online":
+            view = self._owner.beginPublish(chanID)
+            if view is not None:
+                self._slots[chanID] = (view, True)
+                return view
+        n = size
+        spec = self._specs.get(self._shortName(chanID))
+        if spec is not None and spec.get("ring") and spec["ring"][1] > 0:
+            n = max(spec["ring"][1], size or 0)
+        if not n:
+            return None
+        buf = self._scratch.get(chanID)
+        if buf is None or len(buf) < n:
+            buf = self._scratch[chanID] = bytearray(n)
+        view = memoryview(buf)[:n]
+        self._slots[chanID] = (view, False)
+        return view
+
+    def commitPublish(self, chan, size, capture_ns=0):
+        """Publishes the first `size` bytes of what beginPublish gave: in the ring slot (its
+        readers read it in place), on direct paths, and through the hub while someone is
+        relayed. Returns bool (False: no beginPublish before, size beyond the buffer, or
+        offline)."""
+        chanID = self._chanID(chan)
+        view, inRing = self._slots.pop(chanID, (None, False)) if chanID is not None else \
+            (None, False)
+        if view is None:
+            return False
+        try:
+            if size < 0 or size > len(view):
+                return False
+            if inRing:
+                done = self._owner.commitPublish(chanID, size, capture_ns)
+                if done is None:
+                    return False
+                data, relay = done
+                try:
+                    return self._sendPublish(chanID, data) if relay else True
+                finally:
+                    data.release()
+            data = view[:size] if _GATHER else view[:size].tobytes()
+            try:
+                if self._owner.serves(chanID) and self._state == "online":
+                    if not self._owner.publish(chanID, data, capture_ns):
+                        return True
+                return self._sendPublish(chanID, data)
+            finally:
+                _releaseView(data)
+        finally:
+            _releaseView(view)
+
+    def _dropSlots(self, chanID=None):
+        """Forgets beginPublish's views (of one channel, or all)."""
+        for k in ([chanID] if chanID is not None else list(self._slots)):
+            view = self._slots.pop(k, None)
+            if view is not None:
+                _releaseView(view[0])
+
+    def _shortName(self, chanID):
+        ch = self._channels.get(chanID)
+        prefix = "%s." % self._userName
+        if ch is None or not ch.name.startswith(prefix):
+            return None
+        return ch.name[len(prefix):]
 
     def _publishPacked(self, chanID, fmt, values):
         if not isinstance(values, (list, tuple)):

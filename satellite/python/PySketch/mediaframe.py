@@ -8,6 +8,11 @@ a numpy array and parsed into fields and a numpy view, under Python 2.7 and 3, n
     ...
     sat.publish(chanID, mediaframe.make_frame(img, "bgr8", seq=n))   # img: 480x640x3 uint8
 
+    view = sat.beginPublish(chanID)       # in place, into a shared-memory slot (flowowner)
+    img, size = mediaframe.frame_slot(view, "bgr8", 640, 480, seq=n)
+    cv2.cvtColor(src, cv2.COLOR_RGB2BGR, dst=img)
+    sat.commitPublish(chanID, size)
+
     f = mediaframe.parse_frame(data)      # MediaFrameError when it is not a well-formed frame
     img = f.array()                       # (480, 640, 3) uint8 view of `data`, no copy
 
@@ -146,6 +151,30 @@ def make_audio_frame(data, sample_rate, channels=1, seq=0, capture_ns=0):
     return out
 
 
+def frame_slot(view, name, width, height, seq=0, capture_ns=0):
+    """A raw video frame built in place in `view` (a writable buffer: FlowSat.beginPublish's
+    slot): writes the 32-byte header of encoding `name` (width x height) at its start and returns
+    (pixels, size): the numpy array of its pixel area, shaped as MediaFrame.array() gives it
+    ((h, w, 3) for bgr8, ...), to fill (cv2's dst=, numpy's out=, or a slice assignment), and
+    the message's size for commitPublish. MediaFrameError for an encoding that is not raw
+    video, a size it does not allow, or a view too small; ImportError without numpy."""
+    import numpy
+    e = encoding(name)
+    want = payload_bytes(name, width, height) if e.video else 0
+    if want == 0 or width > 0xFFFF or height > 0xFFFF:
+        raise MediaFrameError("frame_slot needs raw video of an allowed size, not %s %dx%d"
+                              % (name, width, height))
+    size = HEADER_BYTES + want
+    if len(view) < size:
+        raise MediaFrameError("%s %dx%d needs %d bytes, the slot has %d"
+                              % (name, width, height, size, len(view)))
+    view[:HEADER_BYTES] = _header(e.code, seq, capture_ns, width, height, 0)
+    f = MediaFrame()
+    f.encoding, f.width, f.height, f.channels = name, width, height, 0
+    f.payload = memoryview(view)[HEADER_BYTES:size]
+    return f.array(), size
+
+
 class MediaFrame(object):
     """A parsed frame. `payload` is a memoryview of the message under Python 3 (no copy; valid
     as long as the message is) and a str under 2.7."""
@@ -209,5 +238,6 @@ def parse_frame(msg):
 
 
 __all__ = ["BY_CODE", "BY_NAME", "Encoding", "HEADER_BYTES", "MESSAGE_ENCODING", "MediaFrame",
-           "MediaFrameError", "channel_properties", "encoding", "make_audio_frame", "make_frame",
+           "MediaFrameError", "channel_properties", "encoding", "frame_slot", "make_audio_frame",
+           "make_frame",
            "mime_for", "parse_frame", "payload_bytes"]

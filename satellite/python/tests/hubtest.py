@@ -74,9 +74,12 @@ def waitUntil(cond, timeout=TIMEOUT, step=0.01):
 class Hub(object):
     """A hub on /tmp/<unique app name>, with guest/password and optionally the echo module."""
 
-    def __init__(self, name, echo_module=False, hub_name=None, links=(), modules=(), server=None):
+    def __init__(self, name, echo_module=False, hub_name=None, links=(), modules=(), server=None,
+                 project_modules=()):
         """hub_name and links (other Hub objects, linked with guest/password): hub links;
         modules: names of more test modules (<name>.so in SKROBOT_TEST_MODULE_DIR) to load;
+        project_modules: entries of the config's "modules" list, as given ({"name": "face-detect",
+        "config": {...}}: the project's modules, found beside the hub binary);
         server: keys of the config's "server" object."""
         self.dir = tempfile.mkdtemp(prefix="pysat-")
         self.app = "pysat-%s-%d-%d" % (name, os.getpid(), next(_counter))
@@ -93,6 +96,8 @@ class Hub(object):
             cfg["modules"] = [{"path": os.path.join(moduleDir(), "test_channel_echo.so")}]
         for m in modules:
             cfg.setdefault("modules", []).append({"path": os.path.join(moduleDir(), m + ".so")})
+        for m in project_modules:
+            cfg.setdefault("modules", []).append(dict(m))
         if hub_name:
             cfg["hub_name"] = hub_name
             self.hub_name = hub_name
@@ -246,10 +251,12 @@ class HubTestCase(unittest.TestCase):
     echo_module = False
     modules = ()  # more test modules to load (Hub's modules)
     server = None  # keys of the hub config's "server" object
+    project_modules = ()  # entries of the config's "modules" list (Hub's project_modules)
 
     def setUp(self):
         self.hub = Hub(self.id().split(".")[-1][5:20].replace("_", "-") or "t",
-                       self.echo_module, modules=self.modules, server=self.server)
+                       self.echo_module, modules=self.modules, server=self.server,
+                       project_modules=self.project_modules)
         self.addCleanup(self.hub.close)
         self.hub.start()
         self._sats = []

@@ -6,7 +6,10 @@ $SKROBOT_PATHS_PUBLISHER, else looked for next to $SKROBOT_BIN): shared-memory d
 content checked in place (memoryview, numpy), a direct path in order, fallback without
 duplicates when the path breaks mid-stream, a slow reader (newest wins, missed counted), an
 owner killed while its reader reads, a path that cannot be had, a hub that speaks 1.6, and
-subscribers that switch to their paths while the owner publishes without pause (nothing lost).
+subscribers that switch to their paths while the owner publishes without pause (nothing lost), a
+slot held by its reader while the owner wraps the ring (the lease), and an owner that counts
+instead of publishing once nobody is relayed (PHYS_COUNT). test_paths_owner.py runs PathsWithAHub
+again with a PySketch owner (OWNER).
 Without a hub: the ring reader against rings made here (refused, torn, out of bounds) and a fake
 owner that breaks the path framing, and the marker rules (EV_PHYS_MARKER's number, the old
 EV_PHYS_RELAY 0, a switch cancelled by a break, the read-ahead before the marker).
@@ -18,6 +21,7 @@ import os
 import signal
 import socket
 import struct
+import sys
 import tempfile
 import threading
 import time
@@ -53,9 +57,11 @@ def number(payload):
 class Publisher(Sketch):
     """paths_publisher as a subprocess, driven by commands on its stdin."""
 
-    def __init__(self, hub, kinds, slot=65536, channel="frames", rate=None):
-        """rate: its loop's frequency (Hz; 200 by default), that of `slow`."""
-        Sketch.__init__(self, [publisherBin(), hub.address, channel, kinds, str(slot)] +
+    def __init__(self, hub, kinds, slot=65536, channel="frames", rate=None, command=None):
+        """rate: its loop's frequency (Hz; 200 by default), that of `slow`; command: the owner
+        to run (default: the C++ paths_publisher; PYTHON_OWNER: its PySketch twin)."""
+        Sketch.__init__(self, (command or [publisherBin()]) +
+                        [hub.address, channel, kinds, str(slot)] +
                         ([str(rate)] if rate else []), env=None, stdin=True)
 
     def count(self, pattern):
@@ -92,10 +98,17 @@ class Publisher(Sketch):
                 pass
 
 
+# The PySketch owner (tests/paths_publisher.py, PySketch/flowowner.py), for PathsWithAHub's
+# subclass in test_paths_owner.py.
+PYTHON_OWNER = [sys.executable, "-m", "tests.paths_publisher"]
+
+
 @unittest.skipUnless(PATHS, "paths need Python 3 (recvmsg, memfd)")
 class PathsWithAHub(HubTestCase):
+    OWNER = None  # the channel owner's command (None: the C++ paths_publisher)
+
     def publisher(self, kinds, slot=65536, rate=None):
-        p = Publisher(self.hub, kinds, slot, rate=rate)
+        p = Publisher(self.hub, kinds, slot, rate=rate, command=self.OWNER)
         self.addCleanup(p.close)
         if not waitUntil(lambda: p.count("^ready ") > 0, TIMEOUT):
             raise AssertionError("paths_publisher not ready:\n" + p.output())
@@ -284,6 +297,28 @@ class PathsWithAHub(HubTestCase):
         self.assertGreaterEqual(st["missed"] - before["missed"], 200 - len(got))
         self.assertEqual((st["torn"], st["fallbacks"]), (0, 0))
 
+    def test_a_slot_being_read_is_not_rewritten(self):
+        """The owner publishes 200 messages at once while the reader holds its first slot for
+        0.3 s: the lease keeps that slot as it was (no torn read, the same message after)."""
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+        held = []
+
+        def hold(chan, view):
+            if not held:
+                first = number(view)
+                pub.send("pub 200 64")
+                time.sleep(0.3)   # the owner wraps its ring of 4 slots many times meanwhile
+                held.append((first, number(view)))
+        s.setGrabDataViewCallBack(hold)
+        before = s.pathStats()
+        pub.do("pub 1 64", "^published", [s])
+        self.assertTrue(pump([s], lambda: held and pub.count("^published") >= 3), pub.output())
+        tickFor([s], 0.2)
+        self.assertEqual(held[0][0], held[0][1], "the slot was rewritten while it was read")
+        self.assertEqual(s.pathStats()["torn"], before["torn"])
+
     def test_the_hub_counts_what_comes_on_the_path(self):
         """PHYS_RECEIVED (1.10): the hub's statistics of our flow include what came on the path
         (messages and bytes out, path_messages, path_bytes) and what we skipped (dropped)."""
@@ -315,6 +350,37 @@ class PathsWithAHub(HubTestCase):
         self.assertGreaterEqual(f["path_bytes"], 64 * f["path_messages"])
         self.assertGreaterEqual(f["messages_out"], f["path_messages"])
         self.assertGreaterEqual(f["bytes_out"], f["path_bytes"])
+
+    def test_the_owner_counts_what_goes_on_paths_only(self):
+        """EV_PHYS_RELAY 0 (every subscriber has a path): the owner publishes to the hub no more
+        and counts instead (PHYS_COUNT): the channel's messages grow, the owner's flow's do
+        not."""
+        from PySketch.flowsync import FlowSync
+        pub = self.publisher("shm")
+        s = self.subscriber(PATH_SHM)
+        self.onPath(pub, s)
+        stats = FlowSync(self.hub.address, "guest", "password")
+        self.assertTrue(stats.connect())
+        self.addCleanup(stats.close)
+
+        def now():
+            st = stats.serviceCall("hub.inspect", "stats")
+            ch = [c for c in st["channels"] if c["name"] == "guest.frames"][0]
+            owner = [f for f in st["flows"] if f["id"] == ch["owner_flow"]][0]
+            return ch["messages"], owner["messages_in"]
+        tickFor([s], 1.5)   # the owner heard EV_PHYS_RELAY 0, and counted what came before
+        m0, in0 = now()
+        pub.do("pub 50 64", "^published", [s])
+        seen = [None]
+
+        def counted():
+            seen[0] = now()
+            return seen[0][0] >= m0 + 50
+        self.assertTrue(pump([s], counted), (m0, in0, seen[0]))
+        tickFor([s], 1.2)
+        m1, in1 = now()
+        self.assertEqual(m1 - m0, 50, "PHYS_COUNT: the hub counts them once")
+        self.assertLess(in1 - in0, 10, "not published to the hub (%d frames in)" % (in1 - in0))
 
     def deadOwner(self, kinds, kind):
         pub = self.publisher(kinds)

@@ -21,12 +21,6 @@ namespace skr::foxglove {
 inline constexpr std::string_view kCompressedImage = "foxglove.CompressedImage";
 inline constexpr std::string_view kRawImage = "foxglove.RawImage";
 
-// Standard base64 with padding.
-[[nodiscard]] std::string base64(std::string_view bytes);
-void appendBase64(std::string& out, std::string_view bytes);
-// nullopt for text that is not standard base64 with padding.
-[[nodiscard]] std::optional<std::string> unbase64(std::string_view text);
-
 // JSON schema of foxglove.Time, and of the two image messages (the field names and required lists
 // of @foxglove/schemas 2.1.0; tests/foxglove checks them against it).
 [[nodiscard]] std::string_view timeSchema();

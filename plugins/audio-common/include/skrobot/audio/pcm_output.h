@@ -16,6 +16,11 @@ namespace skr::audio {
 
 inline constexpr std::uint32_t kDefaultRate = 22050;
 
+// The mime type of a PCM channel (the s16le row of media::kEncodings).
+inline std::string pcmMime() {
+  return std::string(media::encodingInfo(media::Format::pcm_s16le)->mime);
+}
+
 // {"sample_rate":R,"channels":C,"encoding":"s16le",...}: the database of an audio channel (with
 // the older keys derived from the encoding, docs/channels.md).
 inline std::string audioProps(std::uint32_t sample_rate, std::uint16_t channels) {

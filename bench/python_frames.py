@@ -7,8 +7,8 @@ memory, against the C++ pair (python_frames_peer) measured in the same run as th
     python_frames.py [--quick]       SKROBOT_BIN, PYTHON_FRAMES_PEER, PYTHONPATH (satellite/python)
 
 Each row is a publisher process and a subscriber process on one hub. Per row: frames/s the
-subscriber got, skips (frames missing between two it got: the frame's seq; newest-wins on shared
-memory, the hub's drops on the relay), drops (published but never received), latency p50/p99
+subscriber got, skips (frames missing before the last it got: the frame's seq; newest-wins on
+shared memory, the hub's drops on the relay), drops (published after the last it got), latency p50/p99
 (from the frame's capture_ns, CLOCK_MONOTONIC when it was published, to the subscriber's
 callback), the publisher's CPU per frame (its own user + system time from the first frame to the
 last) and Python's CPU per frame against the C++ pair's. A relayed subscriber asks for a queue of
@@ -96,7 +96,8 @@ def publisher(address, channel, width, height, rate, count, path):
                 sent += 1
         sat.tick()
     cpu = cpu_ns() - cpu0
-    while sat._outbuf and sat.isOnline():  # what waits is still the publisher's to send
+    end = time.monotonic() + 0.3  # as the C++ peer: the readers take the last frames first
+    while (sat._outbuf and sat.isOnline()) or time.monotonic() < end:
         sat.tick()
     print("published %d cpu_ns %d" % (sent, cpu))
     sys.stdout.flush()
@@ -116,7 +117,7 @@ def subscriber(address, name, count, path, queue, seconds):
         t = now_ns()
         f = mediaframe.parse_frame(view)   # what a subscriber does: the header, then
         f.array()                          # the pixels as an (h, w, 3) array, no copy
-        if state["last"] and f.seq > state["last"] + 1:
+        if f.seq > state["last"] + 1:  # seq counts from 1
             state["skips"] += f.seq - state["last"] - 1
         state["last"] = f.seq
         state["first_ns"] = state["first_ns"] or t

@@ -12,7 +12,7 @@
 //   python_frames_peer sub ADDRESS NAME COUNT relay|shm QUEUE_BYTES SECONDS
 //     subscribes to NAME (shm: asks for the path), and prints, after frame COUNT or SECONDS,
 //     "received N skips S span_ns T lat_ns L1 L2 ..." (T: first to last receipt; skips: frames
-//     missing between two it got).
+//     missing before the last it got).
 #include <skrobot/runtime/clock.h>
 #include <skrobot/satellite.h>
 #include <skrobot/media_frame.hpp>
@@ -140,7 +140,7 @@ class Subscriber : public skr::sat::Sketch {
       int64_t cap = 0;
       std::memcpy(&seq, m.data() + 8, 8);
       std::memcpy(&cap, m.data() + 16, 8);
-      if (last_ != 0 && seq > last_ + 1) skips_ += long(seq - last_ - 1);
+      if (seq > last_ + 1) skips_ += long(seq - last_ - 1);  // seq counts from 1
       last_ = seq;
       if (lat_.empty()) first_ns_ = t;
       last_ns_ = t;

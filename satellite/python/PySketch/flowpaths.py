@@ -628,14 +628,16 @@ class Paths(object):
                     self._stats["dropped_before_marker"] += 1
                     continue
                 self._counted(p, end - start - _DATA_HEAD)
-                with memoryview(buf) as whole:  # released before buf is resized
-                    payload = whole[start + _DATA_HEAD:end].tobytes()
-                self._flow._deliverData(chan, payload)
+                # In place: the view callback sees the path's input, the bytes callback a copy.
+                self._flow._deliverData(chan, buf, start + _DATA_HEAD, end)
                 if self._paths.get(chan) is not p or p.inbuf is not buf:
                     return  # the callback unsubscribed, or the path closed under it
         finally:
             if used and p.inbuf is buf:
-                del buf[:used]
+                try:
+                    del buf[:used]
+                except BufferError:  # a view made in the callback was kept: leave it the old one
+                    p.inbuf = bytearray(buf[used:])
 
     def _readRing(self, p):
         """The newest slot, once the marker came: delivered when its number is past the

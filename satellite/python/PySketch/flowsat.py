@@ -1056,8 +1056,8 @@ class FlowSat(AbstractFlow):
             inp.unpin()
 
     def _deliverData(self, chan, data, start=0, end=None):
-        """A message of a subscribed channel: data[start:end] (bytes from a direct path, or the
-        flow's input buffer), relayed or from a direct path. The view callback gets a read-only
+        """A message of a subscribed channel: data[start:end] (the flow's input buffer, or a
+        direct path's), relayed or from a direct path. The view callback gets a read-only
         memoryview of it in place, released when it returns; the bytes callback one copy."""
         refs = sys.getrefcount(data)
         whole = memoryview(data)

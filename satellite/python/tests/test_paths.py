@@ -186,10 +186,13 @@ class PathsWithAHub(HubTestCase):
         self.onPath(pub, s)
         before = s.pathStats()["path_messages"]
         s.got = []
+        holders = set()  # what the view callback's views are of: the path's input, in place
+        s.setGrabDataViewCallBack(lambda chan, view: holders.add(type(view.obj)))
         pub.do("pub 300 3000", "^published", [s])
         last = int(pub.last().split()[1])
         self.assertTrue(pump([s], lambda: last in s.got), (len(s.got), s.pathStats()))
         self.assertEqual(s.got, list(range(last - 299, last + 1)), "all, in order, once")
+        self.assertEqual(holders, {bytearray}, "views of the path's input, not of copies")
         self.assertEqual(s.pathStats()["path_messages"], before + 300)
         pub.do("stats", "^stats", [s])
         self.assertIn("served_direct=1", pub.last())
@@ -640,8 +643,8 @@ class FakeFlow(object):
     def _call(self, kind, f, *args):
         return f(*args)
 
-    def _deliverData(self, chan, data):
-        self._onGrab(chan, data)
+    def _deliverData(self, chan, data, start=0, end=None):
+        self._onGrab(chan, bytes(data[start:end]))
 
     def codes(self):
         return [(b[4], b[5:]) for b in self.sent]

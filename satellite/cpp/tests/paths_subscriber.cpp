@@ -14,6 +14,8 @@
 //   clear   forgets what came                                     -> "cleared"
 //   quit    exits 0
 // It prints "subscribed" when subscribed.
+#include "stdin_lines.h"
+
 #include <skrobot/satellite.h>
 
 #include <fcntl.h>
@@ -82,17 +84,8 @@ class Subscriber : public skr::sat::Sketch {
     }
   }
   void readCommands() {
-    char buf[4096];
-    for (;;) {
-      const ssize_t n = ::read(0, buf, sizeof buf);
-      if (n == 0) return stop();  // the test went away
-      if (n < 0) break;
-      pending_.append(buf, static_cast<size_t>(n));
-    }
-    for (size_t eol; (eol = pending_.find('\n')) != std::string::npos;) {
-      const std::string line = pending_.substr(0, eol);
-      pending_.erase(0, eol + 1);
-      command(line);
+    if (!skr::test::readStdinLines(pending_, [this](const std::string& line) { command(line); })) {
+      stop();  // the test went away
     }
   }
 

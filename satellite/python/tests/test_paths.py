@@ -54,7 +54,27 @@ def number(payload):
     return n
 
 
-class Publisher(Sketch):
+class Commanded(Sketch):
+    """A test program driven by commands on its stdin, one a line; "quit" ends it."""
+
+    def close(self):
+        if self.proc.poll() is None:
+            try:
+                self.send("quit")
+            except (IOError, OSError):
+                pass
+            if not waitUntil(lambda: self.proc.poll() is not None, TIMEOUT):
+                self.proc.kill()
+        self.proc.wait()
+        self.reader.join(TIMEOUT)
+        for f in (self.proc.stdin, self.proc.stdout):
+            try:
+                f.close()
+            except (IOError, OSError):
+                pass
+
+
+class Publisher(Commanded):
     """paths_publisher as a subprocess, driven by commands on its stdin."""
 
     def __init__(self, hub, kinds, slot=65536, channel="frames", rate=None, command=None):
@@ -81,21 +101,6 @@ class Publisher(Sketch):
             self.proc.send_signal(sig)
         self.proc.wait()
 
-    def close(self):
-        if self.proc.poll() is None:
-            try:
-                self.send("quit")
-            except (IOError, OSError):
-                pass
-            if not waitUntil(lambda: self.proc.poll() is not None, TIMEOUT):
-                self.proc.kill()
-        self.proc.wait()
-        self.reader.join(TIMEOUT)
-        for f in (self.proc.stdin, self.proc.stdout):
-            try:
-                f.close()
-            except (IOError, OSError):
-                pass
 
 
 # The PySketch owner (tests/paths_publisher.py, PySketch/flowowner.py), for PathsWithAHub's

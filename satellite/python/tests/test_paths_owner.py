@@ -105,7 +105,7 @@ def subscriberBin():
     return path
 
 
-class CppSubscriber(Sketch):
+class CppSubscriber(test_paths.Commanded):
     """paths_subscriber as a subprocess: its stats as a dict of ints."""
 
     def __init__(self, hub, kinds):
@@ -119,19 +119,6 @@ class CppSubscriber(Sketch):
             raise AssertionError("no stats:\n" + self.output())
         line = self.matching("^stats ")[-1]
         return dict((k, int(v)) for k, v in re.findall(r"(\w+)=(\d+)", line))
-
-    def close(self):
-        if self.proc.poll() is None:
-            try:
-                self.send("quit")
-            except (IOError, OSError):
-                pass
-            if not waitUntil(lambda: self.proc.poll() is not None, TIMEOUT):
-                self.proc.kill()
-        self.proc.wait()
-        self.reader.join(TIMEOUT)
-        for f in (self.proc.stdin, self.proc.stdout):
-            f.close()
 
 
 @unittest.skipUnless(test_paths.PATHS, "paths need Python 3 (recvmsg, memfd)")

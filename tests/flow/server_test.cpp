@@ -578,8 +578,16 @@ TEST_F(Server, HubToSatelliteCodesCloseTheSenderAndUnassignedOnesAreUnsupported)
     }
   }
   EXPECT_EQ(stats().protocol_errors, closed);
-  for (uint8_t unassigned : {uint8_t(0x17), uint8_t(0x51), uint8_t(0xCA), uint8_t(0xE3)}) {
-    ASSERT_EQ(flow::codeInfo(unassigned), nullptr);
+  // The first code no minor assigned after each family's start (0x17, 0x52, 0xCA, 0xE3 at 1.13),
+  // found in the catalogue so that the next minor's code does not break this test.
+  std::vector<uint8_t> free_codes;
+  for (int start : {0x01, 0x40, 0xC0, 0xE0}) {
+    int c = start;
+    while (c < 0x100 && flow::codeInfo(uint8_t(c)) != nullptr) ++c;
+    if (c < 0x100) free_codes.push_back(uint8_t(c));
+  }
+  ASSERT_EQ(free_codes.size(), 4u);
+  for (uint8_t unassigned : free_codes) {
     TestClient sync = syncClient();
     ASSERT_TRUE(sync.sendRaw(std::string("\x01\x00\x00\x00", 4) + char(unassigned)));
     EXPECT_EQ(errorOf(sync.recvReply()), uint16_t(ErrorCode::unsupported)) << int(unassigned);

@@ -117,7 +117,8 @@ TEST_F(Tls, SatellitesPublishSubscribeAndUseDatabasesOverTls) {
   ASSERT_TRUE(pub.on([](Satellite& s) { return s.addChannel({.name = "numbers"}); }));
   // The subscriber may hear of the channel before the publisher's own loop has read its reply.
   ASSERT_TRUE(eventually([&] {
-    return sub.events.count("subscribed:alice.numbers") == 1 && pub.events.count("ready:alice.numbers") == 1;
+    return sub.events.count("subscribed:alice.numbers") == 1 &&
+           pub.events.count("ready:alice.numbers") == 1;
   }));
   // Small frames batched into one record, and frames larger than a TLS record (16 KiB).
   const std::string big(300000, 'x');

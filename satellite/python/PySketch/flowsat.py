@@ -1055,7 +1055,7 @@ class FlowSat(AbstractFlow):
         finally:
             inp.unpin()
 
-    def _deliverData(self, chan, data, start=0, end=None):
+    def _deliverData(self, chan, data, start, end):
         """A message of a subscribed channel: data[start:end] (the flow's input buffer, or a
         direct path's), relayed or from a direct path. The view callback gets a read-only
         memoryview of it in place, released when it returns; the bytes callback one copy."""
@@ -1069,11 +1069,8 @@ class FlowSat(AbstractFlow):
             if self._onGrabView is not None:
                 self._call("grab-data-view", self._onGrabView, chan, view)
             if self._onGrab is not None:
-                if isinstance(data, bytes) and start == 0 and end is None:
-                    payload = data  # from a direct path: already a copy of its own
-                else:
-                    payload = view.tobytes()  # str under Python 2.7
-                self._call("grab-data", self._onGrab, chan, payload)
+                # One copy; str under Python 2.7.
+                self._call("grab-data", self._onGrab, chan, view.tobytes())
         finally:
             for v in mine + (view,):
                 _releaseView(v)

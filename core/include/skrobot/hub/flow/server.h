@@ -191,6 +191,7 @@ class FlowServer {
   [[nodiscard]] std::string unixPath() const;
   [[nodiscard]] uint16_t tcpPort() const noexcept;  // the bound port (useful with port 0)
   [[nodiscard]] uint16_t udpPort() const noexcept;  // server.udp's bound port; 0 without one
+  [[nodiscard]] uint16_t webPort() const noexcept;  // server.web's bound port; 0 without one
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
   [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's

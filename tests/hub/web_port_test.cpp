@@ -12,9 +12,13 @@
 
 #include <chrono>
 #include <fstream>
+#include <regex>
+#include <thread>
 
 namespace skr::sat::test {
 namespace {
+
+using namespace std::chrono_literals;
 
 struct Reply {
   int status = 0;
@@ -68,6 +72,13 @@ class Http {
     in_.erase(0, std::min(length, in_.size()));
     return r;
   }
+  // What came after the last answer (a WebSocket's frames), reading until `until` is among it,
+  // the peer closes, or 5 s pass.
+  std::string rest(const std::string& until) {
+    while (in_.find(until) == std::string::npos && more()) {
+    }
+    return in_;
+  }
   // Whether the hub closed the connection (reads EOF within the timeout).
   bool closedByPeer() {
     while (more()) {
@@ -98,6 +109,29 @@ Reply get(uint16_t port, const std::string& path, const std::string& more_header
   return h.read(method == "HEAD");
 }
 
+// A client's binary WebSocket frame (masked, with a zero key) carrying `payload`.
+std::string wsFrame(std::string_view payload) {
+  std::string f(1, '\x82');
+  if (payload.size() < 126) {
+    f += static_cast<char>(0x80 | payload.size());
+  } else {
+    f += static_cast<char>(0x80 | 126);
+    f += static_cast<char>(payload.size() >> 8);
+    f += static_cast<char>(payload.size() & 0xFF);
+  }
+  f.append(4, '\0');
+  f.append(payload);
+  return f;
+}
+
+// A FlowProtocol frame of `m`.
+template <class M>
+std::string flowFrame(const M& m) {
+  std::string out;
+  EXPECT_TRUE(flow::encode(out, m));
+  return out;
+}
+
 constexpr const char* kWsHeaders =
     "Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n"
     "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n";
@@ -121,13 +155,16 @@ class WebPort : public ::testing::Test {
     std::ofstream(site_ / "big.bin") << big;
   }
 
-  std::unique_ptr<HubProcess> hub(const std::string& web_keys) {
+  // A hub with the account alice, TCP, and the web port with `web_keys`; `server_keys` go into
+  // "server".
+  std::unique_ptr<HubProcess> hub(const std::string& web_keys,
+                                  const std::string& server_keys = {}) {
     const fs::path d = dir_.path() / ("hub" + std::to_string(++hubs_));
     fs::create_directories(d);
     auto h = std::make_unique<HubProcess>(
         SKROBOT_BIN, d, "alice",
         R"(, "web": {"port": 0, "root": ")" + site_.string() + R"(", "mounts": {"/teleop": ")" +
-            (dir_.path() / "teleop").string() + "\"}" + web_keys + "}");
+            (dir_.path() / "teleop").string() + "\"}" + web_keys + "}" + server_keys);
     EXPECT_TRUE(h->start()) << h->log();
     return h;
   }
@@ -341,8 +378,8 @@ TEST_F(WebPort, FlowsOverWss) {
   const std::string cmd =
       std::string("sh ") + MAKE_TEST_CERTS + " " + certs.string() + " >/dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << "make_test_certs.sh failed";
-  auto h = hub(R"(, "flows": true}, "tls": {"cert": ")" + (certs / "hub.pem").string() +
-               R"(", "key": ")" + (certs / "hub.key").string() + "\"");
+  auto h = hub(R"(, "flows": true)", R"(, "tls": {"cert": ")" + (certs / "hub.pem").string() +
+                                         R"(", "key": ")" + (certs / "hub.key").string() + "\"}");
   const uint16_t port = webPort(*h);
   ASSERT_NE(port, 0) << h->log();
   EXPECT_NE(h->log().find("FLOW-LISTEN HTTPS"), std::string::npos) << h->log();
@@ -375,6 +412,132 @@ TEST_F(WebPort, TheDevAccountOnlyWhenConfiguredAndFromLoopback) {
       << h->log();
   // Still never on TCP.
   EXPECT_NE(flowError(options(h->tcpAddress(), "guest", "password")), "");
+}
+
+// An upgraded /flow connection, raw: the test writes WebSocket frames itself.
+std::unique_ptr<Http> rawFlow(uint16_t port) {
+  auto c = std::make_unique<Http>(port);
+  c->send(std::string("GET /flow HTTP/1.1\r\nHost: 127.0.0.1\r\n") + kWsHeaders +
+          "Sec-WebSocket-Protocol: skrobot-flow.v1\r\n\r\n");
+  EXPECT_EQ(c->read().status, 101);
+  return c;
+}
+
+TEST_F(WebPort, PhysicalPathsAreRefusedOnWebSocket) {
+  auto h = hub(R"(, "flows": true)");
+  const uint16_t port = webPort(*h);
+  ASSERT_NE(port, 0) << h->log();
+  auto c = rawFlow(port);
+  flow::msg::Login login;
+  login.user = "alice";
+  login.password = "s3cret-pass";
+  login.client_name = "raw";
+  c->send(wsFrame(flowFrame(login)));
+  ASSERT_NE(c->rest("alice").find("alice"), std::string::npos) << "no LOGIN_OK";
+  c->send(wsFrame(flowFrame(flow::msg::GoAsync{})));
+  flow::msg::PhysOffer offer;
+  offer.tag = 7;
+  offer.chan_id = 1;
+  offer.paths = 1;
+  c->send(wsFrame(flowFrame(offer)));
+  EXPECT_NE(c->rest("over WebSocket").find("PHYS_OFFER: no physical paths over WebSocket"),
+            std::string::npos);
+}
+
+TEST_F(WebPort, AFrameOverTheLimitClosesOnlyThatConnection) {
+  auto h = hub(R"(, "flows": true)");
+  const uint16_t port = webPort(*h);
+  ASSERT_NE(port, 0) << h->log();
+  SatelliteOptions so;
+  so.connection = options("ws:127.0.0.1:" + std::to_string(port));
+  SatOnThread good(so);
+  good.start();
+  ASSERT_TRUE(eventually([&] { return good.connected(); })) << h->log();
+  // Before login a frame may hold 4096 bytes: this one announces 1 GiB.
+  auto bad = rawFlow(port);
+  bad->send(wsFrame(std::string("\x00\x00\x00\x40\x01", 5)));
+  EXPECT_TRUE(bad->closedByPeer());
+  EXPECT_TRUE(h->waitLog("FLOW-PROTOCOL")) << h->log();
+  EXPECT_TRUE(good.connected());
+  EXPECT_EQ(good.events.count("disconnected:"), 0u);
+}
+
+TEST_F(WebPort, ASlowWebSocketSubscriberDropsWhileAnotherKeepsUp) {
+  auto h = hub(R"(, "flows": true)", R"(, "subscriber_queue_bytes": 65536)");
+  const uint16_t port = webPort(*h);
+  ASSERT_NE(port, 0) << h->log();
+  const std::string ws = "ws:127.0.0.1:" + std::to_string(port);
+  SatelliteOptions po, fo, lo;
+  po.connection = options(ws);
+  po.connection.client_name = "pub";
+  fo.connection = options(ws);
+  fo.connection.client_name = "fast";
+  lo.connection = options(ws);
+  lo.connection.client_name = "slow";
+  SatOnThread pub(po), fast(fo), slow(lo);
+  // The fast one asks for a queue that holds everything (SUBSCRIBE_QUEUE): whatever the load on
+  // the machine, it loses nothing; the slow one has the hub's 64 KiB.
+  fast.on([](Satellite& x) { x.subscribe("alice.frames", 32u << 20); });
+  slow.on([](Satellite& x) { x.subscribe("alice.frames"); });
+  for (SatOnThread* s : {&pub, &fast, &slow}) s->start();
+  ASSERT_TRUE(eventually([&] { return pub.connected() && fast.connected() && slow.connected(); }));
+  ASSERT_TRUE(pub.on([](Satellite& s) { return s.addChannel({.name = "frames"}); }));
+  ASSERT_TRUE(eventually([&] {
+    return fast.events.count("subscribed:alice.frames") == 1 &&
+           slow.events.count("subscribed:alice.frames") == 1;
+  }));
+  // The slow one's loop stops reading for 3 s while 400 frames of 64 KiB go out, paced so that
+  // the publisher's own queue takes each (a publish it refuses is not counted).
+  std::thread stall([&] { slow.on([](Satellite&) { std::this_thread::sleep_for(3s); }); });
+  std::this_thread::sleep_for(100ms);
+  const std::string frame(64 * 1024, 'f');
+  size_t sent = 0;
+  for (int i = 0; i < 400; ++i) {
+    if (pub.on([&](Satellite& s) { return s.publish("frames", frame); })) ++sent;
+    std::this_thread::sleep_for(2ms);
+  }
+  stall.join();
+  ASSERT_GT(sent, 100u);
+  ASSERT_TRUE(eventually([&] { return fast.events.count("data:alice.frames:") == sent; }))
+      << fast.events.count("data:alice.frames:") << " of " << sent;
+  EXPECT_TRUE(h->waitLog("FLOW-SLOW-SUBSCRIBER")) << h->log();
+  EXPECT_NE(h->log().find("(alice/slow) ws: dropped"), std::string::npos) << h->log();
+  std::this_thread::sleep_for(500ms);
+  EXPECT_LT(slow.events.count("data:alice.frames:"), sent);
+  EXPECT_TRUE(slow.connected());
+}
+
+TEST_F(WebPort, PageTokensAreIssuedByPostToTheHubsOwnPagesOnly) {
+  {
+    auto off = hub("");
+    Reply r = get(webPort(*off), "/skrobot/token", "Content-Length: 0\r\n", "POST");
+    EXPECT_EQ(r.status, 405) << r.head;  // files only: POST is not served
+  }
+  auto h = hub(R"(, "flows": true, "token_ttl_ms": 1000)");
+  const uint16_t port = webPort(*h);
+  ASSERT_NE(port, 0) << h->log();
+  Reply ok = get(port, "/skrobot/token",
+                 "Content-Length: 0\r\nOrigin: http://127.0.0.1\r\nSec-Fetch-Site: same-origin\r\n",
+                 "POST");
+  EXPECT_EQ(ok.status, 200) << ok.head;
+  EXPECT_TRUE(ok.has("Cache-Control: no-store")) << ok.head;
+  EXPECT_TRUE(ok.has("Content-Type: application/json")) << ok.head;
+  EXPECT_EQ(ok.head.find("Access-Control-"), std::string::npos) << ok.head;
+  EXPECT_TRUE(std::regex_match(
+      ok.body,
+      std::regex(R"(\{"token":"[A-Za-z0-9_-]{43}","user":"web-page","expires_in_ms":1000\})")))
+      << ok.body;
+  // No Origin (Node.js, curl) passes too.
+  EXPECT_EQ(get(port, "/skrobot/token", "Content-Length: 0\r\n", "POST").status, 200);
+
+  Reply foreign = get(port, "/skrobot/token", "Origin: http://evil.example\r\n", "POST");
+  EXPECT_EQ(foreign.status, 403) << foreign.head;
+  EXPECT_EQ(foreign.body.find("token\""), std::string::npos);
+  Reply cross = get(port, "/skrobot/token", "Sec-Fetch-Site: cross-site\r\n", "POST");
+  EXPECT_EQ(cross.status, 403) << cross.head;
+  EXPECT_EQ(get(port, "/skrobot/token").status, 405);
+  EXPECT_EQ(get(port, "/skrobot/token", "Content-Length: 5\r\n", "POST").status, 400);
+  EXPECT_TRUE(h->waitLog("page token for Origin \"http://evil.example\", not allowed")) << h->log();
 }
 
 }  // namespace

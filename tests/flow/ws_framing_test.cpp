@@ -643,7 +643,7 @@ TEST_F(WsPair, TheHubsConnectionRunsOverWebSocket) {
   // A subscriber that reads nothing for a while: the hub's output goes in slices, and over
   // WebSocket no slice cuts a frame (the client refuses a message that ends inside one, 1007).
   sub.t->pause();
-  for (int i = 0; i < 16; ++i) pub.send(msg::Publish{ev->info.id, {big}});
+  for (int i = 0; i < 64; ++i) pub.send(msg::Publish{ev->info.id, {big}});
   pub.send(msg::Publish{ev->info.id, {"last"}});
   loop_.runFor(100 * kNsPerMs);
   ASSERT_TRUE(sub.t->resume());

@@ -8,7 +8,6 @@
 #include <openssl/sha.h>
 
 #include <algorithm>
-#include <charconv>
 
 namespace skr::flow::http {
 namespace {
@@ -192,10 +191,12 @@ Result<Response> parseResponse(std::string_view head) {
   }
   Response r;
   const std::string_view code = line.substr(9, 3);
-  const auto [end, ec] = std::from_chars(code.data(), code.data() + code.size(), r.status);
-  if (ec != std::errc() || end != code.data() + 3 || (line.size() > 12 && line[12] != ' ')) {
+  if (code.size() != 3 ||
+      !std::all_of(code.begin(), code.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
+      (line.size() > 12 && line[12] != ' ')) {
     return makeError(Errc::invalid_argument, "a bad status line");
   }
+  r.status = (code[0] - '0') * 100 + (code[1] - '0') * 10 + (code[2] - '0');
   if (line.size() > 13) r.reason = std::string(line.substr(13));
   if (auto h = parseHeaders(head.substr(eol + 2), r.headers); !h) return h.error();
   return r;

@@ -193,7 +193,9 @@ class Listener {
  public:
   using Accepted = std::function<void(std::unique_ptr<Transport>)>;
 
-  // Listens on `address` (local:, tcp:, tls:; a tcp port 0 takes a free one). A local: socket
+  // Listens on `address` (local:, tcp:, tls:; a tcp port 0 takes a free one). A WebSocket
+  // server listens on tcp: or tls:, reads each request head and upgrades the connection
+  // (runtime/internal/http_head.h: http::upgrade); ws: and wss: are no listener's addresses. A local: socket
   // file left by a process that is gone is replaced; one that a live process answers on is
   // Errc::already_exists. Errc::io_error naming the address when the system refuses,
   // Errc::invalid_argument for an address it cannot listen on.
@@ -242,6 +244,10 @@ class Dialer {
   // says the port is closed) and hands over the session once the hub accepts it: "no answer to
   // the UDP handshake..." when it does not within options.udp_handshake_ms, naming the likely
   // cause (no key, a key that is not the account's, no server.udp there).
+  // A ws: or wss: address connects (wss: with its TLS handshake, `tls` required), sends the
+  // WebSocket upgrade for its path offering the subprotocol skrobot-flow.v1, and hands over the
+  // transport (TransportKind::websocket) once the server's 101 names it with the right
+  // Sec-WebSocket-Accept: "WebSocket upgrade with ws:host:8080/flow: the server answered 404...".
   [[nodiscard]] static std::unique_ptr<Dialer> open(Loop& loop, const Address& address,
                                                     const DialOptions& options, Opened opened);
   [[nodiscard]] static std::unique_ptr<Dialer> open(Loop& loop, const Address& address,

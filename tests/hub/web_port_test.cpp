@@ -157,16 +157,24 @@ class WebPort : public ::testing::Test {
 
   // A hub with the account alice, TCP, and the web port with `web_keys`; `server_keys` go into
   // "server".
-  std::unique_ptr<HubProcess> hub(const std::string& web_keys,
-                                  const std::string& server_keys = {}) {
-    const fs::path d = dir_.path() / ("hub" + std::to_string(++hubs_));
+  HubProcess* hub(const std::string& web_keys, const std::string& server_keys = {}) {
+    const fs::path d = dir_.path() / ("hub" + std::to_string(hubs_.size() + 1));
     fs::create_directories(d);
     auto h = std::make_unique<HubProcess>(
         SKROBOT_BIN, d, "alice",
         R"(, "web": {"port": 0, "root": ")" + site_.string() + R"(", "mounts": {"/teleop": ")" +
             (dir_.path() / "teleop").string() + "\"}" + web_keys + "}" + server_keys);
     EXPECT_TRUE(h->start()) << h->log();
-    return h;
+    hubs_.push_back(std::move(h));
+    return hubs_.back().get();
+  }
+  // Each hub stops cleanly, without a sanitizer's report.
+  void TearDown() override {
+    for (auto& h : hubs_) {
+      EXPECT_EQ(h->stop(), 0) << h->log();
+      EXPECT_EQ(h->log().find("Sanitizer"), std::string::npos) << h->log();
+      EXPECT_EQ(h->log().find("runtime error"), std::string::npos) << h->log();
+    }
   }
   // The port of the hub's "FLOW-LISTEN HTTP 127.0.0.1:<port>" (or HTTPS) line; 0 without.
   static uint16_t webPort(const HubProcess& h) {
@@ -207,7 +215,7 @@ class WebPort : public ::testing::Test {
   TempDir dir_;
   fs::path site_;
   std::string big_;
-  int hubs_ = 0;
+  std::vector<std::unique_ptr<HubProcess>> hubs_;
 };
 
 TEST_F(WebPort, ServesFilesWithSecurityHeadersGetHeadAndKeepAlive) {
@@ -538,6 +546,54 @@ TEST_F(WebPort, PageTokensAreIssuedByPostToTheHubsOwnPagesOnly) {
   EXPECT_EQ(get(port, "/skrobot/token").status, 405);
   EXPECT_EQ(get(port, "/skrobot/token", "Content-Length: 5\r\n", "POST").status, 400);
   EXPECT_TRUE(h->waitLog("page token for Origin \"http://evil.example\", not allowed")) << h->log();
+}
+
+TEST_F(WebPort, HttpConnectionsBeyondMaxConnectionsAreClosed) {
+  auto h = hub("", R"(, "max_connections": 3)");
+  const uint16_t port = webPort(*h);
+  ASSERT_NE(port, 0) << h->log();
+  Http a(port), b(port), c(port);
+  // Accepted in the order they connected: the fourth is one too many.
+  Http d(port);
+  EXPECT_TRUE(d.closedByPeer());
+  EXPECT_TRUE(h->waitLog("HTTP connections already (server.max_connections)")) << h->log();
+  a.send("GET /js/app.js HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
+  EXPECT_EQ(a.read().status, 200);
+}
+
+TEST_F(WebPort, ThePageAccountIsCheckedAtStart) {
+  // The hub's exit code and output with a config of the web port with `web_keys`, and
+  // `user` in its users file.
+  const auto run = [&](const std::string& name, const std::string& user,
+                       const std::string& web_keys) {
+    const fs::path d = dir_.path() / name;
+    fs::create_directories(d);
+    const HubProcess config(SKROBOT_BIN, d, user,
+                            R"(, "web": {"port": 0, "flows": true, "root": ")" + site_.string() +
+                                "\"" + web_keys + "}");
+    Child hub({SKROBOT_BIN, "--config", (d / "hub.json").string()}, {}, d / "run.log");
+    const int code = hub.wait(20000);
+    return std::make_pair(code, hub.output());
+  };
+  // A users-file account named like the built-in page account.
+  const auto clash = run("clash", "web-page", "");
+  EXPECT_NE(clash.first, 0);
+  EXPECT_NE(clash.second.find("the name of the built-in page account (server.web.page_account)"),
+            std::string::npos)
+      << clash.second;
+  // A page account that the users file lacks.
+  const auto missing = run("missing", "alice", R"(, "page_account": "teleop")");
+  EXPECT_NE(missing.first, 0);
+  EXPECT_NE(
+      missing.second.find("server.web.page_account \"teleop\" is not an account of the users file"),
+      std::string::npos)
+      << missing.second;
+  // Named, it is used: the hub starts.
+  fs::create_directories(dir_.path() / "named");
+  HubProcess named(SKROBOT_BIN, dir_.path() / "named", "alice",
+                   R"(, "web": {"port": 0, "flows": true, "page_account": "alice", "root": ")" +
+                       site_.string() + "\"}");
+  EXPECT_TRUE(named.start()) << named.log();
 }
 
 }  // namespace

@@ -148,7 +148,7 @@ Result<void> FlowServer::Impl::listenUdp() {
 Result<void> FlowServer::Impl::listenWeb() {
   const WebOptions& w = *opt.web;
   auto port = WebPort::open(
-      loop, w, tls ? &*tls : nullptr, opt.login_timeout_ms,
+      loop, w, tls ? &*tls : nullptr, opt.login_timeout_ms, opt.max_connections,
       [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); },
       [this](const std::string& address) { return session.issuePageToken(address); });
   if (!port) return port.error();

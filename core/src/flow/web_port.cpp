@@ -340,11 +340,13 @@ class WebPort::Conn final : public transport::Transport::Receiver,
 };
 
 WebPort::WebPort(Loop& loop, const WebOptions& options, bool secure, uint32_t head_timeout_ms,
-                 Upgraded flows, IssueToken issue_token, std::unique_ptr<WebFiles> files)
+                 size_t max_connections, Upgraded flows, IssueToken issue_token,
+                 std::unique_ptr<WebFiles> files)
     : loop_(loop),
       options_(options),
       secure_(secure),
       head_timeout_ns_(static_cast<Nanos>(head_timeout_ms) * kNsPerMs),
+      max_connections_(max_connections),
       flows_(std::move(flows)),
       issue_token_(std::move(issue_token)),
       files_(std::move(files)),
@@ -360,12 +362,13 @@ WebPort::WebPort(Loop& loop, const WebOptions& options, bool secure, uint32_t he
 
 Result<std::unique_ptr<WebPort>> WebPort::open(Loop& loop, const WebOptions& options,
                                                const TlsContext* tls, uint32_t head_timeout_ms,
-                                               Upgraded flows, IssueToken issue_token) {
+                                               size_t max_connections, Upgraded flows,
+                                               IssueToken issue_token) {
   auto files = WebFiles::open(loop, options.root, options.mounts);
   if (!files) return files.error();
   auto port =
-      std::make_unique<WebPort>(loop, options, tls != nullptr, head_timeout_ms, std::move(flows),
-                                std::move(issue_token), std::move(files).value());
+      std::make_unique<WebPort>(loop, options, tls != nullptr, head_timeout_ms, max_connections,
+                                std::move(flows), std::move(issue_token), std::move(files).value());
   transport::ListenOptions lo;
   Address address{.kind = Address::Kind::tcp, .host = options.address, .port = options.port};
   if (tls != nullptr) {
@@ -396,6 +399,13 @@ uint16_t WebPort::port() const noexcept {
 }
 
 void WebPort::accepted(std::unique_ptr<transport::Transport> t) {
+  if (conns_.size() >= max_connections_) {
+    ++stats_.refused;
+    log::warn(kLogSource, "FLOW-LIMIT",
+              "web port: refusing " + t->peer().source() + ", " + std::to_string(conns_.size()) +
+                  " HTTP connections already (server.max_connections)");
+    return;  // destroying the transport closes it
+  }
   auto c = std::make_shared<Conn>(*this, std::move(t));
   conns_.emplace(c.get(), c);
   c->start();

@@ -15,7 +15,8 @@
 //   - GET and HEAD of anything else are files (web_files.h), read on libuv's thread pool; other
 //     methods 405.
 // Refusals of Host, Origin and upgrades are logged FLOW-WS-REFUSED and counted (stats(), in
-// hub.stats "web"). Errors close the connection; a file keeps it open (HTTP/1.1 keep-alive, one
+// hub.stats "web"). At most `max_connections` speak HTTP at once: more are closed at once
+// (FLOW-LIMIT). Errors close the connection; a file keeps it open (HTTP/1.1 keep-alive, one
 // request at a time). Main loop thread only.
 #pragma once
 
@@ -50,7 +51,7 @@ class WebPort {
   [[nodiscard]] static Result<std::unique_ptr<WebPort>> open(Loop& loop, const WebOptions& options,
                                                              const TlsContext* tls,
                                                              uint32_t head_timeout_ms,
-                                                             Upgraded flows,
+                                                             size_t max_connections, Upgraded flows,
                                                              IssueToken issue_token);
   ~WebPort();  // stops listening and closes the connections still speaking HTTP
   WebPort(const WebPort&) = delete;
@@ -64,7 +65,8 @@ class WebPort {
 
   class Conn;
   WebPort(Loop& loop, const WebOptions& options, bool secure, uint32_t head_timeout_ms,
-          Upgraded flows, IssueToken issue_token, std::unique_ptr<WebFiles> files);
+          size_t max_connections, Upgraded flows, IssueToken issue_token,
+          std::unique_ptr<WebFiles> files);
 
  private:
   friend class Conn;
@@ -79,6 +81,7 @@ class WebPort {
   WebOptions options_;
   bool secure_;
   Nanos head_timeout_ns_;
+  size_t max_connections_;  // HTTP connections at once (server.max_connections); more are closed
   Upgraded flows_;
   IssueToken issue_token_;
   std::unique_ptr<WebFiles> files_;

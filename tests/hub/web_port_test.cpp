@@ -561,6 +561,23 @@ TEST_F(WebPort, HttpConnectionsBeyondMaxConnectionsAreClosed) {
   EXPECT_EQ(a.read().status, 200);
 }
 
+TEST_F(WebPort, WithoutARootThePageBesideTheHubIsServed) {
+  // In a build tree: <build>/web, the page copied beside bin/ (installed: share/skrobot/web).
+  const fs::path page = fs::path(SKROBOT_BIN).parent_path().parent_path() / "web";
+  ASSERT_TRUE(fs::is_regular_file(page / "index.html")) << page;
+  fs::create_directories(dir_.path() / "default");
+  HubProcess h(SKROBOT_BIN, dir_.path() / "default", "alice", R"(, "web": {"port": 0})");
+  ASSERT_TRUE(h.start()) << h.log();
+  EXPECT_NE(h.log().find("(files from " + page.lexically_normal().string() + ")"),
+            std::string::npos)
+      << h.log();
+  std::ifstream in(page / "index.html", std::ios::binary);
+  const std::string index{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  Reply r = get(webPort(h), "/");
+  EXPECT_EQ(r.status, 200) << r.head;
+  EXPECT_TRUE(r.body == index);
+}
+
 TEST_F(WebPort, ThePageAccountIsCheckedAtStart) {
   // The hub's exit code and output with a config of the web port with `web_keys`, and
   // `user` in its users file.

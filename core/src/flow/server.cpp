@@ -6,9 +6,12 @@
 #include "connection.h"
 #include "uv_handle.h"
 
+#include <skrobot/hub/install_layout.h>
 #include <skrobot/runtime/log.h>
 
 #include <csignal>
+#include <filesystem>
+#include <system_error>
 #include <vector>
 
 namespace skr::flow {
@@ -146,7 +149,23 @@ Result<void> FlowServer::Impl::listenUdp() {
 }
 
 Result<void> FlowServer::Impl::listenWeb() {
-  const WebOptions& w = *opt.web;
+  WebOptions w = *opt.web;
+  if (w.root.empty()) {
+    // The page installed with the hub, or in a build tree the one copied beside bin/.
+    std::error_code ec;
+    for (const std::filesystem::path& dir :
+         {installedDataDir() / "web", (executableDir() / ".." / "web").lexically_normal()}) {
+      if (!executableDir().empty() && std::filesystem::is_regular_file(dir / "index.html", ec)) {
+        w.root = dir;
+        break;
+      }
+    }
+    if (w.root.empty()) {
+      log::warn(kLogSource, "FLOW-WEB",
+                "no web page installed beside the hub (" + (installedDataDir() / "web").string() +
+                    "): the web port serves server.web.mounts only; set server.web.root");
+    }
+  }
   auto port = WebPort::open(
       loop, w, tls ? &*tls : nullptr, opt.login_timeout_ms, opt.max_connections,
       [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); },
@@ -156,6 +175,7 @@ Result<void> FlowServer::Impl::listenWeb() {
   const std::string where = w.address + ":" + std::to_string(web_port->port());
   log::info(kLogSource, "FLOW-LISTEN",
             std::string(tls ? "HTTPS " : "HTTP ") + where + " (files" +
+                (w.root.empty() ? "" : " from " + w.root.string()) +
                 (w.flows ? ", flows over WebSocket at /flow" : "") + ")");
   if (!tls && !isLoopbackAddress(w.address)) {
     log::warn(kLogSource, "FLOW-TCP-PLAIN",

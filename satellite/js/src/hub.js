@@ -186,7 +186,7 @@ export class Hub {
     this.currentDb = this.session?.currentDb ?? '';
     this.channels.clear();
     for (const m of items) this.channels.set(m.id, channelInfo(m));
-    for (const c of this.owned) this.createOwned(c);
+    for (const c of this.owned) this.createOwned(c).catch((e) => this.emit('error', e));
     for (const s of this.subscriptions) {
       s.id = 0;
       this.resubscribe(s);
@@ -257,7 +257,8 @@ export class Hub {
    * or, without `answer`, for nothing: then only a failure comes (EV_ERROR), and the promise
    * resolves once a DB_READ sent after it is answered, the flow being handled in order.
    * @param {string} name @param {Record<string, any>} fields @param {string} [answer]
-   * @param {{signal?: AbortSignal}} [options]
+   * @param {{signal?: AbortSignal, sync?: (answer: any) => void}} [options] sync: called with the
+   *   answer at once, before the events that came with it (the promise settles a microtask later)
    * @returns {Promise<any>}
    */
   request(name, fields, answer, options = {}) {
@@ -275,7 +276,9 @@ export class Hub {
         signal?.removeEventListener('abort', onAbort);
         fn(v);
       };
-      this.pending.set(tag, { resolve: settle(resolve), reject: settle(reject), code: name });
+      const done = settle(resolve);
+      const sync = options.sync;
+      this.pending.set(tag, { resolve: sync ? (v) => { sync(v); done(v); } : done, reject: settle(reject), code: name });
       this.send(name, { ...fields, tag });
       if (!answer) {
         // A barrier: its answer (value or error) says the command before it was handled.
@@ -398,17 +401,26 @@ export class Hub {
    */
   async createChannel(shortName, options = {}) {
     const c = new OwnedChannel(this, shortName, { kind: options.kind ?? 'streaming', mime: options.mime ?? '', props: options.props ?? null });
-    await this.createOwned(c);
     this.owned.add(c);
+    try {
+      await this.createOwned(c);
+    } catch (e) {
+      this.owned.delete(c);
+      throw e;
+    }
     return c;
   }
 
+  // The id is set as EV_CHAN_ADDED is read: an EV_START_PUBLISH may follow in the same read.
   async createOwned(c) {
-    const info = await this.request('CHAN_ADD', {
+    await this.request('CHAN_ADD', {
       kind: KIND[c.spec.kind], short_name: c.shortName, mime: c.spec.mime, props: c.spec.props,
-    }, 'EV_CHAN_ADDED');
-    c.id = info.id;
-    c.name = info.name;
+    }, 'EV_CHAN_ADDED', {
+      sync: (info) => {
+        c.id = info.id;
+        c.name = info.name;
+      },
+    });
     return c;
   }
 

@@ -38,8 +38,9 @@ export class Hub {
   constructor(address, options, open) {
     this.address = address;
     this.options = options;
+    /** @internal */
     this.open = open;
-    /** @type {import('./transport-node.js').Transport | null} */
+    /** @internal @type {import('./transport-node.js').Transport | null} */
     this.transport = null;
     /** @type {Session | null} */
     this.session = null;
@@ -53,14 +54,18 @@ export class Hub {
     this.subscriptions = new Set();
     /** @type {Set<Follower>} */
     this.followers = new Set();
-    /** Answers awaited on the flow, by tag. @type {Map<number, {resolve: (m: any) => void, reject: (e: Error) => void, code: string}>} */
+    /** @internal Answers awaited on the flow, by tag. @type {Map<number, {resolve: (m: any) => void, reject: (e: Error) => void, code: string}>} */
     this.pending = new Map();
+    /** @internal */
     this.tag = 0;
     this.currentDb = '';
+    /** @internal */
     this.backoffMs = BACKOFF_FIRST_MS;
+    /** @internal */
     this.onlineSince = 0;
+    /** @internal */
     this.timer = null;
-    /** @type {Map<string, Set<Function>>} */
+    /** @internal @type {Map<string, Set<Function>>} */
     this.listeners = new Map();
   }
 
@@ -75,7 +80,7 @@ export class Hub {
     return () => this.listeners.get(event)?.delete(fn);
   }
 
-  /** @param {string} event @param {...any} args */
+  /** @internal @param {string} event @param {...any} args */
   emit(event, ...args) {
     for (const fn of this.listeners.get(event) ?? []) {
       try {
@@ -180,6 +185,7 @@ export class Hub {
   }
 
   // Online: the channel table from CHAN_LIST, then what this client had.
+  /** @internal */
   ready(items) {
     this.online = true;
     this.onlineSince = Date.now();
@@ -198,6 +204,7 @@ export class Hub {
     this.emit('online', this.session);
   }
 
+  /** @internal */
   lost(t, error) {
     if (this.transport !== t) return;
     this.transport = null;
@@ -215,6 +222,7 @@ export class Hub {
     this.retry();
   }
 
+  /** @internal */
   retry() {
     const wait = this.backoffMs;
     this.backoffMs = Math.min(this.backoffMs * 2, BACKOFF_MAX_MS);
@@ -240,20 +248,21 @@ export class Hub {
 
   // -- sending
 
-  /** Sends one frame on the flow; false while offline. @param {string} name @param {Record<string, any>} fields */
+  /** @internal Sends one frame on the flow; false while offline. @param {string} name @param {Record<string, any>} fields */
   send(name, fields) {
     if (!this.transport || !this.online) return false;
     this.transport.send(encodeFrame(name, fields));
     return true;
   }
 
+  /** @internal */
   nextTag() {
     this.tag = (this.tag % 0xffffffff) + 1;
     return this.tag;
   }
 
   /**
-   * Sends a tagged command and waits for the event with its tag (`answer`: the code awaited),
+   * @internal Sends a tagged command and waits for the event with its tag (`answer`: the code awaited),
    * or, without `answer`, for nothing: then only a failure comes (EV_ERROR), and the promise
    * resolves once a DB_READ sent after it is answered, the flow being handled in order.
    * @param {string} name @param {Record<string, any>} fields @param {string} [answer]
@@ -293,13 +302,14 @@ export class Hub {
     });
   }
 
-  /** A tagged command with no answer but failures. @param {string} name @param {Record<string, any>} fields */
+  /** @internal A tagged command with no answer but failures. @param {string} name @param {Record<string, any>} fields */
   command(name, fields) {
     return this.request(name, fields);
   }
 
   // -- events from the hub
 
+  /** @internal */
   event(code, body) {
     const row = BY_CODE.get(code);
     if (!row || row.direction !== 'to_client' || row.via === 'sync' || row.via === 'link_flow') {
@@ -411,7 +421,7 @@ export class Hub {
     return c;
   }
 
-  // The id is set as EV_CHAN_ADDED is read: an EV_START_PUBLISH may follow in the same read.
+  /** @internal The id is set as EV_CHAN_ADDED is read: an EV_START_PUBLISH may follow in the same read. */
   async createOwned(c) {
     await this.request('CHAN_ADD', {
       kind: KIND[c.spec.kind], short_name: c.shortName, mime: c.spec.mime, props: c.spec.props,
@@ -443,6 +453,7 @@ export class Hub {
     return s;
   }
 
+  /** @internal */
   resubscribe(s) {
     const info = this.channelByName(s.name);
     if (!info) return;
@@ -452,7 +463,7 @@ export class Hub {
       .catch((e) => this.emit('error', e));
   }
 
-  /** @param {Subscription} s */
+  /** @internal @param {Subscription} s */
   unsubscribe(s) {
     this.subscriptions.delete(s);
     const still = [...this.subscriptions].some((o) => o.id === s.id);
@@ -495,6 +506,7 @@ export class Hub {
     return c;
   }
 
+  /** @internal */
   serviceRequest(m) {
     const c = [...this.owned].find((o) => o.id === m.chan_id);
     const answer = (value) => this.send('SERVICE_RESPONSE', { chan_id: m.chan_id, request: m.request, value });
@@ -527,6 +539,7 @@ export class Hub {
     return f;
   }
 
+  /** @internal */
   refollow(f) {
     const info = this.channelByName(f.name);
     if (!info) return;

@@ -8,7 +8,6 @@ import { openStream } from './transport-node.js';
 import { openWebSocket } from './transport-ws.js';
 
 export * from './common.js';
-export { openStream } from './transport-node.js';
 
 async function webSocketClass(options) {
   if (options.WebSocket) return options.WebSocket;

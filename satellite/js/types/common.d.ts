@@ -1,0 +1,13 @@
+export { Hub } from "./hub.js";
+export * from "./errors.js";
+export * from "./media.js";
+export { Database } from "./databases.js";
+export { Follower } from "./sync.js";
+export { parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT } from "./address.js";
+export { Variant, Typed, TAG, MAX_DEPTH, MAX_VALUE_BYTES, encodeVariant, decodeVariant, readVariant, writeVariant } from "./variant.js";
+export { ByteReader, ByteWriter, asBytes, encodeUtf8, decodeUtf8 } from "./bytes.js";
+export { encodeFrame, decodeBody, codeName, CODE, BY_CODE, PROTOCOL_MAJOR, CATALOGUE_MINOR } from "./codec.js";
+export { CODES, PARTS, ERRORS, CHANNEL_KINDS } from "./catalogue.js";
+export { messageFrames, FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES } from "./frames.js";
+export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, monotonicNs } from "./channels.js";
+export { openWebSocket, SUBPROTOCOL } from "./transport-ws.js";

@@ -22,7 +22,7 @@ export async function main(): Promise<void> {
   hub.on('offline', (e: Error | null) => console.log('offline', e?.message));
 
   // Channels: publish views, strings and JSON; subscribe with a callback or an iterator.
-  const camera: OwnedChannel = await hub.createChannel('camera', { mime: FORMAT.jpeg ? 'image/jpeg' : '', props: { fps: 30 } });
+  const camera: OwnedChannel = await hub.createChannel('camera', { mime: encodingOf(FORMAT.jpeg)?.mime ?? '', props: { fps: 30 } });
   camera.onSubscribers((on: boolean) => console.log('subscribers:', on));
   camera.publish(new Float32Array([1, 2]));
   camera.publish('text');

@@ -70,6 +70,26 @@ test('channels: every payload form arrives byte-exact; first and last subscriber
   await waitFor('removed everywhere', () => !b.channelByName('guest.forms'), 5000, 10);
 });
 
+test('a callback that throws goes to the error listeners; the flow carries on', async () => {
+  const ch = await a.createChannel('throws');
+  const errors = [];
+  const off = b.on('error', (e) => errors.push(e.message));
+  const got = [];
+  const s = b.subscribe('guest.throws', (m) => {
+    got.push(m.text());
+    throw new Error(`callback failed on ${m.text()}`);
+  });
+  await waitFor('subscribed', () => ch.hasSubscribers, 5000, 10);
+  ch.publish('one');
+  ch.publish('two');
+  await waitFor('both delivered', () => got.length === 2, 5000, 10);
+  assert.deepEqual(errors, ['callback failed on one', 'callback failed on two']);
+  assert.ok(b.online, 'still online');
+  off();
+  s.close();
+  ch.remove();
+});
+
 test('channels: an async iterator, and a subscription made before the channel exists', async () => {
   const s = b.subscribe('guest.later');
   const ch = await a.createChannel('later');

@@ -177,12 +177,16 @@ test('garbage from the hub during login: connect() rejects with ProtocolError, t
   };
   for (const [what, reply] of Object.entries(cases)) {
     const fake = await fakeHub(t, { reply });
-    await assert.rejects(skr.connect(fake.address), (e) => {
+    await assert.rejects(skr.connect(fake.address, { timeoutMs: 2000 }), (e) => {
       assert.ok(e instanceof skr.ProtocolError, `${what}: ${e}`);
       return true;
     }, what);
     await waitFor(`${what}: the socket closed`, () => fake.closed.length === 1, 5000, 10);
   }
+  // Silence: a hub that never answers the LOGIN is given up after timeoutMs.
+  const silent = await fakeHub(t, { reply: Buffer.alloc(0) });
+  await assert.rejects(skr.connect(silent.address, { timeoutMs: 300 }), /did not answer the login within 300 ms/);
+  await waitFor('silence: the socket closed', () => silent.closed.length === 1, 5000, 10);
 });
 
 test('garbage on the flow: the connection closes, offline reports the ProtocolError', async (t) => {

@@ -86,7 +86,13 @@ export class OwnedChannel {
   setSubscribers(on) {
     if (this.hasSubscribers === on) return;
     this.hasSubscribers = on;
-    for (const fn of this.listeners) fn(on);
+    for (const fn of this.listeners) {
+      try {
+        fn(on);
+      } catch (e) {
+        this.hub.report(e);
+      }
+    }
   }
 
   /**
@@ -156,7 +162,11 @@ export class Subscription {
   /** @param {Message} m */
   deliver(m) {
     if (this.callback) {
-      this.callback(m);
+      try {
+        this.callback(m);
+      } catch (e) {
+        this.hub.report(e);
+      }
       return;
     }
     if (this.waiter) {

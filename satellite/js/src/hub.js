@@ -91,6 +91,16 @@ export class Hub {
     }
   }
 
+  /**
+   * @internal An error of the application's own code (a callback that threw): to the `error`
+   * listeners, else thrown on its own (as an EventEmitter does); never into the flow's reading.
+   * @param {unknown} e
+   */
+  report(e) {
+    if (this.listeners.get('error')?.size) this.emit('error', e);
+    else queueMicrotask(() => { throw e; });
+  }
+
   // -- connection
 
   /** Connects and logs in once; rejects on failure (a refused login, no hub). */
@@ -179,7 +189,16 @@ export class Hub {
         t.close(e);
       });
     });
-    const items = await done;
+    const timer = setTimeout(() => {
+      failed = failed ?? new ClosedError(`the hub did not answer the login within ${this.options.timeoutMs ?? 10000} ms`);
+      t.close(failed);
+    }, this.options.timeoutMs ?? 10000);
+    let items;
+    try {
+      items = await done;
+    } finally {
+      clearTimeout(timer);
+    }
     this.transport = t;
     this.ready(items);
   }

@@ -22,7 +22,7 @@ export class Follower {
       .then(() => this.fn({ seq: m.seq, sourceTimeNs: m.source_time_ns, dropped: m.dropped }))
       .then(done, (e) => {
         done();
-        this.hub.emit('error', e);
+        this.hub.report(e);
       });
   }
 

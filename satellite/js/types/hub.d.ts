@@ -61,6 +61,12 @@ export class Hub {
     on(event: string, fn: Function): () => void;
     /** @internal @param {string} event @param {...any} args */
     emit(event: string, ...args: any[]): void;
+    /**
+     * @internal An error of the application's own code (a callback that threw): to the `error`
+     * listeners, else thrown on its own (as an EventEmitter does); never into the flow's reading.
+     * @param {unknown} e
+     */
+    report(e: unknown): void;
     /** Connects and logs in once; rejects on failure (a refused login, no hub). */
     start(): Promise<void>;
     attempt(): Promise<void>;

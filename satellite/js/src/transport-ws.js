@@ -80,7 +80,10 @@ export function openWebSocket(url, options = {}) {
       }
       if (frames.length) t.onframes(frames);
     };
-    ws.onerror = () => {};
+    // Browsers say nothing of why; the ws package names it (e.g. a subprotocol not asked for).
+    ws.onerror = (event) => {
+      if (!opened && !failure && event?.message) failure = new ClosedError(`WebSocket: ${event.message}`);
+    };
     ws.onclose = (event) => {
       clearTimeout(timer);
       if (closed) return;

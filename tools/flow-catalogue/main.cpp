@@ -11,8 +11,9 @@
 //
 //   (and the media vocabulary of plugin-api/include/skrobot/media_frame.hpp: PySketch's
 //   mediacodes.py, the JavaScript library's satellite/js/src/media-codes.js (and its copy
-//   web/js/media-codes.js for the pages until they load the library) and the table of docs/channels.md; and that
-//   plugins/, tools/ and web/js write no media mime type as a literal of their own)
+//   web/js/media-codes.js for the pages until they load the library) and the table of
+//   docs/channels.md; and that plugins/, tools/ and web/js write no media mime type as a literal of
+//   their own)
 //
 // The docs' other tables (one per family, with notes) are checked too: each row's code, name,
 // minor and fields must be the catalogue's.
@@ -196,16 +197,18 @@ std::string javaScript() {
        "export const PROTOCOL_MAJOR = "
     << kProtocolMajor << ";\nexport const CATALOGUE_MINOR = " << kProtocolMinor
     << ";\n\n"
-       "// A field is [type, name]: u8 u16 u32 u64 str16 str32 value rest; ['part', 'ChannelInfo']\n"
-       "// is a part's fields in place; ['list', 'ChannelInfo', 'items'] is u32 count, count parts.\n"
+       "// A field is [type, name]: u8 u16 u32 u64 str16 str32 value rest; ['part', "
+       "'ChannelInfo']\n"
+       "// is a part's fields in place; ['list', 'ChannelInfo', 'items'] is u32 count, count "
+       "parts.\n"
        "// reply: a synchronous request's REPLY_OK body, null for none.\n"
        "export const PARTS = Object.freeze({\n  ChannelInfo: "
     << jsFields(describeFields<msg::ChannelInfo>())
     << ",\n});\n\n"
        "export const CODES = Object.freeze([\n";
-#define SKR_FLOW_JS_ROW(value, name, minor, dir, via, family, message, reply)                     \
-  o << "  { name: '" << upper(#name) << "', code: " << hex(value) << ", minor: " << minor        \
-    << ", direction: '" #dir "', via: '" #via "', family: '" #family "',\n    body: "            \
+#define SKR_FLOW_JS_ROW(value, name, minor, dir, via, family, message, reply)             \
+  o << "  { name: '" << upper(#name) << "', code: " << hex(value) << ", minor: " << minor \
+    << ", direction: '" #dir "', via: '" #via "', family: '" #family "',\n    body: "     \
     << jsFieldsOf<msg::message>() << ",\n    reply: " << jsFieldsOf<msg::reply>() << " },\n";
   SKR_FLOW_CATALOGUE(SKR_FLOW_JS_ROW)
 #undef SKR_FLOW_JS_ROW
@@ -461,8 +464,9 @@ int main(int argc, char** argv) {
   }
   if ((what == "--check" || what == "--write") && argc == 3)
     return check(argv[2], what == "--write");
-  std::fprintf(stderr,
-               "usage: flow-catalogue --python | --c | --js | --markdown | --check SOURCE_DIR | --write "
-               "SOURCE_DIR\n");
+  std::fprintf(
+      stderr,
+      "usage: flow-catalogue --python | --c | --js | --markdown | --check SOURCE_DIR | --write "
+      "SOURCE_DIR\n");
   return 2;
 }

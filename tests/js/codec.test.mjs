@@ -74,6 +74,13 @@ test('a payload is handed to the transport as the caller\'s view, and decoded as
   assert.equal(m.payload.buffer, frame.buffer);
 });
 
+test('a field out of its wire range is refused, never wrapped', () => {
+  assert.throws(() => encodeFrame('SUBSCRIBE_QUEUE', { tag: 1, chan_id: 2, queue_bytes: 2 ** 32 }), /queue_bytes: 4294967296 is not an integer in 0..4294967295/);
+  assert.throws(() => encodeFrame('SUBSCRIBE', { tag: 1, chan_id: 65536 }), RangeError);
+  assert.throws(() => encodeFrame('SUBSCRIBE', { tag: -1, chan_id: 1 }), RangeError);
+  assert.throws(() => encodeFrame('CHAN_ADD', { tag: 1, kind: 1, short_name: 'x'.repeat(65536) }), /str16 of 65536 bytes/);
+});
+
 test('bodies that do not match their row are ProtocolErrors', () => {
   assert.throws(() => decodeBody(skr.CODE.EV_DATA, new Uint8Array([1])), /EV_DATA: truncated/);
   assert.throws(() => decodeBody(skr.CODE.EV_STOP_PUBLISH, new Uint8Array([1, 0, 0])), /1 trailing bytes/);

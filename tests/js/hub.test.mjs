@@ -105,6 +105,22 @@ test('channels: an async iterator, and a subscription made before the channel ex
   ch.remove();
 });
 
+test('a subscription asking for a larger queue: clamped by the hub, reported, subscribed all the same', async () => {
+  const ch = await a.createChannel('video');
+  const errors = [];
+  const off = b.on('error', (e) => errors.push(e));
+  const got = [];
+  const s = b.subscribe('guest.video', (m) => got.push(m), { queueBytes: 1024 * 1024 * 1024 });
+  await waitFor('the clamp reported', () => errors.length === 1, 5000, 10);
+  assert.ok(errors[0] instanceof skr.LimitExceededError, String(errors[0]));
+  assert.ok(ch.hasSubscribers, 'subscribed');
+  ch.publish('frame');
+  await waitFor('data', () => got.length === 1, 5000, 10);
+  off();
+  s.close();
+  ch.remove();
+});
+
 test('services: answers, a handler\'s error, unknown channels, timeouts and aborts', async () => {
   let release;
   await a.serve('calc', async (command, value, { requester }) => {

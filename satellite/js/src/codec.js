@@ -24,9 +24,9 @@ function writeFields(w, fields, m) {
   for (const f of fields) {
     const [type, name] = f;
     switch (type) {
-      case 'u8': w.u8(num(m, name)); break;
-      case 'u16': w.u16(num(m, name)); break;
-      case 'u32': w.u32(num(m, name)); break;
+      case 'u8': w.u8(num(m, name, 0xff)); break;
+      case 'u16': w.u16(num(m, name, 0xffff)); break;
+      case 'u32': w.u32(num(m, name, 0xffffffff)); break;
       case 'u64': w.u64(m[name] ?? 0n); break;
       case 'str16': w.str16(m[name] ?? ''); break;
       case 'str32': w.str32(m[name] ?? ''); break;
@@ -44,9 +44,9 @@ function writeFields(w, fields, m) {
   }
 }
 
-function num(m, name) {
+function num(m, name, max) {
   const v = m[name] ?? 0;
-  if (!Number.isInteger(v) || v < 0) throw new RangeError(`${name}: ${v} is not an unsigned integer`);
+  if (!Number.isInteger(v) || v < 0 || v > max) throw new RangeError(`${name}: ${v} is not an integer in 0..${max}`);
   return v;
 }
 

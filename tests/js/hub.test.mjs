@@ -129,6 +129,7 @@ test('services: answers, a handler\'s error, unknown channels, timeouts and abor
     if (command === 'slow') return new Promise((r) => { release = r; });
     throw new Error(`no command ${command}`);
   });
+  await waitFor('b knows the service', () => b.channelByName('guest.calc'), 5000, 10);
   assert.equal(await b.call('guest.calc', 'add', [1, 2, 3]), 6n);
   assert.equal(await b.call('guest.calc', 'who'), 'guest');
   assert.deepEqual(await b.call('guest.calc', 'nope'), { error: 'no command nope' });

@@ -73,6 +73,7 @@ test('node.js over ws: channels, services and databases through whole-frame mess
     assert.equal(got[0].toString(), 'small');
     assert.ok(got[1].equals(Buffer.from(big)), '600 kB byte-exact');
     await a.serve('echo', (cmd, v) => v);
+    await waitFor('b knows the service', () => b.channelByName('guest.echo'), 5000, 10);
     assert.deepEqual(await b.call('guest.echo', 'x', { n: 5n }), { n: 5n });
     await b.db().set('ws', 'yes');
     assert.equal(await a.db().get('ws'), 'yes');

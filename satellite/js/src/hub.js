@@ -114,93 +114,73 @@ export class Hub {
       t.close();
       throw new ClosedError('closed');
     }
-    /** @type {{resolve: Function, reject: Function}[]} */
-    const replies = [];
-    let handshake = true;
+    const env = /** @type {any} */ (globalThis).process?.env ?? {};
+    const timeoutMs = this.options.timeoutMs ?? 10000;
+    // The handshake, read frame by frame in order: LOGIN's reply, then CHAN_LIST's and GO_ASYNC's
+    // (sent together). Online at once after the last, so that events in the same read follow.
+    let step = 'login';
+    /** @type {any[]} */
+    let listed = [];
     let failed = null;
-    const done = new Promise((resolve, reject) => {
+    await new Promise((resolve, reject) => {
+      const timer = setTimeout(() => {
+        failed = failed ?? new ClosedError(`the hub did not answer the login within ${timeoutMs} ms`);
+        t.close(failed);
+      }, timeoutMs);
       t.onclose = (e) => {
-        if (handshake) {
-          handshake = false;
+        if (step !== 'online') {
+          clearTimeout(timer);
           reject(failed ?? e ?? new ClosedError('the hub closed the connection during login'));
-          for (const r of replies) r.reject(new ClosedError('closed'));
           return;
         }
         this.lost(t, e);
       };
+      const handshake = (code, body) => {
+        if (code === CODE.REPLY_ERROR) {
+          const m = decodeBody(code, body);
+          throw errorFromWire(m.error, m.message);
+        }
+        if (code !== CODE.REPLY_OK) throw new ProtocolError(`${codeName(code)} before GO_ASYNC was answered`);
+        if (step === 'login') {
+          const m = decodeBody(CODE.LOGIN, body, { reply: true });
+          if (m.major !== PROTOCOL_MAJOR) throw new FlowError('version_mismatch', `the hub speaks FlowProtocol ${m.major}`);
+          this.session = {
+            major: m.major, minor: Math.min(m.minor, CATALOGUE_MINOR), connectionId: m.connection_id,
+            appName: m.app_name, user: m.user, currentDb: m.current_db,
+          };
+          t.send([...encodeFrame('CHAN_LIST'), ...encodeFrame('GO_ASYNC')]);
+          step = 'list';
+        } else if (step === 'list') {
+          listed = decodeBody(CODE.CHAN_LIST, body, { reply: true }).items;
+          step = 'async';
+        } else {
+          decodeBody(CODE.GO_ASYNC, body, { reply: true });
+          step = 'online';
+          clearTimeout(timer);
+          this.transport = t;
+          this.ready(listed);
+          resolve(undefined);
+        }
+      };
       t.onframes = (frames) => {
         for (const f of frames) {
-          if (!handshake) {
-            if (this.transport !== t) return;
-            try {
-              this.event(f.code, f.body);
-            } catch (e) {
-              this.emit('error', e);
-              t.close(/** @type {Error} */ (e));
-              return;
-            }
-            continue;
-          }
-          const r = replies.shift();
           try {
-            if (!r) throw new ProtocolError(`${codeName(f.code)} before GO_ASYNC was answered`);
-            if (f.code === CODE.REPLY_ERROR) {
-              const m = decodeBody(f.code, f.body);
-              failed = errorFromWire(m.error, m.message);
-              r.reject(failed);
-            } else if (f.code === CODE.REPLY_OK) {
-              r.resolve(f.body);
-            } else {
-              throw new ProtocolError(`${codeName(f.code)} before GO_ASYNC was answered`);
-            }
+            if (step !== 'online') handshake(f.code, f.body);
+            else if (this.transport === t) this.event(f.code, f.body);
           } catch (e) {
-            failed = /** @type {Error} */ (e);
-            t.close(failed);
+            failed = failed ?? /** @type {Error} */ (e);
+            t.close(/** @type {Error} */ (e));
             return;
           }
         }
       };
-      const expect = () => new Promise((res, rej) => replies.push({ resolve: res, reject: rej }));
-      const env = /** @type {any} */ (globalThis).process?.env ?? {};
-      const login = expect();
       t.send(encodeFrame('LOGIN', {
         major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0,
         user: this.options.user ?? env.ROBOT_USER ?? 'guest',
         password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
         client_name: this.options.clientName ?? 'skrobot.js',
       }));
-      login.then((body) => {
-        const m = decodeBody(CODE.LOGIN, /** @type {Uint8Array} */ (body), { reply: true });
-        if (m.major !== PROTOCOL_MAJOR) throw new FlowError('version_mismatch', `the hub speaks FlowProtocol ${m.major}`);
-        this.session = {
-          major: m.major, minor: Math.min(m.minor, CATALOGUE_MINOR), connectionId: m.connection_id,
-          appName: m.app_name, user: m.user, currentDb: m.current_db,
-        };
-        const list = expect();
-        const async = expect();
-        t.send([...encodeFrame('CHAN_LIST'), ...encodeFrame('GO_ASYNC')]);
-        return Promise.all([list, async]);
-      }).then(([list]) => {
-        const m = decodeBody(CODE.CHAN_LIST, list, { reply: true });
-        handshake = false;
-        resolve(m.items);
-      }).catch((e) => {
-        failed = failed ?? e;
-        t.close(e);
-      });
     });
-    const timer = setTimeout(() => {
-      failed = failed ?? new ClosedError(`the hub did not answer the login within ${this.options.timeoutMs ?? 10000} ms`);
-      t.close(failed);
-    }, this.options.timeoutMs ?? 10000);
-    let items;
-    try {
-      items = await done;
-    } finally {
-      clearTimeout(timer);
-    }
-    this.transport = t;
-    this.ready(items);
   }
 
   // Online: the channel table from CHAN_LIST, then what this client had.

@@ -164,6 +164,13 @@ test('databases: set, get, keys, all; absent keys and refused writes', async () 
   assert.equal((await b.db('guest').getAll()).speed, 1.5);
   await db.delete('speed');
   await assert.rejects(b.db('guest').get('speed'), skr.NotFoundError);
+  // Writes to two databases at once: each lands in its own (one current database per flow).
+  const flowDb = `_flow.${a.session.connectionId}`;
+  await Promise.all([a.db('guest').set('where', 'user db'), a.db(flowDb).set('where', 'flow db'),
+    a.db('guest').set('where2', 'user db')]);
+  assert.equal(await b.db('guest').get('where'), 'user db');
+  assert.equal(await b.db('guest').get('where2'), 'user db');
+  assert.equal(await b.db(flowDb).get('where'), 'flow db');
   await assert.rejects(b.db('no-such-db').get('x'), skr.NotFoundError);
   const r = await skr.connect(hub.address, { user: 'reader', password: 'secret' });
   try {

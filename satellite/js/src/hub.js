@@ -59,6 +59,8 @@ export class Hub {
     /** @internal */
     this.tag = 0;
     this.currentDb = '';
+    /** @internal The database writes in turn (databases.js). @type {Promise<unknown>} */
+    this.dbWrites = Promise.resolve();
     /** @internal */
     this.backoffMs = BACKOFF_FIRST_MS;
     /** @internal */

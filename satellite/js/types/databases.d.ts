@@ -9,9 +9,10 @@ export class Database {
     getAll(): Promise<Record<string, any>>;
     /** The keys, sorted. @returns {Promise<string[]>} */
     keys(): Promise<string[]>;
-    select(): Promise<void>;
     /** Sets a key; resolves once the hub did it (PermissionDeniedError...). @param {string} key @param {unknown} value */
     set(key: string, value: unknown): Promise<void>;
     /** Deletes a key. @param {string} key */
     delete(key: string): Promise<void>;
+    /** @internal @param {string} name @param {Record<string, unknown>} fields */
+    write(name: string, fields: Record<string, unknown>): Promise<void>;
 }

@@ -45,6 +45,8 @@ export class Hub {
     /** @internal */
     tag: number;
     currentDb: string;
+    /** @internal The database writes in turn (databases.js). @type {Promise<unknown>} */
+    dbWrites: Promise<unknown>;
     /** @internal */
     backoffMs: number;
     /** @internal */

@@ -198,6 +198,46 @@ test('events in the same read as the GO_ASYNC reply are handled, not lost', asyn
   }
 });
 
+test('publish drops data while the hub does not read, instead of queueing without bound', async (t) => {
+  const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-js-'));
+  const sock = path.join(dir, 'stuck.sock');
+  const server = net.createServer((s) => {
+    s.on('error', () => {});
+    s.once('data', () => {
+      s.write(okFrame(loginOk()));
+      s.once('data', () => {
+        const w = new skr.ByteWriter();
+        w.u32(0);
+        s.write(Buffer.concat([okFrame(w.bytes()), okFrame(new Uint8Array(0))]));
+        s.once('data', (d) => {  // CHAN_ADD: answered, then nothing more is read
+          const tag = d.readUInt32LE(5);
+          s.write(Buffer.concat(skr.encodeFrame('EV_CHAN_ADDED', {
+            tag, id: 9, hash: 1n, kind: 1, name: 'guest.stuck', owner: 'guest', owner_connection: 7, mime: '', subscribers: 0, props: null,
+          })));
+          s.pause();
+        });
+      });
+    });
+  });
+  await new Promise((r) => server.listen(sock, r));
+  t.after(() => {
+    server.close();
+    rmSync(dir, { recursive: true, force: true });
+  });
+  const hub = await skr.connect(`local:${sock}`, { reconnect: false, maxQueuedBytes: 4 * 1024 * 1024 });
+  try {
+    const ch = await hub.createChannel('stuck');
+    const payload = new Uint8Array(1024 * 1024);
+    let sent = 0;
+    for (let i = 0; i < 64; ++i) if (ch.publish(payload)) sent += 1;
+    assert.ok(sent >= 4 && sent < 64, `sent ${sent} of 64`);
+    assert.equal(ch.dropped, 64 - sent);
+    assert.ok(hub.transport.buffered() <= 5 * 1024 * 1024 + 64, `buffered ${hub.transport.buffered()}`);
+  } finally {
+    hub.close();
+  }
+});
+
 test('garbage on the flow: the connection closes, offline reports the ProtocolError', async (t) => {
   const cases = {
     'an unknown code': Buffer.from([1, 0, 0, 0, 0x3f]),

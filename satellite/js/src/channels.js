@@ -66,6 +66,8 @@ export class OwnedChannel {
     /** True while at least one subscriber listens (EV_START_PUBLISH .. EV_STOP_PUBLISH). */
     this.hasSubscribers = false;
     this.removed = false;
+    /** Payloads publish() dropped (offline or congested). */
+    this.dropped = 0;
     /** @type {Set<(on: boolean) => void>} */
     this.listeners = new Set();
     /** @type {((command: string, value: any, request: {requester: string}) => any) | null} */
@@ -96,11 +98,16 @@ export class OwnedChannel {
   }
 
   /**
-   * Publishes one payload (dropped while offline). Returns false when not sent.
+   * Publishes one payload. Returns false when it was dropped: offline, or the hub is not taking
+   * what was written (more than the hub option maxQueuedBytes, default 8 MiB, waits in this
+   * process): data is dropped, never queued without bound. `dropped` counts them.
    * @param {ArrayBuffer | ArrayBufferView | string | unknown} data
    */
   publish(data) {
-    if (!this.id || this.removed) return false;
+    if (!this.id || this.removed || this.hub.congested()) {
+      this.dropped += 1;
+      return false;
+    }
     return this.hub.send('PUBLISH', { chan_id: this.id, payload: payloadBytes(data) });
   }
 

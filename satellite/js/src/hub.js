@@ -21,6 +21,8 @@ const STABLE_MS = 5000;
  * @property {string} [clientName] shown in hub.stats and logs
  * @property {boolean} [reconnect] reconnect after the connection is lost (default true)
  * @property {number} [maxFrameBytes] the largest frame taken from the hub (default 16 MiB)
+ * @property {number} [maxQueuedBytes] publish() drops data while more than this waits to be
+ *   written (default 8 MiB)
  * @property {number} [timeoutMs] connecting and logging in (default 10 s)
  * @property {any} [WebSocket] the WebSocket class for ws:/wss: where there is no global one
  * @property {{ca?: string, cert?: string, key?: string}} [tls] files for tls: (default ROBOT_TLS_*)
@@ -254,6 +256,11 @@ export class Hub {
     if (!this.transport || !this.online) return false;
     this.transport.send(encodeFrame(name, fields));
     return true;
+  }
+
+  /** @internal */
+  congested() {
+    return (this.transport?.buffered() ?? 0) > (this.options.maxQueuedBytes ?? 8 * 1024 * 1024);
   }
 
   /** @internal */

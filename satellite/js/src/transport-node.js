@@ -11,6 +11,7 @@ import { ClosedError } from './errors.js';
 /**
  * @typedef {object} Transport
  * @property {(parts: Uint8Array[]) => void} send writes whole frames (all parts, in order)
+ * @property {() => number} buffered bytes written but not yet taken by the socket
  * @property {(reason?: Error) => void} close
  * @property {(frames: {code: number, body: Uint8Array}[]) => void} onframes set by the hub
  * @property {(error: Error | null) => void} onclose set by the hub; called once
@@ -53,6 +54,7 @@ export function openStream(address, options = {}) {
     const t = {
       onframes: () => {},
       onclose: () => {},
+      buffered: () => socket.writableLength,
       send(parts) {
         if (closed) return;
         socket.cork();

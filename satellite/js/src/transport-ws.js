@@ -31,6 +31,7 @@ export function openWebSocket(url, options = {}) {
     const t = {
       onframes: () => {},
       onclose: () => {},
+      buffered: () => ws.bufferedAmount ?? 0,
       send(parts) {
         if (closed || ws.readyState !== 1) return;
         if (parts.length === 1) {

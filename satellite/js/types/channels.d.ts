@@ -56,6 +56,8 @@ export class OwnedChannel {
     /** True while at least one subscriber listens (EV_START_PUBLISH .. EV_STOP_PUBLISH). */
     hasSubscribers: boolean;
     removed: boolean;
+    /** Payloads publish() dropped (offline or congested). */
+    dropped: number;
     /** @type {Set<(on: boolean) => void>} */
     listeners: Set<(on: boolean) => void>;
     /** @type {((command: string, value: any, request: {requester: string}) => any) | null} */
@@ -71,7 +73,9 @@ export class OwnedChannel {
     /** @param {boolean} on */
     setSubscribers(on: boolean): void;
     /**
-     * Publishes one payload (dropped while offline). Returns false when not sent.
+     * Publishes one payload. Returns false when it was dropped: offline, or the hub is not taking
+     * what was written (more than the hub option maxQueuedBytes, default 8 MiB, waits in this
+     * process): data is dropped, never queued without bound. `dropped` counts them.
      * @param {ArrayBuffer | ArrayBufferView | string | unknown} data
      */
     publish(data: ArrayBuffer | ArrayBufferView | string | unknown): boolean;

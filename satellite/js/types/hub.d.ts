@@ -5,6 +5,8 @@
  * @property {string} [clientName] shown in hub.stats and logs
  * @property {boolean} [reconnect] reconnect after the connection is lost (default true)
  * @property {number} [maxFrameBytes] the largest frame taken from the hub (default 16 MiB)
+ * @property {number} [maxQueuedBytes] publish() drops data while more than this waits to be
+ *   written (default 8 MiB)
  * @property {number} [timeoutMs] connecting and logging in (default 10 s)
  * @property {any} [WebSocket] the WebSocket class for ws:/wss: where there is no global one
  * @property {{ca?: string, cert?: string, key?: string}} [tls] files for tls: (default ROBOT_TLS_*)
@@ -82,6 +84,8 @@ export class Hub {
     close(): void;
     /** @internal Sends one frame on the flow; false while offline. @param {string} name @param {Record<string, any>} fields */
     send(name: string, fields: Record<string, any>): boolean;
+    /** @internal */
+    congested(): boolean;
     /** @internal */
     nextTag(): number;
     /**
@@ -204,6 +208,11 @@ export type HubOptions = {
      * the largest frame taken from the hub (default 16 MiB)
      */
     maxFrameBytes?: number;
+    /**
+     * publish() drops data while more than this waits to be
+     * written (default 8 MiB)
+     */
+    maxQueuedBytes?: number;
     /**
      * connecting and logging in (default 10 s)
      */

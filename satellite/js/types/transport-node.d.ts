@@ -1,6 +1,7 @@
 /**
  * @typedef {object} Transport
  * @property {(parts: Uint8Array[]) => void} send writes whole frames (all parts, in order)
+ * @property {() => number} buffered bytes written but not yet taken by the socket
  * @property {(reason?: Error) => void} close
  * @property {(frames: {code: number, body: Uint8Array}[]) => void} onframes set by the hub
  * @property {(error: Error | null) => void} onclose set by the hub; called once
@@ -25,6 +26,10 @@ export type Transport = {
      * writes whole frames (all parts, in order)
      */
     send: (parts: Uint8Array[]) => void;
+    /**
+     * bytes written but not yet taken by the socket
+     */
+    buffered: () => number;
     close: (reason?: Error) => void;
     /**
      * set by the hub

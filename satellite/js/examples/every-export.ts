@@ -4,8 +4,8 @@
 // this file does not name (see `Unnamed` at the end).
 import * as skr from 'skrobot';
 import {
-  connect, Hub, Message, OwnedChannel, Subscription, Database, Follower, Variant, Typed,
-  FlowError, ClosedError, ProtocolError, NotFoundError, TimeoutError, OwnerGoneError,
+  connect, Hub, Message, OwnedChannel, Subscription, Database, Watch, PAIR_STATES, Follower, Variant,
+  Typed, FlowError, ClosedError, ProtocolError, NotFoundError, TimeoutError, OwnerGoneError,
   PermissionDeniedError, AuthFailedError, AlreadyExistsError, InternalError, InvalidArgumentError,
   IoError, LimitExceededError, NotLoggedInError, OverflowError, UnsupportedError, VersionMismatchError,
   ERROR_CLASSES, ERROR_VALUES, errorFromWire, encodeVariant, decodeVariant, readVariant, writeVariant,
@@ -51,6 +51,11 @@ export async function main(): Promise<void> {
   await db.set('speed', Variant.f64(1));
   console.log(await db.get('speed'), await db.keys(), await db.getAll());
   await db.delete('speed');
+  const watch: Watch = db.watch((c) => console.log(c.state, c.key, c.value, PAIR_STATES.length), { onEnd: (e) => console.log(e) });
+  await watch.ready;
+  console.log(watch.pairs.size);
+  watch.close();
+  hub.subscribe('guest.camera', () => {}, { maxHz: 5 }).close();
   const follower: Follower = hub.follow('guest.beat', (p) => console.log(p.seq, p.sourceTimeNs, p.dropped), { every: 1 });
   follower.close();
   (await hub.createChannel('beat', { kind: 'sync' })).pulse();
@@ -80,7 +85,7 @@ export async function main(): Promise<void> {
 
 // Every export is named above: adding one without using it here fails the type check.
 const named = {
-  connect, Hub, Message, OwnedChannel, Subscription, Database, Follower, Variant, Typed, FlowError,
+  connect, Hub, Message, OwnedChannel, Subscription, Database, Watch, PAIR_STATES, Follower, Variant, Typed, FlowError,
   ClosedError, ProtocolError, NotFoundError, TimeoutError, OwnerGoneError, PermissionDeniedError,
   AuthFailedError, AlreadyExistsError, InternalError, InvalidArgumentError, IoError, LimitExceededError,
   NotLoggedInError, OverflowError, UnsupportedError, VersionMismatchError, ERROR_CLASSES, ERROR_VALUES,

@@ -146,13 +146,15 @@ export class Subscription {
    * @param {import('./hub.js').Hub} hub
    * @param {string} name
    * @param {((m: Message) => void) | undefined} callback
-   * @param {{queueBytes?: number, bufferBytes?: number}} options
+   * @param {{queueBytes?: number, bufferBytes?: number, maxHz?: number}} options
    */
   constructor(hub, name, callback, options) {
     this.hub = hub;
     this.name = name;
     this.callback = callback;
     this.queueBytes = options.queueBytes ?? 0;
+    /** At most this many payloads a second (0: all), FlowProtocol 1.14. */
+    this.maxHz = options.maxHz ?? 0;
     /** Bytes an unread async iterator holds before dropping the oldest (default 8 MiB). */
     this.bufferBytes = options.bufferBytes ?? 8 * 1024 * 1024;
     /** Payloads the hub dropped for this client (EV_DROPPED) and the iterator dropped unread. */

@@ -9,7 +9,7 @@ export { encodeFrame, decodeBody, codeName, CODE, BY_CODE, PROTOCOL_MAJOR, CATAL
 export { CODES, PARTS, ERRORS, CHANNEL_KINDS } from './catalogue.js';
 export { messageFrames, FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES } from './frames.js';
 export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, monotonicNs } from './channels.js';
-export { Database } from './databases.js';
+export { Database, Watch, PAIR_STATES } from './databases.js';
 export { Follower } from './sync.js';
 export { openWebSocket, SUBPROTOCOL } from './transport-ws.js';
 export * from './media.js';

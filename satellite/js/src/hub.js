@@ -56,6 +56,8 @@ export class Hub {
     this.subscriptions = new Set();
     /** @type {Set<Follower>} */
     this.followers = new Set();
+    /** @type {Set<import('./databases.js').Watch>} */
+    this.watches = new Set();
     /** @internal Answers awaited on the flow, by tag. @type {Map<number, {resolve: (m: any) => void, reject: (e: Error) => void, code: string}>} */
     this.pending = new Map();
     /** @internal */
@@ -204,6 +206,7 @@ export class Hub {
       f.id = 0;
       this.refollow(f);
     }
+    for (const w of this.watches) w.start();
     this.emit('online', this.session);
   }
 
@@ -387,7 +390,10 @@ export class Hub {
       case 'EV_ERROR': {
         const e = errorFromWire(m.error, m.message);
         const p = m.tag ? this.pending.get(m.tag) : undefined;
-        if (p) {
+        const w = m.tag ? [...this.watches].find((x) => x.tag === m.tag) : undefined;
+        if (w) {
+          w.end(e);
+        } else if (p) {
           this.pending.delete(m.tag);
           p.reject(e);
         } else {
@@ -400,6 +406,9 @@ export class Hub {
         break;
       case 'EV_SYNC_PULSE':
         for (const f of this.followers) if (f.id === m.chan_id) f.deliver(m);
+        break;
+      case 'EV_DB_PAIR':
+        for (const w of this.watches) if (w.db === m.db) w.deliver(m);
         break;
       case 'EV_DB_CHANGED':
         this.currentDb = m.name;
@@ -447,7 +456,9 @@ export class Hub {
    * a callback each Message is handed to it; without, iterate the subscription (for await).
    * @param {string} name the full name
    * @param {((m: Message) => void) | {queueBytes?: number, bufferBytes?: number}} [callback]
-   * @param {{queueBytes?: number, bufferBytes?: number}} [options] queueBytes: the hub's queue for this subscriber (SUBSCRIBE_QUEUE)
+   * @param {{queueBytes?: number, bufferBytes?: number, maxHz?: number}} [options] queueBytes: the
+   *   hub's queue for this subscriber (SUBSCRIBE_QUEUE); maxHz: at most this many payloads a second,
+   *   the newest kept (SUBSCRIBE_RATE, FlowProtocol 1.14; an older hub sends every payload)
    * @returns {Subscription}
    */
   subscribe(name, callback, options = {}) {
@@ -466,8 +477,11 @@ export class Hub {
     const info = this.channelByName(s.name);
     if (!info) return;
     s.id = info.id;
-    const queue = s.queueBytes && (this.session?.minor ?? 0) >= 13;
-    this.request(queue ? 'SUBSCRIBE_QUEUE' : 'SUBSCRIBE', { chan_id: info.id, queue_bytes: s.queueBytes }, undefined)
+    const minor = this.session?.minor ?? 0;
+    const rate = s.maxHz && CODE.SUBSCRIBE_RATE !== undefined && minor >= 14;
+    const queue = s.queueBytes && minor >= 13;
+    const name = rate ? 'SUBSCRIBE_RATE' : queue ? 'SUBSCRIBE_QUEUE' : 'SUBSCRIBE';
+    this.request(name, { chan_id: info.id, queue_bytes: s.queueBytes, max_hz: s.maxHz }, undefined)
       .catch((e) => this.emit('error', e));
   }
 

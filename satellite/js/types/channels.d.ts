@@ -92,16 +92,19 @@ export class Subscription {
      * @param {import('./hub.js').Hub} hub
      * @param {string} name
      * @param {((m: Message) => void) | undefined} callback
-     * @param {{queueBytes?: number, bufferBytes?: number}} options
+     * @param {{queueBytes?: number, bufferBytes?: number, maxHz?: number}} options
      */
     constructor(hub: import("./hub.js").Hub, name: string, callback: ((m: Message) => void) | undefined, options: {
         queueBytes?: number;
         bufferBytes?: number;
+        maxHz?: number;
     });
     hub: import("./hub.js").Hub;
     name: string;
     callback: (m: Message) => void;
     queueBytes: number;
+    /** At most this many payloads a second (0: all), FlowProtocol 1.14. */
+    maxHz: number;
     /** Bytes an unread async iterator holds before dropping the oldest (default 8 MiB). */
     bufferBytes: number;
     /** Payloads the hub dropped for this client (EV_DROPPED) and the iterator dropped unread. */

@@ -1,7 +1,6 @@
 export { Hub } from "./hub.js";
 export * from "./errors.js";
 export * from "./media.js";
-export { Database } from "./databases.js";
 export { Follower } from "./sync.js";
 export { parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT } from "./address.js";
 export { Variant, Typed, TAG, MAX_DEPTH, MAX_VALUE_BYTES, encodeVariant, decodeVariant, readVariant, writeVariant } from "./variant.js";
@@ -10,4 +9,5 @@ export { encodeFrame, decodeBody, codeName, CODE, BY_CODE, PROTOCOL_MAJOR, CATAL
 export { CODES, PARTS, ERRORS, CHANNEL_KINDS } from "./catalogue.js";
 export { messageFrames, FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES } from "./frames.js";
 export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, monotonicNs } from "./channels.js";
+export { Database, Watch, PAIR_STATES } from "./databases.js";
 export { openWebSocket, SUBPROTOCOL } from "./transport-ws.js";

@@ -38,6 +38,8 @@ export class Hub {
     subscriptions: Set<Subscription>;
     /** @type {Set<Follower>} */
     followers: Set<Follower>;
+    /** @type {Set<import('./databases.js').Watch>} */
+    watches: Set<import("./databases.js").Watch>;
     /** @internal Answers awaited on the flow, by tag. @type {Map<number, {resolve: (m: any) => void, reject: (e: Error) => void, code: string}>} */
     pending: Map<number, {
         resolve: (m: any) => void;
@@ -123,7 +125,9 @@ export class Hub {
      * a callback each Message is handed to it; without, iterate the subscription (for await).
      * @param {string} name the full name
      * @param {((m: Message) => void) | {queueBytes?: number, bufferBytes?: number}} [callback]
-     * @param {{queueBytes?: number, bufferBytes?: number}} [options] queueBytes: the hub's queue for this subscriber (SUBSCRIBE_QUEUE)
+     * @param {{queueBytes?: number, bufferBytes?: number, maxHz?: number}} [options] queueBytes: the
+     *   hub's queue for this subscriber (SUBSCRIBE_QUEUE); maxHz: at most this many payloads a second,
+     *   the newest kept (SUBSCRIBE_RATE, FlowProtocol 1.14; an older hub sends every payload)
      * @returns {Subscription}
      */
     subscribe(name: string, callback?: ((m: Message) => void) | {
@@ -132,6 +136,7 @@ export class Hub {
     }, options?: {
         queueBytes?: number;
         bufferBytes?: number;
+        maxHz?: number;
     }): Subscription;
     /** @internal */
     resubscribe(s: any): void;

@@ -3,6 +3,7 @@
 // (tests/js/types.test.mjs) fails when a declaration is wrong, and when an export is added that
 // this file does not name (see `Unnamed` at the end).
 import * as skr from 'skrobot';
+import type { HubOptions, Session, ChannelInfo, PairChange, Address } from 'skrobot';
 import {
   connect, Hub, Message, OwnedChannel, Subscription, Database, Watch, PAIR_STATES, Follower, Variant,
   Typed, FlowError, ClosedError, ProtocolError, NotFoundError, TimeoutError, OwnerGoneError,
@@ -18,7 +19,11 @@ import {
 } from 'skrobot';
 
 export async function main(): Promise<void> {
-  const hub: Hub = await connect(DEFAULT_ADDRESS, { user: 'guest', password: 'password', clientName: 'example' });
+  const options: HubOptions = { user: 'guest', password: 'password', clientName: 'example', maxQueuedBytes: 1 << 23 };
+  const hub: Hub = await connect(DEFAULT_ADDRESS, options);
+  const session: Session | null = hub.session;
+  const address: Address = parseAddress(DEFAULT_ADDRESS);
+  hub.on('channel', (info: ChannelInfo) => console.log(info.name, info.kind, session?.user, address.kind));
   hub.on('offline', (e: Error | null) => console.log('offline', e?.message));
 
   // Channels: publish views, strings and JSON; subscribe with a callback or an iterator.
@@ -51,7 +56,7 @@ export async function main(): Promise<void> {
   await db.set('speed', Variant.f64(1));
   console.log(await db.get('speed'), await db.keys(), await db.getAll());
   await db.delete('speed');
-  const watch: Watch = db.watch((c) => console.log(c.state, c.key, c.value, PAIR_STATES.length), { onEnd: (e) => console.log(e) });
+  const watch: Watch = db.watch((c: PairChange) => console.log(c.state, c.key, c.value, PAIR_STATES.length), { onEnd: (e) => console.log(e) });
   await watch.ready;
   console.log(watch.pairs.size);
   watch.close();

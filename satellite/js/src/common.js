@@ -13,3 +13,9 @@ export { Database, Watch, PAIR_STATES } from './databases.js';
 export { Follower } from './sync.js';
 export { openWebSocket, SUBPROTOCOL } from './transport-ws.js';
 export * from './media.js';
+
+/** @typedef {import('./hub.js').HubOptions} HubOptions */
+/** @typedef {import('./hub.js').Session} Session */
+/** @typedef {import('./channels.js').ChannelInfo} ChannelInfo */
+/** @typedef {import('./databases.js').PairChange} PairChange */
+/** @typedef {import('./address.js').Address} Address */

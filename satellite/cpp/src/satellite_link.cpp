@@ -315,8 +315,12 @@ void Satellite::Impl::onFlowOpen() {
     if (auto r = needs(Code::db_watch, "has no database watches"); !r) {
       log::warn(kLogSource, "SAT-HUB-ERROR", r.error().message);
       db_watches.clear();
+      self.error.emit(FlowError{uint8_t(Code::db_watch), 0, 0,
+                                uint16_t(flow::ErrorCode::unsupported), r.error().message});
     } else {
-      for (auto& [db, w] : db_watches) sendWatch(db, w);
+      for (auto& [db, w] : db_watches) {
+        if (w.tag == 0) sendWatch(db, w);  // not those a `connected` slot just watched
+      }
     }
   }
   for (const auto& [short_name, source] : replicas) {

@@ -6,7 +6,7 @@
 /* eslint-disable */
 
 export const PROTOCOL_MAJOR = 1;
-export const CATALOGUE_MINOR = 13;
+export const CATALOGUE_MINOR = 14;
 
 // A field is [type, name]: u8 u16 u32 u64 str16 str32 value rest; ['part', 'ChannelInfo']
 // is a part's fields in place; ['list', 'ChannelInfo', 'items'] is u32 count, count parts.
@@ -136,6 +136,15 @@ export const CODES = Object.freeze([
   { name: 'SUBSCRIBE_QUEUE', code: 0x51, minor: 13, direction: 'to_hub', via: 'flow', family: 'channels',
     body: [['u32', 'tag'], ['u16', 'chan_id'], ['u32', 'queue_bytes']],
     reply: null },
+  { name: 'DB_WATCH', code: 0x52, minor: 14, direction: 'to_hub', via: 'flow', family: 'databases',
+    body: [['u32', 'tag'], ['str16', 'name']],
+    reply: null },
+  { name: 'DB_UNWATCH', code: 0x53, minor: 14, direction: 'to_hub', via: 'flow', family: 'databases',
+    body: [['u32', 'tag'], ['str16', 'name']],
+    reply: null },
+  { name: 'SUBSCRIBE_RATE', code: 0x54, minor: 14, direction: 'to_hub', via: 'flow', family: 'channels',
+    body: [['u32', 'tag'], ['u16', 'chan_id'], ['u32', 'queue_bytes'], ['u16', 'max_hz']],
+    reply: null },
   { name: 'REPLY_OK', code: 0x80, minor: 0, direction: 'to_client', via: 'sync', family: 'session',
     body: [],
     reply: null },
@@ -180,6 +189,9 @@ export const CODES = Object.freeze([
     reply: null },
   { name: 'EV_DB_VALUE', code: 0x9C, minor: 6, direction: 'to_client', via: 'flow', family: 'databases',
     body: [['u32', 'tag'], ['value', 'value']],
+    reply: null },
+  { name: 'EV_DB_PAIR', code: 0x9D, minor: 14, direction: 'to_client', via: 'flow', family: 'databases',
+    body: [['str16', 'db'], ['str16', 'key'], ['u8', 'state'], ['value', 'value']],
     reply: null },
   { name: 'BLOB_LIST', code: 0xC0, minor: 3, direction: 'to_hub', via: 'sync', family: 'blobs',
     body: [['u16', 'chan_id'], ['str16', 'dir']],

@@ -238,6 +238,8 @@ std::string_view transportKindName(TransportKind kind) noexcept {
       return "serial";
     case TransportKind::udp:
       return "udp";
+    case TransportKind::websocket:
+      return "ws";
   }
   return "?";
 }
@@ -248,6 +250,7 @@ std::string PeerIdentity::source() const {
   }
   if (kind == TransportKind::serial) return "serial:" + device;
   if (kind == TransportKind::udp) return "udp:" + address;
+  if (kind == TransportKind::websocket) return "ws:" + (address.empty() ? "?" : address);
   return address.empty() ? std::string("tcp:?") : "tcp:" + address;
 }
 

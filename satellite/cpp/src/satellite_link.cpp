@@ -95,7 +95,7 @@ void Satellite::Impl::stop() {
 void Satellite::Impl::connectNow() {
   ++generation;
   state = State::connecting;
-  if (opt.connection.address.kind == Address::Kind::tls && !tls_context) {
+  if (opt.connection.address.usesTls() && !tls_context) {
     // Certificates and keys are read once per satellite, not at every reconnection.
     tls_context = flow::TlsContext::create(flow::TlsRole::client, opt.connection.tls);
   }

@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 
@@ -299,26 +300,26 @@ class WsPair : public ::testing::Test {
  protected:
   // A TCP listener whose connections are upgraded to WebSocket server ends, started with
   // server_sink_.
-  void listen() {
-    auto l =
-        Listener::open(loop_, Address{.kind = Address::Kind::tcp, .host = "127.0.0.1", .port = 0},
-                       {}, [this](std::unique_ptr<Transport> t) {
-                         upgrader_ = std::make_unique<Upgrader>(loop_, std::move(t));
-                         upgrader_->done = [this](Result<std::unique_ptr<Transport>> r) {
-                           ASSERT_TRUE(r) << r.error().message;
-                           server_ = std::move(r).value();
-                           ASSERT_TRUE(server_->start(server_sink_));
-                         };
-                         ASSERT_TRUE(upgrader_->t->start(*upgrader_));
-                       });
+  void listen(Address at = Address{.kind = Address::Kind::tcp, .host = "127.0.0.1", .port = 0},
+              ListenOptions options = {}) {
+    auto l = Listener::open(loop_, at, std::move(options), [this](std::unique_ptr<Transport> t) {
+      upgrader_ = std::make_unique<Upgrader>(loop_, std::move(t));
+      upgrader_->done = [this](Result<std::unique_ptr<Transport>> r) {
+        ASSERT_TRUE(r) << r.error().message;
+        server_ = std::move(r).value();
+        ASSERT_TRUE(server_->start(server_sink_));
+      };
+      ASSERT_TRUE(upgrader_->t->start(*upgrader_));
+    });
     ASSERT_TRUE(l) << l.error().message;
     listener_ = std::move(l).value();
   }
-  std::unique_ptr<Transport> dial(const std::string& address) {
+  std::unique_ptr<Transport> dial(const std::string& address,
+                                  const Result<flow::TlsContext>* tls = nullptr) {
     std::optional<Result<std::unique_ptr<Transport>>> opened;
     auto parsed = Address::parse(address);
     EXPECT_TRUE(parsed);
-    auto d = Dialer::open(loop_, *parsed, nullptr, [&](Result<std::unique_ptr<Transport>> r) {
+    auto d = Dialer::open(loop_, *parsed, tls, [&](Result<std::unique_ptr<Transport>> r) {
       opened.emplace(std::move(r));
     });
     EXPECT_TRUE(loop_.runUntil([&] { return opened.has_value(); }, kWait));
@@ -495,6 +496,37 @@ TEST_F(WsPair, TheWsDialerUpgradesAndBothEndsCarryFramesBothWays) {
   ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.end.has_value(); }, kWait));
   EXPECT_EQ(server_sink_.end->why, TransportEnd::Why::peer_closed);
   EXPECT_EQ(server_sink_.end->message, "the peer closed the WebSocket (1000 done)");
+}
+
+TEST_F(WsPair, WssIsWebSocketOverTheHubsTls) {
+  TempDir dir("ws-tls-test");
+  const auto certs = dir.path() / "certs";
+  const std::string cmd = std::string("sh ") + SKROBOT_SOURCE_DIR +
+                          "/tests/support/make_test_certs.sh " + certs.string() +
+                          " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  flow::TlsSettings server;
+  server.cert_file = (certs / "hub.pem").string();
+  server.key_file = (certs / "hub.key").string();
+  auto server_ctx = flow::TlsContext::create(flow::TlsRole::server, server);
+  ASSERT_TRUE(server_ctx) << server_ctx.error().message;
+  ListenOptions options;
+  options.tls = std::move(server_ctx).value();
+  listen(Address{.kind = Address::Kind::tls, .host = "127.0.0.1", .port = 0}, std::move(options));
+  flow::TlsSettings client;
+  client.ca_file = (certs / "ca.pem").string();
+  const auto client_ctx = flow::TlsContext::create(flow::TlsRole::client, client);
+  auto c = dial("wss:localhost:" + std::to_string(listener_->port()) + "/flow", &client_ctx);
+  ASSERT_TRUE(c);
+  EXPECT_EQ(c->kind(), TransportKind::websocket);
+  Sink client_sink;
+  ASSERT_TRUE(c->start(client_sink));
+  ASSERT_TRUE(loop_.runUntil([&] { return server_ != nullptr; }, kWait));
+  const std::string up = flowFrame(0x20, std::string(70000, 's'));
+  const std::string_view u = up;
+  ASSERT_TRUE(c->write({&u, 1}));
+  ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.bytes.size() >= up.size(); }, kWait));
+  EXPECT_TRUE(server_sink_.bytes == up);
 }
 
 TEST_F(WsPair, TheWsDialerRefusesAServerThatDoesNotUpgrade) {

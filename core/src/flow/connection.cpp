@@ -396,6 +396,11 @@ void Connection::queued() {
 
 void Connection::onData(const Channel& ch, std::string_view payload) {
   if (state_ != State::flow) return;
+  if (rates_ && !rates_->admit(ch.id, payload, monotonicNs())) return;  // waits, or skipped
+  queueData(ch, payload);
+}
+
+void Connection::queueData(const Channel& ch, std::string_view payload) {
   std::string& out = output_.queue();
   const size_t frame = kFrameHeaderBytes + 2 + payload.size();
   if (max_frame_ != 0 && frame > max_frame_) {
@@ -486,6 +491,24 @@ size_t Connection::askQueue(uint16_t chan_id, size_t bytes) {
 
 void Connection::releaseQueue(uint16_t chan_id) {
   if (queue_asked_.erase(chan_id) != 0) resizeQueue();
+  if (rates_) rates_->remove(chan_id);
+}
+
+void Connection::capRate(uint16_t chan_id, uint16_t max_hz) {
+  if (!rates_) {
+    if (max_hz == 0) return;
+    rates_ = std::make_unique<RateCaps>(hub_.loop, [this](uint16_t chan, std::string_view payload) {
+      const Channel* ch = hub_.channels.find(chan);
+      if (ch != nullptr && state_ == State::flow) queueData(*ch, payload);
+    });
+  }
+  rates_->set(chan_id, max_hz);
+}
+
+Endpoint::RateCap Connection::rateCap(uint16_t chan) const {
+  if (!rates_) return {};
+  const RateCaps::Info i = rates_->info(chan);
+  return {i.max_hz, i.skipped};
 }
 
 void Connection::resizeQueue() noexcept {

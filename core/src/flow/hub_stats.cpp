@@ -73,11 +73,16 @@ HubSnapshot FlowServer::snapshot() const {
       if (e == nullptr) continue;
       c.subscriber_flows.push_back(e->id);
       c.subscriber_paths.emplace_back("relay");
+      const Endpoint::RateCap cap = e->rateCap(ch.id);
+      c.subscriber_max_hz.push_back(cap.max_hz);
+      c.subscriber_skipped.push_back(cap.skipped);
     }
     for (const Endpoint* e : ch.physical) {  // on a path
       c.subscriber_flows.push_back(e->id);
       c.subscriber_paths.emplace_back(
           s.physical.activePath(ch.id, e->id) == msg::kPhysShm ? "shm" : "direct");
+      c.subscriber_max_hz.push_back(0);  // a path is not capped
+      c.subscriber_skipped.push_back(0);
     }
     c.messages = ch.seq;
     c.bytes = ch.bytes;
@@ -135,6 +140,10 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
     for (uint32_t id : c.subscriber_flows) subscribers.emplace_back(static_cast<uint64_t>(id));
     Variant::List paths;
     for (const auto& p : c.subscriber_paths) paths.emplace_back(p);
+    Variant::List max_hz;
+    for (uint16_t hz : c.subscriber_max_hz) max_hz.emplace_back(static_cast<uint64_t>(hz));
+    Variant::List skipped;
+    for (uint64_t n : c.subscriber_skipped) skipped.emplace_back(n);
     const auto owner = flow_names.find(c.owner_flow);
     channels.emplace_back(Variant::Map{
         {"name", c.name},
@@ -145,6 +154,8 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
         {"subscribers", static_cast<uint64_t>(c.subscriber_flows.size())},
         {"subscriber_flows", std::move(subscribers)},
         {"subscriber_paths", std::move(paths)},
+        {"subscriber_max_hz", std::move(max_hz)},
+        {"subscriber_skipped", std::move(skipped)},
         {"messages", c.messages},
         {"bytes", c.bytes},
         {"dropped", c.dropped},

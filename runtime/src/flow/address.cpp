@@ -59,11 +59,14 @@ Result<Address> Address::parse(std::string_view text) {
     a.port = kDefaultUdpPort;
   } else if (text.starts_with("ws:") || text.starts_with("wss:")) {
     a.kind = text.starts_with("ws:") ? Kind::ws : Kind::wss;
-    a.port = kDefaultWebPort;
+    a.port = a.kind == Kind::ws ? kDefaultWsPort : kDefaultWssPort;
   } else {
     return bad("unknown transport");
   }
   std::string_view rest = text.substr(text.find(':') + 1);
+  if (a.kind == Kind::ws || a.kind == Kind::wss) {
+    if (rest.starts_with("//")) rest.remove_prefix(2);  // ws://host:port/path, a URL
+  }
   if (a.kind == Kind::ws || a.kind == Kind::wss) {
     const size_t slash = rest.find('/');
     a.path = slash == std::string_view::npos ? "/flow" : std::string(rest.substr(slash));

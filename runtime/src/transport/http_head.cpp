@@ -280,7 +280,9 @@ Result<std::unique_ptr<transport::Transport>> upgrade(Loop& loop,
                                                       std::string_view subprotocol,
                                                       std::string_view already_read) {
   if (auto bad = checkWebSocket(request)) return makeError(Errc::invalid_argument, *bad);
-  if (!subprotocol.empty() && !request.hasToken("sec-websocket-protocol", subprotocol)) {
+  const auto offered = request.list("sec-websocket-protocol");  // tokens: case-sensitive
+  if (!subprotocol.empty() &&
+      std::find(offered.begin(), offered.end(), subprotocol) == offered.end()) {
     return makeError(Errc::invalid_argument,
                      "the client does not offer the subprotocol " + std::string(subprotocol));
   }

@@ -75,9 +75,15 @@ TEST(AddressTest, ParsesWebSocket) {
   ASSERT_TRUE(ws) << ws.error().message;
   EXPECT_EQ(ws->kind, Address::Kind::ws);
   EXPECT_EQ(ws->host, "robot.local");
-  EXPECT_EQ(ws->port, 8080) << "server.web's default port";
+  EXPECT_EQ(ws->port, 80) << "as a ws:// URL (and the JavaScript library)";
   EXPECT_EQ(ws->path, "/flow");
-  EXPECT_EQ(ws->toString(), "ws:robot.local:8080/flow");
+  EXPECT_EQ(ws->toString(), "ws:robot.local:80/flow");
+  EXPECT_EQ(Address::parse("wss:robot.local")->port, 443);
+  auto url = Address::parse("ws://127.0.0.1:8080/flow");
+  ASSERT_TRUE(url) << url.error().message;
+  EXPECT_EQ(url->host, "127.0.0.1");
+  EXPECT_EQ(url->port, 8080);
+  EXPECT_EQ(url->toString(), "ws:127.0.0.1:8080/flow");
   EXPECT_TRUE(ws->isNetwork());
   EXPECT_FALSE(ws->usesTls());
   auto wss = Address::parse("wss:[::1]:8443/hub/flow?x=1");

@@ -40,6 +40,9 @@ struct ChannelCounters {
   uint32_t owner_flow = 0;  // 0: nobody connected (a blob channel kept for its owner)
   std::vector<uint32_t> subscriber_flows;
   std::vector<std::string> subscriber_paths;  // one per subscriber_flows: relay, direct or shm
+  // One per subscriber_flows: its SUBSCRIBE_RATE cap (0: none) and the frames the cap skipped.
+  std::vector<uint16_t> subscriber_max_hz;
+  std::vector<uint64_t> subscriber_skipped;
   uint64_t messages = 0, bytes = 0, dropped = 0;
   uint32_t pending_requests = 0;
   ChannelRates last_1s, last_10s;
@@ -97,6 +100,8 @@ struct HubSnapshot {
 //   hub, time_ms (wall clock), interval_s, interval_10s_s, rates_until_ms,
 //   channels: [{name, kind, mime, owner, owner_flow, subscribers, subscriber_flows,
 //               subscriber_paths ("relay", "direct" or "shm", one per subscriber_flows),
+//               subscriber_max_hz, subscriber_skipped (SUBSCRIBE_RATE's cap, 0: none, and the
+//               frames it skipped; one per subscriber_flows),
 //               messages, bytes, dropped, hz, bytes_per_s, dropped_per_s, hz_10s,
 //               bytes_per_s_10s, dropped_per_s_10s, age_s, pending_requests}],
 //   flows: [{id, name ("<user>/<client>"), user, client, kind, messages_in, bytes_in,

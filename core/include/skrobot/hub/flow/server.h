@@ -132,6 +132,7 @@ struct ServerStats {
   uint64_t data_frames_out = 0;
   uint64_t data_frames_dropped = 0;  // slow subscribers
   uint64_t tls_refused = 0;          // TLS handshakes failed, or a plain and TLS peer mismatched
+  uint64_t db_watches = 0;           // DB_WATCH watches in force (1.14)
 };
 
 class Channel;

@@ -11,8 +11,9 @@
 //   udp:robot.local:9001    UDP datagrams (flow/udp.h, server.udp), one session per flow, opened
 //                           with the account's key; the port defaults to 9001
 //   ws:robot.local:8080/flow   WebSocket (the hub's web port, server.web): the port defaults to
-//                           8080, the path to /flow; wss: is WebSocket over TLS (the hub's
-//                           certificate must name the host, as for tls:)
+//                           80 (wss: 443) as for any URL, the path to /flow; ws://... is read
+//                           too; wss: is WebSocket over TLS (the hub's certificate must name the
+//                           host, as for tls:). The JavaScript library reads the same forms.
 //
 // Parsing only: nothing here resolves a name or opens a socket.
 #pragma once
@@ -27,7 +28,8 @@ namespace skr::flow {
 
 constexpr uint16_t kDefaultTcpPort = 9000;
 constexpr uint16_t kDefaultUdpPort = 9001;
-constexpr uint16_t kDefaultWebPort = 8080;  // ws:, wss: (the hub's server.web)
+constexpr uint16_t kDefaultWsPort = 80;    // ws: (as a ws:// URL)
+constexpr uint16_t kDefaultWssPort = 443;  // wss:
 constexpr std::string_view kDefaultAddress = "local:/tmp/Robot";
 
 struct Address {
@@ -37,7 +39,7 @@ struct Address {
                                     // the HTTP path ("/flow" unless given)
   std::string host;                 // Kind::tcp, tls, udp, ws, wss: a name or a numeric address
   uint16_t port = kDefaultTcpPort;  // Kind::tcp and tls; Kind::udp (kDefaultUdpPort unless
-                                    // given); Kind::ws and wss (kDefaultWebPort unless given)
+                                    // given); Kind::ws and wss (kDefaultWsPort, kDefaultWssPort)
   uint32_t baud = 115200;           // Kind::serial
 
   // TCP, TLS and WebSocket: where a password crosses a network (a serial line is a cable; a UDP

@@ -1,0 +1,18 @@
+export { Hub } from "./hub.js";
+export * from "./errors.js";
+export * from "./media.js";
+export { Follower } from "./sync.js";
+export type HubOptions = import("./hub.js").HubOptions;
+export type Session = import("./hub.js").Session;
+export type ChannelInfo = import("./channels.js").ChannelInfo;
+export type PairChange = import("./databases.js").PairChange;
+export type Address = import("./address.js").Address;
+export { parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT } from "./address.js";
+export { Variant, Typed, TAG, MAX_DEPTH, MAX_VALUE_BYTES, encodeVariant, decodeVariant, readVariant, writeVariant } from "./variant.js";
+export { ByteReader, ByteWriter, asBytes, encodeUtf8, decodeUtf8 } from "./bytes.js";
+export { encodeFrame, decodeBody, codeName, CODE, BY_CODE, PROTOCOL_MAJOR, CATALOGUE_MINOR } from "./codec.js";
+export { CODES, PARTS, ERRORS, CHANNEL_KINDS } from "./catalogue.js";
+export { messageFrames, FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES } from "./frames.js";
+export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, monotonicNs } from "./channels.js";
+export { Database, Watch, PAIR_STATES } from "./databases.js";
+export { openWebSocket, SUBPROTOCOL } from "./transport-ws.js";

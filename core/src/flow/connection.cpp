@@ -23,6 +23,24 @@ Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
   return hub.connection(id);
 }
 
+namespace {
+
+// What the accounts' rules see of a transport (Connection::transport()).
+Transport loginTransport(const transport::Transport& t) {
+  switch (t.kind()) {
+    case transport::TransportKind::unix_socket:
+      return Transport::unix_socket;
+    case transport::TransportKind::websocket: {
+      return isLoopbackAddress(t.peer().address) ? Transport::websocket_loopback
+                                                 : Transport::websocket;
+    }
+    default:
+      return Transport::tcp;
+  }
+}
+
+}  // namespace
+
 Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport)
     : hub_(hub),
       transport_(std::move(transport)),
@@ -31,6 +49,7 @@ Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport
       base_queue_(hub.opt.subscriber_queue_bytes),
       queue_limit_(hub.opt.subscriber_queue_bytes) {
   if (transport_->kind() == transport::TransportKind::udp) max_frame_ = transport_->maxFrameBytes();
+  login_transport_ = loginTransport(*transport_);
 }
 
 // The transport's closed() deletes a connection, possibly after the server is gone: close() has
@@ -200,6 +219,10 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
         refuse(name + " is synchronous: use a synchronous connection, the flow never blocks");
       } else if (info->minor > minor_) {
         refuse(name + " is newer than this connection's protocol 1." + std::to_string(minor_));
+      } else if (info->family == Family::physical &&
+                 transport_->kind() == transport::TransportKind::websocket) {
+        // Shared memory and descriptors do not cross a WebSocket; the relay serves its data.
+        refuse(name + ": no physical paths over WebSocket");
       } else {
         dispatchFrame(code, body);
       }

@@ -56,11 +56,11 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
 
   [[nodiscard]] Hub& hub() noexcept { return hub_; }
   [[nodiscard]] State state() const noexcept { return state_; }
-  // What the accounts' rules see: a Unix socket, or the network (TCP, TLS, any other).
-  [[nodiscard]] Transport transport() const noexcept {
-    return transport_->kind() == transport::TransportKind::unix_socket ? Transport::unix_socket
-                                                                       : Transport::tcp;
-  }
+  // What the accounts' rules see: a Unix socket, WebSocket (from loopback or not), or the
+  // network (TCP, TLS, any other). Set at accept from the transport's peer.
+  [[nodiscard]] Transport transport() const noexcept { return login_transport_; }
+  // The peer's numeric address (TCP, TLS, WebSocket); empty on a Unix socket.
+  [[nodiscard]] std::string peerAddress() const { return transport_->peer().address; }
   [[nodiscard]] transport::TransportKind transportKind() const noexcept {
     return transport_->kind();
   }
@@ -245,6 +245,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
 
   Hub& hub_;
   std::unique_ptr<transport::Transport> transport_;
+  Transport login_transport_ = Transport::tcp;
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;

@@ -121,6 +121,10 @@ HubSnapshot FlowServer::snapshot() const {
   }
   if (s.udp_port)
     out.udp = UdpCounters{s.udp_port->port(), s.udp_port->sessions(), s.udp_port->stats()};
+  if (s.web_port) {
+    out.web = s.web_port->stats();
+    out.web->port = s.web_port->port();
+  }
   std::sort(out.flows.begin(), out.flows.end(),
             [](const FlowCounters& a, const FlowCounters& b) { return a.id < b.id; });
   return out;
@@ -233,6 +237,20 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
                    {"channels", std::move(channels)},
                    {"flows", std::move(flows)},
                    {"serial", std::move(serial)}};
+  if (snapshot.web) {
+    const WebCounters& w = *snapshot.web;
+    out["web"] = Variant::Map{
+        {"port", static_cast<uint64_t>(w.port)},
+        {"requests", w.requests},
+        {"files", w.files},
+        {"not_found", w.not_found},
+        {"upgrades", w.upgrades},
+        {"tokens", w.tokens},
+        {"refused_host", w.refused_host},
+        {"refused_origin", w.refused_origin},
+        {"refused", w.refused},
+    };
+  }
   if (snapshot.udp) {
     const transport::UdpStats& u = snapshot.udp->stats;
     out["udp"] = Variant::Map{

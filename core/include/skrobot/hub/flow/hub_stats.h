@@ -71,6 +71,18 @@ struct UdpCounters {
   uint64_t open_sessions = 0;
   transport::UdpStats stats;
 };
+// server.web's port: its counters since the hub started.
+struct WebCounters {
+  uint16_t port = 0;
+  uint64_t requests = 0;        // request heads read
+  uint64_t files = 0;           // files answered (200)
+  uint64_t not_found = 0;       // 404
+  uint64_t upgrades = 0;        // WebSockets handed to the FlowServer
+  uint64_t tokens = 0;          // page tokens issued
+  uint64_t refused_host = 0;    // a Host not accepted (403, FLOW-WS-REFUSED)
+  uint64_t refused_origin = 0;  // an Origin not allowed on /flow (403, FLOW-WS-REFUSED)
+  uint64_t refused = 0;         // other refusals: bad heads, upgrades, methods, timeouts
+};
 struct HubSnapshot {
   Nanos at = 0;  // monotonic
   // What the windows cover (seconds between the last samples; less on a hub younger than them)
@@ -81,6 +93,7 @@ struct HubSnapshot {
   std::vector<FlowCounters> flows;
   std::vector<SerialCounters> serial;
   std::optional<UdpCounters> udp;  // set when server.udp is
+  std::optional<WebCounters> web;  // set when server.web is
 };
 
 // A snapshot as hub.stats carries it: a map of
@@ -100,6 +113,8 @@ struct HubSnapshot {
 //   udp (when server.udp is set): {port, open_sessions, datagrams_in, datagrams_out, bytes_in,
 //        bytes_out, cookies_sent, short_hello, bad_cookie, bad_mac, unknown_session, malformed,
 //        replayed, lost, reordered, too_large, send_failed, overrun, sessions, timeouts}
+//   web (when server.web is set): {port, requests, files, not_found, upgrades, tokens,
+//        refused_host, refused_origin, refused}
 // (HubStats adds "loop", the main loop's figures.)
 [[nodiscard]] Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name);
 

@@ -14,7 +14,10 @@ namespace skr::flow {
 Result<void> SessionRoom::start() {
   const ServerOptions& opt = hub_.opt;
   std::optional<DevAccount> dev;
-  if (opt.dev_account) dev = DevAccount{opt.dev_account->first, opt.dev_account->second};
+  const bool dev_on_web = opt.web && opt.web->flows && opt.web->dev_account;
+  if (opt.dev_account) {
+    dev = DevAccount{opt.dev_account->first, opt.dev_account->second, dev_on_web};
+  }
   std::filesystem::path users = opt.users_file;
   if (users.empty() && !opt.data_dir.empty()) users = opt.data_dir / "users.json";
   auto a = Authenticator::create(users, dev, hub_.loop);
@@ -23,45 +26,110 @@ Result<void> SessionRoom::start() {
   if (dev) {
     log::warn(kLogSource, "FLOW-DEV-ACCOUNT",
               "development account \"" + dev->user +
-                  "\" is enabled on the Unix socket only (never on TCP); replace it with real "
-                  "accounts: skrobot user add NAME, and remove accounts.dev_account");
+                  (dev_on_web ? "\" is enabled on the Unix socket and on WebSocket from this "
+                                "machine (server.web.dev_account; never on TCP)"
+                              : "\" is enabled on the Unix socket only (never on TCP)") +
+                  "; replace it with real accounts: skrobot user add NAME, and remove "
+                  "accounts.dev_account");
   }
-  if (opt.tcp_enabled && !auth->hasRealAccounts()) {
+  // Flows from other machines need real accounts: TCP, or the web port's flows off loopback.
+  const bool web_remote = opt.web && opt.web->flows && !isLoopbackAddress(opt.web->address);
+  if ((opt.tcp_enabled || web_remote) && !auth->hasRealAccounts()) {
     return makeError(Errc::permission_denied,
-                     "TCP is enabled but " +
+                     std::string(opt.tcp_enabled ? "TCP" : "the web port's flows (server.web)") +
+                         " is enabled but " +
                          (users.empty() ? std::string("no users file is configured")
                                         : "the users file " + users.string() + " has no accounts") +
                          "; create one with: skrobot user add NAME");
   }
+  if (opt.web && opt.web->flows) {
+    const std::string& page = opt.web->page_account;
+    if (page == kBuiltInPageAccount) {
+      if (auth->hasUser(page)) {
+        return makeError(Errc::already_exists,
+                         "the users file has an account \"" + page +
+                             "\", the name of the built-in page account (server.web.page_account)"
+                             ": rename it, or name it in server.web.page_account to use it");
+      }
+      // Read-only: subscribe to every channel and read every database; nothing else.
+      auto rules = std::make_shared<AccessRules>();
+      for (const Action a : {Action::publish, Action::call, Action::db_write}) {
+        (void)rules->setRule(a, {});
+      }
+      page_access_ = std::move(rules);
+    } else if (!auth->hasUser(page)) {
+      return makeError(Errc::not_found, "server.web.page_account \"" + page +
+                                            "\" is not an account of the users file");
+    }
+    page_tokens =
+        std::make_unique<PageTokens>(page, static_cast<Nanos>(opt.web->token_ttl_ms) * kNsPerMs);
+  }
   return {};
+}
+
+Result<PageTokens::Issued> SessionRoom::issuePageToken(const std::string& address) {
+  if (!page_tokens) return makeError(Errc::unsupported, "no page tokens (server.web.flows)");
+  auto t = page_tokens->issue(address, monotonicNs());
+  if (!t) {
+    log::warn(kLogSource, "FLOW-TOKEN",
+              "refused a page token to " + address + ": " + t.error().message);
+  } else {
+    log::debug(kLogSource, "FLOW-TOKEN", "page token for \"" + t->account + "\" to " + address);
+  }
+  return t;
+}
+
+void SessionRoom::loginWithToken(Connection& c, TokenLogin m) {
+  if (!admit(c, m.major, m.minor, m.value_encoding)) return;
+  const uint16_t minor = std::min(m.minor, kProtocolMinor);
+  c.client_name = m.client_name;
+  c.authenticating(static_cast<ValueEncoding>(m.value_encoding));
+  const std::string account = page_tokens ? hub_.opt.web->page_account : std::string();
+  LoginResult r;
+  if (c.transport() != Transport::websocket && c.transport() != Transport::websocket_loopback) {
+    r.reason = "a page token on " + std::string(transportName(c.transport())) + " (WebSocket only)";
+  } else if (!page_tokens) {
+    r.reason = "no page tokens (server.web.flows is off)";
+  } else if (const Nanos wait = throttle.wait(account, c.source, monotonicNs()); wait > 0) {
+    r.reason = "held back after failed logins";
+  } else {
+    r.ok = page_tokens->redeem(m.token, c.peerAddress(), monotonicNs(), &r.reason).has_value();
+    if (r.ok) r.reason = "page token";
+  }
+  finishLogin(c, account.empty() ? std::string(kBuiltInPageAccount) : account, minor, std::move(r));
 }
 
 void SessionRoom::stop() noexcept {
   auth.reset();
 }
 
-void SessionRoom::handle(Connection& c, msg::Login& m) {
+bool SessionRoom::admit(Connection& c, uint16_t major, uint16_t minor, uint8_t value_encoding) {
   const ServerOptions& opt = hub_.opt;
   if (c.over_limit) {
     c.replyError(ErrorCode::limit_exceeded,
                  "this hub serves " + std::to_string(opt.max_connections) +
                      " connections at most (server.max_connections); try again later");
     c.closeAfterFlush("too many connections");
-    return;
+    return false;
   }
-  if (m.major != kProtocolMajor) {
+  if (major != kProtocolMajor) {
     const std::string why = "this hub speaks FlowProtocol " + std::to_string(kProtocolMajor) + "." +
                             std::to_string(kProtocolMinor) + ", the client " +
-                            std::to_string(m.major) + "." + std::to_string(m.minor);
+                            std::to_string(major) + "." + std::to_string(minor);
     log::warn(kLogSource, "FLOW-VERSION", c.describe() + ": " + why);
     c.replyError(ErrorCode::version_mismatch, why);
     c.closeAfterFlush("protocol version mismatch");
-    return;
+    return false;
   }
-  if (m.value_encoding > static_cast<uint8_t>(ValueEncoding::json)) {
-    c.protocolError("LOGIN: unknown value encoding " + std::to_string(m.value_encoding));
-    return;
+  if (value_encoding > static_cast<uint8_t>(ValueEncoding::json)) {
+    c.protocolError("LOGIN: unknown value encoding " + std::to_string(value_encoding));
+    return false;
   }
+  return true;
+}
+
+void SessionRoom::handle(Connection& c, msg::Login& m) {
+  if (!admit(c, m.major, m.minor, m.value_encoding)) return;
   c.client_name = m.client_name;
   c.authenticating(static_cast<ValueEncoding>(m.value_encoding));  // reading pauses meanwhile
   const Nanos now = monotonicNs();
@@ -106,7 +174,7 @@ void SessionRoom::finishLogin(Connection& c, const std::string& user, uint16_t m
     return;
   }
   c.user = user;
-  c.access = auth->accessOf(user);
+  c.access = page_access_ && user == kBuiltInPageAccount ? page_access_ : auth->accessOf(user);
   throttle.succeeded(user, c.source);
   const uint32_t limit = c.access->limits().orElse(hub_.opt.user_limits).connections;
   if (hub_.endpoints.holdingsOf(user).endpoints > limit) {     // this one included

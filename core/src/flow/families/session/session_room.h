@@ -7,6 +7,7 @@
 
 #include "families/room.h"
 #include "families/session/login_throttle.h"
+#include "families/session/page_tokens.h"
 
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/flow/messages.h>
@@ -25,6 +26,24 @@ class SessionRoom final : public Room {
   // The accounts (the users file, the development account); null before start().
   std::unique_ptr<Authenticator> auth;
   LoginThrottle throttle;
+  // Page tokens (server.web with flows): issued at POST /skrobot/token; null without.
+  std::unique_ptr<PageTokens> page_tokens;
+
+  // The built-in page account (server.web.page_account's default): read-only, in memory.
+  static constexpr std::string_view kBuiltInPageAccount = "web-page";
+
+  // A token for a page fetched from `address` (the web port's POST /skrobot/token), logged
+  // FLOW-TOKEN. limit_exceeded when throttled; unsupported without page tokens.
+  [[nodiscard]] Result<PageTokens::Issued> issuePageToken(const std::string& address);
+
+  // A login with a page token: what LOGIN_TOKEN (FlowProtocol 1.15, on WebSocket only) carries.
+  // The row and its handler come once 1.14 is in the catalogue; loginWithToken() is its body.
+  struct TokenLogin {
+    uint16_t major = 0, minor = 0;
+    uint8_t value_encoding = 0;
+    std::string token, client_name;
+  };
+  void loginWithToken(Connection& c, TokenLogin m);
 
   // Its rows (catalogue.h, family session): handle(Connection&, msg::X&) for each.
   SKR_FLOW_ROOM_HANDLERS(session)
@@ -38,6 +57,9 @@ class SessionRoom final : public Room {
   // Verifies a LOGIN (after the throttle's delay, if any), off the loop; the answer comes back to
   // the connection if it is still there.
   void verify(Connection& c, msg::Login m);
+  // The checks every login starts with (connection limit, protocol version, value encoding):
+  // false when it was answered and the connection closes.
+  bool admit(Connection& c, uint16_t major, uint16_t minor, uint8_t value_encoding);
   // The answer to a LOGIN once its password (or its port's binding) was checked.
   void finishLogin(Connection& c, const std::string& user, uint16_t minor, LoginResult r);
 
@@ -48,6 +70,8 @@ class SessionRoom final : public Room {
     msg::Login login;
   };
   std::vector<DelayedLogin> delayed_;
+  // The built-in page account's rules when server.web.page_account is it; else null.
+  std::shared_ptr<const AccessRules> page_access_;
 };
 
 }  // namespace skr::flow

@@ -3,7 +3,9 @@
 // (tests/js/types.test.mjs) fails when a declaration is wrong, and when an export is added that
 // this file does not name (see `Unnamed` at the end).
 import * as skr from 'skrobot';
-import type { HubOptions, Session, ChannelInfo, PairChange, Address } from 'skrobot';
+import type {
+  HubOptions, Session, ChannelInfo, PairChange, Address, BlobEntry, BlobProgress, BlobTransferOptions, BlobSource,
+} from 'skrobot';
 import {
   connect, Hub, Message, OwnedChannel, Subscription, Database, Watch, PAIR_STATES, Follower, Variant,
   Typed, FlowError, ClosedError, ProtocolError, NotFoundError, TimeoutError, OwnerGoneError,
@@ -15,7 +17,8 @@ import {
   PROTOCOL_MAJOR, CATALOGUE_MINOR, messageFrames, FrameSplitter, FRAME_HEADER_BYTES,
   DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs, openWebSocket, SUBPROTOCOL,
   parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES, MESSAGE_ENCODING, FORMAT,
-  encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame,
+  encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, BlobChannel, BlobDownload, SyncConnection,
+  BLOB_CHUNK_BYTES, BLOB_WINDOW,
 } from 'skrobot';
 
 export async function main(): Promise<void> {
@@ -79,6 +82,33 @@ export async function main(): Promise<void> {
   console.log(CODES.length, PARTS.ChannelInfo, ERRORS[0], CHANNEL_KINDS[0], PROTOCOL_MAJOR, CATALOGUE_MINOR);
   console.log(parseAddress('tcp:robot:9000'), DEFAULT_TCP_PORT, SUBPROTOCOL, typeof openWebSocket);
 
+  // Blob channels: list, upload from bytes or a stream (with its size), download as an iterator
+  // or a ReadableStream, with progress and an AbortSignal; change events on the flow.
+  const maps: BlobChannel = await hub.createBlobChannel('maps');
+  const entries: BlobEntry[] = await maps.list('');
+  console.log(entries.map((x) => [x.name, x.dir, x.size, x.version, x.mtimeNs]));
+  const ac = new AbortController();
+  const transferOptions: BlobTransferOptions = {
+    signal: ac.signal, chunkBytes: BLOB_CHUNK_BYTES, window: BLOB_WINDOW,
+    onProgress: (p: BlobProgress) => console.log(p.bytes, p.total),
+  };
+  const source: BlobSource = new Blob([new Uint8Array(8)]);
+  const stored: { size: number, version: bigint } = await maps.upload('floor1.pgm', source, transferOptions);
+  await maps.upload('floor2.pgm', new Blob([new Uint8Array(4)]).stream(), { size: 4 });
+  const download: BlobDownload = maps.download('floor1.pgm', transferOptions);
+  for await (const chunk of download) console.log(chunk.byteLength, download.size, download.version === stored.version);
+  const stream: ReadableStream<Uint8Array> = maps.download('floor2.pgm').stream();
+  const whole: Uint8Array = await maps.get('floor1.pgm');
+  console.log(stream.locked, whole.byteLength);
+  await maps.mkdir('old');
+  await maps.rmdir('old');
+  await maps.remove('floor2.pgm');
+  const theirs: BlobChannel = hub.blobChannel('mapper.maps');
+  console.log(theirs.name);
+  hub.on('blobchanged', (c: { channel: string, change: string, path: string }) => console.log(c.channel, c.change, c.path));
+  const sync: SyncConnection = await hub.syncConnection();
+  console.log(sync.session.minor);
+
   // Errors.
   const e: FlowError = errorFromWire(ERROR_VALUES.timeout, 'late');
   const classes = [ClosedError, ProtocolError, PermissionDeniedError, AuthFailedError, AlreadyExistsError,
@@ -99,7 +129,8 @@ const named = {
   BY_CODE, CODES, PARTS, ERRORS, CHANNEL_KINDS, PROTOCOL_MAJOR, CATALOGUE_MINOR, messageFrames,
   FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs,
   openWebSocket, SUBPROTOCOL, parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES,
-  MESSAGE_ENCODING, FORMAT, encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame,
+  MESSAGE_ENCODING, FORMAT, encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, BlobChannel, BlobDownload,
+  SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW,
 };
 type Unnamed = Exclude<keyof typeof skr, keyof typeof named>;
 export const everyExportNamed: [Unnamed] extends [never] ? true : Unnamed = true;

@@ -11,6 +11,7 @@ export { messageFrames, FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYT
 export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, monotonicNs } from './channels.js';
 export { Database, Watch, PAIR_STATES } from './databases.js';
 export { Follower } from './sync.js';
+export { BlobChannel, BlobDownload, SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW } from './blobs.js';
 export { openWebSocket, SUBPROTOCOL } from './transport-ws.js';
 export * from './media.js';
 
@@ -19,3 +20,7 @@ export * from './media.js';
 /** @typedef {import('./channels.js').ChannelInfo} ChannelInfo */
 /** @typedef {import('./databases.js').PairChange} PairChange */
 /** @typedef {import('./address.js').Address} Address */
+/** @typedef {import('./blobs.js').BlobEntry} BlobEntry */
+/** @typedef {import('./blobs.js').BlobProgress} BlobProgress */
+/** @typedef {import('./blobs.js').BlobTransferOptions} BlobTransferOptions */
+/** @typedef {import('./blobs.js').BlobSource} BlobSource */

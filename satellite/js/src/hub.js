@@ -9,10 +9,13 @@ import { ClosedError, FlowError, ProtocolError, errorFromWire } from './errors.j
 import { Message, OwnedChannel, Subscription, KIND, channelInfo } from './channels.js';
 import { Database } from './databases.js';
 import { Follower } from './sync.js';
+import { BlobChannel, SyncConnection, createBlobChannel } from './blobs.js';
 
 const BACKOFF_FIRST_MS = 100;
 const BACKOFF_MAX_MS = 2000;
 const STABLE_MS = 5000;
+/** EV_BLOB_CHANGED's change values. */
+const BLOB_CHANGES = ['', 'written', 'removed', 'dir_made', 'dir_removed'];
 
 /**
  * @typedef {object} HubOptions
@@ -73,11 +76,15 @@ export class Hub {
     this.timer = null;
     /** @internal @type {Map<string, Set<Function>>} */
     this.listeners = new Map();
+    /** @internal The synchronous connection of blob requests, opened on first use. @type {Promise<SyncConnection> | null} */
+    this.sync = null;
   }
 
   /**
    * Listens to `online` (session), `offline` (error or null), `channel` (ChannelInfo added or
-   * changed), `channelremoved` (ChannelInfo), `error` (a FlowError no request awaits).
+   * changed), `channelremoved` (ChannelInfo), `blobchanged` ({channel, change: 'written' |
+   * 'removed' | 'dir_made' | 'dir_removed', path, size, version}: a file of a subscribed blob
+   * channel), `error` (a FlowError no request awaits).
    * @param {string} event @param {Function} fn @returns {() => void} removes it
    */
   on(event, fn) {
@@ -120,7 +127,6 @@ export class Hub {
       t.close();
       throw new ClosedError('closed');
     }
-    const env = /** @type {any} */ (globalThis).process?.env ?? {};
     const timeoutMs = this.options.timeoutMs ?? 10000;
     // The handshake, read frame by frame in order: LOGIN's reply, then CHAN_LIST's and GO_ASYNC's
     // (sent together). Online at once after the last, so that events in the same read follow.
@@ -180,13 +186,23 @@ export class Hub {
           }
         }
       };
-      t.send(encodeFrame('LOGIN', {
-        major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0,
-        user: this.options.user ?? env.ROBOT_USER ?? 'guest',
-        password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
-        client_name: this.options.clientName ?? 'skrobot.js',
-      }));
+      t.send(encodeFrame('LOGIN', this.loginFields()));
     });
+  }
+
+  /**
+   * @internal LOGIN's fields for this client's account (the flow's and the synchronous connection's).
+   * @param {string} [suffix] added to the client name ("sync": "skrobot.js/sync")
+   */
+  loginFields(suffix) {
+    const env = /** @type {any} */ (globalThis).process?.env ?? {};
+    const name = this.options.clientName ?? 'skrobot.js';
+    return {
+      major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0,
+      user: this.options.user ?? env.ROBOT_USER ?? 'guest',
+      password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
+      client_name: suffix ? `${name}/${suffix}` : name,
+    };
   }
 
   // Online: the channel table from CHAN_LIST, then what this client had.
@@ -250,6 +266,8 @@ export class Hub {
     for (const s of this.subscriptions) s.close();
     const t = this.transport;
     if (t) t.close();
+    this.sync?.then((c) => c.close(), () => {});
+    this.sync = null;
   }
 
   // -- sending
@@ -413,8 +431,16 @@ export class Hub {
       case 'EV_DB_CHANGED':
         this.currentDb = m.name;
         break;
+      case 'EV_BLOB_CHANGED': {
+        const info = this.channels.get(m.chan_id);
+        this.emit('blobchanged', {
+          channel: info?.name ?? '', change: BLOB_CHANGES[m.change] ?? String(m.change), path: m.path,
+          size: Number(m.size), version: m.version,
+        });
+        break;
+      }
       default:
-        break;  // events of features this library does not use (blobs, links, physical paths)
+        break;  // events of features this library does not use (links, physical paths)
     }
   }
 
@@ -539,6 +565,46 @@ export class Hub {
     Promise.resolve()
       .then(() => c.handler?.(m.command, m.value, { requester: m.requester }))
       .then((v) => answer(v ?? null), (e) => answer({ error: String(e?.message ?? e) }));
+  }
+
+  // -- blob channels (blobs.js)
+
+  /**
+   * The synchronous connection that blob requests go on (requests answered in order): opened on
+   * first use, again after it was lost; closed with the hub.
+   * @returns {Promise<SyncConnection>}
+   */
+  syncConnection() {
+    if (this.closed) return Promise.reject(new ClosedError('closed'));
+    if (!this.sync) {
+      const p = SyncConnection.open(this);
+      this.sync = p;
+      p.then((c) => {
+        c.onclose = () => { if (this.sync === p) this.sync = null; };
+        if (this.closed) c.close();
+      }, () => { if (this.sync === p) this.sync = null; });
+    }
+    return this.sync;
+  }
+
+  /**
+   * Creates this user's blob channel <user>.<shortName>, or gives the existing one back, files
+   * and all (BLOB_CREATE). UnsupportedError from a hub before FlowProtocol 1.3.
+   * @param {string} shortName
+   * @returns {Promise<BlobChannel>}
+   */
+  createBlobChannel(shortName) {
+    return createBlobChannel(this, shortName);
+  }
+
+  /**
+   * A blob channel by its full name (another user's, to list and download; requests on it fail
+   * with NotFoundError while the hub has none of that name).
+   * @param {string} name
+   * @returns {BlobChannel}
+   */
+  blobChannel(name) {
+    return new BlobChannel(this, name);
   }
 
   // -- databases, sync, stats

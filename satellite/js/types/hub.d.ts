@@ -59,9 +59,13 @@ export class Hub {
     timer: any;
     /** @internal @type {Map<string, Set<Function>>} */
     listeners: Map<string, Set<Function>>;
+    /** @internal The synchronous connection of blob requests, opened on first use. @type {Promise<SyncConnection> | null} */
+    sync: Promise<SyncConnection> | null;
     /**
      * Listens to `online` (session), `offline` (error or null), `channel` (ChannelInfo added or
-     * changed), `channelremoved` (ChannelInfo), `error` (a FlowError no request awaits).
+     * changed), `channelremoved` (ChannelInfo), `blobchanged` ({channel, change: 'written' |
+     * 'removed' | 'dir_made' | 'dir_removed', path, size, version}: a file of a subscribed blob
+     * channel), `error` (a FlowError no request awaits).
      * @param {string} event @param {Function} fn @returns {() => void} removes it
      */
     on(event: string, fn: Function): () => void;
@@ -76,6 +80,18 @@ export class Hub {
     /** Connects and logs in once; rejects on failure (a refused login, no hub). */
     start(): Promise<void>;
     attempt(): Promise<void>;
+    /**
+     * @internal LOGIN's fields for this client's account (the flow's and the synchronous connection's).
+     * @param {string} [suffix] added to the client name ("sync": "skrobot.js/sync")
+     */
+    loginFields(suffix?: string): {
+        major: number;
+        minor: number;
+        value_encoding: number;
+        user: any;
+        password: any;
+        client_name: string;
+    };
     /** @internal */
     ready(items: any): void;
     /** @internal */
@@ -169,6 +185,26 @@ export class Hub {
     }): Promise<OwnedChannel>;
     /** @internal */
     serviceRequest(m: any): void;
+    /**
+     * The synchronous connection that blob requests go on (requests answered in order): opened on
+     * first use, again after it was lost; closed with the hub.
+     * @returns {Promise<SyncConnection>}
+     */
+    syncConnection(): Promise<SyncConnection>;
+    /**
+     * Creates this user's blob channel <user>.<shortName>, or gives the existing one back, files
+     * and all (BLOB_CREATE). UnsupportedError from a hub before FlowProtocol 1.3.
+     * @param {string} shortName
+     * @returns {Promise<BlobChannel>}
+     */
+    createBlobChannel(shortName: string): Promise<BlobChannel>;
+    /**
+     * A blob channel by its full name (another user's, to list and download; requests on it fail
+     * with NotFoundError while the hub has none of that name).
+     * @param {string} name
+     * @returns {BlobChannel}
+     */
+    blobChannel(name: string): BlobChannel;
     /** A database by name (default: the user's). @param {string} [name] */
     db(name?: string): Database;
     /**
@@ -249,5 +285,7 @@ export type Session = {
 import { OwnedChannel } from './channels.js';
 import { Subscription } from './channels.js';
 import { Follower } from './sync.js';
+import { SyncConnection } from './blobs.js';
 import { Message } from './channels.js';
+import { BlobChannel } from './blobs.js';
 import { Database } from './databases.js';

@@ -31,7 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view head = end > 0 ? d.substr(0, end) : d;
   if (auto r = http::parseRequest(head)) {
     if (r->method != "GET" && r->method != "HEAD" && r->method != "POST") std::abort();
-    if (r->target.empty() || r->target[0] != '/' || r->path().size() > r->target.size()) std::abort();
+    if (r->target.empty() || r->target[0] != '/' || r->path().size() > r->target.size())
+      std::abort();
     if (head.size() > http::kMaxHeadBytes) std::abort();
     checkHeaders(r->headers);
     (void)r->list("sec-websocket-protocol");

@@ -195,9 +195,9 @@ class Listener {
 
   // Listens on `address` (local:, tcp:, tls:; a tcp port 0 takes a free one). A WebSocket
   // server listens on tcp: or tls:, reads each request head and upgrades the connection
-  // (runtime/internal/http_head.h: http::upgrade); ws: and wss: are no listener's addresses. A local: socket
-  // file left by a process that is gone is replaced; one that a live process answers on is
-  // Errc::already_exists. Errc::io_error naming the address when the system refuses,
+  // (runtime/internal/http_head.h: http::upgrade); ws: and wss: are no listener's addresses. A
+  // local: socket file left by a process that is gone is replaced; one that a live process answers
+  // on is Errc::already_exists. Errc::io_error naming the address when the system refuses,
   // Errc::invalid_argument for an address it cannot listen on.
   [[nodiscard]] static Result<std::unique_ptr<Listener>> open(Loop& loop, const Address& address,
                                                               ListenOptions options,

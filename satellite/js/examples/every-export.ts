@@ -15,7 +15,7 @@ import {
   PROTOCOL_MAJOR, CATALOGUE_MINOR, messageFrames, FrameSplitter, FRAME_HEADER_BYTES,
   DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs, openWebSocket, SUBPROTOCOL,
   parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES, MESSAGE_ENCODING, FORMAT,
-  encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame,
+  encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, pageToken, pageTokenUrl,
 } from 'skrobot';
 
 export async function main(): Promise<void> {
@@ -25,6 +25,13 @@ export async function main(): Promise<void> {
   const address: Address = parseAddress(DEFAULT_ADDRESS);
   hub.on('channel', (info: ChannelInfo) => console.log(info.name, info.kind, session?.user, address.kind));
   hub.on('offline', (e: Error | null) => console.log('offline', e?.message));
+
+  // A page's login: a page token (LOGIN_TOKEN) fetched from the hub's web port for each login.
+  const web = 'ws:127.0.0.1:8080/flow';
+  const page: Hub = await connect(web, { token: pageToken(web) });
+  const fixed: HubOptions = { token: 'a-token-fetched-before' };
+  console.log(pageTokenUrl(web), page.session?.user, fixed.token);
+  page.close();
 
   // Channels: publish views, strings and JSON; subscribe with a callback or an iterator.
   const camera: OwnedChannel = await hub.createChannel('camera', { mime: encodingOf(FORMAT.jpeg)?.mime ?? '', props: { fps: 30 } });
@@ -99,7 +106,8 @@ const named = {
   BY_CODE, CODES, PARTS, ERRORS, CHANNEL_KINDS, PROTOCOL_MAJOR, CATALOGUE_MINOR, messageFrames,
   FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs,
   openWebSocket, SUBPROTOCOL, parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES,
-  MESSAGE_ENCODING, FORMAT, encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame,
+  MESSAGE_ENCODING, FORMAT, encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, pageToken,
+  pageTokenUrl,
 };
 type Unnamed = Exclude<keyof typeof skr, keyof typeof named>;
 export const everyExportNamed: [Unnamed] extends [never] ? true : Unnamed = true;

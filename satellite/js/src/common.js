@@ -12,6 +12,7 @@ export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, mon
 export { Database, Watch, PAIR_STATES } from './databases.js';
 export { Follower } from './sync.js';
 export { openWebSocket, SUBPROTOCOL } from './transport-ws.js';
+export { pageToken, pageTokenUrl } from './page-token.js';
 export * from './media.js';
 
 /** @typedef {import('./hub.js').HubOptions} HubOptions */

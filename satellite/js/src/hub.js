@@ -18,6 +18,10 @@ const STABLE_MS = 5000;
  * @typedef {object} HubOptions
  * @property {string} [user] the account (default ROBOT_USER in Node, else "guest")
  * @property {string} [password] (default ROBOT_PASSWORD in Node, else "password")
+ * @property {string | (() => string | Promise<string>)} [token] log in with a page token
+ *   (LOGIN_TOKEN, FlowProtocol 1.15; ws:/wss: only) instead of user and password, as the hub's
+ *   page account; a function is called before each login, the first and every reconnection
+ *   (pageToken() fetches a new one from the hub)
  * @property {string} [clientName] shown in hub.stats and logs
  * @property {boolean} [reconnect] reconnect after the connection is lost (default true)
  * @property {number} [maxFrameBytes] the largest frame taken from the hub (default 16 MiB)
@@ -115,6 +119,9 @@ export class Hub {
   }
 
   async attempt() {
+    // A page token is good for a while only: a new one for each login, before the connection opens.
+    const { token } = this.options;
+    const pageToken = typeof token === 'function' ? await token() : token;
     const t = await this.open(this.address, this.options);
     if (this.closed) {
       t.close();
@@ -180,12 +187,17 @@ export class Hub {
           }
         }
       };
-      t.send(encodeFrame('LOGIN', {
-        major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0,
-        user: this.options.user ?? env.ROBOT_USER ?? 'guest',
-        password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
-        client_name: this.options.clientName ?? 'skrobot.js',
-      }));
+      const clientName = this.options.clientName ?? 'skrobot.js';
+      t.send(pageToken !== undefined
+        ? encodeFrame('LOGIN_TOKEN', {
+          major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0, token: pageToken, client_name: clientName,
+        })
+        : encodeFrame('LOGIN', {
+          major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0,
+          user: this.options.user ?? env.ROBOT_USER ?? 'guest',
+          password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
+          client_name: clientName,
+        }));
     });
   }
 

@@ -16,3 +16,4 @@ export { messageFrames, FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYT
 export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, monotonicNs } from "./channels.js";
 export { Database, Watch, PAIR_STATES } from "./databases.js";
 export { openWebSocket, SUBPROTOCOL } from "./transport-ws.js";
+export { pageToken, pageTokenUrl } from "./page-token.js";

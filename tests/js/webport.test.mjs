@@ -82,8 +82,8 @@ test('a page token logs in as the read-only page account, a new one for each rec
     ch.publish('frame');
     await waitFor('a frame', () => got.length === 1, 5000, 10);
     await assert.rejects(page.createChannel('mine'), skr.PermissionDeniedError);
-    await a.db().set('k', 1);
-    assert.equal(await page.db('alice').get('k'), 1);
+    await a.db().set('k', 1.5);
+    assert.equal(await page.db('alice').get('k'), 1.5);
     await assert.rejects(page.db('alice').set('k', 2), skr.PermissionDeniedError);
 
     // After the first token expired, the connection is lost: the reconnection fetches another.

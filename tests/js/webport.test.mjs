@@ -88,9 +88,10 @@ test('a page token logs in as the read-only page account, a new one for each rec
 
     // After the first token expired, the connection is lost: the reconnection fetches another.
     await new Promise((r) => setTimeout(r, 1100));
-    const back = new Promise((r) => page.on('online', r));
+    let back = 0;
+    page.on('online', () => { back++; });
     page.transport.close();
-    await back;
+    await waitFor('online again with a new token', () => back === 1, 5000, 10);
     assert.equal(fetched, 2);
     assert.equal(page.session.user, 'web-page');
 

@@ -6,11 +6,14 @@
 // missing subprotocol, or when flows are off.
 #include "sat_fixture.h"
 
+#include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <regex>
 #include <thread>
@@ -32,14 +35,30 @@ struct Reply {
 // One TCP connection to the web port: requests written as given, answers read by Content-Length.
 class Http {
  public:
-  explicit Http(uint16_t port) {
+  // To 127.0.0.1:`port`, from `from` (another loopback address) when given.
+  explicit Http(uint16_t port, const char* from = nullptr) {
     fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     timeval tv{5, 0};
     ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
     sockaddr_in a{};
     a.sin_family = AF_INET;
+    if (from != nullptr) {
+      ::inet_pton(AF_INET, from, &a.sin_addr);
+      if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return;
+    }
     a.sin_port = htons(port);
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ok_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  }
+  // To a Unix socket (a hub's local: address, without "local:").
+  explicit Http(const std::string& unix_path) {
+    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    timeval tv{5, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    if (unix_path.size() >= sizeof a.sun_path) return;
+    std::memcpy(a.sun_path, unix_path.data(), unix_path.size());
     ok_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
   }
   ~Http() { ::close(fd_); }
@@ -423,8 +442,9 @@ TEST_F(WebPort, TheDevAccountOnlyWhenConfiguredAndFromLoopback) {
 }
 
 // An upgraded /flow connection, raw: the test writes WebSocket frames itself.
-std::unique_ptr<Http> rawFlow(uint16_t port) {
-  auto c = std::make_unique<Http>(port);
+std::unique_ptr<Http> rawFlow(uint16_t port, const char* from = nullptr) {
+  auto c = std::make_unique<Http>(port, from);
+  EXPECT_TRUE(c->ok()) << "cannot connect from " << (from != nullptr ? from : "127.0.0.1");
   c->send(std::string("GET /flow HTTP/1.1\r\nHost: 127.0.0.1\r\n") + kWsHeaders +
           "Sec-WebSocket-Protocol: skrobot-flow.v1\r\n\r\n");
   EXPECT_EQ(c->read().status, 101);
@@ -611,6 +631,78 @@ TEST_F(WebPort, ThePageAccountIsCheckedAtStart) {
                    R"(, "web": {"port": 0, "flows": true, "page_account": "alice", "root": ")" +
                        site_.string() + "\"}");
   EXPECT_TRUE(named.start()) << named.log();
+}
+
+
+// A page token from POST /skrobot/token (fetched from 127.0.0.1).
+std::string pageToken(uint16_t port) {
+  Reply r = get(port, "/skrobot/token", "Content-Length: 0\r\n", "POST");
+  std::smatch m;
+  if (r.status != 200 || !std::regex_search(r.body, m, std::regex(R"re("token":"([^"]+)")re"))) {
+    ADD_FAILURE() << "no page token: " << r.head << r.body;
+    return {};
+  }
+  return m[1];
+}
+
+flow::msg::LoginToken tokenLogin(const std::string& token) {
+  flow::msg::LoginToken login;
+  login.token = token;
+  login.client_name = "page";
+  return login;
+}
+
+// LOGIN_TOKEN on a raw WebSocket flow: its LOGIN_OK's user, or "refused" (REPLY_ERROR and the
+// hub closes), or what else came.
+std::string tokenLoginOverWs(uint16_t port, const std::string& token, const char* from = nullptr) {
+  auto c = rawFlow(port, from);
+  c->send(wsFrame(flowFrame(tokenLogin(token))));
+  const std::string in = c->rest("web-page");
+  if (in.find("web-page") != std::string::npos) return "web-page";
+  if (in.find("wrong user name or password") != std::string::npos && c->closedByPeer()) {
+    return "refused";
+  }
+  return "unexpected: " + in;
+}
+
+// A page logs in with a token over WebSocket, as the page account, any number of times from the
+// address that fetched it; from another address, once expired, or on the Unix socket or TCP, it
+// is a failed login (auth_failed, FLOW-AUTH-FAILED).
+TEST_F(WebPort, APageTokenLogsInOverWebSocketOnlyFromItsAddressUntilItExpires) {
+  auto h = hub(R"(, "flows": true, "token_ttl_ms": 1000)");
+  const uint16_t port = webPort(*h);
+  ASSERT_NE(port, 0) << h->log();
+  const std::string token = pageToken(port);
+  EXPECT_EQ(tokenLoginOverWs(port, token), "web-page") << h->log();
+  EXPECT_EQ(tokenLoginOverWs(port, token), "web-page") << "a second login with it";
+  EXPECT_TRUE(h->waitLog("(web-page/page)")) << h->log();
+
+  // Fetched from 127.0.0.1, used from 127.0.0.2 (loopback too).
+  EXPECT_EQ(tokenLoginOverWs(port, token, "127.0.0.2"), "refused") << h->log();
+  EXPECT_TRUE(h->waitLog("refused (page token fetched from another address)")) << h->log();
+  EXPECT_EQ(tokenLoginOverWs(port, "not-a-token"), "refused");
+  EXPECT_TRUE(h->waitLog("refused (not a page token)")) << h->log();
+
+  const std::string soon_old = pageToken(port);
+  std::this_thread::sleep_for(1100ms);
+  EXPECT_EQ(tokenLoginOverWs(port, soon_old), "refused") << h->log();
+  EXPECT_TRUE(h->waitLog("refused (expired page token)")) << h->log();
+
+  // A live token on the Unix socket and on TCP: the transport refuses it.
+  const std::string fresh = pageToken(port);
+  for (const std::string address : {h->address(), h->tcpAddress()}) {
+    const bool unix_socket = address.starts_with("local:");
+    Http c = unix_socket ? Http(address.substr(6))
+                         : Http(static_cast<uint16_t>(std::atoi(
+                               address.c_str() + address.rfind(':') + 1)));
+    ASSERT_TRUE(c.ok()) << address;
+    c.send(flowFrame(tokenLogin(fresh)));
+    EXPECT_NE(c.rest("wrong user").find("wrong user name or password"), std::string::npos)
+        << address;
+    EXPECT_TRUE(c.closedByPeer()) << address;
+  }
+  EXPECT_TRUE(h->waitLog("(a page token on unix socket (WebSocket only))")) << h->log();
+  EXPECT_TRUE(h->waitLog("(a page token on tcp (WebSocket only))")) << h->log();
 }
 
 }  // namespace

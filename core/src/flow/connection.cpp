@@ -183,7 +183,7 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
   const std::string name(codeName(code));
   switch (state_) {
     case State::login:
-      if (static_cast<Code>(code) == Code::login) {
+      if (static_cast<Code>(code) == Code::login || static_cast<Code>(code) == Code::login_token) {
         dispatchFrame(code, body);
       } else {
         replyError(ErrorCode::not_logged_in, name + " before LOGIN");

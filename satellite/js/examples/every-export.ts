@@ -18,7 +18,7 @@ import {
   DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs, openWebSocket, SUBPROTOCOL,
   parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES, MESSAGE_ENCODING, FORMAT,
   encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, BlobChannel, BlobDownload, SyncConnection,
-  BLOB_CHUNK_BYTES, BLOB_WINDOW,
+  BLOB_CHUNK_BYTES, BLOB_WINDOW, pageToken, pageTokenUrl,
 } from 'skrobot';
 
 export async function main(): Promise<void> {
@@ -28,6 +28,13 @@ export async function main(): Promise<void> {
   const address: Address = parseAddress(DEFAULT_ADDRESS);
   hub.on('channel', (info: ChannelInfo) => console.log(info.name, info.kind, session?.user, address.kind));
   hub.on('offline', (e: Error | null) => console.log('offline', e?.message));
+
+  // A page's login: a page token (LOGIN_TOKEN) fetched from the hub's web port for each login.
+  const web = 'ws:127.0.0.1:8080/flow';
+  const page: Hub = await connect(web, { token: pageToken(web) });
+  const fixed: HubOptions = { token: 'a-token-fetched-before' };
+  console.log(pageTokenUrl(web), page.session?.user, fixed.token);
+  page.close();
 
   // Channels: publish views, strings and JSON; subscribe with a callback or an iterator.
   const camera: OwnedChannel = await hub.createChannel('camera', { mime: encodingOf(FORMAT.jpeg)?.mime ?? '', props: { fps: 30 } });
@@ -130,7 +137,7 @@ const named = {
   FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs,
   openWebSocket, SUBPROTOCOL, parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES,
   MESSAGE_ENCODING, FORMAT, encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, BlobChannel, BlobDownload,
-  SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW,
+  SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW, pageToken, pageTokenUrl,
 };
 type Unnamed = Exclude<keyof typeof skr, keyof typeof named>;
 export const everyExportNamed: [Unnamed] extends [never] ? true : Unnamed = true;

@@ -78,7 +78,7 @@ export class SyncConnection {
     const timeoutMs = hub.options.timeoutMs ?? 10000;
     const timer = setTimeout(() => c.fail(new ClosedError(`the hub did not answer the login within ${timeoutMs} ms`)), timeoutMs);
     try {
-      const m = await c.call('LOGIN', hub.loginFields('sync'));
+      const m = await c.call(...hub.loginMessage('sync'));
       if (m.major !== PROTOCOL_MAJOR) throw new VersionMismatchError(`the hub speaks FlowProtocol ${m.major}`);
       c.session = { minor: Math.min(m.minor, CATALOGUE_MINOR), connectionId: m.connection_id };
     } catch (e) {

@@ -6,7 +6,7 @@
 /* eslint-disable */
 
 export const PROTOCOL_MAJOR = 1;
-export const CATALOGUE_MINOR = 14;
+export const CATALOGUE_MINOR = 15;
 
 // A field is [type, name]: u8 u16 u32 u64 str16 str32 value rest; ['part', 'ChannelInfo']
 // is a part's fields in place; ['list', 'ChannelInfo', 'items'] is u32 count, count parts.
@@ -82,6 +82,9 @@ export const CODES = Object.freeze([
   { name: 'SESSION_LIMITS', code: 0x16, minor: 12, direction: 'to_hub', via: 'sync', family: 'session',
     body: [['u32', 'max_frame'], ['u32', 'events'], ['str16', 'watch']],
     reply: [] },
+  { name: 'LOGIN_TOKEN', code: 0x17, minor: 15, direction: 'to_hub', via: 'sync', family: 'session',
+    body: [['u16', 'major'], ['u16', 'minor'], ['u8', 'value_encoding'], ['str16', 'token'], ['str16', 'client_name']],
+    reply: [['u16', 'major'], ['u16', 'minor'], ['u32', 'connection_id'], ['str16', 'app_name'], ['str16', 'user'], ['str16', 'current_db']] },
   { name: 'CHAN_ADD', code: 0x40, minor: 0, direction: 'to_hub', via: 'flow', family: 'channels',
     body: [['u32', 'tag'], ['u8', 'kind'], ['str16', 'short_name'], ['str16', 'mime'], ['value', 'props']],
     reply: null },

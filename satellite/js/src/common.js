@@ -13,6 +13,7 @@ export { Database, Watch, PAIR_STATES } from './databases.js';
 export { Follower } from './sync.js';
 export { BlobChannel, BlobDownload, SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW } from './blobs.js';
 export { openWebSocket, SUBPROTOCOL } from './transport-ws.js';
+export { pageToken, pageTokenUrl } from './page-token.js';
 export * from './media.js';
 
 /** @typedef {import('./hub.js').HubOptions} HubOptions */

@@ -21,6 +21,10 @@ const BLOB_CHANGES = ['', 'written', 'removed', 'dir_made', 'dir_removed'];
  * @typedef {object} HubOptions
  * @property {string} [user] the account (default ROBOT_USER in Node, else "guest")
  * @property {string} [password] (default ROBOT_PASSWORD in Node, else "password")
+ * @property {string | (() => string | Promise<string>)} [token] log in with a page token
+ *   (LOGIN_TOKEN, FlowProtocol 1.15; ws:/wss: only) instead of user and password, as the hub's
+ *   page account; a function is called before each login, the first and every reconnection
+ *   (pageToken() fetches a new one from the hub)
  * @property {string} [clientName] shown in hub.stats and logs
  * @property {boolean} [reconnect] reconnect after the connection is lost (default true)
  * @property {number} [maxFrameBytes] the largest frame taken from the hub (default 16 MiB)
@@ -122,6 +126,9 @@ export class Hub {
   }
 
   async attempt() {
+    // A page token is good for a while only: a new one for each login, before the connection opens.
+    const { token } = this.options;
+    const pageToken = typeof token === 'function' ? await token() : token;
     const t = await this.open(this.address, this.options);
     if (this.closed) {
       t.close();
@@ -186,23 +193,30 @@ export class Hub {
           }
         }
       };
-      t.send(encodeFrame('LOGIN', this.loginFields()));
+      this.pageToken = pageToken;
+      t.send(encodeFrame(...this.loginMessage()));
     });
   }
 
   /**
-   * @internal LOGIN's fields for this client's account (the flow's and the synchronous connection's).
+   * @internal The login frame for this client (the flow's and the synchronous connection's):
+   * LOGIN_TOKEN with the page token of the flow's last login, else LOGIN with the account.
    * @param {string} [suffix] added to the client name ("sync": "skrobot.js/sync")
+   * @returns {[string, Record<string, any>]} the frame's name and fields
    */
-  loginFields(suffix) {
+  loginMessage(suffix) {
     const env = /** @type {any} */ (globalThis).process?.env ?? {};
     const name = this.options.clientName ?? 'skrobot.js';
-    return {
+    const head = {
       major: PROTOCOL_MAJOR, minor: CATALOGUE_MINOR, value_encoding: 0,
-      user: this.options.user ?? env.ROBOT_USER ?? 'guest',
-      password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
       client_name: suffix ? `${name}/${suffix}` : name,
     };
+    if (this.pageToken !== undefined) return ['LOGIN_TOKEN', { ...head, token: this.pageToken }];
+    return ['LOGIN', {
+      ...head,
+      user: this.options.user ?? env.ROBOT_USER ?? 'guest',
+      password: this.options.password ?? env.ROBOT_PASSWORD ?? 'password',
+    }];
   }
 
   // Online: the channel table from CHAN_LIST, then what this client had.

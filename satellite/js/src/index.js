@@ -3,6 +3,7 @@
 import { Hub } from './hub.js';
 import { parseAddress } from './address.js';
 import { openWebSocket } from './transport-ws.js';
+import { pageToken } from './page-token.js';
 
 export * from './common.js';
 
@@ -20,4 +21,15 @@ export async function connect(address, options = {}) {
   const hub = new Hub(parsed, options, (a, o) => openWebSocket(/** @type {any} */ (a).url, o));
   await hub.start();
   return hub;
+}
+
+/**
+ * For a page served by the hub's web port: connects to its /flow and logs in with a page token
+ * fetched from /skrobot/token of the page's origin, a new one at each reconnection; the session
+ * has the hub's page account (server.web.page_account, by default the read-only `web-page`).
+ * @param {import('./hub.js').HubOptions} [options]
+ * @returns {Promise<Hub>}
+ */
+export async function connectPage(options = {}) {
+  return connect(undefined, { ...options, token: pageToken() });
 }

@@ -1,5 +1,5 @@
 export const PROTOCOL_MAJOR: 1;
-export const CATALOGUE_MINOR: 14;
+export const CATALOGUE_MINOR: 15;
 export const PARTS: Readonly<{
     ChannelInfo: string[][];
 }>;

@@ -21,3 +21,4 @@ export { Message, OwnedChannel, Subscription, KIND, KIND_NAME, payloadBytes, mon
 export { Database, Watch, PAIR_STATES } from "./databases.js";
 export { BlobChannel, BlobDownload, SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW } from "./blobs.js";
 export { openWebSocket, SUBPROTOCOL } from "./transport-ws.js";
+export { pageToken, pageTokenUrl } from "./page-token.js";

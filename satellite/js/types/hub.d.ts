@@ -2,6 +2,10 @@
  * @typedef {object} HubOptions
  * @property {string} [user] the account (default ROBOT_USER in Node, else "guest")
  * @property {string} [password] (default ROBOT_PASSWORD in Node, else "password")
+ * @property {string | (() => string | Promise<string>)} [token] log in with a page token
+ *   (LOGIN_TOKEN, FlowProtocol 1.15; ws:/wss: only) instead of user and password, as the hub's
+ *   page account; a function is called before each login, the first and every reconnection
+ *   (pageToken() fetches a new one from the hub)
  * @property {string} [clientName] shown in hub.stats and logs
  * @property {boolean} [reconnect] reconnect after the connection is lost (default true)
  * @property {number} [maxFrameBytes] the largest frame taken from the hub (default 16 MiB)
@@ -237,6 +241,13 @@ export type HubOptions = {
      * (default ROBOT_PASSWORD in Node, else "password")
      */
     password?: string;
+    /**
+     * log in with a page token
+     * (LOGIN_TOKEN, FlowProtocol 1.15; ws:/wss: only) instead of user and password, as the hub's
+     * page account; a function is called before each login, the first and every reconnection
+     * (pageToken() fetches a new one from the hub)
+     */
+    token?: string | (() => string | Promise<string>);
     /**
      * shown in hub.stats and logs
      */

@@ -8,7 +8,7 @@
 
 /* clang-format off */
 #define SKR_PROTOCOL_MAJOR 1u
-#define SKR_PROTOCOL_MINOR 14u
+#define SKR_PROTOCOL_MINOR 15u
 
 /* Codes: the minor that introduced each is in the comment. */
 #define SKR_CODE_LOGIN 0x01u /* 1.0 */
@@ -33,6 +33,7 @@
 #define SKR_CODE_ADMIN 0x14u /* 1.1 */
 #define SKR_CODE_POLL_DEREGISTER 0x15u /* 1.4 */
 #define SKR_CODE_SESSION_LIMITS 0x16u /* 1.12 */
+#define SKR_CODE_LOGIN_TOKEN 0x17u /* 1.15 */
 #define SKR_CODE_CHAN_ADD 0x40u /* 1.0 */
 #define SKR_CODE_CHAN_REMOVE 0x41u /* 1.0 */
 #define SKR_CODE_SUBSCRIBE 0x42u /* 1.0 */

@@ -4,7 +4,7 @@
 """FlowProtocol's code table, error codes, channel kinds and path frames (docs/flow-protocol.md)."""
 from __future__ import print_function, division, absolute_import
 
-CATALOGUE_MINOR = 14
+CATALOGUE_MINOR = 15
 
 # (name, code, minor, direction, connection, family)
 CODES = (
@@ -30,6 +30,7 @@ CODES = (
     ("ADMIN", 0x14, 1, "to_hub", "sync", "admin"),
     ("POLL_DEREGISTER", 0x15, 4, "to_hub", "sync", "channels"),
     ("SESSION_LIMITS", 0x16, 12, "to_hub", "sync", "session"),
+    ("LOGIN_TOKEN", 0x17, 15, "to_hub", "sync", "session"),
     ("CHAN_ADD", 0x40, 0, "to_hub", "flow", "channels"),
     ("CHAN_REMOVE", 0x41, 0, "to_hub", "flow", "channels"),
     ("SUBSCRIBE", 0x42, 0, "to_hub", "flow", "channels"),

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// LOGIN, GO_ASYNC and PING: a connection becomes a logged-in synchronous connection, then a flow.
+// LOGIN, LOGIN_TOKEN, GO_ASYNC and PING: a connection becomes a logged-in synchronous connection, then a flow.
 #include "families/session/session_room.h"
 
 #include "connection.h"
@@ -79,24 +79,42 @@ Result<PageTokens::Issued> SessionRoom::issuePageToken(const std::string& addres
   return t;
 }
 
-void SessionRoom::loginWithToken(Connection& c, TokenLogin m) {
+void SessionRoom::handle(Connection& c, msg::LoginToken& m) {
   if (!admit(c, m.major, m.minor, m.value_encoding)) return;
-  const uint16_t minor = std::min(m.minor, kProtocolMinor);
   c.client_name = m.client_name;
-  c.authenticating(static_cast<ValueEncoding>(m.value_encoding));
-  const std::string account = page_tokens ? hub_.opt.web->page_account : std::string();
-  LoginResult r;
+  c.authenticating(static_cast<ValueEncoding>(m.value_encoding));  // reading pauses meanwhile
+  const std::string account = pageAccount();
   if (c.transport() != Transport::websocket && c.transport() != Transport::websocket_loopback) {
+    LoginResult r;
     r.reason = "a page token on " + std::string(transportName(c.transport())) + " (WebSocket only)";
-  } else if (!page_tokens) {
+    finishLogin(c, account, std::min(m.minor, kProtocolMinor), std::move(r));
+    return;
+  }
+  // Held back after failed logins as LOGIN is (the same throttle, by account and source).
+  const Nanos now = monotonicNs();
+  if (const Nanos wait = throttle.wait(account, c.source, now); wait > 0) {
+    log::warn(kLogSource, "FLOW-LOGIN-THROTTLED",
+              c.describe() + ": page token login as \"" + account + "\" held back " +
+                  std::to_string(wait / kNsPerMs) + " ms after failed logins");
+    delayed_.push_back({c.id, now + wait, {}, std::move(m)});
+    return;
+  }
+  loginWithToken(c, m);
+}
+
+std::string SessionRoom::pageAccount() const {
+  return page_tokens ? hub_.opt.web->page_account : std::string(kBuiltInPageAccount);
+}
+
+void SessionRoom::loginWithToken(Connection& c, const msg::LoginToken& m) {
+  LoginResult r;
+  if (!page_tokens) {
     r.reason = "no page tokens (server.web.flows is off)";
-  } else if (const Nanos wait = throttle.wait(account, c.source, monotonicNs()); wait > 0) {
-    r.reason = "held back after failed logins";
   } else {
     r.ok = page_tokens->redeem(m.token, c.peerAddress(), monotonicNs(), &r.reason).has_value();
     if (r.ok) r.reason = "page token";
   }
-  finishLogin(c, account.empty() ? std::string(kBuiltInPageAccount) : account, minor, std::move(r));
+  finishLogin(c, pageAccount(), std::min(m.minor, kProtocolMinor), std::move(r));
 }
 
 void SessionRoom::stop() noexcept {
@@ -200,7 +218,13 @@ void SessionRoom::sweep(Nanos now) {
     return true;
   });
   for (DelayedLogin& d : due) {
-    if (Connection* c = hub_.connection(d.connection)) verify(*c, std::move(d.login));
+    Connection* c = hub_.connection(d.connection);
+    if (c == nullptr) continue;
+    if (d.token) {
+      loginWithToken(*c, *d.token);
+    } else {
+      verify(*c, std::move(d.login));
+    }
   }
 }
 

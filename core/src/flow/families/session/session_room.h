@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The session room: a connection's login (accounts, the authenticator's off-loop password checks,
-// the login throttle), its switch to a flow and PING; the LOGIN, GO_ASYNC and PING rows of the
+// the login throttle), its switch to a flow and PING; the LOGIN, LOGIN_TOKEN, GO_ASYNC and PING rows of the
 // catalogue. The connection's own state machine (login, authenticating, sync, flow) is in
 // connection.h; this room decides each step.
 #pragma once
@@ -13,6 +13,7 @@
 #include <skrobot/runtime/flow/messages.h>
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace skr::flow {
@@ -36,14 +37,6 @@ class SessionRoom final : public Room {
   // FLOW-TOKEN. limit_exceeded when throttled; unsupported without page tokens.
   [[nodiscard]] Result<PageTokens::Issued> issuePageToken(const std::string& address);
 
-  // A login with a page token: what LOGIN_TOKEN (FlowProtocol 1.15, on WebSocket only) carries.
-  // The row and its handler come once 1.14 is in the catalogue; loginWithToken() is its body.
-  struct TokenLogin {
-    uint16_t major = 0, minor = 0;
-    uint8_t value_encoding = 0;
-    std::string token, client_name;
-  };
-  void loginWithToken(Connection& c, TokenLogin m);
 
   // Its rows (catalogue.h, family session): handle(Connection&, msg::X&) for each.
   SKR_FLOW_ROOM_HANDLERS(session)
@@ -57,6 +50,11 @@ class SessionRoom final : public Room {
   // Verifies a LOGIN (after the throttle's delay, if any), off the loop; the answer comes back to
   // the connection if it is still there.
   void verify(Connection& c, msg::Login m);
+  // LOGIN_TOKEN's (WebSocket only; after the throttle's delay, if any): the page token redeemed
+  // from this connection's peer address; a refusal is a failed login (FLOW-AUTH-FAILED).
+  void loginWithToken(Connection& c, const msg::LoginToken& m);
+  // The account page tokens log in as (server.web.page_account).
+  [[nodiscard]] std::string pageAccount() const;
   // The checks every login starts with (connection limit, protocol version, value encoding):
   // false when it was answered and the connection closes.
   bool admit(Connection& c, uint16_t major, uint16_t minor, uint8_t value_encoding);
@@ -68,6 +66,7 @@ class SessionRoom final : public Room {
     uint32_t connection = 0;
     Nanos at = 0;
     msg::Login login;
+    std::optional<msg::LoginToken> token;  // a LOGIN_TOKEN rather than `login`
   };
   std::vector<DelayedLogin> delayed_;
   // The built-in page account's rules when server.web.page_account is it; else null.

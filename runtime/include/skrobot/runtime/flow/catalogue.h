@@ -50,6 +50,7 @@
   X(0x14, admin,                 1,  to_hub,    sync,      admin,     Admin,               ReplyValue)          \
   X(0x15, poll_deregister,       4,  to_hub,    sync,      channels,  PollDeregister,      Ack)                 \
   X(0x16, session_limits,        12, to_hub,    sync,      session,   SessionLimits,       Ack)                 \
+  X(0x17, login_token,           15, to_hub,    sync,      session,   LoginToken,          LoginOk)             \
   /* commands on a flow */                                                                       \
   X(0x40, chan_add,              0,  to_hub,    flow,      channels,  ChanAdd,             None)                \
   X(0x41, chan_remove,           0,  to_hub,    flow,      channels,  ChanRemove,          None)                \

@@ -51,6 +51,16 @@ struct Login {
   std::string user, password, client_name;
   SKR_FLOW_FIELDS(major, minor, value_encoding, user, password, client_name)
 };
+// LOGIN_TOKEN (1.15): a login with a page token (POST /skrobot/token on the hub's web port), as
+// the account server.web.page_account; on WebSocket only. Answered as LOGIN.
+struct LoginToken {
+  static constexpr Code code = Code::login_token;
+  uint16_t major = kProtocolMajor;
+  uint16_t minor = kProtocolMinor;
+  uint8_t value_encoding = 0;  // ValueEncoding the hub uses for values it sends
+  std::string token, client_name;
+  SKR_FLOW_FIELDS(major, minor, value_encoding, token, client_name)
+};
 struct LoginOk {
   static constexpr Code code = Code::reply_ok;
   uint16_t major = kProtocolMajor;

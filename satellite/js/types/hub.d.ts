@@ -84,18 +84,14 @@ export class Hub {
     /** Connects and logs in once; rejects on failure (a refused login, no hub). */
     start(): Promise<void>;
     attempt(): Promise<void>;
+    pageToken: string;
     /**
-     * @internal LOGIN's fields for this client's account (the flow's and the synchronous connection's).
+     * @internal The login frame for this client (the flow's and the synchronous connection's):
+     * LOGIN_TOKEN with the page token of the flow's last login, else LOGIN with the account.
      * @param {string} [suffix] added to the client name ("sync": "skrobot.js/sync")
+     * @returns {[string, Record<string, any>]} the frame's name and fields
      */
-    loginFields(suffix?: string): {
-        major: number;
-        minor: number;
-        value_encoding: number;
-        user: any;
-        password: any;
-        client_name: string;
-    };
+    loginMessage(suffix?: string): [string, Record<string, any>];
     /** @internal */
     ready(items: any): void;
     /** @internal */

@@ -398,10 +398,18 @@ int check(const std::string& src, bool write) {
     std::printf("%s: no reference section between the markers\n", doc_path.c_str());
     return 1;
   }
+  // Its title names the protocol version the catalogue speaks.
+  const std::string title = "# FlowProtocol " + std::to_string(kProtocolMajor) + "." +
+                            std::to_string(kProtocolMinor) + "\n";
+  if (updated->rfind("# FlowProtocol ", 0) != 0) {
+    std::printf("%s: the first line is not \"# FlowProtocol MAJOR.MINOR\"\n", doc_path.c_str());
+    return 1;
+  }
+  updated->replace(0, updated->find('\n') + 1, title);
   if (write) {
     std::ofstream(doc_path, std::ios::binary) << *updated;
   } else if (*updated != *doc) {
-    std::printf("%s: the reference table differs from the catalogue\n", doc_path.c_str());
+    std::printf("%s: the title or the reference table differs from the catalogue\n", doc_path.c_str());
     ++problems;
   }
   problems += checkDocTables(*updated, "docs/flow-protocol.md");

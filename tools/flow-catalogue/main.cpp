@@ -409,7 +409,8 @@ int check(const std::string& src, bool write) {
   if (write) {
     std::ofstream(doc_path, std::ios::binary) << *updated;
   } else if (*updated != *doc) {
-    std::printf("%s: the title or the reference table differs from the catalogue\n", doc_path.c_str());
+    std::printf("%s: the title or the reference table differs from the catalogue\n",
+                doc_path.c_str());
     ++problems;
   }
   problems += checkDocTables(*updated, "docs/flow-protocol.md");

@@ -8,6 +8,7 @@
 #include <skrobot/audio/input_stats.h>
 #include <skrobot/audio/pcm_input.h>
 #include <skrobot/audio/pcm_output.h>
+#include <skrobot/audio/pin_library.h>
 #include "device_thread.h"
 #include "play_buffer.h"
 
@@ -18,6 +19,9 @@
 #include <optional>
 
 namespace {
+
+// PortAudio (and the JACK it links) stay mapped when the hub unloads this module (pin_library.h).
+[[maybe_unused]] const bool kPortAudioPinned = skr::audio::pinLoadedLibrary("libportaudio.so.2");
 
 using skr::plugin::Host;
 

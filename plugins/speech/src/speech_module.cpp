@@ -10,6 +10,7 @@
 // play by the sample counter), then answers the request.
 #include <skrobot/audio/bounded_queue.h>
 #include <skrobot/audio/pcm_output.h>
+#include <skrobot/audio/pin_library.h>
 #include "synthesizer.h"
 #include "utterance_json.h"
 
@@ -25,6 +26,9 @@
 #include <variant>
 
 namespace {
+
+// espeak-ng stays initialised, so mapped, for the process's life (synthesizer.cpp, pin_library.h).
+[[maybe_unused]] const bool kEspeakPinned = skr::audio::pinLoadedLibrary("libespeak-ng.so.1");
 
 using skr::plugin::Host;
 

@@ -6,7 +6,6 @@
 #   tools/bootstrap.sh test   install what is missing, build, run every test
 #   tools/bootstrap.sh package  install what is missing, build, make the Debian packages
 #                               (build/packages/skrobot_*.deb, skrobot-dev_*.deb; docs/install.md)
-#                               and the JavaScript library's npm tarball (skrobot-*.tgz)
 #
 # Idempotent: packages already installed and an up-to-date build are left alone.
 set -euo pipefail
@@ -104,13 +103,6 @@ if [ ! -f web/node_modules/.package-lock.json ] || [ web/package-lock.json -nt w
 else
   echo "    up to date"
 fi
-step "installing the JavaScript library's npm package (typescript, for its declarations' test) into satellite/js/node_modules"
-if [ ! -f satellite/js/node_modules/.package-lock.json ] ||
-   [ satellite/js/package-lock.json -nt satellite/js/node_modules/.package-lock.json ]; then
-  npm ci --prefix satellite/js --no-audit --no-fund --loglevel=error
-else
-  echo "    up to date"
-fi
 
 build_preset release
 
@@ -131,9 +123,7 @@ case "$MODE" in
     rm -rf build/packages/_CPack_Packages
     # The board library as an Arduino library zip (docs/microcontrollers.md).
     cmake -DSOURCE=satellite/mcu -DOUT=build/packages -P cmake/arduino_zip.cmake > /dev/null
-    # The JavaScript library as an npm tarball (satellite/js; npm install ./skrobot-*.tgz).
-    (cd satellite/js && npm pack --pack-destination "$ROOT/build/packages" --loglevel=error > /dev/null)
-    ls -1 build/packages/*.deb build/packages/SkRobotFlow-*.zip build/packages/skrobot-*.tgz
+    ls -1 build/packages/*.deb build/packages/SkRobotFlow-*.zip
     echo "install them with: sudo apt install ./build/packages/skrobot_*.deb [./build/packages/skrobot-dev_*.deb]"
     ;;
   run)

@@ -36,7 +36,7 @@ LINE = {
 BY_NAME = [
     ("*.c", "c++"), ("*.h", "c++"), ("*.cpp", "c++"), ("*.hpp", "c++"), ("*.inc", "c++"),
     ("*.ino", "c++"),  # Arduino sketches (C++)
-    ("*.js", "c++"), ("*.mjs", "c++"), ("*.ts", "c++"),
+    ("*.js", "c++"), ("*.mjs", "c++"),
     ("CMakeLists.txt", "hash"), ("*.cmake", "hash"), ("*.py", "hash"), ("*.sh", "hash"),
     ("*.toml", "hash"), ("*.pc", "hash"), ("*.service", "hash"), ("*.properties", "hash"),
     ("*.css", "css"), ("*.html", "html"),
@@ -54,7 +54,6 @@ NOT_SOURCE = [
     ("packaging/debian/conffiles", "dpkg's list of paths (no comments)"),
     ("packaging/debian/copyright", "states every licence itself (DEP-5)"),
     ("tests/fuzz/seeds/*", "fuzzer input"),
-    ("satellite/js/types/*.d.ts", "tsc's declarations of satellite/js/src, whose files carry the line"),
     ("tests/modules/garbage.so.in", "test data: a file that must not load"),
     ("tests/modules/abi/[0-9]*/*", "a frozen ABI header: never edited (tests/modules/abi/README.md)"),
 ]

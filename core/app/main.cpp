@@ -191,7 +191,6 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.tls = s.tls;
   o.serial = s.serial;
   o.udp = s.udp;
-  o.web = s.web;
   o.max_frame_bytes = s.max_frame_bytes;
   o.subscriber_queue_bytes = s.subscriber_queue_bytes;
   o.subscriber_queue_max_bytes = s.subscriber_queue_max_bytes;

@@ -244,80 +244,6 @@ s::Schema serialSchema() {
   });
 }
 
-// server.web.mounts: {"/teleop": "examples/teleop"}. A key is a URL path prefix of plain
-// segments; the two paths the web port answers itself cannot be mounts.
-void webMounts(const Json::Value& v, const std::string& path, s::Problems& out) {
-  for (const std::string& key : v.getMemberNames()) {
-    const std::string where = s::childPath(path, key);
-    if (!v[key].isString() || v[key].asString().empty()) {
-      out.push_back({where, "must be a directory (a non-empty string)"});
-    }
-    bool ok = key.size() > 1 && key.front() == '/' && key.back() != '/';
-    size_t start = 1;
-    while (ok && start <= key.size()) {
-      const size_t end = std::min(key.find('/', start), key.size());
-      const std::string_view seg = std::string_view(key).substr(start, end - start);
-      ok = !seg.empty() && seg != "." && seg != ".." &&
-           std::all_of(seg.begin(), seg.end(), [](char c) {
-             return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                    c == '_' || c == '.' || c == '-' || c == '~';
-           });
-      start = end + 1;
-    }
-    if (!ok) {
-      out.push_back({where,
-                     "must be a URL path prefix: '/' then segments of letters, digits, '_', '.', "
-                     "'-', '~' (not \".\" or \"..\"), no trailing '/' (\"/teleop\")"});
-    } else if (key == "/flow" || key == "/skrobot/token") {
-      out.push_back({where, "is answered by the web port itself and cannot be a mount"});
-    }
-  }
-}
-
-// server.web.origins: "http://host[:port]" or "https://host[:port]", as a browser sends Origin.
-void webOrigin(const Json::Value& v, const std::string& path, s::Problems& out) {
-  const std::string o = v.asString();
-  const size_t sep = o.find("://");
-  const std::string scheme = sep == std::string::npos ? "" : o.substr(0, sep);
-  const std::string rest = sep == std::string::npos ? "" : o.substr(sep + 3);
-  const bool ok = (scheme == "http" || scheme == "https") && !rest.empty() &&
-                  rest.find_first_of("/?#@ ") == std::string::npos &&
-                  std::none_of(o.begin(), o.end(), [](char c) { return c >= 'A' && c <= 'Z'; });
-  if (!ok) {
-    out.push_back({path,
-                   "must be an origin as browsers send it, lower case: "
-                   "\"http://host[:port]\" or \"https://host[:port]\", got \"" +
-                       o + "\""});
-  }
-}
-
-// server.web.hosts: names a Host header may carry (without its port).
-void webHost(const Json::Value& v, const std::string& path, s::Problems& out) {
-  const std::string h = v.asString();
-  const bool ok = std::all_of(h.begin(), h.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' || c == '-';
-  });
-  if (!ok) {
-    out.push_back({path, "must be a lower-case host name without a port (\"robot.local\"), got \"" +
-                             h + "\""});
-  }
-}
-
-s::Schema webSchema() {
-  return s::object({
-      s::optional("address", s::string().nonEmpty(), "127.0.0.1"),
-      s::optional("port", s::integer().range(0, 65535), 8080),
-      s::optional("root", s::string(), ""),
-      s::optional("mounts", s::anyObject().check(webMounts), Json::objectValue),
-      s::optional("flows", s::boolean(), false),
-      s::optional("origins", s::arrayOf(s::string().check(webOrigin)), Json::arrayValue),
-      s::optional("hosts", s::arrayOf(s::string().nonEmpty().check(webHost)), Json::arrayValue),
-      s::optional("page_account", s::string().nonEmpty(), "web-page"),
-      s::optional("token_ttl_ms", s::integer().range(100, 86400000), 60000),
-      s::optional("dev_account", s::boolean(), false),
-  });
-}
-
 s::Schema serverSchema() {
   return s::object({
       s::optional("unix_socket", s::boolean(), true),
@@ -340,8 +266,6 @@ s::Schema serverSchema() {
                       s::optional("max_datagram", s::integer().range(128, 65507), 1200),
                       s::optional("session_timeout_ms", s::integer().range(100, 3600000), 10000),
                   })),
-      // The hub's web port (files, page tokens, flows over WebSocket): off unless set.
-      s::optional("web", webSchema()),
       s::optional("max_frame_bytes", s::integer().range(1024, 1 << 30), 16 << 20),
       s::optional("subscriber_queue_bytes", s::integer().range(64 << 10, 1 << 30), 8 << 20),
       s::optional("subscriber_queue_max_bytes", s::integer().range(64 << 10, 1 << 30), 64 << 20),
@@ -414,23 +338,6 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
       udp.session_timeout_ms = u["session_timeout_ms"].asUInt();
       out.udp = std::move(udp);
     }
-    if (const Json::Value& w = s["web"]; w.isObject()) {
-      flow::WebOptions web;
-      web.address = w["address"].asString();
-      web.port = static_cast<uint16_t>(w["port"].asUInt());
-      if (!w["root"].asString().empty()) web.root = resolve(base_dir, w["root"].asString());
-      for (const std::string& prefix : w["mounts"].getMemberNames()) {
-        if (!w["mounts"][prefix].isString()) continue;  // reported by the schema
-        web.mounts.emplace_back(prefix, resolve(base_dir, w["mounts"][prefix].asString()));
-      }
-      web.flows = w["flows"].asBool();
-      for (const Json::Value& o : w["origins"]) web.origins.push_back(o.asString());
-      for (const Json::Value& h : w["hosts"]) web.hosts.push_back(h.asString());
-      web.page_account = w["page_account"].asString();
-      web.token_ttl_ms = w["token_ttl_ms"].asUInt();
-      web.dev_account = w["dev_account"].asBool();
-      out.web = std::move(web);
-    }
     out.max_frame_bytes = s["max_frame_bytes"].asUInt();
     out.subscriber_queue_bytes = s["subscriber_queue_bytes"].asUInt();
     out.subscriber_queue_max_bytes = s["subscriber_queue_max_bytes"].asUInt();
@@ -492,15 +399,8 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin, const
     if (d["sync"].isObject()) cfg.sync_hub_source = d["sync"]["hub_source"].asString();
     readServer(d, base_dir, cfg);
     readLinks(d, base_dir, purpose, cfg, problems);
-    if (cfg.server.tls && !cfg.server.tcp_enabled && !cfg.server.web) {
-      problems.push_back({"$.server.tls",
-                          "TLS is served on the TCP listener and the web port: set \"tcp\": true "
-                          "or \"web\""});
-    }
-    if (cfg.server.web && cfg.server.web->dev_account && !cfg.server.dev_account) {
-      problems.push_back({"$.server.web.dev_account",
-                          "lets the development account in over WebSocket from this machine, but "
-                          "$.accounts.dev_account sets none"});
+    if (cfg.server.tls && !cfg.server.tcp_enabled) {
+      problems.push_back({"$.server.tls", "TLS is served on the TCP listener: set \"tcp\": true"});
     }
   }
   if (!problems.empty()) return makeError(Errc::config_error, s::formatProblems(problems, origin));

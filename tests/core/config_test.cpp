@@ -156,11 +156,7 @@ TEST(ConfigTest, TlsSettingsAreReadAndResolved) {
   EXPECT_EQ(no_ca->server.tls->min_version, "1.3");
 
   EXPECT_HAS(errorOf(R"({"server": {"tls": {"cert": "a", "key": "b"}}})"),
-             "$.server.tls: TLS is served on the TCP listener and the web port: set \"tcp\": "
-             "true or \"web\"");
-  // The web port alone may speak TLS.
-  auto web_tls = parse(R"({"server": {"web": {}, "tls": {"cert": "a", "key": "b"}}})");
-  EXPECT_TRUE(web_tls.ok()) << web_tls.error().message;
+             "$.server.tls: TLS is served on the TCP listener: set \"tcp\": true");
   EXPECT_HAS(errorOf(R"({"server": {"tcp": true, "tls": {"cert": "a"}}})"), "key");
   EXPECT_HAS(errorOf(R"({"server": {"tcp": true, "tls": {"cert": "a", "key": "b",
                           "min_version": "1.1"}}})"),
@@ -238,78 +234,6 @@ TEST(ConfigTest, TheUdpPortIsOffUnlessSetAndNeedsANumericAddress) {
             "0.0.0.0, ::)");
   EXPECT_HAS(errorOf(R"({"server": {"udp": {"address": "0.0.0.0", "max_datagram": 64}}})"),
              "$.server.udp.max_datagram");
-}
-
-TEST(ConfigTest, TheWebPortIsOffUnlessSetAndLoopbackByDefault) {
-  Result<HubConfig> r = parse(R"({"server": {}})");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  EXPECT_FALSE(r->server.web);
-  r = parse(R"({"server": {"web": {}}})");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  ASSERT_TRUE(r->server.web);
-  const flow::WebOptions& d = *r->server.web;
-  EXPECT_EQ(d.address, "127.0.0.1");
-  EXPECT_EQ(d.port, 8080);
-  EXPECT_TRUE(d.root.empty());  // the installed page
-  EXPECT_TRUE(d.mounts.empty());
-  EXPECT_FALSE(d.flows);
-  EXPECT_TRUE(d.origins.empty());
-  EXPECT_TRUE(d.hosts.empty());
-  EXPECT_EQ(d.page_account, "web-page");
-  EXPECT_EQ(d.token_ttl_ms, 60000u);
-  EXPECT_FALSE(d.dev_account);
-
-  r = parse(R"({"accounts": {"dev_account": {"user": "guest", "password": "pw"}},
-      "server": {"web": {"address": "0.0.0.0", "port": 8443, "root": "site",
-      "mounts": {"/teleop": "examples/teleop", "/skrobot": "/usr/share/skrobot/js"},
-      "flows": true, "origins": ["https://robot.local:8443"], "hosts": ["robot.local"],
-      "page_account": "teleop", "token_ttl_ms": 1000, "dev_account": true}}})");
-  ASSERT_TRUE(r.ok()) << r.error().message;
-  const flow::WebOptions& w = *r->server.web;
-  EXPECT_EQ(w.address, "0.0.0.0");
-  EXPECT_EQ(w.port, 8443);
-  EXPECT_EQ(w.root, "/etc/robot/site");
-  ASSERT_EQ(w.mounts.size(), 2u);
-  EXPECT_EQ(w.mounts[0].first, "/skrobot");  // jsoncpp lists members sorted
-  EXPECT_EQ(w.mounts[0].second, "/usr/share/skrobot/js");
-  EXPECT_EQ(w.mounts[1].first, "/teleop");
-  EXPECT_EQ(w.mounts[1].second, "/etc/robot/examples/teleop");
-  EXPECT_TRUE(w.flows);
-  EXPECT_EQ(w.origins, std::vector<std::string>{"https://robot.local:8443"});
-  EXPECT_EQ(w.hosts, std::vector<std::string>{"robot.local"});
-  EXPECT_EQ(w.page_account, "teleop");
-  EXPECT_EQ(w.token_ttl_ms, 1000u);
-  EXPECT_TRUE(w.dev_account);
-
-  // Each bad key names its path and why.
-  EXPECT_EQ(errorOf(R"({"server": {"web": {"mounts": {"/a/../b": "x"}}}})"),
-            "test.json: $.server.web.mounts[\"/a/../b\"]: must be a URL path prefix: '/' then "
-            "segments of letters, digits, '_', '.', '-', '~' (not \".\" or \"..\"), no trailing "
-            "'/' (\"/teleop\")");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"mounts": {"/": "x"}}}})"), "$.server.web.mounts");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"mounts": {"/t/": "x"}}}})"), "URL path prefix");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"mounts": {"/t": ""}}}})"),
-             "$.server.web.mounts[\"/t\"]: must be a directory");
-  EXPECT_EQ(errorOf(R"({"server": {"web": {"mounts": {"/flow": "x"}}}})"),
-            "test.json: $.server.web.mounts[\"/flow\"]: is answered by the web port itself and "
-            "cannot be a mount");
-  EXPECT_EQ(errorOf(R"({"server": {"web": {"origins": ["https://robot.local/page"]}}})"),
-            "test.json: $.server.web.origins[0]: must be an origin as browsers send it, lower "
-            "case: \"http://host[:port]\" or \"https://host[:port]\", got "
-            "\"https://robot.local/page\"");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"origins": ["ws://robot.local"]}}})"),
-             "$.server.web.origins[0]");
-  EXPECT_EQ(errorOf(R"({"server": {"web": {"hosts": ["robot.local:8080"]}}})"),
-            "test.json: $.server.web.hosts[0]: must be a lower-case host name without a port "
-            "(\"robot.local\"), got \"robot.local:8080\"");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"port": 70000}}})"), "$.server.web.port");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"token_ttl_ms": 10}}})"), "$.server.web.token_ttl_ms");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"page_account": ""}}})"), "$.server.web.page_account");
-  EXPECT_HAS(errorOf(R"({"server": {"web": {"flow": true}}})"),
-             "unknown key \"flow\" (did you mean \"flows\"?)");
-  EXPECT_EQ(errorOf(R"({"server": {"web": {"dev_account": true}}})"),
-            "test.json: $.server.web.dev_account: lets the development account in over WebSocket "
-            "from this machine, but $.accounts.dev_account sets none");
 }
 
 TEST(ConfigTest, OutOfRange) {

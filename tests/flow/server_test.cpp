@@ -578,7 +578,7 @@ TEST_F(Server, HubToSatelliteCodesCloseTheSenderAndUnassignedOnesAreUnsupported)
     }
   }
   EXPECT_EQ(stats().protocol_errors, closed);
-  // The first code no minor assigned after each family's start (0x18, 0x55, 0xCA, 0xE3 at 1.15),
+  // The first code no minor assigned after each family's start (0x17, 0x52, 0xCA, 0xE3 at 1.13),
   // found in the catalogue so that the next minor's code does not break this test.
   std::vector<uint8_t> free_codes;
   for (int start : {0x01, 0x40, 0xC0, 0xE0}) {

@@ -99,9 +99,6 @@ export async function startHub(modules, { users = [], server = {} } = {}) {
     for (const [action, patterns] of Object.entries(u.rules || {})) {
       await run(env.skrobot, ['user', 'rule', u.name, action, ...patterns, '--users', usersFile]);
     }
-    for (const [what, n] of Object.entries(u.limits || {})) {
-      await run(env.skrobot, ['user', 'limit', u.name, what, String(n), '--users', usersFile]);
-    }
   }
   const config = {
     app_name: 'WebTest', server: { unix_path: socket, ...server }, data_dir: path.join(dir, 'data'),

@@ -64,7 +64,6 @@ int cmdEcho(const Cli& cli) {
   const bool rate = args.flag("--rate");
   const bool wait = args.flag("--wait");
   const auto queue_text = args.option("--queue");
-  const auto max_hz_text = args.option("--max-hz");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
   if (rest.size() != 1) return usageError(cli);
@@ -76,11 +75,6 @@ int cmdEcho(const Cli& cli) {
   double queue = 0;
   if (queue_text && !parseNumber(*queue_text, "--queue", queue)) return kUsage;
   if (queue > 4294967295.0) return fail(kUsage, "--queue is at most 4294967295 bytes");
-  double max_hz = 0;
-  if (max_hz_text && !parseNumber(*max_hz_text, "--max-hz", max_hz)) return kUsage;
-  if (max_hz > 65535 || max_hz != static_cast<double>(static_cast<uint32_t>(max_hz))) {
-    return fail(kUsage, "--max-hz is a whole number of messages a second, at most 65535");
-  }
   const std::string& name = rest[0];
   if (!flowOnly(cli)) {  // serial:, udp: no synchronous check: waits for the channel (--wait)
     int code = kOk;
@@ -123,16 +117,15 @@ int cmdEcho(const Cli& cli) {
       window_msgs = window_bytes = 0;
     });
   }
-  if (queue_text || max_hz_text) {
+  if (queue_text) {
     // A request above the hub's cap: subscribed with the cap, and said so (the library's own
     // log line is below flowctl's level).
     s.satellite.error.connect(&s.satellite, [](const skr::sat::FlowError& e) {
-      if (e.command == uint8_t(skr::flow::Code::subscribe_queue) ||
-          e.command == uint8_t(skr::flow::Code::subscribe_rate)) {
+      if (e.command == uint8_t(skr::flow::Code::subscribe_queue)) {
         std::fprintf(stderr, "flowctl: %s\n", e.message.c_str());
       }
     });
-    s.satellite.subscribe(name, static_cast<size_t>(queue), static_cast<uint16_t>(max_hz));
+    s.satellite.subscribe(name, static_cast<size_t>(queue));
   } else {
     s.satellite.subscribe(name);
   }

@@ -35,7 +35,7 @@ constexpr Command kCommands[] = {
      .usage = "usage: flowctl echo CHANNEL [options]",
      .help =
          R"(usage: flowctl echo CHANNEL [--format auto|text|hex|json] [--count N] [--rate] [--wait]
-                    [--queue BYTES] [--max-hz N]
+                    [--queue BYTES]
   Subscribes to a streaming channel and prints each message.
   --format    auto (text when printable, else hex; the default), text, hex, or json (a
               binary Variant payload or JSON text, shown as JSON)
@@ -44,8 +44,6 @@ constexpr Command kCommands[] = {
   --wait      wait for the channel to appear instead of failing (exit 5) when it is absent
   --queue N   ask the hub to hold up to N bytes for this subscription before it drops the
               oldest (FlowProtocol 1.13; clamped to server.subscriber_queue_max_bytes)
-  --max-hz N  at most N messages a second, newest wins: the hub holds back the newest and
-              sends it when the interval ends (FlowProtocol 1.14; a preview of a fast channel)
 )",
      .run = cmdEcho},
     {.name = "poll",
@@ -88,18 +86,14 @@ constexpr Command kCommands[] = {
 )",
      .run = cmdCall},
     {.name = "db",
-     .synopsis = "db get|set|del|ls|watch|save|sync|databases [--db NAME] [KEY [VALUE]]",
+     .synopsis = "db get|set|del|ls|save|sync|databases [--db NAME] [KEY [VALUE]]",
      .summary = "read and write PairDatabases",
      .help =
-         R"(usage: flowctl db get KEY | set KEY VALUE | del KEY | ls | watch | save | sync | databases
-                  [--db NAME] [--count N]
+         R"(usage: flowctl db get KEY | set KEY VALUE | del KEY | ls | save | sync | databases [--db NAME]
   get KEY          print a variable as JSON (exit 5 when absent)
   set KEY VALUE    set a variable; VALUE is JSON (quote strings: '"text"')
   del KEY          remove a variable
   ls               every variable of the database
-  watch            every variable, then each change as it is made: KEY = VALUE, KEY removed,
-                   or (cleared) when every key went (--json: one object a line); --count N:
-                   stop after N changes. Ends with the database (exit 5) (FlowProtocol 1.14)
   save             write the database's snapshot now (compacts its log)
   sync             wait until every change the hub made so far is on disk (any policy)
   databases        the names of all databases

@@ -98,8 +98,7 @@ std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code) {
 
 bool flowOnly(const Cli& cli) {
   const auto kind = cli.connect.address.kind;
-  return kind == skr::sat::Address::Kind::serial || kind == skr::sat::Address::Kind::udp ||
-         kind == skr::sat::Address::Kind::ws || kind == skr::sat::Address::Kind::wss;
+  return kind == skr::sat::Address::Kind::serial || kind == skr::sat::Address::Kind::udp;
 }
 
 bool parseNumber(const std::string& text, const char* what, double& out) {

@@ -23,24 +23,6 @@ Connection* connectionOf(Hub& hub, uint32_t id) noexcept {
   return hub.connection(id);
 }
 
-namespace {
-
-// What the accounts' rules see of a transport (Connection::transport()).
-Transport loginTransport(const transport::Transport& t) {
-  switch (t.kind()) {
-    case transport::TransportKind::unix_socket:
-      return Transport::unix_socket;
-    case transport::TransportKind::websocket: {
-      return isLoopbackAddress(t.peer().address) ? Transport::websocket_loopback
-                                                 : Transport::websocket;
-    }
-    default:
-      return Transport::tcp;
-  }
-}
-
-}  // namespace
-
 Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport)
     : hub_(hub),
       transport_(std::move(transport)),
@@ -49,7 +31,6 @@ Connection::Connection(Hub& hub, std::unique_ptr<transport::Transport> transport
       base_queue_(hub.opt.subscriber_queue_bytes),
       queue_limit_(hub.opt.subscriber_queue_bytes) {
   if (transport_->kind() == transport::TransportKind::udp) max_frame_ = transport_->maxFrameBytes();
-  login_transport_ = loginTransport(*transport_);
 }
 
 // The transport's closed() deletes a connection, possibly after the server is gone: close() has
@@ -183,7 +164,7 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
   const std::string name(codeName(code));
   switch (state_) {
     case State::login:
-      if (static_cast<Code>(code) == Code::login || static_cast<Code>(code) == Code::login_token) {
+      if (static_cast<Code>(code) == Code::login) {
         dispatchFrame(code, body);
       } else {
         replyError(ErrorCode::not_logged_in, name + " before LOGIN");
@@ -219,10 +200,6 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
         refuse(name + " is synchronous: use a synchronous connection, the flow never blocks");
       } else if (info->minor > minor_) {
         refuse(name + " is newer than this connection's protocol 1." + std::to_string(minor_));
-      } else if (info->family == Family::physical &&
-                 transport_->kind() == transport::TransportKind::websocket) {
-        // Shared memory and descriptors do not cross a WebSocket; the relay serves its data.
-        refuse(name + ": no physical paths over WebSocket");
       } else {
         dispatchFrame(code, body);
       }
@@ -396,11 +373,6 @@ void Connection::queued() {
 
 void Connection::onData(const Channel& ch, std::string_view payload) {
   if (state_ != State::flow) return;
-  if (rates_ && !rates_->admit(ch.id, payload, monotonicNs())) return;  // waits, or skipped
-  queueData(ch, payload);
-}
-
-void Connection::queueData(const Channel& ch, std::string_view payload) {
   std::string& out = output_.queue();
   const size_t frame = kFrameHeaderBytes + 2 + payload.size();
   if (max_frame_ != 0 && frame > max_frame_) {
@@ -491,24 +463,6 @@ size_t Connection::askQueue(uint16_t chan_id, size_t bytes) {
 
 void Connection::releaseQueue(uint16_t chan_id) {
   if (queue_asked_.erase(chan_id) != 0) resizeQueue();
-  if (rates_) rates_->remove(chan_id);
-}
-
-void Connection::capRate(uint16_t chan_id, uint16_t max_hz) {
-  if (!rates_) {
-    if (max_hz == 0) return;
-    rates_ = std::make_unique<RateCaps>(hub_.loop, [this](uint16_t chan, std::string_view payload) {
-      const Channel* ch = hub_.channels.find(chan);
-      if (ch != nullptr && state_ == State::flow) queueData(*ch, payload);
-    });
-  }
-  rates_->set(chan_id, max_hz);
-}
-
-Endpoint::RateCap Connection::rateCap(uint16_t chan) const {
-  if (!rates_) return {};
-  const RateCaps::Info i = rates_->info(chan);
-  return {i.max_hz, i.skipped};
 }
 
 void Connection::resizeQueue() noexcept {

@@ -10,7 +10,6 @@
 #include "endpoint.h"
 #include "frame_input.h"
 #include "output.h"
-#include "rate_caps.h"
 
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/clock.h>
@@ -56,11 +55,11 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
 
   [[nodiscard]] Hub& hub() noexcept { return hub_; }
   [[nodiscard]] State state() const noexcept { return state_; }
-  // What the accounts' rules see: a Unix socket, WebSocket (from loopback or not), or the
-  // network (TCP, TLS, any other). Set at accept from the transport's peer.
-  [[nodiscard]] Transport transport() const noexcept { return login_transport_; }
-  // The peer's numeric address (TCP, TLS, WebSocket); empty on a Unix socket.
-  [[nodiscard]] std::string peerAddress() const { return transport_->peer().address; }
+  // What the accounts' rules see: a Unix socket, or the network (TCP, TLS, any other).
+  [[nodiscard]] Transport transport() const noexcept {
+    return transport_->kind() == transport::TransportKind::unix_socket ? Transport::unix_socket
+                                                                       : Transport::tcp;
+  }
   [[nodiscard]] transport::TransportKind transportKind() const noexcept {
     return transport_->kind();
   }
@@ -98,11 +97,7 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // limitQueue); returns what it was granted. The queue, one for the connection, is the larger
   // of the default and every grant of a subscription it still holds.
   size_t askQueue(uint16_t chan_id, size_t bytes);
-  // SUBSCRIBE_RATE (1.14): at most `max_hz` frames a second of `chan_id` reach it, newest wins
-  // (rate_caps.h); 0: no cap.
-  void capRate(uint16_t chan_id, uint16_t max_hz);
-  // The subscription to `chan_id` ended (unsubscribed, or the channel went): its grant and its
-  // rate cap go.
+  // The subscription to `chan_id` ended (unsubscribed, or the channel went): its grant goes.
   void releaseQueue(uint16_t chan_id);
   // Whether channel events about `ch` reach it (always, unless it limited its session).
   [[nodiscard]] bool hearsOf(const Channel& ch) const;
@@ -187,7 +182,6 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   }
   [[nodiscard]] size_t queuedBytes() const override { return output_.bytes(); }
   [[nodiscard]] size_t queueLimitBytes() const override { return queue_limit_; }
-  [[nodiscard]] RateCap rateCap(uint16_t chan) const override;
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,
@@ -239,13 +233,10 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // written, before everything else.
   void sendUrgent(std::string_view frame);
   void dropOldestData(size_t needed);
-  // An EV_DATA frame onto the output queue (dropping the oldest when full).
-  void queueData(const Channel& ch, std::string_view payload);
   void resizeQueue() noexcept;  // queue_limit_ from base_queue_ and queue_asked_
 
   Hub& hub_;
   std::unique_ptr<transport::Transport> transport_;
-  Transport login_transport_ = Transport::tcp;
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
@@ -264,7 +255,6 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   size_t base_queue_;   // server.subscriber_queue_bytes, or the listener's (limitQueue)
   size_t queue_limit_;  // data frames wait up to this many bytes (resizeQueue)
   std::map<uint16_t, size_t> queue_asked_;  // SUBSCRIBE_QUEUE grants by channel
-  std::unique_ptr<RateCaps> rates_;         // SUBSCRIBE_RATE caps (from the first one)
   bool queue_fixed_ = false;                // the listener's queue (limitQueue): not raised
   uint32_t max_frame_ = 0;                  // SESSION_LIMITS: the largest frame sent to it; 0 none
   bool channel_events_ = true;

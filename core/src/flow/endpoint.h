@@ -79,13 +79,6 @@ class Endpoint {
   [[nodiscard]] virtual size_t queuedBytes() const { return 0; }
   // Its subscriber queue's size (SUBSCRIBE_QUEUE may raise it): 0 for in-process ones.
   [[nodiscard]] virtual size_t queueLimitBytes() const { return 0; }
-  // SUBSCRIBE_RATE's cap (1.14) on its subscription to `chan` (max_hz 0: none) and the frames
-  // the cap skipped (replaced by a newer one before they could go).
-  struct RateCap {
-    uint16_t max_hz = 0;
-    uint64_t skipped = 0;
-  };
-  [[nodiscard]] virtual RateCap rateCap(uint16_t /*chan*/) const { return {}; }
 
   // Data published on a channel it subscribes to; `payload` is valid during the call only.
   virtual void onData(const Channel& ch, std::string_view payload) = 0;

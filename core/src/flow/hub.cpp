@@ -86,8 +86,4 @@ void Hub::sweep(Nanos now) {
   }
 }
 
-bool isLoopbackAddress(std::string_view a) noexcept {
-  return a == "localhost" || a == "::1" || a.starts_with("127.") || a.starts_with("::ffff:127.");
-}
-
 }  // namespace skr::flow

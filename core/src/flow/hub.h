@@ -94,8 +94,4 @@ struct Hub {
   Nanos next_second = 0;
 };
 
-// Whether an address (a listening one, or a peer's numeric one) is this machine's only:
-// "localhost", "::1", "127.*", "::ffff:127.*".
-[[nodiscard]] bool isLoopbackAddress(std::string_view address) noexcept;
-
 }  // namespace skr::flow

@@ -73,16 +73,11 @@ HubSnapshot FlowServer::snapshot() const {
       if (e == nullptr) continue;
       c.subscriber_flows.push_back(e->id);
       c.subscriber_paths.emplace_back("relay");
-      const Endpoint::RateCap cap = e->rateCap(ch.id);
-      c.subscriber_max_hz.push_back(cap.max_hz);
-      c.subscriber_skipped.push_back(cap.skipped);
     }
     for (const Endpoint* e : ch.physical) {  // on a path
       c.subscriber_flows.push_back(e->id);
       c.subscriber_paths.emplace_back(
           s.physical.activePath(ch.id, e->id) == msg::kPhysShm ? "shm" : "direct");
-      c.subscriber_max_hz.push_back(0);  // a path is not capped
-      c.subscriber_skipped.push_back(0);
     }
     c.messages = ch.seq;
     c.bytes = ch.bytes;
@@ -121,10 +116,6 @@ HubSnapshot FlowServer::snapshot() const {
   }
   if (s.udp_port)
     out.udp = UdpCounters{s.udp_port->port(), s.udp_port->sessions(), s.udp_port->stats()};
-  if (s.web_port) {
-    out.web = s.web_port->stats();
-    out.web->port = s.web_port->port();
-  }
   std::sort(out.flows.begin(), out.flows.end(),
             [](const FlowCounters& a, const FlowCounters& b) { return a.id < b.id; });
   return out;
@@ -140,10 +131,6 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
     for (uint32_t id : c.subscriber_flows) subscribers.emplace_back(static_cast<uint64_t>(id));
     Variant::List paths;
     for (const auto& p : c.subscriber_paths) paths.emplace_back(p);
-    Variant::List max_hz;
-    for (uint16_t hz : c.subscriber_max_hz) max_hz.emplace_back(static_cast<uint64_t>(hz));
-    Variant::List skipped;
-    for (uint64_t n : c.subscriber_skipped) skipped.emplace_back(n);
     const auto owner = flow_names.find(c.owner_flow);
     channels.emplace_back(Variant::Map{
         {"name", c.name},
@@ -154,8 +141,6 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
         {"subscribers", static_cast<uint64_t>(c.subscriber_flows.size())},
         {"subscriber_flows", std::move(subscribers)},
         {"subscriber_paths", std::move(paths)},
-        {"subscriber_max_hz", std::move(max_hz)},
-        {"subscriber_skipped", std::move(skipped)},
         {"messages", c.messages},
         {"bytes", c.bytes},
         {"dropped", c.dropped},
@@ -237,20 +222,6 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
                    {"channels", std::move(channels)},
                    {"flows", std::move(flows)},
                    {"serial", std::move(serial)}};
-  if (snapshot.web) {
-    const WebCounters& w = *snapshot.web;
-    out["web"] = Variant::Map{
-        {"port", static_cast<uint64_t>(w.port)},
-        {"requests", w.requests},
-        {"files", w.files},
-        {"not_found", w.not_found},
-        {"upgrades", w.upgrades},
-        {"tokens", w.tokens},
-        {"refused_host", w.refused_host},
-        {"refused_origin", w.refused_origin},
-        {"refused", w.refused},
-    };
-  }
   if (snapshot.udp) {
     const transport::UdpStats& u = snapshot.udp->stats;
     out["udp"] = Variant::Map{

@@ -122,8 +122,7 @@ Result<void> Output::writeSlice(transport::Transport& transport) {
   // Whole frames of at least kWriteSlice bytes, so that urgent frames wait behind one slice at
   // most; a larger frame goes in slices of kWriteSlice too, so that no write holds the loop for
   // long (urgent frames wait for its end: atFrameBoundary). A message-based transport takes
-  // whole frames only, and each write to a frame_messages one (WebSocket) is a message that
-  // must hold whole frames: for both, a frame larger than a slice goes whole.
+  // whole frames only: a frame larger than a slice goes whole.
   size_t last_start = 0;  // where the last frame added below starts
   while (next_frame_ < inflight_.size() &&
          (next_frame_ <= inflight_off_ || next_frame_ - inflight_off_ < kWriteSlice)) {

@@ -6,15 +6,21 @@
 #include "connection.h"
 #include "uv_handle.h"
 
-#include <skrobot/hub/install_layout.h>
 #include <skrobot/runtime/log.h>
 
 #include <csignal>
-#include <filesystem>
-#include <system_error>
 #include <vector>
 
 namespace skr::flow {
+namespace {
+
+// Whether a listening address is reachable from this machine only.
+bool isLoopback(const std::string& address) {
+  return address == "localhost" || address == "::1" || address.starts_with("127.");
+}
+
+}  // namespace
+
 FlowServer::Impl::Impl(Loop& l, ServerOptions options) : Hub(l, std::move(options)) {
   unix_path = opt.unix_path.empty() ? "/tmp/" + opt.app_name : opt.unix_path;
 }
@@ -46,7 +52,7 @@ Result<void> FlowServer::Impl::start() {
       sweep_timer, [](uv_timer_t* h) { static_cast<Impl*>(h->data)->sweep(monotonicNs()); }, 20,
       20);
 
-  if ((opt.tcp_enabled || opt.web) && opt.tls) {
+  if (opt.tcp_enabled && opt.tls) {
     // The certificate, key and CA files are read here, once, before the loop serves anyone.
     auto ctx = TlsContext::create(TlsRole::server, *opt.tls);
     if (!ctx) return ctx.error();
@@ -67,12 +73,6 @@ Result<void> FlowServer::Impl::start() {
   }
   if (opt.udp) {
     if (auto r = listenUdp(); !r) {
-      stop();
-      return r;
-    }
-  }
-  if (opt.web) {
-    if (auto r = listenWeb(); !r) {
       stop();
       return r;
     }
@@ -125,7 +125,7 @@ Result<void> FlowServer::Impl::listenTcp() {
                   (tls->requiresPeerCertificate() ? "required" : "not asked for") + ")");
   } else {
     log::info(kLogSource, "FLOW-LISTEN", "TCP " + where);
-    if (!isLoopbackAddress(opt.tcp_address)) {
+    if (!isLoopback(opt.tcp_address)) {
       log::warn(kLogSource, "FLOW-TCP-PLAIN",
                 "serving plain TCP on " + where +
                     ", reachable from other machines: passwords and data cross the network "
@@ -145,44 +145,6 @@ Result<void> FlowServer::Impl::listenUdp() {
   log::info(kLogSource, "FLOW-LISTEN",
             "UDP " + opt.udp->address + ":" + std::to_string(udp_port->port()) +
                 " (boards with a key: skrobot user key NAME)");
-  return {};
-}
-
-Result<void> FlowServer::Impl::listenWeb() {
-  WebOptions w = *opt.web;
-  if (w.root.empty()) {
-    // The page installed with the hub, or in a build tree the one copied beside bin/.
-    std::error_code ec;
-    for (const std::filesystem::path& dir :
-         {installedDataDir() / "web", (executableDir() / ".." / "web").lexically_normal()}) {
-      if (!executableDir().empty() && std::filesystem::is_regular_file(dir / "index.html", ec)) {
-        w.root = dir;
-        break;
-      }
-    }
-    if (w.root.empty()) {
-      log::warn(kLogSource, "FLOW-WEB",
-                "no web page installed beside the hub (" + (installedDataDir() / "web").string() +
-                    "): the web port serves server.web.mounts only; set server.web.root");
-    }
-  }
-  auto port = WebPort::open(
-      loop, w, tls ? &*tls : nullptr, opt.login_timeout_ms, opt.max_connections,
-      [this](std::unique_ptr<transport::Transport> t) { accept(std::move(t)); },
-      [this](const std::string& address) { return session.issuePageToken(address); });
-  if (!port) return port.error();
-  web_port = std::move(port).value();
-  const std::string where = w.address + ":" + std::to_string(web_port->port());
-  log::info(kLogSource, "FLOW-LISTEN",
-            std::string(tls ? "HTTPS " : "HTTP ") + where + " (files" +
-                (w.root.empty() ? "" : " from " + w.root.string()) +
-                (w.flows ? ", flows over WebSocket at /flow" : "") + ")");
-  if (!tls && !isLoopbackAddress(w.address)) {
-    log::warn(kLogSource, "FLOW-TCP-PLAIN",
-              "serving plain HTTP on " + where +
-                  ", reachable from other machines: pages, passwords and data cross the network "
-                  "unencrypted; configure server.tls (docs/security.md)");
-  }
   return {};
 }
 
@@ -229,7 +191,6 @@ void FlowServer::Impl::stop() noexcept {
   tcp_listener.reset();
   serial_ports.reset();
   udp_port.reset();
-  web_port.reset();
   closeUvHandle(flush_prepare);
   closeUvHandle(flush_check);
   closeUvHandle(sweep_timer);
@@ -268,9 +229,6 @@ uint16_t FlowServer::tcpPort() const noexcept {
 }
 uint16_t FlowServer::udpPort() const noexcept {
   return impl_->udp_port ? impl_->udp_port->port() : 0;
-}
-uint16_t FlowServer::webPort() const noexcept {
-  return impl_->web_port ? impl_->web_port->port() : 0;
 }
 const ServerStats& FlowServer::stats() const noexcept {
   return impl_->stats;

@@ -1,15 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // FlowServer::Impl: the hub's FlowNetwork server. Its parts are the Hub (hub.h: the endpoints and
 // one room per family of the protocol); this adds the listeners (transport.h: Unix socket, TCP,
-// TLS on TCP; serial_ports.h; udp_port.h; web_port.h), accepting connections, the loop's handles
-// that flush output once per iteration and run the sweep. Main loop thread only. docs/internals.md
-// is the map.
+// TLS on TCP; serial_ports.h; udp_port.h), accepting connections, the loop's handles that flush
+// output once per iteration and run the sweep. Main loop thread only. docs/internals.md is the map.
 #pragma once
 
 #include "hub.h"
 #include "serial_ports.h"
 #include "udp_port.h"
-#include "web_port.h"
 
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/runtime/flow/tls.h>
@@ -30,15 +28,13 @@ struct FlowServer::Impl : Hub {
   std::string unix_path;
   uint16_t tcp_port = 0;
   bool started = false;
-  // Loaded by start() when opt.tls is set: every TCP and web connection is then a TLS session on
-  // it.
+  // Loaded by start() when opt.tls is set: every TCP connection is then a TLS session on it.
   std::optional<TlsContext> tls;
 
   std::unique_ptr<transport::Listener> unix_listener;
   std::unique_ptr<transport::Listener> tcp_listener;
   std::unique_ptr<SerialPorts> serial_ports;  // server.serial
   std::unique_ptr<UdpPort> udp_port;          // server.udp
-  std::unique_ptr<WebPort> web_port;          // server.web
   uv_prepare_t* flush_prepare = nullptr;
   uv_check_t* flush_check = nullptr;
   uv_timer_t* sweep_timer = nullptr;
@@ -48,7 +44,6 @@ struct FlowServer::Impl : Hub {
   Result<void> listenUnix();
   Result<void> listenTcp();
   Result<void> listenUdp();
-  Result<void> listenWeb();
   // A connection, or a serial line's session (`serial`: its port's settings).
   void accept(std::unique_ptr<transport::Transport> transport,
               const transport::SerialOptions* serial = nullptr);

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <skrobot/runtime/flow/address.h>
 
-#include <algorithm>
 #include <charconv>
 
 namespace skr::flow {
@@ -10,14 +9,8 @@ std::string Address::toString() const {
   if (kind == Kind::local) return "local:" + path;
   if (kind == Kind::serial) return "serial:" + path + "@" + std::to_string(baud);
   const bool v6 = host.find(':') != std::string::npos;
-  const char* scheme = kind == Kind::tls   ? "tls:"
-                       : kind == Kind::udp ? "udp:"
-                       : kind == Kind::ws  ? "ws:"
-                       : kind == Kind::wss ? "wss:"
-                                           : "tcp:";
-  std::string s = std::string(scheme) + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
-  if (kind == Kind::ws || kind == Kind::wss) s += path;
-  return s;
+  const char* scheme = kind == Kind::tls ? "tls:" : kind == Kind::udp ? "udp:" : "tcp:";
+  return std::string(scheme) + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
 }
 
 Result<Address> Address::parse(std::string_view text) {
@@ -25,8 +18,8 @@ Result<Address> Address::parse(std::string_view text) {
     return makeError(
         Errc::invalid_argument,
         "bad hub address \"" + std::string(text) + "\": " + why +
-            " (expected local:/path, tcp:host[:port], tls:host[:port], serial:/dev/path[@baud], "
-            "udp:host[:port] or ws[s]:host[:port][/path])");
+            " (expected local:/path, tcp:host[:port], tls:host[:port], serial:/dev/path[@baud] or "
+            "udp:host[:port])");
   };
   Address a;
   if (text.starts_with("local:")) {
@@ -57,25 +50,10 @@ Result<Address> Address::parse(std::string_view text) {
   } else if (text.starts_with("udp:")) {
     a.kind = Kind::udp;
     a.port = kDefaultUdpPort;
-  } else if (text.starts_with("ws:") || text.starts_with("wss:")) {
-    a.kind = text.starts_with("ws:") ? Kind::ws : Kind::wss;
-    a.port = a.kind == Kind::ws ? kDefaultWsPort : kDefaultWssPort;
   } else {
     return bad("unknown transport");
   }
-  std::string_view rest = text.substr(text.find(':') + 1);
-  if (a.kind == Kind::ws || a.kind == Kind::wss) {
-    if (rest.starts_with("//")) rest.remove_prefix(2);  // ws://host:port/path, a URL
-  }
-  if (a.kind == Kind::ws || a.kind == Kind::wss) {
-    const size_t slash = rest.find('/');
-    a.path = slash == std::string_view::npos ? "/flow" : std::string(rest.substr(slash));
-    rest = rest.substr(0, slash);
-    if (std::any_of(a.path.begin(), a.path.end(),
-                    [](char c) { return static_cast<unsigned char>(c) <= 0x20 || c == 0x7F; })) {
-      return bad("the path holds a blank or a control character");
-    }
-  }
+  std::string_view rest = text.substr(4);
   std::string_view port;
   if (rest.starts_with("[")) {  // [v6]:port
     const size_t close = rest.find(']');

@@ -1,13 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // Opening a transport to a hub's address (skrobot/runtime/flow/transport.h): resolving on libuv's
 // thread pool, connecting to each resolved address in turn, and for tls: the handshake, for udp:
-// the session's handshake (udp_client.h), for ws: and wss: the WebSocket upgrade (over TLS for
-// wss:), before the transport is handed over.
-#include "http_head.h"
+// the session's handshake (udp_client.h), before the transport is handed over.
 #include "stream_transport.h"
 #include "tls_transport.h"
 #include "udp_client.h"
-#include "ws_transport.h"
 
 #include <skrobot/runtime/flow/serial.h>
 #include <skrobot/runtime/loop.h>
@@ -34,7 +31,7 @@ class StreamDialer final : public Dialer {
         opened_(std::move(opened)),
         report_(loop, [this] { report(); }) {
     options_.tls = nullptr;  // kept in tls_, by value
-    if (address.usesTls()) {
+    if (address.kind == Address::Kind::tls) {
       tls_ = options.tls != nullptr
                  ? *options.tls
                  : Result<TlsContext>(makeError(Errc::invalid_argument, "TLS: no settings"));
@@ -154,11 +151,7 @@ class StreamDialer final : public Dialer {
       return;
     }
     if (!tls_) {
-      if (websocket()) {
-        upgrade(std::move(stream_));
-      } else {
-        finish(std::unique_ptr<Transport>(std::move(stream_)));
-      }
+      finish(std::unique_ptr<Transport>(std::move(stream_)));
       return;
     }
     auto session = TlsSession::open(**tls_, address_.host);
@@ -169,9 +162,7 @@ class StreamDialer final : public Dialer {
     tls_transport_ = std::make_unique<TlsTransport>(loop_, std::move(stream_),
                                                     std::move(session).value(), false);
     tls_transport_->handshake([this](std::optional<TransportEnd> failed) {
-      if (!failed && websocket()) {
-        upgrade(std::move(tls_transport_));
-      } else if (!failed) {
+      if (!failed) {
         finish(std::unique_ptr<Transport>(std::move(tls_transport_)));
       } else if (failed->why == TransportEnd::Why::refused) {
         fail("TLS with " + address_.toString() + ": " + failed->message);
@@ -182,27 +173,6 @@ class StreamDialer final : public Dialer {
         fail("read: " + failed->message);
       }
     });
-  }
-
-  [[nodiscard]] bool websocket() const noexcept {
-    return address_.kind == Address::Kind::ws || address_.kind == Address::Kind::wss;
-  }
-
-  // ws:, wss: the upgrade request over the connection (TCP or TLS), then the flow's subprotocol.
-  template <class Below>
-  void upgrade(std::unique_ptr<Below> below) {
-    ws_ = std::make_unique<WsTransport>(loop_, std::move(below), false);
-    const bool v6 = address_.host.find(':') != std::string::npos;
-    const std::string host =
-        (v6 ? "[" + address_.host + "]" : address_.host) + ":" + std::to_string(address_.port);
-    ws_->handshake(
-        host, address_.path, http::kFlowSubprotocol, [this](std::optional<TransportEnd> failed) {
-          if (!failed) {
-            finish(std::unique_ptr<Transport>(std::move(ws_)));
-          } else {
-            fail("WebSocket upgrade with " + address_.toString() + ": " + failed->message);
-          }
-        });
   }
 
   // Reported from the loop, never from inside open() or a transport's call.
@@ -220,7 +190,6 @@ class StreamDialer final : public Dialer {
     }
     auto outcome = std::move(*outcome_);
     outcome_.reset();
-    ws_.reset();
     tls_transport_.reset();
     stream_.reset();
     udp_.reset();
@@ -234,7 +203,6 @@ class StreamDialer final : public Dialer {
   std::optional<Result<TlsContext>> tls_;
   std::unique_ptr<StreamTransport> stream_;
   std::unique_ptr<TlsTransport> tls_transport_;
-  std::unique_ptr<WsTransport> ws_;
   std::unique_ptr<UdpClientSession> udp_;
   bool next_udp_ = false;  // report(): the next address's handshake
   Resolve* resolve_ = nullptr;

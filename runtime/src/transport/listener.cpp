@@ -160,12 +160,6 @@ Result<std::unique_ptr<Listener>> Listener::open(Loop& loop, const Address& addr
                      "serial: and udp: are the hub's server.serial and server.udp, not listeners "
                      "of an address");
   }
-  if (address.kind == Address::Kind::ws || address.kind == Address::Kind::wss) {
-    // A WebSocket server reads each connection's HTTP request first (the hub's web port):
-    // listen on tcp: or tls: and upgrade with http::upgrade() (runtime/internal/http_head.h).
-    return makeError(Errc::invalid_argument,
-                     "ws: and wss: are the hub's server.web, not listeners of an address");
-  }
   auto listener =
       std::make_unique<StreamListener>(loop, address, std::move(options), std::move(accepted));
   if (auto r = listener->listen(); !r) return r.error();

@@ -238,8 +238,6 @@ std::string_view transportKindName(TransportKind kind) noexcept {
       return "serial";
     case TransportKind::udp:
       return "udp";
-    case TransportKind::websocket:
-      return "ws";
   }
   return "?";
 }
@@ -250,7 +248,6 @@ std::string PeerIdentity::source() const {
   }
   if (kind == TransportKind::serial) return "serial:" + device;
   if (kind == TransportKind::udp) return "udp:" + address;
-  if (kind == TransportKind::websocket) return "ws:" + (address.empty() ? "?" : address);
   return address.empty() ? std::string("tcp:?") : "tcp:" + address;
 }
 

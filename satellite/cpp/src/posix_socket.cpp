@@ -49,13 +49,6 @@ int connectWithin(int fd, const sockaddr* addr, socklen_t len, uint32_t timeout_
 }  // namespace
 
 Result<int> connectSocket(const Address& a, uint32_t timeout_ms) {
-  if (a.kind == Address::Kind::ws || a.kind == Address::Kind::wss) {
-    // The blocking client speaks plain frames on a socket; WebSocket framing is the loop's
-    // transport's (runtime/src/transport/ws_transport.h).
-    return makeError(Errc::unsupported,
-                     "a ws: or wss: address carries the flow only; synchronous requests need a "
-                     "local:, tcp: or tls: address");
-  }
   if (a.kind == Address::Kind::serial || a.kind == Address::Kind::udp) {
     // The line carries one session: a second connection would end the flow's. A UDP session
     // carries frames of one datagram and may lose them: no place for blocking requests.

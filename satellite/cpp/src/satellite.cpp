@@ -160,30 +160,18 @@ void Satellite::subscribe(std::string name) {
 }
 
 void Satellite::subscribe(std::string name, size_t queue_bytes) {
-  subscribe(std::move(name), queue_bytes, 0);
-}
-
-void Satellite::subscribe(std::string name, size_t queue_bytes, uint16_t max_hz) {
-  const Impl::Ask ask{static_cast<uint32_t>(std::min<size_t>(queue_bytes, UINT32_MAX)), max_hz};
+  const auto bytes = static_cast<uint32_t>(std::min<size_t>(queue_bytes, UINT32_MAX));
   auto q = impl_->queues.find(name);
-  if (q != impl_->queues.end() && q->second == ask) return;
-  impl_->queues.insert_or_assign(name, ask);
+  if (q != impl_->queues.end() && q->second == bytes) return;
+  impl_->queues.insert_or_assign(name, bytes);
   auto s = impl_->subs.find(name);
-  if (s != impl_->subs.end() && s->second != 0) {  // attached: the new request at once
-    if (impl_->flowOpen()) impl_->sendSubscribe(s->second, ask);
+  if (s != impl_->subs.end() && s->second != 0) {  // attached: the new size at once
+    if (impl_->flowOpen() && impl_->login.minor >= 13) {
+      impl_->send(msg::SubscribeQueue{impl_->nextTag(), s->second, bytes});
+    }
     return;
   }
-  subscribe(std::move(name));  // attach() asks for the queue and the rate
-}
-
-void Satellite::Impl::sendSubscribe(uint16_t id, const Ask& ask) {
-  if (ask.max_hz != 0 && login.minor >= 14) {
-    send(msg::SubscribeRate{nextTag(), id, ask.queue_bytes, ask.max_hz});
-  } else if (login.minor >= 13) {
-    send(msg::SubscribeQueue{nextTag(), id, ask.queue_bytes});
-  } else {
-    send(msg::Subscribe{nextTag(), id});
-  }
+  subscribe(std::move(name));  // attach() asks for the queue
 }
 
 Result<void> Satellite::subscribe(uint16_t chan_id) {

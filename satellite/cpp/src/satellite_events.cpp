@@ -92,12 +92,6 @@ struct Events {
     }
   }
   void on(msg::EvDbSynced& m) { s.self.databasesSynced.emit(m.tag); }
-  void on(msg::EvDbPair& m) {
-    const auto it = s.db_watches.find(m.db);
-    if (it == s.db_watches.end() || m.state > uint8_t(msg::DbPairState::snapshot_end)) return;
-    const auto fn = it->second.fn;  // kept: the callback may unwatch
-    (*fn)(Satellite::DbPair{m.db, m.key, static_cast<msg::DbPairState>(m.state), m.value});
-  }
   void on(msg::EvBlobChanged& m) {
     s.self.blobChanged.emit(BlobChange{m.chan_id, static_cast<msg::BlobChange>(m.change),
                                        std::move(m.path), m.size, m.version});
@@ -203,15 +197,7 @@ void Satellite::Impl::onHubError(const msg::EvError& ev) {
       return;
     }
   }
-  if (command == Code::db_watch) {  // refused, or the database went: the watch ends
-    for (auto it = db_watches.begin(); it != db_watches.end(); ++it) {
-      if (it->second.tag == ev.tag) {
-        db_watches.erase(it);
-        break;
-      }
-    }
-  }
-  if ((command == Code::subscribe_queue || command == Code::subscribe_rate) &&
+  if (command == Code::subscribe_queue &&
       static_cast<flow::ErrorCode>(ev.error) == flow::ErrorCode::limit_exceeded) {
     // Subscribed all the same, with the hub's cap as our queue.
     log::warn(kLogSource, "SAT-QUEUE-CLAMPED", ev.message);
@@ -238,8 +224,8 @@ void Satellite::Impl::attach(const std::string& name, uint16_t id) {
   subs[name] = id;
   if (auto f = follows.find(name); f != follows.end()) {
     send(msg::SyncFollow{nextTag(), id, f->second});
-  } else if (auto q = queues.find(name); q != queues.end()) {
-    sendSubscribe(id, q->second);
+  } else if (auto q = queues.find(name); q != queues.end() && login.minor >= 13) {
+    send(msg::SubscribeQueue{nextTag(), id, q->second});
   } else {
     send(msg::Subscribe{nextTag(), id});
   }

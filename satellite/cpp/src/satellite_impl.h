@@ -122,21 +122,9 @@ struct Satellite::Impl final : detail::Link::Handler {
   std::map<std::string, Own, std::less<>> own;           // short name -> our channel
   std::map<std::string, uint16_t, std::less<>> subs;     // full name -> id attached (0: waiting)
   std::map<std::string, uint32_t, std::less<>> follows;  // sync sources in subs -> every
-  struct Ask {
-    uint32_t queue_bytes = 0;
-    uint16_t max_hz = 0;
-    bool operator==(const Ask&) const = default;
-  };
-  std::map<std::string, Ask, std::less<>> queues;  // subs with a queue or a rate asked for
-  struct Watch {
-    std::shared_ptr<Satellite::DbWatchFn> fn;  // shared: a callback may unwatch
-    uint32_t tag = 0;                          // of the DB_WATCH in force (0: not sent yet)
-  };
-  std::map<std::string, Watch, std::less<>> db_watches;  // database name -> watch
-  void sendWatch(const std::string& db, Watch& w);
-  void sendSubscribe(uint16_t id, const Ask& ask);
-  std::map<uint32_t, ResponseHandler> pending;  // request tag -> handler
-  std::map<uint32_t, ResponseHandler> reads;    // DB_READ tag -> handler
+  std::map<std::string, uint32_t, std::less<>> queues;   // subs with a queue asked for -> bytes
+  std::map<uint32_t, ResponseHandler> pending;           // request tag -> handler
+  std::map<uint32_t, ResponseHandler> reads;             // DB_READ tag -> handler
   std::vector<uint32_t> orphan_tags;  // CHAN_ADDs in flight for channels removed meanwhile
   std::string wanted_db;              // selectDatabase(); empty: the user's
   std::map<std::string, std::string, std::less<>> replicas;  // short name -> source (replicate())

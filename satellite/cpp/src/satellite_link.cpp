@@ -95,7 +95,7 @@ void Satellite::Impl::stop() {
 void Satellite::Impl::connectNow() {
   ++generation;
   state = State::connecting;
-  if (opt.connection.address.usesTls() && !tls_context) {
+  if (opt.connection.address.kind == Address::Kind::tls && !tls_context) {
     // Certificates and keys are read once per satellite, not at every reconnection.
     tls_context = flow::TlsContext::create(flow::TlsRole::client, opt.connection.tls);
   }
@@ -189,7 +189,6 @@ void Satellite::Impl::lost(const std::string& why, bool protocol) {
   by_name.clear();
   for (auto& [name, o] : own) o.id = 0, o.tag = 0, o.subscribers = false, o.retries = 0;
   for (auto& [name, id] : subs) id = 0;
-  for (auto& [db, w] : db_watches) w.tag = 0;
   flow_db.clear();
   orphan_tags.clear();
   auto failed = std::move(pending);
@@ -310,18 +309,6 @@ void Satellite::Impl::onFlowOpen() {
   if (gen != generation || state != State::flow) return;
   for (auto& [name, o] : own) {
     if (o.id == 0 && o.tag == 0) sendChanAdd(o);
-  }
-  if (!db_watches.empty()) {
-    if (auto r = needs(Code::db_watch, "has no database watches"); !r) {
-      log::warn(kLogSource, "SAT-HUB-ERROR", r.error().message);
-      db_watches.clear();
-      self.error.emit(FlowError{uint8_t(Code::db_watch), 0, 0,
-                                uint16_t(flow::ErrorCode::unsupported), r.error().message});
-    } else {
-      for (auto& [db, w] : db_watches) {
-        if (w.tag == 0) sendWatch(db, w);  // not those a `connected` slot just watched
-      }
-    }
   }
   for (const auto& [short_name, source] : replicas) {
     send(msg::ReplicateChannel{nextTag(), source, short_name});

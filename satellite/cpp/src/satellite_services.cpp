@@ -170,36 +170,6 @@ Result<uint32_t> Satellite::readDatabase(const std::string& db, msg::DbReadWhat 
   return tag;
 }
 
-Result<void> Satellite::watchDatabase(std::string db, DbWatchFn fn) {
-  if (!fn) return makeError(Errc::invalid_argument, "watchDatabase: no callback");
-  if (impl_->flowOpen()) {
-    if (auto r = impl_->needs(flow::Code::db_watch, "has no database watches"); !r) return r;
-  }
-  auto& w = impl_->db_watches[db];
-  w.fn = std::make_shared<DbWatchFn>(std::move(fn));
-  w.tag = 0;
-  if (impl_->flowOpen()) impl_->sendWatch(db, w);  // else when the flow opens
-  return {};
-}
-
-void Satellite::unwatchDatabase(std::string_view db) {
-  const auto it = impl_->db_watches.find(db);
-  if (it == impl_->db_watches.end()) return;
-  if (impl_->flowOpen() && it->second.tag != 0) {
-    impl_->send(msg::DbUnwatch{impl_->nextTag(), std::string(db)});
-  }
-  impl_->db_watches.erase(it);
-}
-
-bool Satellite::isWatching(std::string_view db) const {
-  return impl_->db_watches.find(db) != impl_->db_watches.end();
-}
-
-void Satellite::Impl::sendWatch(const std::string& db, Watch& w) {
-  w.tag = nextTag();
-  send(msg::DbWatch{w.tag, db});
-}
-
 Result<uint32_t> Satellite::offerChannel(const ChannelInfo& channel) {
   if (!impl_->flowOpen()) return notConnected();
   if (auto r = impl_->needs(flow::Code::link_offer, "shares no hub link"); !r) return r.error();

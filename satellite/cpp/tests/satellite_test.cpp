@@ -10,7 +10,6 @@
 #include <unistd.h>
 
 #include <atomic>
-#include <chrono>
 #include <mutex>
 #include <thread>
 
@@ -105,79 +104,6 @@ TEST_F(Satellites, ASubscriptionAsksForItsQueueAndHearsWhenItIsClamped) {
   pub->on([](Satellite& s) { ASSERT_TRUE(s.publish("video", "frame")); });
   ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.video:frame") == 1; }));
   EXPECT_EQ(subscribers("guest.video"), 1u);
-}
-
-TEST_F(Satellites, AWatchedDatabaseGivesItsPairsThenEveryChangeAcrossAReconnection) {
-  auto writer = satellite("writer");
-  ASSERT_TRUE(writer->on([](Satellite& s) { return s.createDatabase("settings"); }));
-  ASSERT_TRUE(writer->on([](Satellite& s) { return s.set("mode", Variant("auto"), "settings"); }));
-  ASSERT_TRUE(eventually([&] {
-    return writer->on([](Satellite& s) {
-      auto v = s.get("mode", "settings");
-      return v && *v == Variant("auto");
-    });
-  }));
-  auto watcher = satellite("watcher");
-  const auto pair = [&](const Satellite::DbPair& p) {
-    using S = flow::msg::DbPairState;
-    const char* what = p.state == S::set       ? "set"
-                       : p.state == S::removed ? "removed"
-                       : p.state == S::cleared ? "cleared"
-                                               : "end";
-    watcher->events.add("pair:" + p.db + ":" + what + ":" + p.key +
-                        (p.state == S::set ? "=" + flow::variantToJsonText(p.value) : ""));
-  };
-  ASSERT_TRUE(watcher->on([&](Satellite& s) { return s.watchDatabase("settings", pair); }));
-  ASSERT_TRUE(eventually([&] { return watcher->events.count("pair:settings:end") == 1; }))
-      << watcher->events.dump();
-  EXPECT_EQ(watcher->events.with("pair:settings:"),
-            (std::vector<std::string>{"set:mode=\"auto\"", "end:"}));
-  ASSERT_TRUE(writer->on([](Satellite& s) { return s.set("speed", Variant(2.5), "settings"); }));
-  ASSERT_TRUE(writer->on([](Satellite& s) { return s.del("mode", "settings"); }));
-  ASSERT_TRUE(eventually([&] { return watcher->events.count("pair:settings:removed:mode") == 1; }))
-      << watcher->events.dump();
-  EXPECT_EQ(watcher->events.count("pair:settings:set:speed=2.5"), 1u);
-
-  // A new hub (the database is on disk): watched again, a new snapshot.
-  ASSERT_EQ(hub_->stop(), 0);
-  startHub();
-  ASSERT_TRUE(eventually([&] { return watcher->events.count("pair:settings:end") == 2; }))
-      << watcher->events.dump() << hubLog();
-  EXPECT_EQ(watcher->events.count("pair:settings:set:speed=2.5"), 2u);
-
-  // Unwatched: nothing more. A database that does not exist: refused, not kept.
-  watcher->on([](Satellite& s) { s.unwatchDatabase("settings"); });
-  ASSERT_TRUE(watcher->on([&](Satellite& s) { return s.watchDatabase("nothing", pair); }));
-  ASSERT_TRUE(eventually([&] { return watcher->events.count("error:no database") == 1; }))
-      << watcher->events.dump();
-  EXPECT_FALSE(watcher->on([](Satellite& s) { return s.isWatching("nothing"); }));
-  ASSERT_TRUE(eventually([&] { return writer->connected(); }));
-  ASSERT_TRUE(writer->on([](Satellite& s) { return s.set("late", Variant(1), "settings"); }));
-  ASSERT_TRUE(eventually([&] {
-    return writer->on([](Satellite& s) {
-      auto v = s.get("late", "settings");
-      return v && *v == Variant(1);
-    });
-  }));
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  EXPECT_EQ(watcher->events.count("pair:settings:set:late"), 0u) << watcher->events.dump();
-}
-
-TEST_F(Satellites, ARateCappedSubscriptionEndsOnTheNewestFrame) {
-  auto pub = satellite("pub");
-  ASSERT_TRUE(pub->on([](Satellite& s) { return s.addChannel({.name = "preview"}); }));
-  ASSERT_TRUE(eventually([&] { return pub->events.count("ready:guest.preview") == 1; }));
-  auto sub = satellite("sub");
-  sub->on([](Satellite& s) { s.subscribe("guest.preview", 0, 2); });
-  ASSERT_TRUE(eventually([&] { return pub->events.count("start:guest.preview") == 1; }));
-  pub->on([](Satellite& s) {
-    for (int i = 0; i < 5; ++i) ASSERT_TRUE(s.publish("preview", std::to_string(i)));
-  });
-  // The first at once, the newest when the 500 ms interval ends; the three between skipped.
-  ASSERT_TRUE(eventually([&] { return sub->events.count("data:guest.preview:4") == 1; }))
-      << sub->events.dump();
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  EXPECT_EQ(sub->events.with("data:guest.preview:"), (std::vector<std::string>{"0", "4"}));
 }
 
 TEST_F(Satellites, ChannelPropertiesAreReadByAnother) {

@@ -8,7 +8,7 @@
 
 /* clang-format off */
 #define SKR_PROTOCOL_MAJOR 1u
-#define SKR_PROTOCOL_MINOR 15u
+#define SKR_PROTOCOL_MINOR 13u
 
 /* Codes: the minor that introduced each is in the comment. */
 #define SKR_CODE_LOGIN 0x01u /* 1.0 */
@@ -33,7 +33,6 @@
 #define SKR_CODE_ADMIN 0x14u /* 1.1 */
 #define SKR_CODE_POLL_DEREGISTER 0x15u /* 1.4 */
 #define SKR_CODE_SESSION_LIMITS 0x16u /* 1.12 */
-#define SKR_CODE_LOGIN_TOKEN 0x17u /* 1.15 */
 #define SKR_CODE_CHAN_ADD 0x40u /* 1.0 */
 #define SKR_CODE_CHAN_REMOVE 0x41u /* 1.0 */
 #define SKR_CODE_SUBSCRIBE 0x42u /* 1.0 */
@@ -52,9 +51,6 @@
 #define SKR_CODE_SERVICE_REQUEST_TIMED 0x4Fu /* 1.4 */
 #define SKR_CODE_DB_READ 0x50u /* 1.6 */
 #define SKR_CODE_SUBSCRIBE_QUEUE 0x51u /* 1.13 */
-#define SKR_CODE_DB_WATCH 0x52u /* 1.14 */
-#define SKR_CODE_DB_UNWATCH 0x53u /* 1.14 */
-#define SKR_CODE_SUBSCRIBE_RATE 0x54u /* 1.14 */
 #define SKR_CODE_REPLY_OK 0x80u /* 1.0 */
 #define SKR_CODE_REPLY_ERROR 0x81u /* 1.0 */
 #define SKR_CODE_EV_DB_CHANGED 0x90u /* 1.0 */
@@ -70,7 +66,6 @@
 #define SKR_CODE_EV_DROPPED 0x9Au /* 1.0 */
 #define SKR_CODE_EV_DB_SYNCED 0x9Bu /* 1.2 */
 #define SKR_CODE_EV_DB_VALUE 0x9Cu /* 1.6 */
-#define SKR_CODE_EV_DB_PAIR 0x9Du /* 1.14 */
 #define SKR_CODE_BLOB_LIST 0xC0u /* 1.3 */
 #define SKR_CODE_BLOB_GET 0xC1u /* 1.3 */
 #define SKR_CODE_BLOB_PUT 0xC2u /* 1.3 */

@@ -4,7 +4,7 @@
 """FlowProtocol's code table, error codes, channel kinds and path frames (docs/flow-protocol.md)."""
 from __future__ import print_function, division, absolute_import
 
-CATALOGUE_MINOR = 15
+CATALOGUE_MINOR = 13
 
 # (name, code, minor, direction, connection, family)
 CODES = (
@@ -30,7 +30,6 @@ CODES = (
     ("ADMIN", 0x14, 1, "to_hub", "sync", "admin"),
     ("POLL_DEREGISTER", 0x15, 4, "to_hub", "sync", "channels"),
     ("SESSION_LIMITS", 0x16, 12, "to_hub", "sync", "session"),
-    ("LOGIN_TOKEN", 0x17, 15, "to_hub", "sync", "session"),
     ("CHAN_ADD", 0x40, 0, "to_hub", "flow", "channels"),
     ("CHAN_REMOVE", 0x41, 0, "to_hub", "flow", "channels"),
     ("SUBSCRIBE", 0x42, 0, "to_hub", "flow", "channels"),
@@ -49,9 +48,6 @@ CODES = (
     ("SERVICE_REQUEST_TIMED", 0x4F, 4, "to_hub", "flow", "services"),
     ("DB_READ", 0x50, 6, "to_hub", "flow", "databases"),
     ("SUBSCRIBE_QUEUE", 0x51, 13, "to_hub", "flow", "channels"),
-    ("DB_WATCH", 0x52, 14, "to_hub", "flow", "databases"),
-    ("DB_UNWATCH", 0x53, 14, "to_hub", "flow", "databases"),
-    ("SUBSCRIBE_RATE", 0x54, 14, "to_hub", "flow", "channels"),
     ("REPLY_OK", 0x80, 0, "to_client", "sync", "session"),
     ("REPLY_ERROR", 0x81, 0, "to_client", "sync", "session"),
     ("EV_DB_CHANGED", 0x90, 0, "to_client", "flow", "databases"),
@@ -67,7 +63,6 @@ CODES = (
     ("EV_DROPPED", 0x9A, 0, "to_client", "flow", "channels"),
     ("EV_DB_SYNCED", 0x9B, 2, "to_client", "flow", "databases"),
     ("EV_DB_VALUE", 0x9C, 6, "to_client", "flow", "databases"),
-    ("EV_DB_PAIR", 0x9D, 14, "to_client", "flow", "databases"),
     ("BLOB_LIST", 0xC0, 3, "to_hub", "sync", "blobs"),
     ("BLOB_GET", 0xC1, 3, "to_hub", "sync", "blobs"),
     ("BLOB_PUT", 0xC2, 3, "to_hub", "sync", "blobs"),

@@ -39,7 +39,6 @@ else:
     integer_types = (int,)
 
 PROTOCOL_MAJOR = 1
-# 1.14: DB_WATCH (FlowSat.watchDatabase) and SUBSCRIBE_RATE (subscribeChannel's maxHz);
 # 1.13: SUBSCRIBE_QUEUE, a subscription's own queue size (FlowSat.subscribeChannel's queueBytes);
 # 1.12 brings nothing PySketch sends or must read (SESSION_LIMITS is for boards);
 # 1.11: PHYS_FALLBACK, a broken direct path resumed with what the owner kept (flowpaths);
@@ -49,13 +48,7 @@ PROTOCOL_MAJOR = 1
 # physical mode, subscriber (flowpaths) and owner (flowowner);
 # 1.6 brings nothing PySketch sends or must read (DB_READ, LINK_OFFER: its events answer only
 # those); 1.5: replicas; 1.4: timed requests; 1.3: blob channels; 1.2: DB_SYNC; no ADMIN (1.1)
-PROTOCOL_MINOR = 14
-
-# EV_DB_PAIR's state (1.14): what a database watch's callback is told (FlowSat.watchDatabase).
-DB_PAIR_REMOVED = 0       # the key was removed
-DB_PAIR_SET = 1           # the key holds the value
-DB_PAIR_CLEARED = 2       # every key was removed (key empty)
-DB_PAIR_SNAPSHOT_END = 3  # the pairs before it were the database's when the watch began
+PROTOCOL_MINOR = 13
 
 # Path kinds a subscriber asks for (FlowSat.usePaths), as in the C++ library (kPathDirect,
 # kPathShm) and in PHYS_REQUEST's `paths` bits.

@@ -110,8 +110,6 @@ TIMED_REQUEST_MINOR = CODE_MINOR[Code.SERVICE_REQUEST_TIMED]
 SYNC_MINOR = CODE_MINOR[Code.SYNC_PULSE]  # the sync pulse
 REPLICA_MINOR = CODE_MINOR[Code.REPLICATE_CHANNEL]  # and REPLICATE_STOP
 QUEUE_MINOR = CODE_MINOR[Code.SUBSCRIBE_QUEUE]  # a subscription's own queue size
-RATE_MINOR = CODE_MINOR[Code.SUBSCRIBE_RATE]  # a subscription's rate cap
-WATCH_MINOR = CODE_MINOR[Code.DB_WATCH]  # database watches
 _WOULD_BLOCK = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
 _OUT_LIMIT = 32 * 1024 * 1024   # queued output beyond this waits for the hub (up to 10 s)
 _HANDSHAKE_TIMEOUT = 5.0        # connect + login + channel list during a reconnection
@@ -232,8 +230,6 @@ class FlowSat(AbstractFlow):
         self._wantedSubs = set()           # channel names this satellite subscribes to
         self._subscribedIDs = set()        # ... and their ids on this connection
         self._wantedQueues = {}            # channel name -> queue bytes asked for (1.13)
-        self._wantedRates = {}             # channel name -> max_hz asked for (1.14)
-        self._watches = {}                 # database name -> [callback, tag of its DB_WATCH]
         self._pendingRequests = {}         # tag -> chanID
         self._pendingSyncs = {}            # tag -> callback of syncDatabases()
         self._selectedDb = None            # what setCurrentDbName asked for
@@ -847,12 +843,6 @@ class FlowSat(AbstractFlow):
             self._send(frame(Code.DB_SET_CURRENT, u32(self._nextTag()) + str16(self._selectedDb)))
         for ch in fresh:
             self._autoSubscribe(ch)
-        if self._watches and self.hubMinor < WATCH_MINOR:
-            log.err("FlowSat: this hub (FlowProtocol 1.%d) has no database watches (1.%d): %s "
-                    "not watched" % (self.hubMinor, WATCH_MINOR, ", ".join(sorted(self._watches))))
-            self._watches = {}
-        for db in list(self._watches.keys()):
-            self._sendWatch(db)
         self._noteTickMode()
         # The new-channel callbacks run from the next tick(), in order with the events that
         # follow (a sketch may set its callbacks after connect()).
@@ -964,12 +954,6 @@ class FlowSat(AbstractFlow):
             error = r.u16()
             message = r.str16()
             self._commandFailed(command, tag, chan, error, message)
-        elif code == Code.EV_DB_PAIR:
-            db, key, state = r.str16(), r.str16(), r.u8()
-            value = r.value()
-            watch = self._watches.get(db)
-            if watch is not None:
-                self._call("db-watch", watch[0], db, key, state, value)
         elif code == Code.EV_DB_SYNCED:
             callback = self._pendingSyncs.pop(r.u32(), None)
             if callback is not None:
@@ -1029,18 +1013,12 @@ class FlowSat(AbstractFlow):
                                                                       self._userName))
                 self._reportError(command, name, error, message)
                 return
-        elif command == Code.DB_WATCH:  # refused, or the database went: the watch ends
-            for db, watch in list(self._watches.items()):
-                if watch[1] == tag:
-                    del self._watches[db]
-                    name = db
-        elif (command in (Code.SUBSCRIBE_QUEUE, Code.SUBSCRIBE_RATE) and
-              error == Error_T.limit_exceeded.value):
+        elif command == Code.SUBSCRIBE_QUEUE and error == Error_T.limit_exceeded.value:
             # Subscribed all the same, with the hub's cap as its queue.
             self._logOnce((command, chan, error), "FlowSat: %s: %s" % (name, message))
             self._reportError(command, name, error, message)
             return
-        elif command in (Code.SUBSCRIBE, Code.SUBSCRIBE_QUEUE, Code.SUBSCRIBE_RATE):
+        elif command in (Code.SUBSCRIBE, Code.SUBSCRIBE_QUEUE):
             self._subscribedIDs.discard(chan)
         elif command == Code.PHYS_STATE:
             self._paths.onStateRefused(chan)
@@ -1435,18 +1413,10 @@ class FlowSat(AbstractFlow):
             return True
         ch = self._channels.get(chanID)
         queue = self._wantedQueues.get(ch.name) if ch is not None else None
-        rate = self._wantedRates.get(ch.name) if ch is not None else None
-        if rate and self.hubMinor >= RATE_MINOR:
-            sent = self._send(frame(Code.SUBSCRIBE_RATE, u32(self._nextTag()) + u16(chanID) +
-                                    u32(queue or 0) + u16(rate)))
-        elif queue is not None and self.hubMinor >= QUEUE_MINOR:
+        if queue is not None and self.hubMinor >= QUEUE_MINOR:
             sent = self._send(frame(Code.SUBSCRIBE_QUEUE,
                                     u32(self._nextTag()) + u16(chanID) + u32(queue)))
         else:
-            if rate:
-                self._logOnce(("rate", self.connectionID), "FlowSat: this hub (FlowProtocol "
-                              "1.%d) caps no subscription's rate (1.%d): %s comes at full rate"
-                              % (self.hubMinor, RATE_MINOR, ch.name))
             if queue is not None:
                 self._logOnce(("queue", self.connectionID), "FlowSat: this hub (FlowProtocol "
                               "1.%d) sizes no queue per subscription (1.%d): %s gets its default"
@@ -1470,19 +1440,15 @@ class FlowSat(AbstractFlow):
             return
         self._paths.onSubscribed(ch.name, chanID)
 
-    def subscribeChannel(self, chan, queueBytes=None, maxHz=None):
+    def subscribeChannel(self, chan, queueBytes=None):
         """Subscribes to a streaming channel, given its chanID, its name or its FlowChannel.
         The subscription is kept by name: it comes back after a reconnection or when the
         channel reappears. queueBytes: what the hub may hold for this subscription before it
         drops the oldest data (video: a few frames, docs/python-satellites.md "Queue sizes");
         the hub clamps it to its server.subscriber_queue_max_bytes (then the error callback
         hears limit_exceeded, and the subscription stands). None: the hub's default. Needs a hub
-        of FlowProtocol 1.13; an older one gives its default (logged once). maxHz: at most that
-        many messages a second reach this subscriber, newest wins (the hub holds back the
-        newest and sends it when the interval ends, so a channel that falls still ends on its
-        newest message): for previews and dashboards. None or 0: no cap. Needs a hub of 1.14;
-        an older one sends every message (logged once). Called again on a subscribed channel,
-        it changes the size and the cap."""
+        of FlowProtocol 1.13; an older one gives its default (logged once). Called again on a
+        subscribed channel, it changes the size."""
         chan = self._chanKey(chan)
         name = None
         if isinstance(chan, (str, text_type)):
@@ -1496,10 +1462,6 @@ class FlowSat(AbstractFlow):
                 queueBytes = max(0, min(int(queueBytes), 0xFFFFFFFF))
                 changed = self._wantedQueues.get(name) != queueBytes
                 self._wantedQueues[name] = queueBytes
-            if maxHz is not None:
-                maxHz = max(0, min(int(maxHz), 0xFFFF))
-                changed = changed or self._wantedRates.get(name, 0) != maxHz
-                self._wantedRates[name] = maxHz
         if isinstance(chan, (str, text_type)):
             self._wantedSubs.add(chan)
             ch = self._byName.get(chan)
@@ -1524,7 +1486,6 @@ class FlowSat(AbstractFlow):
         if ch is not None:
             self._wantedSubs.discard(ch.name)
             self._wantedQueues.pop(ch.name, None)
-            self._wantedRates.pop(ch.name, None)
             ch.isSubscribed = False
         self._subscribedIDs.discard(chan)
         self._paths.onUnsubscribed(chan)
@@ -1805,37 +1766,6 @@ class FlowSat(AbstractFlow):
         return self._send(frame(Code.VAR_DEL_ASYNC, u32(self._nextTag()) + str16(key)))
 
     removeVariable = delVariable
-
-    def watchDatabase(self, db, callback):
-        """Watches database `db` (FlowProtocol 1.14): callback(db, key, state, value) gets its
-        pairs (state DB_PAIR_SET), then one DB_PAIR_SNAPSHOT_END, then every change as it is
-        made: DB_PAIR_SET, DB_PAIR_REMOVED, DB_PAIR_CLEARED (flowproto's constants); none is
-        missed. Kept across reconnections (a new snapshot each time). The user's db_read rule
-        decides; a refusal, or the database's removal, ends the watch and comes to the error
-        callback (DB_WATCH). Called again for the same database: the callback is replaced and a
-        new snapshot comes. FlowError unsupported from a hub older than 1.14."""
-        if self._state == "online" and self.hubMinor < WATCH_MINOR:
-            raise FlowError(Error_T.unsupported, "this hub (FlowProtocol 1.%d) has no database "
-                            "watches: it needs 1.%d" % (self.hubMinor, WATCH_MINOR))
-        self._watches[db] = [callback, None]
-        if self._state == "online":
-            return self._sendWatch(db)
-        return True
-
-    def unwatchDatabase(self, db):
-        """Ends a watch of watchDatabase() (what the hub sent before may still come: ignored)."""
-        watch = self._watches.pop(db, None)
-        if watch is None or watch[1] is None or self._state != "online":
-            return False
-        return self._send(frame(Code.DB_UNWATCH, u32(self._nextTag()) + str16(db)))
-
-    def isWatching(self, db):
-        return db in self._watches
-
-    def _sendWatch(self, db):
-        tag = self._nextTag()
-        self._watches[db][1] = tag
-        return self._send(frame(Code.DB_WATCH, u32(tag) + str16(db)))
 
     def createDatabase(self, name):
         return self._send(frame(Code.DB_CREATE_ASYNC, u32(self._nextTag()) + str16(name)))

@@ -146,7 +146,7 @@ class Frames(unittest.TestCase):
         s = FlowSat()
         s.setLogin("guest", "pw")
         s.setNodeName("n")
-        body = h("01 00 0e 00 00") + b"\x05\x00guest" + b"\x02\x00pw" + b"\x01\x00n"  # 1.14, binary
+        body = h("01 00 0d 00 00") + b"\x05\x00guest" + b"\x02\x00pw" + b"\x01\x00n"  # 1.13, binary
         self.assertEqual(s._loginFrame(), struct.pack("<I", len(body) + 1) + b"\x01" + body)
 
     def test_phys_marker(self):

@@ -185,28 +185,6 @@ TEST_F(Flowctl, EchoAsksForItsQueue) {
   EXPECT_NE(echo->output().find("frame\n"), std::string::npos) << echo->output();
 }
 
-TEST_F(Flowctl, EchoAsksForARateCap) {
-  EXPECT_EQ(flowctl({"echo", "guest.r", "--max-hz", "1.5"}).code, 2);
-  EXPECT_EQ(flowctl({"echo", "guest.r", "--max-hz", "70000"}).code, 2);
-  // The cap itself: subscribe_rate_test, sat_satellite_test.
-  auto echo = background({"echo", "guest.r", "--wait", "--count", "1", "--max-hz", "2"});
-  EXPECT_EQ(flowctl({"pub", "r", "frame", "--repeat", "30", "--rate", "100"}).code, 0);
-  EXPECT_EQ(echo->wait(), 0) << echo->output();
-  EXPECT_EQ(echo->output(), "frame\n");
-}
-
-TEST_F(Flowctl, DbWatchPrintsThePairsThenEachChange) {
-  EXPECT_EQ(flowctl({"db", "set", "mode", "\"auto\""}).code, 0);
-  auto watch = background({"db", "watch", "--count", "2"});
-  ASSERT_TRUE(watch->waitOutput("(watching guest)")) << watch->output();
-  EXPECT_EQ(flowctl({"db", "set", "speed", "2"}).code, 0);
-  EXPECT_EQ(flowctl({"db", "del", "mode"}).code, 0);
-  EXPECT_EQ(watch->wait(), 0) << watch->output();
-  EXPECT_EQ(watch->output(), "mode = \"auto\"\n(watching guest)\nspeed = 2\nmode removed\n");
-  EXPECT_EQ(flowctl({"db", "watch", "--db", "nothing"}).code, 5);
-  EXPECT_EQ(flowctl({"db", "ls", "--count", "1"}).code, 2);
-}
-
 TEST_F(Flowctl, EchoWhatPubPublishes) {
   EXPECT_EQ(flowctl({"echo", "guest.nothing"}).code, 5);
   auto echo = background({"echo", "guest.hello", "--wait", "--count", "3"});

@@ -47,7 +47,6 @@ struct ServerConfig {
   std::optional<flow::TlsSettings> tls;                // "server.tls": the TCP listener speaks TLS
   std::vector<flow::transport::SerialOptions> serial;  // "server.serial": boards' ports
   std::optional<flow::transport::UdpOptions> udp;      // "server.udp": boards' UDP sessions
-  std::optional<flow::WebOptions> web;                 // "server.web": the hub's web port
   uint32_t max_frame_bytes = 16u << 20;
   size_t subscriber_queue_bytes = 8u << 20;
   size_t subscriber_queue_max_bytes = 64u << 20;  // the cap of SUBSCRIBE_QUEUE's requests

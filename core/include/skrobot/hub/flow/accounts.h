@@ -120,17 +120,14 @@ class UsersFile {
 // The argon2id hash (of a password nobody knows) that unknown users are verified against.
 [[nodiscard]] std::string_view dummyPasswordHash() noexcept;
 
-// Where a login comes from. The development account is accepted on the Unix socket, and on
-// WebSocket from loopback when DevAccount::websocket_loopback says so (server.web.dev_account).
-// Every network transport but WebSocket (TLS, serial, UDP) counts as tcp.
-enum class Transport { unix_socket, tcp, in_process, websocket, websocket_loopback };
+// Where a login comes from. The development account is accepted on the Unix socket only.
+enum class Transport { unix_socket, tcp, in_process };
 [[nodiscard]] std::string_view transportName(Transport transport) noexcept;
 
 // An account held in memory only (e.g. guest/password for development), see docs/accounts.md.
 struct DevAccount {
   std::string user;
   std::string password;
-  bool websocket_loopback = false;  // also on WebSocket connections from this machine
 };
 
 struct LoginResult {
@@ -228,7 +225,6 @@ class Authenticator {
   struct DevDigest {
     std::string user;
     Digest password{};  // keyed BLAKE2b of the password; the password itself is not kept
-    bool websocket_loopback = false;
   };
   // Shared with the closures posted to the loop, so that they can tell whether we still exist.
   struct Liveness {

@@ -40,9 +40,6 @@ struct ChannelCounters {
   uint32_t owner_flow = 0;  // 0: nobody connected (a blob channel kept for its owner)
   std::vector<uint32_t> subscriber_flows;
   std::vector<std::string> subscriber_paths;  // one per subscriber_flows: relay, direct or shm
-  // One per subscriber_flows: its SUBSCRIBE_RATE cap (0: none) and the frames the cap skipped.
-  std::vector<uint16_t> subscriber_max_hz;
-  std::vector<uint64_t> subscriber_skipped;
   uint64_t messages = 0, bytes = 0, dropped = 0;
   uint32_t pending_requests = 0;
   ChannelRates last_1s, last_10s;
@@ -71,18 +68,6 @@ struct UdpCounters {
   uint64_t open_sessions = 0;
   transport::UdpStats stats;
 };
-// server.web's port: its counters since the hub started.
-struct WebCounters {
-  uint16_t port = 0;
-  uint64_t requests = 0;        // request heads read
-  uint64_t files = 0;           // files answered (200)
-  uint64_t not_found = 0;       // 404
-  uint64_t upgrades = 0;        // WebSockets handed to the FlowServer
-  uint64_t tokens = 0;          // page tokens issued
-  uint64_t refused_host = 0;    // a Host not accepted (403, FLOW-WS-REFUSED)
-  uint64_t refused_origin = 0;  // an Origin not allowed on /flow (403, FLOW-WS-REFUSED)
-  uint64_t refused = 0;         // other refusals: bad heads, upgrades, methods, timeouts
-};
 struct HubSnapshot {
   Nanos at = 0;  // monotonic
   // What the windows cover (seconds between the last samples; less on a hub younger than them)
@@ -93,15 +78,12 @@ struct HubSnapshot {
   std::vector<FlowCounters> flows;
   std::vector<SerialCounters> serial;
   std::optional<UdpCounters> udp;  // set when server.udp is
-  std::optional<WebCounters> web;  // set when server.web is
 };
 
 // A snapshot as hub.stats carries it: a map of
 //   hub, time_ms (wall clock), interval_s, interval_10s_s, rates_until_ms,
 //   channels: [{name, kind, mime, owner, owner_flow, subscribers, subscriber_flows,
 //               subscriber_paths ("relay", "direct" or "shm", one per subscriber_flows),
-//               subscriber_max_hz, subscriber_skipped (SUBSCRIBE_RATE's cap, 0: none, and the
-//               frames it skipped; one per subscriber_flows),
 //               messages, bytes, dropped, hz, bytes_per_s, dropped_per_s, hz_10s,
 //               bytes_per_s_10s, dropped_per_s_10s, age_s, pending_requests}],
 //   flows: [{id, name ("<user>/<client>"), user, client, kind, messages_in, bytes_in,
@@ -113,8 +95,6 @@ struct HubSnapshot {
 //   udp (when server.udp is set): {port, open_sessions, datagrams_in, datagrams_out, bytes_in,
 //        bytes_out, cookies_sent, short_hello, bad_cookie, bad_mac, unknown_session, malformed,
 //        replayed, lost, reordered, too_large, send_failed, overrun, sessions, timeouts}
-//   web (when server.web is set): {port, requests, files, not_found, upgrades, tokens,
-//        refused_host, refused_origin, refused}
 // (HubStats adds "loop", the main loop's figures.)
 [[nodiscard]] Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name);
 

@@ -182,13 +182,10 @@ class DatabaseStore final : private PairDatabase::Listener {
   // the journal was given it): `value` is the new value, or null when the key was removed; an
   // empty key with a null value: the database was cleared. A watcher may remove itself (or
   // another) from its call; it must not change the database it watches from there. A watch
-  // outlives the database (it is told again when one of that name is created) unless it has a
-  // `gone` function: that is called (with the name) once the database was removed, and the watch
-  // ends with it.
+  // outlives the database (it is told again when one of that name is created).
   using ChangeFn =
       std::function<void(const PairDatabase& db, std::string_view key, const Variant* value)>;
-  using GoneFn = std::function<void(const std::string& name)>;
-  [[nodiscard]] uint64_t watch(std::string name, ChangeFn fn, GoneFn gone = nullptr);
+  [[nodiscard]] uint64_t watch(std::string name, ChangeFn fn);
   void unwatch(uint64_t id) noexcept;
   [[nodiscard]] const std::filesystem::path& dataDir() const noexcept { return data_dir_; }
   // <data_dir>/db, where the files go.
@@ -211,7 +208,6 @@ class DatabaseStore final : private PairDatabase::Listener {
   void onClear(const PairDatabase& db) override;
   void logged(const std::string& name, std::string records);
   void tell(const PairDatabase& db, std::string_view key, const Variant* value);
-  void tellGone(const std::string& name);  // the watches with a gone function end
   void compact(const std::string& name, Entry& entry,
                std::function<void(Result<void>)> done = nullptr);
   // Loads one database from its snapshot and log (either may be absent).
@@ -227,7 +223,6 @@ class DatabaseStore final : private PairDatabase::Listener {
   struct Watcher {
     std::string name;
     std::shared_ptr<ChangeFn> fn;
-    GoneFn gone;
   };
   std::map<uint64_t, Watcher> watchers_;
   uint64_t next_watch_ = 1;

@@ -26,7 +26,6 @@
 #include <optional>
 #include <string>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 namespace skr::flow {
@@ -47,27 +46,6 @@ struct HubLinkOptions {
 // A replica the config asks for: `source` mirrored as "hub.<short_name>" for the hub's lifetime.
 struct ReplicaOptions {
   std::string source, short_name;
-};
-
-// server.web (docs/config.md, docs/security.md): the hub's web port. Files (GET and HEAD) from
-// `root` and `mounts`; with `flows`, FlowProtocol over WebSocket at /flow and page tokens at
-// POST /skrobot/token. It speaks HTTPS and WSS only when ServerOptions::tls is set.
-struct WebOptions {
-  std::string address = "127.0.0.1";
-  uint16_t port = 8080;  // 0: any free port (see FlowServer::webPort())
-  // The page's files; empty: the installed web page (<prefix>/share/skrobot/web).
-  std::filesystem::path root;
-  // URL prefix ("/teleop", no trailing '/') -> the directory served under it.
-  std::vector<std::pair<std::string, std::filesystem::path>> mounts;
-  bool flows = false;  // FlowProtocol over WebSocket (GET /flow) and page tokens
-  // Origins ("https://robot.local:8443") whose pages may open /flow and fetch tokens; empty: the
-  // page's own (the scheme the port speaks + its Host). An absent Origin (Node.js, curl) passes.
-  std::vector<std::string> origins;
-  // Host names accepted besides IP literals, "localhost" and this machine's names (DNS rebinding).
-  std::vector<std::string> hosts;
-  std::string page_account = "web-page";  // what a page token logs in as
-  uint32_t token_ttl_ms = 60000;          // how long a page token may be used to log in
-  bool dev_account = false;  // ServerOptions::dev_account also on WebSocket from loopback
 };
 
 struct ServerOptions {
@@ -91,8 +69,6 @@ struct ServerOptions {
   std::vector<transport::SerialOptions> serial;
   // Set: boards' UDP sessions on this address and port (per-board keys, docs/microcontrollers.md).
   std::optional<transport::UdpOptions> udp;
-  // Set: the web port (WebOptions above).
-  std::optional<WebOptions> web;
   uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
   // Streaming data queued for one subscriber beyond this is dropped, oldest first.
   size_t subscriber_queue_bytes = 8u << 20;
@@ -132,7 +108,6 @@ struct ServerStats {
   uint64_t data_frames_out = 0;
   uint64_t data_frames_dropped = 0;  // slow subscribers
   uint64_t tls_refused = 0;          // TLS handshakes failed, or a plain and TLS peer mismatched
-  uint64_t db_watches = 0;           // DB_WATCH watches in force (1.14)
 };
 
 class Channel;
@@ -192,7 +167,6 @@ class FlowServer {
   [[nodiscard]] std::string unixPath() const;
   [[nodiscard]] uint16_t tcpPort() const noexcept;  // the bound port (useful with port 0)
   [[nodiscard]] uint16_t udpPort() const noexcept;  // server.udp's bound port; 0 without one
-  [[nodiscard]] uint16_t webPort() const noexcept;  // server.web's bound port; 0 without one
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
   [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's

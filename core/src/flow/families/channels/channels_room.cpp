@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Channels made, changed and removed, with their databases and the events everyone gets; the
-// CHAN_*, SUBSCRIBE, SUBSCRIBE_QUEUE, SUBSCRIBE_RATE, UNSUBSCRIBE, PUBLISH and POLL_* rows.
+// CHAN_*, SUBSCRIBE, SUBSCRIBE_QUEUE, UNSUBSCRIBE, PUBLISH and POLL_* rows.
 #include "families/channels/channels_room.h"
 
 #include "connection.h"
@@ -203,31 +203,21 @@ void ChannelsRoom::handle(Connection& c, msg::Subscribe& m) {
 }
 
 void ChannelsRoom::handle(Connection& c, msg::SubscribeQueue& m) {
-  subscribeWith(c, Code::subscribe_queue, m.tag, m.chan_id, m.queue_bytes, 0);
-}
-
-void ChannelsRoom::handle(Connection& c, msg::SubscribeRate& m) {
-  subscribeWith(c, Code::subscribe_rate, m.tag, m.chan_id, m.queue_bytes, m.max_hz);
-}
-
-void ChannelsRoom::subscribeWith(Connection& c, Code code, uint32_t tag, uint16_t chan_id,
-                                 uint32_t queue_bytes, uint16_t max_hz) {
-  if (auto r = subscribeAndTell(c, chan_id); !r) {
-    c.refused(code, tag, chan_id, r);
+  if (auto r = subscribeAndTell(c, m.chan_id); !r) {
+    c.refused(Code::subscribe_queue, m.tag, m.chan_id, r);
     return;
   }
-  c.capRate(chan_id, max_hz);
-  const size_t granted = c.askQueue(chan_id, queue_bytes);
-  if (granted >= queue_bytes) return;
+  const size_t granted = c.askQueue(m.chan_id, m.queue_bytes);
+  if (granted >= m.queue_bytes) return;
   // Subscribed all the same: the subscriber hears what it got, the operator why.
   const std::string what = "subscribed with a queue of " + std::to_string(granted) +
-                           " bytes, not the " + std::to_string(queue_bytes) +
+                           " bytes, not the " + std::to_string(m.queue_bytes) +
                            " asked (server.subscriber_queue_max_bytes)";
-  const Channel* ch = find(chan_id);
+  const Channel* ch = find(m.chan_id);
   log::warn(
       kLogSource, "FLOW-QUEUE-CLAMPED",
-      c.describe() + ": " + (ch != nullptr ? ch->name : std::to_string(chan_id)) + ": " + what);
-  c.onError(code, tag, chan_id, ErrorCode::limit_exceeded, what);
+      c.describe() + ": " + (ch != nullptr ? ch->name : std::to_string(m.chan_id)) + ": " + what);
+  c.onError(Code::subscribe_queue, m.tag, m.chan_id, ErrorCode::limit_exceeded, what);
 }
 
 void ChannelsRoom::handle(Connection& c, msg::Unsubscribe& m) {

@@ -41,9 +41,6 @@ class ChannelsRoom final : public Room, public ChannelTable {
   // Subscribes and unsubscribes, telling the physical room that the relay's subscribers changed.
   Result<void> subscribeAndTell(Endpoint& e, uint16_t id);
   Result<void> unsubscribeAndTell(Endpoint& e, uint16_t id);
-  // SUBSCRIBE_QUEUE, SUBSCRIBE_RATE: subscribed with a queue asked for and a rate cap (0: none).
-  void subscribeWith(Connection& c, Code code, uint32_t tag, uint16_t chan_id, uint32_t queue_bytes,
-                     uint16_t max_hz);
 
   // Its rows (catalogue.h, family channels): handle(Connection&, msg::X&) for each.
   SKR_FLOW_ROOM_HANDLERS(channels)

@@ -416,24 +416,10 @@ void DatabaseStore::tell(const PairDatabase& db, std::string_view key, const Var
   for (const auto& fn : told) (*fn)(db, key, value);
 }
 
-uint64_t DatabaseStore::watch(std::string name, ChangeFn fn, GoneFn gone) {
+uint64_t DatabaseStore::watch(std::string name, ChangeFn fn) {
   const uint64_t id = next_watch_++;
-  watchers_.emplace(
-      id, Watcher{std::move(name), std::make_shared<ChangeFn>(std::move(fn)), std::move(gone)});
+  watchers_.emplace(id, Watcher{std::move(name), std::make_shared<ChangeFn>(std::move(fn))});
   return id;
-}
-
-void DatabaseStore::tellGone(const std::string& name) {
-  std::vector<GoneFn> told;  // the watches end first: a gone function may watch again
-  for (auto it = watchers_.begin(); it != watchers_.end();) {
-    if (it->second.name == name && it->second.gone) {
-      told.push_back(std::move(it->second.gone));
-      it = watchers_.erase(it);
-    } else {
-      ++it;
-    }
-  }
-  for (const auto& fn : told) fn(name);
 }
 
 void DatabaseStore::unwatch(uint64_t id) noexcept {
@@ -504,7 +490,6 @@ Result<void> DatabaseStore::remove(std::string_view name) {
   const std::string db_name = it->first;
   const uint64_t version = it->second.db->version();
   dbs_.erase(it);
-  tellGone(db_name);
   if (!on_disk) return {};
   if (journal_) {
     std::string record;

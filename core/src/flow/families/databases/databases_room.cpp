@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The DB_* and VAR_* rows, on synchronous connections and on flows; the databases loaded at start
-// and closed at stop; each flow's database; DB_WATCH's watches (EV_DB_PAIR).
+// and closed at stop; each flow's database.
 #include "families/databases/databases_room.h"
 
 #include "connection.h"
@@ -39,11 +39,6 @@ Result<void> DatabasesRoom::start() {
 }
 
 void DatabasesRoom::stop() noexcept {
-  for (const auto& [who, dbs] : watches_) {
-    for (const auto& [name, id] : dbs) store().unwatch(id);
-  }
-  watches_.clear();
-  countWatches();
   if (!started_) return;
   started_ = false;
   if (auto r = store().close(); !r) log::error(kLogSource, "FLOW-DB-SAVE", r.error().message);
@@ -54,29 +49,7 @@ void DatabasesRoom::loggedIn(Endpoint& e) {
 }
 
 void DatabasesRoom::endpointLeft(Endpoint& e) {
-  unwatch(e.id, nullptr);
   detach(e);
-}
-
-void DatabasesRoom::unwatch(uint32_t who, const std::string* db) noexcept {
-  const auto mine = watches_.find(who);
-  if (mine == watches_.end()) return;
-  for (auto it = mine->second.begin(); it != mine->second.end();) {
-    if (db == nullptr || it->first == *db) {
-      store().unwatch(it->second);
-      it = mine->second.erase(it);
-    } else {
-      ++it;
-    }
-  }
-  if (mine->second.empty()) watches_.erase(mine);
-  countWatches();
-}
-
-void DatabasesRoom::countWatches() noexcept {
-  uint64_t n = 0;
-  for (const auto& [who, dbs] : watches_) n += dbs.size();
-  hub_.stats.db_watches = n;
 }
 
 void DatabasesRoom::channelRemoved(const Channel& ch) {
@@ -241,56 +214,6 @@ void DatabasesRoom::handle(Connection& c, msg::DbRead& m) {
                    c.refused(Code::db_read, tag, 0, r.error());
                  }
                }));
-}
-
-void DatabasesRoom::handle(Connection& c, msg::DbWatch& m) {
-  if (remote(m.name)) {
-    return c.onError(Code::db_watch, m.tag, 0, ErrorCode::unsupported,
-                     "DB_WATCH: \"" + m.name +
-                         "\" is a linked hub's database: read it with DB_READ, or watch it there");
-  }
-  if (!canRead(c, m.name)) {
-    return c.refused(Code::db_watch, m.tag, 0, accessDenied(c.user, Action::db_read, m.name));
-  }
-  const PairDatabase* db = store().find(m.name);
-  if (db == nullptr) {
-    return c.refused(Code::db_watch, m.tag, 0,
-                     makeError(Errc::not_found, "no database \"" + m.name + "\""));
-  }
-  unwatch(c.id, &m.name);  // watched again: a new snapshot under the new tag
-  // Events, never dropped: a watcher that does not read is closed (FLOW-SLOW-CLIENT) as for any
-  // event. The watch ends before the connection goes (endpointLeft), so `conn` stays valid.
-  Connection* conn = &c;
-  const auto told = [conn](const PairDatabase& d, std::string_view key, const Variant* value) {
-    using S = msg::DbPairState;
-    const S state = value != nullptr ? S::set : key.empty() ? S::cleared : S::removed;
-    conn->send(msg::EvDbPair{d.name(), std::string(key), uint8_t(state),
-                             value != nullptr ? *value : Variant()});
-  };
-  const auto gone = [this, conn, tag = m.tag](const std::string& name) {
-    if (auto mine = watches_.find(conn->id); mine != watches_.end()) {
-      mine->second.erase(name);  // the store ended it already
-      if (mine->second.empty()) watches_.erase(mine);
-    }
-    countWatches();
-    conn->onError(Code::db_watch, tag, 0, ErrorCode::not_found,
-                  "database \"" + name + "\" was removed: the watch ended");
-  };
-  watches_[c.id][m.name] = store().watch(m.name, told, gone);
-  countWatches();
-  for (const auto& [key, value] : db->pairs()) {
-    c.send(msg::EvDbPair{m.name, key, uint8_t(msg::DbPairState::set), value});
-  }
-  c.send(msg::EvDbPair{m.name, {}, uint8_t(msg::DbPairState::snapshot_end), Variant()});
-}
-
-void DatabasesRoom::handle(Connection& c, msg::DbUnwatch& m) {
-  const auto mine = watches_.find(c.id);
-  if (mine == watches_.end() || mine->second.find(m.name) == mine->second.end()) {
-    return c.refused(Code::db_unwatch, m.tag, 0,
-                     makeError(Errc::not_found, "DB_UNWATCH: \"" + m.name + "\" is not watched"));
-  }
-  unwatch(c.id, &m.name);
 }
 
 }  // namespace skr::flow

@@ -10,9 +10,7 @@
 
 #include <skrobot/runtime/flow/messages.h>
 
-#include <cstdint>
 #include <functional>
-#include <map>
 #include <string>
 
 namespace skr::flow {
@@ -49,13 +47,6 @@ class DatabasesRoom final : public Room, public DatabaseAccess {
   void answerDurably(Connection& c, const Result<void>& r, bool persistent);
   // Each endpoint's traffic counters into its flow database (once a second).
   void writeFlowStats();
-  // DB_UNWATCH, leaving, stop: the watch of `db` by endpoint `who` ends (all of its watches
-  // when `db` is null).
-  void unwatch(uint32_t who, const std::string* db) noexcept;
-  void countWatches() noexcept;  // into ServerStats::db_watches
-
-  // DB_WATCH (1.14): the store's watch id of each database a connection watches.
-  std::map<uint32_t, std::map<std::string, uint64_t, std::less<>>> watches_;
 
   bool started_ = false;  // loaded: closed (saved) at stop
 };

@@ -45,10 +45,6 @@ std::string_view transportName(Transport transport) noexcept {
       return "tcp";
     case Transport::in_process:
       return "in-process";
-    case Transport::websocket:
-      return "websocket";
-    case Transport::websocket_loopback:
-      return "websocket (loopback)";
   }
   return "unknown";
 }
@@ -67,7 +63,7 @@ Authenticator::Authenticator(UsersFile users, std::optional<DevAccount> dev, Loo
                  "development account ignored: " +
                      (!name_ok ? name_ok.error().message : password_ok.error().message));
     } else {
-      dev_ = DevDigest{dev->user, passwordDigest(dev->password), dev->websocket_loopback};
+      dev_ = DevDigest{dev->user, passwordDigest(dev->password)};
     }
     wipe(dev->password);
   }
@@ -122,12 +118,10 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
       std::lock_guard lock(users_mutex_);
       return users_.contains(user);
     }();
-    const bool websocket = transport == Transport::websocket_loopback && dev_->websocket_loopback;
-    if (transport == Transport::unix_socket || websocket) {
+    if (transport == Transport::unix_socket) {
       const Digest d = passwordDigest(password);
       if (sodium_memcmp(d.data(), dev_->password.data(), d.size()) == 0) {
-        answer(std::move(done), {true, websocket ? "development account on WebSocket (loopback)"
-                                                 : "development account on the Unix socket"});
+        answer(std::move(done), {true, "development account on the Unix socket"});
         return;
       }
       if (!real) {
@@ -137,9 +131,7 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
     } else if (!real) {
       answer(std::move(done),
              {false, "development account refused on " + std::string(transportName(transport)) +
-                         (dev_->websocket_loopback
-                              ? ": accepted on the Unix socket and on WebSocket from loopback only"
-                              : ": accepted on the Unix socket only")});
+                         ": accepted on the Unix socket only"});
       return;
     }
     // A real account of the same name: verified like any other below.

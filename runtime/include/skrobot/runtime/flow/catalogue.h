@@ -50,7 +50,6 @@
   X(0x14, admin,                 1,  to_hub,    sync,      admin,     Admin,               ReplyValue)          \
   X(0x15, poll_deregister,       4,  to_hub,    sync,      channels,  PollDeregister,      Ack)                 \
   X(0x16, session_limits,        12, to_hub,    sync,      session,   SessionLimits,       Ack)                 \
-  X(0x17, login_token,           15, to_hub,    sync,      session,   LoginToken,          LoginOk)             \
   /* commands on a flow */                                                                       \
   X(0x40, chan_add,              0,  to_hub,    flow,      channels,  ChanAdd,             None)                \
   X(0x41, chan_remove,           0,  to_hub,    flow,      channels,  ChanRemove,          None)                \
@@ -70,9 +69,6 @@
   X(0x4F, service_request_timed, 4,  to_hub,    flow,      services,  ServiceRequestTimed, None)                \
   X(0x50, db_read,               6,  to_hub,    flow,      databases, DbRead,              None)                \
   X(0x51, subscribe_queue,       13, to_hub,    flow,      channels,  SubscribeQueue,      None)                \
-  X(0x52, db_watch,              14, to_hub,    flow,      databases, DbWatch,             None)                \
-  X(0x53, db_unwatch,            14, to_hub,    flow,      databases, DbUnwatch,           None)                \
-  X(0x54, subscribe_rate,        14, to_hub,    flow,      channels,  SubscribeRate,       None)                \
   /* replies */                                                                                  \
   X(0x80, reply_ok,              0,  to_client, sync,      session,   Ack,                 None)                \
   X(0x81, reply_error,           0,  to_client, sync,      session,   ReplyError,          None)                \
@@ -90,7 +86,6 @@
   X(0x9A, ev_dropped,            0,  to_client, flow,      channels,  EvDropped,           None)                \
   X(0x9B, ev_db_synced,          2,  to_client, flow,      databases, EvDbSynced,          None)                \
   X(0x9C, ev_db_value,           6,  to_client, flow,      databases, EvDbValue,           None)                \
-  X(0x9D, ev_db_pair,            14, to_client, flow,      databases, EvDbPair,            None)                \
   /* 1.3: blob channels */                                                                       \
   X(0xC0, blob_list,             3,  to_hub,    sync,      blobs,     BlobList,            ReplyValue)          \
   X(0xC1, blob_get,              3,  to_hub,    sync,      blobs,     BlobGet,             BlobData)            \

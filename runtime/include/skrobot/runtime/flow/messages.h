@@ -51,16 +51,6 @@ struct Login {
   std::string user, password, client_name;
   SKR_FLOW_FIELDS(major, minor, value_encoding, user, password, client_name)
 };
-// LOGIN_TOKEN (1.15): a login with a page token (POST /skrobot/token on the hub's web port), as
-// the account server.web.page_account; on WebSocket only. Answered as LOGIN.
-struct LoginToken {
-  static constexpr Code code = Code::login_token;
-  uint16_t major = kProtocolMajor;
-  uint16_t minor = kProtocolMinor;
-  uint8_t value_encoding = 0;  // ValueEncoding the hub uses for values it sends
-  std::string token, client_name;
-  SKR_FLOW_FIELDS(major, minor, value_encoding, token, client_name)
-};
 struct LoginOk {
   static constexpr Code code = Code::reply_ok;
   uint16_t major = kProtocolMajor;
@@ -246,17 +236,6 @@ struct SubscribeQueue {
   uint32_t queue_bytes = 0;  // 0: the hub's default (server.subscriber_queue_bytes)
   SKR_FLOW_FIELDS(tag, chan_id, queue_bytes)
 };
-// 1.14: SUBSCRIBE_QUEUE with a rate cap, newest wins: at most max_hz frames a second reach the
-// subscriber; a frame that comes sooner replaces the one waiting, which goes when the interval
-// ends (so a channel that falls still ends on its newest frame). max_hz 0: no cap.
-struct SubscribeRate {
-  static constexpr Code code = Code::subscribe_rate;
-  uint32_t tag = 0;
-  uint16_t chan_id = 0;
-  uint32_t queue_bytes = 0;  // 0: the hub's default (server.subscriber_queue_bytes)
-  uint16_t max_hz = 0;
-  SKR_FLOW_FIELDS(tag, chan_id, queue_bytes, max_hz)
-};
 struct Publish {
   static constexpr Code code = Code::publish;
   uint16_t chan_id = 0;
@@ -322,27 +301,6 @@ struct EvDbValue {
   uint32_t tag = 0;
   Variant value;  // get: the value; all: a map of every pair; keys: a sorted list of strings
   SKR_FLOW_FIELDS(tag, value)
-};
-// DB_WATCH (1.14), on a flow: watch database `name` (db_read rule; one here, not a linked hub's).
-// EV_DB_PAIR then brings its pairs (state set), one snapshot_end, and every change after; a
-// refusal, or the end of the watch when the database is removed, is EV_ERROR with the tag
-// (not_found). DB_UNWATCH ends it; so does leaving. A second DB_WATCH of it sends the snapshot
-// again, under the new tag.
-using DbWatch = TagName<Code::db_watch>;
-using DbUnwatch = TagName<Code::db_unwatch>;
-enum class DbPairState : uint8_t {
-  removed = 0,       // `key` was removed
-  set = 1,           // `key` holds `value`
-  cleared = 2,       // every key was removed (key empty)
-  snapshot_end = 3,  // the pairs before it were the database's at DB_WATCH (key empty)
-};
-struct EvDbPair {
-  static constexpr Code code = Code::ev_db_pair;
-  std::string db;
-  std::string key;
-  uint8_t state = 0;  // DbPairState
-  Variant value;      // for set; null otherwise
-  SKR_FLOW_FIELDS(db, key, state, value)
 };
 struct VarSetAsync {
   static constexpr Code code = Code::var_set_async;

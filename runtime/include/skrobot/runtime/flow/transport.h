@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Transports: how the bytes of one FlowProtocol connection travel, on either side (the hub's
 // Connection, the satellite library's Link). One small interface, one implementation per kind:
-// Unix socket, TCP, TLS as a layer over TCP (skrobot/runtime/flow/tls.h), WebSocket as a layer
-// over TCP or TLS. Addresses are parsed
+// Unix socket, TCP, and TLS as a layer over TCP (skrobot/runtime/flow/tls.h). Addresses are parsed
 // by skrobot/runtime/flow/address.h; their grammar is docs/flow-protocol.md's "Addresses".
 //
 //   Transport   one connection's pipe: reading into a receiver, pause/resume, gathered writes,
@@ -18,17 +17,13 @@
 // callback is on that loop's thread. Callbacks never come from inside a call (start, write,
 // close...), always from the loop itself.
 //
-// The shapes of the kinds beyond a byte stream:
-// - Message-based transports (UDP datagrams, serial sessions; message_session.h): framing() is
-//   `messages`; the receiver gets message() with one whole frame per message (length prefix
-//   included, never split or joined), and writes are given whole frames that the transport
-//   sends one per message (tryWrite takes whole frames only). maxFrameBytes() is the largest
-//   message. The test transport of tests/flow/transport_test.cpp is one, and the hub's
-//   Connection runs over it.
-// - WebSocket (ws_transport.h, a layer over TCP or TLS): framing() is `frame_messages`. Reads
-//   are a stream (the payload of binary messages, unmasked into the receiver's buffer; a message
-//   that ends inside a frame is refused), so the receiver's frame limit is the only one; each
-//   write call is one binary message of whole frames.
+// The shapes of the kinds beyond a byte stream (the first two written: serial lines and UDP, on
+// runtime/internal message_session.h; the third is to come):
+// - Message-based transports (UDP datagrams, WebSocket messages): framing() is `messages`; the
+//   receiver gets message() with one whole frame per message (length prefix included, never
+//   split or joined), and writes are given whole frames that the transport sends one per message
+//   (tryWrite takes whole frames only). maxFrameBytes() is the largest message. The test
+//   transport of tests/flow/transport_test.cpp is one, and the hub's Connection runs over it.
 // - One multiplexed line (a serial port carrying one session at a time): each session is a
 //   Transport of its own over the line; close() of a session transport ends that session (the
 //   line says so to the other end) and closed() follows, while the device stays open and the
@@ -65,8 +60,8 @@ class Loop;
 
 namespace skr::flow::transport {
 
-enum class TransportKind : uint8_t { unix_socket, tcp, tls, memory, serial, udp, websocket };
-// "unix", "tcp", "tls", "memory", "serial", "udp", "ws": log lines, statistics.
+enum class TransportKind : uint8_t { unix_socket, tcp, tls, memory, serial, udp };
+// "unix", "tcp", "tls", "memory", "serial", "udp": log lines, statistics.
 [[nodiscard]] std::string_view transportKindName(TransportKind kind) noexcept;
 
 // Who is at the other end: what the login throttle counts by and what permission rules read.
@@ -80,12 +75,9 @@ struct PeerIdentity {
   std::string account;      // serial: the account the port is bound to (it logs in without a
                             // password); empty: the board logs in with its own credentials.
                             // UDP: the account whose key opened the session
-  std::string origin;       // WebSocket: the upgrade request's Origin header; empty if none
-                            // (a page sends it; Node.js, flowctl and curl do not)
 
   // "uid:<n>" for a Unix peer, "tcp:<address>" for TCP and TLS ("unix:?", "tcp:?" unknown),
-  // "serial:<device>" for a board on a serial line, "udp:<ip>:<port>" for a UDP session,
-  // "ws:<address>" for WebSocket (over TCP or TLS).
+  // "serial:<device>" for a board on a serial line, "udp:<ip>:<port>" for a UDP session.
   [[nodiscard]] std::string source() const;
 };
 
@@ -106,10 +98,6 @@ class Transport {
   enum class Framing : uint8_t {
     stream,    // bytes: received() in pieces of any size, frames split by the receiver
     messages,  // one whole frame per message(); writes are whole frames
-    // Read as a stream (received()), written as messages: each write call is one message and
-    // must hold whole frames, one or more (WebSocket: the peer may hand out views of a message's
-    // frames without reassembling them). Output never cuts a frame across two calls here.
-    frame_messages,
   };
 
   // What a transport delivers to. Implemented by the connection that owns the transport.
@@ -193,11 +181,9 @@ class Listener {
  public:
   using Accepted = std::function<void(std::unique_ptr<Transport>)>;
 
-  // Listens on `address` (local:, tcp:, tls:; a tcp port 0 takes a free one). A WebSocket
-  // server listens on tcp: or tls:, reads each request head and upgrades the connection
-  // (runtime/internal/http_head.h: http::upgrade); ws: and wss: are no listener's addresses. A
-  // local: socket file left by a process that is gone is replaced; one that a live process answers
-  // on is Errc::already_exists. Errc::io_error naming the address when the system refuses,
+  // Listens on `address` (local:, tcp:, tls:; a tcp port 0 takes a free one). A local: socket
+  // file left by a process that is gone is replaced; one that a live process answers on is
+  // Errc::already_exists. Errc::io_error naming the address when the system refuses,
   // Errc::invalid_argument for an address it cannot listen on.
   [[nodiscard]] static Result<std::unique_ptr<Listener>> open(Loop& loop, const Address& address,
                                                               ListenOptions options,
@@ -244,10 +230,6 @@ class Dialer {
   // says the port is closed) and hands over the session once the hub accepts it: "no answer to
   // the UDP handshake..." when it does not within options.udp_handshake_ms, naming the likely
   // cause (no key, a key that is not the account's, no server.udp there).
-  // A ws: or wss: address connects (wss: with its TLS handshake, `tls` required), sends the
-  // WebSocket upgrade for its path offering the subprotocol skrobot-flow.v1, and hands over the
-  // transport (TransportKind::websocket) once the server's 101 names it with the right
-  // Sec-WebSocket-Accept: "WebSocket upgrade with ws:host:8080/flow: the server answered 404...".
   [[nodiscard]] static std::unique_ptr<Dialer> open(Loop& loop, const Address& address,
                                                     const DialOptions& options, Opened opened);
   [[nodiscard]] static std::unique_ptr<Dialer> open(Loop& loop, const Address& address,

@@ -207,11 +207,6 @@ class Satellite : public Object {
   // queue is the larger of the hub's default and every such grant; 0 asks for the default. A
   // hub older than 1.13 gives the default. Called again, it changes the request.
   void subscribe(std::string name, size_t queue_bytes);
-  // The same with a rate cap (FlowProtocol 1.14, SUBSCRIBE_RATE): at most `max_hz` frames a
-  // second reach us, newest wins (a frame that comes sooner replaces the one the hub holds back,
-  // which comes when the interval ends: a channel that falls still ends on its newest frame).
-  // For previews and remote dashboards. 0: no cap. A 1.13 hub gives the queue at full rate.
-  void subscribe(std::string name, size_t queue_bytes, uint16_t max_hz);
   // Subscribes to the channel that has this id now (kept by its name, as above).
   [[nodiscard]] Result<void> subscribe(uint16_t chan_id);
   void unsubscribe(std::string_view name);
@@ -310,23 +305,6 @@ class Satellite : public Object {
   // lost connection answers io_error. Errc::closed, Errc::unsupported (a hub older than 1.6).
   [[nodiscard]] Result<uint32_t> readDatabase(const std::string& db, flow::msg::DbReadWhat what,
                                               const std::string& key, ResponseHandler done);
-  // Watches database `db` (FlowProtocol 1.14, DB_WATCH; docs/cpp-satellites.md "Watching a
-  // database"): each time the flow opens, `fn` gets its pairs (state set), one snapshot_end, then
-  // every change (set, removed, cleared) as it happens, none missed. Kept across reconnections
-  // (a new snapshot each time). A refusal (permission_denied: the db_read rule; not_found) or
-  // the database's removal ends the watch: the `error` signal with DB_WATCH. Called again for
-  // the same database, `fn` is replaced and a new snapshot comes. Errc::unsupported (a hub older
-  // than 1.14: not kept), Errc::invalid_argument (no `fn`).
-  struct DbPair {
-    const std::string& db;
-    const std::string& key;
-    flow::msg::DbPairState state;
-    const flow::Variant& value;  // for set; null otherwise
-  };
-  using DbWatchFn = std::function<void(const DbPair&)>;
-  [[nodiscard]] Result<void> watchDatabase(std::string db, DbWatchFn fn);
-  void unwatchDatabase(std::string_view db);
-  [[nodiscard]] bool isWatching(std::string_view db) const;
   // --- a hub's own link (docs/hub-links.md, "One connection"): FlowProtocol 1.6, on a link whose
   // far hub sent `linkWanted`. Offers a channel of this hub under its name here ("<user>.<name>",
   // or "<hub>/<user>.<name>" for a third hub's); the far hub makes it ours (`channelAdded`, owner

@@ -32,6 +32,7 @@ if [[ ${INSIDE_NAMESPACE:-} != 1 ]]; then
            "$lib/libskrobot-runtime.so.0" "$lib/libskrobot-satellite.so.0" \
            /usr/share/skrobot/default.json /usr/share/skrobot/web/index.html \
            /usr/share/skrobot/web/vendor/three.module.js /usr/share/skrobot/web/vendor/LICENSE \
+           /usr/share/skrobot/web/skrobot/index.js /usr/share/skrobot/web/skrobot/media-codes.js \
            /usr/share/doc/skrobot/README.md /usr/share/doc/skrobot/copyright \
            /usr/share/doc/skrobot/LICENSE /usr/share/doc/skrobot/NOTICE \
            /usr/lib/python3/dist-packages/PySketch/flowsat.py \

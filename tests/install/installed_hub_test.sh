@@ -68,6 +68,9 @@ page=$(curl -sf http://127.0.0.1:8080/) || fail "no page on :8080"
 grep -qi "<html" <<<"$page" || fail "the page is not HTML"
 curl -sf -o "$tmp/three.js" http://127.0.0.1:8080/vendor/three.module.js || fail "no three.js"
 [[ $(stat -c %s "$tmp/three.js") -gt 100000 ]] || fail "three.js is too small"
+# The JavaScript library beside the page, for pages of the hub's web port (import '/skrobot/index.js').
+lib=$(curl -sf http://127.0.0.1:8080/skrobot/index.js) || fail "no /skrobot/index.js"
+grep -q "export async function connectPage" <<<"$lib" || fail "/skrobot/index.js is not the library"
 "${run[@]}" "$bin/flowctl" ls > "$tmp/ls.log" 2>&1 || { cat "$tmp/ls.log"; fail "flowctl ls"; }
 for c in websocket-ui.camera face-detect.faces speech.say nao-bridge.command; do
   grep -q "$c" "$tmp/ls.log" || { cat "$tmp/ls.log"; fail "flowctl ls does not list $c"; }

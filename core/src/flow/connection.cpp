@@ -234,7 +234,8 @@ void Connection::handleFrame(uint8_t code, std::string_view body) {
 void Connection::protocolError(const std::string& why) {
   ++hub_.stats.protocol_errors;
   log::warn(kLogSource, "FLOW-PROTOCOL", "killing spurious client, " + describe() + ": " + why);
-  close("protocol error");
+  const std::string reason = "protocol error: " + why;  // a WebSocket peer reads it
+  close(reason.c_str());
 }
 
 void Connection::replyError(ErrorCode error, const std::string& message) {

@@ -265,7 +265,9 @@ TEST_F(PhysicalPaths, ADirectPathThatBreaksIsResumedWithWhatTheOwnerKept) {
   flow::HubSnapshot snap;
   onHub([&] { snap = server_->snapshot(); });
   for (const auto& f : snap.flows) {
-    if (f.id == sub) EXPECT_EQ(f.dropped, 2u) << "what the owner no longer kept";
+    if (f.id == sub) {
+      EXPECT_EQ(f.dropped, 2u) << "what the owner no longer kept";
+    }
   }
   // An owner that does not answer: relayed after 5 s without what it missed.
   ASSERT_TRUE(p.sub.send(msg::PhysRequest{8, p.id, msg::kPhysDirect}));

@@ -891,7 +891,9 @@ TEST_F(Server, DbReadAndLinkOfferOnAFlowAnswerWithTheTagOrTheError) {
     EXPECT_TRUE(f.send(read));
     auto e = as<msg::EvError>(f.waitFor(Code::ev_error));
     EXPECT_TRUE(e);
-    if (e) EXPECT_EQ(e->tag, read.tag);
+    if (e) {
+      EXPECT_EQ(e->tag, read.tag);
+    }
     return e ? e->error : uint16_t(0);
   };
   EXPECT_EQ(refused({4, "guest", uint8_t(msg::DbReadWhat::get), "nothing"}),

@@ -558,8 +558,8 @@ TEST_F(WsPair, TheWsDialerRefusesAServerThatDoesNotUpgrade) {
 // A ws: client of an in-process hub: frames encoded here, replies split from its stream.
 struct WsClient {
   Loop& loop;
-  std::unique_ptr<Transport> t;
-  Sink sink;
+  std::unique_ptr<Transport> t{};
+  Sink sink{};
   size_t taken = 0;
 
   template <class M>

@@ -633,7 +633,6 @@ TEST_F(WebPort, ThePageAccountIsCheckedAtStart) {
   EXPECT_TRUE(named.start()) << named.log();
 }
 
-
 // A page token from POST /skrobot/token (fetched from 127.0.0.1).
 std::string pageToken(uint16_t port) {
   Reply r = get(port, "/skrobot/token", "Content-Length: 0\r\n", "POST");
@@ -690,11 +689,11 @@ TEST_F(WebPort, APageTokenLogsInOverWebSocketOnlyFromItsAddressUntilItExpires) {
 
   // A live token on the Unix socket and on TCP: the transport refuses it.
   const std::string fresh = pageToken(port);
-  for (const std::string address : {h->address(), h->tcpAddress()}) {
+  for (const std::string& address : {h->address(), h->tcpAddress()}) {
     const bool unix_socket = address.starts_with("local:");
-    Http c = unix_socket ? Http(address.substr(6))
-                         : Http(static_cast<uint16_t>(std::atoi(
-                               address.c_str() + address.rfind(':') + 1)));
+    Http c = unix_socket
+                 ? Http(address.substr(6))
+                 : Http(static_cast<uint16_t>(std::atoi(address.c_str() + address.rfind(':') + 1)));
     ASSERT_TRUE(c.ok()) << address;
     c.send(flowFrame(tokenLogin(fresh)));
     EXPECT_NE(c.rest("wrong user").find("wrong user name or password"), std::string::npos)

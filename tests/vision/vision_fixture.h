@@ -127,7 +127,9 @@ class VisionFixture : public ModuleFixture {
     TestClient c = flowClient();
     auto info = as<flow::msg::ChannelInfoReply>(sync_.call(flow::msg::ChanInfoByName{channel}));
     EXPECT_TRUE(info) << "no channel " << channel;
-    if (info) EXPECT_TRUE(c.send(flow::msg::Subscribe{1, info->info.id}));
+    if (info) {
+      EXPECT_TRUE(c.send(flow::msg::Subscribe{1, info->info.id}));
+    }
     return c;
   }
 

@@ -135,7 +135,10 @@ export async function startHub(modules, { users = [], server = {} } = {}) {
     },
     async stop() {
       if (hub.alive()) proc.kill('SIGINT');
-      const r = await Promise.race([exited, sleep(10000).then(() => null)]);
+      // A timer of its own, cleared: a pending one would keep node running 10 s after the test.
+      let timer;
+      const r = await Promise.race([exited, new Promise((resolve) => { timer = setTimeout(resolve, 10000, null); })]);
+      clearTimeout(timer);
       if (!r) proc.kill('SIGKILL');
       rmSync(dir, { recursive: true, force: true });
       return r;

@@ -11,7 +11,7 @@ import { execFileSync, spawn } from 'node:child_process';
 import { mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { env, freePort, launchChromium, outDir, sleep, waitFor } from './harness.mjs';
+import { env, freePort, launchChromium, outDir, waitFor } from './harness.mjs';
 
 const ASTRONAUT = '/usr/lib/python3/dist-packages/skimage/data/astronaut.png';  // python3-skimage
 
@@ -59,7 +59,9 @@ test('the ten-minute page: the camera goes to face-detect through the library, t
   proc.stderr.on('data', (d) => { log += d; });
   t.after(async () => {
     proc.kill('SIGINT');
-    await Promise.race([new Promise((r) => proc.on('exit', r)), sleep(10000)]);
+    let timer;
+    await Promise.race([new Promise((r) => proc.on('exit', r)), new Promise((r) => { timer = setTimeout(r, 10000); })]);
+    clearTimeout(timer);
     proc.kill('SIGKILL');
   });
   await waitFor('HUB-READY', () => {

@@ -27,10 +27,11 @@ class StreamListener final : public Listener {
     h_->owner = this;
     if (address_.kind == Address::Kind::local) {
       uv_pipe_init(loop.uv(), &h_->u.pipe, 0);
+      h_->u.pipe.data = h_;
     } else {
       uv_tcp_init(loop.uv(), &h_->u.tcp);
+      h_->u.tcp.data = h_;
     }
-    reinterpret_cast<uv_handle_t*>(&h_->u)->data = h_;
   }
 
   ~StreamListener() override {

@@ -108,7 +108,7 @@ class UsersFile {
     std::string hash;                           // crypto_pwhash_str format, "$argon2id$..."
     std::string created;                        // ISO-8601 UTC
     std::shared_ptr<const AccessRules> access;  // null: the defaults
-    std::optional<UdpKey> udp_key;
+    std::optional<UdpKey> udp_key{};
   };
   std::filesystem::path path_;
   std::map<std::string, Entry, std::less<>> users_;

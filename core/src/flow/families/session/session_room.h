@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The session room: a connection's login (accounts, the authenticator's off-loop password checks,
-// the login throttle), its switch to a flow and PING; the LOGIN, LOGIN_TOKEN, GO_ASYNC and PING rows of the
-// catalogue. The connection's own state machine (login, authenticating, sync, flow) is in
-// connection.h; this room decides each step.
+// the login throttle), its switch to a flow and PING; the LOGIN, LOGIN_TOKEN, GO_ASYNC and PING
+// rows of the catalogue. The connection's own state machine (login, authenticating, sync, flow) is
+// in connection.h; this room decides each step.
 #pragma once
 
 #include "families/room.h"
@@ -37,7 +37,6 @@ class SessionRoom final : public Room {
   // FLOW-TOKEN. limit_exceeded when throttled; unsupported without page tokens.
   [[nodiscard]] Result<PageTokens::Issued> issuePageToken(const std::string& address);
 
-
   // Its rows (catalogue.h, family session): handle(Connection&, msg::X&) for each.
   SKR_FLOW_ROOM_HANDLERS(session)
 
@@ -66,7 +65,7 @@ class SessionRoom final : public Room {
     uint32_t connection = 0;
     Nanos at = 0;
     msg::Login login;
-    std::optional<msg::LoginToken> token;  // a LOGIN_TOKEN rather than `login`
+    std::optional<msg::LoginToken> token{};  // a LOGIN_TOKEN rather than `login`
   };
   std::vector<DelayedLogin> delayed_;
   // The built-in page account's rules when server.web.page_account is it; else null.

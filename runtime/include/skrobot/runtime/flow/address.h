@@ -37,7 +37,7 @@ struct Address {
   Kind kind = Kind::local;
   std::string path = "/tmp/Robot";  // Kind::local; Kind::serial: the device; Kind::ws and wss:
                                     // the HTTP path ("/flow" unless given)
-  std::string host;                 // Kind::tcp, tls, udp, ws, wss: a name or a numeric address
+  std::string host{};               // Kind::tcp, tls, udp, ws, wss: a name or a numeric address
   uint16_t port = kDefaultTcpPort;  // Kind::tcp and tls; Kind::udp (kDefaultUdpPort unless
                                     // given); Kind::ws and wss (kDefaultWsPort, kDefaultWssPort)
   uint32_t baud = 115200;           // Kind::serial

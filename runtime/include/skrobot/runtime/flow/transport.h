@@ -72,16 +72,16 @@ enum class TransportKind : uint8_t { unix_socket, tcp, tls, memory, serial, udp,
 // Who is at the other end: what the login throttle counts by and what permission rules read.
 struct PeerIdentity {
   TransportKind kind = TransportKind::unix_socket;
-  int64_t uid = -1;         // Unix socket: the peer process's uid (SO_PEERCRED); -1 unknown
-  std::string address;      // TCP, TLS: the peer's numeric address; UDP: "ip:port"; empty when
-                            // unknown
-  std::string certificate;  // TLS: the subject of the certificate the peer sent; empty if none
-  std::string device;       // serial: the device the line is on
-  std::string account;      // serial: the account the port is bound to (it logs in without a
-                            // password); empty: the board logs in with its own credentials.
-                            // UDP: the account whose key opened the session
-  std::string origin;       // WebSocket: the upgrade request's Origin header; empty if none
-                            // (a page sends it; Node.js, flowctl and curl do not)
+  int64_t uid = -1;           // Unix socket: the peer process's uid (SO_PEERCRED); -1 unknown
+  std::string address{};      // TCP, TLS: the peer's numeric address; UDP: "ip:port"; empty when
+                              // unknown
+  std::string certificate{};  // TLS: the subject of the certificate the peer sent; empty if none
+  std::string device{};       // serial: the device the line is on
+  std::string account{};      // serial: the account the port is bound to (it logs in without a
+                              // password); empty: the board logs in with its own credentials.
+                              // UDP: the account whose key opened the session
+  std::string origin{};       // WebSocket: the upgrade request's Origin header; empty if none
+                              // (a page sends it; Node.js, flowctl and curl do not)
 
   // "uid:<n>" for a Unix peer, "tcp:<address>" for TCP and TLS ("unix:?", "tcp:?" unknown),
   // "serial:<device>" for a board on a serial line, "udp:<ip>:<port>" for a UDP session,

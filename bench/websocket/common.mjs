@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: Apache-2.0
+// What the WebSocket benchmarks share: the hub binary and module directory (environment, else the
+// release build beside this checkout), command-line flags, percentiles, and a process's CPU time
+// from /proc.
+import { existsSync, readFileSync } from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+export const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
+
+// tests/web/harness.mjs reads its paths from the environment when it is imported: set them first.
+export async function harness() {
+  const release = path.join(repo, 'build/release');
+  process.env.SKROBOT_BIN ??= path.join(release, 'bin/skrobot');
+  process.env.FLOWCTL_BIN ??= path.join(release, 'bin/flowctl');
+  process.env.SKROBOT_MODULE_DIR ??= path.join(release, 'modules');
+  if (!existsSync(process.env.SKROBOT_BIN)) {
+    throw new Error(`no hub at ${process.env.SKROBOT_BIN}: build it (cmake --preset release) or set SKROBOT_BIN`);
+  }
+  return import('../../tests/web/harness.mjs');
+}
+
+// --flag and --name value pairs: { quick: true, count: '500' }.
+export function flags(argv = process.argv.slice(2)) {
+  const out = {};
+  for (let i = 0; i < argv.length; i++) {
+    const a = argv[i];
+    if (!a.startsWith('--')) throw new Error(`unexpected argument ${a}`);
+    const key = a.slice(2);
+    if (i + 1 < argv.length && !argv[i + 1].startsWith('--')) out[key] = argv[++i];
+    else out[key] = true;
+  }
+  return out;
+}
+
+// The p-th percentile (0..100) of sorted numbers, nearest rank.
+export function percentile(sorted, p) {
+  if (!sorted.length) return NaN;
+  const rank = Math.ceil((p / 100) * sorted.length);
+  return sorted[Math.min(sorted.length - 1, Math.max(0, rank - 1))];
+}
+
+const TICKS_PER_SECOND = 100;  // USER_HZ, the unit of /proc/<pid>/stat's times on Linux
+
+// utime + stime of a process in seconds (its threads together).
+export function cpuSeconds(pid) {
+  const stat = readFileSync(`/proc/${pid}/stat`, 'utf8');
+  // The command name may hold spaces: fields are counted after its closing parenthesis.
+  const fields = stat.slice(stat.lastIndexOf(')') + 2).split(' ');
+  return (Number(fields[11]) + Number(fields[12])) / TICKS_PER_SECOND;
+}
+
+export const fmt = (x, digits = 1) => (Number.isFinite(x) ? x.toFixed(digits) : '-');

@@ -2,7 +2,7 @@
 // What the WebSocket benchmarks share: the hub binary and module directory (environment, else the
 // release build beside this checkout), command-line flags, percentiles, and a process's CPU time
 // from /proc.
-import { existsSync, readFileSync } from 'node:fs';
+import { existsSync, readFileSync, readdirSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -42,12 +42,41 @@ export function percentile(sorted, p) {
 
 const TICKS_PER_SECOND = 100;  // USER_HZ, the unit of /proc/<pid>/stat's times on Linux
 
-// utime + stime of a process in seconds (its threads together).
-export function cpuSeconds(pid) {
-  const stat = readFileSync(`/proc/${pid}/stat`, 'utf8');
+// /proc/<pid>/stat: the command name, the parent and utime + stime in seconds (threads together).
+function stat(pid) {
+  const text = readFileSync(`/proc/${pid}/stat`, 'utf8');
   // The command name may hold spaces: fields are counted after its closing parenthesis.
-  const fields = stat.slice(stat.lastIndexOf(')') + 2).split(' ');
-  return (Number(fields[11]) + Number(fields[12])) / TICKS_PER_SECOND;
+  const fields = text.slice(text.lastIndexOf(')') + 2).split(' ');
+  return {
+    comm: text.slice(text.indexOf('(') + 1, text.lastIndexOf(')')), ppid: Number(fields[1]),
+    cpu: (Number(fields[11]) + Number(fields[12])) / TICKS_PER_SECOND,
+  };
+}
+
+// utime + stime of a process in seconds.
+export function cpuSeconds(pid) {
+  return stat(pid).cpu;
+}
+
+// utime + stime of the descendants of `root` whose command name matches `comm`, in seconds (the
+// processes alive now: one that ended between two readings takes its time with it).
+export function treeCpuSeconds(root, comm) {
+  const all = new Map();
+  for (const d of readdirSync('/proc')) {
+    if (!/^\d+$/.test(d)) continue;
+    try {
+      all.set(Number(d), stat(d));
+    } catch {
+      // ended meanwhile
+    }
+  }
+  let sum = 0;
+  for (const [pid, s] of all) {
+    let p = s.ppid;
+    while (p > 1 && p !== root) p = all.get(p)?.ppid ?? 0;
+    if (p === root && pid !== root && comm.test(s.comm)) sum += s.cpu;
+  }
+  return sum;
 }
 
 export const fmt = (x, digits = 1) => (Number.isFinite(x) ? x.toFixed(digits) : '-');

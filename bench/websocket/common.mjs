@@ -12,7 +12,6 @@ export const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '
 export async function harness() {
   const release = path.join(repo, 'build/release');
   process.env.SKROBOT_BIN ??= path.join(release, 'bin/skrobot');
-  process.env.FLOWCTL_BIN ??= path.join(release, 'bin/flowctl');
   process.env.SKROBOT_MODULE_DIR ??= path.join(release, 'modules');
   if (!existsSync(process.env.SKROBOT_BIN)) {
     throw new Error(`no hub at ${process.env.SKROBOT_BIN}: build it (cmake --preset release) or set SKROBOT_BIN`);

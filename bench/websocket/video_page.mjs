@@ -19,7 +19,7 @@
 //
 // The hub is SKROBOT_BIN (else build/release/bin/skrobot of this checkout), the modules
 // SKROBOT_MODULE_DIR, the publisher WS_MEDIA_PUBLISHER (else
-// build/release/bench/websocket/ws_media_publisher).
+// build/release/bin/ws_media_publisher).
 import { execFileSync, spawn } from 'node:child_process';
 import { existsSync, mkdtempSync, readFileSync, rmSync, statSync } from 'node:fs';
 import http from 'node:http';
@@ -128,7 +128,7 @@ async function nodeViewer(skr, WebSocket, mode, where, channel) {
 }
 
 function publisherBin() {
-  const bin = process.env.WS_MEDIA_PUBLISHER ?? path.join(repo, 'build/release/bench/websocket/ws_media_publisher');
+  const bin = process.env.WS_MEDIA_PUBLISHER ?? path.join(repo, 'build/release/bin/ws_media_publisher');
   if (!existsSync(bin)) throw new Error(`no publisher at ${bin}: build the target ws_media_publisher or set WS_MEDIA_PUBLISHER`);
   return bin;
 }
@@ -260,3 +260,4 @@ async function main() {
 }
 
 await main();
+process.exit(0);  // the harness's hub.stop() leaves a 10 s timer behind

@@ -1,16 +1,18 @@
 // SPDX-License-Identifier: Apache-2.0
 // Round trips from Node.js through one hub over WebSocket (the hub's web port, /flow) beside the
-// same client over the Unix socket, in the same run: 16 B, 1 KiB and 64 KiB.
+// same client over the Unix socket, in the same run: 16 B, 1 KiB and 64 KiB; TCP beside them
+// separates what loopback TCP costs from what WebSocket adds.
 //
-// One hub (a Unix socket and server.web with flows and the loopback dev account). An echo peer,
-// a second node process on local:, subscribes to guest.ping_ws and guest.ping_local and publishes
-// each payload again on guest.pong_ws / guest.pong_local: publish and subscribe, the library's
-// cheapest path (a service call adds a value's encoding and the hub's request table). The
-// measuring client connects twice, over ws: and over local:, and does sequential round trips
-// (publish on ping, wait for the same bytes on pong), in blocks that alternate between the two so
-// that a change of load on the machine falls on both. Prints per size and transport the median
-// and p99 in microseconds and the round trips per second, and the ratio ws/local (target: within
-// 1.5x). Exits 1 on an error (a lost or wrong echo); a missed target is reported, not an error.
+// One hub (a Unix socket, TCP on loopback for the account "bench", and server.web with flows and
+// the loopback dev account). An echo peer, a second node process on local:, subscribes to each
+// transport's <user>.ping_<transport> and publishes each payload again on
+// guest.pong_<transport>: publish and subscribe, the library's cheapest path (a service call adds
+// a value's encoding and the hub's request table). The measuring client connects once per
+// transport and does sequential round trips (publish on ping, wait for the same bytes on pong),
+// in blocks that alternate between the transports so that a change of load on the machine falls
+// on all. Prints per size and transport the median and p99 in microseconds and the round trips
+// per second, and the ratio ws/local (target: within 1.5x) and ws/tcp. Exits 1 on an error (a
+// lost or wrong echo); a missed target is reported, not an error.
 //
 //   node bench/websocket/round_trip.mjs [--quick] [--count N]
 //
@@ -24,6 +26,10 @@ const SIZES = [16, 1024, 65536];
 const BLOCK = 100;  // round trips before switching transport
 const TARGET_RATIO = 1.5;
 const STALL_MS = 5000;  // a round trip that takes this long is lost
+const TRANSPORTS = ['local', 'tcp', 'ws'];
+// Who each transport's client logs in as: TCP refuses the dev account.
+const USER = { local: 'guest', tcp: 'bench', ws: 'guest' };
+const PASSWORD = { guest: 'password', bench: 'bench-password' };
 
 const opts = flags();
 if (opts.echo) {
@@ -37,9 +43,9 @@ if (opts.echo) {
 async function echo(address) {
   const skr = await import('../../satellite/js/src/node.js');
   const hub = await skr.connect(address, { user: 'guest', password: 'password', clientName: 'echo' });
-  for (const t of ['ws', 'local']) {
+  for (const t of TRANSPORTS) {
     const pong = await hub.createChannel(`pong_${t}`);
-    hub.subscribe(`guest.ping_${t}`, (m) => pong.publish(m.payload));
+    hub.subscribe(`${USER[t]}.ping_${t}`, (m) => pong.publish(m.payload));
   }
   process.stdout.write('ready\n');
   process.stdin.on('end', () => { hub.close(); process.exit(0); });
@@ -48,7 +54,8 @@ async function echo(address) {
 
 // One measuring connection: publish on ping_<t>, the same bytes back on pong_<t>.
 async function client(skr, address, t, options) {
-  const hub = await skr.connect(address, { user: 'guest', password: 'password', clientName: `rt-${t}`, ...options });
+  const user = USER[t];
+  const hub = await skr.connect(address, { user, password: PASSWORD[user], clientName: `rt-${t}`, ...options });
   const ping = await hub.createChannel(`ping_${t}`);
   let waiting = null;
   let failing = null;
@@ -107,7 +114,11 @@ async function main() {
   const skr = await import('../../satellite/js/src/node.js');
   const WebSocket = globalThis.WebSocket ?? webRequire('ws');
   const port = await freePort();
-  const hub = await startHub([], { server: { web: { port, flows: true, dev_account: true } } });
+  const tcpPort = await freePort();
+  const hub = await startHub([], {
+    users: [{ name: 'bench', password: PASSWORD.bench }],
+    server: { tcp: true, tcp_port: tcpPort, web: { port, flows: true, dev_account: true } },
+  });
   const peer = spawn(process.execPath, [fileURLToPath(import.meta.url), '--echo', hub.address],
     { stdio: ['pipe', 'pipe', 'inherit'] });
   const clients = [];
@@ -118,15 +129,17 @@ async function main() {
     });
     const transports = {
       local: await client(skr, hub.address, 'local'),
+      tcp: await client(skr, `tcp:127.0.0.1:${tcpPort}`, 'tcp'),
       ws: await client(skr, `ws://127.0.0.1:${port}/flow`, 'ws', { WebSocket }),
     };
     clients.push(...Object.values(transports));
     for (const [t, c] of Object.entries(transports)) await warm(c, t);
     await new Promise((r) => setTimeout(r, 300));  // a late echo of a probe is dropped, not taken
 
-    console.log(`round trips through one hub (pid ${hub.proc.pid}): a node client over ws: (the web port's /flow) and`);
-    console.log(`over local: (Unix socket), in alternating blocks of ${BLOCK}; an echo peer over local: publishes each`);
-    console.log(`payload back (publish/subscribe, guest.ping_* -> guest.pong_*); ${count} round trips per size and transport`);
+    console.log(`round trips through one hub (pid ${hub.proc.pid}): a node client over ws: (the web port's /flow, the ws`);
+    console.log(`package), local: (Unix socket) and tcp: (loopback), in alternating blocks of ${BLOCK}; an echo peer over`);
+    console.log(`local: publishes each payload back (publish/subscribe, *.ping_* -> guest.pong_*); ${count} round trips`);
+    console.log('per size and transport');
     console.log('');
     console.log('size      transport  median us    p99 us   round trips/s');
     const watchdog = setInterval(() => { for (const c of clients) c.stalled(STALL_MS); }, 1000);
@@ -134,11 +147,11 @@ async function main() {
     try {
       for (const size of SIZES) {
         const payload = new Uint8Array(size).map((_, i) => (i * 31) & 0xff);
-        const ns = { local: [], ws: [] };
+        const ns = { local: [], tcp: [], ws: [] };
         let n = 0;
-        for (const t of ['local', 'ws']) for (let i = 0; i < 20; i++) await transports[t].once(payload);
-        while (ns.local.length < count || ns.ws.length < count) {
-          for (const t of ['local', 'ws']) {
+        for (const t of TRANSPORTS) for (let i = 0; i < 20; i++) await transports[t].once(payload);
+        while (TRANSPORTS.some((t) => ns[t].length < count)) {
+          for (const t of TRANSPORTS) {
             for (let i = 0; i < BLOCK && ns[t].length < count; i++) {
               new DataView(payload.buffer).setUint32(0, ++n, true);
               payload[size - 1] = n & 0xff;
@@ -147,7 +160,7 @@ async function main() {
           }
         }
         const row = {};
-        for (const t of ['local', 'ws']) {
+        for (const t of TRANSPORTS) {
           const us = ns[t].map((x) => x / 1000).sort((a, b) => a - b);
           const mean = us.reduce((a, b) => a + b, 0) / us.length;
           row[t] = { median: percentile(us, 50), p99: percentile(us, 99), rate: 1e6 / mean };
@@ -159,6 +172,7 @@ async function main() {
         verdicts.push(ok);
         console.log(`          ws/local   ${fmt(ratio, 2)}x median, ${fmt(row.ws.p99 / row.local.p99, 2)}x p99, ` +
           `${fmt(row.local.rate / row.ws.rate, 2)}x time per round trip (target within ${TARGET_RATIO}x: ${ok ? 'met' : 'missed'})`);
+        console.log(`          ws/tcp     ${fmt(row.ws.median / row.tcp.median, 2)}x median, ${fmt(row.ws.p99 / row.tcp.p99, 2)}x p99`);
       }
     } finally {
       clearInterval(watchdog);

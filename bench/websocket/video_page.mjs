@@ -9,11 +9,15 @@
 // (2.7 MB frames) at 30 Hz while subscribed, each frame with the next seq. The page
 // (page/page.js) subscribes to one of them at a time through /flow (a page token, web-page) or
 // through the bridge, and counts the frames, their seq gaps and, for JPEG, the frames
-// createImageBitmap decoded. Per format and path, after a second of warm-up: frames/s arrived
-// and decoded in the page over the window (10 s; --quick: 3 s) and the hub process's CPU over it
-// (utime + stime from /proc; the bridge runs in the hub, on a thread of its own). Targets: 30 Hz
-// through /flow, and no more hub CPU than the bridge. Exits 1 on an error (no frame, a page
-// error); a missed target is reported, not an error.
+// createImageBitmap decoded. The /flow page is the hub's (web.mounts: /bench, and /lib for the
+// library); the bridge's is the same files from a plain server here, since the hub's pages may
+// connect to their own origin only (Content-Security-Policy). Per format and path, after a
+// second of warm-up: frames/s arrived and decoded in the page over the window (10 s; --quick: 3 s),
+// the hub process's CPU over it (utime + stime from /proc; the bridge runs in the hub, on a thread
+// of its own) and chromium's. The full run adds the same subscriptions from node, which tell what
+// the hub delivers from what the page takes. Targets: 30 Hz through /flow, and no more hub CPU
+// than the bridge. Exits 1 on an error (no frame, a page error); a missed target is reported,
+// not an error.
 //
 //   node bench/websocket/video_page.mjs [--quick] [--seconds S]
 //

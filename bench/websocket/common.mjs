@@ -2,7 +2,7 @@
 // What the WebSocket benchmarks share: the hub binary and module directory (environment, else the
 // release build beside this checkout), command-line flags, percentiles, and a process's CPU time
 // from /proc.
-import { existsSync, readFileSync, readdirSync } from 'node:fs';
+import { existsSync, readFileSync, readdirSync, rmSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -76,6 +76,16 @@ export function treeCpuSeconds(root, comm) {
     if (p === root && pid !== root && comm.test(s.comm)) sum += s.cpu;
   }
   return sum;
+}
+
+// Kills `proc` (SIGKILL) if it is still running when this process exits, however it exits (an
+// uncaught error included), and removes `dir` (a hub's): no hub or publisher outlives the
+// benchmark.
+export function killOnExit(proc, dir) {
+  process.on('exit', () => {
+    if (proc.exitCode === null && proc.signalCode === null) proc.kill('SIGKILL');
+    if (dir) rmSync(dir, { recursive: true, force: true });
+  });
 }
 
 export const fmt = (x, digits = 1) => (Number.isFinite(x) ? x.toFixed(digits) : '-');

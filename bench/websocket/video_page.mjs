@@ -29,7 +29,7 @@ import { existsSync, mkdtempSync, readFileSync, rmSync, statSync } from 'node:fs
 import http from 'node:http';
 import os from 'node:os';
 import path from 'node:path';
-import { cpuSeconds, flags, fmt, harness, repo, treeCpuSeconds } from './common.mjs';
+import { cpuSeconds, flags, fmt, harness, killOnExit, repo, treeCpuSeconds } from './common.mjs';
 
 const WIDTH = 1280;
 const HEIGHT = 720;
@@ -157,6 +157,7 @@ async function main() {
       },
     },
   });
+  killOnExit(hub.proc, hub.dir);
   const publishers = [];
   let chromium;
   const plain = await servePage();
@@ -165,6 +166,7 @@ async function main() {
     for (const [name, args] of [['cam_jpeg', ['jpeg', `${WIDTH}x${HEIGHT}`, String(RATE_HZ), jpeg]],
       ['cam_rgb8', ['rgb8', `${WIDTH}x${HEIGHT}`, String(RATE_HZ)]]]) {
       const p = spawn(bin, [hub.address, name, ...args], { env, stdio: ['ignore', 'pipe', 'pipe'] });
+      killOnExit(p);
       p.out = '';
       p.stdout.on('data', (d) => { p.out += d; });
       p.stderr.on('data', (d) => { p.out += d; });

@@ -6,10 +6,11 @@
 // would take it: the pixels' bytes (rgb8: a view of the frame, or the bridge's base64 decoded),
 // and for JPEG a createImageBitmap of each frame (at most two decodes under way; a frame that
 // comes while both are busy is not decoded, and counted). The driver reads the counters.
-import { connectPage, parseMediaFrame } from '/lib/index.js';
+import { FORMAT, connectPage, encodingOf, parseMediaFrame } from '/lib/index.js';
 
 const FOXGLOVE_SUBPROTOCOL = 'foxglove.websocket.v1';
 const MAX_DECODING = 2;
+const JPEG_MIME = encodingOf(FORMAT.jpeg).mime;
 
 const counters = () => ({
   frames: 0, bytes: 0, skipped: 0, decoded: 0, notDecoded: 0, decodeFailed: 0, bad: 0, lastSeq: 0,
@@ -30,7 +31,7 @@ function arrived(seq, format, bytes) {
     return;
   }
   decoding++;
-  createImageBitmap(new Blob([bytes], { type: 'image/jpeg' })).then((bitmap) => {
+  createImageBitmap(new Blob([bytes], { type: JPEG_MIME })).then((bitmap) => {
     if (bitmap.width > 0) c.decoded++;
     bitmap.close();
   }, () => { c.decodeFailed++; }).finally(() => { decoding--; });

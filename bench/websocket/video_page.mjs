@@ -64,8 +64,11 @@ cv2.imwrite(sys.argv[1], img, [cv2.IMWRITE_JPEG_QUALITY, 85])
 
 // The same page and library for the bridge's path: the hub's web port sends every file with
 // Content-Security-Policy connect-src 'self' (docs/security.md), so a page it serves may not open
-// the bridge's port. A plain server on another port serves /bench and /lib from the same files.
-async function servePage() {
+// the bridge's port. A plain server on another port serves /bench and /lib from the same files,
+// and at /plain the control row: WebSocket without a hub (the ws package), the rgb8 frames sent
+// at 30 Hz as they are, one a message, a frame skipped while 8 MiB wait (the hub's default
+// subscriber queue); what chromium takes on this machine whoever sends.
+async function servePage(WebSocket, frame) {
   const roots = { '/bench/': path.join(repo, 'bench/websocket/page'), '/lib/': path.join(repo, 'satellite/js/src') };
   const server = http.createServer((req, res) => {
     const url = new URL(req.url, 'http://x');
@@ -82,8 +85,23 @@ async function servePage() {
       res.writeHead(404).end();
     }
   });
+  const wss = new WebSocket.WebSocketServer({ server, path: '/plain' });
+  wss.on('connection', (ws) => {
+    let seq = 0;
+    const timer = setInterval(() => {
+      seq++;
+      if (ws.bufferedAmount > 8 << 20) return;
+      new DataView(frame.buffer, frame.byteOffset).setBigUint64(8, BigInt(seq), true);
+      ws.send(frame);
+    }, 1000 / RATE_HZ);
+    ws.on('close', () => clearInterval(timer));
+  });
   await new Promise((r) => server.listen(0, '127.0.0.1', r));
-  return { url: `http://127.0.0.1:${server.address().port}/bench/index.html`, close: () => server.close() };
+  const { port } = server.address();
+  return {
+    url: `http://127.0.0.1:${port}/bench/index.html`, ws: `ws://127.0.0.1:${port}/plain`,
+    close: () => { wss.close(); server.close(); },
+  };
 }
 
 // The page's counting in node (the full run's extra rows): the same subscription over ws: with the
@@ -160,7 +178,9 @@ async function main() {
   killOnExit(hub.proc, hub.dir);
   const publishers = [];
   let chromium;
-  const plain = await servePage();
+  const rgb8 = skr.makeMediaFrame({ format: skr.FORMAT.rgb8, seq: 0, width: WIDTH, height: HEIGHT },
+    new Uint8Array(WIDTH * HEIGHT * 3).fill(0x80));
+  const plain = await servePage(WebSocket, rgb8);
   try {
     const env = { ...process.env, ROBOT_USER: 'guest', ROBOT_PASSWORD: 'password' };
     for (const [name, args] of [['cam_jpeg', ['jpeg', `${WIDTH}x${HEIGHT}`, String(RATE_HZ), jpeg]],
@@ -193,12 +213,15 @@ async function main() {
     const fox = `ws://127.0.0.1:${foxPort}/`;
     for (const format of ['jpeg', 'rgb8']) {
       for (const client of clients) {
-        for (const mode of ['flow', 'foxglove']) {
+        // plain: the control row, rgb8 to the page from a plain WebSocket server (no hub).
+        const modes = client === 'page' && format === 'rgb8' ? ['flow', 'foxglove', 'plain'] : ['flow', 'foxglove'];
+        for (const mode of modes) {
           const channel = `guest.cam_${format}`;
           let viewer;
           if (client === 'page') {
-            const page = pages[mode];
-            await page.evaluate(([m, w, ch]) => window.bench.start(m, w, ch), [mode, fox, channel]);
+            const page = pages[mode === 'plain' ? 'foxglove' : mode];
+            const where = mode === 'plain' ? plain.ws : fox;
+            await page.evaluate(([m, w, ch]) => window.bench.start(m, w, ch), [mode, where, channel]);
             viewer = { counters: () => page.evaluate(() => window.bench.counters()), stop: () => page.evaluate(() => window.bench.stop()) };
           } else {
             viewer = await nodeViewer(skr, WebSocket, mode, mode === 'flow' ? `ws://127.0.0.1:${webPort}/flow` : fox, channel);
@@ -226,10 +249,10 @@ async function main() {
             browser: ((browser1 - browser0) / dt) * 100,
           };
           rows[`${format} ${client} ${mode}`] = r;
-          const label = `${client} ${mode === 'flow' ? '/flow' : 'bridge'}`;
+          const label = `${client} ${{ flow: '/flow', foxglove: 'bridge', plain: 'no hub' }[mode]}`;
           const decodes = format === 'jpeg' && client === 'page';
           console.log(`${format.padEnd(7)} ${label.padEnd(16)} ${fmt(r.fps).padStart(8)} ${(decodes ? fmt(r.decoded) : '-').padStart(12)} ` +
-            `${String(r.gaps).padStart(9)} ${(decodes ? String(r.notDecoded) : '-').padStart(12)} ${fmt(r.cpu).padStart(10)} ` +
+            `${String(r.gaps).padStart(9)} ${(decodes ? String(r.notDecoded) : '-').padStart(12)} ${(mode === 'plain' ? '-' : fmt(r.cpu)).padStart(10)} ` +
             `${(client === 'page' ? fmt(r.browser) : '-').padStart(15)}`);
         }
       }
@@ -237,7 +260,8 @@ async function main() {
     if (pageErrors.length) throw new Error(`the page failed: ${pageErrors.join('; ')}`);
     console.log('seq gaps: frames the page never got (dropped by the hub or the bridge for a slow reader, or refused');
     console.log('by the publisher\'s full output); CPU: 100% is one core; chromium: all its processes. node rows');
-    console.log('(the full run): the same subscriptions from node (ws package), counted without decoding JPEG.');
+    console.log('(the full run): the same subscriptions from node (ws package), counted without decoding JPEG. no hub:');
+    console.log('the same rgb8 frames from a plain WebSocket server in this script, what chromium takes without the hub.');
     console.log('');
     for (const format of ['jpeg', 'rgb8']) {
       const f = rows[`${format} page flow`];

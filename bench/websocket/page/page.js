@@ -5,7 +5,8 @@
 // advertise, subscribe, binary messages of JSON), and counts what arrives as a page that shows it
 // would take it: the pixels' bytes (rgb8: a view of the frame, or the bridge's base64 decoded),
 // and for JPEG a createImageBitmap of each frame (at most two decodes under way; a frame that
-// comes while both are busy is not decoded, and counted). The driver reads the counters.
+// comes while both are busy is not decoded, and counted). "plain" is the driver's control: media
+// frames, one a WebSocket message, from a server without a hub. The driver reads the counters.
 import { FORMAT, connectPage, encodingOf, parseMediaFrame } from '/lib/index.js';
 
 const FOXGLOVE_SUBPROTOCOL = 'foxglove.websocket.v1';
@@ -107,12 +108,36 @@ async function foxglove(url, topic) {
   };
 }
 
+// The control: each binary message one media frame.
+async function plain(url) {
+  const ws = new WebSocket(url);
+  ws.binaryType = 'arraybuffer';
+  await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`no frame from ${url} within 10 s`)), 10000);
+    ws.onerror = () => reject(new Error(`${url}: WebSocket error`));
+    ws.onmessage = (e) => {
+      const f = parseMediaFrame(e.data);
+      if (!f) {
+        c.bad++;
+        return;
+      }
+      arrived(Number(f.seq), f.encoding, f.payload);
+      if (c.frames === 1) {
+        clearTimeout(timer);
+        resolve();
+      }
+    };
+  });
+  close = () => ws.close();
+}
+
 window.bench = {
   // Subscribes (resolves at the first frame) with the counters at zero.
   async start(mode, where, channel) {
     close();
     c = counters();
     if (mode === 'flow') await flow(channel);
+    else if (mode === 'plain') await plain(where);
     else await foxglove(where, channel);
     document.getElementById('status').textContent = `${mode}: ${channel}`;
   },

@@ -207,7 +207,7 @@ async function main() {
     console.log(`through the hub's /flow (library, page token) and through foxglove-bridge (JSON, base64), the hub pid ${hub.proc.pid};`);
     console.log(`JPEG ${(jpegBytes / 1024).toFixed(0)} KiB a frame, rgb8 ${(WIDTH * HEIGHT * 3 / 1024).toFixed(0)} KiB; ${seconds} s per row after ${WARMUP_MS / 1000} s of warm-up`);
     console.log('');
-    console.log('format  client, path          fps  decoded fps  seq gaps  not decoded  hub CPU %  chromium CPU %');
+    console.log('format  client, path     sent fps     fps  decoded fps  seq gaps  not decoded  hub CPU %  chromium CPU %');
     const rows = {};
     const clients = opts.quick ? ['page'] : ['page', 'node'];
     const fox = `ws://127.0.0.1:${foxPort}/`;
@@ -241,6 +241,7 @@ async function main() {
           const dt = Number(t1 - t0) / 1e9;
           if (c1.bad > 0) throw new Error(`${format} ${client} ${mode}: ${c1.bad} messages the client could not read`);
           const r = {
+            sent: (c1.lastSeq - c0.lastSeq) / dt,
             fps: (c1.frames - c0.frames) / dt,
             decoded: (c1.decoded - c0.decoded) / dt,
             gaps: c1.skipped - c0.skipped,
@@ -251,15 +252,16 @@ async function main() {
           rows[`${format} ${client} ${mode}`] = r;
           const label = `${client} ${{ flow: '/flow', foxglove: 'bridge', plain: 'no hub' }[mode]}`;
           const decodes = format === 'jpeg' && client === 'page';
-          console.log(`${format.padEnd(7)} ${label.padEnd(16)} ${fmt(r.fps).padStart(8)} ${(decodes ? fmt(r.decoded) : '-').padStart(12)} ` +
+          console.log(`${format.padEnd(7)} ${label.padEnd(14)} ${fmt(r.sent).padStart(10)} ${fmt(r.fps).padStart(7)} ${(decodes ? fmt(r.decoded) : '-').padStart(12)} ` +
             `${String(r.gaps).padStart(9)} ${(decodes ? String(r.notDecoded) : '-').padStart(12)} ${(mode === 'plain' ? '-' : fmt(r.cpu)).padStart(10)} ` +
             `${(client === 'page' ? fmt(r.browser) : '-').padStart(15)}`);
         }
       }
     }
     if (pageErrors.length) throw new Error(`the page failed: ${pageErrors.join('; ')}`);
-    console.log('seq gaps: frames the page never got (dropped by the hub or the bridge for a slow reader, or refused');
-    console.log('by the publisher\'s full output); CPU: 100% is one core; chromium: all its processes. node rows');
+    console.log('sent fps: frames published over the window (the seq of the last frame received); seq gaps: frames the');
+    console.log('client never got (dropped by the hub or the bridge for a slow reader, or refused by the publisher\'s');
+    console.log('full output); CPU: 100% is one core; chromium: all its processes. node rows');
     console.log('(the full run): the same subscriptions from node (ws package), counted without decoding JPEG. no hub:');
     console.log('the same rgb8 frames from a plain WebSocket server in this script, what chromium takes without the hub.');
     console.log('');

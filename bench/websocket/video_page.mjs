@@ -12,7 +12,7 @@
 // createImageBitmap decoded. The /flow page is the hub's (web.mounts: /bench, and /lib for the
 // library); the bridge's is the same files from a plain server here, since the hub's pages may
 // connect to their own origin only (Content-Security-Policy). Per format and path, after a
-// second of warm-up: frames/s arrived and decoded in the page over the window (10 s; --quick: 3 s),
+// second of warm-up: frames/s arrived and decoded in the page over the window (10 s; --quick: 1.5 s),
 // the hub process's CPU over it (utime + stime from /proc; the bridge runs in the hub, on a thread
 // of its own) and chromium's. The full run adds the same subscriptions from node, which tell what
 // the hub delivers from what the page takes. Targets: 30 Hz through /flow, and no more hub CPU
@@ -38,7 +38,7 @@ const WARMUP_MS = 1000;
 const FPS_TARGET = RATE_HZ * 0.95;  // 30 Hz, give or take a frame and a half over the window
 
 const opts = flags();
-const seconds = Number(opts.seconds ?? (opts.quick ? 3 : 10));
+const seconds = Number(opts.seconds ?? (opts.quick ? 1.5 : 10));
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 // One 1280x720 JPEG of a scene with edges and noise (a camera's, roughly): OpenCV, quality 85.

@@ -77,7 +77,9 @@ TEST_F(HubLinks, ARemoteChannelIsSubscribedOnDemandAndItsDataCrossesOnce) {
   ASSERT_TRUE(eventually([&] {
     return s1->events.count("data:bee/guest.counter:") == 20 &&
            s2->events.count("data:bee/guest.counter:") == 20;
-  })) << s1->events.dump();
+  })) << "viewer1:\n"
+      << s1->events.dump() << "viewer2:\n"
+      << s2->events.dump() << logs();
   const auto got = s1->events.with("data:bee/guest.counter:");
   for (int i = 0; i < 20; ++i) EXPECT_EQ(got[i], std::to_string(i));
   // The link is one subscriber of B's channel, whatever the number behind it.

@@ -71,6 +71,13 @@ TEST_F(HubLinks, ARemoteChannelIsSubscribedOnDemandAndItsDataCrossesOnce) {
     return s1->events.count("subscribed:bee/guest.counter") == 1 &&
            s2->events.count("subscribed:bee/guest.counter") == 1;
   }));
+  // "subscribed" says a SUBSCRIBE was sent: wait until hub A has both, or the first messages
+  // relayed from B could reach A before viewer2's SUBSCRIBE does (seen under asan).
+  ASSERT_TRUE(eventually([&] {
+    return s1->on([](Satellite& s) {
+      return s.syncClient().value()->channel("bee/guest.counter").value().subscribers;
+    }) == 2u;
+  })) << logs();
   for (int i = 0; i < 20; ++i) {
     ASSERT_TRUE(owner->on([i](Satellite& s) { return s.publish("counter", std::to_string(i)); }));
   }

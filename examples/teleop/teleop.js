@@ -36,7 +36,7 @@ function send() {
   const still = c.x === 0 && c.y === 0 && c.theta === 0;
   if (still && !moving) return;
   const msg = still ? { cmd: 'stop' } : c;
-  channel.publish(JSON.stringify(msg));
+  channel.publish(msg);  // an object goes as JSON
   moving = !still;
   $('command').textContent = still ? 'stopped' : `x ${c.x} y ${c.y} theta ${c.theta}`;
 }
@@ -120,7 +120,8 @@ async function draw(payload) {
   if (f.encoding === 'jpeg') {
     drawing = true;  // one decode at a time: frames that arrive meanwhile are skipped
     try {
-      const bitmap = await createImageBitmap(new Blob([f.payload.slice()], { type: 'image/jpeg' }));
+      // The Blob copies the view's bytes: the only copy of the frame.
+      const bitmap = await createImageBitmap(new Blob([f.payload], { type: 'image/jpeg' }));
       ctx.drawImage(bitmap, 0, 0);
       bitmap.close();
     } catch { /* a corrupt frame is skipped */ } finally { drawing = false; }

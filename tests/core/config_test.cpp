@@ -45,6 +45,12 @@ TEST(ConfigTest, DefaultConfigLoads) {
   EXPECT_EQ(r->loop.fast_interval_ns, 10 * kNsPerMs);
   EXPECT_EQ(r->loop.slow_interval_ns, 100 * kNsPerMs);
   EXPECT_EQ(r->loop.busy_poll_ns, Nanos{50000});
+  // The web port (the network page, pages and Node.js satellites) on loopback, read-only pages.
+  ASSERT_TRUE(r->server.web);
+  EXPECT_EQ(r->server.web->address, "127.0.0.1");
+  EXPECT_EQ(r->server.web->port, 8088);
+  EXPECT_TRUE(r->server.web->flows);
+  EXPECT_EQ(r->server.web->page_account, "web-page");
   // The avatar demo: the browser page, vision on the browser's camera, audio, speech, a Nao.
   std::vector<std::string> names;
   for (const ModuleEntry& m : r->modules) names.push_back(m.name);

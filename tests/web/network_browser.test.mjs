@@ -2,8 +2,10 @@
 // The network page (/network) in Debian's chromium against a real hub with 200 channels
 // (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
 // table, previews of JSON, JPEG, gray, rgb8, audio and detections, a channel's properties, and editing a
-// variable with and without the token. Then the avatar demo's hub (config/default.json): its graph
-// at "fit" on a 1280x720 and a 1920x1080 page, and the wheel's zoom. Screenshots go to
+// variable as an administrator page account. Then the avatar demo's hub (config/default.json): its
+// graph at "fit" on a 1280x720 and a 1920x1080 page, the wheel's zoom, and an edit refused to the
+// read-only page account. The page is served by the hub's web port and is a satellite on the
+// JavaScript library (page tokens, hub.stats, maxHz subscriptions, database watches). Screenshots go to
 // <build>/test-output/network_browser/ (docs/images/network-*.jpg are two of them).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -14,20 +16,19 @@ import { env, freePort, launchChromium, outDir, startHub, waitFor } from './harn
 
 const CHANNELS = Number(process.env.SKROBOT_NETWORK_CHANNELS || 200);
 const JPEG = '/usr/share/doc/opencv-doc/examples/data/HappyFish.jpg';  // opencv-doc
-const TOKEN = 'open sesame';
-
-test('the network page shows the hub live, previews channels and edits with the token', async (t) => {
+test('the network page shows the hub live, previews channels and edits as its account', async (t) => {
   assert.ok(existsSync(JPEG), `${JPEG} (Debian's opencv-doc) is missing`);
   const port = await freePort();
-  // Edits from the page act as websocket-ui's account: an administrator may write any database.
+  // Edits from the page act as the page account: an administrator may write any database.
   // Boards' lines: the UDP port on (loopback, any free port) and a serial port whose device is
   // not plugged in; the page lists both.
   const tty = `/tmp/skrobot-network-browser-${process.pid}-tty`;
-  const hub = await startHub([
-    { name: 'websocket-ui', account: 'netadmin', config: { port, network_token: TOKEN } },
-  ], {
+  const hub = await startHub([], {
     users: [{ name: 'netadmin', role: 'admin' }],
-    server: { udp: { address: '127.0.0.1', port: 0 }, serial: [{ device: tty, baud: 115200 }] },
+    server: {
+      web: { port, flows: true, page_account: 'netadmin' },
+      udp: { address: '127.0.0.1', port: 0 }, serial: [{ device: tty, baud: 115200 }],
+    },
   });
   t.after(() => hub.stop());
   const traffic = spawn('python3', [path.join(env.source, 'tests/web/network_traffic.py'),
@@ -92,21 +93,23 @@ test('the network page shows the hub live, previews channels and edits with the 
       (await page.locator('#details-title').textContent()) === name, 5000);
   };
   await pick('guest.c003');
-  assert.equal(await page.locator('#graph .node.flow').count(), 2, 'the owner and the listener');
+  // The page previews by subscribing: it becomes the channel's third flow.
+  await waitFor('the owner, the listener and this page', async () =>
+    (await page.locator('#graph .node.flow').count()) === 3, 10000);
+  assert.equal(await page.locator('#status').textContent(), 'connected as netadmin');
   await waitFor('a JSON preview', async () =>
     /"i": 3,/.test(await page.locator('#preview pre').textContent().catch(() => '')), 10000);
   await waitFor('the channel properties', async () =>
     (await page.locator('#db tbody tr[data-key="index"] td').nth(1).textContent().catch(() => '')) === '3', 10000);
   assert.match(await page.locator('#facts').textContent(), /guest\/.*subscribers.*guest\//s);
 
-  // Editing a variable: refused without the right token, done with it.
+  // Editing a variable: a value that is not JSON stays in the page; then the change.
   await page.fill('#set-key', 'gain');
-  await page.fill('#set-value', '2.5');
-  await page.fill('#set-token', 'guess');
+  await page.fill('#set-value', '2.5x');
   await page.click('#set-form button');
-  await waitFor('the refusal', async () => /wrong token/.test(await page.locator('#db-status').textContent()), 5000);
+  await waitFor('the refusal', async () => /not JSON/.test(await page.locator('#db-status').textContent()), 5000);
   assert.equal(await hub.dbGet('guest.c003', 'gain'), undefined);
-  await page.fill('#set-token', TOKEN);
+  await page.fill('#set-value', '2.5');
   await page.click('#set-form button');
   await waitFor('the change', async () => /gain set/.test(await page.locator('#db-status').textContent()), 5000);
   assert.equal(await hub.dbGet('guest.c003', 'gain'), 2.5);
@@ -178,13 +181,13 @@ function measureGraph() {
   };
 }
 
-test("the demo's graph fills the pane at fit with readable labels, and the wheel zooms in steps", async (t) => {
+test("the demo's graph fills the pane at fit with readable labels, the wheel zooms in steps, and the read-only page may not edit", async (t) => {
   const port = await freePort();
-  const foxglove = await freePort();
+  const own = { 'websocket-ui': { port: await freePort() }, 'foxglove-bridge': { port: await freePort() } };
   const demo = JSON.parse(readFileSync(path.join(env.source, 'config/default.json'), 'utf8'));
-  const own = { 'websocket-ui': { port }, 'foxglove-bridge': { port: foxglove } };
+  // The demo's web port, on a free port (the page account: the built-in read-only web-page).
   const hub = await startHub(demo.modules.filter((m) => m.enabled !== false)
-    .map((m) => ({ ...m, config: { ...m.config, ...own[m.name] } })));
+    .map((m) => ({ ...m, config: { ...m.config, ...own[m.name] } })), { server: { web: { ...demo.server.web, port } } });
   t.after(() => hub.stop());
   const browser = await launchChromium();
   t.after(() => browser.close());
@@ -222,6 +225,17 @@ test("the demo's graph fills the pane at fit with readable labels, and the wheel
   }
   await page.click('#fit');
   assert.ok((await page.evaluate(measureGraph)).covered >= 0.5, 'fit again');
+  // The built-in page account reads every database and writes none.
+  await page.fill('#filter', 'fft-audio.bands');
+  await page.locator('#graph .node[data-id="c:fft-audio.bands"]').click();
+  await waitFor("the channel's details", async () =>
+    (await page.locator('#details-title').textContent()) === 'fft-audio.bands', 5000);
+  await page.fill('#set-key', 'gain');
+  await page.fill('#set-value', '2');
+  await page.click('#set-form button');
+  await waitFor('the refusal', async () =>
+    /^gain: permission_denied/.test(await page.locator('#db-status').textContent()), 5000);
+  assert.equal(await hub.dbGet('fft-audio.bands', 'gain'), undefined);
   assert.deepEqual(errors, [], 'no errors in the page');
   const exit = await hub.stop();
   assert.deepEqual(exit, { code: 0, signal: null }, `the hub stops cleanly:\n${hub.log.slice(-4000)}`);

@@ -108,5 +108,14 @@ TEST_F(WebsocketUiModule, BadConfigFailsNamingTheKey) {
   EXPECT_NE(f.find("invalid blink_max_ms"), std::string::npos) << f;
 }
 
+// The network page's keys went with it to the hub's web port: a config that still names them
+// loads (websocket-ui warns, WSUI-CONFIG).
+TEST_F(WebsocketUiModule, RemovedNetworkKeysStillLoad) {
+  startHub();
+  EXPECT_TRUE(startModule("ui", R"({"port":0,"network_token":"x","network_preview_hz":5})", false,
+                          "websocket-ui")
+                  .empty());
+}
+
 }  // namespace
 }  // namespace skr::test

@@ -12,15 +12,6 @@ const MAX_TEXT = 20000;
 const isImage = (frame) => frame.format === FORMAT.jpeg || isRawImage(frame);
 const FFT_SIZE = 1024;
 
-// A preview message from websocket-ui: u16 name length, name, the channel's message.
-export function splitPreview(buffer) {
-  if (buffer.byteLength < 2) return null;
-  const n = new DataView(buffer).getUint16(0, true);
-  if (2 + n > buffer.byteLength) return null;
-  const name = new TextDecoder().decode(new Uint8Array(buffer, 2, n));
-  return { name, payload: buffer.slice(2 + n) };
-}
-
 function hexDump(bytes) {
   const lines = [];
   for (let i = 0; i < Math.min(bytes.length, 256); i += 16) {

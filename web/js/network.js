@@ -1,32 +1,38 @@
 // SPDX-License-Identifier: Apache-2.0
-// The network page (/network, docs/observability.md): the hub's flows and channels as a live
-// graph, a table of the busiest channels, and the selected node's details: figures, rate history,
-// properties and databases (editable with the token websocket-ui's config names), a preview.
-import { Link } from './link.js';
+// The network page (/network on the hub's web port, docs/observability.md): the hub's flows and
+// channels as a live graph, a table of the busiest channels, and the selected node's details:
+// figures, rate history, properties and databases, a preview. It is a satellite on the JavaScript
+// library: it logs in with a page token as the hub's page account (server.web.page_account), follows
+// hub.stats, previews a channel by subscribing to it at PREVIEW_HZ, watches the database shown and
+// sets variables as that account, under its rules.
+import { connectPage } from '/skrobot/index.js';
 import { NetworkGraph } from './network-graph.js';
 import { buildGraph, formatBytes, formatRate, pathLabel, subscriberPath } from './network-model.js';
-import { Preview, splitPreview } from './network-preview.js';
+import { Preview } from './network-preview.js';
 
-const HISTORY = 120;  // seconds of rates kept per channel
+const HISTORY = 120;                // seconds of rates kept per channel
+const PREVIEW_HZ = 5;               // previews of a channel a second, at most (the newest wins)
+const MAX_PREVIEW_BYTES = 8 << 20;  // larger messages are announced, not drawn
 
 const $ = (id) => document.getElementById(id);
-const scheme = location.protocol === 'https:' ? 'wss' : 'ws';
-const link = new Link(`${scheme}://${location.host}/ws`, 'network');
 const graph = new NetworkGraph($('graph'));
 const preview = new Preview($('preview'));
 
 const state = {
-  hello: null,
+  hub: null,           // the library's Hub, once online
   stats: null,
   history: new Map(),  // channel -> [{hz, bps, dropped}]
   selected: null,      // node id
   db: '',              // the database shown
-  dbPairs: new Map(),
+  watch: null,         // its watch (the library's Watch: .pairs)
+  previews: [],        // the previewed channels' subscriptions
   updates: 0,
 };
 // For tests and the curious: window.skrNetwork.
 window.skrNetwork = state;
 state.graph = graph;
+
+const pairs = () => state.watch?.pairs ?? new Map();
 
 function text(tag, content, cls) {
   const e = document.createElement(tag);
@@ -35,45 +41,46 @@ function text(tag, content, cls) {
   return e;
 }
 
-link.addEventListener('open', () => {
-  $('status').textContent = 'connected';
-  // After a reconnection: ask again for what was shown.
-  if (state.selected) select(state.selected, true);
-});
-link.addEventListener('close', () => { $('status').textContent = 'disconnected, retrying…'; });
-link.addEventListener('command', (e) => onMessage(e.detail));
-link.addEventListener('binary', async (e) => {
-  if (!state.hello) return;  // the avatar's messages before the hub knew this page
-  const p = splitPreview(e.detail);
-  if (p) await preview.take(p.name, p.payload);
-});
+// A value as JSON text: 64-bit integers (BigInt) as numbers when exact, else as strings; typed
+// arrays as arrays.
+function jsonText(value, indent) {
+  return JSON.stringify(value, (k, v) => {
+    if (typeof v === 'bigint') return Number.isSafeInteger(Number(v)) ? Number(v) : v.toString();
+    if (ArrayBuffer.isView(v)) return Array.from(/** @type {any} */ (v));
+    return v;
+  }, indent);
+}
 
-function onMessage(msg) {
-  switch (msg.type) {
-    case 'network_hello':
-      state.hello = msg;
-      document.title = `${msg.hub || 'hub'} · network`;
-      $('hub').textContent = msg.hub || '';
-      return;
-    case 'stats':
-      return onStats(msg.data);
-    case 'db':
-      return onDatabase(msg);
-    case 'set':
-      $('db-status').textContent = msg.ok ? `${msg.key} set` : `${msg.key}: ${msg.error}`;
-      $('db-status').className = msg.ok ? 'ok' : 'error';
-      return;
-    case 'notice':
-      preview.notice(msg.text);
-      return;
-    default:
+// Logs in, retrying with a growing wait until the hub answers (the library reconnects after).
+async function connect() {
+  for (let waitMs = 500; ; waitMs = Math.min(waitMs * 2, 8000)) {
+    try {
+      return await connectPage({ clientName: 'network page' });
+    } catch (e) {
+      $('status').textContent = `cannot log in (${e.message}), retrying…`;
+      await new Promise((resolve) => { setTimeout(resolve, waitMs); });
+    }
   }
 }
+
+const hub = await connect();
+state.hub = hub;
+const online = (session) => { $('status').textContent = `connected as ${session.user}`; };
+online(hub.session);
+hub.on('online', online);
+hub.on('offline', () => { $('status').textContent = 'disconnected, retrying…'; });
+// What no request awaits: a subscription refused, a channel gone.
+hub.on('error', (e) => preview.notice(e.message));
+hub.stats(onStats);
 
 function onStats(stats) {
   if (!stats || !Array.isArray(stats.channels)) return;
   state.stats = stats;
   state.updates++;
+  if (stats.hub && $('hub').textContent !== stats.hub) {
+    $('hub').textContent = stats.hub;
+    document.title = `${stats.hub} · network`;
+  }
   for (const c of stats.channels) {
     let h = state.history.get(c.name);
     if (!h) state.history.set(c.name, (h = []));
@@ -161,10 +168,9 @@ function flowOf(id) {
 }
 
 // A node was clicked: its details, its database, and for a channel a preview.
-function select(id, again = false) {
-  const changed = id !== state.selected;
+function select(id) {
+  if (id === state.selected) return;
   state.selected = id;
-  if (!changed && !again) return;
   const c = id ? channelOf(id) : null;
   const f = id && !c ? flowOf(id) : null;
   $('details').hidden = !id;
@@ -172,87 +178,112 @@ function select(id, again = false) {
   const choose = $('db-choice');
   choose.replaceChildren(...dbs.map((d) => text('option', d)));
   watchDatabase(dbs[0] || '');
-  if (c && (c.kind === 'streaming' || c.kind === 'blob')) {
+  if (c && c.kind === 'streaming') {
     preview.show(c.name, c.mime);
-    link.sendJson({ type: 'preview', channels: [c.name] });
+    previewChannels([c.name]);
   } else {
     preview.show(null, '');
-    link.sendJson({ type: 'preview', channels: [] });
+    previewChannels([]);
+    if (c) preview.notice(`a ${c.kind} channel: nothing to preview`);
   }
   renderDetails();
 }
 
-$('db-choice').addEventListener('change', (e) => watchDatabase(e.target.value));
-
-function watchDatabase(db) {
-  state.db = db;
-  state.dbPairs = new Map();
-  $('db-status').textContent = '';
-  renderDatabase();
-  link.sendJson({ type: 'database', db });
+// Subscribes to the channels previewed (a channel, and the frames a detector's boxes belong to),
+// each at most PREVIEW_HZ times a second: the hub keeps the newest (FlowProtocol's SUBSCRIBE_RATE).
+function previewChannels(names) {
+  for (const s of state.previews) s.close();
+  state.previews = names.map((name) => hub.subscribe(name, (m) => {
+    const bytes = m.payload;
+    if (bytes.byteLength > MAX_PREVIEW_BYTES) {
+      preview.notice(`${m.channel}: a message of ${bytes.byteLength} bytes, over the preview limit`);
+      return;
+    }
+    // The payload is a view on the received buffer: the preview keeps a copy.
+    preview.take(m.channel, bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength));
+  }, { maxHz: PREVIEW_HZ }));
 }
 
-function onDatabase(msg) {
-  if (msg.db !== state.db) return;
-  if (msg.error) {
-    $('db-status').textContent = msg.error;
-    $('db-status').className = 'error';
-  } else if (msg.pairs) {
-    state.dbPairs = new Map(Object.entries(msg.pairs));
-  } else if (msg.key === '' && msg.value === null) {
-    state.dbPairs.clear();
-  } else if (msg.value === null) {
-    state.dbPairs.delete(msg.key);
-  } else {
-    state.dbPairs.set(msg.key, msg.value);
+$('db-choice').addEventListener('change', (e) => watchDatabase(e.target.value));
+
+function showDbStatus(textContent, ok) {
+  $('db-status').textContent = textContent;
+  $('db-status').className = ok ? 'ok' : 'error';
+}
+
+// Watches the database shown (its pairs, then each change; again after a reconnection).
+function watchDatabase(db) {
+  state.watch?.close();
+  state.watch = null;
+  state.db = db;
+  $('db-status').textContent = '';
+  if (db) {
+    try {
+      const w = hub.db(db).watch(() => { if (state.watch === w) onPairs(); }, {
+        onEnd: (e) => { if (state.watch === w) showDbStatus(e.message, false); },
+      });
+      state.watch = w;
+    } catch (e) {
+      showDbStatus(e.message, false);
+    }
   }
+  renderDatabase();
+}
+
+function onPairs() {
   // A detector names its frames in its properties: show its boxes on them.
   const c = channelOf(state.selected);
-  const source = c && msg.db === c.name ? state.dbPairs.get('source') : null;
+  const source = c && state.db === c.name ? pairs().get('source') : null;
   if (typeof source === 'string' && source !== preview.source && source !== c.name) {
     preview.show(c.name, c.mime, source);
-    link.sendJson({ type: 'preview', channels: [c.name, source] });
+    previewChannels([c.name, source]);
   }
   renderDatabase();
 }
 
 function renderDatabase() {
   const body = $('db').tBodies[0];
-  const keys = [...state.dbPairs.keys()].sort();
-  const editable = !!state.hello?.edit;
+  const shown = pairs();
+  const keys = [...shown.keys()].sort();
   body.replaceChildren(...keys.map((k) => {
     const tr = document.createElement('tr');
     tr.dataset.key = k;
-    const value = JSON.stringify(state.dbPairs.get(k));
+    const value = jsonText(shown.get(k)) ?? 'null';
     tr.append(text('td', k), text('td', value.length > 200 ? `${value.slice(0, 200)}…` : value));
-    if (editable) {
-      const td = document.createElement('td');
-      const b = text('button', 'edit');
-      b.type = 'button';
-      b.addEventListener('click', () => {
-        $('set-key').value = k;
-        $('set-value').value = value;
-      });
-      td.appendChild(b);
-      tr.appendChild(td);
-    }
+    const td = document.createElement('td');
+    const b = text('button', 'edit');
+    b.type = 'button';
+    b.addEventListener('click', () => {
+      $('set-key').value = k;
+      $('set-value').value = value;
+    });
+    td.appendChild(b);
+    tr.appendChild(td);
     return tr;
   }));
   $('db-title').textContent = state.db ? `Database ${state.db}` : '';
-  $('set-form').hidden = !editable || !state.db;
+  $('set-form').hidden = !state.db;
+  $('set-form').title = `set as ${hub.session?.user ?? 'the page account'}, under its rules`;
 }
 
-$('set-form').addEventListener('submit', (e) => {
+// A change is made as the page's account (server.web.page_account), under its rules: the
+// read-only web-page account is refused (permission_denied).
+$('set-form').addEventListener('submit', async (e) => {
   e.preventDefault();
   let value;
   try {
     value = JSON.parse($('set-value').value);
   } catch (err) {
-    $('db-status').textContent = `the value is not JSON: ${err.message}`;
-    $('db-status').className = 'error';
+    showDbStatus(`the value is not JSON: ${err.message}`, false);
     return;
   }
-  link.sendJson({ type: 'set', db: state.db, key: $('set-key').value, value, token: $('set-token').value });
+  const key = $('set-key').value;
+  try {
+    await hub.db(state.db).set(key, value);
+    showDbStatus(`${key} set`, true);
+  } catch (err) {
+    showDbStatus(`${key}: ${err.code ?? 'error'}: ${err.message}`, false);
+  }
 });
 
 // The selected node's figures and, for a channel, its rate history.

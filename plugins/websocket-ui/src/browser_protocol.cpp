@@ -37,48 +37,6 @@ Inbound parseBinary(std::string_view message, const InboundLimits& limits) {
   return Refusal{kCloseUnsupported, "browsers send JPEG or PCM frames only"};
 }
 
-// A channel, database or key name: 1 to kMaxNameBytes bytes, no control characters.
-bool validName(const Json::Value& v) {
-  if (!v.isString()) return false;
-  const std::string s = v.asString();
-  if (s.empty() || s.size() > kMaxNameBytes) return false;
-  for (unsigned char c : s) {
-    if (c < 0x20 || c == 0x7F) return false;
-  }
-  return true;
-}
-
-Inbound parseNetworkRequest(const std::string& type, const Json::Value& v) {
-  if (type == "preview") {
-    const Json::Value& list = v["channels"];
-    if (!list.isArray() || list.size() > kMaxPreviews) {
-      return Refusal{kCloseBadPayload, "preview takes \"channels\": a list of at most " +
-                                           std::to_string(kMaxPreviews) + " names"};
-    }
-    Preview p;
-    for (const auto& c : list) {
-      if (!validName(c)) return Refusal{kCloseBadPayload, "preview: a channel name is not valid"};
-      p.channels.push_back(c.asString());
-    }
-    return p;
-  }
-  if (type == "database") {
-    if (!v["db"].isString() || (!v["db"].asString().empty() && !validName(v["db"]))) {
-      return Refusal{kCloseBadPayload, "database takes \"db\": a database name, or \"\""};
-    }
-    return WatchDatabase{v["db"].asString()};
-  }
-  // "set"
-  if (!validName(v["db"]) || !validName(v["key"]) || !v.isMember("value")) {
-    return Refusal{kCloseBadPayload, "set takes \"db\", \"key\" and \"value\""};
-  }
-  if (!v["token"].isString() || v["token"].asString().size() > kMaxNameBytes) {
-    return Refusal{kCloseBadPayload, "set takes a \"token\" string"};
-  }
-  return SetVariable{v["db"].asString(), v["key"].asString(), skr::support::writeJson(v["value"]),
-                     v["token"].asString()};
-}
-
 Inbound parseText(std::string_view message, const InboundLimits& limits) {
   if (message.size() > limits.max_text_bytes) {
     return Refusal{kClosePolicy,
@@ -107,7 +65,6 @@ Inbound parseText(std::string_view message, const InboundLimits& limits) {
     }
     return s;
   }
-  if (type == "preview" || type == "database" || type == "set") return parseNetworkRequest(type, v);
   return Refusal{kCloseBadPayload, "unknown message type '" + type.substr(0, 40) + "'"};
 }
 

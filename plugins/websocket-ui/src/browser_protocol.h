@@ -9,7 +9,6 @@
 #include <string>
 #include <string_view>
 #include <variant>
-#include <vector>
 
 namespace skr::wsui {
 
@@ -42,32 +41,17 @@ struct Say {
   std::string text;
   std::string voice;  // may be empty: the speech module's default
 };
-// The /network page's requests (docs/observability.md).
-struct Preview {
-  std::vector<std::string> channels;  // at most kMaxPreviews; none: stop previewing
-};
-struct WatchDatabase {
-  std::string db;  // "": stop watching
-};
-struct SetVariable {
-  std::string db, key;
-  std::string value_json;  // the value, written out again
-  std::string token;       // must match websocket-ui's network_token
-};
-inline constexpr std::size_t kMaxPreviews = 2;  // a channel, and the frames its boxes belong to
-inline constexpr std::size_t kMaxNameBytes = 255;
-
 struct Refusal {
   int close_code = kClosePolicy;
   std::string reason;
 };
 
 using Inbound =
-    std::variant<CameraFrame, MicFrame, Hello, Say, Preview, WatchDatabase, SetVariable, Refusal>;
+    std::variant<CameraFrame, MicFrame, Hello, Say, Refusal>;
 
 // Binary messages are media frames (docs/channels.md): JPEG camera frames or mono PCM at the
-// configured rate. Text messages are JSON objects with a "type": "hello", "say", or the
-// network page's "preview", "database" and "set".
+// configured rate. Text messages are JSON objects with a "type": "hello" or "say" (the network
+// page's old "preview", "database" and "set" are refused as unknown: it is a satellite now).
 Inbound parseInbound(bool binary, std::string_view message, const InboundLimits& limits);
 
 }  // namespace skr::wsui

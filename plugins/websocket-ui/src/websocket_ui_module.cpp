@@ -6,7 +6,6 @@
 // handed to the hub's loop thread with host.post; everything touching channels runs on the loop.
 #include "avatar_behaviour.h"
 #include "browser_protocol.h"
-#include "network_pages.h"
 #include "source_owner.h"
 #include "visemes.h"
 #include "web_root.h"
@@ -55,8 +54,8 @@ class WebsocketUi final : public skr::plugin::Module {
       : host_(host),
         avatar_(readAvatar(host)),
         camera_owner_(host.configInt("handover_ms")),
-        mic_owner_(host.configInt("handover_ms")),
-        network_(host, server_, readNetwork(host)) {
+        mic_owner_(host.configInt("handover_ms")) {
+    warnRemovedKeys();
     readServer();
     limits_.mic_sample_rate = static_cast<std::uint32_t>(host.configInt("mic_sample_rate"));
     camera_width_ = static_cast<int>(host.configInt("camera_width"));
@@ -124,7 +123,6 @@ class WebsocketUi final : public skr::plugin::Module {
     events.closed = [this](std::uint64_t conn, const std::string& why) {
       host_.post([this, conn, why] {
         avatar_pages_.erase(conn);
-        network_.leave(conn);
         mic_expected_.erase(conn);
         camera_owner_.leave(conn);
         mic_owner_.leave(conn);
@@ -141,16 +139,12 @@ class WebsocketUi final : public skr::plugin::Module {
     host_.log.info("WSUI-LISTENING", "avatar page on ",
                    server_opts_.tls_cert.empty() ? "http" : "https", "://", server_opts_.address,
                    ":", server_.port(), "/ (web root ", server_opts_.web_root, ")");
-    fast_ = host_.onTick(skr::plugin::Tick::fast, [this] {
-      behave();
-      network_.flush(nowMs());
-    });
+    fast_ = host_.onTick(skr::plugin::Tick::fast, [this] { behave(); });
     second_ = host_.onTick(skr::plugin::Tick::one_sec, [this] { report(); });
   }
 
   void stop() override {
     server_.stop();  // joins the server thread: no more posts from it
-    network_.stop();
     fast_.reset();
     second_.reset();
     subs_.clear();
@@ -176,11 +170,15 @@ class WebsocketUi final : public skr::plugin::Module {
     return o;
   }
 
-  static NetworkOptions readNetwork(skr::plugin::Host& host) {
-    NetworkOptions o;
-    o.token = host.configString("network_token");
-    o.preview_hz = host.configDouble("network_preview_hz");
-    return o;
+  // Keys of the network page, which moved to the hub's web port (docs/observability.md).
+  void warnRemovedKeys() {
+    for (const char* key : {"network_token", "network_preview_hz"}) {
+      if (host_.configHas(key)) {
+        host_.log.warn("WSUI-CONFIG", key,
+                       " is no longer used: the network page is served by the hub's web port "
+                       "(server.web) and edits as its page account (docs/observability.md)");
+      }
+    }
   }
 
   void readServer() {
@@ -220,23 +218,7 @@ class WebsocketUi final : public skr::plugin::Module {
       code = r->close_code;
       return r->reason;
     }
-    if (auto* hello = std::get_if<Hello>(&in)) {
-      // The network page follows the hub's statistics instead of the avatar's messages.
-      if (hello->page == "network") host_.post([this, conn] { joinNetwork(conn); });
-      return std::nullopt;
-    }
-    if (auto* p = std::get_if<Preview>(&in)) {
-      host_.post([this, conn, c = p->channels] { network_.preview(conn, c); });
-      return std::nullopt;
-    }
-    if (auto* w = std::get_if<WatchDatabase>(&in)) {
-      host_.post([this, conn, db = w->db] { network_.watchDatabase(conn, db); });
-      return std::nullopt;
-    }
-    if (auto* set = std::get_if<SetVariable>(&in)) {
-      host_.post([this, conn, r = *set] { network_.setVariable(conn, r); });
-      return std::nullopt;
-    }
+    if (std::holds_alternative<Hello>(in)) return std::nullopt;
     if (auto* say = std::get_if<Say>(&in)) {
       host_.post([this, conn, s = *say] { sayFromBrowser(conn, s); });
       return std::nullopt;
@@ -250,12 +232,7 @@ class WebsocketUi final : public skr::plugin::Module {
     return std::nullopt;
   }
 
-  void joinNetwork(std::uint64_t conn) {
-    avatar_pages_.erase(conn);
-    network_.join(conn);
-  }
-
-  // A message for every avatar page (not the network pages).
+  // A message for every avatar page.
   void broadcast(bool binary, const std::string& msg, bool droppable = true) {
     for (auto conn : avatar_pages_) server_.send(conn, binary, msg, droppable);
   }
@@ -497,8 +474,7 @@ class WebsocketUi final : public skr::plugin::Module {
   std::uint64_t camera_seq_ = 0;
   std::uint64_t mic_seq_ = 0;
   std::map<std::uint64_t, std::uint64_t> mic_expected_;  // browser -> its next sample index
-  std::set<std::uint64_t> avatar_pages_;                 // open, and not network pages
-  NetworkPages network_;
+  std::set<std::uint64_t> avatar_pages_;                 // open
   Counters counters_;
 };
 
@@ -540,12 +516,9 @@ constexpr skr_config_key kConfig[] = {
     cfg::string("voice", "", "speech audio played in the page, e.g. speech.voice"),
     cfg::string("phonemes", "", "speech timelines that move the lips, e.g. speech.phonemes"),
     cfg::string("dialogue", "", "what the agent heard and answered, shown, e.g. agent.dialogue"),
-    // The network page (/network).
-    cfg::string("network_token", "",
-                "token the /network page must give to set database variables; empty: editing "
-                "is off"),
-    cfg::number("network_preview_hz", "5", "previews of a channel per second, at most")
-        .range(0.2, 30),
+    // Removed: the network page is on the hub's web port (a config naming them is warned).
+    cfg::any("network_token", nullptr, "removed (the network page edits as server.web's account)"),
+    cfg::any("network_preview_hz", nullptr, "removed (the network page previews at 5 Hz)"),
     // The avatar's behaviour.
     cfg::integer("blink_min_ms", "450", "shortest interval between blinks").min(100),
     cfg::integer("blink_max_ms", "4000", "longest interval between blinks (>= blink_min_ms)")

@@ -3,11 +3,15 @@
 // frame header writer and the frame reader, pure (no loop, no socket: the fuzz target
 // tests/fuzz/ws_frame_fuzz.cpp runs the reader on arbitrary bytes). Internal to the runtime.
 //
-// The reader takes binary messages only and unmasks their payload straight into the sink's
-// buffer: no message is buffered, so the FlowProtocol frame limit (the receiver's check of each
-// 4-byte length before it allocates) stays the only limit. It also walks those length prefixes,
-// so that a message that ends inside a FlowProtocol frame is refused (close 1007): every
+// For FlowProtocol the reader takes binary messages only and unmasks their payload straight into
+// the sink's buffer: no message is buffered, so the FlowProtocol frame limit (the receiver's check
+// of each 4-byte length before it allocates) stays the only limit. It also walks those length
+// prefixes, so that a message that ends inside a FlowProtocol frame is refused (close 1007): every
 // WebSocket message holds whole frames.
+//
+// For other subprotocols (a module's, plugin ABI 1.8) it reads messages: text and binary, each at
+// most a given size, refused (close 1009) on the frame header that would take it over, before any
+// of its payload is read; the sink hears where each one ends (messageEnd).
 #pragma once
 
 #include <array>
@@ -36,6 +40,7 @@ enum CloseCode : uint16_t {
   kCloseProtocolError = 1002,
   kCloseUnsupportedData = 1003,
   kCloseInvalidPayload = 1007,
+  kCloseMessageTooBig = 1009,
 };
 
 constexpr size_t kMaxHeaderBytes = 14;
@@ -65,6 +70,9 @@ class FrameReader {
     virtual bool payload(size_t n) = 0;
     // A whole control frame (ping, pong, close). False: stop reading.
     virtual bool control(Opcode op, std::string_view payload) = 0;
+    // Messages mode: the message whose payload came since the last one ended is whole; `op` is
+    // its first frame's (text or binary). False: stop reading.
+    virtual bool messageEnd(Opcode /*op*/) { return true; }
 
    protected:
     Sink() = default;
@@ -79,8 +87,14 @@ class FrameReader {
   };
 
   // server: the peer is a client, whose frames must be masked; a client's peer (a server) must
-  // not mask.
+  // not mask. Reads FlowProtocol (binary messages of whole frames).
   explicit FrameReader(bool server) noexcept : server_(server) {}
+  // Messages mode: text and binary messages of at most `max_message_bytes` each.
+  static FrameReader messages(bool server, uint64_t max_message_bytes) noexcept {
+    FrameReader r(server);
+    r.max_message_ = max_message_bytes;
+    return r;
+  }
 
   // Reads `in`; returns how many bytes it used: all of them unless the sink said stop or the
   // bytes broke the rules (failure() then says why; nothing more is read).
@@ -101,8 +115,11 @@ class FrameReader {
   size_t header_have_ = 0;
   size_t header_need_ = 2;
   bool in_frame_ = false;    // a header was read, its payload is being read
-  bool in_message_ = false;  // a binary message was begun and its last frame not finished
+  bool in_message_ = false;  // a data message was begun and its last frame not finished
   Opcode op_ = Opcode::binary;
+  Opcode message_op_ = Opcode::binary;  // the current message's first opcode
+  uint64_t max_message_ = 0;            // messages mode when non-zero
+  uint64_t message_bytes_ = 0;          // the current message's payload so far, headers read
   bool fin_ = true;
   bool masked_ = false;
   MaskKey mask_{};

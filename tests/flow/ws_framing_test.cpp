@@ -171,6 +171,83 @@ TEST(WsFrameReader, RefusesWhatBreaksTheRulesWithTheRightCloseCode) {
   EXPECT_EQ(r.failure()->why, "a WebSocket message ended inside a frame");
 }
 
+// Messages mode (a module's subprotocol): text and binary messages, fragmented or not, each
+// ended with its first opcode; one byte over the limit is refused on its header (1009).
+struct MessageSink final : ws::FrameReader::Sink {
+  std::string current;
+  std::vector<std::pair<ws::Opcode, std::string>> messages;
+  std::vector<ws::Opcode> controls;
+  char buf[3];
+  std::span<char> room() override { return {buf, sizeof buf}; }
+  bool payload(size_t n) override {
+    current.append(buf, n);
+    return true;
+  }
+  bool control(ws::Opcode op, std::string_view) override {
+    controls.push_back(op);
+    return true;
+  }
+  bool messageEnd(ws::Opcode op) override {
+    messages.emplace_back(op, std::move(current));
+    current.clear();
+    return true;
+  }
+};
+
+TEST(WsFrameReader, MessagesModeReadsTextAndBinaryMessagesUpToItsLimit) {
+  const std::string wire =
+      wsFrame(ws::Opcode::text, true, R"({"type":"hello"})") +
+      wsFrame(ws::Opcode::binary, false, "ab") + wsFrame(ws::Opcode::ping, true, "p") +
+      wsFrame(ws::Opcode::continuation, true, "cd") + wsFrame(ws::Opcode::text, true, "") +
+      wsFrame(ws::Opcode::binary, true, std::string(16, 'z'));
+  for (const bool bytewise : {false, true}) {
+    auto r = ws::FrameReader::messages(true, 16);
+    MessageSink s;
+    if (bytewise) {
+      for (size_t i = 0; i < wire.size() && !r.failure(); ++i) r.feed(wire.substr(i, 1), s);
+    } else {
+      EXPECT_EQ(r.feed(wire, s), wire.size());
+    }
+    ASSERT_FALSE(r.failure()) << r.failure()->why;
+    ASSERT_EQ(s.messages.size(), 4u);
+    EXPECT_EQ(s.messages[0], std::make_pair(ws::Opcode::text, std::string(R"({"type":"hello"})")));
+    EXPECT_EQ(s.messages[1], std::make_pair(ws::Opcode::binary, std::string("abcd")));
+    EXPECT_EQ(s.messages[2], std::make_pair(ws::Opcode::text, std::string()));
+    EXPECT_EQ(s.messages[3].second, std::string(16, 'z'));
+    EXPECT_EQ(s.controls, std::vector<ws::Opcode>{ws::Opcode::ping});
+    EXPECT_TRUE(r.atMessageBoundary());
+  }
+  // 17 bytes, in one frame or as 10 + 7: refused on the header that goes over, none of its
+  // payload read.
+  for (const std::string& over :
+       {wsFrame(ws::Opcode::binary, true, std::string(17, 'x')),
+        wsFrame(ws::Opcode::text, false, std::string(10, 'x')) +
+            wsFrame(ws::Opcode::continuation, true, std::string(7, 'x'))}) {
+    auto r = ws::FrameReader::messages(true, 16);
+    MessageSink s;
+    r.feed(over, s);
+    ASSERT_TRUE(r.failure());
+    EXPECT_EQ(r.failure()->code, ws::kCloseMessageTooBig);
+    EXPECT_TRUE(s.messages.empty());
+    EXPECT_LE(s.current.size(), 10u);
+  }
+  // A 2^62-byte announcement allocates nothing.
+  std::string huge = wsFrame(ws::Opcode::binary, true, "");
+  huge[1] = static_cast<char>(0x80 | 127);
+  huge.insert(2, std::string("\x40\0\0\0\0\0\0\0", 8));
+  auto r = ws::FrameReader::messages(true, 1 << 20);
+  MessageSink s;
+  r.feed(huge, s);
+  ASSERT_TRUE(r.failure());
+  EXPECT_EQ(r.failure()->code, ws::kCloseMessageTooBig);
+  // The FlowProtocol reader still refuses text.
+  ws::FrameReader flow(true);
+  MessageSink t;
+  flow.feed(wsFrame(ws::Opcode::text, true, "x"), t);
+  ASSERT_TRUE(flow.failure());
+  EXPECT_EQ(flow.failure()->code, ws::kCloseUnsupportedData);
+}
+
 TEST(WsFrameReader, AHugeLengthAllocatesNothingAndPassesTheFlowLengthOn) {
   // 2^40 payload bytes announced: the reader buffers none of it; the receiver sees the
   // FlowProtocol length (and refuses it before allocating, as on any stream).

@@ -96,12 +96,20 @@ bool FrameReader::headerDone() {
   if (masked_) std::memcpy(mask_.data(), header_.data() + at, 4);
   offset_ = 0;
   switch (op) {
+    case static_cast<uint8_t>(Opcode::text):
+      if (max_message_ == 0) {
+        fail(kCloseUnsupportedData, "a text message (FlowProtocol travels in binary messages)");
+        return false;
+      }
+      [[fallthrough]];
     case static_cast<uint8_t>(Opcode::binary):
       if (in_message_) {
         fail(kCloseProtocolError, "a new message began before the last one's final fragment");
         return false;
       }
       in_message_ = true;
+      message_op_ = static_cast<Opcode>(op);
+      message_bytes_ = 0;
       break;
     case static_cast<uint8_t>(Opcode::continuation):
       if (!in_message_) {
@@ -109,9 +117,6 @@ bool FrameReader::headerDone() {
         return false;
       }
       break;
-    case static_cast<uint8_t>(Opcode::text):
-      fail(kCloseUnsupportedData, "a text message (FlowProtocol travels in binary messages)");
-      return false;
     case static_cast<uint8_t>(Opcode::close):
     case static_cast<uint8_t>(Opcode::ping):
     case static_cast<uint8_t>(Opcode::pong):
@@ -129,6 +134,16 @@ bool FrameReader::headerDone() {
       return false;
   }
   op_ = static_cast<Opcode>(op);
+  if (max_message_ != 0 &&
+      (op_ == Opcode::text || op_ == Opcode::binary || op_ == Opcode::continuation)) {
+    // Refused on the header, before any of the payload is read or kept.
+    if (left_ > max_message_ - message_bytes_) {
+      fail(kCloseMessageTooBig,
+           "a message of more than " + std::to_string(max_message_) + " bytes");
+      return false;
+    }
+    message_bytes_ += left_;
+  }
   header_have_ = 0;
   header_need_ = 2;
   in_frame_ = true;
@@ -166,7 +181,8 @@ size_t FrameReader::feed(std::string_view in, Sink& sink) {
       if (!headerDone()) break;
       if (!in_frame_) continue;  // the rest of the header
     }
-    const bool control = op_ != Opcode::binary && op_ != Opcode::continuation;
+    const bool control =
+        op_ != Opcode::binary && op_ != Opcode::continuation && op_ != Opcode::text;
     if (control) {
       const auto take = static_cast<size_t>(std::min<uint64_t>(left_, in.size() - used));
       std::memcpy(control_.data() + offset_, in.data() + used, take);
@@ -185,7 +201,7 @@ size_t FrameReader::feed(std::string_view in, Sink& sink) {
           std::min<uint64_t>({left_, in.size() - used, static_cast<uint64_t>(room.size())}));
       std::memcpy(room.data(), in.data() + used, take);
       if (masked_) applyMask(room.data(), take, mask_, offset_);
-      walkFlow(room.data(), take);
+      if (max_message_ == 0) walkFlow(room.data(), take);
       used += take;
       offset_ += take;
       left_ -= take;
@@ -195,7 +211,9 @@ size_t FrameReader::feed(std::string_view in, Sink& sink) {
     in_frame_ = false;
     if (fin_) {
       in_message_ = false;
-      if (flow_len_have_ != 0 || flow_left_ != 0) {
+      if (max_message_ != 0) {
+        if (!sink.messageEnd(message_op_)) return used;
+      } else if (flow_len_have_ != 0 || flow_left_ != 0) {
         fail(kCloseInvalidPayload, "a WebSocket message ended inside a frame");
         break;
       }

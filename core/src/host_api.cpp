@@ -30,8 +30,10 @@ static_assert(offsetof(skr_host_api, blob_get) == 232);        // 1.3 ends here
 static_assert(offsetof(skr_host_api, sync_pulse) == 264);      // 1.4 ends here
 static_assert(offsetof(skr_host_api, hub_name) == 296);        // 1.5 ends here
 static_assert(offsetof(skr_host_api, channel_paths) == 344);   // 1.6 ends here
-static_assert(offsetof(skr_host_api, reserved) == 368);
+static_assert(offsetof(skr_host_api, ws_serve) == 368);        // 1.7 ends here
+static_assert(offsetof(skr_host_api, ws_close) == 392);        // the last reserved slot (1.8)
 static_assert(sizeof(skr_path_options) == 24);
+static_assert(sizeof(skr_ws_events) == 32);
 static_assert(sizeof(skr_host_api) == 400);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
@@ -425,6 +427,42 @@ skr_status publishCommit(skr_module_ctx* ctx, uint16_t chan_id, size_t size,
   return withFlow(ctx, [&](ModuleFlow& f) { return f.publishCommit(chan_id, size, capture_ns); });
 }
 
+// The web calls (ABI 1.8): the same thread and lifecycle rules as the channel calls.
+skr_status withWeb(skr_module_ctx* ctx,
+                   const std::function<skr_status(ModuleWebSockets&)>& fn) noexcept {
+  if (ctx == nullptr) return SKR_ERR_INVALID_ARGUMENT;
+  if (ctx->own_thread || !ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
+  if (ctx->server == nullptr) return SKR_ERR_UNSUPPORTED;
+  if (!ctx->accepting) return SKR_ERR_BAD_STATE;
+  try {
+    if (!ctx->web) ctx->web = std::make_unique<ModuleWebSockets>(*ctx->server, ctx->log_source);
+    return fn(*ctx->web);
+  } catch (...) {
+    return SKR_ERR_NO_MEMORY;
+  }
+}
+
+skr_status wsServe(skr_module_ctx* ctx, const char* path, const char* subprotocol,
+                   size_t max_message_bytes, size_t max_queued_bytes, const skr_ws_events* events,
+                   void* user, skr_sub_handle* out) noexcept {
+  return withWeb(ctx, [&](ModuleWebSockets& w) {
+    return w.serve(path, subprotocol, max_message_bytes, max_queued_bytes, events, user, out);
+  });
+}
+skr_status wsUnserve(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
+  return withWeb(ctx, [&](ModuleWebSockets& w) { return w.unserve(handle); });
+}
+skr_status wsSend(skr_module_ctx* ctx, skr_ws_conn conn, int text, const void* data, size_t size,
+                  int droppable) noexcept {
+  return withWeb(ctx, [&](ModuleWebSockets& w) {
+    return w.send(conn, text != 0, data, size, droppable != 0);
+  });
+}
+skr_status wsClose(skr_module_ctx* ctx, skr_ws_conn conn, uint16_t code,
+                   const char* reason) noexcept {
+  return withWeb(ctx, [&](ModuleWebSockets& w) { return w.close(conn, code, reason); });
+}
+
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
     .abi_major = SKR_PLUGIN_ABI_MAJOR,
@@ -474,7 +512,10 @@ const skr_host_api kHostApi = {
     .channel_paths = &channelPaths,
     .publish_begin = &publishBegin,
     .publish_commit = &publishCommit,
-    .reserved = {},
+    .ws_serve = &wsServe,
+    .ws_unserve = &wsUnserve,
+    .ws_send = &wsSend,
+    .ws_close = &wsClose,
 };
 
 }  // namespace

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <skrobot/hub/hub_config.h>
 
+#include "http_head.h"
 #include "link_config.h"
 
 #include <arpa/inet.h>
@@ -252,19 +253,7 @@ void webMounts(const Json::Value& v, const std::string& path, s::Problems& out) 
     if (!v[key].isString() || v[key].asString().empty()) {
       out.push_back({where, "must be a directory (a non-empty string)"});
     }
-    bool ok = key.size() > 1 && key.front() == '/' && key.back() != '/';
-    size_t start = 1;
-    while (ok && start <= key.size()) {
-      const size_t end = std::min(key.find('/', start), key.size());
-      const std::string_view seg = std::string_view(key).substr(start, end - start);
-      ok = !seg.empty() && seg != "." && seg != ".." &&
-           std::all_of(seg.begin(), seg.end(), [](char c) {
-             return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                    c == '_' || c == '.' || c == '-' || c == '~';
-           });
-      start = end + 1;
-    }
-    if (!ok) {
+    if (!flow::http::isPathPrefix(key)) {
       out.push_back({where,
                      "must be a URL path prefix: '/' then segments of letters, digits, '_', '.', "
                      "'-', '~' (not \".\" or \"..\"), no trailing '/' (\"/teleop\")"});

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "module_flow.h"
+#include "module_web.h"
 #include "shared_library.h"
 
 #include <skrobot/hub/hub_config.h>
@@ -102,8 +103,9 @@ struct skr_module_ctx {
   bool ticking = false;    // ticks delivered: from start until stop
   std::vector<std::pair<skr_tick_handle, skr::TickId>> ticks;
   std::shared_ptr<skr::PostQueue> posts = std::make_shared<skr::PostQueue>();
-  skr::flow::FlowServer* server = nullptr;  // the hub's, for channel calls (ABI 1.1)
-  std::unique_ptr<skr::ModuleFlow> flow;    // created by the first channel call
+  skr::flow::FlowServer* server = nullptr;     // the hub's, for channel calls (ABI 1.1)
+  std::unique_ptr<skr::ModuleFlow> flow;       // created by the first channel call
+  std::unique_ptr<skr::ModuleWebSockets> web;  // created by the first ws_serve (ABI 1.8)
   // What it may do: its config entry's account's rules, else the defaults (null).
   std::shared_ptr<const skr::flow::AccessRules> access;
 
@@ -123,6 +125,7 @@ struct skr_module_ctx {
     for (const auto& t : ticks) loop->removeTickHandler(t.second);
     ticks.clear();
     posts->close();
+    web.reset();   // its web endpoints and their connections go
     flow.reset();  // its channels and subscriptions go, and everyone is told
   }
   void clearError() {

@@ -32,6 +32,12 @@ namespace skr::flow::http {
 constexpr size_t kMaxHeadBytes = size_t{8} * 1024;  // a request or response head, CRLFs included
 constexpr std::string_view kFlowSubprotocol = "skrobot-flow.v1";
 
+// RFC 9110 token characters only, at least one (a method, a header name, a subprotocol).
+[[nodiscard]] bool isToken(std::string_view s) noexcept;
+// A URL path prefix of plain segments: '/' then segments of letters, digits, '_', '.', '-', '~'
+// (not "." or ".."), no trailing '/' ("/teleop", "/ws"): the web port's mounts and endpoints.
+[[nodiscard]] bool isPathPrefix(std::string_view s) noexcept;
+
 // Where the head among `bytes` ends (just after its blank line), or 0 while it has not ended.
 [[nodiscard]] size_t headEnd(std::string_view bytes) noexcept;
 
@@ -97,5 +103,24 @@ struct Response {
 [[nodiscard]] Result<std::unique_ptr<transport::Transport>> upgrade(
     Loop& loop, std::unique_ptr<transport::Transport> below, const Request& request,
     std::string_view subprotocol, std::string_view already_read = {});
+
+// A WebSocket server end of a module's subprotocol (upgradeMessages, plugin ABI 1.8): framing()
+// is `messages`, and each message() is one whole WebSocket message, text or binary, of at most
+// the size given (a longer one is refused on its frame header with close 1009, before any of it
+// is kept). Text is not checked for UTF-8: the module parses what it takes.
+class MessageTransport : public transport::Transport {
+ public:
+  // Whether the message being delivered (during Receiver::message()) is a text message.
+  [[nodiscard]] virtual bool textMessage() const noexcept = 0;
+  // One text or binary message; as write(), the bytes stay valid until written().
+  [[nodiscard]] virtual Result<void> writeMessage(bool text, std::string_view data) = 0;
+  // close() with this close code (RFC 6455 7.4; close() sends 1000) and reason.
+  virtual void closeWith(uint16_t code, std::string_view reason) noexcept = 0;
+};
+
+// upgrade() for a subprotocol of whole messages of at most `max_message_bytes` (> 0) each.
+[[nodiscard]] Result<std::unique_ptr<MessageTransport>> upgradeMessages(
+    Loop& loop, std::unique_ptr<transport::Transport> below, const Request& request,
+    std::string_view subprotocol, std::string_view already_read, uint64_t max_message_bytes);
 
 }  // namespace skr::flow::http

@@ -71,10 +71,10 @@ curl -sf -o "$tmp/three.js" http://127.0.0.1:8080/vendor/three.module.js || fail
 # The JavaScript library beside the page, for pages of the hub's web port (import '/skrobot/index.js').
 lib=$(curl -sf http://127.0.0.1:8080/skrobot/index.js) || fail "no /skrobot/index.js"
 grep -q "export async function connectPage" <<<"$lib" || fail "/skrobot/index.js is not the library"
-# The hub's web port (server.web): the network page, and page tokens for it.
-curl -sf http://127.0.0.1:8088/network | grep -q 'src="/js/network.js"' || fail "no network page on :8088"
-curl -sf -X POST -H 'Sec-Fetch-Site: same-origin' http://127.0.0.1:8088/skrobot/token | grep -q '"user":"web-page"' ||
-  fail "no page token for web-page on :8088"
+# The same web port (server.web): the network page, and page tokens for it.
+curl -sf http://127.0.0.1:8080/network | grep -q 'src="/js/network.js"' || fail "no network page on :8080"
+curl -sf -X POST -H 'Sec-Fetch-Site: same-origin' http://127.0.0.1:8080/skrobot/token | grep -q '"user":"web-page"' ||
+  fail "no page token for web-page on :8080"
 "${run[@]}" "$bin/flowctl" ls > "$tmp/ls.log" 2>&1 || { cat "$tmp/ls.log"; fail "flowctl ls"; }
 for c in websocket-ui.camera face-detect.faces speech.say nao-bridge.command; do
   grep -q "$c" "$tmp/ls.log" || { cat "$tmp/ls.log"; fail "flowctl ls does not list $c"; }

@@ -24,12 +24,12 @@ before(async () => {
   execFileSync(process.env.SOX_BIN, [spoken, '-r', '48000', '-c', '1', '-b', '16', wav, 'pad', '1', '3']);
   const port = await freePort();
   hub = await startHub([
-    { name: 'websocket-ui', config: { port, speech: 'speech.say', voice: 'speech.voice',
+    { name: 'websocket-ui', config: { speech: 'speech.say', voice: 'speech.voice',
       phonemes: 'speech.phonemes', dialogue: 'agent.dialogue' } },
     { name: 'speech', config: {} },
     { name: 'agent', config: { say: 'websocket-ui.say', expression: 'websocket-ui.say', nao: '',
       faces: '', codes: '' } },
-  ]);
+  ], { server: { web: { port } } });
   asr = spawn(process.env.ASR_BIN, ['--address', hub.address, '--name', 'asr'],
     { stdio: ['ignore', 'pipe', 'pipe'] });
   asr.stdout.on('data', (d) => { asrLog += d; });

@@ -34,14 +34,15 @@ before(async () => {
     '--frames', '15', '--place', 'left']);
   port = await freePort();
   hub = await startHub([
-    { name: 'websocket-ui', config: { port, faces: 'face-detect.faces', speech: 'speech.say',
+    // On the hub's web port (websocket-ui's default: no `port` of its own).
+    { name: 'websocket-ui', config: { faces: 'face-detect.faces', speech: 'speech.say',
       voice: 'speech.voice', phonemes: 'speech.phonemes', dialogue: 'agent.dialogue' } },
     { name: 'face-detect', config: { input: 'websocket-ui.camera' } },
     { name: 'speech', config: {} },
     // The agent answers what it is told to hear (agent.command), not the faces: the tests above
     // make the avatar speak on their own.
     { name: 'agent', config: { faces: '', codes: '', nao: '' } },
-  ]);
+  ], { server: { web: { port, flows: true } } });
   chromium = await launchChromium({ y4m });
   page = await chromium.context.newPage();
   page.on('pageerror', (e) => console.log('page error:', e.message));

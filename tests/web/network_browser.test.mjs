@@ -183,9 +183,10 @@ function measureGraph() {
 
 test("the demo's graph fills the pane at fit with readable labels, the wheel zooms in steps, and the read-only page may not edit", async (t) => {
   const port = await freePort();
-  const own = { 'websocket-ui': { port: await freePort() }, 'foxglove-bridge': { port: await freePort() } };
+  const own = { 'foxglove-bridge': { port: await freePort() } };
   const demo = JSON.parse(readFileSync(path.join(env.source, 'config/default.json'), 'utf8'));
-  // The demo's web port, on a free port (the page account: the built-in read-only web-page).
+  // The demo's web port, on a free port (the page account: the built-in read-only web-page); it
+  // also upgrades websocket-ui's /ws.
   const hub = await startHub(demo.modules.filter((m) => m.enabled !== false)
     .map((m) => ({ ...m, config: { ...m.config, ...own[m.name] } })), { server: { web: { ...demo.server.web, port } } });
   t.after(() => hub.stop());

@@ -108,6 +108,18 @@ TEST_F(WebsocketUiModule, BadConfigFailsNamingTheKey) {
   EXPECT_NE(f.find("invalid blink_max_ms"), std::string::npos) << f;
 }
 
+// Without a `port` the module is an endpoint of the hub's web port: with none, it fails naming
+// server.web; its own server's keys without a `port` are refused, naming the key.
+TEST_F(WebsocketUiModule, OnTheWebPortOrItsOwn) {
+  startHub();  // no server.web
+  const auto none = startModule("ui", "{}", false, "websocket-ui");
+  ASSERT_EQ(none.size(), 1u);
+  EXPECT_NE(none[0].find("server.web"), std::string::npos) << none[0];
+  const auto tls = startModule("ui2", R"({"tls_cert":"/etc/x.pem"})", false, "websocket-ui");
+  ASSERT_EQ(tls.size(), 1u);
+  EXPECT_NE(tls[0].find("invalid tls_cert"), std::string::npos) << tls[0];
+}
+
 // The network page's keys went with it to the hub's web port: a config that still names them
 // loads (websocket-ui warns, WSUI-CONFIG).
 TEST_F(WebsocketUiModule, RemovedNetworkKeysStillLoad) {

@@ -2,12 +2,13 @@
 // websocket-ui against bad clients (node `ws`): oversized frames, bad JSON, binary that is not a
 // media frame, the wrong path, no subprotocol, a foreign origin. Each is refused and only that
 // connection closes; the hub and a well-behaved browser go on. Also the HTTP side: MIME types,
-// the content security policy, no inline scripts.
+// the content security policy, no inline scripts. Twice: on the hub's web port (websocket-ui's
+// endpoint, plugin ABI 1.8, the default) and on websocket-ui's own port (libwebsockets).
 import assert from 'node:assert/strict';
 import { mkdtempSync, writeFileSync, readFileSync } from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { after, before, test } from 'node:test';
+import { after, before, describe, test } from 'node:test';
 
 import { freePort, startHub, waitFor, webRequire, env } from './harness.mjs';
 
@@ -18,6 +19,7 @@ const MAX = 64 * 1024;
 let hub;
 let port;
 let root;
+let onHub;  // the suite running: the hub's web port, or websocket-ui's own
 
 function header({ format, seq = 0, width = 0, height = 0, channels = 0, rate = 0 }) {
   const h = Buffer.alloc(32);
@@ -48,12 +50,18 @@ function open(pathname = '/ws', { protocol = SUBPROTOCOL, origin } = {}) {
   });
 }
 
+for (const mode of ['web port', 'own port']) {
+describe(`websocket-ui on the ${mode}`, () => {
 before(async () => {
+  onHub = mode === 'web port';
   port = await freePort();
   root = mkdtempSync(path.join(os.tmpdir(), 'skrobot-webroot-'));
   writeFileSync(path.join(root, 'index.html'), readFileSync(path.join(env.source, 'web/index.html')));
   for (const ext of ['js', 'mjs', 'css', 'json', 'glb', 'wasm']) writeFileSync(path.join(root, `a.${ext}`), 'x');
-  hub = await startHub([{ name: 'websocket-ui', config: { port, web_root: root, max_message_bytes: MAX, handover_ms: 30000 } }]);
+  const config = { max_message_bytes: MAX, handover_ms: 30000 };
+  hub = onHub
+    ? await startHub([{ name: 'websocket-ui', config }], { server: { web: { port, root } } })
+    : await startHub([{ name: 'websocket-ui', config: { ...config, port, web_root: root } }]);
 });
 after(async () => { if (hub) await hub.stop(); });
 
@@ -101,7 +109,7 @@ test('bad messages close only their own connection', async () => {
   stereo.ws.send(Buffer.concat([header({ format: 3, channels: 2, rate: 22050 }), Buffer.alloc(400)]));
   assert.equal((await stereo.closed).code, 1003);
 
-  // Refused during the handshake (lws drops the connection: an error, never an open socket).
+  // Refused during the handshake (an HTTP error or a dropped connection, never an open socket).
   await assert.rejects(open('/other'));
   await assert.rejects(open('/ws', { protocol: null }));
   await assert.rejects(open('/ws', { origin: 'http://evil.example' }));
@@ -118,15 +126,26 @@ test('bad messages close only their own connection', async () => {
   await waitFor('camera_frames', async () => (await hub.dbGet('websocket-ui', 'camera_frames')) === 8, 15000);
   await waitFor('more commands', () => good.messages.length > before, 10000);
   assert.equal(good.ws.readyState, WebSocket.OPEN);
-  const refused = await waitFor('refused count', async () => {
-    const n = await hub.dbGet('websocket-ui', 'refused');
-    const h = await hub.dbGet('websocket-ui', 'refused_handshakes');
-    return n >= 5 && h >= 3 ? [n, h] : 0;
-  }, 10000);
-  assert.deepEqual(refused, [5, 3]); // messages, handshakes
+  if (onHub) {
+    // The web port refuses the big message (before keeping it) and the handshakes; the module
+    // the other four.
+    await waitFor('refused count', async () => (await hub.dbGet('websocket-ui', 'refused')) === 4, 10000);
+    assert.match(hub.log, /FLOW-PROTOCOL ws:127\.0\.0\.1: a message of more than 65536 bytes \(close 1009\)/);
+    assert.match(hub.log, /WSUI-REFUSED browser \d+: unknown message type 'shutdown'/);
+    assert.match(hub.log, /FLOW-WS-REFUSED .*WebSocket on \/other/);
+    assert.match(hub.log, /FLOW-WS-REFUSED .*WebSocket on \/ws without the subprotocol skrobot-avatar\.v1/);
+    assert.match(hub.log, /FLOW-WS-REFUSED .*Origin "http:\/\/evil\.example"/);
+  } else {
+    const refused = await waitFor('refused count', async () => {
+      const n = await hub.dbGet('websocket-ui', 'refused');
+      const h = await hub.dbGet('websocket-ui', 'refused_handshakes');
+      return n >= 5 && h >= 3 ? [n, h] : 0;
+    }, 10000);
+    assert.deepEqual(refused, [5, 3]); // messages, handshakes
+    assert.match(hub.log, /WSUI-REFUSED browser \d+: message over 65536 bytes/);
+    assert.match(hub.log, /WSUI-REFUSED connection: WebSocket on path '\/other'/);
+  }
   assert.ok(hub.alive());
-  assert.match(hub.log, /WSUI-REFUSED browser \d+: message over 65536 bytes/);
-  assert.match(hub.log, /WSUI-REFUSED connection: WebSocket on path '\/other'/);
   // When the first page leaves, the second one's camera takes over at once.
   good.ws.close();
   await good.closed;
@@ -136,3 +155,20 @@ test('bad messages close only their own connection', async () => {
   assert.equal(await hub.dbGet('websocket-ui', 'camera_ignored'), 3);
   second.ws.close();
 });
+
+// On the web port the host closes an endpoint's connections with 1001 when the module stops (its
+// own libwebsockets server just drops them: 1006).
+test('the module going away closes its browsers, with 1001 on the web port, which counts them', async () => {
+  const page = await open();
+  await waitFor('welcome', () => page.messages.find((m) => m.type === 'welcome'));
+  if (onHub) {
+    const stats = JSON.parse(await hub.flowctl('echo', 'hub.stats', '--format', 'text', '--count', '1'));
+    assert.ok(stats.web.endpoint_upgrades >= 8, JSON.stringify(stats.web));
+  }
+  const exit = await hub.stop();
+  assert.deepEqual(exit, { code: 0, signal: null }, hub.log.slice(-3000));
+  const { code } = await page.closed;
+  assert.equal(code, onHub ? 1001 : 1006);
+});
+});
+}

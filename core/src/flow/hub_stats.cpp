@@ -245,6 +245,7 @@ Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name) {
         {"files", w.files},
         {"not_found", w.not_found},
         {"upgrades", w.upgrades},
+        {"endpoint_upgrades", w.endpoint_upgrades},
         {"tokens", w.tokens},
         {"refused_host", w.refused_host},
         {"refused_origin", w.refused_origin},

@@ -272,6 +272,20 @@ uint16_t FlowServer::udpPort() const noexcept {
 uint16_t FlowServer::webPort() const noexcept {
   return impl_->web_port ? impl_->web_port->port() : 0;
 }
+
+Result<void> FlowServer::serveWebSocket(
+    const std::string& path, std::string subprotocol, uint64_t max_message_bytes,
+    std::function<void(std::unique_ptr<http::MessageTransport>)> accepted) {
+  if (!impl_->web_port) {
+    return makeError(Errc::unsupported, "the hub has no web port (server.web, docs/config.md)");
+  }
+  return impl_->web_port->serve(
+      path, WebPort::Endpoint{std::move(subprotocol), max_message_bytes, std::move(accepted)});
+}
+
+void FlowServer::unserveWebSocket(const std::string& path) noexcept {
+  if (impl_->web_port) impl_->web_port->unserve(path);
+}
 const ServerStats& FlowServer::stats() const noexcept {
   return impl_->stats;
 }

@@ -192,6 +192,11 @@ class WebPort::Conn final : public transport::Transport::Receiver,
       token(request, lower(*host_header));
       return;
     }
+    if (const auto e = port_.endpoints_.find(path);
+        e != port_.endpoints_.end() && http::wantsWebSocket(request)) {
+      upgradeEndpoint(request, lower(*host_header), rest, e->second);
+      return;
+    }
     if (http::wantsWebSocket(request)) {
       refuseLogged(404, port_.stats_.refused,
                    "WebSocket on " + path + (path == "/flow" ? " (server.web.flows is off)" : ""));
@@ -208,31 +213,43 @@ class WebPort::Conn final : public transport::Transport::Receiver,
                        [this](Result<WebFile> f) { sendFirst(std::move(f)); });
   }
 
-  void upgrade(const http::Request& request, const std::string& host, const std::string& rest) {
+  // The checks of every WebSocket upgrade here: an allowed Origin, a valid request offering
+  // `subprotocol`. False: refused (answered and counted).
+  bool upgradeAllowed(const http::Request& request, const std::string& host,
+                      std::string_view subprotocol) {
     if (const auto origin = request.header("origin");
         origin && !port_.originAllowed(lower(*origin), host)) {
       refuseLogged(403, port_.stats_.refused_origin,
                    "WebSocket from Origin \"" + std::string(*origin) +
                        "\", not allowed (server.web.origins)");
-      return;
+      return false;
     }
     if (auto bad = http::checkWebSocket(request)) {
       refuseLogged(400, port_.stats_.refused, "WebSocket upgrade: " + *bad);
-      return;
+      return false;
     }
     const std::vector<std::string> offered = request.list("sec-websocket-protocol");
-    if (std::find(offered.begin(), offered.end(), http::kFlowSubprotocol) == offered.end()) {
-      refuseLogged(
-          400, port_.stats_.refused,
-          "WebSocket on /flow without the subprotocol " + std::string(http::kFlowSubprotocol));
-      return;
+    if (std::find(offered.begin(), offered.end(), subprotocol) == offered.end()) {
+      refuseLogged(400, port_.stats_.refused,
+                   "WebSocket on " + std::string(request.path()) + " without the subprotocol " +
+                       std::string(subprotocol));
+      return false;
     }
-    auto ws = http::upgrade(port_.loop_, std::move(t_), request, http::kFlowSubprotocol, rest);
+    return true;
+  }
+
+  // The transport is the WebSocket's now: this HTTP connection is over (freed by the next
+  // sweep, not under the caller's feet).
+  void handedOver() {
     closing_ = true;
-    // The transport is the WebSocket's now: this HTTP connection is over (freed by the next
-    // sweep, not under the caller's feet).
     port_.finished_.push_back(shared_from_this());
     port_.conns_.erase(this);
+  }
+
+  void upgrade(const http::Request& request, const std::string& host, const std::string& rest) {
+    if (!upgradeAllowed(request, host, http::kFlowSubprotocol)) return;
+    auto ws = http::upgrade(port_.loop_, std::move(t_), request, http::kFlowSubprotocol, rest);
+    handedOver();
     if (!ws) {
       ++port_.stats_.refused;
       log::info(kLogSource, "FLOW-WS-REFUSED", source_ + ": " + ws.error().message);
@@ -240,6 +257,22 @@ class WebPort::Conn final : public transport::Transport::Receiver,
     }
     ++port_.stats_.upgrades;
     port_.flows_(std::move(ws).value());
+  }
+
+  void upgradeEndpoint(const http::Request& request, const std::string& host,
+                       const std::string& rest, const Endpoint& e) {
+    if (!upgradeAllowed(request, host, e.subprotocol)) return;
+    auto ws = http::upgradeMessages(port_.loop_, std::move(t_), request, e.subprotocol, rest,
+                                    e.max_message_bytes);
+    handedOver();
+    if (!ws) {
+      ++port_.stats_.refused;
+      log::info(kLogSource, "FLOW-WS-REFUSED", source_ + ": " + ws.error().message);
+      return;
+    }
+    ++port_.stats_.endpoint_upgrades;
+    const auto accepted = e.accepted;  // the module may unserve the endpoint from inside
+    accepted(std::move(ws).value());
   }
 
   void token(const http::Request& request, const std::string& host) {
@@ -392,6 +425,29 @@ WebPort::~WebPort() {
   // Closed at once (destroying a transport closes it): no callback reaches a Conn afterwards.
   conns_.clear();
   finished_.clear();
+}
+
+Result<void> WebPort::serve(const std::string& path, Endpoint endpoint) {
+  if (!http::isPathPrefix(path)) {
+    return makeError(Errc::invalid_argument,
+                     "\"" + path + "\" is not a URL path of plain segments (\"/ws\")");
+  }
+  if (!http::isToken(endpoint.subprotocol)) {
+    return makeError(Errc::invalid_argument,
+                     "\"" + endpoint.subprotocol + "\" is not a subprotocol name (a token)");
+  }
+  if (endpoint.max_message_bytes == 0 || !endpoint.accepted) {
+    return makeError(Errc::invalid_argument, "an endpoint needs a message size and a handler");
+  }
+  if (path == "/flow" || path == "/skrobot/token" || endpoints_.count(path) != 0) {
+    return makeError(Errc::already_exists, path + " is served already on the web port");
+  }
+  endpoints_.emplace(path, std::move(endpoint));
+  return {};
+}
+
+void WebPort::unserve(const std::string& path) noexcept {
+  endpoints_.erase(path);
 }
 
 uint16_t WebPort::port() const noexcept {

@@ -8,6 +8,10 @@
 //   - GET /flow, when server.web.flows: a WebSocket upgrade offering skrobot-flow.v1, from an
 //     allowed Origin (or none), becomes a WsTransport handed to `flows` (the FlowServer's
 //     accept); else 403 (Origin), 400 (no such subprotocol, a bad upgrade) or 404 (flows off);
+//   - GET of a module's endpoint (serve(), plugin ABI 1.8): a WebSocket upgrade offering its
+//     subprotocol, from an allowed Origin (or none), becomes an http::MessageTransport of whole
+//     messages handed to the endpoint; else 403 (Origin) or 400 (no such subprotocol, a bad
+//     upgrade);
 //   - POST /skrobot/token, when server.web.flows: a page token (page_tokens.h) for the peer's
 //     address as {"token", "user", "expires_in_ms"}, Cache-Control: no-store and no CORS header
 //     (a foreign page cannot read it); refused 403 for a foreign Origin or a Sec-Fetch-Site other
@@ -21,6 +25,7 @@
 #pragma once
 
 #include "families/session/page_tokens.h"
+#include "http_head.h"
 #include "web_files.h"
 
 #include <skrobot/hub/flow/hub_stats.h>
@@ -33,6 +38,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <set>
 #include <string>
@@ -58,6 +64,17 @@ class WebPort {
   WebPort& operator=(const WebPort&) = delete;
   WebPort(WebPort&&) = delete;
   WebPort& operator=(WebPort&&) = delete;
+
+  // A module's WebSocket endpoint (plugin ABI 1.8): whole messages of at most max_message_bytes.
+  struct Endpoint {
+    std::string subprotocol;  // an RFC 9110 token the client must offer
+    uint64_t max_message_bytes = 0;
+    std::function<void(std::unique_ptr<http::MessageTransport>)> accepted;
+  };
+  // Serves `path` (http::isPathPrefix) with `endpoint`. Errc::invalid_argument for a bad path or
+  // subprotocol, Errc::already_exists for /flow, /skrobot/token or a path served already.
+  [[nodiscard]] Result<void> serve(const std::string& path, Endpoint endpoint);
+  void unserve(const std::string& path) noexcept;
 
   [[nodiscard]] uint16_t port() const noexcept;  // the bound port (useful with port 0)
   [[nodiscard]] const WebCounters& stats() const noexcept { return stats_; }
@@ -86,7 +103,8 @@ class WebPort {
   IssueToken issue_token_;
   std::unique_ptr<WebFiles> files_;
   std::unique_ptr<transport::Listener> listener_;
-  std::set<std::string> host_names_;  // this machine's names and server.web.hosts
+  std::set<std::string> host_names_;           // this machine's names and server.web.hosts
+  std::map<std::string, Endpoint> endpoints_;  // modules' WebSocket endpoints, by path
   std::unordered_map<Conn*, std::shared_ptr<Conn>> conns_;
   std::vector<std::shared_ptr<Conn>> finished_;  // upgraded: freed by the next sweep
   Timer sweep_;

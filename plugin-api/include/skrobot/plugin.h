@@ -49,7 +49,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 7
+#define SKR_PLUGIN_ABI_MINOR 8
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -182,6 +182,24 @@ typedef struct skr_path_options {
   uint32_t ring_readers; /* shared memory: readers at once, at most 64 (0: 4) */
   uint64_t slot_bytes;   /* shared memory: the largest message (0: 1 MB) */
 } skr_path_options;
+
+/* --- WebSocket endpoints on the hub's web port (ABI 1.8; docs/plugins.md) --- */
+/* One browser's (or any client's) connection to an endpoint: unique for the hub's life. */
+typedef uint64_t skr_ws_conn;
+/* What an endpoint hears, on the module's loop thread. Strings and data are valid during the call
+ * only. The module may call ws_send and ws_close from any of them. */
+typedef struct skr_ws_events {
+  uint32_t struct_size; /* sizeof(skr_ws_events) the module was built with */
+  /* A client upgraded to the endpoint (its path, its subprotocol, an allowed Origin). `peer` is
+   * where it came from ("ws:127.0.0.1"). */
+  void (*opened)(void* user, skr_ws_conn conn, const char* peer);
+  /* One whole message, text (text = 1; not checked for UTF-8) or binary, of at most the
+   * endpoint's max_message_bytes (a longer one closes that connection with 1009 first). */
+  void (*message)(void* user, skr_ws_conn conn, int text, const void* data, size_t size);
+  /* The connection is gone (the client closed it, it broke, or ws_close): `why` in words. No
+   * call for `conn` follows. */
+  void (*closed)(void* user, skr_ws_conn conn, const char* why);
+} skr_ws_events;
 
 /* Host services, passed to init. Valid until fini returns. Check struct_size / abi_minor before
  * using a function added after 1.0. Thread rules: "any" = callable from any thread; "loop" = only
@@ -364,8 +382,33 @@ typedef struct skr_host_api {
   skr_status (*publish_commit)(skr_module_ctx* ctx, uint16_t chan_id, size_t size,
                                int64_t capture_ns);
 
-  /* Later minors fill these; NULL until then. */
-  void (*reserved[4])(void);
+  /* --- WebSocket endpoints on the hub's web port (ABI 1.8; loop, as the calls above) ---
+   * The hub's web port (server.web) upgrades GET `path` offering `subprotocol`, from a page of an
+   * allowed Origin (server.web.origins; the port's Host check first), to a connection of whole
+   * messages for this module: browsers reach a module on the port that serves the pages and
+   * FlowProtocol (/flow), with TLS when the port has it. The endpoint goes with the module. */
+  /* Serves `path` ("/" then plain segments; not /flow or /skrobot/token) with `subprotocol` (a
+   * token, required of the client): messages of at most `max_message_bytes` (> 0) each; at most
+   * `max_queued_bytes` (0: 8 MiB) waiting to be sent to one client. *handle_out for ws_unserve.
+   * SKR_ERR_UNSUPPORTED: the hub has no web port; SKR_ERR_INVALID_ARGUMENT: a bad path or
+   * subprotocol, or a path served already. */
+  skr_status (*ws_serve)(skr_module_ctx* ctx, const char* path, const char* subprotocol,
+                         size_t max_message_bytes, size_t max_queued_bytes,
+                         const skr_ws_events* events, void* user, skr_sub_handle* handle_out);
+  /* Stops serving and drops its connections (close 1001), with no more events. */
+  skr_status (*ws_unserve)(skr_module_ctx* ctx, skr_sub_handle handle);
+  /* Queues one message for `conn` (copied). Beyond max_queued_bytes the oldest `droppable`
+   * messages waiting go first; a message that is not droppable pushes them out and is dropped
+   * last. SKR_ERR_NOT_FOUND: no such connection (it closed). */
+  skr_status (*ws_send)(skr_module_ctx* ctx, skr_ws_conn conn, int text, const void* data,
+                        size_t size, int droppable);
+  /* Closes `conn` with a close code (RFC 6455: 1000..1003, 1007..1011, or 3000..4999 of the
+   * module's own) and a reason; `closed` follows. SKR_ERR_NOT_FOUND: no such connection;
+   * SKR_ERR_INVALID_ARGUMENT: a code that may not be sent. */
+  skr_status (*ws_close)(skr_module_ctx* ctx, skr_ws_conn conn, uint16_t code, const char* reason);
+
+  /* 1.8 spent the last reserved slot: a later minor adds its members here, at the end (the
+   * table's struct_size says which a host has). */
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

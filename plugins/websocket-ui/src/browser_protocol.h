@@ -46,8 +46,7 @@ struct Refusal {
   std::string reason;
 };
 
-using Inbound =
-    std::variant<CameraFrame, MicFrame, Hello, Say, Refusal>;
+using Inbound = std::variant<CameraFrame, MicFrame, Hello, Say, Refusal>;
 
 // Binary messages are media frames (docs/channels.md): JPEG camera frames or mono PCM at the
 // configured rate. Text messages are JSON objects with a "type": "hello" or "say" (the network

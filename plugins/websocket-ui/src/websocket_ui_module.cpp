@@ -2,10 +2,13 @@
 // websocket-ui: serves the avatar page and bridges browsers to the FlowNetwork
 // (docs/websocket-ui.md).
 //
-// Threads: libwebsockets runs on the WsServer's thread; what browsers send is checked there and
-// handed to the hub's loop thread with host.post; everything touching channels runs on the loop.
+// Browsers connect to an endpoint on the hub's web port (plugin ABI 1.8), or to the module's own
+// server when its config names a `port` (browsers.h). Threads: what browsers send is checked
+// where it arrives (the loop, or the own server's thread) and handed to the hub's loop thread
+// with host.post; everything touching channels runs on the loop.
 #include "avatar_behaviour.h"
 #include "browser_protocol.h"
+#include "browsers.h"
 #include "source_owner.h"
 #include "visemes.h"
 #include "web_root.h"
@@ -133,18 +136,32 @@ class WebsocketUi final : public skr::plugin::Module {
                             int& code) -> std::optional<std::string> {
       return onBrowserMessage(conn, binary, std::move(data), code);
     };
-    if (auto error = server_.start(server_opts_, std::move(events))) {
-      throw Failure(SKR_ERR_FAILED, *error);
+    if (!host_.configHas("port")) {
+      // The hub's web port serves the page (its root) and upgrades /ws to this module.
+      try {
+        server_.startOnHub(host_, server_opts_, std::move(events));
+      } catch (const Failure& e) {
+        throw Failure(e.status(),
+                      std::string(e.what()) +
+                          " (the avatar's WebSocket goes on the hub's web port: set server.web "
+                          "in the hub's config, or a `port` for websocket-ui's own server)");
+      }
+      host_.log.info("WSUI-LISTENING", "avatar WebSocket ", server_opts_.ws_path,
+                     " on the hub's web port (server.web)");
+    } else {
+      if (auto error = server_.startOwn(server_opts_, std::move(events))) {
+        throw Failure(SKR_ERR_FAILED, *error);
+      }
+      host_.log.info("WSUI-LISTENING", "avatar page on ",
+                     server_opts_.tls_cert.empty() ? "http" : "https", "://", server_opts_.address,
+                     ":", server_.port(), "/ (web root ", server_opts_.web_root, ")");
     }
-    host_.log.info("WSUI-LISTENING", "avatar page on ",
-                   server_opts_.tls_cert.empty() ? "http" : "https", "://", server_opts_.address,
-                   ":", server_.port(), "/ (web root ", server_opts_.web_root, ")");
     fast_ = host_.onTick(skr::plugin::Tick::fast, [this] { behave(); });
     second_ = host_.onTick(skr::plugin::Tick::one_sec, [this] { report(); });
   }
 
   void stop() override {
-    server_.stop();  // joins the server thread: no more posts from it
+    server_.stop();  // joins the own server's thread, or unserves: no more events
     fast_.reset();
     second_.reset();
     subs_.clear();
@@ -183,6 +200,19 @@ class WebsocketUi final : public skr::plugin::Module {
 
   void readServer() {
     WsServerOptions& o = server_opts_;
+    if (!host_.configHas("port")) {
+      // The hub's web port has its own address, files and TLS (server.web, server.tls).
+      // (The declared defaults are filled in: "127.0.0.1" and "" mean untouched.)
+      for (const char* key : {"address", "web_root", "tls_cert", "tls_key"}) {
+        const std::string v = host_.configString(key);
+        if (std::string(key) == "address" ? v != "127.0.0.1" : !v.empty()) {
+          host_.configError(key,
+                            "only with `port` (websocket-ui's own server); on the hub's "
+                            "web port, server.web and server.tls say it");
+          throw Failure(SKR_ERR_CONFIG, std::string("invalid ") + key);
+        }
+      }
+    }
     o.address = host_.configString("address");
     o.port = static_cast<int>(host_.configInt("port"));
     o.web_root = host_.configString("web_root");
@@ -449,7 +479,7 @@ class WebsocketUi final : public skr::plugin::Module {
     dbSet(host_, db, "mic_ignored", std::to_string(mic_owner_.ignored()));
     dbSet(host_, db, "say_requests", std::to_string(counters_.say_requests));
     dbSet(host_, db, "gaze_source", skr::support::jsonQuote(avatar_.lastGaze().source));
-    dbSet(host_, db, "port", std::to_string(server_.port()));
+    if (!server_.onHub()) dbSet(host_, db, "port", std::to_string(server_.port()));
   }
 
   std::int64_t nowMs() const { return host_.nowNs() / 1000000; }
@@ -463,7 +493,7 @@ class WebsocketUi final : public skr::plugin::Module {
 
   AvatarBehaviour avatar_;
   SourceOwner camera_owner_, mic_owner_;  // loop thread
-  WsServer server_;
+  Browsers server_;
   skr::plugin::StreamChannel camera_, mic_;
   skr::plugin::ServiceChannel say_;
   std::optional<skr::plugin::Requester> requester_;
@@ -484,13 +514,18 @@ class WebsocketUi final : public skr::plugin::Module {
 namespace cfg = skr::config;
 constexpr skr_config_key kConfig[] = {
     // The server.
-    cfg::string("address", "127.0.0.1", "interface to listen on; \"0.0.0.0\" for every one")
+    // Absent `port`: the hub's web port (server.web) serves the page and /ws. With a `port`, the
+    // module's own server, and the four keys below it.
+    cfg::integer("port", nullptr,
+                 "its own HTTP and WebSocket server's port (0: any free port); absent: the "
+                 "hub's web port")
+        .range(0, 65535),
+    cfg::string("address", "127.0.0.1", "its own server's interface; \"0.0.0.0\" for every one")
         .nonEmpty(),
-    cfg::integer("port", "8080", "HTTP and WebSocket port (0: any free port)").range(0, 65535),
     cfg::string("web_root", "",
-                "directory served; empty: the page installed with the hub (share/skrobot/web) "
-                "or a build tree's copy"),
-    cfg::string("tls_cert", "", "PEM certificate; with tls_key: HTTPS and WSS only"),
+                "its own server's directory; empty: the page installed with the hub "
+                "(share/skrobot/web) or a build tree's copy"),
+    cfg::string("tls_cert", "", "its own server's PEM certificate; with tls_key: HTTPS and WSS"),
     cfg::string("tls_key", "", "PEM private key of tls_cert"),
     cfg::integer("max_message_bytes", "1048576", "largest browser message")
         .range(64 * 1024, 64 * 1024 * 1024),

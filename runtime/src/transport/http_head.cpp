@@ -29,15 +29,6 @@ std::string_view trim(std::string_view s) noexcept {
   return s;
 }
 
-// RFC 9110 token characters (a method, a header name).
-bool isToken(std::string_view s) noexcept {
-  if (s.empty()) return false;
-  return std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-           std::string_view("!#$%&'*+-.^_`|~").find(c) != std::string_view::npos;
-  });
-}
-
 using Headers = std::vector<std::pair<std::string, std::string>>;
 
 // The header lines after the start line: "name: value" CRLF ..., then the blank line.
@@ -123,6 +114,30 @@ std::string_view statusText(int status) noexcept {
 }
 
 }  // namespace
+
+bool isToken(std::string_view s) noexcept {
+  if (s.empty()) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+           std::string_view("!#$%&'*+-.^_`|~").find(c) != std::string_view::npos;
+  });
+}
+
+bool isPathPrefix(std::string_view s) noexcept {
+  if (s.size() < 2 || s.front() != '/' || s.back() == '/') return false;
+  size_t start = 1;
+  while (start <= s.size()) {
+    const size_t end = std::min(s.find('/', start), s.size());
+    const std::string_view seg = s.substr(start, end - start);
+    const bool plain = std::all_of(seg.begin(), seg.end(), [](char c) {
+      return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+             c == '_' || c == '.' || c == '-' || c == '~';
+    });
+    if (seg.empty() || seg == "." || seg == ".." || !plain) return false;
+    start = end + 1;
+  }
+  return true;
+}
 
 size_t headEnd(std::string_view bytes) noexcept {
   const size_t at = bytes.find("\r\n\r\n");
@@ -274,11 +289,11 @@ std::optional<std::string> checkAccepted(const Response& response, std::string_v
   return std::nullopt;
 }
 
-Result<std::unique_ptr<transport::Transport>> upgrade(Loop& loop,
-                                                      std::unique_ptr<transport::Transport> below,
-                                                      const Request& request,
-                                                      std::string_view subprotocol,
-                                                      std::string_view already_read) {
+namespace {
+
+Result<std::unique_ptr<transport::WsTransport>> serverEnd(
+    Loop& loop, std::unique_ptr<transport::Transport> below, const Request& request,
+    std::string_view subprotocol, std::string_view already_read, uint64_t max_message_bytes) {
   if (auto bad = checkWebSocket(request)) return makeError(Errc::invalid_argument, *bad);
   const auto offered = request.list("sec-websocket-protocol");  // tokens: case-sensitive
   if (!subprotocol.empty() &&
@@ -286,11 +301,32 @@ Result<std::unique_ptr<transport::Transport>> upgrade(Loop& loop,
     return makeError(Errc::invalid_argument,
                      "the client does not offer the subprotocol " + std::string(subprotocol));
   }
-  auto ws = std::make_unique<transport::WsTransport>(
+  return std::make_unique<transport::WsTransport>(
       loop, std::move(below), true, std::string(request.header("origin").value_or("")),
       switchingProtocols(*request.header("sec-websocket-key"), subprotocol),
-      std::string(already_read));
-  return std::unique_ptr<transport::Transport>(std::move(ws));
+      std::string(already_read), max_message_bytes);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<transport::Transport>> upgrade(Loop& loop,
+                                                      std::unique_ptr<transport::Transport> below,
+                                                      const Request& request,
+                                                      std::string_view subprotocol,
+                                                      std::string_view already_read) {
+  auto ws = serverEnd(loop, std::move(below), request, subprotocol, already_read, 0);
+  if (!ws) return ws.error();
+  return std::unique_ptr<transport::Transport>(std::move(ws).value());
+}
+
+Result<std::unique_ptr<MessageTransport>> upgradeMessages(
+    Loop& loop, std::unique_ptr<transport::Transport> below, const Request& request,
+    std::string_view subprotocol, std::string_view already_read, uint64_t max_message_bytes) {
+  if (max_message_bytes == 0) return makeError(Errc::invalid_argument, "no message size limit");
+  auto ws =
+      serverEnd(loop, std::move(below), request, subprotocol, already_read, max_message_bytes);
+  if (!ws) return ws.error();
+  return std::unique_ptr<MessageTransport>(std::move(ws).value());
 }
 
 }  // namespace skr::flow::http

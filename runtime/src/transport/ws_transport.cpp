@@ -34,9 +34,11 @@ size_t total(std::span<const std::string_view> buffers) noexcept {
 }  // namespace
 
 WsTransport::WsTransport(Loop& loop, std::unique_ptr<Transport> below, bool server,
-                         std::string origin, std::string first_output, std::string already_read)
+                         std::string origin, std::string first_output, std::string already_read,
+                         uint64_t max_message_bytes)
     : below_(std::move(below)),
-      reader_(server),
+      reader_(max_message_bytes != 0 ? ws::FrameReader::messages(server, max_message_bytes)
+                                     : ws::FrameReader(server)),
       origin_(std::move(origin)),
       in_(std::make_unique_for_overwrite<char[]>(std::max(kInChunk, already_read.size()))),
       out_(std::move(first_output)),
@@ -48,6 +50,7 @@ WsTransport::WsTransport(Loop& loop, std::unique_ptr<Transport> below, bool serv
                }
                process();
              }),
+      max_message_(max_message_bytes),
       server_(server) {
   std::memcpy(in_.get(), already_read.data(), already_read.size());
   in_end_ = already_read.size();
@@ -147,11 +150,30 @@ void WsTransport::process() {
 }
 
 std::span<char> WsTransport::room() {
-  return rx_->readBuffer();
+  if (max_message_ == 0) return rx_->readBuffer();
+  // The reader checked the message's frames against the limit: it never asks past it.
+  if (msg_len_ == msg_.size()) {
+    msg_.resize(static_cast<size_t>(
+        std::min<uint64_t>(max_message_, std::max<size_t>(msg_.size() * 2, 4096))));
+  }
+  return {msg_.data() + msg_len_, msg_.size() - msg_len_};
 }
 
 bool WsTransport::payload(size_t n) {
+  if (max_message_ != 0) {
+    msg_len_ += n;
+    return true;
+  }
   rx_->received(n);  // may close this transport
+  return !ended_ && !closing_;
+}
+
+bool WsTransport::messageEnd(ws::Opcode op) {
+  text_ = op == ws::Opcode::text;
+  const size_t n = msg_len_;
+  msg_len_ = 0;
+  rx_->message({msg_.data(), n});                        // may close this transport
+  if (msg_.size() > kInChunk) std::string().swap(msg_);  // a large message's room goes
   return !ended_ && !closing_;
 }
 
@@ -286,7 +308,7 @@ Result<size_t> WsTransport::tryWrite(std::span<const std::string_view> buffers) 
   if (closing_ || ended_) return makeError(Errc::io_error, "closed");
   if (below_writing_ || user_write_) return size_t{0};
   const size_t n = total(buffers);
-  const size_t h = header(ws::Opcode::binary, n);
+  const size_t h = header(out_op_, n);
   views_.clear();
   views_.emplace_back(header_.data(), h);
   if (server_) {
@@ -311,7 +333,7 @@ Result<void> WsTransport::write(std::span<const std::string_view> buffers) {
   if (server_ && !below_writing_ && out_.empty()) {
     // The buffers as they are, behind the header: they stay valid until written().
     views_.clear();
-    views_.emplace_back(header_.data(), header(ws::Opcode::binary, total(buffers)));
+    views_.emplace_back(header_.data(), header(out_op_, total(buffers)));
     views_.insert(views_.end(), buffers.begin(), buffers.end());
     below_writing_ = true;
     user_write_ = true;
@@ -324,7 +346,7 @@ Result<void> WsTransport::write(std::span<const std::string_view> buffers) {
   }
   // Behind what waits (or masked, for a client): a copy, handed below once it may.
   const size_t n = total(buffers);
-  const size_t h = header(ws::Opcode::binary, n);
+  const size_t h = header(out_op_, n);
   const size_t at = out_.size() + h;
   out_.append(header_.data(), h);
   for (const std::string_view b : buffers) out_.append(b);
@@ -351,7 +373,7 @@ void WsTransport::close(std::string_view reason) noexcept {
     close_sent_ = true;
     const ws::MaskKey mask = randomMask();
     const std::string frame = ws::controlFrame(
-        ws::Opcode::close, ws::closePayload(ws::kCloseNormal, reason), server_ ? nullptr : &mask);
+        ws::Opcode::close, ws::closePayload(close_code_, reason), server_ ? nullptr : &mask);
     const std::string_view f = frame;
     (void)below_->tryWrite({&f, 1});
   }
@@ -360,6 +382,18 @@ void WsTransport::close(std::string_view reason) noexcept {
 
 void WsTransport::closed() noexcept {
   if (rx_ != nullptr) rx_->closed();  // may destroy this
+}
+
+Result<void> WsTransport::writeMessage(bool text, std::string_view data) {
+  out_op_ = text ? ws::Opcode::text : ws::Opcode::binary;
+  auto r = write({&data, 1});
+  out_op_ = ws::Opcode::binary;
+  return r;
+}
+
+void WsTransport::closeWith(uint16_t code, std::string_view reason) noexcept {
+  close_code_ = code;
+  close(reason);
 }
 
 PeerIdentity WsTransport::peer() const {

@@ -10,11 +10,16 @@
 // the matching code (1002 protocol, 1003 text, 1007 a message that ends inside a FlowProtocol
 // frame), logged FLOW-PROTOCOL, and ends the transport (Why::error).
 //
+// Messages mode (max_message_bytes > 0: a module's subprotocol, http::upgradeMessages): framing()
+// is `messages`; text and binary messages of at most that size are reassembled and handed whole
+// to message() (textMessage() tells which); writeMessage() sends text too; closeWith() a code.
+//
 // Writes: each tryWrite()/write() call is one binary message (header and buffers in one gathered
 // write below); what the layer below did not take is kept (a copy only under congestion), so
 // that messages never interleave. A client masks (a copy of each message, with a random key).
 #pragma once
 
+#include "http_head.h"
 #include "ws_frame.h"
 
 #include <skrobot/runtime/flow/transport.h>
@@ -28,7 +33,7 @@
 
 namespace skr::flow::transport {
 
-class WsTransport final : public Transport,
+class WsTransport final : public http::MessageTransport,
                           private Transport::Receiver,
                           private ws::FrameReader::Sink {
  public:
@@ -36,8 +41,10 @@ class WsTransport final : public Transport,
   // that came after the request head) is read before what comes from below; `origin` is the
   // request's Origin (PeerIdentity::origin).
   // Client: `first_output` and `already_read` empty; handshake() then does the upgrade.
+  // `max_message_bytes` > 0: messages mode (above).
   WsTransport(Loop& loop, std::unique_ptr<Transport> below, bool server, std::string origin = {},
-              std::string first_output = {}, std::string already_read = {});
+              std::string first_output = {}, std::string already_read = {},
+              uint64_t max_message_bytes = 0);
   ~WsTransport() override;
 
   // Client: sends the upgrade request (GET `path` with `host`, offering `subprotocol`), reads
@@ -48,7 +55,9 @@ class WsTransport final : public Transport,
                  std::function<void(std::optional<TransportEnd>)> done);
 
   [[nodiscard]] TransportKind kind() const noexcept override { return TransportKind::websocket; }
-  [[nodiscard]] Framing framing() const noexcept override { return Framing::frame_messages; }
+  [[nodiscard]] Framing framing() const noexcept override {
+    return max_message_ != 0 ? Framing::messages : Framing::frame_messages;
+  }
   [[nodiscard]] Result<void> start(Transport::Receiver& receiver) override;
   void pause() noexcept override;
   [[nodiscard]] Result<void> resume() override;
@@ -56,6 +65,10 @@ class WsTransport final : public Transport,
   [[nodiscard]] Result<void> write(std::span<const std::string_view> buffers) override;
   void close(std::string_view reason) noexcept override;
   [[nodiscard]] PeerIdentity peer() const override;
+  // Messages mode.
+  [[nodiscard]] bool textMessage() const noexcept override { return text_; }
+  [[nodiscard]] Result<void> writeMessage(bool text, std::string_view data) override;
+  void closeWith(uint16_t code, std::string_view reason) noexcept override;
 
  private:
   // The layer below's receiver.
@@ -69,6 +82,7 @@ class WsTransport final : public Transport,
   std::span<char> room() override;
   bool payload(size_t n) override;
   bool control(ws::Opcode op, std::string_view payload) override;
+  bool messageEnd(ws::Opcode op) override;
 
   void process();              // the bytes held in in_, through the reader
   void handshakeInput();       // the client's answer head
@@ -95,8 +109,14 @@ class WsTransport final : public Transport,
   std::string wire_;  // being written below
   std::vector<std::string_view> views_;
   std::array<char, ws::kMaxHeaderBytes> header_{};
-  std::string masked_;  // client: a masked copy of a message
-  Timer later_;         // process() after start(); a write with nothing left to send
+  std::string masked_;    // client: a masked copy of a message
+  Timer later_;           // process() after start(); a write with nothing left to send
+  uint64_t max_message_;  // messages mode when non-zero
+  std::string msg_;       // messages mode: the message being reassembled
+  size_t msg_len_ = 0;    // its bytes so far, at the start of msg_
+  bool text_ = false;     // the message delivered is text
+  ws::Opcode out_op_ = ws::Opcode::binary;  // the next message written
+  uint16_t close_code_ = ws::kCloseNormal;
   bool server_;
   bool below_writing_ = false;
   bool user_write_ = false;  // a write() waits for its bytes to leave

@@ -74,14 +74,15 @@ struct UdpCounters {
 // server.web's port: its counters since the hub started.
 struct WebCounters {
   uint16_t port = 0;
-  uint64_t requests = 0;        // request heads read
-  uint64_t files = 0;           // files answered (200)
-  uint64_t not_found = 0;       // 404
-  uint64_t upgrades = 0;        // WebSockets handed to the FlowServer
-  uint64_t tokens = 0;          // page tokens issued
-  uint64_t refused_host = 0;    // a Host not accepted (403, FLOW-WS-REFUSED)
-  uint64_t refused_origin = 0;  // an Origin not allowed on /flow (403, FLOW-WS-REFUSED)
-  uint64_t refused = 0;         // other refusals: bad heads, upgrades, methods, timeouts
+  uint64_t requests = 0;           // request heads read
+  uint64_t files = 0;              // files answered (200)
+  uint64_t not_found = 0;          // 404
+  uint64_t upgrades = 0;           // WebSockets handed to the FlowServer
+  uint64_t endpoint_upgrades = 0;  // WebSockets handed to modules' endpoints (plugin ABI 1.8)
+  uint64_t tokens = 0;             // page tokens issued
+  uint64_t refused_host = 0;       // a Host not accepted (403, FLOW-WS-REFUSED)
+  uint64_t refused_origin = 0;     // an Origin not allowed on /flow (403, FLOW-WS-REFUSED)
+  uint64_t refused = 0;            // other refusals: bad heads, upgrades, methods, timeouts
 };
 struct HubSnapshot {
   Nanos at = 0;  // monotonic

@@ -137,6 +137,9 @@ struct ServerStats {
 
 class Channel;
 class LocalClient;
+namespace http {
+class MessageTransport;  // runtime/internal/http_head.h
+}
 struct HubSnapshot;
 
 // Events a LocalClient (an in-process satellite) receives. Data arrives as a view of the
@@ -193,6 +196,13 @@ class FlowServer {
   [[nodiscard]] uint16_t tcpPort() const noexcept;  // the bound port (useful with port 0)
   [[nodiscard]] uint16_t udpPort() const noexcept;  // server.udp's bound port; 0 without one
   [[nodiscard]] uint16_t webPort() const noexcept;  // server.web's bound port; 0 without one
+  // A module's WebSocket endpoint on the web port (plugin ABI 1.8): an upgrade of GET `path`
+  // offering `subprotocol` is handed to `accepted` as a transport of whole messages of at most
+  // `max_message_bytes`. Errc::unsupported without server.web; WebPort::serve's errors.
+  [[nodiscard]] Result<void> serveWebSocket(
+      const std::string& path, std::string subprotocol, uint64_t max_message_bytes,
+      std::function<void(std::unique_ptr<http::MessageTransport>)> accepted);
+  void unserveWebSocket(const std::string& path) noexcept;
   [[nodiscard]] const ServerStats& stats() const noexcept;
   [[nodiscard]] size_t channelCount() const noexcept;
   [[nodiscard]] const std::string& hubName() const noexcept;  // options().hub_name or the host's

@@ -190,6 +190,23 @@ TEST(Authenticator, DevAccountOnlyOnUnixSocket) {  // 0 argon2id
   EXPECT_EQ(auth.argon2Verifications(), 0u);
 }
 
+// server.web.dev_account: the development account also on WebSocket, but only from this machine
+// (the connection's kind says so: websocket_loopback for a peer on 127.0.0.0/8 or ::1).
+TEST(Authenticator, DevAccountOnWebSocketOnlyFromLoopback) {  // 0 argon2id
+  Loop loop;
+  Authenticator web(UsersFile(), DevAccount{"guest", "password", true}, loop);
+  EXPECT_TRUE(login(web, loop, "guest", "password", Transport::websocket_loopback).result.ok);
+  const auto remote = login(web, loop, "guest", "password", Transport::websocket);
+  EXPECT_FALSE(remote.result.ok);
+  EXPECT_NE(remote.result.reason.find("loopback only"), std::string::npos) << remote.result.reason;
+  EXPECT_FALSE(login(web, loop, "guest", "password", Transport::tcp).result.ok);
+  EXPECT_TRUE(login(web, loop, "guest", "password", Transport::unix_socket).result.ok);
+  // Without the config's consent, not on WebSocket at all.
+  Authenticator plain(UsersFile(), DevAccount{"guest", "password"}, loop);
+  EXPECT_FALSE(login(plain, loop, "guest", "password", Transport::websocket_loopback).result.ok);
+  EXPECT_EQ(web.argon2Verifications() + plain.argon2Verifications(), 0u);
+}
+
 TEST(Authenticator, VerifiesOnWorkerAnswersOnLoopAndCaches) {  // 4 argon2id
   UsersFile users;
   ASSERT_TRUE(users.add("alice", "pw-alice"));

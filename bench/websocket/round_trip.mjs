@@ -115,6 +115,12 @@ async function main() {
   const { startHub, freePort, webRequire } = await harness();
   const skr = await import('../../satellite/js/src/node.js');
   const WebSocket = globalThis.WebSocket ?? webRequire('ws');
+  if (!globalThis.WebSocket) {
+    // ws masks what a client sends in JavaScript unless bufferutil (web/package.json) loads.
+    let native = false;
+    try { native = !!webRequire('bufferutil').mask && !process.env.WS_NO_BUFFER_UTIL; } catch { /* absent */ }
+    console.log(`client: the ws package ${webRequire('ws/package.json').version}, masking ${native ? 'in bufferutil (native)' : 'in JavaScript'}`);
+  }
   const port = await freePort();
   const tcpPort = await freePort();
   const hub = await startHub([], {

@@ -88,6 +88,21 @@ void feedBoth(bool server, const std::string& bytes,
   check(r, s);
 }
 
+// The word-at-a-time mask against the RFC's byte rule, at every offset into the key, across the
+// 8-byte steps and the tail.
+TEST(WsFrame, MaskingMatchesTheByteRuleAtEveryOffsetAndLength) {
+  for (uint64_t offset = 0; offset < 8; ++offset) {
+    for (size_t n = 0; n <= 41; ++n) {
+      std::string data(n, '\0');
+      for (size_t i = 0; i < n; ++i) data[i] = static_cast<char>(i * 37 + offset);
+      std::string want = data;
+      for (size_t i = 0; i < n; ++i) want[i] = static_cast<char>(want[i] ^ kMask[(offset + i) & 3]);
+      ws::applyMask(data.data(), n, kMask, offset);
+      ASSERT_EQ(data, want) << "offset " << offset << ", " << n << " bytes";
+    }
+  }
+}
+
 TEST(WsFrameReader, ReadsFragmentsWithControlFramesBetweenThem) {
   const std::string a = flowFrame(0x20, "first");
   const std::string b = flowFrame(0x21, std::string(300, 'b'));  // 16-bit length below

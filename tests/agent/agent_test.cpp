@@ -63,7 +63,13 @@ class Agent : public ::testing::Test {
     ASSERT_TRUE(hub.hub->waitLog("AGENT-RULES")) << hub.hub->log();
     viewer = hub.satellite("viewer");
     viewer->on([](Satellite& s) { s.subscribe("agent.dialogue"); });
-    ASSERT_TRUE(eventually([&] { return viewer->events.count("subscribed:agent.dialogue"); }));
+    // "subscribed" says the SUBSCRIBE was sent: wait until the hub has it, so that no entry the
+    // agent writes from now on can pass it.
+    ASSERT_TRUE(eventually([&] {
+      return viewer->on([](Satellite& s) {
+        return s.syncClient().value()->channel("agent.dialogue").value().subscribers;
+      }) == 1u;
+    }));
   }
   // The dialogue entries so far.
   std::vector<Json::Value> dialogue() {

@@ -514,6 +514,14 @@ TEST_F(WebPort, ASlowWebSocketSubscriberDropsWhileAnotherKeepsUp) {
     return fast.events.count("subscribed:alice.frames") == 1 &&
            slow.events.count("subscribed:alice.frames") == 1;
   }));
+  // ...and the hub has both SUBSCRIBEs ("subscribed" says one was sent), so that the fast one
+  // misses none of the frames.
+  auto local = SyncClient::connect(options(h->address()));  // (no synchronous client on ws:)
+  ASSERT_TRUE(local) << local.error().message;
+  ASSERT_TRUE(eventually([&] {
+    auto c = local->channel("alice.frames");
+    return c && c->subscribers == 2u;
+  }));
   // The slow one's loop stops reading for 3 s while 400 frames of 64 KiB go out, paced so that
   // the publisher's own queue takes each (a publish it refuses is not counted).
   std::thread stall([&] { slow.on([](Satellite&) { std::this_thread::sleep_for(3s); }); });

@@ -301,12 +301,19 @@ const char* moduleName(skr_module_ctx* ctx) noexcept {
 // --- FlowNetwork channels and databases (ABI 1.1) ---
 // Modules on the hub's main loop only: the server lives there. The module's ModuleFlow (its
 // LocalClient) is made by the first call.
-skr_status withFlow(skr_module_ctx* ctx,
-                    const std::function<skr_status(ModuleFlow&)>& fn) noexcept {
+// What every channel, database and web call needs: the main loop's thread (not a module's own),
+// a hub, and a lifecycle step that may register.
+skr_status hubCallAllowed(skr_module_ctx* ctx) noexcept {
   if (ctx == nullptr) return SKR_ERR_INVALID_ARGUMENT;
   if (ctx->own_thread || !ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
   if (ctx->server == nullptr) return SKR_ERR_UNSUPPORTED;
   if (!ctx->accepting) return SKR_ERR_BAD_STATE;
+  return SKR_OK;
+}
+
+skr_status withFlow(skr_module_ctx* ctx,
+                    const std::function<skr_status(ModuleFlow&)>& fn) noexcept {
+  if (const skr_status st = hubCallAllowed(ctx); st != SKR_OK) return st;
   try {
     if (!ctx->flow) ctx->flow = std::make_unique<ModuleFlow>(*ctx->server, ctx->name, ctx->access);
     return fn(*ctx->flow);
@@ -427,13 +434,10 @@ skr_status publishCommit(skr_module_ctx* ctx, uint16_t chan_id, size_t size,
   return withFlow(ctx, [&](ModuleFlow& f) { return f.publishCommit(chan_id, size, capture_ns); });
 }
 
-// The web calls (ABI 1.8): the same thread and lifecycle rules as the channel calls.
+// The web calls (ABI 1.8).
 skr_status withWeb(skr_module_ctx* ctx,
                    const std::function<skr_status(ModuleWebSockets&)>& fn) noexcept {
-  if (ctx == nullptr) return SKR_ERR_INVALID_ARGUMENT;
-  if (ctx->own_thread || !ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
-  if (ctx->server == nullptr) return SKR_ERR_UNSUPPORTED;
-  if (!ctx->accepting) return SKR_ERR_BAD_STATE;
+  if (const skr_status st = hubCallAllowed(ctx); st != SKR_OK) return st;
   try {
     if (!ctx->web) ctx->web = std::make_unique<ModuleWebSockets>(*ctx->server, ctx->log_source);
     return fn(*ctx->web);

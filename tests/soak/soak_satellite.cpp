@@ -59,9 +59,15 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "unknown role %s\n", role.c_str());
     return 2;
   }
-  sat.connected.connect(&sat, [&say] { say("CONNECTED"); });
   uint64_t n = 0;
-  uint32_t selected_on = 0;  // the synchronous connection that selected "soak"
+  // The synchronous connection that selected "soak" (0: none yet). A restarted hub numbers its
+  // connections from the start again, so a reconnection forgets it: a new synchronous connection
+  // with the old number would otherwise write to the user's database.
+  uint32_t selected_on = 0;
+  sat.connected.connect(&sat, [&say, &selected_on] {
+    selected_on = 0;
+    say("CONNECTED");
+  });
   const std::string payload(64, 'p');
   skr::Nanos last = 0;
   loop.addTickHandler(skr::Tick::fast, [&] {

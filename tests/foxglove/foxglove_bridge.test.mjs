@@ -16,6 +16,16 @@ import { env, freePort, sleep, startHub, validate, waitFor, webRequire } from '.
 const WebSocket = webRequire('ws');
 const { FoxgloveClient } = webRequire('@foxglove/ws-protocol');
 const schemas = webRequire('@foxglove/schemas/jsonschema');
+const POSE_SCHEMA = '{"type":"object","properties":{"x":{"type":"number"}}}';
+const TWIST_MSG = 'geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n' +
+  '================================================================================\n' +
+  'MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n';
+const TWIST = { linear: { x: 0.2, y: 0, z: 0 }, angular: { x: 0, y: 0, z: 0.5 } };
+const TWIST_CDR = (() => {
+  const { MessageWriter } = webRequire('@foxglove/rosmsg2-serialization');
+  const { parse } = webRequire('@foxglove/rosmsg');
+  return new MessageWriter(parse(TWIST_MSG, { ros2: true })).writeMessage(TWIST);
+})();
 
 let hub;
 let port;
@@ -90,12 +100,21 @@ before(async () => {
   publish('guest.raw', ['--file', path.join(dir, 'raw'), '--mime', 'application/octet-stream',
     '--props', '{"message_encoding":"skrobot.media","encoding":"bgr8","width":8,"height":4}']);
   publish('guest.secret', ['{"pin":1234}', '--mime', 'application/json']);
+  // Typed channels (docs/channels.md): advertised with their own encoding and schema.
+  writeFileSync(path.join(dir, 'pose.json'), POSE_SCHEMA);
+  publish('guest.pose', ['{"x":1.5}', '--mime', 'application/json', '--encoding', 'json', '--schema-name',
+    'lab.Pose', '--schema-encoding', 'jsonschema', '--schema-file', path.join(dir, 'pose.json')]);
+  writeFileSync(path.join(dir, 'twist.msg'), TWIST_MSG);
+  writeFileSync(path.join(dir, 'twist.cdr'), TWIST_CDR);
+  publish('guest.cmd_vel', ['--file', path.join(dir, 'twist.cdr'), '--mime', 'application/octet-stream',
+    '--encoding', 'cdr', '--schema-name', 'geometry_msgs/msg/Twist', '--schema-encoding', 'ros2msg',
+    '--schema-file', path.join(dir, 'twist.msg')]);
   publish('guest.faces', ['{"capture_ns":1700000000123456789,"width":128,"height":128,'
     + '"faces":[{"x":10,"y":20,"w":30,"h":40,"score":0.9}]}', '--mime', 'application/json']);
   await waitFor('the publishers\' channels', async () => {
     const ls = await hub.flowctl('ls');
-    return ['guest.numbers', 'guest.camera', 'guest.faces', 'guest.secret', 'guest.raw']
-      .every((c) => ls.includes(c));
+    return ['guest.numbers', 'guest.camera', 'guest.faces', 'guest.secret', 'guest.raw', 'guest.pose',
+      'guest.cmd_vel'].every((c) => ls.includes(c));
   });
 });
 
@@ -129,6 +148,22 @@ test('serverInfo names the capabilities; channels and services are advertised', 
   assert.deepEqual(JSON.parse(raw.schema).required, schemas.RawImage.required);
   assert.ok(seen.services.has('hub.inspect'));
   assert.ok(seen.services.get('hub.inspect').request.schema);
+  // Typed channels, as their properties declare them.
+  await waitFor('the typed channels', () => seen.channels.has('guest.pose') && seen.channels.has('guest.cmd_vel'), 10000);
+  const pose = seen.channels.get('guest.pose');
+  assert.deepEqual([pose.encoding, pose.schemaName, pose.schemaEncoding, pose.schema],
+    ['json', 'lab.Pose', 'jsonschema', POSE_SCHEMA]);
+  const twist = seen.channels.get('guest.cmd_vel');
+  assert.deepEqual([twist.encoding, twist.schemaName, twist.schemaEncoding, twist.schema],
+    ['cdr', 'geometry_msgs/msg/Twist', 'ros2msg', TWIST_MSG]);
+  // Its messages come as they were published: CDR the ROS 2 reference decodes by that schema.
+  const sub = client.subscribe(twist.id);
+  await waitFor('a Twist', () => seen.messages.some((m) => m.subscriptionId === sub), 10000);
+  const m = seen.messages.find((x) => x.subscriptionId === sub);
+  const { MessageReader } = webRequire('@foxglove/rosmsg2-serialization');
+  const { parse } = webRequire('@foxglove/rosmsg');
+  const bytes = new Uint8Array(m.data.buffer, m.data.byteOffset, m.data.byteLength);
+  assert.deepEqual(new MessageReader(parse(twist.schema, { ros2: true })).readMessage(bytes), TWIST);
   client.close();
 });
 

@@ -388,3 +388,54 @@ test('a message of an image channel that is not such a frame is counted, not rec
   const reader = await McapIndexedReader.Initialize({ readable: readable(readFileSync(file)), decompressHandlers });
   assert.equal(reader.statistics.messageCount, 0n);
 });
+
+// Typed channels (docs/channels.md) are recorded with their own message encoding and schema: a
+// `json` channel with a JSON Schema, and a `cdr` channel of geometry_msgs/msg/Twist with its
+// `ros2msg` schema (MCAP's ROS 2 profile), encoded and decoded by the npm ROS 2 reference,
+// @foxglove/rosmsg2-serialization, from the schema text in the file.
+test('typed channels are recorded with their schemas; cdr with ros2msg decodes by the ROS 2 reference', async () => {
+  const { MessageReader, MessageWriter } = webRequire('@foxglove/rosmsg2-serialization');
+  const { parse } = webRequire('@foxglove/rosmsg');
+  const twistSchema = 'geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n' +
+    '================================================================================\n' +
+    'MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n';
+  const poseSchema = JSON.stringify({ type: 'object', required: ['x', 'y'], properties: { x: { type: 'number' }, y: { type: 'number' } } });
+  const file = path.join(dir, 'typed.mcap');
+  const rec = await startRecorder(file, ['guest.cmd_vel', 'guest.pose']);
+  const twist = { linear: { x: 0.2, y: 0, z: 0 }, angular: { x: 0, y: 0, z: 0.5 } };
+  const cdr = new MessageWriter(parse(twistSchema, { ros2: true })).writeMessage(twist);
+  const cdrFile = path.join(dir, 'twist.cdr');
+  writeFileSync(cdrFile, cdr);
+  writeFileSync(path.join(dir, 'twist.msg'), twistSchema);
+  writeFileSync(path.join(dir, 'pose.json'), poseSchema);
+  await flowctl('pub', 'guest.cmd_vel', '--file', cdrFile, '--repeat', '2', '--mime', 'application/octet-stream',
+    '--encoding', 'cdr', '--schema-name', 'geometry_msgs/msg/Twist', '--schema-encoding', 'ros2msg',
+    '--schema-file', path.join(dir, 'twist.msg'), '--wait-ms', '5000');
+  await flowctl('pub', 'guest.pose', '{"x": 1.5, "y": -2}', '--mime', 'application/json', '--encoding', 'json',
+    '--schema-name', 'lab.Pose', '--schema-encoding', 'jsonschema', '--schema-file', path.join(dir, 'pose.json'),
+    '--wait-ms', '5000');
+  // A type that breaks the rules is refused before anything is sent.
+  await assert.rejects(flowctl('pub', 'guest.bad', 'x', '--encoding', 'cdr'), /needs a schema/);
+  await sleep(200);
+  rec.proc.kill('SIGINT');
+  assert.equal((await rec.exited).code, 0, rec.out);
+
+  const reader = await McapIndexedReader.Initialize({ readable: readable(readFileSync(file)), decompressHandlers });
+  const messages = [];
+  for await (const m of reader.readMessages()) messages.push(m);
+  const got = byTopic(reader.channelsById, messages);
+  const channel = (topic) => [...reader.channelsById.values()].find((c) => c.topic === topic);
+  const cmd = channel('guest.cmd_vel');
+  const cmdSchema = reader.schemasById.get(cmd.schemaId);
+  assert.equal(cmd.messageEncoding, 'cdr');
+  assert.deepEqual([cmdSchema.name, cmdSchema.encoding], ['geometry_msgs/msg/Twist', 'ros2msg']);
+  const decode = new MessageReader(parse(new TextDecoder().decode(cmdSchema.data), { ros2: true }));
+  assert.equal(got['guest.cmd_vel'].length, 2);
+  for (const m of got['guest.cmd_vel']) assert.deepEqual(decode.readMessage(m.data), twist);
+  const pose = channel('guest.pose');
+  const poseRecorded = reader.schemasById.get(pose.schemaId);
+  assert.equal(pose.messageEncoding, 'json');
+  assert.deepEqual([poseRecorded.name, poseRecorded.encoding], ['lab.Pose', 'jsonschema']);
+  const schema = JSON.parse(new TextDecoder().decode(poseRecorded.data));
+  for (const m of got['guest.pose']) assert.deepEqual(validate(schema, JSON.parse(Buffer.from(m.data).toString())), []);
+});

@@ -7,8 +7,11 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <set>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace media = skr::media;
 
@@ -132,4 +135,41 @@ TEST(MediaVocabulary, OlderKeysAreDerivedFromTheEncoding) {
             R"("format":"s16le","message_encoding":"skrobot.media"})");
   EXPECT_EQ(media::encodingInfo("s16le")->mime, "audio/L16");
   EXPECT_EQ(media::encodingInfo("jpeg")->mime, "image/jpeg");
+}
+
+// Typed channels (plugin-api/include/skrobot/channel_type.hpp), as PySketch's type_problem
+// checks them too (satellite/python/tests/test_mediaframe.py).
+TEST(ChannelType, AJsonChannelMayLeaveItsSchemaOutACdrOneMayNot) {
+  namespace ct = skr::channel_type;
+  EXPECT_EQ(ct::check({}), std::nullopt);
+  EXPECT_EQ(ct::check({"json", "", "", ""}), std::nullopt);
+  EXPECT_EQ(ct::check({"skrobot.media", "", "", ""}), std::nullopt);
+  EXPECT_EQ(ct::check({"cdr", "geometry_msgs/msg/Twist", "ros2msg", "Vector3 linear\n"}),
+            std::nullopt);
+  const std::pair<ct::ChannelType, std::string> bad[] = {
+      {{"cdr", "", "", ""}, "needs a schema"},
+      {{"yaml", "", "", ""}, "unknown message_encoding"},
+      {{"skrobot.media", "x", "jsonschema", "{}"}, "takes no schema"},
+      {{"cdr", "geometry_msgs/msg/Twist", "jsonschema", "x"}, "does not go with"},
+      {{"cdr", "geometry_msgs/msg/Twist", "ros2msg", ""}, "has no text"},
+      {{"json", "", "jsonschema", "{}"}, "needs a schema_name"},
+      {{"", "x", "jsonschema", "{}"}, "needs a message_encoding"},
+  };
+  for (const auto& [type, why] : bad) {
+    const auto got = ct::check(type);
+    ASSERT_TRUE(got) << type.message_encoding << " " << type.schema_encoding;
+    EXPECT_NE(got->find(why), std::string::npos) << *got;
+  }
+}
+
+TEST(ChannelType, PropertiesCarryTheTypeOrRefuseIt) {
+  Json::Value props(Json::objectValue);
+  skr::support::addTypeProperties(props, {"json", "skrobot.Faces", "jsonschema", "{}"});
+  EXPECT_EQ(skr::support::writeJson(props),
+            R"({"message_encoding":"json","schema":"{}","schema_encoding":"jsonschema",)"
+            R"("schema_name":"skrobot.Faces"})");
+  Json::Value plain(Json::objectValue);
+  skr::support::addTypeProperties(plain, {"json", "", "", ""});
+  EXPECT_EQ(skr::support::writeJson(plain), R"({"message_encoding":"json"})");
+  EXPECT_THROW(skr::support::addTypeProperties(plain, {"cdr", "", "", ""}), std::invalid_argument);
 }

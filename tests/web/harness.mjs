@@ -35,33 +35,17 @@ export async function freePort() {
 
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-// Enough of JSON schema for the foxglove schemas (@foxglove/schemas/jsonschema): type, properties,
-// required, items, bounds. The errors found, [] when none.
-export function validate(schema, value, where = '$') {
-  const errors = [];
-  const t = schema.type;
-  const typeOk = {
-    object: () => value !== null && typeof value === 'object' && !Array.isArray(value),
-    array: () => Array.isArray(value),
-    string: () => typeof value === 'string',
-    number: () => typeof value === 'number',
-    integer: () => Number.isInteger(value),
-    boolean: () => typeof value === 'boolean',
-  };
-  if (t && !(Array.isArray(t) ? t : [t]).some((x) => typeOk[x]?.())) {
-    return [`${where}: not ${t}`];
+// JSON Schema validation by Ajv (npm, web/package.json), one compiled validator per schema
+// object: the errors found ("<path> <message>"), [] when none.
+const validators = new WeakMap();
+export function validate(schema, value) {
+  let check = validators.get(schema);
+  if (!check) {
+    const Ajv = webRequire('ajv');
+    check = new Ajv({ strict: false, allErrors: true }).compile(schema);
+    validators.set(schema, check);
   }
-  if (schema.enum && !schema.enum.includes(value)) errors.push(`${where}: not in enum`);
-  if (schema.minimum !== undefined && value < schema.minimum) errors.push(`${where}: < minimum`);
-  if (schema.maximum !== undefined && value > schema.maximum) errors.push(`${where}: > maximum`);
-  if (t === 'object') {
-    for (const r of schema.required ?? []) if (!(r in value)) errors.push(`${where}.${r}: missing`);
-    for (const [k, s] of Object.entries(schema.properties ?? {})) {
-      if (k in value) errors.push(...validate(s, value[k], `${where}.${k}`));
-    }
-  }
-  if (t === 'array' && schema.items) value.forEach((v, i) => errors.push(...validate(schema.items, v, `${where}[${i}]`)));
-  return errors;
+  return check(value) ? [] : check.errors.map((e) => `$${e.instancePath} ${e.message}`);
 }
 
 // Polls fn() until it returns a truthy value; throws with `what` after timeoutMs.

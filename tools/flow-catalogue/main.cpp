@@ -9,7 +9,8 @@
 //   flow-catalogue --check SOURCE_DIR   fails (exit 1) when a generated file or the docs differ
 //   flow-catalogue --write SOURCE_DIR   rewrites the generated files and the docs' reference
 //
-//   (and the media vocabulary of plugin-api/include/skrobot/media_frame.hpp: PySketch's
+//   (and the media vocabulary of plugin-api/include/skrobot/media_frame.hpp with the typed
+//   channels' of channel_type.hpp: PySketch's
 //   mediacodes.py, the JavaScript library's satellite/js/src/media-codes.js (and its copy
 //   web/js/media-codes.js for the pages until they load the library) and the table of
 //   docs/channels.md; and that plugins/, tools/ and web/js write no media mime type as a literal of
@@ -428,6 +429,21 @@ int check(const std::string& src, bool write) {
   } else if (*channels_updated != *channels) {
     std::printf("%s: the media vocabulary differs from media_frame.hpp\n", channels_path.c_str());
     ++problems;
+  }
+  // ...and its typed channels' table, from channel_type.hpp.
+  if (channels_updated) {
+    auto typed = withReference(*channels_updated, flowcat::typesMarkdown(), flowcat::kTypesBegin,
+                               flowcat::kTypesEnd);
+    if (!typed) {
+      std::printf("%s: no message encodings between the markers\n", channels_path.c_str());
+      ++problems;
+    } else if (write) {
+      std::ofstream(channels_path, std::ios::binary) << *typed;
+    } else if (*typed != *channels) {
+      std::printf("%s: the message encodings differ from channel_type.hpp\n",
+                  channels_path.c_str());
+      ++problems;
+    }
   }
   // The media vocabulary's mime types are taken from the table, never written out again.
   for (const auto& line : flowcat::mediaLiterals(src)) {

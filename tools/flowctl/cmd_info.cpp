@@ -1,15 +1,32 @@
 // SPDX-License-Identifier: Apache-2.0
-// flowctl info: a channel's owner, subscribers, rate, totals and properties (hub.inspect).
+// flowctl info: a channel's owner, subscribers, rate, totals, type and properties (hub.inspect).
+#include <skrobot/channel_type.hpp>
+
 #include <algorithm>
 #include <map>
 
 #include "hub_stats.h"
+#include "mcap_mapping.h"
 
 namespace flowctl {
 
 using namespace hubstats;
 
 namespace {
+
+namespace ct = skr::channel_type;
+
+// "cdr geometry_msgs/msg/Twist (ros2msg, 134-byte schema)", "opaque bytes", and what is wrong.
+std::string describeType(const ct::ChannelType& t) {
+  std::string d =
+      t.message_encoding.empty() ? "opaque bytes (no message_encoding)" : t.message_encoding;
+  if (!t.schema_name.empty()) {
+    d += " " + t.schema_name + " (" + t.schema_encoding + ", " + std::to_string(t.schema.size()) +
+         "-byte schema)";
+  }
+  if (auto bad = ct::check(t)) d += "; not a valid type: " + *bad;
+  return d;
+}
 
 // A channel's rates over the hub's windows (the last second, the last ten): a channel younger
 // than a window was measured over its age. An older hub gives one interval only.
@@ -74,6 +91,12 @@ int cmdInfo(const Cli& cli) {
       {"owner", row != nullptr ? at(*row, "owner") : Variant(info->owner)},
       {"subscribers", subscribers},
       {"properties", info->props}};
+  const ct::ChannelType type = mcapmap::typeOf(info->props);
+  Variant::Map type_out{{"message_encoding", type.message_encoding},
+                        {"schema_name", type.schema_name},
+                        {"schema_encoding", type.schema_encoding}};
+  if (auto bad = ct::check(type)) type_out.emplace("problem", *bad);
+  out.asMap()->emplace("type", std::move(type_out));
   if (row != nullptr) {
     for (const char* key :
          {"hz", "bytes_per_s", "messages", "bytes", "dropped", "dropped_per_s", "pending_requests",
@@ -98,7 +121,14 @@ int cmdInfo(const Cli& cli) {
       std::printf("  pending      %.0f requests\n", num(*row, "pending_requests"));
     }
   }
-  std::printf("  properties   %s\n", skr::flow::variantToJsonText(info->props).c_str());
+  std::printf("  type         %s\n", describeType(type).c_str());
+  // The schema's text is long: its size stands for it here (--json has it).
+  Variant shown = info->props;
+  if (shown.isMap() && !type.schema.empty()) {
+    (*shown.asMap())[std::string(ct::kSchemaKey)] =
+        "(" + std::to_string(type.schema.size()) + " bytes)";
+  }
+  std::printf("  properties   %s\n", skr::flow::variantToJsonText(shown).c_str());
   return kOk;
 }
 

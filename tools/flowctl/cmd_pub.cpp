@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // flowctl pub: publish on one of the caller's channels, creating it for the time flowctl runs.
+#include <skrobot/channel_type.hpp>
+
 #include <algorithm>
 #include <fstream>
 #include <iostream>
@@ -17,6 +19,10 @@ int cmdPub(const Cli& cli) {
   const std::string mime = args.option("--mime").value_or("text/plain");
   const auto wait_text = args.option("--wait-ms");
   const auto props_text = args.option("--props");
+  const auto message_encoding = args.option("--encoding");
+  const auto schema_name = args.option("--schema-name");
+  const auto schema_encoding = args.option("--schema-encoding");
+  const auto schema_file = args.option("--schema-file");
   const bool variant = args.flag("--variant");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
@@ -32,6 +38,25 @@ int cmdPub(const Cli& cli) {
     if (!v || !v->isMap())
       return fail(kUsage, "--props: a JSON object, e.g. '{\"encoding\":\"bgr8\"}'");
     props = std::move(*v);
+  }
+  // The channel's type (docs/channels.md, "Typed channels"), checked before anything is sent.
+  if (message_encoding || schema_name || schema_encoding || schema_file) {
+    namespace ct = skr::channel_type;
+    ct::ChannelType type{message_encoding.value_or(""), schema_name.value_or(""),
+                         schema_encoding.value_or(""), ""};
+    if (schema_file) {
+      std::ifstream in(*schema_file, std::ios::binary);
+      if (!in) return fail(kFailed, "cannot read " + *schema_file);
+      type.schema.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    if (auto bad = ct::check(type)) return fail(kUsage, "the channel's type: " + *bad);
+    auto& map = *props.asMap();
+    map[std::string(ct::kMessageEncodingKey)] = type.message_encoding;
+    if (!type.schema_name.empty()) {
+      map[std::string(ct::kSchemaNameKey)] = type.schema_name;
+      map[std::string(ct::kSchemaEncodingKey)] = type.schema_encoding;
+      map[std::string(ct::kSchemaKey)] = type.schema;
+    }
   }
 
   std::string payload;

@@ -233,22 +233,27 @@ int cmdRecord(const Cli& cli) {
   std::map<uint16_t, Recorded*> by_hub_id;   // the hub's channel id now
   uint16_t next_id = 1;
   bool out_of_ids = false;
-  // The Foxglove schemas, written once each before the first channel that uses them.
-  std::map<Image, uint16_t> schema_ids;
-  auto schemaFor = [&](Image image) -> uint16_t {
-    if (image == Image::none) return 0;
-    auto [it, added] = schema_ids.try_emplace(image, uint16_t(schema_ids.size() + 1));
+  // The schemas, written once each (by name, encoding and text) before the first channel that
+  // uses them: Foxglove's for image channels, a typed channel's own (docs/channels.md).
+  std::map<std::string, uint16_t> schema_ids;
+  auto schemaId = [&](const std::string& name, const std::string& encoding,
+                      const std::string& text) -> uint16_t {
+    auto [it, added] = schema_ids.try_emplace(name + '\n' + encoding + '\n' + text,
+                                              uint16_t(schema_ids.size() + 1));
     if (added) {
       Item item;
       item.kind = Item::Kind::schema;
-      const bool raw = image == Image::raw;
-      item.schema = {
-          it->second, std::string(raw ? skr::foxglove::kRawImage : skr::foxglove::kCompressedImage),
-          "jsonschema",
-          raw ? skr::foxglove::rawImageSchema() : skr::foxglove::compressedImageSchema()};
+      item.schema = {it->second, name, encoding, text};
       disk.push(std::move(item));
     }
     return it->second;
+  };
+  auto schemaFor = [&](Image image) -> uint16_t {
+    if (image == Image::none) return 0;
+    const bool raw = image == Image::raw;
+    return schemaId(std::string(raw ? skr::foxglove::kRawImage : skr::foxglove::kCompressedImage),
+                    "jsonschema",
+                    raw ? skr::foxglove::rawImageSchema() : skr::foxglove::compressedImageSchema());
   };
 
   auto wanted = [&](const sat::ChannelInfo& info) {
@@ -281,15 +286,24 @@ int cmdRecord(const Cli& cli) {
       r.name = info.name;
       r.id = next_id++;
       r.image = imageOf(info.props);
+      uint16_t schema = schemaFor(r.image);
+      std::string encoding =
+          r.image != Image::none ? std::string("json") : mcapmap::encodingForMime(info.mime);
+      if (const auto type = mcapmap::typeOf(info.props);
+          r.image == Image::none && mcapmap::recordedAsTyped(type)) {
+        encoding = type.message_encoding;
+        if (!type.schema_name.empty()) {
+          schema = schemaId(type.schema_name, type.schema_encoding, type.schema);
+        }
+      }
       Item item;
       item.kind = Item::Kind::channel;
-      item.channel = {
-          r.id,
-          schemaFor(r.image),
-          info.name,
-          r.image != Image::none ? std::string("json") : mcapmap::encodingForMime(info.mime),
-          {{std::string(mcapmap::kMimeKey), info.mime},
-           {std::string(mcapmap::kOwnerKey), info.owner}}};
+      item.channel = {r.id,
+                      schema,
+                      info.name,
+                      encoding,
+                      {{std::string(mcapmap::kMimeKey), info.mime},
+                       {std::string(mcapmap::kOwnerKey), info.owner}}};
       disk.push(std::move(item));
     }
     by_hub_id[info.id] = &r;

@@ -74,6 +74,9 @@ constexpr Command kCommands[] = {
   --mime TYPE    the channel's mime type when flowctl creates it (default text/plain)
   --props JSON   the channel's properties when flowctl creates it (an object: its database,
                  e.g. '{"encoding":"bgr8","width":640,"height":480}', docs/channels.md)
+  --encoding ENC the message_encoding of its type when flowctl creates it (json, cdr, ...), with
+                 --schema-name NAME, --schema-encoding ENC and --schema-file PATH where the
+                 encoding has schemas (docs/channels.md, "Typed channels"; checked first)
   --wait-ms MS   when flowctl created the channel, wait up to MS for a first subscriber before
                  publishing (default 1000; 0: do not wait)
 )",

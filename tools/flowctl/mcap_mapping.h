@@ -3,6 +3,8 @@
 #pragma once
 
 #include <skrobot/mcap/records.h>
+#include <skrobot/runtime/flow/variant.h>
+#include <skrobot/channel_type.hpp>
 
 #include <string>
 #include <string_view>
@@ -34,6 +36,26 @@ inline std::string mimeOf(const skr::mcap::Channel& c) {
   if (auto it = c.metadata.find(std::string(kMimeKey)); it != c.metadata.end()) return it->second;
   if (c.message_encoding == "json") return "application/json";
   return c.message_encoding;
+}
+
+// The type a channel's properties declare (docs/channels.md, "Typed channels"); empty strings for
+// what they leave out or give as other than text.
+inline skr::channel_type::ChannelType typeOf(const skr::flow::Variant& props) {
+  namespace ct = skr::channel_type;
+  auto text = [&](std::string_view key) {
+    const skr::flow::Variant* v = props.isMap() ? props.find(std::string(key)) : nullptr;
+    return v != nullptr && v->asString() != nullptr ? *v->asString() : std::string();
+  };
+  return {text(ct::kMessageEncodingKey), text(ct::kSchemaNameKey), text(ct::kSchemaEncodingKey),
+          text(ct::kSchemaKey)};
+}
+
+// A typed channel is recorded with its own message encoding and schema (MCAP's words are the
+// hub's); media frames and untyped channels as the mime type says. ROS 2 channels (cdr with a
+// ros2msg schema) follow MCAP's ROS 2 profile that way.
+inline bool recordedAsTyped(const skr::channel_type::ChannelType& t) {
+  return !t.message_encoding.empty() && t.message_encoding != "skrobot.media" &&
+         !skr::channel_type::check(t);
 }
 
 }  // namespace flowctl::mcapmap

@@ -5,7 +5,7 @@
 // library: it logs in with a page token as the hub's page account (server.web.page_account), follows
 // hub.stats, previews a channel by subscribing to it at PREVIEW_HZ, watches the database shown and
 // sets variables as that account, under its rules.
-import { connectPage } from '/skrobot/index.js';
+import { channelType, connectPage, typeProblem } from '/skrobot/index.js';
 import { NetworkGraph } from './network-graph.js';
 import { buildGraph, formatBytes, formatRate, pathLabel, subscriberPath } from './network-model.js';
 import { Preview } from './network-preview.js';
@@ -239,6 +239,7 @@ function onPairs() {
     previewChannels([c.name, source]);
   }
   renderDatabase();
+  renderDetails();
 }
 
 function renderDatabase() {
@@ -306,6 +307,15 @@ function renderDetails() {
       ['rate', formatRate(c.hz, c.bytes_per_s)], ['messages', String(c.messages)],
       ['bytes', formatBytes(c.bytes)], ['dropped', `${c.dropped} (${c.dropped_per_s}/s)`]);
     if (c.kind === 'service') facts.push(['pending requests', String(c.pending_requests)]);
+    // What its messages are (docs/channels.md, "Typed channels"), from its properties.
+    if (state.db === c.name) {
+      const t = channelType(Object.fromEntries(pairs()));
+      if (t.messageEncoding) {
+        const schema = t.schemaName ? ` ${t.schemaName} (${t.schemaEncoding})` : '';
+        const problem = typeProblem(t);
+        facts.push(['type', `${t.messageEncoding}${schema}${problem ? ` — ${problem}` : ''}`]);
+      }
+    }
   } else if (f) {
     $('details-title').textContent = f.name;
     facts.push(['kind', f.kind], ['flow', String(f.id)],

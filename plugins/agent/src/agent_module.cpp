@@ -20,6 +20,7 @@
 #include <skrobot/plugin_watch.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -41,6 +42,19 @@ using skr::support::writeJson;
 // Detections and transcripts are small, flat JSON.
 constexpr skr::support::JsonLimits kMessageLimits{8, 1u << 20};
 constexpr std::int64_t kNsPerMs = 1'000'000;
+
+// A dialogue entry (docs/agent.md), as the dialogue channel declares it (docs/channels.md):
+// something heard (heard, instance, intent or null, slots, answer, or ignored and why) or an
+// event (face_appeared, code_seen with its code) and what the agent said to it.
+constexpr const char* kDialogueSchema =
+    R"({"$schema":"http://json-schema.org/draft-07/schema#","title":"skrobot.agent.Dialogue",)"
+    R"("description":"What the agent heard or saw and what it answered, docs/agent.md",)"
+    R"("type":"object","anyOf":[{"required":["heard"],"properties":{"heard":{"type":"string"}}},)"
+    R"({"required":["event"],"properties":{"event":{"type":"string"}}}],)"
+    R"("properties":{"heard":{"type":"string"},"instance":{"type":"string"},)"
+    R"("intent":{"type":["string","null"]},"slots":{"type":"object"},)"
+    R"("answer":{"type":"string"},"ignored":{"type":"string"},)"
+    R"("event":{"type":"string"},"code":{"type":"string"}}})";
 
 // The rules the agent uses when its config names no file (plugins/agent/default-rules.json).
 constexpr const char* kDefaultRules =
@@ -160,7 +174,10 @@ class Agent final : public skr::plugin::Module {
   void start() override {
     using namespace skr::plugin;
     requester_ = std::make_unique<Requester>(host_);
-    dialogue_ = StreamChannel(host_, "dialogue", "application/json", "{}");
+    Json::Value dialogue(Json::objectValue);
+    skr::support::addTypeProperties(
+        dialogue, {"json", "skrobot.agent.Dialogue", "jsonschema", kDialogueSchema});
+    dialogue_ = StreamChannel(host_, "dialogue", "application/json", writeJson(dialogue));
     command_ = ServiceChannel(
         host_, "command", [this](const ServiceRequest& r) { onCommand(r); },
         R"({"commands":["hear","grammar","state"]})");

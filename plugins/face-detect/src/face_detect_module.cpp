@@ -6,6 +6,9 @@
 #include "face_detectors.h"
 
 #include <skrobot/vision/pipeline.h>
+#include <skrobot/vision/result_types.h>
+#include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <optional>
 #include <stdexcept>
@@ -34,8 +37,11 @@ class FaceDetect final : public skr::plugin::Module {
   }
 
   void start() override {
+    Json::Value props(Json::objectValue);
+    props["source"] = input();
+    skr::support::addTypeProperties(props, skr::vision::facesType());
     out_ = skr::plugin::StreamChannel(host_, "faces", "application/json",
-                                      R"({"source":)" + skr::support::jsonQuote(input()) + "}");
+                                      skr::support::writeJson(props));
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
           std::shared_ptr<skr::vision::FaceDetector> detector =

@@ -12,6 +12,7 @@
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <atomic>
 #include <memory>
@@ -21,6 +22,22 @@
 namespace {
 
 using skr::plugin::Failure;
+
+// What the two channels carry (docs/audio.md), as typed channels declare it (docs/channels.md).
+constexpr const char* kSpectrumSchema =
+    R"({"$schema":"http://json-schema.org/draft-07/schema#","title":"skrobot.audio.Spectrum",)"
+    R"("description":"One window's amplitude spectrum, docs/audio.md","type":"object",)"
+    R"("required":["seq","capture_ns","sample_rate","size","level_db","peak_hz","bins"],)"
+    R"("properties":{"seq":{"type":"integer","minimum":0},"capture_ns":{"type":"integer"},)"
+    R"("sample_rate":{"type":"integer","minimum":1},"size":{"type":"integer","minimum":2},)"
+    R"("level_db":{"type":"number","maximum":0},"peak_hz":{"type":"number","minimum":0},)"
+    R"("bins":{"type":"array","items":{"type":"number","minimum":0}}}})";
+constexpr const char* kBandsSchema =
+    R"({"$schema":"http://json-schema.org/draft-07/schema#","title":"skrobot.audio.Bands",)"
+    R"("description":"16 log-spaced band levels in 0..1, docs/audio.md","type":"object",)"
+    R"("required":["seq","level_db","bands"],"properties":{"seq":{"type":"integer",)"
+    R"("minimum":0},"level_db":{"type":"number","maximum":0},"bands":{"type":"array",)"
+    R"("minItems":16,"maxItems":16,"items":{"type":"number","minimum":0,"maximum":1}}}})";
 using skr::plugin::Host;
 
 // The host has checked the config against kConfig (types, ranges, choices) and filled in the
@@ -59,9 +76,15 @@ class FftAudio final : public skr::plugin::Module {
     props["size"] = Json::UInt64(o.size);
     props["hop"] = Json::UInt64(o.hop);
     props["input"] = input_;
+    skr::support::addTypeProperties(
+        props, {"json", "skrobot.audio.Spectrum", "jsonschema", kSpectrumSchema});
     spectrum_ =
         StreamChannel(host_, "spectrum", "application/json", skr::support::writeJson(props));
-    bands_ = StreamChannel(host_, "bands", "application/json", R"({"bands":16})");
+    Json::Value bands(Json::objectValue);
+    bands["bands"] = 16;
+    skr::support::addTypeProperties(bands,
+                                    {"json", "skrobot.audio.Bands", "jsonschema", kBandsSchema});
+    bands_ = StreamChannel(host_, "bands", "application/json", skr::support::writeJson(bands));
     worker_ = std::thread([this] { work(); });
     in_ = Subscription(host_, input_, [this](std::string_view msg) { onFrame(msg); });
     stats_tick_ = host_.onTick(skr::plugin::Tick::one_sec, [this] { writeStats(); });

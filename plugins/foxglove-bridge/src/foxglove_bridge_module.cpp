@@ -14,6 +14,7 @@
 #include "foxglove_protocol.h"
 
 #include <skrobot/web/ws_server.h>
+#include <skrobot/channel_type.hpp>
 #include <skrobot/media_frame.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/plugin_watch.hpp>
@@ -77,6 +78,7 @@ struct Chan {
   std::string name;
   std::string mime;
   Shape shape = Shape::json;
+  skr::channel_type::ChannelType type;   // Shape::typed: what the channel declares
   std::vector<std::string> joint_names;  // Shape::joints: the channel's "names" property
   std::size_t subscribers = 0;           // client subscriptions over all clients
   skr::plugin::Subscription sub;         // held while subscribers > 0
@@ -204,6 +206,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
     if (joints_.count(name) != 0) return Shape::joints;
     if (mime == skr::media::encodingInfo(skr::media::Format::jpeg)->mime) return Shape::image;
     if (rawImageChannel(name)) return Shape::raw_image;
+    if (declaredType(name)) return Shape::typed;
     if (mime == "application/json" || mime.ends_with("+json")) return Shape::json;
     return std::nullopt;
   }
@@ -219,6 +222,8 @@ class FoxgloveBridge final : public skr::plugin::Module {
     c.name = name;
     c.mime = mime;
     c.shape = shape;
+    if (shape == Shape::typed)
+      c.type = declaredType(name).value_or(skr::channel_type::ChannelType{});
     channel_ids_[name] = id;
     sendAll(advertise({channelInfo(c)}));
   }
@@ -244,7 +249,12 @@ class FoxgloveBridge final : public skr::plugin::Module {
       f.watch = skr::plugin::DatabaseWatch(
           host_, name, [this, name](const std::string& key, const std::optional<std::string>&) {
             // Told on the loop thread, during the database's change: decided after it.
-            if (key == "encoding" || key.empty()) host_.post([this, name] { reconsider(name); });
+            namespace ct = skr::channel_type;
+            if (key == "encoding" || key.empty() || key == ct::kMessageEncodingKey ||
+                key == ct::kSchemaNameKey || key == ct::kSchemaEncodingKey ||
+                key == ct::kSchemaKey) {
+              host_.post([this, name] { reconsider(name); });
+            }
           });
     } catch (const std::exception& e) {
       host_.log.warn("FOXGLOVE-PROPERTIES", "cannot follow the properties of ", name, ": ",
@@ -280,7 +290,35 @@ class FoxgloveBridge final : public skr::plugin::Module {
     return parsed && parsed->isString() && isRawImageEncoding(parsed->asString());
   }
 
+  // A typed channel's declared type (docs/channels.md) when it names a schema and is not media
+  // frames (those are shown as images): advertised with its own encoding and schema, so that
+  // Foxglove decodes it as it decodes a recording of it (flowctl record).
+  std::optional<skr::channel_type::ChannelType> declaredType(const std::string& name) const {
+    namespace ct = skr::channel_type;
+    auto text = [&](std::string_view key) {
+      auto v = skr::plugin::dbGet(host_, name, std::string(key));
+      if (!v) return std::string();
+      auto parsed = skr::support::parseJson(*v);
+      return parsed && parsed->isString() ? parsed->asString() : std::string();
+    };
+    ct::ChannelType t{text(ct::kMessageEncodingKey), text(ct::kSchemaNameKey),
+                      text(ct::kSchemaEncodingKey), text(ct::kSchemaKey)};
+    if (t.message_encoding.empty() || t.message_encoding == "skrobot.media" ||
+        t.schema_name.empty() || ct::check(t)) {
+      return std::nullopt;
+    }
+    return t;
+  }
+
   ChannelInfo channelInfo(const Chan& c) const {
+    if (c.shape == Shape::typed) {
+      return ChannelInfo{c.id,
+                         c.name,
+                         c.type.message_encoding,
+                         c.type.schema_name,
+                         c.type.schema,
+                         c.type.schema_encoding};
+    }
     return ChannelInfo{
         c.id, c.name, "json", schemaName(c.shape, c.mime), schemaText(c.shape), "jsonschema"};
   }
@@ -303,7 +341,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
       }
     }
     if (to.empty()) return;
-    if (c.shape == Shape::json) {
+    if (c.shape == Shape::json || c.shape == Shape::typed) {
       send(to, Converted{std::string(payload), 0});
       return;
     }

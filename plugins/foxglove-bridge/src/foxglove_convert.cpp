@@ -87,6 +87,7 @@ std::string schemaName(Shape shape, const std::string& mime) {
     case Shape::joints:
       return "skrobot.JointPositions";
     case Shape::json:
+    case Shape::typed:  // its own name: the channel's schema_name
       break;
   }
   return mime;
@@ -105,6 +106,7 @@ std::string schemaText(Shape shape) {
              R"({"type":"number"}},"positions":{"type":"object",)"
              R"("additionalProperties":{"type":"number"}}}})";
     case Shape::json:
+    case Shape::typed:  // its own text: the channel's schema
       break;
   }
   return R"({"type":"object"})";

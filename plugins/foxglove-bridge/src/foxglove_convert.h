@@ -22,6 +22,7 @@ enum class Shape {
   raw_image,    // a media frame of raw pixels (docs/channels.md): foxglove.RawImage
   annotations,  // face or motion detections (JSON): foxglove.ImageAnnotations
   joints,       // {"angles": [...]} with the channel's "names": the angles by name, to plot
+  typed,        // a typed channel (docs/channels.md) as it is, with its own encoding and schema
 };
 
 // The schema name and JSON schema text advertised for a shape (json: a permissive object

@@ -6,6 +6,9 @@
 #include "motion_analyser.h"
 
 #include <skrobot/vision/pipeline.h>
+#include <skrobot/vision/result_types.h>
+#include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <memory>
 #include <optional>
@@ -22,9 +25,11 @@ class Motion final : public skr::plugin::Module {
   }
 
   void start() override {
-    out_ = skr::plugin::StreamChannel(
-        host_, "motion", "application/json",
-        R"({"source":)" + skr::support::jsonQuote(pipeline_->options().input) + "}");
+    Json::Value props(Json::objectValue);
+    props["source"] = pipeline_->options().input;
+    skr::support::addTypeProperties(props, skr::vision::motionType());
+    out_ = skr::plugin::StreamChannel(host_, "motion", "application/json",
+                                      skr::support::writeJson(props));
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
           auto analyser = std::make_shared<skr::vision::MotionAnalyser>(params_);

@@ -14,6 +14,7 @@
 #include <skrobot/support/config.hpp>
 
 #include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <json/value.h>
 
@@ -80,6 +81,16 @@ class NaoBridge final : public plugin::Module {
     joint_props["units"] = "rad";
     for (const auto& n : names) joint_props["names"].append(n);
     joint_props["hand_units"] = "fraction open (LHand, RHand)";
+    // The joints' type (docs/channels.md, "Typed channels"): one angle per name, in their order.
+    const std::string joints_schema =
+        R"({"$schema":"http://json-schema.org/draft-07/schema#","title":"skrobot.nao.Joints",)"
+        R"("description":"The Nao's joint angles in radians (hands: fraction open), in the )"
+        R"(order of the channel's names property, docs/nao.md","type":"object",)"
+        R"("required":["angles"],"properties":{"angles":{"type":"array","minItems":)" +
+        std::to_string(names.size()) + R"(,"maxItems":)" + std::to_string(names.size()) +
+        R"(,"items":{"type":"number"}}}})";
+    skr::support::addTypeProperties(joint_props,
+                                    {"json", "skrobot.nao.Joints", "jsonschema", joints_schema});
     const std::array<Json::Value, 5> props = {joint_props, props2("m", "left", "right"),
                                               props1("fraction", "charge"),
                                               props1("name", "posture"), props1("bool", "fallen")};

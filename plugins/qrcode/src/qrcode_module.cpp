@@ -7,6 +7,9 @@
 #include "code_scanner.h"
 
 #include <skrobot/vision/pipeline.h>
+#include <skrobot/vision/result_types.h>
+#include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
 
 #include <memory>
 #include <optional>
@@ -27,9 +30,11 @@ class QrCode final : public skr::plugin::Module {
   }
 
   void start() override {
-    out_ = skr::plugin::StreamChannel(
-        host_, "codes", "application/json",
-        R"({"source":)" + skr::support::jsonQuote(pipeline_->options().input) + "}");
+    Json::Value props(Json::objectValue);
+    props["source"] = pipeline_->options().input;
+    skr::support::addTypeProperties(props, skr::vision::codesType());
+    out_ = skr::plugin::StreamChannel(host_, "codes", "application/json",
+                                      skr::support::writeJson(props));
     pipeline_->start(
         [this]() -> skr::vision::Analyser {
           auto scanner = std::make_shared<skr::vision::CodeScanner>(types_, density_);

@@ -3,6 +3,7 @@
 #include "satellite_impl.h"
 
 #include <skrobot/runtime/flow/name_pattern.h>
+#include <skrobot/channel_type.hpp>
 
 #include <algorithm>
 #include <cstdint>
@@ -84,6 +85,19 @@ Result<void> Satellite::addChannel(ChannelSpec spec) {
   }
   if (!spec.props.isMap() && !spec.props.isNull()) {
     return makeError(Errc::invalid_argument, "channel properties must be a map");
+  }
+  // A typed channel's type (docs/channels.md, "Typed channels") must follow the rules.
+  if (spec.props.isMap()) {
+    namespace ct = skr::channel_type;
+    auto text = [&](std::string_view key) {
+      const flow::Variant* v = spec.props.find(std::string(key));
+      return v != nullptr && v->asString() != nullptr ? *v->asString() : std::string();
+    };
+    const ct::ChannelType type{text(ct::kMessageEncodingKey), text(ct::kSchemaNameKey),
+                               text(ct::kSchemaEncodingKey), text(ct::kSchemaKey)};
+    if (auto bad = ct::check(type)) {
+      return makeError(Errc::invalid_argument, "channel " + spec.name + "'s type: " + *bad);
+    }
   }
   if (impl_->own.contains(spec.name)) {
     return makeError(Errc::already_exists, "channel " + spec.name + " was added already");

@@ -5,6 +5,7 @@
 import * as skr from 'skrobot';
 import type {
   HubOptions, Session, ChannelInfo, PairChange, Address, BlobEntry, BlobProgress, BlobTransferOptions, BlobSource,
+  ChannelType,
 } from 'skrobot';
 import {
   connect, Hub, Message, OwnedChannel, Subscription, Database, Watch, PAIR_STATES, Follower, Variant,
@@ -18,7 +19,8 @@ import {
   DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs, openWebSocket, SUBPROTOCOL,
   parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES, MESSAGE_ENCODING, FORMAT,
   encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, BlobChannel, BlobDownload, SyncConnection,
-  BLOB_CHUNK_BYTES, BLOB_WINDOW, pageToken, pageTokenUrl,
+  BLOB_CHUNK_BYTES, BLOB_WINDOW, pageToken, pageTokenUrl, typeProblem, typeProperties, channelType,
+  MESSAGE_ENCODINGS, TYPE_KEYS,
 } from 'skrobot';
 
 export async function main(): Promise<void> {
@@ -51,6 +53,14 @@ export async function main(): Promise<void> {
   }
   camera.publish(makeMediaFrame({ format: FORMAT.rgb8, seq: 1n, width: 1, height: 1 }, new Uint8Array(3)));
   console.log(ENCODINGS.length, HEADER_BYTES, MESSAGE_ENCODING, KIND.streaming, KIND_NAME[1], payloadBytes('x'), monotonicNs());
+
+  // Typed channels: what the messages are, with MCAP's words.
+  const type: ChannelType = { messageEncoding: 'json', schemaName: 'lab.Pose', schemaEncoding: 'jsonschema', schema: '{}' };
+  const poses: OwnedChannel = await hub.createChannel('poses', { mime: 'application/json', type });
+  const problem: string | null = typeProblem({ messageEncoding: 'cdr' });
+  const props: Record<string, string> = typeProperties(type);
+  const declared: ChannelType = channelType(hub.channelByName(poses.name)?.props);
+  console.log(problem, props[TYPE_KEYS.schemaName], declared.schemaName, MESSAGE_ENCODINGS.map((e) => e.name));
 
   // Services, with a deadline and an AbortSignal.
   await hub.serve('calc', (command: string, value: unknown, { requester }) => ({ command, value, requester }));
@@ -137,7 +147,8 @@ const named = {
   FrameSplitter, FRAME_HEADER_BYTES, DEFAULT_MAX_FRAME_BYTES, KIND, KIND_NAME, payloadBytes, monotonicNs,
   openWebSocket, SUBPROTOCOL, parseAddress, DEFAULT_ADDRESS, DEFAULT_TCP_PORT, ENCODINGS, HEADER_BYTES,
   MESSAGE_ENCODING, FORMAT, encodingOf, rawPayloadBytes, makeMediaFrame, parseMediaFrame, BlobChannel, BlobDownload,
-  SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW, pageToken, pageTokenUrl,
+  SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDOW, pageToken, pageTokenUrl, typeProblem, typeProperties,
+  channelType, MESSAGE_ENCODINGS, TYPE_KEYS,
 };
 type Unnamed = Exclude<keyof typeof skr, keyof typeof named>;
 export const everyExportNamed: [Unnamed] extends [never] ? true : Unnamed = true;

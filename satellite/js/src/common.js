@@ -15,6 +15,7 @@ export { BlobChannel, BlobDownload, SyncConnection, BLOB_CHUNK_BYTES, BLOB_WINDO
 export { openWebSocket, SUBPROTOCOL } from './transport-ws.js';
 export { pageToken, pageTokenUrl } from './page-token.js';
 export * from './media.js';
+export { typeProblem, typeProperties, channelType, MESSAGE_ENCODINGS, TYPE_KEYS } from './channel-type.js';
 
 /** @typedef {import('./hub.js').HubOptions} HubOptions */
 /** @typedef {import('./hub.js').Session} Session */
@@ -25,3 +26,4 @@ export * from './media.js';
 /** @typedef {import('./blobs.js').BlobProgress} BlobProgress */
 /** @typedef {import('./blobs.js').BlobTransferOptions} BlobTransferOptions */
 /** @typedef {import('./blobs.js').BlobSource} BlobSource */
+/** @typedef {import('./channel-type.js').ChannelType} ChannelType */

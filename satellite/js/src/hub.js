@@ -3,6 +3,7 @@
 // growing from 100 ms to 2 s (reset after 5 s online, as satellite/cpp's Satellite), after which
 // owned channels are re-created, subscriptions and followed sync sources resumed. Every request
 // made on the flow carries a tag and is answered by an event with that tag or by EV_ERROR.
+import { typeProperties } from './channel-type.js';
 import { encodeFrame, decodeBody, codeName, CODE, PROTOCOL_MAJOR, CATALOGUE_MINOR } from './codec.js';
 import { BY_CODE } from './codec.js';
 import { ClosedError, FlowError, ProtocolError, errorFromWire } from './errors.js';
@@ -462,12 +463,15 @@ export class Hub {
 
   /**
    * Creates <user>.<shortName>; resolves once the hub announced it. Re-created after reconnection.
+   * `type` declares what its messages are (docs/channels.md, "Typed channels"): added to `props`,
+   * a TypeError when it breaks the rules (typeProblem).
    * @param {string} shortName
-   * @param {{kind?: 'streaming' | 'service' | 'sync', mime?: string, props?: Record<string, unknown>}} [options]
+   * @param {{kind?: 'streaming' | 'service' | 'sync', mime?: string, props?: Record<string, unknown>, type?: import('./channel-type.js').ChannelType}} [options]
    * @returns {Promise<OwnedChannel>}
    */
   async createChannel(shortName, options = {}) {
-    const c = new OwnedChannel(this, shortName, { kind: options.kind ?? 'streaming', mime: options.mime ?? '', props: options.props ?? null });
+    const props = options.type ? { ...(options.props ?? {}), ...typeProperties(options.type) } : options.props ?? null;
+    const c = new OwnedChannel(this, shortName, { kind: options.kind ?? 'streaming', mime: options.mime ?? '', props });
     this.owned.add(c);
     try {
       await this.createOwned(c);

@@ -19,3 +19,15 @@ export const ENCODINGS = Object.freeze([
   Object.freeze({ encoding: 'nv12', format: 9, video: true, bitsPerPixel: 12, evenSize: true, mime: 'application/octet-stream' }),
   Object.freeze({ encoding: 'i420', format: 10, video: true, bitsPerPixel: 12, evenSize: true, mime: 'application/octet-stream' }),
 ]);
+
+// Typed channels (docs/channels.md): the property keys, and each message encoding with whether its
+// channels name a schema ('none', 'optional', 'required') and the schema encodings that go with it.
+export const TYPE_KEYS = Object.freeze({ messageEncoding: 'message_encoding', schemaName: 'schema_name', schemaEncoding: 'schema_encoding', schema: 'schema' });
+export const MESSAGE_ENCODINGS = Object.freeze([
+  Object.freeze({ name: 'skrobot.media', schema: 'none', schemaEncodings: Object.freeze([]) }),
+  Object.freeze({ name: 'json', schema: 'optional', schemaEncodings: Object.freeze(['jsonschema']) }),
+  Object.freeze({ name: 'cdr', schema: 'required', schemaEncodings: Object.freeze(['ros2msg', 'ros2idl', 'omgidl']) }),
+  Object.freeze({ name: 'protobuf', schema: 'required', schemaEncodings: Object.freeze(['protobuf']) }),
+  Object.freeze({ name: 'flatbuffer', schema: 'required', schemaEncodings: Object.freeze(['flatbuffer']) }),
+  Object.freeze({ name: 'cbor', schema: 'none', schemaEncodings: Object.freeze([]) }),
+]);

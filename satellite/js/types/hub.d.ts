@@ -125,14 +125,17 @@ export class Hub {
     event(code: any, body: any): void;
     /**
      * Creates <user>.<shortName>; resolves once the hub announced it. Re-created after reconnection.
+     * `type` declares what its messages are (docs/channels.md, "Typed channels"): added to `props`,
+     * a TypeError when it breaks the rules (typeProblem).
      * @param {string} shortName
-     * @param {{kind?: 'streaming' | 'service' | 'sync', mime?: string, props?: Record<string, unknown>}} [options]
+     * @param {{kind?: 'streaming' | 'service' | 'sync', mime?: string, props?: Record<string, unknown>, type?: import('./channel-type.js').ChannelType}} [options]
      * @returns {Promise<OwnedChannel>}
      */
     createChannel(shortName: string, options?: {
         kind?: "streaming" | "service" | "sync";
         mime?: string;
         props?: Record<string, unknown>;
+        type?: import("./channel-type.js").ChannelType;
     }): Promise<OwnedChannel>;
     /** @internal The id is set as EV_CHAN_ADDED is read: an EV_START_PUBLISH may follow in the same read. */
     createOwned(c: any): Promise<any>;

@@ -71,3 +71,34 @@ export const ENCODINGS: readonly (Readonly<{
     evenSize: true;
     mime: "application/octet-stream";
 }>)[];
+export const TYPE_KEYS: Readonly<{
+    messageEncoding: "message_encoding";
+    schemaName: "schema_name";
+    schemaEncoding: "schema_encoding";
+    schema: "schema";
+}>;
+export const MESSAGE_ENCODINGS: readonly (Readonly<{
+    name: "skrobot.media";
+    schema: "none";
+    schemaEncodings: readonly any[];
+}> | Readonly<{
+    name: "json";
+    schema: "optional";
+    schemaEncodings: readonly string[];
+}> | Readonly<{
+    name: "cdr";
+    schema: "required";
+    schemaEncodings: readonly string[];
+}> | Readonly<{
+    name: "protobuf";
+    schema: "required";
+    schemaEncodings: readonly string[];
+}> | Readonly<{
+    name: "flatbuffer";
+    schema: "required";
+    schemaEncodings: readonly string[];
+}> | Readonly<{
+    name: "cbor";
+    schema: "none";
+    schemaEncodings: readonly any[];
+}>)[];

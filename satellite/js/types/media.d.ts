@@ -105,7 +105,7 @@ export function parseMediaFrame(data: ArrayBuffer | ArrayBufferView): {
 };
 /** Format code by encoding name ({jpeg: 1, mono8: 2, ...}). */
 export const FORMAT: Readonly<{
-    [k: string]: 1 | 2 | 3 | 4 | 5 | 6 | 7 | 8 | 9 | 10;
+    [k: string]: 1 | 2 | 8 | 3 | 4 | 5 | 6 | 7 | 9 | 10;
 }>;
 import { ENCODINGS } from './media-codes.js';
 import { HEADER_BYTES } from './media-codes.js';

@@ -105,6 +105,7 @@ from PySketch.flowproto import (
     decodePhysSwitch, encodeValue, errorName, frame,
     integer_types, payloadBuffer, releaseViews, str16, text_type, u16, u32, u64, utf8)
 from PySketch.flowsync import FlowSync
+from PySketch.mediaframe import channel_type, type_problem
 
 TIMED_REQUEST_MINOR = CODE_MINOR[Code.SERVICE_REQUEST_TIMED]
 SYNC_MINOR = CODE_MINOR[Code.SYNC_PULSE]  # the sync pulse
@@ -1253,6 +1254,11 @@ class FlowSat(AbstractFlow):
             return False
         if props is not None and not isinstance(props, dict):
             log.err("FlowSat: channel properties must be a dict")
+            return False
+        # A typed channel's type (docs/channels.md, "Typed channels") follows the rules.
+        problem = type_problem(*channel_type(props))
+        if problem:
+            log.err("FlowSat: channel %s's type: %s" % (name, problem))
             return False
         self._specs[name] = {"kind": kind, "mime": mime or "", "props": dict(props or {}),
                              "paths": paths, "ring": ring}

@@ -105,3 +105,16 @@ DERIVED = (
         ("data_type", "T_BYTEARRAY"),
     )),
 )
+
+# Typed channels (docs/channels.md): the property keys, and each message encoding with whether its
+# channels name a schema ("none", "optional", "required") and the schema encodings that go
+# with it.
+TYPE_KEYS = ("message_encoding", "schema_name", "schema_encoding", "schema")
+MESSAGE_ENCODINGS = (
+    ("skrobot.media", "none", ()),
+    ("json", "optional", ("jsonschema",)),
+    ("cdr", "required", ("ros2msg", "ros2idl", "omgidl")),
+    ("protobuf", "required", ("protobuf",)),
+    ("flatbuffer", "required", ("flatbuffer",)),
+    ("cbor", "none", ()),
+)

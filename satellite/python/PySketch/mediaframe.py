@@ -24,7 +24,8 @@ from __future__ import print_function, division, absolute_import
 import struct
 
 from PySketch.flowproto import PY2, payloadBuffer, releaseViews
-from PySketch.mediacodes import DERIVED, ENCODINGS, HEADER_BYTES, MESSAGE_ENCODING
+from PySketch.mediacodes import (DERIVED, ENCODINGS, HEADER_BYTES, MESSAGE_ENCODING,
+                                 MESSAGE_ENCODINGS, TYPE_KEYS)
 
 _HEADER = struct.Struct("<4sHBBQqHHI")
 _MAGIC = b"SKMF"
@@ -78,6 +79,57 @@ def channel_properties(name, width=None, height=None, fps=None, sample_rate=None
         if v is not None:
             props[k] = v
     return props
+
+
+_TYPES = dict((r[0], (r[1], r[2])) for r in MESSAGE_ENCODINGS)
+_TEXT = (str, type(u""))  # Python 2 reads text from the hub as unicode
+
+
+def type_problem(message_encoding="", schema_name="", schema_encoding="", schema=""):
+    """Why a channel may not declare this type (docs/channels.md, "Typed channels"), or None;
+    the rules of plugin-api/include/skrobot/channel_type.hpp."""
+    any_schema = bool(schema_name or schema_encoding or schema)
+    if not message_encoding:
+        return "a schema needs a message_encoding" if any_schema else None
+    if message_encoding not in _TYPES:
+        return "unknown message_encoding %r" % message_encoding
+    takes, encodings = _TYPES[message_encoding]
+    if not any_schema:
+        if takes != "required":
+            return None
+        return ("message_encoding %s needs a schema (schema_name, schema_encoding, schema)"
+                % message_encoding)
+    if takes == "none":
+        return "message_encoding %s takes no schema" % message_encoding
+    if not schema_name:
+        return "a schema needs a schema_name"
+    if schema_encoding not in encodings:
+        return "schema_encoding %r does not go with message_encoding %s (%s)" % (
+            schema_encoding, message_encoding, "|".join(encodings))
+    if not schema:
+        return "schema %s has no text (the schema property)" % schema_name
+    return None
+
+
+def type_properties(message_encoding, schema_name="", schema_encoding="", schema=""):
+    """A typed channel's properties (a dict for addStreamingChannel's props): message_encoding
+    and, where it has one, the schema's name, encoding and text. ValueError when the type breaks
+    the rules (type_problem)."""
+    problem = type_problem(message_encoding, schema_name, schema_encoding, schema)
+    if problem:
+        raise ValueError("channel type: " + problem)
+    props = {TYPE_KEYS[0]: message_encoding}
+    if schema_name:
+        props.update(zip(TYPE_KEYS[1:], (schema_name, schema_encoding, schema)))
+    return props
+
+
+def channel_type(props):
+    """(message_encoding, schema_name, schema_encoding, schema) of a channel's properties, ""
+    where they say nothing."""
+    props = props or {}
+    values = [props.get(k, "") for k in TYPE_KEYS]
+    return tuple(v if isinstance(v, _TEXT) else "" for v in values)
 
 
 def payload_bytes(name, width, height):

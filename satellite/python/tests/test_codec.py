@@ -149,6 +149,16 @@ class Frames(unittest.TestCase):
         body = h("01 00 0e 00 00") + b"\x05\x00guest" + b"\x02\x00pw" + b"\x01\x00n"  # 1.14, binary
         self.assertEqual(s._loginFrame(), struct.pack("<I", len(body) + 1) + b"\x01" + body)
 
+    def test_a_channel_whose_type_breaks_the_rules_is_refused_before_it_is_sent(self):
+        from PySketch.flowsat import FlowSat
+        from PySketch.mediaframe import type_properties
+        s = FlowSat()
+        err = TextIO()
+        with redirect_stderr(err):
+            self.assertFalse(s.addStreamingChannel(name="twist", props={"message_encoding": "cdr"}))
+        self.assertIn("twist's type: message_encoding cdr needs a schema", err.getvalue())
+        self.assertTrue(s.addStreamingChannel(name="pose", props=type_properties("json")))
+
     def test_phys_marker(self):
         # EV_PHYS_MARKER (1.9): u16 chan_id, u64 seq, little-endian.
         self.assertEqual(codeName(0xFD), "EV_PHYS_MARKER")

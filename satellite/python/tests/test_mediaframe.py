@@ -106,6 +106,37 @@ class Vocabulary(unittest.TestCase):
         self.assertEqual([d[0] for d in DERIVED], [r[0] for r in ENCODINGS])
 
 
+class TypedChannels(unittest.TestCase):
+    """The rules of channel_type.hpp, as tests/support_lib/channel_type_test.cpp checks them."""
+
+    def test_a_json_channel_with_or_without_its_schema(self):
+        self.assertEqual(mediaframe.type_properties("json"), {"message_encoding": "json"})
+        p = mediaframe.type_properties("json", "skrobot.Faces", "jsonschema", '{"type":"object"}')
+        self.assertEqual(p, {"message_encoding": "json", "schema_name": "skrobot.Faces",
+                             "schema_encoding": "jsonschema", "schema": '{"type":"object"}'})
+        self.assertEqual(mediaframe.channel_type(p),
+                         ("json", "skrobot.Faces", "jsonschema", '{"type":"object"}'))
+        self.assertEqual(mediaframe.channel_type({"message_encoding": 3}), ("", "", "", ""))
+
+    def test_wrong_types_are_refused_naming_why(self):
+        cases = [
+            (("cdr",), "needs a schema"),
+            (("yaml",), "unknown message_encoding"),
+            (("skrobot.media", "x", "jsonschema", "{}"), "takes no schema"),
+            (("cdr", "geometry_msgs/msg/Twist", "jsonschema", "x"), "does not go with"),
+            (("cdr", "geometry_msgs/msg/Twist", "ros2msg", ""), "has no text"),
+            (("json", "", "jsonschema", "{}"), "needs a schema_name"),
+            (("", "x", "jsonschema", "{}"), "needs a message_encoding"),
+        ]
+        for args, why in cases:
+            with self.assertRaises(ValueError) as e:
+                mediaframe.type_properties(*args)
+            self.assertIn(why, str(e.exception), args)
+        self.assertIsNone(mediaframe.type_problem("cdr", "geometry_msgs/msg/Twist", "ros2msg",
+                                                  "Vector3 linear\nVector3 angular\n"))
+        self.assertIsNone(mediaframe.type_problem())
+
+
 @unittest.skipIf(numpy is None, "numpy is not installed for this interpreter")
 class Numpy(unittest.TestCase):
 

@@ -13,22 +13,31 @@
 
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
 namespace skr::sat::test {
 
-// A TCP port nobody listens on now (the kernel's pick, released at once).
+// A TCP port nobody listens on now, for a nats-server to take: picked at random below the
+// kernel's ephemeral range (32768 and up), where the loopback connections of the tests running
+// beside this one take their source ports, and checked by binding it (released at once). The
+// kernel's own pick, from that range, was taken by such a connection before nats-server bound it
+// (seen once in the release tests: "bind: address already in use").
 inline int freePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(fd);
-  return ntohs(a.sin_port);
+  static std::mt19937 pick(std::random_device{}());
+  for (int attempt = 0; attempt < 200; ++attempt) {
+    const int port = std::uniform_int_distribution<int>(20000, 32000)(pick);
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    a.sin_port = htons(static_cast<uint16_t>(port));
+    const bool free = ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    ::close(fd);
+    if (free) return port;
+  }
+  return 0;  // nats-server then fails to start, and the test says so
 }
 
 // One nats-server on 127.0.0.1, JetStream on (its store in `dir`), optionally one node of a

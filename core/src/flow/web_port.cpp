@@ -238,23 +238,24 @@ class WebPort::Conn final : public transport::Transport::Receiver,
     return true;
   }
 
-  // The transport is the WebSocket's now: this HTTP connection is over (freed by the next
-  // sweep, not under the caller's feet).
-  void handedOver() {
+  // The transport is the WebSocket's now (or gone, when the upgrade failed): this HTTP
+  // connection is over (freed by the next sweep, not under the caller's feet). Whether the
+  // upgrade went through; a failure is counted and logged.
+  template <typename T>
+  bool handedOver(const Result<T>& ws) {
     closing_ = true;
     port_.finished_.push_back(shared_from_this());
     port_.conns_.erase(this);
+    if (ws) return true;
+    ++port_.stats_.refused;
+    log::info(kLogSource, "FLOW-WS-REFUSED", source_ + ": " + ws.error().message);
+    return false;
   }
 
   void upgrade(const http::Request& request, const std::string& host, const std::string& rest) {
     if (!upgradeAllowed(request, host, http::kFlowSubprotocol)) return;
     auto ws = http::upgrade(port_.loop_, std::move(t_), request, http::kFlowSubprotocol, rest);
-    handedOver();
-    if (!ws) {
-      ++port_.stats_.refused;
-      log::info(kLogSource, "FLOW-WS-REFUSED", source_ + ": " + ws.error().message);
-      return;
-    }
+    if (!handedOver(ws)) return;
     ++port_.stats_.upgrades;
     port_.flows_(std::move(ws).value());
   }
@@ -264,12 +265,7 @@ class WebPort::Conn final : public transport::Transport::Receiver,
     if (!upgradeAllowed(request, host, e.subprotocol)) return;
     auto ws = http::upgradeMessages(port_.loop_, std::move(t_), request, e.subprotocol, rest,
                                     e.max_message_bytes);
-    handedOver();
-    if (!ws) {
-      ++port_.stats_.refused;
-      log::info(kLogSource, "FLOW-WS-REFUSED", source_ + ": " + ws.error().message);
-      return;
-    }
+    if (!handedOver(ws)) return;
     ++port_.stats_.endpoint_upgrades;
     const auto accepted = e.accepted;  // the module may unserve the endpoint from inside
     accepted(std::move(ws).value());

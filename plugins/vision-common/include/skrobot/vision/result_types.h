@@ -19,8 +19,7 @@ namespace skr::vision {
 inline constexpr const char* kFacesSchema =
     R"({"$schema":"http://json-schema.org/draft-07/schema#","title":"skrobot.vision.Faces",)"
     R"("description":"The faces found in one frame of the source channel, docs/vision.md",)"
-    R"("type":"object","required":["seq","capture_ns","width","height","faces"],"properties":{)"
-    SKR_VISION_FRAME_FIELDS
+    R"("type":"object","required":["seq","capture_ns","width","height","faces"],"properties":{)" SKR_VISION_FRAME_FIELDS
     R"("faces":{"type":"array","items":{"allOf":[)" SKR_VISION_BOX
     R"(,{"type":"object","required":["score"],"properties":{"score":{"type":"number"}}}]}}}})";
 

@@ -14,7 +14,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 JOBS=$(nproc 2>/dev/null || echo 2)
 cmake --preset fuzz >/dev/null
-cmake --build --preset fuzz -j "$JOBS" >/dev/null
+# The build's output is kept, and its end shown when it fails (a target that no longer compiles).
+if ! cmake --build --preset fuzz -j "$JOBS" > build/fuzz/build.log 2>&1; then
+  grep -E "error|FAILED" build/fuzz/build.log | head -20
+  echo "the fuzz targets do not build: build/fuzz/build.log"
+  exit 1
+fi
 mkdir -p build/fuzz/crashes
 
 if [ $# -gt 0 ]; then

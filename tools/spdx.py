@@ -56,6 +56,7 @@ NOT_SOURCE = [
     ("tests/fuzz/seeds/*", "fuzzer input"),
     ("satellite/js/types/*.d.ts", "tsc's declarations of satellite/js/src, whose files carry the line"),
     ("tests/modules/garbage.so.in", "test data: a file that must not load"),
+    ("plugin-api/ros2/msgs/*", "ROS 2 interface definitions, read as MCAP schema text (NOTICE)"),
     ("tests/modules/abi/[0-9]*/*", "a frozen ABI header: never edited (tests/modules/abi/README.md)"),
 ]
 

@@ -418,6 +418,17 @@ Result<void> Registry::add(MessageDefinition definition) {
   return {};
 }
 
+std::filesystem::path shippedFolder(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const fs::path& candidate :
+       {dir / SKROBOT_REL_BIN_TO_ROS2_MSGS, dir / SKROBOT_REL_MODULES_TO_ROS2_MSGS,
+        dir / ".." / "ros2" / "msgs"}) {
+    if (fs::is_directory(candidate, ec)) return candidate.lexically_normal();
+  }
+  return {};
+}
+
 Result<void> Registry::addFolder(const std::filesystem::path& root) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -538,6 +549,13 @@ Result<void> Registry::resolve(std::string_view name) const {
     }
   }
   return {};
+}
+
+std::vector<std::string> Registry::names() const {
+  std::vector<std::string> out;
+  out.reserve(definitions_.size());
+  for (const auto& [name, def] : definitions_) out.push_back(name);
+  return out;
 }
 
 std::string Registry::schemaText(std::string_view name) const {

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 
 namespace ros2 = skr::ros2;
@@ -160,4 +161,32 @@ TEST(Ros2Cdr, BadSamplesAndValuesAreRefusedNamingTheField) {
     ASSERT_FALSE(cdr) << value;
     EXPECT_EQ(cdr.error().message, why);
   }
+}
+
+TEST(Ros2Definitions, TheShippedInterfacesLoadAndEachResolves) {
+  // What a program in bin/ or a module in modules/ finds: the build tree's copy.
+  const auto folder = ros2::shippedFolder(std::filesystem::path(SKROBOT_BINARY_DIR) / "bin");
+  EXPECT_EQ(folder, std::filesystem::path(SKROBOT_ROS2_MSGS).lexically_normal());
+  EXPECT_EQ(ros2::shippedFolder(std::filesystem::path(SKROBOT_BINARY_DIR) / "modules"), folder);
+  ros2::Registry r;
+  auto loaded = r.addFolder(SKROBOT_ROS2_MSGS);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  EXPECT_GE(r.size(), 100u);
+  for (const auto& name : r.names()) {
+    auto resolved = r.resolve(name);
+    EXPECT_TRUE(resolved) << resolved.error().message;
+  }
+  // A service's halves, and a type of the same package named without its package.
+  ASSERT_NE(r.find("std_srvs/srv/SetBool_Request"), nullptr);
+  ASSERT_NE(r.find("nav_msgs/srv/GetMap_Response"), nullptr);
+  EXPECT_EQ(r.find("nav_msgs/srv/GetMap_Response")->fields[0].type.message,
+            "nav_msgs/msg/OccupancyGrid");
+  // A Twist from JSON with only what is set; a Quaternion left out is its default (w = 1).
+  auto twist = ros2::jsonToCdr(r, "geometry_msgs/msg/Twist", json(R"({"linear":{"x":0.5}})"));
+  ASSERT_TRUE(twist);
+  EXPECT_EQ(twist->size(), 4u + 48u);
+  auto pose = ros2::cdrToJson(r, "geometry_msgs/msg/Pose",
+                              *ros2::jsonToCdr(r, "geometry_msgs/msg/Pose", json("{}")));
+  ASSERT_TRUE(pose);
+  EXPECT_EQ((*pose)["orientation"]["w"].asDouble(), 1.0);
 }

@@ -2,8 +2,13 @@
 // flowctl echo and poll: print what a streaming channel carries, as it comes or its latest.
 #include <chrono>
 #include <csignal>
+#include <optional>
 #include <thread>
 
+#include <skrobot/support/json.hpp>
+
+#include "mcap_mapping.h"
+#include "ros2_messages.h"
 #include "session.h"
 
 namespace flowctl {
@@ -97,11 +102,38 @@ int cmdEcho(const Cli& cli) {
   }
   Session s(cli, 100 * skr::kNsPerMs);
   uint64_t received = 0, window_msgs = 0, window_bytes = 0;
+  // A ROS 2 channel's reader, for the channel instance (hash) it was made for.
+  std::optional<ros2msg::CdrReader> ros2_reader;
+  uint64_t typed_hash = 0;
   s.satellite.data.connect(&s.satellite, [&](uint16_t id, const std::string& payload) {
     const auto* info = s.satellite.channel(id);
     if (info == nullptr || info->name != name) return;
     ++window_msgs;
     window_bytes += payload.size();
+    if (!rate && (format == "auto" || format == "json") && typed_hash != info->hash) {
+      typed_hash = info->hash;
+      std::string why;
+      ros2_reader = ros2msg::CdrReader::of(mcapmap::typeOf(info->props), why);
+      if (!why.empty())
+        std::fprintf(stderr, "flowctl: %s: shown as bytes: %s\n", name.c_str(), why.c_str());
+    }
+    if (!rate && ros2_reader) {
+      if (auto value = ros2_reader->read(payload)) {
+        const std::string text = skr::support::writeJson(*value);
+        const std::string line = cli.json ? skr::flow::variantToJsonText(Variant::Map{
+                                                {"channel", name},
+                                                {"bytes", payload.size()},
+                                                {"data", *skr::flow::variantFromJsonText(text)}}) +
+                                                "\n"
+                                          : text + "\n";
+        std::fwrite(line.data(), 1, line.size(), stdout);
+        std::fflush(stdout);
+        if (count > 0 && ++received >= static_cast<uint64_t>(count)) s.loop.stop();
+        return;
+      } else {
+        std::fprintf(stderr, "flowctl: %s: %s\n", name.c_str(), value.error().message.c_str());
+      }
+    }
     if (!rate) {
       const std::string line = render(format, cli.json, name, payload) + "\n";
       std::fwrite(line.data(), 1, line.size(), stdout);

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <iterator>
 
+#include "ros2_messages.h"
 #include "session.h"
 
 namespace flowctl {
@@ -24,9 +25,17 @@ int cmdPub(const Cli& cli) {
   const auto schema_encoding = args.option("--schema-encoding");
   const auto schema_file = args.option("--schema-file");
   const bool variant = args.flag("--variant");
+  const auto ros2_type = args.option("--ros2-type");
+  const auto definitions = args.option("--definitions");
   const auto rest = args.rest();
   if (!args.error().empty()) return fail(kUsage, args.error());
   if (rest.empty() || rest.size() > 2 || (rest.size() == 2 && file)) return usageError(cli);
+  if (ros2_type && (message_encoding || schema_name || schema_encoding || schema_file || variant)) {
+    return fail(kUsage,
+                "--ros2-type gives the channel its type: not with --encoding, --schema-* "
+                "or --variant");
+  }
+  if (definitions && !ros2_type) return fail(kUsage, "--definitions goes with --ros2-type");
   double repeat = 1, rate = 0, wait_ms = 1000;
   if (repeat_text && !parseNumber(*repeat_text, "--repeat", repeat)) return kUsage;
   if (rate_text && !parseNumber(*rate_text, "--rate", rate)) return kUsage;
@@ -39,9 +48,18 @@ int cmdPub(const Cli& cli) {
       return fail(kUsage, "--props: a JSON object, e.g. '{\"encoding\":\"bgr8\"}'");
     props = std::move(*v);
   }
+  namespace ct = skr::channel_type;
+  auto setType = [&](const ct::ChannelType& type) {
+    auto& map = *props.asMap();
+    map[std::string(ct::kMessageEncodingKey)] = type.message_encoding;
+    if (!type.schema_name.empty()) {
+      map[std::string(ct::kSchemaNameKey)] = type.schema_name;
+      map[std::string(ct::kSchemaEncodingKey)] = type.schema_encoding;
+      map[std::string(ct::kSchemaKey)] = type.schema;
+    }
+  };
   // The channel's type (docs/channels.md, "Typed channels"), checked before anything is sent.
   if (message_encoding || schema_name || schema_encoding || schema_file) {
-    namespace ct = skr::channel_type;
     ct::ChannelType type{message_encoding.value_or(""), schema_name.value_or(""),
                          schema_encoding.value_or(""), ""};
     if (schema_file) {
@@ -50,13 +68,7 @@ int cmdPub(const Cli& cli) {
       type.schema.assign(std::istreambuf_iterator<char>(in), {});
     }
     if (auto bad = ct::check(type)) return fail(kUsage, "the channel's type: " + *bad);
-    auto& map = *props.asMap();
-    map[std::string(ct::kMessageEncodingKey)] = type.message_encoding;
-    if (!type.schema_name.empty()) {
-      map[std::string(ct::kSchemaNameKey)] = type.schema_name;
-      map[std::string(ct::kSchemaEncodingKey)] = type.schema_encoding;
-      map[std::string(ct::kSchemaKey)] = type.schema;
-    }
+    setType(type);
   }
 
   std::string payload;
@@ -75,6 +87,16 @@ int cmdPub(const Cli& cli) {
     payload.clear();
     skr::flow::ByteWriter w(payload);
     skr::flow::encodeVariant(*v, w);
+  }
+  if (ros2_type) {  // JSON as the CDR of a ROS 2 type (docs/ros2.md)
+    std::vector<std::string> folders;
+    if (definitions) folders.push_back(*definitions);
+    auto registry = ros2msg::shippedRegistry(folders);
+    if (!registry) return fail(kFailed, registry.error().message);
+    auto encoded = ros2msg::encode(*registry, *ros2_type, payload);
+    if (!encoded) return fail(kUsage, "--ros2-type: " + encoded.error().message);
+    payload = std::move(encoded->sample);
+    setType(encoded->type);
   }
 
   std::string full = rest[0], short_name;

@@ -38,7 +38,8 @@ constexpr Command kCommands[] = {
                     [--queue BYTES] [--max-hz N]
   Subscribes to a streaming channel and prints each message.
   --format    auto (text when printable, else hex; the default), text, hex, or json (a
-              binary Variant payload or JSON text, shown as JSON)
+              binary Variant payload or JSON text, shown as JSON); auto and json show a
+              ROS 2 channel (cdr with a ros2msg schema, or a shipped type) as JSON
   --count N   stop after N messages
   --rate      print messages/s and bytes/s once a second instead of the data
   --wait      wait for the channel to appear instead of failing (exit 5) when it is absent
@@ -77,6 +78,10 @@ constexpr Command kCommands[] = {
   --encoding ENC the message_encoding of its type when flowctl creates it (json, cdr, ...), with
                  --schema-name NAME, --schema-encoding ENC and --schema-file PATH where the
                  encoding has schemas (docs/channels.md, "Typed channels"; checked first)
+  --ros2-type T  PAYLOAD is JSON: publish it as the CDR of the ROS 2 type T (sensor_msgs/msg/
+                 Image, ...; fields left out are their defaults), the channel typed cdr with T's
+                 ros2msg schema (docs/ros2.md); T is shipped with flowctl or in --definitions DIR
+                 (interface packages: DIR/<package>/msg/<Type>.msg)
   --wait-ms MS   when flowctl created the channel, wait up to MS for a first subscriber before
                  publishing (default 1000; 0: do not wait)
 )",

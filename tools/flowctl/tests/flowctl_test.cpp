@@ -441,6 +441,55 @@ TEST_F(Flowctl, PubGivesTheChannelItCreatesItsProperties) {
   EXPECT_EQ(pub->wait(), 0);
 }
 
+TEST_F(Flowctl, PubAndEchoRos2MessagesAsJson) {
+  // JSON published as the CDR of a shipped ROS 2 type: the channel says cdr and carries the
+  // type's ros2msg schema; echo reads it back as JSON through that schema.
+  auto echo = background({"--json", "echo", "guest.cmd_vel", "--wait", "--count", "1"});
+  auto pub = flowctl({"pub", "cmd_vel", R"({"linear":{"x":0.25},"angular":{"z":-1}})",
+                      "--ros2-type", "geometry_msgs/msg/Twist", "--wait-ms", "5000"});
+  EXPECT_EQ(pub.code, 0) << pub.out;
+  EXPECT_TRUE(has(pub, "published 1 message (52 bytes)")) << pub.out;
+  EXPECT_EQ(echo->wait(), 0) << echo->output();
+  EXPECT_EQ(echo->output(),
+            R"({"bytes":52,"channel":"guest.cmd_vel","data":{"angular":{"x":0.0,"y":0.0,"z":-1.0},)"
+            R"("linear":{"x":0.25,"y":0.0,"z":0.0}}})"
+            "\n");
+  auto typed = background({"pub", "guest.scan", R"({"ranges":[1.5,2]})", "--ros2-type",
+                           "sensor_msgs/LaserScan", "--rate", "20"});
+  Ran info;
+  EXPECT_TRUE(eventually([&] {
+    info = flowctl({"info", "guest.scan"});
+    return has(info, "cdr") && has(info, "sensor_msgs/msg/LaserScan") && has(info, "ros2msg");
+  })) << info.out;
+  auto scan = flowctl({"echo", "guest.scan", "--count", "1"});
+  EXPECT_TRUE(has(scan, R"("ranges":[1.5,2.0])")) << scan.out;
+  typed->signal(SIGINT);
+  EXPECT_EQ(typed->wait(), 0);
+  // A user's interface package, and what is refused before anything is published.
+  std::filesystem::create_directories(dir_.path() / "msgs/lab_msgs/msg");
+  std::ofstream(dir_.path() / "msgs/lab_msgs/msg/Gripper.msg") << "float32 width\nbool closed\n";
+  auto lab = background({"echo", "guest.grip", "--wait", "--count", "1"});
+  EXPECT_EQ(flowctl({"pub", "grip", R"({"closed":true})", "--ros2-type", "lab_msgs/msg/Gripper",
+                     "--definitions", (dir_.path() / "msgs").string(), "--wait-ms", "5000"})
+                .code,
+            0);
+  EXPECT_EQ(lab->wait(), 0);
+  EXPECT_EQ(lab->output(), "{\"closed\":true,\"width\":0.0}\n");
+  const std::pair<std::vector<std::string>, const char*> refused[] = {
+      {{"pub", "x", "{}", "--ros2-type", "geometry_msgs/msg/Twst"},
+       "no definition of geometry_msgs/msg/Twst"},
+      {{"pub", "x", R"({"linaer":{}})", "--ros2-type", "geometry_msgs/msg/Twist"},
+       "geometry_msgs/msg/Twist.linaer: no such field in geometry_msgs/msg/Twist"},
+      {{"pub", "x", "{}", "--ros2-type", "geometry_msgs/msg/Twist", "--variant"},
+       "--ros2-type gives the channel its type"},
+  };
+  for (const auto& [args, why] : refused) {
+    auto r = flowctl(args);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_TRUE(has(r, why)) << r.out;
+  }
+}
+
 TEST_F(Flowctl, CallsServices) {
   auto o = owner();
   auto ok = flowctl({"call", "guest.adder", "add", "[41]"});

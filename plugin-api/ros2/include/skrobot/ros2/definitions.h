@@ -88,6 +88,13 @@ struct MessageDefinition {
 // The DDS type name ROS 2 gives a message: "pkg/msg/Name" -> "pkg::msg::dds_::Name_".
 [[nodiscard]] std::string ddsTypeName(std::string_view full_name);
 
+// The interface packages shipped with the project (plugin-api/ros2/msgs: builtin_interfaces,
+// std_msgs, geometry_msgs, sensor_msgs, nav_msgs, tf2_msgs, diagnostic_msgs, rosgraph_msgs,
+// std_srvs, example_interfaces), found from `dir`, the directory of the running program or
+// module: installed (<prefix>/share/skrobot/ros2/msgs) or a build tree's copy (<build>/ros2/msgs).
+// Empty when neither exists.
+[[nodiscard]] std::filesystem::path shippedFolder(const std::filesystem::path& dir);
+
 class Registry {
  public:
   // Adds a definition; Errc::already_exists for a name held already with another definition.
@@ -106,6 +113,8 @@ class Registry {
   // The `ros2msg` schema text of `name` (resolve() first).
   [[nodiscard]] std::string schemaText(std::string_view name) const;
   [[nodiscard]] std::size_t size() const noexcept { return definitions_.size(); }
+  // The full names of every definition, sorted.
+  [[nodiscard]] std::vector<std::string> names() const;
 
  private:
   std::map<std::string, MessageDefinition, std::less<>> definitions_;

@@ -57,6 +57,8 @@ PACKAGES=(
   libnats-dev nats-server
   # bench/peers: the hub beside Redis and Mosquitto (servers and client libraries; NATS above)
   redis-server libhiredis-dev mosquitto libmosquitto-dev
+  # ros2-bridge: eProsima Fast DDS (the DDS of ROS 2's default middleware) and its CDR library
+  libfastrtps-dev libfastcdr-dev
   # flowctl record/play (MCAP chunks compressed with zstd or lz4)
   libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)

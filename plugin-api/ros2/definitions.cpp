@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -215,6 +216,12 @@ std::optional<FieldType> typeOf(std::string_view text, std::string_view pkg, std
   auto full = fullName(name);
   if (!full) {
     why = "\"" + std::string(text) + "\" is not a type (pkg/Name or pkg/msg/Name)";
+    return std::nullopt;
+  }
+  if (const char c = (*full)[full->rfind('/') + 1]; c < 'A' || c > 'Z') {
+    // ROS 2's message names start with a capital: a misspelt primitive (flaot32) or ROS 1's
+    // time and duration are not taken for a message of this package.
+    why = "\"" + std::string(text) + "\" is not a type (a message's name starts with a capital)";
     return std::nullopt;
   }
   t.message = *full;
@@ -533,22 +540,29 @@ const MessageDefinition* Registry::find(std::string_view name) const {
 }
 
 Result<void> Registry::resolve(std::string_view name) const {
-  std::vector<std::pair<std::string, std::string>> todo{{std::string(name), ""}};
-  std::set<std::string, std::less<>> done;
-  while (!todo.empty()) {
-    auto [n, user] = todo.back();
-    todo.pop_back();
-    if (!done.insert(n).second) continue;
+  // Depth first, so that a type met again while its own fields are visited is a cycle.
+  std::set<std::string, std::less<>> visiting, done;
+  std::function<Result<void>(const std::string&, const std::string&)> visit =
+      [&](const std::string& n, const std::string& user) -> Result<void> {
+    if (done.contains(n)) return {};
+    if (visiting.contains(n)) {
+      return makeError(Errc::invalid_argument, n + " uses itself (" + user + ")");
+    }
     const MessageDefinition* def = find(n);
     if (def == nullptr) {
       return makeError(Errc::not_found,
                        "no definition of " + n + (user.empty() ? "" : ", used by " + user));
     }
+    visiting.insert(n);
     for (const auto& f : def->fields) {
-      if (!f.type.primitive) todo.emplace_back(f.type.message, def->name + "." + f.name);
+      if (f.type.primitive) continue;
+      if (auto r = visit(f.type.message, def->name + "." + f.name); !r) return r;
     }
-  }
-  return {};
+    visiting.erase(n);
+    done.insert(n);
+    return {};
+  };
+  return visit(std::string(name), "");
 }
 
 std::vector<std::string> Registry::names() const {

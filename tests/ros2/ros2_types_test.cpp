@@ -75,6 +75,8 @@ TEST(Ros2Definitions, BadLinesAreRefusedWithTheirLine) {
       {"int32[0] x\n", "lab/msg/T:1: a fixed array needs a size"},
       {"int32\n", "lab/msg/T:1: a field needs a type and a name"},
       {"Point P=3\n", "lab/msg/T:1: a constant must be of a primitive type"},
+      {"flaot32 x\n", "lab/msg/T:1: \"flaot32\" is not a type (a message's name starts with"},
+      {"time stamp\n", "lab/msg/T:1: \"time\" is not a type"},
   };
   for (const auto& [text, why] : bad) {
     auto def = ros2::parseMessage("lab/msg/T", text);
@@ -100,6 +102,13 @@ TEST(Ros2Definitions, ASchemaRegistersItsTypesAndIsWrittenBackTheSame) {
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().message,
             "no definition of geometry_msgs/msg/Point, used by lab/msg/Pose.p");
+  // A type that uses itself, at any depth, is refused: its samples would have no end.
+  ros2::Registry cycle;
+  ASSERT_TRUE(cycle.add(*ros2::parseMessage("lab/msg/A", "B b\n")));
+  ASSERT_TRUE(cycle.add(*ros2::parseMessage("lab/msg/B", "A[] a\n")));
+  auto loop = cycle.resolve("lab/msg/A");
+  ASSERT_FALSE(loop);
+  EXPECT_EQ(loop.error().message, "lab/msg/A uses itself (lab/msg/B.a)");
   // Another definition of a known type is a conflict; the same one is not.
   EXPECT_TRUE(
       r.add(*ros2::parseMessage("geometry_msgs/msg/Point", "float64 x\nfloat64 y\nfloat64 z\n")));

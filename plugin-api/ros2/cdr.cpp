@@ -8,6 +8,8 @@
 #include <cstring>
 #include <limits>
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 namespace skr::ros2 {
 namespace {
@@ -90,11 +92,18 @@ class Reader {
 struct Decoder {
   const Registry& registry;
   Reader in;
-  std::string path;
+  std::string path;  // the field being read, without the index of the array element
   std::string why;
+  bool build = true;  // false: only check (validate), no JSON built
+  // The array elements being read, innermost last: the path of an error names them.
+  std::vector<std::pair<std::size_t, std::uint32_t>> indices;  // (path length, index)
 
   bool fail(const std::string& what) {
-    why = path + ": " + what + " at byte " + std::to_string(in.at());
+    std::string at = path;
+    for (auto it = indices.rbegin(); it != indices.rend(); ++it) {
+      at.insert(it->first, "[" + std::to_string(it->second) + "]");
+    }
+    why = at + ": " + what + " at byte " + std::to_string(in.at());
     return false;
   }
 
@@ -188,15 +197,18 @@ struct Decoder {
     if (count > in.left() / least) {
       return fail(std::to_string(count) + " elements, more than the sample holds");
     }
-    out = Json::Value(Json::arrayValue);
-    const std::string base = path;
+    if (!build && t.primitive && least == 1 && *t.primitive != Primitive::boolean) {
+      return in.skip(count) || fail("the sample ends");  // bytes: nothing to check in them
+    }
+    if (build) out = Json::Value(Json::arrayValue);
+    indices.emplace_back(path.size(), 0);
     for (std::uint32_t i = 0; i < count; ++i) {
-      path = base + "[" + std::to_string(i) + "]";
+      indices.back().second = i;
       Json::Value v;
       if (!element(t, v, depth)) return false;
-      out.append(std::move(v));
+      if (build) out.append(std::move(v));
     }
-    path = base;
+    indices.pop_back();
     return true;
   }
 
@@ -204,32 +216,40 @@ struct Decoder {
     if (depth > kMaxDepth) return fail("messages nested deeper than " + std::to_string(kMaxDepth));
     const MessageDefinition* def = registry.find(name);
     if (def == nullptr) return fail("no definition of " + name);
-    out = Json::Value(Json::objectValue);
+    if (build) out = Json::Value(Json::objectValue);
     if (def->fields.empty()) {
       std::uint8_t dummy = 0;  // structure_needs_at_least_one_member
       if (!in.read(dummy)) return fail("the sample ends");
       return true;
     }
-    const std::string base = path;
+    const std::size_t base = path.size();
+    Json::Value unused;
     for (const Field& f : def->fields) {
-      path = base + "." + f.name;
-      if (!field(f, out[f.name], depth)) return false;
+      path.append(".").append(f.name);
+      if (!field(f, build ? out[f.name] : unused, depth)) return false;
+      path.resize(base);
     }
-    path = base;
     return true;
   }
 };
 
 // --- writing ---------------------------------------------------------------------------------
 
+const Json::Value kNull;
+
 struct Encoder {
   const Registry& registry;
   std::string out;
-  std::string path;
+  std::string path;  // as the decoder's
   std::string why;
+  std::vector<std::pair<std::size_t, std::uint32_t>> indices;
 
   bool fail(const std::string& what) {
-    why = path + ": " + what;
+    std::string at = path;
+    for (auto it = indices.rbegin(); it != indices.rend(); ++it) {
+      at.insert(it->first, "[" + std::to_string(it->second) + "]");
+    }
+    why = at + ": " + what;
     return false;
   }
   void align(std::size_t n) {
@@ -340,13 +360,13 @@ struct Encoder {
       }
       put(static_cast<std::uint32_t>(n));
     }
-    const std::string base = path;
     const std::uint32_t count = t.array == FieldType::Array::fixed ? t.array_size : n;
+    indices.emplace_back(path.size(), 0);
     for (std::uint32_t i = 0; i < count; ++i) {
-      path = base + "[" + std::to_string(i) + "]";
-      if (!element(t, i < n ? v[i] : Json::Value(), depth)) return false;
+      indices.back().second = i;
+      if (!element(t, i < n ? v[i] : kNull, depth)) return false;
     }
-    path = base;
+    indices.pop_back();
     return true;
   }
 
@@ -369,39 +389,58 @@ struct Encoder {
       put(std::uint8_t{0});  // structure_needs_at_least_one_member
       return true;
     }
-    const std::string base = path;
+    const std::size_t base = path.size();
     for (const Field& f : def->fields) {
-      path = base + "." + f.name;
-      if (!field(f, v.isObject() ? v.get(f.name, Json::Value()) : Json::Value(), depth)) {
-        return false;
-      }
+      path.append(".").append(f.name);
+      const Json::Value* given =
+          v.isObject() ? v.find(f.name.data(), f.name.data() + f.name.size()) : nullptr;
+      if (!field(f, given != nullptr ? *given : kNull, depth)) return false;
+      path.resize(base);
     }
-    path = base;
     return true;
   }
 };
 
 }  // namespace
 
-Result<Json::Value> cdrToJson(const Registry& registry, std::string_view type,
-                              std::string_view bytes) {
+namespace {
+
+// Reads a whole sample: its header, its fields, and at most 3 bytes of padding after them.
+Result<Json::Value> decode(const Registry& registry, std::string_view type, std::string_view bytes,
+                           bool build) {
   const MessageDefinition* def = registry.find(type);
   if (def == nullptr) return makeError(Errc::not_found, "no definition of " + std::string(type));
   if (bytes.size() < kEncapsulationBytes || bytes[0] != 0 || (bytes[1] != 0 && bytes[1] != 1)) {
     return makeError(Errc::parse_error,
                      std::string(type) + ": not a CDR sample (its encapsulation header)");
   }
-  Decoder d{registry, Reader(bytes, bytes[1] == 1), def->name, {}};
+  Decoder d{registry, Reader(bytes, bytes[1] == 1), def->name, {}, build, {}};
   Json::Value out;
   if (!d.message(def->name, out, 0)) return makeError(Errc::parse_error, d.why);
+  if (d.in.left() > 3) {
+    return makeError(Errc::parse_error, def->name + ": " + std::to_string(d.in.left()) +
+                                            " bytes after the last field (another type?)");
+  }
   return out;
+}
+
+}  // namespace
+
+Result<Json::Value> cdrToJson(const Registry& registry, std::string_view type,
+                              std::string_view bytes) {
+  return decode(registry, type, bytes, true);
+}
+
+Result<void> validate(const Registry& registry, std::string_view type, std::string_view bytes) {
+  if (auto r = decode(registry, type, bytes, false); !r) return r.error();
+  return {};
 }
 
 Result<std::string> jsonToCdr(const Registry& registry, std::string_view type,
                               const Json::Value& value) {
   const MessageDefinition* def = registry.find(type);
   if (def == nullptr) return makeError(Errc::not_found, "no definition of " + std::string(type));
-  Encoder e{registry, std::string("\x00\x01\x00\x00", 4), def->name, {}};
+  Encoder e{registry, std::string("\x00\x01\x00\x00", 4), def->name, {}, {}};
   if (!e.message(def->name, value, 0)) return makeError(Errc::invalid_argument, e.why);
   return std::move(e.out);
 }

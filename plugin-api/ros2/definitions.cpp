@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <skrobot/ros2/definitions.h>
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -434,6 +436,22 @@ std::filesystem::path shippedFolder(const std::filesystem::path& dir) {
     if (fs::is_directory(candidate, ec)) return candidate.lexically_normal();
   }
   return {};
+}
+
+std::filesystem::path shippedFolder() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path self;
+  Dl_info info{};
+  using Fn = fs::path (*)();
+  if (::dladdr(reinterpret_cast<void*>(static_cast<Fn>(&shippedFolder)), &info) != 0 &&
+      info.dli_fname != nullptr &&
+      std::string_view(info.dli_fname).find('/') != std::string_view::npos) {
+    self = fs::absolute(info.dli_fname, ec);
+  }
+  // A program's own name may come without its directory: the kernel knows where it is.
+  if (self.empty() || !fs::exists(self, ec)) self = fs::read_symlink("/proc/self/exe", ec);
+  return self.empty() ? fs::path() : shippedFolder(self.parent_path());
 }
 
 Result<void> Registry::addFolder(const std::filesystem::path& root) {

@@ -158,6 +158,32 @@ TEST(Ros2Cdr, BadSamplesAndValuesAreRefusedNamingTheField) {
   EXPECT_NE(big.error().message.find("more than the sample holds"), std::string::npos)
       << big.error().message;
   EXPECT_FALSE(ros2::cdrToJson(r, "lab/msg/Sample", "\x01\x02"));
+  // validate() reads as cdrToJson does, without the JSON; padding after the last field is at
+  // most 3 bytes (Fast DDS pads to 4), more is another type's sample.
+  EXPECT_TRUE(ros2::validate(r, "lab/msg/Sample", good));
+  EXPECT_TRUE(ros2::validate(r, "lab/msg/Sample", good + std::string(3, '\0')));
+  auto longer = ros2::validate(r, "lab/msg/Sample", good + std::string(4, '\0'));
+  ASSERT_FALSE(longer);
+  EXPECT_EQ(longer.error().message, "lab/msg/Sample: 4 bytes after the last field (another type?)");
+  auto in_array = ros2::validate(r, "lab/msg/Sample", huge);
+  ASSERT_FALSE(in_array);
+  EXPECT_EQ(in_array.error().message, big.error().message);
+  // An error inside an array element names the element.
+  ASSERT_TRUE(r.addSchema(
+      "lab/msg/Outer",
+      "lab/Inner[] inner\n"
+      "================================================================================\n"
+      "MSG: lab/Inner\nbool[] flags\n"));
+  auto bad_bool = ros2::cdrToJson(r, "lab/msg/Outer",
+                                  unhex("00010000"
+                                        "02000000"
+                                        "01000000"
+                                        "01"
+                                        "000000"
+                                        "02000000"
+                                        "0102"));
+  ASSERT_FALSE(bad_bool);
+  EXPECT_EQ(bad_bool.error().message, "lab/msg/Outer.inner[1].flags[1]: a bool of 2 at byte 22");
   const std::pair<const char*, const char*> bad[] = {
       {R"({"a":300})", "lab/msg/Sample.a: out of range"},
       {R"({"flags":[true]})", "lab/msg/Sample.flags: 1 elements where it takes 2"},

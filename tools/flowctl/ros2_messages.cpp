@@ -4,8 +4,6 @@
 #include <skrobot/ros2/cdr.h>
 #include <skrobot/support/json.hpp>
 
-#include <filesystem>
-
 namespace flowctl::ros2msg {
 
 namespace ct = skr::channel_type;
@@ -13,9 +11,7 @@ namespace ros2 = skr::ros2;
 
 skr::Result<ros2::Registry> shippedRegistry(const std::vector<std::string>& folders) {
   ros2::Registry registry;
-  std::error_code ec;  // flowctl's directory (the hub's install_layout is not linked here)
-  const auto shipped =
-      ros2::shippedFolder(std::filesystem::read_symlink("/proc/self/exe", ec).parent_path());
+  const auto shipped = ros2::shippedFolder();
   if (!shipped.empty()) {
     if (auto r = registry.addFolder(shipped); !r) return r.error();
   }

@@ -6,6 +6,7 @@
 // second process of a case (spawned by the case, in the same namespace).
 #include "dds_participant.h"
 #include "eventually.h"
+#include "own_netns.h"
 #include "ros_names.h"
 #include "temp_dir.h"
 
@@ -48,15 +49,6 @@ namespace {
 
 using namespace skr::ros2_bridge;
 using skr::test::eventually;
-
-constexpr const char* kInsideEnv = "SKROBOT_DDS_TEST_NETNS";
-
-std::string selfExe() {
-  char buf[4096];
-  const ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1);
-  if (n <= 0) return {};
-  return std::string(buf, static_cast<std::size_t>(n));
-}
 
 int threadCount() {
   int n = 0;
@@ -183,7 +175,7 @@ std::string imageSample(std::uint32_t width, std::uint32_t height) {
 }
 
 pid_t spawnPeer(const std::vector<std::string>& args, int* stdout_fd = nullptr) {
-  std::vector<std::string> all{selfExe(), "--peer"};
+  std::vector<std::string> all{skr::test::selfExe(), "--peer"};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : all) argv.push_back(a.data());
@@ -452,7 +444,7 @@ TEST(Confinement, AnXmlProfileInTheWorkingDirectoryChangesNothing) {
 // --- samples between participants -------------------------------------------------------------
 
 TEST(DdsCore, RawCdrCrossesToAnotherProcessByteForByte) {
-  ASSERT_NE(getenv(kInsideEnv), nullptr) << "not in the test's network namespace";
+  ASSERT_TRUE(skr::test::inOwnNetworkNamespace()) << "not in the test's network namespace";
   skr::test::TempDir dir("skrobot-dds");
   const std::string bytes = stringSample("hello from a Fast DDS peer");
   ASSERT_EQ(bytes.substr(0, 4), std::string("\x00\x01\x00\x00", 4));
@@ -567,14 +559,17 @@ TEST(DdsCore, TeardownLeavesNoThread) {
     ASSERT_TRUE(a.ok()) << a.error().describe();
     auto b = DdsParticipant::create(ParticipantConfig{});
     ASSERT_TRUE(b.ok()) << b.error().describe();
-    std::atomic<int> received{0}, matched{0};
+    std::atomic<int> received{0}, matched{0}, writer_matched{0};
     ReaderCallbacks rc;
     rc.on_sample = [&](Sample&&) { ++received; };
     rc.on_matched = [&](const MatchStatus& s) { matched = s.current; };
+    WriterCallbacks wc;
+    wc.on_matched = [&](const MatchStatus& s) { writer_matched = s.current; };
     auto reader = (*b)->createReader("/chatter", "std_msgs/msg/String", *qosProfile("default"), rc);
-    auto writer = (*a)->createWriter("/chatter", "std_msgs/msg/String", *qosProfile("default"));
+    auto writer = (*a)->createWriter("/chatter", "std_msgs/msg/String", *qosProfile("default"), wc);
     ASSERT_TRUE(reader.ok() && writer.ok());
-    ASSERT_TRUE(eventually([&] { return matched > 0; }, 15000));
+    // Both sides: a volatile writer that has not matched the reader yet sends it nothing.
+    ASSERT_TRUE(eventually([&] { return matched > 0 && writer_matched > 0; }, 15000));
     // Two participants of one process: the sample crosses UDP (intra-process delivery off).
     ASSERT_TRUE((*a)->write(*writer, stringSample("in-process")).ok());
     EXPECT_TRUE(eventually([&] { return received > 0; }, 15000));
@@ -645,53 +640,12 @@ TEST(DdsCore, DISABLED_Image1080pAt30Hz) {
   }
 }
 
-// Brings `lo` up in the new namespace (ip link set lo up, without the ip tool).
-bool loopbackUp() {
-  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-  if (fd < 0) return false;
-  ifreq req{};
-  std::strncpy(req.ifr_name, "lo", IFNAMSIZ - 1);
-  bool ok = ioctl(fd, SIOCGIFFLAGS, &req) == 0;
-  req.ifr_flags = static_cast<short>(req.ifr_flags | IFF_UP | IFF_RUNNING);
-  ok = ok && ioctl(fd, SIOCSIFFLAGS, &req) == 0;
-  close(fd);
-  return ok;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc >= 2 && std::string(argv[1]) == "--peer") return runPeer(argc, argv);
-  bool listing = false;
-  for (int i = 1; i < argc; ++i) listing |= std::string(argv[i]) == "--gtest_list_tests";
-  if (!listing && !getenv(kInsideEnv)) {
-    // unshare(1) then env(1) then this program again, inside the new namespace.
-    std::vector<std::string> args{"unshare"};
-    if (geteuid() != 0) args.push_back("--map-root-user");
-    args.insert(args.end(), {"--net", "env", std::string(kInsideEnv) + "=1", selfExe()});
-    for (int i = 1; i < argc; ++i) args.emplace_back(argv[i]);
-    std::vector<char*> exec_argv;
-    for (auto& a : args) exec_argv.push_back(a.data());
-    exec_argv.push_back(nullptr);
-    execvp("unshare", exec_argv.data());
-    std::perror("dds_core_test: cannot run unshare (util-linux) for a network namespace");
-    return 1;
-  }
-  if (!listing) {
-    if (!loopbackUp()) {
-      std::perror("dds_core_test: cannot bring lo up in the test's network namespace");
-      return 1;
-    }
-    // The namespace has lo alone: nothing sent can reach another machine. (if_nameindex asks
-    // the kernel; /sys/class/net shows the namespace that mounted /sys.)
-    struct if_nameindex* names = if_nameindex();
-    for (struct if_nameindex* n = names; n && n->if_index != 0; ++n) {
-      if (std::string(n->if_name) != "lo") {
-        std::cerr << "dds_core_test: interface " << n->if_name << " in the test's namespace\n";
-        return 1;
-      }
-    }
-    if_freenameindex(names);
+  if (const int failed = skr::test::enterOwnNetworkNamespace(argc, argv); failed != 0) {
+    return failed;
   }
   ::testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();

@@ -5,7 +5,8 @@
 //
 // CDR here is what ROS 2 writes through Fast DDS and Cyclone DDS: a 4-byte encapsulation header
 // (00 01 = little-endian CDR, 00 00 = big-endian; two option bytes), then the fields in order,
-// each primitive aligned to its size (8 at most) from the end of that header; a string is a
+// each primitive aligned to its size (8 at most) from the end of that header (at most 3 bytes of
+// padding may follow the last field; more is an error); a string is a
 // uint32 length counting its NUL, its bytes and the NUL; a sequence (T[], T[<=N]) a uint32 count
 // and its elements; a fixed array (T[N]) its N elements; a message without fields one uint8.
 // Writing is always little-endian. wstring fields are refused (ROS 2's layout of them differs
@@ -37,6 +38,10 @@ inline constexpr int kMaxDepth = 32;
 // path and the byte where it went wrong; Errc::not_found for a type the registry lacks.
 [[nodiscard]] Result<Json::Value> cdrToJson(const Registry& registry, std::string_view type,
                                             std::string_view bytes);
+// Whether `bytes` is a sample of `type`, as cdrToJson reads it (the same errors), without
+// building its JSON: what ros2-bridge checks a `cdr` sample with (a byte array is skipped whole).
+[[nodiscard]] Result<void> validate(const Registry& registry, std::string_view type,
+                                    std::string_view bytes);
 // `value` as a little-endian CDR sample of `type`. Errc::invalid_argument naming the path.
 [[nodiscard]] Result<std::string> jsonToCdr(const Registry& registry, std::string_view type,
                                             const Json::Value& value);

@@ -94,6 +94,9 @@ struct MessageDefinition {
 // module: installed (<prefix>/share/skrobot/ros2/msgs) or a build tree's copy (<build>/ros2/msgs).
 // Empty when neither exists.
 [[nodiscard]] std::filesystem::path shippedFolder(const std::filesystem::path& dir);
+// The same from the directory of what this library is linked into: a module's .so, or the
+// program (flowctl).
+[[nodiscard]] std::filesystem::path shippedFolder();
 
 class Registry {
  public:

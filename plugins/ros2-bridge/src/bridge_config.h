@@ -1,0 +1,50 @@
+// SPDX-License-Identifier: Apache-2.0
+// ros2-bridge's config (docs/ros2.md, "The bridge"): the DDS participant's domain, interfaces
+// and peers, the interface folders, and the topics imported (ROS 2 -> a channel of the module)
+// and exported (a channel -> ROS 2). Every problem is reported with its key's path, all at once.
+#pragma once
+
+#include "dds_participant.h"
+
+#include <json/value.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace skr::ros2_bridge {
+
+// How a channel carries a topic's messages: the CDR samples as they are (`cdr`, typed cdr/ros2msg)
+// or converted field by field to and from JSON (`json`).
+enum class Encoding : std::uint8_t { cdr, json };
+
+struct TopicItem {
+  std::string ros;      // the ROS name, resolved ("/scan")
+  std::string type;     // "sensor_msgs/msg/LaserScan"
+  std::string channel;  // import: the module's channel short name; export: a full channel name
+  Encoding encoding = Encoding::cdr;
+  Qos qos;
+};
+
+struct BridgeConfig {
+  ParticipantConfig participant;
+  std::string node = "skrobot";
+  std::string ns = "/";
+  std::vector<std::string> definitions;  // folders of interface packages, after the shipped ones
+  std::vector<TopicItem> imports, exports;
+  std::size_t queue_bytes = 64u << 20;  // samples waiting between the loop and the DDS thread
+};
+
+struct ConfigProblem {
+  std::string key;  // "import[2].qos.depth"
+  std::string reason;
+};
+
+// `domain_env`: ROS_DOMAIN_ID's value (nullptr when unset), for "domain": -1.
+[[nodiscard]] std::vector<ConfigProblem> readConfig(const Json::Value& config,
+                                                    const char* domain_env, BridgeConfig& out);
+
+// "/camera/image/compressed" -> "camera.image.compressed": an import's channel by default.
+[[nodiscard]] std::string channelForRosName(std::string_view ros);
+
+}  // namespace skr::ros2_bridge

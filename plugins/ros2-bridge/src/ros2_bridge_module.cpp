@@ -1,0 +1,269 @@
+// SPDX-License-Identifier: Apache-2.0
+// ros2-bridge: ROS 2 topics as the hub's channels and channels as ROS 2 topics, on one DDS domain
+// (docs/ros2.md, "The bridge"). An imported topic is a streaming channel of the module from start
+// (its samples as CDR, or converted to JSON); an exported channel is written to its topic while a
+// ROS 2 reader is matched (the hub subscription follows the readers). The DDS side runs on the
+// bridge's own thread (DdsWorker); the loop only moves bytes between it and the channels.
+#include "bridge_config.h"
+#include "dds_worker.h"
+
+#include <skrobot/ros2/definitions.h>
+#include <skrobot/plugin.hpp>
+#include <skrobot/plugin_channels.hpp>
+#include <skrobot/support/config.hpp>
+#include <skrobot/support/json.hpp>
+#include <skrobot/support/media_props.hpp>
+
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace skr::ros2_bridge;
+namespace plugin = skr::plugin;
+namespace ros2 = skr::ros2;
+
+struct Counters {
+  std::uint64_t messages = 0, bytes = 0, malformed = 0, dropped = 0;
+  std::int32_t matched = 0;
+  std::string incompatible;  // the last QoS policy a remote endpoint disagreed on
+  std::string last_error;
+};
+
+class Ros2Bridge final : public plugin::Module {
+ public:
+  explicit Ros2Bridge(plugin::Host& host) : host_(host) {
+    auto config = skr::support::parseJsonObject(host.configJson());
+    if (!config) throw plugin::Failure(SKR_ERR_CONFIG, config.error().message);
+    const auto problems = readConfig(*config, std::getenv("ROS_DOMAIN_ID"), config_);
+    for (const auto& p : problems) host.configError(p.key.c_str(), p.reason);
+    if (!problems.empty()) {
+      throw plugin::Failure(SKR_ERR_CONFIG, std::to_string(problems.size()) +
+                                                " problem(s) in the config (logged above)");
+    }
+  }
+
+  void start() override {
+    loadDefinitions();
+    // Each type, and every type it uses, must be known before anything is created.
+    for (const auto* list : {&config_.imports, &config_.exports}) {
+      for (const TopicItem& t : *list) {
+        if (auto r = registry_.resolve(t.type); !r) {
+          throw plugin::Failure(SKR_ERR_CONFIG, t.ros + ": " + r.error().message);
+        }
+      }
+    }
+    if (config_.participant.allow_non_loopback) {
+      std::string imports;
+      for (const TopicItem& t : config_.imports) imports += (imports.empty() ? "" : ", ") + t.ros;
+      host_.log.warn("ROS2-OPEN", "domain ", config_.participant.domain, " on ",
+                     joined(config_.participant.interfaces),
+                     ": DDS has no authentication; any participant there may publish into ",
+                     imports.empty() ? "no import" : imports, " (docs/security.md)");
+    }
+    imports_.resize(config_.imports.size());
+    exports_.resize(config_.exports.size());
+    for (std::size_t i = 0; i < config_.imports.size(); ++i) addImport(i);
+    worker_ = std::make_unique<DdsWorker>(config_, registry_,
+                                          [this] { host_.post([this] { drain(); }); });
+    if (auto r = worker_->start(); !r) {
+      worker_.reset();
+      throw plugin::Failure(SKR_ERR_CONFIG, r.error().message);
+    }
+    status_ =
+        plugin::StreamChannel(host_, "status", "application/json",
+                              R"({"note": "the bridge's topics and counters, every second"})");
+    status_tick_ = host_.onTick(plugin::Tick::one_sec, [this] { publishStatus(); });
+    host_.log.info("ROS2-BRIDGE", "domain ", config_.participant.domain, " on ",
+                   joined(config_.participant.interfaces), ", node ", config_.ns,
+                   config_.ns == "/" ? "" : "/", config_.node, ", ", config_.imports.size(),
+                   " import(s), ", config_.exports.size(), " export(s), ", registry_.size(),
+                   " types; participant ", worker_->participantGuid());
+  }
+
+  void stop() override {
+    if (worker_) worker_->stop();  // no wake after this
+    worker_.reset();
+    status_tick_.reset();
+    status_ = {};
+    for (auto& e : exports_) e.subscription.reset();
+    for (auto& i : imports_) i.channel = {};
+  }
+
+ private:
+  struct Import {
+    plugin::StreamChannel channel;
+    Counters counters;
+  };
+  struct Export {
+    plugin::Subscription subscription;
+    Counters counters;
+  };
+
+  static std::string joined(const std::vector<std::string>& list) {
+    std::string out;
+    for (const auto& s : list) out += (out.empty() ? "" : ", ") + s;
+    return out;
+  }
+
+  void loadDefinitions() {
+    const auto shipped = ros2::shippedFolder();
+    if (shipped.empty()) {
+      host_.log.warn("ROS2-DEFINITIONS",
+                     "the shipped interfaces were not found beside the module "
+                     "(share/skrobot/ros2/msgs): only the config's folders");
+    } else if (auto r = registry_.addFolder(shipped); !r) {
+      throw plugin::Failure(SKR_ERR_CONFIG, r.error().message);
+    }
+    for (const auto& folder : config_.definitions) {
+      if (auto r = registry_.addFolder(folder); !r) {
+        throw plugin::Failure(SKR_ERR_CONFIG, "definitions: " + r.error().message);
+      }
+    }
+  }
+
+  void addImport(std::size_t i) {
+    const TopicItem& t = config_.imports[i];
+    Json::Value props(Json::objectValue);
+    props["ros_topic"] = t.ros;
+    props["ros_type"] = t.type;
+    if (t.encoding == Encoding::cdr) {
+      skr::support::addTypeProperties(props,
+                                      {"cdr", t.type, "ros2msg", registry_.schemaText(t.type)});
+    } else {
+      skr::support::addTypeProperties(props, {"json", "", "", ""});
+    }
+    imports_[i].channel = plugin::StreamChannel(
+        host_, t.channel,
+        t.encoding == Encoding::cdr ? "application/octet-stream" : "application/json",
+        skr::support::writeJson(props));
+  }
+
+  // The exported channel is subscribed to while a ROS 2 reader is matched.
+  void follow(std::size_t i) {
+    Export& e = exports_[i];
+    const bool wanted = e.counters.matched > 0;
+    if (wanted == e.subscription.active()) return;
+    if (!wanted) {
+      e.subscription.reset();
+      return;
+    }
+    try {
+      e.subscription = plugin::Subscription(host_, config_.exports[i].channel,
+                                            [this, i](std::string_view payload) {
+                                              if (!worker_ || !worker_->write(i, payload)) return;
+                                              exports_[i].counters.messages += 1;
+                                              exports_[i].counters.bytes += payload.size();
+                                            });
+    } catch (const plugin::Failure& f) {
+      exports_[i].counters.last_error = f.what();
+      host_.log.warn("ROS2-EXPORT", config_.exports[i].channel, ": ", f.what());
+    }
+  }
+
+  void drain() {
+    if (!worker_) return;
+    for (BridgeEvent& ev : worker_->take()) {
+      const TopicItem& t = ev.import ? config_.imports[ev.item] : config_.exports[ev.item];
+      Counters& c = ev.import ? imports_[ev.item].counters : exports_[ev.item].counters;
+      switch (ev.kind) {
+        case BridgeEvent::Kind::sample:
+          c.messages += 1;
+          c.bytes += ev.payload.size();
+          imports_[ev.item].channel.publish(ev.payload);
+          break;
+        case BridgeEvent::Kind::matched:
+          c.matched = ev.matched;
+          if (!ev.import) follow(ev.item);
+          break;
+        case BridgeEvent::Kind::incompatible_qos:
+          if (c.incompatible != ev.text) {
+            host_.log.warn("ROS2-QOS-INCOMPATIBLE", t.ros, ": a remote ",
+                           ev.import ? "writer" : "reader", " disagrees with our ",
+                           ev.import ? "reader" : "writer", " on ", ev.text,
+                           " (ours: ", describe(t.qos), "); set \"qos\" on ",
+                           ev.import ? "import " : "export ", t.ros);
+          }
+          c.incompatible = ev.text;
+          break;
+        case BridgeEvent::Kind::malformed:
+          if (c.malformed++ == 0 || c.last_error != ev.text) {
+            host_.log.warn("ROS2-MALFORMED", t.ros, ": ", ev.text, " (dropped; counted in ",
+                           host_.name(), ".status)");
+          }
+          c.last_error = ev.text;
+          break;
+        case BridgeEvent::Kind::dropped:
+          c.dropped += 1;
+          break;
+      }
+    }
+  }
+
+  void publishStatus() {
+    if (!status_.hasSubscribers() || !worker_) return;
+    Json::Value s(Json::objectValue);
+    s["domain"] = config_.participant.domain;
+    s["participant"] = worker_->participantGuid();
+    s["node"] = config_.ns == "/" ? "/" + config_.node : config_.ns + "/" + config_.node;
+    s["topics"] = Json::Value(Json::arrayValue);
+    auto add = [&](const TopicItem& t, const Counters& c, bool import) {
+      Json::Value v(Json::objectValue);
+      v["ros"] = t.ros;
+      v["type"] = t.type;
+      v["direction"] = import ? "import" : "export";
+      v["channel"] = import ? std::string(host_.name()) + "." + t.channel : t.channel;
+      v["encoding"] = t.encoding == Encoding::cdr ? "cdr" : "json";
+      v["qos"] = describe(t.qos);
+      v["matched"] = c.matched;
+      v["messages"] = Json::UInt64(c.messages);
+      v["bytes"] = Json::UInt64(c.bytes);
+      v["malformed"] = Json::UInt64(c.malformed);
+      v["dropped"] = Json::UInt64(c.dropped);
+      if (!c.incompatible.empty()) v["incompatible_qos"] = c.incompatible;
+      if (!c.last_error.empty()) v["last_error"] = c.last_error;
+      s["topics"].append(std::move(v));
+    };
+    for (std::size_t i = 0; i < imports_.size(); ++i)
+      add(config_.imports[i], imports_[i].counters, true);
+    for (std::size_t i = 0; i < exports_.size(); ++i)
+      add(config_.exports[i], exports_[i].counters, false);
+    status_.publish(skr::support::writeJson(s));
+  }
+
+  plugin::Host& host_;
+  BridgeConfig config_;
+  ros2::Registry registry_;
+  std::unique_ptr<DdsWorker> worker_;
+  std::vector<Import> imports_;
+  std::vector<Export> exports_;
+  plugin::StreamChannel status_;
+  plugin::TickHandle status_tick_;
+};
+
+namespace cfg = skr::config;
+constexpr skr_config_key kConfig[] = {
+    cfg::integer("domain", "-1", "the DDS domain (-1: ROS_DOMAIN_ID, else 0)").range(-1, 232),
+    cfg::string("node", "skrobot", "the node name ROS 2's tools show"),
+    cfg::string("namespace", "/", "the node's namespace; relative topic names resolve in it"),
+    cfg::array("interfaces", "[\"127.0.0.1\"]",
+               "addresses of the network interfaces DDS may use (loopback unless listed)"),
+    cfg::array("peers", "[\"127.0.0.1\"]", "where other participants are looked for (unicast)"),
+    cfg::integer("max_participants", "20", "participants per peer address looked for")
+        .range(1, 120),
+    cfg::integer("socket_buffer_bytes", "0", "UDP socket buffers asked for (0: the system's)")
+        .range(0, 1073741824),
+    cfg::array("definitions", "[]", "folders of ROS 2 interface packages beside the shipped ones"),
+    cfg::array("import", "[]", "ROS 2 topics as channels: {ros, type, channel, encoding, qos}"),
+    cfg::array("export", "[]", "channels as ROS 2 topics: {channel, ros, type, encoding, qos}"),
+    cfg::integer("queue_bytes", "67108864", "samples waiting for the DDS thread or the loop")
+        .range(65536, 4294967296.0),
+};
+
+}  // namespace
+
+SKR_MODULE_WITH_CONFIG(Ros2Bridge, "ros2-bridge", "0.1.0",
+                       "ROS 2 topics as channels and channels as ROS 2 topics (Fast DDS)", 0,
+                       kConfig)

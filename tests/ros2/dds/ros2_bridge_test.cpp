@@ -1,0 +1,297 @@
+// SPDX-License-Identifier: Apache-2.0
+// The ros2-bridge module in a real hub against a Fast DDS participant of the test's own (the
+// ROS 2 side), in a network namespace of its own (own_netns.h): an exported channel reaches a
+// ROS 2 reader as CDR while, and only while, one is matched; an imported topic reaches a
+// satellite as CDR and as JSON; bad samples and incompatible QoS are counted and said; a bad
+// config is reported with its paths and the hub goes on.
+#include "dds_participant.h"
+#include "own_netns.h"
+#include "sat_fixture.h"
+
+#include <skrobot/ros2/cdr.h>
+#include <skrobot/ros2/definitions.h>
+#include <skrobot/support/json.hpp>
+
+#include <gtest/gtest.h>
+
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using namespace skr::sat::test;
+using namespace skr::ros2_bridge;
+namespace ros2 = skr::ros2;
+
+const ros2::Registry& shipped() {
+  static const ros2::Registry r = [] {
+    ros2::Registry out;
+    if (!out.addFolder(ros2::shippedFolder())) std::abort();
+    return out;
+  }();
+  return r;
+}
+
+Json::Value json(std::string_view text) {
+  auto v = skr::support::parseJson(text);
+  EXPECT_TRUE(v) << text;
+  return v ? *v : Json::Value();
+}
+
+std::string cdr(std::string_view type, std::string_view value) {
+  auto bytes = ros2::jsonToCdr(shipped(), type, json(value));
+  EXPECT_TRUE(bytes) << bytes.error().message;
+  return bytes ? *bytes : std::string();
+}
+
+// Samples a test participant's reader received.
+struct Received {
+  std::mutex m;
+  std::vector<std::string> samples;
+  int matched = 0;
+  std::string incompatible;
+  std::size_t count() {
+    std::lock_guard lock(m);
+    return samples.size();
+  }
+};
+
+class Ros2Bridge : public SatTest {
+ protected:
+  void SetUp() override { ASSERT_TRUE(skr::test::inOwnNetworkNamespace()); }
+
+  // A hub with the bridge configured with `config` (its "config" object).
+  void startBridge(const std::string& config) {
+    hub_ = std::make_unique<HubProcess>(SKROBOT_BIN, dir_.path(), "", "", "",
+                                        R"([{"name": "ros2-bridge", "config": )" + config + "}]");
+    startHub();
+    ASSERT_TRUE(hub_->waitLog("ROS2-BRIDGE")) << hub_->log();
+  }
+  // The ROS 2 side: a confined Fast DDS participant, as a ROS 2 node's would be.
+  void startRos() {
+    auto p = DdsParticipant::create(ParticipantConfig{});
+    ASSERT_TRUE(p) << p.error().message;
+    ros_ = std::move(*p);
+  }
+  EndpointId reader(const std::string& topic, const std::string& type, Received& into,
+                    const Qos& qos = *qosProfile("default")) {
+    ReaderCallbacks cb;
+    cb.on_sample = [&into](Sample&& s) {
+      std::lock_guard lock(into.m);
+      into.samples.push_back(std::move(s.bytes));
+    };
+    cb.on_matched = [&into](const MatchStatus& m) {
+      std::lock_guard lock(into.m);
+      into.matched = m.current;
+    };
+    auto id = ros_->createReader(topic, type, qos, std::move(cb));
+    EXPECT_TRUE(id) << id.error().message;
+    return id ? *id : 0;
+  }
+  EndpointId writer(const std::string& topic, const std::string& type, Received& matches,
+                    const Qos& qos = *qosProfile("default")) {
+    WriterCallbacks cb;
+    cb.on_matched = [&matches](const MatchStatus& m) {
+      std::lock_guard lock(matches.m);
+      matches.matched = m.current;
+    };
+    cb.on_incompatible_qos = [&matches](const IncompatibleQos& q) {
+      std::lock_guard lock(matches.m);
+      matches.incompatible = q.policy;
+    };
+    auto id = ros_->createWriter(topic, type, qos, std::move(cb));
+    EXPECT_TRUE(id) << id.error().message;
+    return id ? *id : 0;
+  }
+  static bool matched(Received& r, int n = 1) {
+    return eventually([&] {
+      std::lock_guard lock(r.m);
+      return r.matched >= n;
+    });
+  }
+  // The bridge's status, once a satellite hears it.
+  Json::Value status(SatOnThread& sat) {
+    std::string text;
+    EXPECT_TRUE(eventually([&] {
+      auto lines = sat.events.with("data:ros2-bridge.status:");
+      if (lines.empty()) return false;
+      text = lines.back();
+      return true;
+    })) << hub_->log();
+    return json(text);
+  }
+
+  void TearDown() override { ros_.reset(); }
+
+  std::unique_ptr<DdsParticipant> ros_;
+};
+
+TEST_F(Ros2Bridge, AnExportedChannelReachesRosReadersOnlyWhileOneIsMatched) {
+  startBridge(R"({"export": [{"channel": "guest.cmd_vel", "ros": "/cmd_vel",
+                              "type": "geometry_msgs/msg/Twist", "encoding": "json"}]})");
+  auto sat = satellite("teleop");
+  sat->on([](skr::sat::Satellite& s) {
+    (void)s.addChannel({.name = "cmd_vel", .mime = "application/json"});
+  });
+  ASSERT_TRUE(eventually([&] { return sat->events.count("ready:guest.cmd_vel") == 1; }));
+  startRos();
+  // No ROS 2 reader yet: the bridge does not subscribe (the channel's owner is told to wait).
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  EXPECT_EQ(sat->events.count("start:guest.cmd_vel"), 0u) << sat->events.dump();
+  Received got;
+  const EndpointId r = reader("/cmd_vel", "geometry_msgs/msg/Twist", got);
+  ASSERT_TRUE(matched(got)) << hub_->log();
+  ASSERT_TRUE(eventually([&] { return sat->events.count("start:guest.cmd_vel") == 1; }))
+      << sat->events.dump() << hub_->log();
+  const char* values[] = {R"({"linear": {"x": 0.25}})", R"({"angular": {"z": -1.5}})",
+                          R"({"linear": {"x": 1, "y": 2, "z": 3}})"};
+  for (const char* v : values) {
+    sat->on([&](skr::sat::Satellite& s) { (void)s.publish("cmd_vel", v); });
+  }
+  ASSERT_TRUE(eventually([&] { return got.count() == 3; })) << hub_->log();
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(got.samples[i], cdr("geometry_msgs/msg/Twist", values[i])) << i;
+  }
+  // A message that is not a Twist is counted, not sent.
+  sat->on([&](skr::sat::Satellite& s) { (void)s.publish("cmd_vel", R"({"linaer": {}})"); });
+  ASSERT_TRUE(
+      hub_->waitLog("ROS2-MALFORMED /cmd_vel: geometry_msgs/msg/Twist.linaer: no such "
+                    "field in geometry_msgs/msg/Twist"))
+      << hub_->log();
+  // The reader goes: so does the bridge's subscription.
+  ASSERT_TRUE(ros_->deleteEndpoint(r));
+  EXPECT_TRUE(eventually([&] { return sat->events.count("stop:guest.cmd_vel") == 1; }))
+      << sat->events.dump();
+  EXPECT_EQ(got.count(), 3u);
+}
+
+TEST_F(Ros2Bridge, AnImportedTopicReachesSatellitesAsCdrAndAsJson) {
+  startBridge(R"({"import": [
+      {"ros": "/scan", "type": "sensor_msgs/msg/LaserScan", "encoding": "json"},
+      {"ros": "/scan", "channel": "scan_cdr", "type": "sensor_msgs/msg/LaserScan"}]})");
+  auto sat = satellite("reader");
+  sat->on([](skr::sat::Satellite& s) {
+    s.subscribe("ros2-bridge.scan");
+    s.subscribe("ros2-bridge.scan_cdr");
+    s.subscribe("ros2-bridge.status");
+  });
+  startRos();
+  Received matches;
+  const EndpointId w = writer("/scan", "sensor_msgs/msg/LaserScan", matches);
+  ASSERT_TRUE(matched(matches, 2)) << hub_->log();  // the bridge's two readers
+  // Ranges of odd and even counts: what follows a sequence is aligned from where it ends.
+  const std::string scans[] = {
+      R"({"header": {"stamp": {"sec": 7, "nanosec": 5}, "frame_id": "laser"},
+          "angle_min": -1.5, "angle_max": 1.5, "ranges": [1, 2.5, 3], "intensities": [9]})",
+      R"({"header": {"frame_id": "l"}, "ranges": [0.5, 0.25], "intensities": []})"};
+  for (const auto& s : scans) ASSERT_TRUE(ros_->write(w, cdr("sensor_msgs/msg/LaserScan", s)));
+  ASSERT_TRUE(eventually([&] {
+    return sat->events.count("data:ros2-bridge.scan:") == 2 &&
+           sat->events.count("data:ros2-bridge.scan_cdr:") == 2;
+  })) << sat->events.dump()
+      << hub_->log();
+  const auto as_json = sat->events.with("data:ros2-bridge.scan:");
+  const auto as_cdr = sat->events.with("data:ros2-bridge.scan_cdr:");
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(
+        skr::support::writeJson(json(as_json[i])),
+        skr::support::writeJson(*ros2::cdrToJson(shipped(), "sensor_msgs/msg/LaserScan",
+                                                 cdr("sensor_msgs/msg/LaserScan", scans[i]))));
+    EXPECT_EQ(as_cdr[i], cdr("sensor_msgs/msg/LaserScan", scans[i]));
+  }
+  // The cdr channel says what it carries, with the schema a recording needs.
+  const auto props = sat->on([](skr::sat::Satellite& s) {
+    const auto* c = s.channel(std::string_view("ros2-bridge.scan_cdr"));
+    return c != nullptr ? skr::flow::variantToJsonText(c->props) : std::string();
+  });
+  const Json::Value p = json(props);
+  EXPECT_EQ(p["message_encoding"].asString(), "cdr");
+  EXPECT_EQ(p["schema_name"].asString(), "sensor_msgs/msg/LaserScan");
+  EXPECT_EQ(p["schema_encoding"].asString(), "ros2msg");
+  EXPECT_EQ(p["schema"].asString(), shipped().schemaText("sensor_msgs/msg/LaserScan"));
+  EXPECT_EQ(p["ros_topic"].asString(), "/scan");
+  const Json::Value s = status(*sat);
+  ASSERT_EQ(s["topics"].size(), 2u) << skr::support::writeJson(s);
+  EXPECT_EQ(s["topics"][0]["messages"].asUInt64(), 2u) << skr::support::writeJson(s);
+  EXPECT_EQ(s["topics"][0]["matched"].asInt(), 1) << skr::support::writeJson(s);
+}
+
+TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {
+  startBridge(R"({"import": [{"ros": "/cmd_vel", "type": "geometry_msgs/msg/Twist"},
+                             {"ros": "/odom_in", "type": "nav_msgs/msg/Odometry"}]})");
+  auto sat = satellite("reader");
+  sat->on([](skr::sat::Satellite& s) {
+    s.subscribe("ros2-bridge.cmd_vel");
+    s.subscribe("ros2-bridge.status");
+  });
+  startRos();
+  Received matches;
+  // A writer that says Twist and sends a String's bytes (a node built against another type).
+  const EndpointId w = writer("/cmd_vel", "geometry_msgs/msg/Twist", matches);
+  ASSERT_TRUE(matched(matches)) << hub_->log();
+  ASSERT_TRUE(ros_->write(w, cdr("std_msgs/msg/String", R"({"data": "not a twist"})")));
+  ASSERT_TRUE(
+      hub_->waitLog("ROS2-MALFORMED /cmd_vel: geometry_msgs/msg/Twist.linear.z: the "
+                    "sample ends"))
+      << hub_->log();
+  // A good one after it still goes through.
+  ASSERT_TRUE(ros_->write(w, cdr("geometry_msgs/msg/Twist", R"({"linear": {"x": 2}})")));
+  ASSERT_TRUE(eventually([&] { return sat->events.count("data:ros2-bridge.cmd_vel:") == 1; }))
+      << hub_->log();
+  EXPECT_EQ(sat->events.with("data:ros2-bridge.cmd_vel:")[0],
+            cdr("geometry_msgs/msg/Twist", R"({"linear": {"x": 2}})"));
+  // A best-effort writer cannot serve the bridge's reliable reader: both sides say so.
+  Received odom;
+  Qos best_effort = *qosProfile("sensor_data");
+  (void)writer("/odom_in", "nav_msgs/msg/Odometry", odom, best_effort);
+  ASSERT_TRUE(
+      hub_->waitLog("ROS2-QOS-INCOMPATIBLE /odom_in: a remote writer disagrees with our "
+                    "reader on reliability"))
+      << hub_->log();
+  EXPECT_TRUE(eventually([&] {
+    std::lock_guard lock(odom.m);
+    return odom.incompatible == "reliability";
+  }));
+  Json::Value s;
+  EXPECT_TRUE(eventually([&] {
+    s = status(*sat);
+    return s["topics"][0]["malformed"].asUInt64() == 1 &&
+           s["topics"][1]["incompatible_qos"].asString() == "reliability";
+  })) << skr::support::writeJson(s);
+}
+
+TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
+  hub_ = std::make_unique<HubProcess>(SKROBOT_BIN, dir_.path(), "", "", "",
+                                      R"([{"name": "ros2-bridge", "config": {"import": [
+            {"ros": "/scan", "type": "sensor_msgs/LaserScan", "qos": {"profile": "fast"}},
+            {"ros": "bad//name", "type": "nosuch", "encoding": "xml", "colour": 1}],
+          "export": [{"ros": "/x", "type": "std_msgs/msg/String"}]}}])");
+  startHub();
+  const std::string log = hub_->log();
+  for (const char* line : {
+           "import[0].qos.profile: must be default, sensor_data, services or system",
+           "import[1].ros: ",
+           "import[1].type: not a ROS 2 message type (pkg/msg/Name)",
+           "import[1].encoding: must be cdr or json",
+           "import[1].colour: unknown key",
+           "export[0].channel: is required",
+       }) {
+    EXPECT_NE(log.find(line), std::string::npos) << line << "\n" << log;
+  }
+  EXPECT_NE(log.find("MODULE-INIT module ros2-bridge"), std::string::npos) << log;
+  // The hub goes on: a satellite connects.
+  auto sat = satellite("after");
+  EXPECT_TRUE(sat->connected());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (const int failed = skr::test::enterOwnNetworkNamespace(argc, argv); failed != 0) {
+    return failed;
+  }
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

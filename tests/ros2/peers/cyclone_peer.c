@@ -19,6 +19,7 @@
 // Confinement: CYCLONEDDS_URI is set to inline XML (interface lo, no multicast, unicast discovery
 // with peer 127.0.0.1) unless the environment has one already, which is then used as given (and
 // named on stderr). QoS defaults: ROS 2's default profile (reliable, volatile, keep_last 10).
+
 // clock_gettime, clock_nanosleep and setenv under a strict -std=c11 too.
 #define _POSIX_C_SOURCE 200809L
 

@@ -59,6 +59,8 @@ PACKAGES=(
   redis-server libhiredis-dev mosquitto libmosquitto-dev
   # ros2-bridge: eProsima Fast DDS (the DDS of ROS 2's default middleware) and its CDR library
   libfastrtps-dev libfastcdr-dev
+  # its tests' second DDS vendor on the wire: Cyclone DDS peers (tests/ros2/peers; idlc generates their types)
+  cyclonedds-dev cyclonedds-tools
   # flowctl record/play (MCAP chunks compressed with zstd or lz4)
   libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)

@@ -36,6 +36,7 @@ LINE = {
 BY_NAME = [
     ("*.c", "c++"), ("*.h", "c++"), ("*.cpp", "c++"), ("*.hpp", "c++"), ("*.inc", "c++"),
     ("*.ino", "c++"),  # Arduino sketches (C++)
+    ("*.idl", "c++"),  # OMG IDL (C++ comments)
     ("*.js", "c++"), ("*.mjs", "c++"), ("*.ts", "c++"),
     ("CMakeLists.txt", "hash"), ("*.cmake", "hash"), ("*.py", "hash"), ("*.sh", "hash"),
     ("*.toml", "hash"), ("*.pc", "hash"), ("*.service", "hash"), ("*.properties", "hash"),

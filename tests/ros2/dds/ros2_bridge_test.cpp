@@ -262,6 +262,47 @@ TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {
   })) << skr::support::writeJson(s);
 }
 
+#ifdef CYCLONE_PEER
+// A node on another DDS (Cyclone DDS, cyclone_peer: its own types from IDL) and a satellite talk
+// through the bridge, both ways.
+TEST_F(Ros2Bridge, ACycloneDdsNodeAndASatelliteTalkThroughTheBridge) {
+  startBridge(R"({"import": [{"ros": "/chatter", "type": "std_msgs/msg/String",
+                              "encoding": "json"}],
+                  "export": [{"channel": "guest.cmd_vel", "ros": "/cmd_vel",
+                              "type": "geometry_msgs/msg/Twist", "encoding": "json"}]})");
+  auto sat = satellite("teleop");
+  sat->on([](skr::sat::Satellite& s) {
+    s.subscribe("ros2-bridge.chatter");
+    (void)s.addChannel({.name = "cmd_vel", .mime = "application/json"});
+  });
+  Child talker({CYCLONE_PEER, "pub", "--topic", "rt/chatter", "--type", "std_msgs/msg/String",
+                "--count", "5", "--period-ms", "20"},
+               {}, dir_.path() / "talker.log");
+  EXPECT_EQ(talker.wait(30000), 0) << talker.output() << hub_->log();
+  ASSERT_TRUE(eventually([&] { return sat->events.count("data:ros2-bridge.chatter:") == 5; }))
+      << sat->events.dump() << hub_->log();
+  const auto heard = sat->events.with("data:ros2-bridge.chatter:");
+  for (std::size_t i = 0; i < heard.size(); ++i) {
+    EXPECT_EQ(json(heard[i])["data"].asString(), "hello " + std::to_string(i + 1));
+  }
+  Child listener({CYCLONE_PEER, "sub", "--topic", "rt/cmd_vel", "--type", "geometry_msgs/msg/Twist",
+                  "--count", "2"},
+                 {}, dir_.path() / "listener.log");
+  ASSERT_TRUE(eventually([&] { return sat->events.count("start:guest.cmd_vel") == 1; }, 30000))
+      << listener.output() << hub_->log();
+  // The reader has matched the bridge's writer once the listener says so.
+  ASSERT_TRUE(listener.waitOutput("matched", 30000)) << listener.output();
+  sat->on([](skr::sat::Satellite& s) {
+    (void)s.publish("cmd_vel", R"({"linear": {"x": 0.5}})");
+    (void)s.publish("cmd_vel", R"({"linear": {"y": -2}, "angular": {"z": 1.25}})");
+  });
+  EXPECT_EQ(listener.wait(30000), 0) << listener.output();
+  const std::string out = listener.output();
+  EXPECT_NE(out.find(R"("linear":{"x":0.5,"y":0,"z":0})"), std::string::npos) << out;
+  EXPECT_NE(out.find(R"("angular":{"x":0,"y":0,"z":1.25})"), std::string::npos) << out;
+}
+#endif
+
 TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
   hub_ = std::make_unique<HubProcess>(SKROBOT_BIN, dir_.path(), "", "", "",
                                       R"([{"name": "ros2-bridge", "config": {"import": [

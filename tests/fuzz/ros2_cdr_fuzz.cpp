@@ -52,6 +52,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const char* type = kTypes[data[0] % kTypes.size()].first;
   const std::string_view sample(reinterpret_cast<const char*>(data) + 1, size - 1);
   auto json = skr::ros2::cdrToJson(registry(), type, sample);
+  // validate() (what ros2-bridge checks samples with) judges every sample as cdrToJson does.
+  if (static_cast<bool>(skr::ros2::validate(registry(), type, sample)) != static_cast<bool>(json)) {
+    std::abort();
+  }
   if (!json) return 0;
   auto cdr = skr::ros2::jsonToCdr(registry(), type, *json);
   if (!cdr) std::abort();  // what was read can be written

@@ -141,9 +141,10 @@ std::string channelForRosName(std::string_view ros) {
 std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* domain_env,
                                       BridgeConfig& out) {
   std::vector<ConfigProblem> problems;
-  Reader r(problems, config, "",
-           {"domain", "node", "namespace", "interfaces", "peers", "max_participants",
-            "socket_buffer_bytes", "definitions", "import", "export", "queue_bytes"});
+  Reader r(
+      problems, config, "",
+      {"domain", "distribution", "node", "namespace", "interfaces", "peers", "max_participants",
+       "socket_buffer_bytes", "definitions", "import", "export", "queue_bytes"});
   ParticipantConfig& p = out.participant;
   std::int64_t domain = r.integer("domain", -1, -1, 232);
   if (domain < 0) {
@@ -161,6 +162,14 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
     }
   }
   p.domain = static_cast<std::uint32_t>(domain);
+  const std::string distribution = r.string("distribution", "jazzy");
+  if (distribution == "humble") {
+    out.distribution = Distribution::humble;
+  } else if (distribution == "jazzy" || distribution == "iron") {
+    out.distribution = Distribution::jazzy;
+  } else {
+    r.problem("distribution", "must be humble, iron or jazzy");
+  }
   out.node = r.string("node", out.node);
   out.ns = r.string("namespace", out.ns);
   if (auto n = resolveRosName(out.node, "/"); !n || out.node.find('/') != std::string::npos) {

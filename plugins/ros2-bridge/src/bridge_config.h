@@ -5,6 +5,7 @@
 #pragma once
 
 #include "dds_participant.h"
+#include "graph_info.h"
 
 #include <json/value.h>
 
@@ -28,6 +29,7 @@ struct TopicItem {
 
 struct BridgeConfig {
   ParticipantConfig participant;
+  Distribution distribution = Distribution::jazzy;  // the graph information's layout
   std::string node = "skrobot";
   std::string ns = "/";
   std::vector<std::string> definitions;  // folders of interface packages, after the shipped ones

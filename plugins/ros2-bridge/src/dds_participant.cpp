@@ -33,6 +33,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -653,9 +654,15 @@ Result<EndpointId> DdsParticipant::createWriter(std::string_view ros_topic,
   if (!name) return name.error();
   auto full = ros2::fullName(ros_type);
   if (!full) return makeError(Errc::invalid_argument, "type \"" + std::string(ros_type) + "\"");
+  return createDdsWriter(*name, ros2::ddsTypeName(*full), qos, std::move(callbacks));
+}
+
+Result<EndpointId> DdsParticipant::createDdsWriter(const std::string& name,
+                                                   const std::string& type_name, const Qos& qos,
+                                                   WriterCallbacks callbacks) {
   if (auto ok = checkQos(qos); !ok) return ok.error();
   Impl& p = *impl_;
-  auto topic = p.topic(*name, ros2::ddsTypeName(*full));
+  auto topic = p.topic(name, type_name);
   if (!topic) return topic.error();
 
   dds::DataWriterQos wq;
@@ -665,19 +672,19 @@ Result<EndpointId> DdsParticipant::createWriter(std::string_view ros_topic,
   dds::DataWriter* writer =
       p.publisher->create_datawriter(*topic, wq, listener.get(), dds::StatusMask::all());
   if (!writer) {
-    p.releaseTopic(*name);
+    p.releaseTopic(name);
     return makeError(Errc::invalid_argument,
-                     "Fast DDS refused a writer on " + *name + " (" + describe(qos) + ")");
+                     "Fast DDS refused a writer on " + name + " (" + describe(qos) + ")");
   }
   if (writer->get_qos().data_sharing().kind() != dds::OFF) {
     p.publisher->delete_datawriter(writer);
-    p.releaseTopic(*name);
-    return notConfined("data sharing on the writer of " + *name);
+    p.releaseTopic(name);
+    return notConfined("data sharing on the writer of " + name);
   }
   Gate* gate = &listener->gate;
   p.writer_listeners.push_back(std::move(listener));
   const EndpointId id = p.next_id++;
-  p.endpoints.emplace(id, Impl::Endpoint{*name, writer, nullptr, gate});
+  p.endpoints.emplace(id, Impl::Endpoint{name, writer, nullptr, gate});
   return id;
 }
 
@@ -688,9 +695,15 @@ Result<EndpointId> DdsParticipant::createReader(std::string_view ros_topic,
   if (!name) return name.error();
   auto full = ros2::fullName(ros_type);
   if (!full) return makeError(Errc::invalid_argument, "type \"" + std::string(ros_type) + "\"");
+  return createDdsReader(*name, ros2::ddsTypeName(*full), qos, std::move(callbacks));
+}
+
+Result<EndpointId> DdsParticipant::createDdsReader(const std::string& name,
+                                                   const std::string& type_name, const Qos& qos,
+                                                   ReaderCallbacks callbacks) {
   if (auto ok = checkQos(qos); !ok) return ok.error();
   Impl& p = *impl_;
-  auto topic = p.topic(*name, ros2::ddsTypeName(*full));
+  auto topic = p.topic(name, type_name);
   if (!topic) return topic.error();
 
   dds::DataReaderQos rq;
@@ -699,20 +712,39 @@ Result<EndpointId> DdsParticipant::createReader(std::string_view ros_topic,
   dds::DataReader* reader =
       p.subscriber->create_datareader(*topic, rq, listener.get(), dds::StatusMask::all());
   if (!reader) {
-    p.releaseTopic(*name);
+    p.releaseTopic(name);
     return makeError(Errc::invalid_argument,
-                     "Fast DDS refused a reader on " + *name + " (" + describe(qos) + ")");
+                     "Fast DDS refused a reader on " + name + " (" + describe(qos) + ")");
   }
   if (reader->get_qos().data_sharing().kind() != dds::OFF) {
     p.subscriber->delete_datareader(reader);
-    p.releaseTopic(*name);
-    return notConfined("data sharing on the reader of " + *name);
+    p.releaseTopic(name);
+    return notConfined("data sharing on the reader of " + name);
   }
   Gate* gate = &listener->gate;
   p.reader_listeners.push_back(std::move(listener));
   const EndpointId id = p.next_id++;
-  p.endpoints.emplace(id, Impl::Endpoint{*name, nullptr, reader, gate});
+  p.endpoints.emplace(id, Impl::Endpoint{name, nullptr, reader, gate});
   return id;
+}
+
+Gid DdsParticipant::gid(EndpointId id) const {
+  Gid out{};
+  auto it = impl_->endpoints.find(id);
+  if (it == impl_->endpoints.end()) return out;
+  const rtps::GUID_t guid =
+      it->second.writer ? it->second.writer->guid() : it->second.reader->guid();
+  std::memcpy(out.data(), guid.guidPrefix.value, 12);
+  std::memcpy(out.data() + 12, guid.entityId.value, 4);
+  return out;
+}
+
+Gid DdsParticipant::participantGid() const {
+  Gid out{};
+  const rtps::GUID_t guid = impl_->participant->guid();
+  std::memcpy(out.data(), guid.guidPrefix.value, 12);
+  std::memcpy(out.data() + 12, guid.entityId.value, 4);
+  return out;
 }
 
 Result<void> DdsParticipant::write(EndpointId writer, std::string_view cdr) {

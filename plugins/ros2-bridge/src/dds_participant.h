@@ -27,6 +27,7 @@
 
 #include <skrobot/result.hpp>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -137,6 +138,8 @@ struct ReaderCallbacks {
 };
 
 using EndpointId = std::uint64_t;
+// A GUID as ROS 2's graph information carries it: 12 bytes of prefix, 4 of entity id.
+using Gid = std::array<std::uint8_t, 16>;
 
 class DdsParticipant {
  public:
@@ -160,6 +163,17 @@ class DdsParticipant {
   [[nodiscard]] Result<EndpointId> createReader(std::string_view ros_topic,
                                                 std::string_view ros_type, const Qos& qos,
                                                 ReaderCallbacks callbacks);
+  // The same under a DDS topic and type name used as they are (ros_discovery_info is not a ROS
+  // topic: no rt/ prefix).
+  [[nodiscard]] Result<EndpointId> createDdsWriter(const std::string& dds_topic,
+                                                   const std::string& dds_type, const Qos& qos,
+                                                   WriterCallbacks callbacks = {});
+  [[nodiscard]] Result<EndpointId> createDdsReader(const std::string& dds_topic,
+                                                   const std::string& dds_type, const Qos& qos,
+                                                   ReaderCallbacks callbacks);
+  // The GUID of an endpoint (zeros for an unknown one), and of the participant.
+  [[nodiscard]] Gid gid(EndpointId id) const;
+  [[nodiscard]] Gid participantGid() const;
   // Writes one sample (CDR with its header, not copied before Fast DDS serializes it).
   // Errc::timeout when a reliable writer's history stayed full; Errc::invalid_argument for
   // fewer than 4 bytes.

@@ -108,7 +108,25 @@ Result<void> DdsWorker::createEndpoints() {
     if (!id) return makeError(id.error().code, "export " + t.ros + ": " + id.error().message);
     writers_.push_back(*id);
   }
-  return {};
+  return publishGraph();
+}
+
+Result<void> DdsWorker::publishGraph() {
+  // The bridge as a ROS 2 node with its readers and writers (ros2 node list, ros2 node info);
+  // transient_local, so that tools started later read it.
+  auto graph = participant_->createDdsWriter(kGraphTopic, kGraphType, graphQos());
+  if (!graph) return makeError(graph.error().code, "ros_discovery_info: " + graph.error().message);
+  std::vector<Gid> readers, writers;
+  for (EndpointId id : readers_) readers.push_back(participant_->gid(id));
+  for (EndpointId id : writers_) writers.push_back(participant_->gid(id));
+  std::string sample;
+  try {
+    sample = participantEntitiesInfo(config_.distribution, participant_->participantGid(),
+                                     config_.ns, config_.node, readers, writers);
+  } catch (const std::exception& e) {
+    return makeError(Errc::invalid_argument, std::string("ros_discovery_info: ") + e.what());
+  }
+  return participant_->write(*graph, sample);
 }
 
 bool DdsWorker::write(std::size_t item, std::string_view payload) {

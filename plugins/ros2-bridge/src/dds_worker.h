@@ -65,6 +65,7 @@ class DdsWorker {
   };
   void run(std::promise<Result<void>>& started);
   Result<void> createEndpoints();
+  Result<void> publishGraph();
   bool enqueue(Op op);
   void emit(BridgeEvent ev);
   void handle(Op& op);

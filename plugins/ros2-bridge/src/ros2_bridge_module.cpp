@@ -246,6 +246,8 @@ class Ros2Bridge final : public plugin::Module {
 namespace cfg = skr::config;
 constexpr skr_config_key kConfig[] = {
     cfg::integer("domain", "-1", "the DDS domain (-1: ROS_DOMAIN_ID, else 0)").range(-1, 232),
+    cfg::string("distribution", "jazzy", "the ROS 2 distribution of the other nodes (graph layout)")
+        .oneOf("humble|iron|jazzy"),
     cfg::string("node", "skrobot", "the node name ROS 2's tools show"),
     cfg::string("namespace", "/", "the node's namespace; relative topic names resolve in it"),
     cfg::array("interfaces", "[\"127.0.0.1\"]",

@@ -5,6 +5,7 @@
 // satellite as CDR and as JSON; bad samples and incompatible QoS are counted and said; a bad
 // config is reported with its paths and the hub goes on.
 #include "dds_participant.h"
+#include "graph_info.h"
 #include "own_netns.h"
 #include "sat_fixture.h"
 
@@ -46,11 +47,28 @@ std::string cdr(std::string_view type, std::string_view value) {
   return bytes ? *bytes : std::string();
 }
 
+// "01.0f.78.fd.11.60.f7.50.00.00.00.00|0.0.1.3" (Fast DDS's GUID text) as a Gid.
+Gid gidOf(const std::string& text) {
+  Gid out{};
+  std::size_t i = 0;
+  std::string part;
+  for (char c : text + ".") {
+    if (c == '.' || c == '|') {
+      if (i < out.size()) out[i++] = static_cast<std::uint8_t>(std::stoul(part, nullptr, 16));
+      part.clear();
+    } else {
+      part.push_back(c);
+    }
+  }
+  return out;
+}
+
 // Samples a test participant's reader received.
 struct Received {
   std::mutex m;
   std::vector<std::string> samples;
   int matched = 0;
+  std::string remote;  // the GUID of the last endpoint matched
   std::string incompatible;
   std::size_t count() {
     std::lock_guard lock(m);
@@ -85,6 +103,7 @@ class Ros2Bridge : public SatTest {
     cb.on_matched = [&into](const MatchStatus& m) {
       std::lock_guard lock(into.m);
       into.matched = m.current;
+      into.remote = m.remote_guid;
     };
     auto id = ros_->createReader(topic, type, qos, std::move(cb));
     EXPECT_TRUE(id) << id.error().message;
@@ -96,6 +115,7 @@ class Ros2Bridge : public SatTest {
     cb.on_matched = [&matches](const MatchStatus& m) {
       std::lock_guard lock(matches.m);
       matches.matched = m.current;
+      matches.remote = m.remote_guid;
     };
     cb.on_incompatible_qos = [&matches](const IncompatibleQos& q) {
       std::lock_guard lock(matches.m);
@@ -302,6 +322,62 @@ TEST_F(Ros2Bridge, ACycloneDdsNodeAndASatelliteTalkThroughTheBridge) {
   EXPECT_NE(out.find(R"("angular":{"x":0,"y":0,"z":1.25})"), std::string::npos) << out;
 }
 #endif
+
+// ros_discovery_info: the bridge is a node whose readers and writers are the ones ROS 2 nodes
+// match, in the layout of the configured distribution, read by a node that starts later.
+TEST_F(Ros2Bridge, TheBridgeIsANodeInRos2sGraph) {
+  for (const auto d : {Distribution::jazzy, Distribution::humble}) {
+    const bool humble = d == Distribution::humble;
+    startBridge(std::string(R"({"node": "hub_bridge", "namespace": "/lab", "distribution": ")") +
+                (humble ? "humble" : "jazzy") + R"(",
+        "import": [{"ros": "chatter", "type": "std_msgs/msg/String"}],
+        "export": [{"channel": "guest.out", "ros": "/out", "type": "std_msgs/msg/String"}]})");
+    startRos();
+    Received out, chatter;
+    (void)reader("/out", "std_msgs/msg/String", out);
+    (void)writer("/lab/chatter", "std_msgs/msg/String", chatter);
+    ASSERT_TRUE(matched(out) && matched(chatter)) << hub_->log();
+    Received graph;
+    ReaderCallbacks cb;
+    cb.on_sample = [&graph](Sample&& s) {
+      std::lock_guard lock(graph.m);
+      graph.samples.push_back(std::move(s.bytes));
+    };
+    ASSERT_TRUE(ros_->createDdsReader(kGraphTopic, kGraphType, graphQos(), std::move(cb)));
+    ASSERT_TRUE(eventually([&] { return graph.count() >= 1; })) << hub_->log();
+    ros2::Registry types;
+    ASSERT_TRUE(types.addSchema(kGraphRosType, graphSchema(d)));
+    auto info = ros2::cdrToJson(types, kGraphRosType, graph.samples[0]);
+    ASSERT_TRUE(info) << info.error().message;
+    const Json::Value& node = (*info)["node_entities_info_seq"][0];
+    EXPECT_EQ(node["node_name"].asString(), "hub_bridge");
+    EXPECT_EQ(node["node_namespace"].asString(), "/lab");
+    auto asGid = [&](const Json::Value& g) {
+      EXPECT_EQ(g["data"].size(), humble ? 24u : 16u);
+      Gid out{};
+      for (Json::ArrayIndex i = 0; i < g["data"].size(); ++i) {
+        if (i < out.size()) {
+          out[i] = static_cast<std::uint8_t>(g["data"][i].asUInt());
+        } else {
+          EXPECT_EQ(g["data"][i].asUInt(), 0u) << "Humble's gid is the GUID then zeros";
+        }
+      }
+      return out;
+    };
+    ASSERT_EQ(node["writer_gid_seq"].size(), 1u);
+    ASSERT_EQ(node["reader_gid_seq"].size(), 1u);
+    std::lock_guard lock_out(out.m);
+    std::lock_guard lock_chatter(chatter.m);
+    EXPECT_EQ(asGid(node["writer_gid_seq"][0]), gidOf(out.remote)) << out.remote;
+    EXPECT_EQ(asGid(node["reader_gid_seq"][0]), gidOf(chatter.remote)) << chatter.remote;
+    const Gid participant = asGid((*info)["gid"]);
+    EXPECT_TRUE(
+        std::equal(participant.begin(), participant.begin() + 12, gidOf(out.remote).begin()));
+    ros_.reset();
+    hub_->stop();
+    hub_.reset();
+  }
+}
 
 TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
   hub_ = std::make_unique<HubProcess>(SKROBOT_BIN, dir_.path(), "", "", "",

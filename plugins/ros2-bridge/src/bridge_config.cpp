@@ -144,7 +144,8 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
   Reader r(
       problems, config, "",
       {"domain", "distribution", "node", "namespace", "interfaces", "peers", "max_participants",
-       "socket_buffer_bytes", "definitions", "import", "export", "queue_bytes"});
+       "socket_buffer_bytes", "definitions", "import", "export", "services_import",
+       "services_export", "queue_bytes"});
   ParticipantConfig& p = out.participant;
   std::int64_t domain = r.integer("domain", -1, -1, 232);
   if (domain < 0) {
@@ -245,6 +246,54 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
   };
   items("import", true, out.imports);
   items("export", false, out.exports);
+
+  auto services = [&](const char* key, bool import, std::vector<ServiceItem>& list) {
+    const Json::Value& v = r.get(key);
+    if (v.isNull()) return;
+    if (!v.isArray()) {
+      r.problem(key, "must be an array of objects");
+      return;
+    }
+    for (Json::ArrayIndex i = 0; i < v.size(); ++i) {
+      const std::string path = std::string(key) + "[" + std::to_string(i) + "]";
+      Reader item(problems, v[i], path, {"ros", "type", "channel", "command", "timeout_ms"});
+      ServiceItem t;
+      const std::string ros = item.string("ros", "", true);
+      if (!ros.empty()) {
+        if (auto topics = ddsServiceTopics(ros, out.ns, out.node); !topics) {
+          item.problem("ros", topics.error().message);
+        } else {
+          t.ros = *resolveRosName(ros, out.ns, out.node);
+        }
+      }
+      const std::string type = item.string("type", "", true);
+      if (auto full = ros2::fullName(type); full && full->find("/srv/") != std::string::npos) {
+        t.type = *full;
+      } else if (!type.empty()) {
+        item.problem("type", "not a ROS 2 service type (pkg/srv/Name)");
+      }
+      t.channel = item.string("channel", import ? channelForRosName(t.ros) : "", !import);
+      if (import && !t.channel.empty()) {
+        if (!flow::validShortName(t.channel)) {
+          item.problem("channel",
+                       "not a channel short name (1-128 of A-Z a-z 0-9 _ - ., not first .)");
+        } else if (!channels.insert(t.channel).second) {
+          item.problem("channel", "\"" + t.channel + "\" is taken (by another import or status)");
+        }
+      }
+      if (!import && !t.channel.empty() && t.channel.find('.') == std::string::npos) {
+        item.problem("channel", "a full channel name, <owner>.<name>");
+      }
+      t.command = item.string("command", "call");
+      if (import && v[i].isObject() && v[i].isMember("command")) {
+        item.problem("command", "only exported services call a hub service with a command");
+      }
+      t.timeout_ms = item.integer("timeout_ms", t.timeout_ms, 1, 600000);
+      list.push_back(std::move(t));
+    }
+  };
+  services("services_import", true, out.service_imports);
+  services("services_export", false, out.service_exports);
   return problems;
 }
 

@@ -27,6 +27,17 @@ struct TopicItem {
   Qos qos;
 };
 
+// A ROS 2 service: exported, a hub service channel (`channel`, full name) answers ROS 2 clients
+// (each request is `command` with the request's fields as its JSON value); imported, a service
+// channel of the module (`channel`, short name) calls a ROS 2 server.
+struct ServiceItem {
+  std::string ros;   // "/add_two_ints"
+  std::string type;  // "example_interfaces/srv/AddTwoInts"
+  std::string channel;
+  std::string command;  // exports: the command the hub service gets
+  std::int64_t timeout_ms = 5000;
+};
+
 struct BridgeConfig {
   ParticipantConfig participant;
   Distribution distribution = Distribution::jazzy;  // the graph information's layout
@@ -34,6 +45,7 @@ struct BridgeConfig {
   std::string ns = "/";
   std::vector<std::string> definitions;  // folders of interface packages, after the shipped ones
   std::vector<TopicItem> imports, exports;
+  std::vector<ServiceItem> service_imports, service_exports;
   std::size_t queue_bytes = 64u << 20;  // samples waiting between the loop and the DDS thread
 };
 

@@ -7,6 +7,7 @@
 #include <skrobot/ros2/definitions.h>
 
 #include <fastdds/rtps/common/InstanceHandle.h>
+#include <fastdds/rtps/common/WriteParams.h>
 #include <fastdds/rtps/transport/TCPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/TCPv6TransportDescriptor.h>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
@@ -107,6 +108,25 @@ std::string guidText(const rtps::GUID_t& guid) {
   std::ostringstream out;
   out << guid;
   return out.str();
+}
+
+Gid gidOf(const rtps::GUID_t& guid) {
+  Gid out{};
+  std::memcpy(out.data(), guid.guidPrefix.value, 12);
+  std::memcpy(out.data() + 12, guid.entityId.value, 4);
+  return out;
+}
+
+rtps::GUID_t guidOf(const Gid& gid) {
+  rtps::GUID_t guid;
+  std::memcpy(guid.guidPrefix.value, gid.data(), 12);
+  std::memcpy(guid.entityId.value, gid.data() + 12, 4);
+  return guid;
+}
+
+SampleIdentity identityOf(const rtps::SampleIdentity& id) {
+  if (id == rtps::SampleIdentity::unknown()) return {};
+  return {gidOf(id.writer_guid()), id.sequence_number().to64long()};
 }
 
 std::int64_t nanoseconds(const rtps::Time_t& t) {
@@ -288,6 +308,8 @@ class ReaderListener final : public dds::DataReaderListener {
         sample.source_timestamp_ns = nanoseconds(info.source_timestamp);
         sample.reception_timestamp_ns = nanoseconds(info.reception_timestamp);
         sample.sequence = info.sample_identity.sequence_number().to64long();
+        sample.identity = identityOf(info.sample_identity);
+        sample.related = identityOf(info.related_sample_identity);
         if (callbacks_.on_sample) callbacks_.on_sample(std::move(sample));
       }
     });
@@ -729,22 +751,39 @@ Result<EndpointId> DdsParticipant::createDdsReader(const std::string& name,
 }
 
 Gid DdsParticipant::gid(EndpointId id) const {
-  Gid out{};
   auto it = impl_->endpoints.find(id);
-  if (it == impl_->endpoints.end()) return out;
-  const rtps::GUID_t guid =
-      it->second.writer ? it->second.writer->guid() : it->second.reader->guid();
-  std::memcpy(out.data(), guid.guidPrefix.value, 12);
-  std::memcpy(out.data() + 12, guid.entityId.value, 4);
-  return out;
+  if (it == impl_->endpoints.end()) return {};
+  return gidOf(it->second.writer ? it->second.writer->guid() : it->second.reader->guid());
 }
 
 Gid DdsParticipant::participantGid() const {
-  Gid out{};
-  const rtps::GUID_t guid = impl_->participant->guid();
-  std::memcpy(out.data(), guid.guidPrefix.value, 12);
-  std::memcpy(out.data() + 12, guid.entityId.value, 4);
-  return out;
+  return gidOf(impl_->participant->guid());
+}
+
+Result<SampleIdentity> DdsParticipant::writeRelated(EndpointId writer, std::string_view cdr,
+                                                    const SampleIdentity& related) {
+  auto it = impl_->endpoints.find(writer);
+  if (it == impl_->endpoints.end() || !it->second.writer) {
+    return makeError(Errc::not_found, "no writer " + std::to_string(writer));
+  }
+  if (cdr.size() < 4) {
+    return makeError(Errc::invalid_argument, "a CDR sample needs its 4-byte header");
+  }
+  RawCdrSample sample;
+  sample.view = reinterpret_cast<const std::uint8_t*>(cdr.data());
+  sample.view_size = cdr.size();
+  rtps::WriteParams params;
+  if (related.valid() || related.writer != Gid{}) {
+    rtps::SampleIdentity r;
+    r.writer_guid(guidOf(related.writer));
+    r.sequence_number(rtps::SequenceNumber_t(static_cast<std::int32_t>(related.sequence >> 32),
+                                             static_cast<std::uint32_t>(related.sequence)));
+    params.related_sample_identity(r);
+  }
+  if (!it->second.writer->write(&sample, params)) {
+    return makeError(Errc::io_error, "write on " + it->second.topic + " failed");
+  }
+  return identityOf(params.sample_identity());
 }
 
 Result<void> DdsParticipant::write(EndpointId writer, std::string_view cdr) {

@@ -100,8 +100,22 @@ struct ParticipantFacts {
 // behind the QoS (ROS_DISCOVERY_SERVER, FASTDDS_ENVIRONMENT_FILE).
 [[nodiscard]] Result<void> checkEnvironment();
 
+using Gid = std::array<std::uint8_t, 16>;
+
+// A sample's identity (RTPS: its writer's GUID and sequence number): ROS 2's request/reply over
+// Fast DDS pairs a reply with its request by it (rmw_fastrtps).
+// A GUID as ROS 2's graph information and request headers carry it: 12 bytes of prefix, 4 of
+// entity id.
+struct SampleIdentity {
+  Gid writer{};
+  std::int64_t sequence = 0;
+  [[nodiscard]] bool valid() const noexcept { return sequence > 0; }
+};
+
 struct Sample {
   std::string bytes;        // CDR with its 4-byte encapsulation header
+  SampleIdentity identity;  // this sample's
+  SampleIdentity related;   // the related sample identity its writer gave (requests, replies)
   std::string writer_guid;  // "01.0f.….|0.0.1.3"
   std::int64_t source_timestamp_ns = 0;
   std::int64_t reception_timestamp_ns = 0;
@@ -138,8 +152,6 @@ struct ReaderCallbacks {
 };
 
 using EndpointId = std::uint64_t;
-// A GUID as ROS 2's graph information carries it: 12 bytes of prefix, 4 of entity id.
-using Gid = std::array<std::uint8_t, 16>;
 
 class DdsParticipant {
  public:
@@ -178,6 +190,10 @@ class DdsParticipant {
   // Errc::timeout when a reliable writer's history stayed full; Errc::invalid_argument for
   // fewer than 4 bytes.
   [[nodiscard]] Result<void> write(EndpointId writer, std::string_view cdr);
+  // Writes one sample with a related sample identity (a request: the client's reply reader; a
+  // reply: the request it answers), and gives the identity it was written with.
+  [[nodiscard]] Result<SampleIdentity> writeRelated(EndpointId writer, std::string_view cdr,
+                                                    const SampleIdentity& related);
   // Waits until every matched reliable reader acknowledged what the writer sent.
   [[nodiscard]] Result<void> waitForAcknowledgments(EndpointId writer, std::int64_t timeout_ms);
   // Deletes a writer or a reader (and its topic when unused): none of its callbacks runs after.

@@ -4,6 +4,10 @@
 #include <skrobot/ros2/cdr.h>
 #include <skrobot/support/json.hpp>
 
+#include "ros_names.h"
+
+#include <algorithm>
+
 namespace skr::ros2_bridge {
 
 namespace {
@@ -83,13 +87,15 @@ Result<void> DdsWorker::createEndpoints() {
     const TopicItem& t = config_.imports[i];
     ReaderCallbacks cb;
     cb.on_sample = [this, i](Sample&& s) {
-      enqueue(Op{true, i, std::move(s.bytes), std::move(s.writer_guid)});
+      Op op{Op::Kind::imported, ItemList::imports, i, std::move(s.bytes)};
+      op.writer_guid = std::move(s.writer_guid);
+      enqueue(std::move(op));
     };
     cb.on_matched = [this, i](const MatchStatus& m) {
-      emit({BridgeEvent::Kind::matched, true, i, {}, m.current, {}});
+      emit({BridgeEvent::Kind::matched, ItemList::imports, i, {}, m.current});
     };
     cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
-      emit({BridgeEvent::Kind::incompatible_qos, true, i, {}, 0, q.policy});
+      emit({BridgeEvent::Kind::incompatible_qos, ItemList::imports, i, {}, 0, q.policy});
     };
     auto id = participant_->createReader(t.ros, t.type, t.qos, std::move(cb));
     if (!id) return makeError(id.error().code, "import " + t.ros + ": " + id.error().message);
@@ -99,14 +105,63 @@ Result<void> DdsWorker::createEndpoints() {
     const TopicItem& t = config_.exports[i];
     WriterCallbacks cb;
     cb.on_matched = [this, i](const MatchStatus& m) {
-      emit({BridgeEvent::Kind::matched, false, i, {}, m.current, {}});
+      emit({BridgeEvent::Kind::matched, ItemList::exports, i, {}, m.current});
     };
     cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
-      emit({BridgeEvent::Kind::incompatible_qos, false, i, {}, 0, q.policy});
+      emit({BridgeEvent::Kind::incompatible_qos, ItemList::exports, i, {}, 0, q.policy});
     };
     auto id = participant_->createWriter(t.ros, t.type, t.qos, std::move(cb));
     if (!id) return makeError(id.error().code, "export " + t.ros + ": " + id.error().message);
     writers_.push_back(*id);
+  }
+  // Services, as rmw_fastrtps makes them: requests on rq/<name>Request, replies on
+  // rr/<name>Reply, both with ROS 2's services profile.
+  const Qos services = *qosProfile("services");
+  for (std::size_t i = 0; i < config_.service_exports.size(); ++i) {
+    const ServiceItem& t = config_.service_exports[i];
+    auto topics = ddsServiceTopics(t.ros);
+    if (!topics) return topics.error();
+    ServiceEndpoints e;
+    ReaderCallbacks cb;
+    cb.on_sample = [this, i](Sample&& s) {
+      Op op{Op::Kind::request, ItemList::service_exports, i, std::move(s.bytes)};
+      op.identity = s.identity;
+      op.related = s.related;
+      enqueue(std::move(op));
+    };
+    cb.on_matched = [this, i](const MatchStatus& m) {
+      emit({BridgeEvent::Kind::matched, ItemList::service_exports, i, {}, m.current});
+    };
+    auto requests = participant_->createDdsReader(
+        topics->first, ros2::ddsTypeName(t.type + "_Request"), services, std::move(cb));
+    if (!requests) return makeError(requests.error().code, t.ros + ": " + requests.error().message);
+    auto replies = participant_->createDdsWriter(topics->second,
+                                                 ros2::ddsTypeName(t.type + "_Response"), services);
+    if (!replies) return makeError(replies.error().code, t.ros + ": " + replies.error().message);
+    service_exports_.push_back({*requests, *replies});
+  }
+  for (std::size_t i = 0; i < config_.service_imports.size(); ++i) {
+    const ServiceItem& t = config_.service_imports[i];
+    auto topics = ddsServiceTopics(t.ros);
+    if (!topics) return topics.error();
+    WriterCallbacks wcb;
+    wcb.on_matched = [this, i](const MatchStatus& m) {
+      emit({BridgeEvent::Kind::matched, ItemList::service_imports, i, {}, m.current});
+    };
+    auto requests = participant_->createDdsWriter(
+        topics->first, ros2::ddsTypeName(t.type + "_Request"), services, std::move(wcb));
+    if (!requests) return makeError(requests.error().code, t.ros + ": " + requests.error().message);
+    ReaderCallbacks cb;
+    cb.on_sample = [this, i](Sample&& s) {
+      Op op{Op::Kind::reply, ItemList::service_imports, i, std::move(s.bytes)};
+      op.identity = s.identity;
+      op.related = s.related;
+      enqueue(std::move(op));
+    };
+    auto replies = participant_->createDdsReader(
+        topics->second, ros2::ddsTypeName(t.type + "_Response"), services, std::move(cb));
+    if (!replies) return makeError(replies.error().code, t.ros + ": " + replies.error().message);
+    service_imports_.push_back({*requests, *replies});
   }
   return publishGraph();
 }
@@ -119,6 +174,14 @@ Result<void> DdsWorker::publishGraph() {
   std::vector<Gid> readers, writers;
   for (EndpointId id : readers_) readers.push_back(participant_->gid(id));
   for (EndpointId id : writers_) writers.push_back(participant_->gid(id));
+  for (const auto& e : service_exports_) {
+    readers.push_back(participant_->gid(e.requests));
+    writers.push_back(participant_->gid(e.replies));
+  }
+  for (const auto& e : service_imports_) {
+    writers.push_back(participant_->gid(e.requests));
+    readers.push_back(participant_->gid(e.replies));
+  }
   std::string sample;
   try {
     sample = participantEntitiesInfo(config_.distribution, participant_->participantGid(),
@@ -130,7 +193,24 @@ Result<void> DdsWorker::publishGraph() {
 }
 
 bool DdsWorker::write(std::size_t item, std::string_view payload) {
-  return enqueue(Op{false, item, std::string(payload), {}});
+  return enqueue(Op{Op::Kind::write, ItemList::exports, item, std::string(payload)});
+}
+
+void DdsWorker::reply(std::size_t item, const SampleIdentity& request, bool ok,
+                      std::string value_json) {
+  Op op{Op::Kind::reply, ItemList::service_exports, item, std::move(value_json)};
+  op.identity = request;
+  op.ok = ok;
+  enqueue(std::move(op));
+}
+
+void DdsWorker::request(std::size_t item, std::uint64_t tag, std::string value_json) {
+  Op op{Op::Kind::request, ItemList::service_imports, item, std::move(value_json)};
+  op.tag = tag;
+  if (!enqueue(std::move(op))) {
+    emit(
+        {BridgeEvent::Kind::failed, ItemList::service_imports, item, {}, 0, "queue full", {}, tag});
+  }
 }
 
 bool DdsWorker::enqueue(Op op) {
@@ -139,7 +219,7 @@ bool DdsWorker::enqueue(Op op) {
     if (stopping_) return false;
     if (ops_bytes_ + cost(op.bytes.size()) > config_.queue_bytes) {
       // Counted on the loop, with the others (the event is small).
-      outbox_.push_back({BridgeEvent::Kind::dropped, op.import, op.item, {}, 0, "queue"});
+      outbox_.push_back({BridgeEvent::Kind::dropped, op.list, op.item, {}, 0, "queue"});
       const bool first = outbox_.size() == 1;
       if (first && wake_) wake_();
       return false;
@@ -157,7 +237,7 @@ void DdsWorker::emit(BridgeEvent ev) {
     std::lock_guard lock(mutex_);
     const std::size_t c = cost(ev.payload.size());
     if (ev.kind == BridgeEvent::Kind::sample && outbox_bytes_ + c > config_.queue_bytes) {
-      ev = {BridgeEvent::Kind::dropped, ev.import, ev.item, {}, 0, "outbox"};
+      ev = {BridgeEvent::Kind::dropped, ev.list, ev.item, {}, 0, "outbox"};
     } else {
       outbox_bytes_ += c;
     }
@@ -179,55 +259,167 @@ std::string DdsWorker::participantGuid() const {
 }
 
 void DdsWorker::handle(Op& op) {
-  if (op.import) {
+  if (op.list == ItemList::service_imports || op.list == ItemList::service_exports) {
+    handleService(op);
+    return;
+  }
+  if (op.kind == Op::Kind::imported) {
     const TopicItem& t = config_.imports[op.item];
     if (prefixOf(op.writer_guid) == own_prefix_) return;  // our own export of the same topic
+    // Checked before the hub sees it: a sample that does not read as its type is dropped.
     if (t.encoding == Encoding::cdr) {
-      // Checked before the hub sees it: a sample that does not read as its type is dropped.
       if (auto v = ros2::validate(registry_, t.type, op.bytes); !v) {
-        emit({BridgeEvent::Kind::malformed, true, op.item, {}, 0, v.error().message});
+        emit({BridgeEvent::Kind::malformed, ItemList::imports, op.item, {}, 0, v.error().message});
         return;
       }
-      emit({BridgeEvent::Kind::sample, true, op.item, std::move(op.bytes), 0, {}});
-    } else {
-      auto v = ros2::cdrToJson(registry_, t.type, op.bytes);
-      if (!v) {
-        emit({BridgeEvent::Kind::malformed, true, op.item, {}, 0, v.error().message});
-        return;
-      }
-      emit({BridgeEvent::Kind::sample, true, op.item, support::writeJson(*v), 0, {}});
+      emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(op.bytes)});
+      return;
     }
+    auto v = ros2::cdrToJson(registry_, t.type, op.bytes);
+    if (!v) {
+      emit({BridgeEvent::Kind::malformed, ItemList::imports, op.item, {}, 0, v.error().message});
+      return;
+    }
+    emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, support::writeJson(*v)});
     return;
   }
   const TopicItem& t = config_.exports[op.item];
-  std::string cdr;
-  if (t.encoding == Encoding::json) {
-    auto value = support::parseJson(op.bytes);
-    if (!value) {
+  auto sample =
+      t.encoding == Encoding::json ? fromJson(t.type, op.bytes) : checked(t.type, op.bytes);
+  if (!sample) {
+    emit({BridgeEvent::Kind::malformed, ItemList::exports, op.item, {}, 0, sample.error().message});
+    return;
+  }
+  if (auto r = participant_->write(writers_[op.item], *sample); !r) {
+    emit({BridgeEvent::Kind::dropped, ItemList::exports, op.item, {}, 0, r.error().message});
+  }
+}
+
+Result<std::string> DdsWorker::fromJson(const std::string& type, const std::string& json) const {
+  auto value = support::parseJson(json);
+  if (!value) return makeError(Errc::invalid_argument, "not JSON: " + value.error().message);
+  return ros2::jsonToCdr(registry_, type, *value);
+}
+
+Result<std::string> DdsWorker::checked(const std::string& type, std::string& cdr) const {
+  if (auto v = ros2::validate(registry_, type, cdr); !v) return v.error();
+  return std::move(cdr);
+}
+
+void DdsWorker::handleService(Op& op) {
+  if (op.list == ItemList::service_exports) {
+    const ServiceItem& t = config_.service_exports[op.item];
+    const ServiceEndpoints& e = service_exports_[op.item];
+    if (op.kind == Op::Kind::request) {
+      // The reply goes to the client's reply reader when it named one (rmw_fastrtps, Humble
+      // on), else to its request writer; and says which request it answers by its number.
+      auto value = ros2::cdrToJson(registry_, t.type + "_Request", op.bytes);
+      if (!value) {
+        emit({BridgeEvent::Kind::malformed,
+              ItemList::service_exports,
+              op.item,
+              {},
+              0,
+              value.error().message});
+        return;
+      }
+      SampleIdentity to{op.related.writer != Gid{} ? op.related.writer : op.identity.writer,
+                        op.identity.sequence};
+      BridgeEvent ev{BridgeEvent::Kind::request, ItemList::service_exports, op.item,
+                     support::writeJson(*value)};
+      ev.identity = to;
+      emit(std::move(ev));
+      return;
+    }
+    // The hub's answer: a Response, or for a failure the Response's success and message fields
+    // where it has them (Trigger, SetBool); else no reply (ROS 2 services carry no error).
+    const std::string response_type = t.type + "_Response";
+    Result<std::string> sample = op.ok ? fromJson(response_type, op.bytes)
+                                       : Result<std::string>(makeError(Errc::io_error, op.bytes));
+    if (!sample) {
+      const std::string why = sample.error().message;
+      const ros2::MessageDefinition* def = registry_.find(response_type);
+      const bool has_status =
+          def != nullptr &&
+          std::any_of(def->fields.begin(), def->fields.end(),
+                      [](const ros2::Field& f) { return f.name == "success"; }) &&
+          std::any_of(def->fields.begin(), def->fields.end(),
+                      [](const ros2::Field& f) { return f.name == "message"; });
       emit({BridgeEvent::Kind::malformed,
-            false,
+            ItemList::service_exports,
             op.item,
             {},
             0,
-            "not JSON: " + value.error().message});
-      return;
+            (op.ok ? "the answer: " : "the hub service failed: ") + why});
+      if (!has_status) return;
+      Json::Value failure(Json::objectValue);
+      failure["success"] = false;
+      failure["message"] = why;
+      sample = ros2::jsonToCdr(registry_, response_type, failure);
+      if (!sample) return;
     }
-    auto sample = ros2::jsonToCdr(registry_, t.type, *value);
+    if (auto r = participant_->writeRelated(e.replies, *sample, op.identity); !r) {
+      emit({BridgeEvent::Kind::dropped,
+            ItemList::service_exports,
+            op.item,
+            {},
+            0,
+            r.error().message});
+    }
+    return;
+  }
+  const ServiceItem& t = config_.service_imports[op.item];
+  const ServiceEndpoints& e = service_imports_[op.item];
+  if (op.kind == Op::Kind::request) {
+    auto sample = fromJson(t.type + "_Request", op.bytes);
     if (!sample) {
-      emit({BridgeEvent::Kind::malformed, false, op.item, {}, 0, sample.error().message});
+      emit({BridgeEvent::Kind::failed,
+            ItemList::service_imports,
+            op.item,
+            {},
+            0,
+            sample.error().message,
+            {},
+            op.tag});
       return;
     }
-    cdr = std::move(*sample);
+    // The server answers to our reply reader, named in the request (rmw_fastrtps's client).
+    auto sent = participant_->writeRelated(e.requests, *sample,
+                                           SampleIdentity{participant_->gid(e.replies), 0});
+    if (!sent) {
+      emit({BridgeEvent::Kind::failed,
+            ItemList::service_imports,
+            op.item,
+            {},
+            0,
+            sent.error().message,
+            {},
+            op.tag});
+      return;
+    }
+    BridgeEvent ev{BridgeEvent::Kind::sent, ItemList::service_imports, op.item};
+    ev.identity = *sent;
+    ev.tag = op.tag;
+    emit(std::move(ev));
+    return;
+  }
+  // A reply: ours when it names our reply reader or our request writer (older servers).
+  if (op.related.writer != participant_->gid(e.replies) &&
+      op.related.writer != participant_->gid(e.requests)) {
+    return;  // another client's
+  }
+  auto value = ros2::cdrToJson(registry_, t.type + "_Response", op.bytes);
+  BridgeEvent ev{BridgeEvent::Kind::reply, ItemList::service_imports, op.item};
+  ev.identity = op.related;
+  if (value) {
+    ev.payload = support::writeJson(*value);
   } else {
-    if (auto v = ros2::validate(registry_, t.type, op.bytes); !v) {
-      emit({BridgeEvent::Kind::malformed, false, op.item, {}, 0, v.error().message});
-      return;
-    }
-    cdr = std::move(op.bytes);
+    Json::Value error(Json::objectValue);
+    error["error"] = "malformed";
+    error["message"] = value.error().message;
+    ev.payload = support::writeJson(error);
   }
-  if (auto r = participant_->write(writers_[op.item], cdr); !r) {
-    emit({BridgeEvent::Kind::dropped, false, op.item, {}, 0, r.error().message});
-  }
+  emit(std::move(ev));
 }
 
 }  // namespace skr::ros2_bridge

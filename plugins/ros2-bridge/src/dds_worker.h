@@ -25,14 +25,29 @@
 
 namespace skr::ros2_bridge {
 
+// Which list of the config an event's or operation's `item` indexes.
+enum class ItemList : std::uint8_t { imports, exports, service_imports, service_exports };
+
 struct BridgeEvent {
-  enum class Kind : std::uint8_t { sample, matched, incompatible_qos, malformed, dropped };
+  enum class Kind : std::uint8_t {
+    sample,            // imports: `payload` to publish
+    matched,           // `matched` endpoints now (services: of the request endpoint)
+    incompatible_qos,  // `text`: the policy
+    malformed,         // `text`: why (the sample or message is dropped)
+    dropped,           // `text`: where (a queue, a failed write)
+    request,           // service_exports: a ROS 2 client's request, `payload` JSON, `identity`
+    sent,              // service_imports: the request of `tag` went out as `identity`
+    reply,             // service_imports: the reply `payload` (JSON) to `identity.sequence`
+    failed,            // service_imports: the request of `tag` could not go out (`text`)
+  };
   Kind kind = Kind::sample;
-  bool import = true;  // which list `item` indexes: the config's imports or exports
+  ItemList list = ItemList::imports;
   std::size_t item = 0;
-  std::string payload;       // sample: what the channel publishes
-  std::int32_t matched = 0;  // matched: the endpoints matched now
-  std::string text;          // incompatible_qos: the policy; malformed: why; dropped: where
+  std::string payload;
+  std::int32_t matched = 0;
+  std::string text;
+  SampleIdentity identity;
+  std::uint64_t tag = 0;
 };
 
 class DdsWorker {
@@ -52,17 +67,41 @@ class DdsWorker {
   // An exported channel's message for export `item` (loop thread): converted and written on the
   // DDS thread. False when the queue is full (dropped).
   bool write(std::size_t item, std::string_view payload);
+  // service_exports: the hub's answer to a ROS 2 client's request (`ok` false: `value_json` is
+  // why), written as the reply to `request`.
+  void reply(std::size_t item, const SampleIdentity& request, bool ok, std::string value_json);
+  // service_imports: a hub request (`tag`) for the ROS 2 server, its value JSON.
+  void request(std::size_t item, std::uint64_t tag, std::string value_json);
   // What waits for the loop, oldest first.
   [[nodiscard]] std::vector<BridgeEvent> take();
   [[nodiscard]] std::string participantGuid() const;
 
  private:
   struct Op {
-    bool import = false;  // true: a sample read from an imported topic; false: a write
+    enum class Kind : std::uint8_t {
+      imported,  // a sample of an imported topic
+      write,     // an exported channel's message
+      request,   // service_exports: a ROS 2 request read; service_imports: a hub request
+      reply,     // service_exports: the hub's answer; service_imports: a ROS 2 reply read
+    };
+    Kind kind = Kind::write;
+    ItemList list = ItemList::imports;
     std::size_t item = 0;
     std::string bytes;
     std::string writer_guid;
+    SampleIdentity identity, related;
+    std::uint64_t tag = 0;
+    bool ok = true;
   };
+  struct ServiceEndpoints {
+    EndpointId requests = 0;  // a reader (exports) or a writer (imports)
+    EndpointId replies = 0;   // a writer (exports) or a reader (imports)
+  };
+  void handleService(Op& op);
+  // A message of `type` from JSON, and a CDR sample checked against `type` (moved out).
+  [[nodiscard]] Result<std::string> fromJson(const std::string& type,
+                                             const std::string& json) const;
+  [[nodiscard]] Result<std::string> checked(const std::string& type, std::string& cdr) const;
   void run(std::promise<Result<void>>& started);
   Result<void> createEndpoints();
   Result<void> publishGraph();
@@ -75,7 +114,8 @@ class DdsWorker {
   std::function<void()> wake_;
   std::unique_ptr<DdsParticipant> participant_;  // the DDS thread's
   std::vector<EndpointId> readers_, writers_;    // by import and export item
-  std::string own_prefix_;                       // this participant's GUID prefix
+  std::vector<ServiceEndpoints> service_imports_, service_exports_;
+  std::string own_prefix_;  // this participant's GUID prefix
 
   std::mutex mutex_;
   std::condition_variable cv_;

@@ -15,6 +15,8 @@
 #include <skrobot/support/media_props.hpp>
 
 #include <cstdlib>
+#include <iterator>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -55,6 +57,15 @@ class Ros2Bridge final : public plugin::Module {
         }
       }
     }
+    for (const auto* list : {&config_.service_imports, &config_.service_exports}) {
+      for (const ServiceItem& t : *list) {
+        for (const char* half : {"_Request", "_Response"}) {
+          if (auto r = registry_.resolve(t.type + half); !r) {
+            throw plugin::Failure(SKR_ERR_CONFIG, t.ros + ": " + r.error().message);
+          }
+        }
+      }
+    }
     if (config_.participant.allow_non_loopback) {
       std::string imports;
       for (const TopicItem& t : config_.imports) imports += (imports.empty() ? "" : ", ") + t.ros;
@@ -66,6 +77,10 @@ class Ros2Bridge final : public plugin::Module {
     imports_.resize(config_.imports.size());
     exports_.resize(config_.exports.size());
     for (std::size_t i = 0; i < config_.imports.size(); ++i) addImport(i);
+    service_imports_.resize(config_.service_imports.size());
+    service_exports_.resize(config_.service_exports.size());
+    requester_ = std::make_unique<plugin::Requester>(host_);
+    for (std::size_t i = 0; i < config_.service_imports.size(); ++i) addServiceImport(i);
     worker_ = std::make_unique<DdsWorker>(config_, registry_,
                                           [this] { host_.post([this] { drain(); }); });
     if (auto r = worker_->start(); !r) {
@@ -76,16 +91,26 @@ class Ros2Bridge final : public plugin::Module {
         plugin::StreamChannel(host_, "status", "application/json",
                               R"({"note": "the bridge's topics and counters, every second"})");
     status_tick_ = host_.onTick(plugin::Tick::one_sec, [this] { publishStatus(); });
+    expire_tick_ = host_.onTick(plugin::Tick::slow, [this] { expireRequests(); });
     host_.log.info("ROS2-BRIDGE", "domain ", config_.participant.domain, " on ",
                    joined(config_.participant.interfaces), ", node ", config_.ns,
                    config_.ns == "/" ? "" : "/", config_.node, ", ", config_.imports.size(),
-                   " import(s), ", config_.exports.size(), " export(s), ", registry_.size(),
-                   " types; participant ", worker_->participantGuid());
+                   " import(s), ", config_.exports.size(), " export(s), ",
+                   config_.service_imports.size() + config_.service_exports.size(), " service(s), ",
+                   registry_.size(), " types; participant ", worker_->participantGuid());
   }
 
   void stop() override {
     if (worker_) worker_->stop();  // no wake after this
     worker_.reset();
+    for (auto& [tag, p] : pending_) {
+      service_imports_[p.item].channel.respond(
+          p.request, R"({"error":"stopped","message":"the bridge stopped"})");
+    }
+    pending_.clear();
+    for (auto& s : service_imports_) s.channel = {};
+    requester_.reset();
+    expire_tick_.reset();
     status_tick_.reset();
     status_ = {};
     for (auto& e : exports_) e.subscription.reset();
@@ -100,6 +125,17 @@ class Ros2Bridge final : public plugin::Module {
   struct Export {
     plugin::Subscription subscription;
     Counters counters;
+  };
+  struct ServiceImport {
+    plugin::ServiceChannel channel;
+    Counters counters;  // matched: ROS 2 servers
+  };
+  // A hub request waiting for a ROS 2 server's reply.
+  struct Pending {
+    std::size_t item = 0;
+    std::uint64_t request = 0;  // the hub's request id
+    std::int64_t sequence = 0;  // our request sample's, once written (0 before)
+    std::int64_t deadline_ns = 0;
   };
 
   static std::string joined(const std::vector<std::string>& list) {
@@ -141,6 +177,113 @@ class Ros2Bridge final : public plugin::Module {
         skr::support::writeJson(props));
   }
 
+  void addServiceImport(std::size_t i) {
+    const ServiceItem& t = config_.service_imports[i];
+    Json::Value props(Json::objectValue);
+    props["ros_service"] = t.ros;
+    props["ros_type"] = t.type;
+    props["note"] = "calls the ROS 2 service " + t.ros +
+                    ": any command, the request's fields "
+                    "as the value; the answer is the response's fields, or {\"error\": ...}";
+    service_imports_[i].channel = plugin::ServiceChannel(
+        host_, t.channel, [this, i](const plugin::ServiceRequest& r) { callRos(i, r); },
+        skr::support::writeJson(props));
+  }
+
+  void callRos(std::size_t i, const plugin::ServiceRequest& r) {
+    ServiceImport& s = service_imports_[i];
+    if (s.counters.matched == 0 || !worker_) {
+      s.channel.respond(r.id, R"({"error":"no_server","message":"no ROS 2 server of )" +
+                                  config_.service_imports[i].ros + R"( is matched"})");
+      return;
+    }
+    const std::uint64_t tag = next_tag_++;
+    pending_[tag] = {i, r.id, 0, host_.nowNs() + config_.service_imports[i].timeout_ms * 1000000};
+    s.counters.messages += 1;
+    worker_->request(i, tag, r.value_json);
+  }
+
+  void answer(std::map<std::uint64_t, Pending>::iterator it, const std::string& value_json) {
+    service_imports_[it->second.item].channel.respond(it->second.request, value_json);
+    pending_.erase(it);
+  }
+
+  void expireRequests() {
+    const std::int64_t now = host_.nowNs();
+    for (auto it = pending_.begin(); it != pending_.end();) {
+      auto next = std::next(it);
+      if (it->second.deadline_ns <= now) {
+        service_imports_[it->second.item].counters.dropped += 1;
+        answer(it, R"({"error":"timeout","message":"no reply from the ROS 2 server in time"})");
+      }
+      it = next;
+    }
+  }
+
+  void serviceEvent(BridgeEvent& ev) {
+    if (ev.list == ItemList::service_exports) {
+      Counters& c = service_exports_[ev.item].counters;
+      const ServiceItem& t = config_.service_exports[ev.item];
+      switch (ev.kind) {
+        case BridgeEvent::Kind::matched:
+          c.matched = ev.matched;
+          break;
+        case BridgeEvent::Kind::request: {
+          c.messages += 1;
+          const std::size_t item = ev.item;
+          const SampleIdentity to = ev.identity;
+          const bool sent = requester_->request(t.channel, t.command, ev.payload,
+                                                [this, item, to](bool ok, const std::string& v) {
+                                                  if (worker_) worker_->reply(item, to, ok, v);
+                                                });
+          if (!sent && worker_) worker_->reply(item, to, false, "no service channel " + t.channel);
+          break;
+        }
+        case BridgeEvent::Kind::malformed:
+          c.malformed += 1;
+          c.last_error = ev.text;
+          host_.log.warn("ROS2-SERVICE-FAILED", t.ros, ": ", ev.text);
+          break;
+        default:
+          c.dropped += ev.kind == BridgeEvent::Kind::dropped ? 1 : 0;
+          break;
+      }
+      return;
+    }
+    Counters& c = service_imports_[ev.item].counters;
+    switch (ev.kind) {
+      case BridgeEvent::Kind::matched:
+        c.matched = ev.matched;
+        break;
+      case BridgeEvent::Kind::sent:
+        if (auto it = pending_.find(ev.tag); it != pending_.end()) {
+          it->second.sequence = ev.identity.sequence;
+        }
+        break;
+      case BridgeEvent::Kind::reply:
+        for (auto it = pending_.begin(); it != pending_.end(); ++it) {
+          if (it->second.item == ev.item && it->second.sequence == ev.identity.sequence) {
+            answer(it, ev.payload);
+            break;
+          }
+        }
+        break;
+      case BridgeEvent::Kind::failed:
+        c.malformed += 1;
+        c.last_error = ev.text;
+        if (auto it = pending_.find(ev.tag); it != pending_.end()) {
+          Json::Value error(Json::objectValue);
+          error["error"] = "invalid_argument";
+          error["message"] = ev.text;
+          answer(it, skr::support::writeJson(error));
+        }
+        break;
+      default:
+        c.dropped += ev.kind == BridgeEvent::Kind::dropped ? 1 : 0;
+        break;
+    }
+  }
+
   // The exported channel is subscribed to while a ROS 2 reader is matched.
   void follow(std::size_t i) {
     Export& e = exports_[i];
@@ -166,8 +309,13 @@ class Ros2Bridge final : public plugin::Module {
   void drain() {
     if (!worker_) return;
     for (BridgeEvent& ev : worker_->take()) {
-      const TopicItem& t = ev.import ? config_.imports[ev.item] : config_.exports[ev.item];
-      Counters& c = ev.import ? imports_[ev.item].counters : exports_[ev.item].counters;
+      if (ev.list == ItemList::service_imports || ev.list == ItemList::service_exports) {
+        serviceEvent(ev);
+        continue;
+      }
+      const bool import = ev.list == ItemList::imports;
+      const TopicItem& t = import ? config_.imports[ev.item] : config_.exports[ev.item];
+      Counters& c = import ? imports_[ev.item].counters : exports_[ev.item].counters;
       switch (ev.kind) {
         case BridgeEvent::Kind::sample:
           c.messages += 1;
@@ -176,15 +324,15 @@ class Ros2Bridge final : public plugin::Module {
           break;
         case BridgeEvent::Kind::matched:
           c.matched = ev.matched;
-          if (!ev.import) follow(ev.item);
+          if (!import) follow(ev.item);
           break;
         case BridgeEvent::Kind::incompatible_qos:
           if (c.incompatible != ev.text) {
             host_.log.warn("ROS2-QOS-INCOMPATIBLE", t.ros, ": a remote ",
-                           ev.import ? "writer" : "reader", " disagrees with our ",
-                           ev.import ? "reader" : "writer", " on ", ev.text,
+                           import ? "writer" : "reader", " disagrees with our ",
+                           import ? "reader" : "writer", " on ", ev.text,
                            " (ours: ", describe(t.qos), "); set \"qos\" on ",
-                           ev.import ? "import " : "export ", t.ros);
+                           import ? "import " : "export ", t.ros);
           }
           c.incompatible = ev.text;
           break;
@@ -197,6 +345,8 @@ class Ros2Bridge final : public plugin::Module {
           break;
         case BridgeEvent::Kind::dropped:
           c.dropped += 1;
+          break;
+        default:
           break;
       }
     }
@@ -228,8 +378,29 @@ class Ros2Bridge final : public plugin::Module {
     };
     for (std::size_t i = 0; i < imports_.size(); ++i)
       add(config_.imports[i], imports_[i].counters, true);
-    for (std::size_t i = 0; i < exports_.size(); ++i)
+    for (std::size_t i = 0; i < exports_.size(); ++i) {
       add(config_.exports[i], exports_[i].counters, false);
+    }
+    s["services"] = Json::Value(Json::arrayValue);
+    auto addService = [&](const ServiceItem& t, const Counters& c, bool import) {
+      Json::Value v(Json::objectValue);
+      v["ros"] = t.ros;
+      v["type"] = t.type;
+      v["direction"] = import ? "import" : "export";
+      v["channel"] = import ? std::string(host_.name()) + "." + t.channel : t.channel;
+      v["matched"] = c.matched;
+      v["requests"] = Json::UInt64(c.messages);
+      v["failed"] = Json::UInt64(c.malformed);
+      v["timeouts"] = Json::UInt64(c.dropped);
+      if (!c.last_error.empty()) v["last_error"] = c.last_error;
+      s["services"].append(std::move(v));
+    };
+    for (std::size_t i = 0; i < service_imports_.size(); ++i) {
+      addService(config_.service_imports[i], service_imports_[i].counters, true);
+    }
+    for (std::size_t i = 0; i < service_exports_.size(); ++i) {
+      addService(config_.service_exports[i], service_exports_[i].counters, false);
+    }
     status_.publish(skr::support::writeJson(s));
   }
 
@@ -239,8 +410,17 @@ class Ros2Bridge final : public plugin::Module {
   std::unique_ptr<DdsWorker> worker_;
   std::vector<Import> imports_;
   std::vector<Export> exports_;
+  std::vector<ServiceImport> service_imports_;
+  struct ServiceExport {
+    Counters counters;
+  };
+  std::vector<ServiceExport> service_exports_;
+  std::unique_ptr<plugin::Requester> requester_;
+  std::map<std::uint64_t, Pending> pending_;  // by our tag
+  std::uint64_t next_tag_ = 1;
   plugin::StreamChannel status_;
   plugin::TickHandle status_tick_;
+  plugin::TickHandle expire_tick_;
 };
 
 namespace cfg = skr::config;
@@ -260,6 +440,9 @@ constexpr skr_config_key kConfig[] = {
     cfg::array("definitions", "[]", "folders of ROS 2 interface packages beside the shipped ones"),
     cfg::array("import", "[]", "ROS 2 topics as channels: {ros, type, channel, encoding, qos}"),
     cfg::array("export", "[]", "channels as ROS 2 topics: {channel, ros, type, encoding, qos}"),
+    cfg::array("services_import", "[]", "ROS 2 services as service channels: {ros, type, channel}"),
+    cfg::array("services_export", "[]",
+               "service channels as ROS 2 services: {channel, command, ros, type, timeout_ms}"),
     cfg::integer("queue_bytes", "67108864", "samples waiting for the DDS thread or the loop")
         .range(65536, 4294967296.0),
 };

@@ -77,4 +77,17 @@ Result<std::string> ddsTopicName(std::string_view ros_name, std::string_view ns,
   return dds;
 }
 
+Result<std::pair<std::string, std::string>> ddsServiceTopics(std::string_view ros_name,
+                                                             std::string_view ns,
+                                                             std::string_view node) {
+  auto resolved = resolveRosName(ros_name, ns, node);
+  if (!resolved) return resolved.error();
+  std::pair<std::string, std::string> out{"rq" + *resolved + "Request", "rr" + *resolved + "Reply"};
+  if (out.first.size() > kMaxDdsNameLength) {
+    return bad(ros_name, "its DDS name has " + std::to_string(out.first.size()) +
+                             " characters (at most " + std::to_string(kMaxDdsNameLength) + ")");
+  }
+  return out;
+}
+
 }  // namespace skr::ros2_bridge

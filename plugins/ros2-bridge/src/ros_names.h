@@ -7,6 +7,7 @@
 
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace skr::ros2_bridge {
 
@@ -23,5 +24,9 @@ inline constexpr std::size_t kMaxDdsNameLength = 255;
 // checked against kMaxDdsNameLength).
 [[nodiscard]] Result<std::string> ddsTopicName(std::string_view ros_name, std::string_view ns = "/",
                                                std::string_view node = {});
+
+// The request and reply topics of a ROS service: "/add" -> "rq/addRequest", "rr/addReply".
+[[nodiscard]] Result<std::pair<std::string, std::string>> ddsServiceTopics(
+    std::string_view ros_name, std::string_view ns = "/", std::string_view node = {});
 
 }  // namespace skr::ros2_bridge

@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -377,6 +378,175 @@ TEST_F(Ros2Bridge, TheBridgeIsANodeInRos2sGraph) {
     hub_->stop();
     hub_.reset();
   }
+}
+
+// Services as rmw_fastrtps makes them (rq/<name>Request, rr/<name>Reply; the request names the
+// client's reply reader in its related sample identity, the reply names the request): a hub
+// service answers a ROS 2 client, and a hub request reaches a ROS 2 server.
+TEST_F(Ros2Bridge, ServicesGoBothWaysWithRmwFastrtpsRequestsAndReplies) {
+  startBridge(R"({
+      "services_export": [
+        {"channel": "guest.adder", "command": "add", "ros": "/add_two_ints",
+         "type": "example_interfaces/srv/AddTwoInts"},
+        {"channel": "guest.absent", "ros": "/trigger", "type": "std_srvs/srv/Trigger"}],
+      "services_import": [
+        {"ros": "/sum", "type": "example_interfaces/srv/AddTwoInts", "timeout_ms": 1500}]})");
+  auto sat = satellite("services");
+  ASSERT_TRUE(sat->on([](skr::sat::Satellite& s) {
+    s.serviceRequest.connect(&s, [&s](const skr::sat::Request& r) {
+      const auto* a = r.value.find("a");
+      const auto* b = r.value.find("b");
+      const std::int64_t sum =
+          (a && a->asInt64() ? *a->asInt64() : 0) + (b && b->asInt64() ? *b->asInt64() : 0);
+      (void)s.respond(r, r.command == "add" ? skr::flow::Variant::Map{{"sum", sum}}
+                                            : skr::flow::Variant::Map{{"wrong", r.command}});
+    });
+    return static_cast<bool>(
+        s.addChannel({.name = "adder", .kind = skr::flow::ChannelKind::service}));
+  }));
+  startRos();
+  const std::string req = "example_interfaces::srv::dds_::AddTwoInts_Request_";
+  const std::string rep = "example_interfaces::srv::dds_::AddTwoInts_Response_";
+  const Qos services = *qosProfile("services");
+
+  // A ROS 2 client of /add_two_ints: the hub service answers (the command is the config's).
+  Received client_writer, replies;
+  ReaderCallbacks rcb;
+  std::vector<Sample> reply_samples;
+  std::mutex reply_mutex;
+  rcb.on_sample = [&](Sample&& s) {
+    std::lock_guard lock(reply_mutex);
+    reply_samples.push_back(std::move(s));
+  };
+  rcb.on_matched = [&](const MatchStatus& m) {
+    std::lock_guard lock(replies.m);
+    replies.matched = m.current;
+  };
+  WriterCallbacks wcb;
+  wcb.on_matched = [&](const MatchStatus& m) {
+    std::lock_guard lock(client_writer.m);
+    client_writer.matched = m.current;
+  };
+  auto reply_reader = ros_->createDdsReader("rr/add_two_intsReply", rep, services, rcb);
+  auto request_writer = ros_->createDdsWriter("rq/add_two_intsRequest", req, services, wcb);
+  ASSERT_TRUE(reply_reader && request_writer);
+  ASSERT_TRUE(matched(client_writer) && matched(replies)) << hub_->log();
+  auto sent = ros_->writeRelated(
+      *request_writer, cdr("example_interfaces/srv/AddTwoInts_Request", R"({"a": 2, "b": 40})"),
+      SampleIdentity{ros_->gid(*reply_reader), 0});
+  ASSERT_TRUE(sent) << sent.error().message;
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(reply_mutex);
+    return !reply_samples.empty();
+  })) << hub_->log();
+  {
+    std::lock_guard lock(reply_mutex);
+    const Sample& r = reply_samples[0];
+    EXPECT_EQ(r.related.writer, ros_->gid(*reply_reader));
+    EXPECT_EQ(r.related.sequence, sent->sequence);
+    EXPECT_EQ(r.bytes, cdr("example_interfaces/srv/AddTwoInts_Response", R"({"sum": 42})"));
+  }
+
+  // /trigger's hub service does not exist: a Trigger's reply says so (success false).
+  Received trigger_writer, trigger_replies;
+  std::vector<std::string> trigger_samples;
+  ReaderCallbacks tcb;
+  tcb.on_sample = [&](Sample&& s) {
+    std::lock_guard lock(trigger_replies.m);
+    trigger_replies.samples.push_back(std::move(s.bytes));
+  };
+  tcb.on_matched = [&](const MatchStatus& m) {
+    std::lock_guard lock(trigger_replies.m);
+    trigger_replies.matched = m.current;
+  };
+  WriterCallbacks twcb;
+  twcb.on_matched = [&](const MatchStatus& m) {
+    std::lock_guard lock(trigger_writer.m);
+    trigger_writer.matched = m.current;
+  };
+  auto trigger_reader = ros_->createDdsReader(
+      "rr/triggerReply", "std_srvs::srv::dds_::Trigger_Response_", services, tcb);
+  auto trigger_request = ros_->createDdsWriter(
+      "rq/triggerRequest", "std_srvs::srv::dds_::Trigger_Request_", services, twcb);
+  ASSERT_TRUE(trigger_reader && trigger_request);
+  ASSERT_TRUE(matched(trigger_writer) && matched(trigger_replies)) << hub_->log();
+  ASSERT_TRUE(ros_->writeRelated(*trigger_request, cdr("std_srvs/srv/Trigger_Request", "{}"),
+                                 SampleIdentity{ros_->gid(*trigger_reader), 0}));
+  ASSERT_TRUE(eventually([&] { return trigger_replies.count() == 1; })) << hub_->log();
+  auto trigger =
+      ros2::cdrToJson(shipped(), "std_srvs/srv/Trigger_Response", trigger_replies.samples[0]);
+  ASSERT_TRUE(trigger);
+  EXPECT_FALSE((*trigger)["success"].asBool());
+  EXPECT_NE((*trigger)["message"].asString().find("guest.absent"), std::string::npos)
+      << skr::support::writeJson(*trigger);
+
+  // The hub calls /sum: no server yet, then a ROS 2 server that answers, then one that does not.
+  auto call = [&](std::int64_t a, std::int64_t b) {
+    sat->events.clear();
+    EXPECT_TRUE(sat->on([&](skr::sat::Satellite& s) {
+      return static_cast<bool>(
+          s.request("ros2-bridge.sum", "call", skr::flow::Variant::Map{{"a", a}, {"b", b}}));
+    }));
+    std::string answer;
+    EXPECT_TRUE(eventually([&] {
+      auto r = sat->events.with("response:");
+      if (r.empty()) return false;
+      answer = r[0];
+      return true;
+    })) << hub_->log();
+    return answer.substr(answer.find(':') + 1);
+  };
+  EXPECT_NE(call(1, 2).find(R"("error":"no_server")"), std::string::npos);
+  std::mutex server_mutex;
+  std::vector<Sample> requests;
+  ReaderCallbacks scb;
+  scb.on_sample = [&](Sample&& s) {
+    std::lock_guard lock(server_mutex);
+    requests.push_back(std::move(s));
+  };
+  Received server_replies;
+  WriterCallbacks swcb;
+  swcb.on_matched = [&](const MatchStatus& m) {
+    std::lock_guard lock(server_replies.m);
+    server_replies.matched = m.current;
+  };
+  auto server_reader = ros_->createDdsReader("rq/sumRequest", req, services, scb);
+  auto server_writer = ros_->createDdsWriter("rr/sumReply", rep, services, swcb);
+  ASSERT_TRUE(server_reader && server_writer);
+  ASSERT_TRUE(matched(server_replies)) << hub_->log();
+  // The bridge counts its request writer's matches: wait until it sees the server.
+  ASSERT_TRUE(eventually([&] {
+    sat->on([](skr::sat::Satellite& s) { s.subscribe("ros2-bridge.status"); });
+    auto st = sat->events.with("data:ros2-bridge.status:");
+    return !st.empty() && json(st.back())["services"][0]["matched"].asInt() == 1;
+  })) << sat->events.dump() << hub_->log();
+  std::atomic<bool> serving{true};
+  std::thread server([&] {  // the server's loop: DdsParticipant is used from one thread at a time
+    while (serving) {
+      std::vector<Sample> todo;
+      {
+        std::lock_guard lock(server_mutex);
+        todo.swap(requests);
+      }
+      for (const Sample& q : todo) {
+        auto v = ros2::cdrToJson(shipped(), "example_interfaces/srv/AddTwoInts_Request", q.bytes);
+        if (!v || (*v)["a"].asInt64() < 0) continue;  // a < 0: no answer (the timeout case)
+        const SampleIdentity to{q.related.writer != Gid{} ? q.related.writer : q.identity.writer,
+                                q.identity.sequence};
+        (void)ros_->writeRelated(
+            *server_writer,
+            cdr("example_interfaces/srv/AddTwoInts_Response",
+                R"({"sum": )" + std::to_string((*v)["a"].asInt64() + (*v)["b"].asInt64()) + "}"),
+            to);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
+  EXPECT_EQ(call(6, 7), R"({"sum":13})");
+  EXPECT_EQ(call(100, -1), R"({"sum":99})");
+  EXPECT_NE(call(-1, 0).find(R"("error":"timeout")"), std::string::npos);
+  serving = false;
+  server.join();
 }
 
 TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {

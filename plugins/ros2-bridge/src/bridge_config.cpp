@@ -141,11 +141,10 @@ std::string channelForRosName(std::string_view ros) {
 std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* domain_env,
                                       BridgeConfig& out) {
   std::vector<ConfigProblem> problems;
-  Reader r(
-      problems, config, "",
-      {"domain", "distribution", "node", "namespace", "interfaces", "peers", "max_participants",
-       "socket_buffer_bytes", "definitions", "import", "export", "services_import",
-       "services_export", "queue_bytes"});
+  Reader r(problems, config, "",
+           {"domain", "distribution", "node", "namespace", "interfaces", "peers",
+            "max_participants", "socket_buffer_bytes", "definitions", "import", "export",
+            "services_import", "services_export", "queue_bytes"});
   ParticipantConfig& p = out.participant;
   std::int64_t domain = r.integer("domain", -1, -1, 232);
   if (domain < 0) {

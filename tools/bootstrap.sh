@@ -61,6 +61,9 @@ PACKAGES=(
   libfastrtps-dev libfastcdr-dev
   # its tests' second DDS vendor on the wire: Cyclone DDS peers (tests/ros2/peers; idlc generates their types)
   cyclonedds-dev cyclonedds-tools
+  # fastddsgen (Java): CTest ros2.fastddsgen_regenerate checks the committed Fast DDS peer types
+  # (tests/ros2/peers/fastdds_gen) against it; 31 packages, 37 MB, ~11 s where a JRE already is
+  fastddsgen
   # flowctl record/play (MCAP chunks compressed with zstd or lz4)
   libzstd-dev liblz4-dev
   # the Debian packages (CPack, dpkg-shlibdeps) and their tests (namespaces, the unit's check)

@@ -64,6 +64,7 @@ NOT_SOURCE = [
 # Third-party files in the repository: they keep their licence and are named in NOTICE.
 THIRD_PARTY = [
     ("satellite/python/tests/py27_grammar.txt", "PSF-2.0"),
+    ("tests/ros2/peers/fastdds_gen/*", "Apache-2.0"),
 ]
 
 

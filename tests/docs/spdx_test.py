@@ -4,6 +4,7 @@
 or new), --write puts the line where each kind of file wants it, once.
 
     spdx_test.py TOOLS_SPDX_PY"""
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -15,7 +16,8 @@ TOOL = None
 LINE = "SPDX-License-Identifier: Apache-2.0"
 
 FILES = {
-    "NOTICE": "satellite/python/tests/py27_grammar.txt: PSF\n",
+    # Written from the tool's own THIRD_PARTY list in setUp (NOTICE names each entry).
+    "NOTICE": "",
     "a.cpp": "// What a.cpp does.\n#include <x>\n",
     "c/plain.c": "/* A C file in block comments. */\nint x;\n",
     "c/plain.h": "/* A C header. */\n#pragma once\n",
@@ -53,6 +55,14 @@ EXPECTED = {
 }
 
 
+def third_party():
+    """The tool's THIRD_PARTY list (the one place it is written)."""
+    spec = importlib.util.spec_from_file_location("spdx_tool", TOOL)
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    return tool.THIRD_PARTY
+
+
 class Spdx(unittest.TestCase):
     def setUp(self):
         self.dir = tempfile.mkdtemp(prefix="spdx-test-")
@@ -62,6 +72,8 @@ class Spdx(unittest.TestCase):
             os.makedirs(os.path.dirname(path), exist_ok=True)
             with open(path, "w", encoding="utf-8", newline="") as f:
                 f.write(text)
+        with open(os.path.join(self.dir, "NOTICE"), "w", encoding="utf-8") as f:
+            f.write("".join("%s: %s\n" % entry for entry in third_party()))
         os.chmod(os.path.join(self.dir, "run.sh"), 0o755)
         subprocess.run(["git", "-C", self.dir, "add"] + [n for n in FILES if n != "new.h"],
                        check=True)

@@ -193,8 +193,8 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
   out.queue_bytes = static_cast<std::size_t>(
       r.integer("queue_bytes", static_cast<std::int64_t>(out.queue_bytes), 1 << 16, 1ll << 32));
 
-  std::set<std::string> channels{"status"};
-  auto items = [&](const char* key, bool import, std::vector<TopicItem>& list) {
+  // The items of one list (`key`), each read by `read` with its own Reader.
+  auto each = [&](const char* key, const std::set<std::string>& known, auto read) {
     const Json::Value& v = r.get(key);
     if (v.isNull()) return;
     if (!v.isArray()) {
@@ -203,93 +203,91 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
     }
     for (Json::ArrayIndex i = 0; i < v.size(); ++i) {
       const std::string path = std::string(key) + "[" + std::to_string(i) + "]";
-      Reader item(problems, v[i], path, {"ros", "type", "channel", "encoding", "qos"});
-      TopicItem t;
-      const std::string ros = item.string("ros", "", true);
-      if (!ros.empty()) {
-        if (auto resolved = resolveRosName(ros, out.ns, out.node)) {
-          t.ros = *resolved;
-        } else {
-          item.problem("ros", resolved.error().message);
-        }
-      }
-      const std::string type = item.string("type", "", true);
-      if (auto full = ros2::fullName(type); full && full->find("/msg/") != std::string::npos) {
-        t.type = *full;
-      } else if (!type.empty()) {
-        item.problem("type", "not a ROS 2 message type (pkg/msg/Name)");
-      }
-      const std::string enc = item.string("encoding", "cdr");
-      if (enc == "cdr" || enc == "json") {
-        t.encoding = enc == "cdr" ? Encoding::cdr : Encoding::json;
-      } else {
-        item.problem("encoding", "must be cdr or json");
-      }
-      t.channel = item.string("channel", import ? channelForRosName(t.ros) : "", !import);
-      if (import && !t.channel.empty()) {
-        if (!flow::validShortName(t.channel)) {
-          item.problem("channel",
-                       "not a channel short name (1-128 of A-Z a-z 0-9 _ - ., not first .)");
-        } else if (!channels.insert(t.channel).second) {
-          item.problem("channel", "\"" + t.channel + "\" is taken (by another import or status)");
-        }
-      }
-      if (!import && !t.channel.empty() && t.channel.find('.') == std::string::npos) {
-        item.problem("channel", "a full channel name, <owner>.<name>");
-      }
-      const Json::Value none;
-      t.qos = readQos(problems, v[i].isObject() ? v[i]["qos"] : none, path + ".qos",
-                      *qosProfile("default"));
-      list.push_back(std::move(t));
+      Reader item(problems, v[i], path, known);
+      read(item, v[i].isObject() ? v[i] : Json::Value(), path);
     }
   };
-  items("import", true, out.imports);
-  items("export", false, out.exports);
+  // An import's channel is the module's (a short name, by default the ROS name's, unique); an
+  // export's is anyone's (a full name).
+  std::set<std::string> channels{"status"};
+  auto channel = [&](Reader& item, bool import, const std::string& ros) {
+    std::string name = item.string("channel", import ? channelForRosName(ros) : "", !import);
+    if (import && !name.empty()) {
+      if (!flow::validShortName(name)) {
+        item.problem("channel",
+                     "not a channel short name (1-128 of A-Z a-z 0-9 _ - ., not first .)");
+      } else if (!channels.insert(name).second) {
+        item.problem("channel", "\"" + name + "\" is taken (by another import or status)");
+      }
+    }
+    if (!import && !name.empty() && name.find('.') == std::string::npos) {
+      item.problem("channel", "a full channel name, <owner>.<name>");
+    }
+    return name;
+  };
+  // A type of `kind` ("msg" or "srv") as "pkg/<kind>/Name".
+  auto type = [&](Reader& item, const char* kind) {
+    const std::string text = item.string("type", "", true);
+    auto full = ros2::fullName(text);
+    if (full && full->find(std::string("/") + kind + "/") != std::string::npos) return *full;
+    if (!text.empty()) {
+      item.problem("type", std::string("not a ROS 2 ") + (kind == std::string("msg")
+                                                              ? "message type (pkg/msg/Name)"
+                                                              : "service type (pkg/srv/Name)"));
+    }
+    return std::string();
+  };
+  auto ros = [&](Reader& item) {
+    const std::string text = item.string("ros", "", true);
+    if (text.empty()) return std::string();
+    auto resolved = resolveRosName(text, out.ns, out.node);
+    if (!resolved) {
+      item.problem("ros", resolved.error().message);
+      return std::string();
+    }
+    return *resolved;
+  };
+
+  auto topics = [&](const char* key, bool import, std::vector<TopicItem>& list) {
+    each(key, {"ros", "type", "channel", "encoding", "qos"},
+         [&](Reader& item, const Json::Value& obj, const std::string& path) {
+           TopicItem t;
+           t.ros = ros(item);
+           if (!t.ros.empty()) {
+             if (auto dds = ddsTopicName(t.ros); !dds) item.problem("ros", dds.error().message);
+           }
+           t.type = type(item, "msg");
+           const std::string enc = item.string("encoding", "cdr");
+           if (enc == "cdr" || enc == "json") {
+             t.encoding = enc == "cdr" ? Encoding::cdr : Encoding::json;
+           } else {
+             item.problem("encoding", "must be cdr or json");
+           }
+           t.channel = channel(item, import, t.ros);
+           t.qos = readQos(problems, obj["qos"], path + ".qos", *qosProfile("default"));
+           list.push_back(std::move(t));
+         });
+  };
+  topics("import", true, out.imports);
+  topics("export", false, out.exports);
 
   auto services = [&](const char* key, bool import, std::vector<ServiceItem>& list) {
-    const Json::Value& v = r.get(key);
-    if (v.isNull()) return;
-    if (!v.isArray()) {
-      r.problem(key, "must be an array of objects");
-      return;
-    }
-    for (Json::ArrayIndex i = 0; i < v.size(); ++i) {
-      const std::string path = std::string(key) + "[" + std::to_string(i) + "]";
-      Reader item(problems, v[i], path, {"ros", "type", "channel", "command", "timeout_ms"});
-      ServiceItem t;
-      const std::string ros = item.string("ros", "", true);
-      if (!ros.empty()) {
-        if (auto topics = ddsServiceTopics(ros, out.ns, out.node); !topics) {
-          item.problem("ros", topics.error().message);
-        } else {
-          t.ros = *resolveRosName(ros, out.ns, out.node);
-        }
-      }
-      const std::string type = item.string("type", "", true);
-      if (auto full = ros2::fullName(type); full && full->find("/srv/") != std::string::npos) {
-        t.type = *full;
-      } else if (!type.empty()) {
-        item.problem("type", "not a ROS 2 service type (pkg/srv/Name)");
-      }
-      t.channel = item.string("channel", import ? channelForRosName(t.ros) : "", !import);
-      if (import && !t.channel.empty()) {
-        if (!flow::validShortName(t.channel)) {
-          item.problem("channel",
-                       "not a channel short name (1-128 of A-Z a-z 0-9 _ - ., not first .)");
-        } else if (!channels.insert(t.channel).second) {
-          item.problem("channel", "\"" + t.channel + "\" is taken (by another import or status)");
-        }
-      }
-      if (!import && !t.channel.empty() && t.channel.find('.') == std::string::npos) {
-        item.problem("channel", "a full channel name, <owner>.<name>");
-      }
-      t.command = item.string("command", "call");
-      if (import && v[i].isObject() && v[i].isMember("command")) {
-        item.problem("command", "only exported services call a hub service with a command");
-      }
-      t.timeout_ms = item.integer("timeout_ms", t.timeout_ms, 1, 600000);
-      list.push_back(std::move(t));
-    }
+    each(key, {"ros", "type", "channel", "command", "timeout_ms"},
+         [&](Reader& item, const Json::Value& obj, const std::string&) {
+           ServiceItem t;
+           t.ros = ros(item);
+           if (!t.ros.empty()) {
+             if (auto dds = ddsServiceTopics(t.ros); !dds) item.problem("ros", dds.error().message);
+           }
+           t.type = type(item, "srv");
+           t.channel = channel(item, import, t.ros);
+           t.command = item.string("command", "call");
+           if (import && obj.isMember("command")) {
+             item.problem("command", "only exported services call a hub service with a command");
+           }
+           t.timeout_ms = item.integer("timeout_ms", t.timeout_ms, 1, 600000);
+           list.push_back(std::move(t));
+         });
   };
   services("services_import", true, out.service_imports);
   services("services_export", false, out.service_exports);

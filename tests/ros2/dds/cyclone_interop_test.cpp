@@ -7,7 +7,7 @@
 // of its own (own_netns.h), where the peer's participant is confined by the CYCLONEDDS_URI it sets.
 #include "dds_participant.h"
 #include "eventually.h"
-#include "own_netns.h"
+#include "ros2_test_support.h"
 
 #include <skrobot/ros2/cdr.h>
 #include <skrobot/ros2/definitions.h>
@@ -39,31 +39,12 @@ extern char** environ;
 namespace {
 
 using namespace skr::ros2_bridge;
+using skr::ros2::test::cdrOf;
+using skr::ros2::test::json;
+using skr::ros2::test::multicastGroups;
+using skr::ros2::test::shipped;
 using skr::test::eventually;
 using Clock = std::chrono::steady_clock;
-
-
-const skr::ros2::Registry& shipped() {
-  static const skr::ros2::Registry registry = [] {
-    skr::ros2::Registry r;
-    auto loaded = r.addFolder(SKROBOT_ROS2_MSGS);
-    EXPECT_TRUE(loaded.ok()) << loaded.error().describe();
-    return r;
-  }();
-  return registry;
-}
-
-Json::Value json(const std::string& text) {
-  auto v = skr::support::parseJson(text);
-  EXPECT_TRUE(v.ok()) << text;
-  return v.ok() ? *v : Json::Value();
-}
-
-std::string toCdr(const std::string& type, const Json::Value& value) {
-  auto cdr = skr::ros2::jsonToCdr(shipped(), type, value);
-  EXPECT_TRUE(cdr.ok()) << cdr.error().describe();
-  return cdr.ok() ? *cdr : std::string();
-}
 
 std::string hex(const std::string& bytes) {
   std::ostringstream out;
@@ -84,25 +65,6 @@ bool sameShape(const Json::Value& a, const Json::Value& b) {
     if (!sameShape(a[name], b[name])) return false;
   }
   return true;
-}
-
-// Multicast groups joined in this network namespace (/proc/net/igmp), other than all-hosts.
-std::vector<std::string> multicastGroups() {
-  std::vector<std::string> groups;
-  std::ifstream in("/proc/net/igmp");
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream words(line);
-    std::string first;
-    words >> first;
-    if (first.size() != 8) continue;  // group lines start with the group in hex
-    in_addr addr{};
-    addr.s_addr = static_cast<std::uint32_t>(std::stoul(first, nullptr, 16));
-    char text[INET_ADDRSTRLEN];
-    inet_ntop(AF_INET, &addr, text, sizeof text);
-    if (std::string(text) != "224.0.0.1") groups.push_back(text);
-  }
-  return groups;
 }
 
 // cyclone_peer as a child process: its stdout read line by line, its stderr the test's.
@@ -246,7 +208,7 @@ void fastDdsToCyclone(const std::string& topic, const std::string& type,
 
   std::vector<std::string> sent;
   for (const auto& v : values) {
-    sent.push_back(toCdr(type, v));
+    sent.push_back(cdrOf(type, v));
     ASSERT_TRUE(ours.participant->write(*writer, sent.back()).ok());
   }
   for (std::size_t i = 0; i < values.size(); ++i) {
@@ -384,7 +346,7 @@ void cycloneToFastDds(const std::string& topic, const std::string& type, int cou
   for (int i = 0; i < count; ++i) {
     const std::string& bytes = samples[i].bytes;
     const Json::Value expected = peerValue(type, static_cast<std::uint32_t>(i + 1));
-    const std::string ours_bytes = toCdr(type, expected);
+    const std::string ours_bytes = cdrOf(type, expected);
     auto got = skr::ros2::cdrToJson(shipped(), type, bytes);
     ASSERT_TRUE(got.ok()) << got.error().describe() << "\n" << hex(bytes);
     const auto canonical = skr::ros2::cdrToJson(shipped(), type, ours_bytes);
@@ -419,9 +381,5 @@ TEST(CycloneInterop, LaserScanFromCycloneToFastDds) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (const int failed = skr::test::enterOwnNetworkNamespace(argc, argv); failed != 0) {
-    return failed;
-  }
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  return skr::ros2::test::runInOwnNamespace(argc, argv);
 }

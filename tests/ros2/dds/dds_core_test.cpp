@@ -6,7 +6,7 @@
 // second process of a case (spawned by the case, in the same namespace).
 #include "dds_participant.h"
 #include "eventually.h"
-#include "own_netns.h"
+#include "ros2_test_support.h"
 #include "ros_names.h"
 #include "temp_dir.h"
 
@@ -48,6 +48,7 @@ extern char** environ;
 namespace {
 
 using namespace skr::ros2_bridge;
+using skr::ros2::test::multicastGroups;
 using skr::test::eventually;
 
 int threadCount() {
@@ -103,26 +104,6 @@ std::vector<SocketInfo> udpSockets() {
     out.push_back(info);
   }
   return out;
-}
-
-// Multicast groups joined in this network namespace (/proc/net/igmp), other than all-hosts.
-std::vector<std::string> multicastGroups() {
-  std::vector<std::string> groups;
-  std::ifstream in("/proc/net/igmp");
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream words(line);
-    std::string first;
-    words >> first;
-    if (first.size() != 8) continue;  // group lines start with the group in hex
-    const auto value = static_cast<std::uint32_t>(std::stoul(first, nullptr, 16));
-    in_addr addr{};
-    addr.s_addr = value;  // /proc shows it in network order, as read on a little-endian host
-    char text[INET_ADDRSTRLEN];
-    inet_ntop(AF_INET, &addr, text, sizeof text);
-    if (std::string(text) != "224.0.0.1") groups.push_back(text);
-  }
-  return groups;
 }
 
 skr::ros2::Registry stringRegistry() {

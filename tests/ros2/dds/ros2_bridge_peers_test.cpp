@@ -7,7 +7,7 @@
 // and a Cyclone DDS reader with the same values; a user's own .msg folder is bridged both ways
 // without a rebuild.
 #include "dds_participant.h"
-#include "own_netns.h"
+#include "ros2_test_support.h"
 #include "sat_fixture.h"
 
 #include <skrobot/ros2/cdr.h>
@@ -28,21 +28,8 @@ namespace {
 using namespace skr::sat::test;
 using namespace skr::ros2_bridge;
 namespace ros2 = skr::ros2;
-
-const ros2::Registry& shipped() {
-  static const ros2::Registry r = [] {
-    ros2::Registry out;
-    if (!out.addFolder(ros2::shippedFolder())) std::abort();
-    return out;
-  }();
-  return r;
-}
-
-Json::Value json(std::string_view text) {
-  auto v = skr::support::parseJson(text);
-  EXPECT_TRUE(v) << text.substr(0, 200);
-  return v ? *v : Json::Value();
-}
+using skr::ros2::test::json;
+using skr::ros2::test::shipped;
 
 std::string text(const Json::Value& v) {
   return skr::support::writeJson(v);
@@ -320,9 +307,5 @@ TEST_F(Ros2BridgePeers, AUsersOwnMsgFolderIsBridgedWithoutARebuild) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (const int failed = skr::test::enterOwnNetworkNamespace(argc, argv); failed != 0) {
-    return failed;
-  }
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  return skr::ros2::test::runInOwnNamespace(argc, argv);
 }

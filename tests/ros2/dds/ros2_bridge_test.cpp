@@ -6,7 +6,7 @@
 // config is reported with its paths and the hub goes on.
 #include "dds_participant.h"
 #include "graph_info.h"
-#include "own_netns.h"
+#include "ros2_test_support.h"
 #include "sat_fixture.h"
 
 #include <skrobot/ros2/cdr.h>
@@ -26,27 +26,9 @@ namespace {
 using namespace skr::sat::test;
 using namespace skr::ros2_bridge;
 namespace ros2 = skr::ros2;
-
-const ros2::Registry& shipped() {
-  static const ros2::Registry r = [] {
-    ros2::Registry out;
-    if (!out.addFolder(ros2::shippedFolder())) std::abort();
-    return out;
-  }();
-  return r;
-}
-
-Json::Value json(std::string_view text) {
-  auto v = skr::support::parseJson(text);
-  EXPECT_TRUE(v) << text;
-  return v ? *v : Json::Value();
-}
-
-std::string cdr(std::string_view type, std::string_view value) {
-  auto bytes = ros2::jsonToCdr(shipped(), type, json(value));
-  EXPECT_TRUE(bytes) << bytes.error().message;
-  return bytes ? *bytes : std::string();
-}
+using skr::ros2::test::cdr;
+using skr::ros2::test::json;
+using skr::ros2::test::shipped;
 
 // "01.0f.78.fd.11.60.f7.50.00.00.00.00|0.0.1.3" (Fast DDS's GUID text) as a Gid.
 Gid gidOf(const std::string& text) {
@@ -519,7 +501,8 @@ TEST_F(Ros2Bridge, ServicesGoBothWaysWithRmwFastrtpsRequestsAndReplies) {
     sat->on([](skr::sat::Satellite& s) { s.subscribe("ros2-bridge.status"); });
     auto st = sat->events.with("data:ros2-bridge.status:");
     return !st.empty() && json(st.back())["services"][0]["matched"].asInt() == 1;
-  })) << sat->events.dump() << hub_->log();
+  })) << sat->events.dump()
+      << hub_->log();
   std::atomic<bool> serving{true};
   std::thread server([&] {  // the server's loop: DdsParticipant is used from one thread at a time
     while (serving) {
@@ -576,9 +559,5 @@ TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (const int failed = skr::test::enterOwnNetworkNamespace(argc, argv); failed != 0) {
-    return failed;
-  }
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  return skr::ros2::test::runInOwnNamespace(argc, argv);
 }

@@ -8,7 +8,7 @@
 #include <skrobot/audio/input_stats.h>
 #include <skrobot/audio/pcm_input.h>
 #include <skrobot/audio/pcm_output.h>
-#include <skrobot/audio/pin_library.h>
+#include <skrobot/support/pin_library.hpp>
 #include "device_thread.h"
 #include "play_buffer.h"
 
@@ -20,8 +20,8 @@
 
 namespace {
 
-// PortAudio (and the JACK it links) stay mapped when the hub unloads this module (pin_library.h).
-[[maybe_unused]] const bool kPortAudioPinned = skr::audio::pinLoadedLibrary("libportaudio.so.2");
+// PortAudio (and the JACK it links) stay mapped when the hub unloads this module (pin_library.hpp).
+[[maybe_unused]] const bool kPortAudioPinned = skr::support::pinLoadedLibrary("libportaudio.so.2");
 
 using skr::plugin::Host;
 

@@ -5,6 +5,7 @@
 #include "ros_names.h"
 
 #include <skrobot/ros2/definitions.h>
+#include <skrobot/support/pin_library.hpp>
 
 #include <fastdds/rtps/common/InstanceHandle.h>
 #include <fastdds/rtps/common/WriteParams.h>
@@ -221,7 +222,7 @@ Result<void> checkConfig(const ParticipantConfig& config) {
 // destructors (its factory and log singletons) are still registered.
 void pinFastDds() {
   for (const char* soname : {"libfastrtps.so.2.9", "libfastcdr.so.1"}) {
-    dlopen(soname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    (void)support::pinLoadedLibrary(soname);
   }
 }
 

@@ -13,6 +13,7 @@
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 #include <skrobot/support/media_props.hpp>
+#include <skrobot/support/pin_library.hpp>
 
 #include <cstdlib>
 #include <iterator>
@@ -22,6 +23,11 @@
 #include <vector>
 
 namespace {
+
+// Fast DDS stays mapped when the hub unloads this module (--list-modules loads and unloads it
+// without a participant): its singletons outlive any dlclose (pin_library.hpp).
+[[maybe_unused]] const bool kFastDdsPinned = skr::support::pinLoadedLibrary("libfastrtps.so.2.9") &&
+                                             skr::support::pinLoadedLibrary("libfastcdr.so.1");
 
 using namespace skr::ros2_bridge;
 namespace plugin = skr::plugin;

@@ -10,7 +10,7 @@
 // play by the sample counter), then answers the request.
 #include <skrobot/audio/bounded_queue.h>
 #include <skrobot/audio/pcm_output.h>
-#include <skrobot/audio/pin_library.h>
+#include <skrobot/support/pin_library.hpp>
 #include "synthesizer.h"
 #include "utterance_json.h"
 
@@ -27,8 +27,9 @@
 
 namespace {
 
-// espeak-ng stays initialised, so mapped, for the process's life (synthesizer.cpp, pin_library.h).
-[[maybe_unused]] const bool kEspeakPinned = skr::audio::pinLoadedLibrary("libespeak-ng.so.1");
+// espeak-ng stays initialised, so mapped, for the process's life (synthesizer.cpp,
+// pin_library.hpp).
+[[maybe_unused]] const bool kEspeakPinned = skr::support::pinLoadedLibrary("libespeak-ng.so.1");
 
 using skr::plugin::Host;
 

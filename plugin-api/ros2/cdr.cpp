@@ -2,6 +2,7 @@
 #include <skrobot/ros2/cdr.h>
 
 #include <algorithm>
+#include <charconv>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -38,6 +39,16 @@ std::size_t sizeOf(Primitive p) {
       return 4;  // the length in front
   }
   return 1;
+}
+
+// A float32 as the double its shortest decimal form reads as: 0.1f is 0.1 in JSON, not
+// 0.10000000149011612, and the double goes back to the same float.
+double shortestAsDouble(float v) {
+  char text[32];
+  const auto written = std::to_chars(text, text + sizeof text, v);
+  double d = static_cast<double>(v);
+  if (written.ec == std::errc()) (void)std::from_chars(text, written.ptr, d);
+  return d;
 }
 
 // --- reading ---------------------------------------------------------------------------------
@@ -112,7 +123,13 @@ struct Decoder {
     T v{};
     if (!in.read(v)) return fail("the sample ends");
     if constexpr (std::is_floating_point_v<T>) {
-      out = std::isfinite(v) ? Json::Value(static_cast<double>(v)) : Json::Value();
+      if (!std::isfinite(v)) {
+        out = Json::Value();
+      } else if constexpr (std::is_same_v<T, float>) {
+        out = Json::Value(shortestAsDouble(v));
+      } else {
+        out = Json::Value(static_cast<double>(v));
+      }
     } else if constexpr (std::is_signed_v<T>) {
       out = Json::Value(static_cast<Json::Int64>(v));
     } else {

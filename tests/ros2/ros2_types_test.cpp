@@ -143,6 +143,22 @@ TEST(Ros2Cdr, MatchesTheReferenceBothWays) {
   EXPECT_EQ((*zero)["p"]["z"].asDouble(), 0.0);
 }
 
+TEST(Ros2Cdr, Float32ValuesReadAsTheirShortestDecimalAndGoBackTheSame) {
+  ros2::Registry r;
+  ASSERT_TRUE(r.add(*ros2::parseMessage("lab/msg/F", "float32[] v\n")));
+  const float values[] = {0.1f, 1.0f / 3.0f, 16777217.0f, -2.5e-38f, 3.4028235e38f};
+  Json::Value in(Json::objectValue);
+  in["v"] = Json::Value(Json::arrayValue);
+  for (float f : values) in["v"].append(static_cast<double>(f));
+  auto sample = ros2::jsonToCdr(r, "lab/msg/F", in);
+  ASSERT_TRUE(sample);
+  auto read = ros2::cdrToJson(r, "lab/msg/F", *sample);
+  ASSERT_TRUE(read);
+  EXPECT_EQ((*read)["v"][0].asDouble(), 0.1);  // not 0.10000000149011612
+  EXPECT_EQ(skr::support::writeJson((*read)["v"][0]), "0.1");
+  EXPECT_EQ(*ros2::jsonToCdr(r, "lab/msg/F", *read), *sample);  // the same floats again
+}
+
 TEST(Ros2Cdr, BadSamplesAndValuesAreRefusedNamingTheField) {
   ros2::Registry r;
   ASSERT_TRUE(r.addSchema("lab/msg/Sample", kSample));

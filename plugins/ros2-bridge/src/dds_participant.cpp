@@ -127,7 +127,7 @@ rtps::GUID_t guidOf(const Gid& gid) {
 
 SampleIdentity identityOf(const rtps::SampleIdentity& id) {
   if (id == rtps::SampleIdentity::unknown()) return {};
-  return {gidOf(id.writer_guid()), id.sequence_number().to64long()};
+  return {gidOf(id.writer_guid()), static_cast<std::int64_t>(id.sequence_number().to64long())};
 }
 
 std::int64_t nanoseconds(const rtps::Time_t& t) {

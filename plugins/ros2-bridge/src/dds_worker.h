@@ -40,6 +40,18 @@ struct BridgeEvent {
     reply,             // service_imports: the reply `payload` (JSON) to `identity.sequence`
     failed,            // service_imports: the request of `tag` could not go out (`text`)
   };
+  BridgeEvent() = default;
+  BridgeEvent(Kind k, ItemList l, std::size_t i, std::string p = {}, std::int32_t m = 0,
+              std::string t = {}, SampleIdentity id = {}, std::uint64_t g = 0)
+      : kind(k),
+        list(l),
+        item(i),
+        payload(std::move(p)),
+        matched(m),
+        text(std::move(t)),
+        identity(id),
+        tag(g) {}
+
   Kind kind = Kind::sample;
   ItemList list = ItemList::imports;
   std::size_t item = 0;
@@ -84,6 +96,10 @@ class DdsWorker {
       request,   // service_exports: a ROS 2 request read; service_imports: a hub request
       reply,     // service_exports: the hub's answer; service_imports: a ROS 2 reply read
     };
+    Op() = default;
+    Op(Kind k, ItemList l, std::size_t i, std::string b)
+        : kind(k), list(l), item(i), bytes(std::move(b)) {}
+
     Kind kind = Kind::write;
     ItemList list = ItemList::imports;
     std::size_t item = 0;

@@ -2,8 +2,8 @@
 #include <skrobot/ros2/cdr.h>
 
 #include <algorithm>
-#include <charconv>
 #include <bit>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>

@@ -26,6 +26,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace skr::media {
 
@@ -248,6 +249,41 @@ inline std::optional<std::string> makeRawFrame(Format encoding, std::uint16_t wi
   h.width = width;
   h.height = height;
   return makeFrame(h, pixels);
+}
+
+// The width and height a JPEG file declares in its frame header (SOFn), for a JPEG whose size
+// its sender did not say; nullopt when `jpeg` does not start as a JPEG, or ends or breaks before
+// a frame header. Reads only the markers' lengths, never the entropy-coded data.
+inline std::optional<std::pair<std::uint16_t, std::uint16_t>> jpegSize(std::string_view jpeg) {
+  auto byte = [&jpeg](std::size_t i) { return static_cast<unsigned char>(jpeg[i]); };
+  if (jpeg.size() < 4 || byte(0) != 0xFF || byte(1) != 0xD8) return std::nullopt;
+  std::size_t at = 2;
+  while (at + 4 <= jpeg.size()) {
+    if (byte(at) != 0xFF) return std::nullopt;
+    const unsigned marker = byte(at + 1);
+    if (marker == 0xFF) {  // fill byte
+      ++at;
+      continue;
+    }
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) {  // no length
+      at += 2;
+      continue;
+    }
+    if (marker == 0xD9 || marker == 0xDA) return std::nullopt;  // end, or data before a frame
+    const std::size_t length = static_cast<std::size_t>(byte(at + 2)) << 8 | byte(at + 3);
+    if (length < 2 || at + 2 + length > jpeg.size()) return std::nullopt;
+    const bool sof =
+        marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (sof) {
+      if (length < 7) return std::nullopt;
+      const auto height = static_cast<std::uint16_t>(byte(at + 5) << 8 | byte(at + 6));
+      const auto width = static_cast<std::uint16_t>(byte(at + 7) << 8 | byte(at + 8));
+      if (width == 0 || height == 0) return std::nullopt;
+      return std::pair{width, height};
+    }
+    at += 2 + length;
+  }
+  return std::nullopt;
 }
 
 // Samples in an audio frame's payload (per channel).

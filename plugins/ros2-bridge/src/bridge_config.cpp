@@ -4,6 +4,7 @@
 #include "ros_names.h"
 
 #include <skrobot/ros2/definitions.h>
+#include <skrobot/ros2/images.h>
 #include <skrobot/runtime/flow/name_pattern.h>
 
 #include <charconv>
@@ -131,6 +132,18 @@ Qos readQos(std::vector<ConfigProblem>& problems, const Json::Value& v, const st
 
 }  // namespace
 
+std::string_view encodingName(Encoding e) {
+  switch (e) {
+    case Encoding::cdr:
+      return "cdr";
+    case Encoding::json:
+      return "json";
+    case Encoding::media:
+      return "media";
+  }
+  return "cdr";
+}
+
 std::string channelForRosName(std::string_view ros) {
   std::string out;
   for (char c : ros) out.push_back(c == '/' ? '.' : c);
@@ -249,7 +262,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
   };
 
   auto topics = [&](const char* key, bool import, std::vector<TopicItem>& list) {
-    each(key, {"ros", "type", "channel", "encoding", "qos"},
+    each(key, {"ros", "type", "channel", "encoding", "qos", "frame_id"},
          [&](Reader& item, const Json::Value& obj, const std::string& path) {
            TopicItem t;
            t.ros = ros(item);
@@ -258,12 +271,25 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
            }
            t.type = type(item, "msg");
            const std::string enc = item.string("encoding", "cdr");
-           if (enc == "cdr" || enc == "json") {
-             t.encoding = enc == "cdr" ? Encoding::cdr : Encoding::json;
+           if (enc == "cdr" || enc == "json" || enc == "media") {
+             t.encoding = enc == "cdr"    ? Encoding::cdr
+                          : enc == "json" ? Encoding::json
+                                          : Encoding::media;
            } else {
-             item.problem("encoding", "must be cdr or json");
+             item.problem("encoding", "must be cdr, json or media");
+           }
+           if (t.encoding == Encoding::media && !t.type.empty() && !ros2::isImageType(t.type)) {
+             item.problem("encoding",
+                          "media carries sensor_msgs/msg/Image and sensor_msgs/msg/CompressedImage "
+                          "only (" +
+                              t.type + " is cdr or json)");
            }
            t.channel = channel(item, import, t.ros);
+           if (obj.isMember("frame_id") && (import || t.encoding != Encoding::media)) {
+             item.problem("frame_id", "only media exports set a frame_id (the frames have none)");
+           }
+           t.frame_id = item.string("frame_id", t.channel);
+           if (t.frame_id.find('\0') != std::string::npos) item.problem("frame_id", "has a NUL");
            t.qos = readQos(problems, obj["qos"], path + ".qos", *qosProfile("default"));
            list.push_back(std::move(t));
          });

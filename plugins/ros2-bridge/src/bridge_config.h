@@ -15,9 +15,11 @@
 
 namespace skr::ros2_bridge {
 
-// How a channel carries a topic's messages: the CDR samples as they are (`cdr`, typed cdr/ros2msg)
-// or converted field by field to and from JSON (`json`).
-enum class Encoding : std::uint8_t { cdr, json };
+// How a channel carries a topic's messages: the CDR samples as they are (`cdr`, typed cdr/ros2msg),
+// converted field by field to and from JSON (`json`), or, for sensor_msgs Image and
+// CompressedImage, as the hub's media frames (`media`: raw pixels and JPEG; skrobot/ros2/images.h).
+enum class Encoding : std::uint8_t { cdr, json, media };
+[[nodiscard]] std::string_view encodingName(Encoding e);
 
 struct TopicItem {
   std::string ros;      // the ROS name, resolved ("/scan")
@@ -25,6 +27,7 @@ struct TopicItem {
   std::string channel;  // import: the module's channel short name; export: a full channel name
   Encoding encoding = Encoding::cdr;
   Qos qos;
+  std::string frame_id;  // media exports: the header's frame_id (by default the channel's name)
 };
 
 // A ROS 2 service: exported, a hub service channel (`channel`, full name) answers ROS 2 clients

@@ -2,11 +2,13 @@
 #include "dds_worker.h"
 
 #include <skrobot/ros2/cdr.h>
+#include <skrobot/ros2/images.h>
 #include <skrobot/support/json.hpp>
 
 #include "ros_names.h"
 
 #include <algorithm>
+#include <chrono>
 
 namespace skr::ros2_bridge {
 
@@ -19,6 +21,13 @@ std::size_t cost(std::size_t bytes) {
 
 std::string prefixOf(const std::string& guid) {
   return guid.substr(0, guid.find('|'));
+}
+
+// The wall clock, as ROS 2 stamps and media frames' capture times count (ns since the epoch).
+std::int64_t nowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
 }
 
 }  // namespace
@@ -61,6 +70,7 @@ void DdsWorker::run(std::promise<Result<void>>& started) {
     guid_ = participant_->guid();
   }
   own_prefix_ = prefixOf(guid_);
+  frames_.assign(config_.imports.size(), 0);
   if (auto r = createEndpoints(); !r) {
     participant_.reset();
     started.set_value(r);
@@ -275,6 +285,21 @@ void DdsWorker::handle(Op& op) {
       emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(op.bytes)});
       return;
     }
+    if (t.encoding == Encoding::media) {
+      auto frame = ros2::imageToFrame(t.type, op.bytes, frames_[op.item], nowNs());
+      if (!frame) {
+        emit({BridgeEvent::Kind::malformed,
+              ItemList::imports,
+              op.item,
+              {},
+              0,
+              frame.error().message});
+        return;
+      }
+      frames_[op.item] += 1;
+      emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(*frame)});
+      return;
+    }
     auto v = ros2::cdrToJson(registry_, t.type, op.bytes);
     if (!v) {
       emit({BridgeEvent::Kind::malformed, ItemList::imports, op.item, {}, 0, v.error().message});
@@ -284,8 +309,10 @@ void DdsWorker::handle(Op& op) {
     return;
   }
   const TopicItem& t = config_.exports[op.item];
-  auto sample =
-      t.encoding == Encoding::json ? fromJson(t.type, op.bytes) : checked(t.type, op.bytes);
+  auto sample = t.encoding == Encoding::json ? fromJson(t.type, op.bytes)
+                : t.encoding == Encoding::media
+                    ? ros2::frameToImage(t.type, op.bytes, t.frame_id, nowNs())
+                    : checked(t.type, op.bytes);
   if (!sample) {
     emit({BridgeEvent::Kind::malformed, ItemList::exports, op.item, {}, 0, sample.error().message});
     return;

@@ -131,7 +131,8 @@ class DdsWorker {
   std::unique_ptr<DdsParticipant> participant_;  // the DDS thread's
   std::vector<EndpointId> readers_, writers_;    // by import and export item
   std::vector<ServiceEndpoints> service_imports_, service_exports_;
-  std::string own_prefix_;  // this participant's GUID prefix
+  std::string own_prefix_;             // this participant's GUID prefix
+  std::vector<std::uint64_t> frames_;  // media imports: the next frame's seq, by item
 
   std::mutex mutex_;
   std::condition_variable cv_;

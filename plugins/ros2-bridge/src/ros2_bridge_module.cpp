@@ -8,6 +8,7 @@
 #include "dds_worker.h"
 
 #include <skrobot/ros2/definitions.h>
+#include <skrobot/ros2/images.h>
 #include <skrobot/plugin.hpp>
 #include <skrobot/plugin_channels.hpp>
 #include <skrobot/support/config.hpp>
@@ -32,6 +33,7 @@ namespace {
 using namespace skr::ros2_bridge;
 namespace plugin = skr::plugin;
 namespace ros2 = skr::ros2;
+namespace media = skr::media;
 
 struct Counters {
   std::uint64_t messages = 0, bytes = 0, malformed = 0, dropped = 0;
@@ -127,6 +129,10 @@ class Ros2Bridge final : public plugin::Module {
   struct Import {
     plugin::StreamChannel channel;
     Counters counters;
+    // media: the last frame's encoding and size, as the channel's properties say them
+    bool frames_seen = false;
+    media::Format format = media::Format::jpeg;
+    std::uint16_t width = 0, height = 0;
   };
   struct Export {
     plugin::Subscription subscription;
@@ -171,16 +177,47 @@ class Ros2Bridge final : public plugin::Module {
     Json::Value props(Json::objectValue);
     props["ros_topic"] = t.ros;
     props["ros_type"] = t.type;
+    std::string mime = "application/octet-stream";
     if (t.encoding == Encoding::cdr) {
       skr::support::addTypeProperties(props,
                                       {"cdr", t.type, "ros2msg", registry_.schemaText(t.type)});
-    } else {
+    } else if (t.encoding == Encoding::json) {
       skr::support::addTypeProperties(props, {"json", "", "", ""});
+      mime = "application/json";
+    } else if (t.type == ros2::kCompressedImageType) {
+      const auto& jpeg = *media::encodingInfo(media::Format::jpeg);
+      skr::support::addMediaProperties(props, jpeg);
+      mime = jpeg.mime;
+    } else {
+      // Which raw encoding an Image topic carries is known from its first sample (frameProperties).
+      props["message_encoding"] = std::string(media::kMessageEncoding);
+      props["flow_type"] = "FT_VIDEO_DATA";
+      props["data_type"] = "T_BYTEARRAY";
     }
-    imports_[i].channel = plugin::StreamChannel(
-        host_, t.channel,
-        t.encoding == Encoding::cdr ? "application/octet-stream" : "application/json",
-        skr::support::writeJson(props));
+    imports_[i].channel =
+        plugin::StreamChannel(host_, t.channel, mime, skr::support::writeJson(props));
+  }
+
+  // A media import's channel says the encoding and size of its frames, from the first one and
+  // whenever they change (subscribers hear the new properties).
+  void frameProperties(Import& in, std::string_view frame) {
+    const auto f = media::parseFrame(frame);
+    if (!f) return;
+    const auto& h = f->header;
+    if (in.frames_seen && h.format == in.format && h.width == in.width && h.height == in.height) {
+      return;
+    }
+    in.frames_seen = true;
+    in.format = h.format;
+    in.width = h.width;
+    in.height = h.height;
+    Json::Value props(Json::objectValue);
+    skr::support::addMediaProperties(props, *media::encodingInfo(h.format));
+    props["width"] = h.width;
+    props["height"] = h.height;
+    for (const auto& key : props.getMemberNames()) {
+      (void)plugin::dbSet(host_, in.channel.name(), key, skr::support::writeJson(props[key]));
+    }
   }
 
   void addServiceImport(std::size_t i) {
@@ -326,6 +363,7 @@ class Ros2Bridge final : public plugin::Module {
         case BridgeEvent::Kind::sample:
           c.messages += 1;
           c.bytes += ev.payload.size();
+          if (t.encoding == Encoding::media) frameProperties(imports_[ev.item], ev.payload);
           imports_[ev.item].channel.publish(ev.payload);
           break;
         case BridgeEvent::Kind::matched:
@@ -371,7 +409,7 @@ class Ros2Bridge final : public plugin::Module {
       v["type"] = t.type;
       v["direction"] = import ? "import" : "export";
       v["channel"] = import ? std::string(host_.name()) + "." + t.channel : t.channel;
-      v["encoding"] = t.encoding == Encoding::cdr ? "cdr" : "json";
+      v["encoding"] = std::string(encodingName(t.encoding));
       v["qos"] = describe(t.qos);
       v["matched"] = c.matched;
       v["messages"] = Json::UInt64(c.messages);
@@ -445,7 +483,8 @@ constexpr skr_config_key kConfig[] = {
         .range(0, 1073741824),
     cfg::array("definitions", "[]", "folders of ROS 2 interface packages beside the shipped ones"),
     cfg::array("import", "[]", "ROS 2 topics as channels: {ros, type, channel, encoding, qos}"),
-    cfg::array("export", "[]", "channels as ROS 2 topics: {channel, ros, type, encoding, qos}"),
+    cfg::array("export", "[]",
+               "channels as ROS 2 topics: {channel, ros, type, encoding, qos, frame_id}"),
     cfg::array("services_import", "[]", "ROS 2 services as service channels: {ros, type, channel}"),
     cfg::array("services_export", "[]",
                "service channels as ROS 2 services: {channel, command, ros, type, timeout_ms}"),

@@ -11,6 +11,7 @@
 
 #include <skrobot/ros2/cdr.h>
 #include <skrobot/ros2/definitions.h>
+#include <skrobot/media_frame.hpp>
 #include <skrobot/support/json.hpp>
 
 #include <gtest/gtest.h>
@@ -263,6 +264,97 @@ TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {
     return s["topics"][0]["malformed"].asUInt64() == 1 &&
            s["topics"][1]["incompatible_qos"].asString() == "reliability";
   })) << skr::support::writeJson(s);
+}
+
+TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
+  startBridge(R"({"export": [{"channel": "guest.camera", "ros": "/camera/image_raw",
+                              "type": "sensor_msgs/msg/Image", "encoding": "media",
+                              "frame_id": "camera_link"}],
+                  "import": [{"ros": "/camera/image/compressed", "channel": "jpeg",
+                              "type": "sensor_msgs/msg/CompressedImage", "encoding": "media"},
+                             {"ros": "/depth", "type": "sensor_msgs/msg/Image",
+                              "encoding": "media"}]})");
+  auto cam = satellite("cam");
+  cam->on([](skr::sat::Satellite& s) {
+    (void)s.addChannel({.name = "camera", .mime = "application/octet-stream"});
+  });
+  auto viewer = satellite("viewer");
+  viewer->on([](skr::sat::Satellite& s) {
+    s.subscribe("ros2-bridge.jpeg");
+    s.subscribe("ros2-bridge.depth");
+  });
+  ASSERT_TRUE(eventually([&] { return cam->events.count("ready:guest.camera") == 1; }));
+  startRos();
+  // A camera's raw frame reaches a ROS 2 reader as a sensor_msgs/msg/Image.
+  Received images;
+  (void)reader("/camera/image_raw", "sensor_msgs/msg/Image", images);
+  ASSERT_TRUE(matched(images)) << hub_->log();
+  ASSERT_TRUE(eventually([&] { return cam->events.count("start:guest.camera") == 1; }));
+  std::string px(4 * 2 * 3, '\0');
+  for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<char>(i);
+  const std::string frame =
+      *skr::media::makeRawFrame(skr::media::Format::rgb8, 4, 2, px, 9, 1'800'000'000'000'000'042);
+  cam->on([&](skr::sat::Satellite& s) { (void)s.publish("camera", frame); });
+  ASSERT_TRUE(eventually([&] { return images.count() == 1; })) << hub_->log();
+  const Json::Value image = *ros2::cdrToJson(shipped(), "sensor_msgs/msg/Image", images.samples[0]);
+  EXPECT_EQ(image["header"]["frame_id"].asString(), "camera_link");
+  EXPECT_EQ(image["header"]["stamp"]["sec"].asInt64(), 1'800'000'000);
+  EXPECT_EQ(image["header"]["stamp"]["nanosec"].asInt64(), 42);
+  EXPECT_EQ(image["encoding"].asString(), "rgb8");
+  EXPECT_EQ(image["width"].asInt(), 4);
+  EXPECT_EQ(image["step"].asInt(), 12);
+  EXPECT_EQ(image["data"].size(), px.size());
+  EXPECT_EQ(image["data"][23].asInt(), 23);
+
+  // A ROS 2 node's JPEG and its depth image reach a satellite as media frames.
+  Received jpeg_matches, depth_matches;
+  const EndpointId jw =
+      writer("/camera/image/compressed", "sensor_msgs/msg/CompressedImage", jpeg_matches);
+  const EndpointId dw = writer("/depth", "sensor_msgs/msg/Image", depth_matches);
+  ASSERT_TRUE(matched(jpeg_matches) && matched(depth_matches)) << hub_->log();
+  const std::string jpeg = std::string(
+      "\xFF\xD8\xFF\xC0\x00\x0B\x08\x01\xE0\x02\x80\x01\x01"
+      "\x11\x00\xFF\xD9",
+      17);  // a frame header of 640x480, and its end
+  Json::Value compressed = json(R"({"header": {"stamp": {"sec": 5, "nanosec": 6}},
+                                    "format": "jpeg"})");
+  for (char c : jpeg) compressed["data"].append(static_cast<unsigned char>(c));
+  ASSERT_TRUE(ros_->write(jw, ros2::test::cdrOf("sensor_msgs/msg/CompressedImage", compressed)));
+  ASSERT_TRUE(ros_->write(dw, cdr("sensor_msgs/msg/Image",
+                                  R"({"header": {"stamp": {"sec": 1}}, "height": 2, "width": 1,
+                  "encoding": "mono16", "step": 4, "data": [1, 2, 0, 0, 3, 4, 0, 0]})")));
+  compressed["format"] = "png";
+  ASSERT_TRUE(ros_->write(jw, ros2::test::cdrOf("sensor_msgs/msg/CompressedImage", compressed)));
+  ASSERT_TRUE(eventually([&] {
+    return viewer->events.count("data:ros2-bridge.jpeg:") == 1 &&
+           viewer->events.count("data:ros2-bridge.depth:") == 1;
+  })) << viewer->events.dump()
+      << hub_->log();
+  auto got = skr::media::parseFrame(viewer->events.with("data:ros2-bridge.jpeg:")[0]);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->header.format, skr::media::Format::jpeg);
+  EXPECT_EQ(got->header.width, 640);
+  EXPECT_EQ(got->header.height, 480);
+  EXPECT_EQ(got->header.capture_ns, 5'000'000'006);
+  EXPECT_EQ(got->payload, jpeg);
+  got = skr::media::parseFrame(viewer->events.with("data:ros2-bridge.depth:")[0]);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->header.format, skr::media::Format::mono16);
+  EXPECT_EQ(got->payload, std::string("\x01\x02\x03\x04", 4));  // the rows' padding gone
+  ASSERT_TRUE(
+      hub_->waitLog("ROS2-MALFORMED /camera/image/compressed: "
+                    "sensor_msgs/msg/CompressedImage: format \"png\" is not JPEG"))
+      << hub_->log();
+  // The depth channel says what its frames are once it has seen one.
+  EXPECT_TRUE(eventually([&] {
+    const auto props = viewer->on([](skr::sat::Satellite& s) {
+      const auto* c = s.channel(std::string_view("ros2-bridge.depth"));
+      return c != nullptr ? skr::flow::variantToJsonText(c->props) : std::string();
+    });
+    const Json::Value p = json(props);
+    return p["encoding"].asString() == "mono16" && p["width"].asInt() == 1 &&
+           p["height"].asInt() == 2 && p["message_encoding"].asString() == "skrobot.media";
+  })) << hub_->log();
 }
 
 #ifdef CYCLONE_PEER
@@ -535,18 +627,24 @@ TEST_F(Ros2Bridge, ServicesGoBothWaysWithRmwFastrtpsRequestsAndReplies) {
 TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
   hub_ = std::make_unique<HubProcess>(SKROBOT_BIN, dir_.path(), "", "", "",
                                       R"([{"name": "ros2-bridge", "config": {"import": [
-            {"ros": "/scan", "type": "sensor_msgs/LaserScan", "qos": {"profile": "fast"}},
+            {"ros": "/scan", "type": "sensor_msgs/LaserScan", "qos": {"profile": "fast"},
+             "frame_id": "laser"},
             {"ros": "bad//name", "type": "nosuch", "encoding": "xml", "colour": 1}],
-          "export": [{"ros": "/x", "type": "std_msgs/msg/String"}]}}])");
+          "export": [{"ros": "/x", "type": "std_msgs/msg/String"},
+                     {"channel": "a.b", "ros": "/y", "type": "std_msgs/msg/String",
+                      "encoding": "media"}]}}])");
   startHub();
   const std::string log = hub_->log();
   for (const char* line : {
            "import[0].qos.profile: must be default, sensor_data, services or system",
            "import[1].ros: ",
            "import[1].type: not a ROS 2 message type (pkg/msg/Name)",
-           "import[1].encoding: must be cdr or json",
+           "import[1].encoding: must be cdr, json or media",
            "import[1].colour: unknown key",
            "export[0].channel: is required",
+           "export[1].encoding: media carries sensor_msgs/msg/Image and "
+           "sensor_msgs/msg/CompressedImage only (std_msgs/msg/String is cdr or json)",
+           "import[0].frame_id: only media exports set a frame_id",
        }) {
     EXPECT_NE(log.find(line), std::string::npos) << line << "\n" << log;
   }

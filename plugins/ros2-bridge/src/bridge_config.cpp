@@ -223,7 +223,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
   // An import's channel is the module's (a short name, by default the ROS name's, unique); an
   // export's is anyone's (a full name).
   std::set<std::string> channels{"status"};
-  auto channel = [&](Reader& item, bool import, const std::string& ros) {
+  auto channel = [&](Reader& item, bool import, const std::string& ros, bool may_be_pattern) {
     std::string name = item.string("channel", import ? channelForRosName(ros) : "", !import);
     if (import && !name.empty()) {
       if (!flow::validShortName(name)) {
@@ -233,7 +233,9 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
         item.problem("channel", "\"" + name + "\" is taken (by another import or status)");
       }
     }
-    if (!import && !name.empty() && name.find('.') == std::string::npos) {
+    const auto pattern = flow::NamePattern::parse(name);
+    if (!import && !name.empty() && name.find('.') == std::string::npos &&
+        !(may_be_pattern && pattern && !pattern->isLiteral())) {
       item.problem("channel", "a full channel name, <owner>.<name>");
     }
     return name;
@@ -261,13 +263,37 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
     return *resolved;
   };
 
+  // An export's channel that is a pattern (not one name), with the ROS name as a template.
+  auto patterned = [&](bool import, const Json::Value& obj) {
+    if (import || !obj["channel"].isString()) return false;
+    auto p = flow::NamePattern::parse(obj["channel"].asString());
+    return p && !p->isLiteral();
+  };
+  auto rosTemplate = [&](Reader& item) {
+    const std::string text = item.string("ros", "", true);
+    if (text.empty()) return text;
+    if (text.find("{owner}") == std::string::npos && text.find("{name}") == std::string::npos) {
+      item.problem("ros",
+                   "a pattern's channels need topics of their own: put {owner} and/or {name} in "
+                   "it (\"/hub/{owner}/{name}\")");
+    } else if (auto r = rosNameForChannel(text, "owner.name", out.ns, out.node); !r) {
+      item.problem("ros", r.error().message);
+    }
+    return text;
+  };
+
   auto topics = [&](const char* key, bool import, std::vector<TopicItem>& list) {
     each(key, {"ros", "type", "channel", "encoding", "qos", "frame_id"},
          [&](Reader& item, const Json::Value& obj, const std::string& path) {
            TopicItem t;
-           t.ros = ros(item);
-           if (!t.ros.empty()) {
-             if (auto dds = ddsTopicName(t.ros); !dds) item.problem("ros", dds.error().message);
+           const bool pattern = patterned(import, obj);
+           if (pattern) {
+             t.ros = rosTemplate(item);
+           } else {
+             t.ros = ros(item);
+             if (!t.ros.empty()) {
+               if (auto dds = ddsTopicName(t.ros); !dds) item.problem("ros", dds.error().message);
+             }
            }
            t.type = type(item, "msg");
            const std::string enc = item.string("encoding", "cdr");
@@ -284,14 +310,15 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
                           "only (" +
                               t.type + " is cdr or json)");
            }
-           t.channel = channel(item, import, t.ros);
+           t.channel = channel(item, import, t.ros, true);
            if (obj.isMember("frame_id") && (import || t.encoding != Encoding::media)) {
              item.problem("frame_id", "only media exports set a frame_id (the frames have none)");
            }
-           t.frame_id = item.string("frame_id", t.channel);
+           // A pattern's items take the matched channel's name when it sets none.
+           t.frame_id = item.string("frame_id", pattern ? "" : t.channel);
            if (t.frame_id.find('\0') != std::string::npos) item.problem("frame_id", "has a NUL");
            t.qos = readQos(problems, obj["qos"], path + ".qos", *qosProfile("default"));
-           list.push_back(std::move(t));
+           (pattern ? out.export_patterns : list).push_back(std::move(t));
          });
   };
   topics("import", true, out.imports);
@@ -306,7 +333,7 @@ std::vector<ConfigProblem> readConfig(const Json::Value& config, const char* dom
              if (auto dds = ddsServiceTopics(t.ros); !dds) item.problem("ros", dds.error().message);
            }
            t.type = type(item, "srv");
-           t.channel = channel(item, import, t.ros);
+           t.channel = channel(item, import, t.ros, false);
            t.command = item.string("command", "call");
            if (import && obj.isMember("command")) {
              item.problem("command", "only exported services call a hub service with a command");

@@ -48,6 +48,10 @@ struct BridgeConfig {
   std::string ns = "/";
   std::vector<std::string> definitions;  // folders of interface packages, after the shipped ones
   std::vector<TopicItem> imports, exports;
+  // Exports whose `channel` is a name pattern (docs/flow-protocol.md, "Channel-name patterns")
+  // and whose `ros` a template with {owner} and {name} (rosNameForChannel): each channel that
+  // matches, while it exists, is exported as an item of its own.
+  std::vector<TopicItem> export_patterns;
   std::vector<ServiceItem> service_imports, service_exports;
   std::size_t queue_bytes = 64u << 20;  // samples waiting between the loop and the DDS thread
 };

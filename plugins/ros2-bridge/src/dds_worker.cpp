@@ -34,7 +34,11 @@ std::int64_t nowNs() {
 
 DdsWorker::DdsWorker(const BridgeConfig& config, const ros2::Registry& registry,
                      std::function<void()> wake)
-    : config_(config), registry_(registry), wake_(std::move(wake)) {}
+    : config_(config),
+      registry_(registry),
+      wake_(std::move(wake)),
+      exports_(config.exports),
+      next_export_(config.exports.size()) {}
 
 DdsWorker::~DdsWorker() {
   stop();
@@ -111,17 +115,9 @@ Result<void> DdsWorker::createEndpoints() {
     if (!id) return makeError(id.error().code, "import " + t.ros + ": " + id.error().message);
     readers_.push_back(*id);
   }
-  for (std::size_t i = 0; i < config_.exports.size(); ++i) {
-    const TopicItem& t = config_.exports[i];
-    WriterCallbacks cb;
-    cb.on_matched = [this, i](const MatchStatus& m) {
-      emit({BridgeEvent::Kind::matched, ItemList::exports, i, {}, m.current});
-    };
-    cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
-      emit({BridgeEvent::Kind::incompatible_qos, ItemList::exports, i, {}, 0, q.policy});
-    };
-    auto id = participant_->createWriter(t.ros, t.type, t.qos, std::move(cb));
-    if (!id) return makeError(id.error().code, "export " + t.ros + ": " + id.error().message);
+  for (std::size_t i = 0; i < exports_.size(); ++i) {
+    auto id = createExportWriter(i);
+    if (!id) return id.error();
     writers_.push_back(*id);
   }
   // Services, as rmw_fastrtps makes them: requests on rq/<name>Request, replies on
@@ -176,14 +172,35 @@ Result<void> DdsWorker::createEndpoints() {
   return publishGraph();
 }
 
+Result<EndpointId> DdsWorker::createExportWriter(std::size_t i) {
+  const TopicItem& t = exports_[i];
+  WriterCallbacks cb;
+  cb.on_matched = [this, i](const MatchStatus& m) {
+    emit({BridgeEvent::Kind::matched, ItemList::exports, i, {}, m.current});
+  };
+  cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
+    emit({BridgeEvent::Kind::incompatible_qos, ItemList::exports, i, {}, 0, q.policy});
+  };
+  auto id = participant_->createWriter(t.ros, t.type, t.qos, std::move(cb));
+  if (!id) return makeError(id.error().code, "export " + t.ros + ": " + id.error().message);
+  return id;
+}
+
 Result<void> DdsWorker::publishGraph() {
   // The bridge as a ROS 2 node with its readers and writers (ros2 node list, ros2 node info);
-  // transient_local, so that tools started later read it.
-  auto graph = participant_->createDdsWriter(kGraphTopic, kGraphType, graphQos());
-  if (!graph) return makeError(graph.error().code, "ros_discovery_info: " + graph.error().message);
+  // transient_local, so that tools started later read it; written again when exports come and go.
+  if (graph_ == 0) {
+    auto graph = participant_->createDdsWriter(kGraphTopic, kGraphType, graphQos());
+    if (!graph) {
+      return makeError(graph.error().code, "ros_discovery_info: " + graph.error().message);
+    }
+    graph_ = *graph;
+  }
   std::vector<Gid> readers, writers;
   for (EndpointId id : readers_) readers.push_back(participant_->gid(id));
-  for (EndpointId id : writers_) writers.push_back(participant_->gid(id));
+  for (EndpointId id : writers_) {
+    if (id != 0) writers.push_back(participant_->gid(id));
+  }
   for (const auto& e : service_exports_) {
     readers.push_back(participant_->gid(e.requests));
     writers.push_back(participant_->gid(e.replies));
@@ -199,11 +216,22 @@ Result<void> DdsWorker::publishGraph() {
   } catch (const std::exception& e) {
     return makeError(Errc::invalid_argument, std::string("ros_discovery_info: ") + e.what());
   }
-  return participant_->write(*graph, sample);
+  return participant_->write(graph_, sample);
 }
 
 bool DdsWorker::write(std::size_t item, std::string_view payload) {
   return enqueue(Op{Op::Kind::write, ItemList::exports, item, std::string(payload)});
+}
+
+std::size_t DdsWorker::addExport(TopicItem item) {
+  Op op{Op::Kind::add_export, ItemList::exports, next_export_, {}};
+  op.topic = std::move(item);
+  enqueue(std::move(op));
+  return next_export_++;
+}
+
+void DdsWorker::removeExport(std::size_t item) {
+  enqueue(Op{Op::Kind::remove_export, ItemList::exports, item, {}});
 }
 
 void DdsWorker::reply(std::size_t item, const SampleIdentity& request, bool ok,
@@ -227,7 +255,8 @@ bool DdsWorker::enqueue(Op op) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return false;
-    if (ops_bytes_ + cost(op.bytes.size()) > config_.queue_bytes) {
+    const bool control = op.kind == Op::Kind::add_export || op.kind == Op::Kind::remove_export;
+    if (!control && ops_bytes_ + cost(op.bytes.size()) > config_.queue_bytes) {
       // Counted on the loop, with the others (the event is small).
       outbox_.push_back({BridgeEvent::Kind::dropped, op.list, op.item, {}, 0, "queue"});
       const bool first = outbox_.size() == 1;
@@ -308,7 +337,12 @@ void DdsWorker::handle(Op& op) {
     emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, support::writeJson(*v)});
     return;
   }
-  const TopicItem& t = config_.exports[op.item];
+  if (op.kind == Op::Kind::add_export || op.kind == Op::Kind::remove_export) {
+    changeExports(op);
+    return;
+  }
+  if (op.item >= writers_.size() || writers_[op.item] == 0) return;  // removed, or never made
+  const TopicItem& t = exports_[op.item];
   auto sample = t.encoding == Encoding::json ? fromJson(t.type, op.bytes)
                 : t.encoding == Encoding::media
                     ? ros2::frameToImage(t.type, op.bytes, t.frame_id, nowNs())
@@ -318,6 +352,26 @@ void DdsWorker::handle(Op& op) {
     return;
   }
   if (auto r = participant_->write(writers_[op.item], *sample); !r) {
+    emit({BridgeEvent::Kind::dropped, ItemList::exports, op.item, {}, 0, r.error().message});
+  }
+}
+
+void DdsWorker::changeExports(Op& op) {
+  if (op.kind == Op::Kind::add_export) {
+    // Items are numbered in the order the loop added them, and ops run in that order.
+    exports_.push_back(std::move(op.topic));
+    auto id = createExportWriter(exports_.size() - 1);
+    writers_.push_back(id ? *id : 0);
+    if (!id) {
+      emit({BridgeEvent::Kind::malformed, ItemList::exports, op.item, {}, 0, id.error().message});
+      return;
+    }
+  } else {
+    if (op.item >= writers_.size() || writers_[op.item] == 0) return;
+    (void)participant_->deleteEndpoint(writers_[op.item]);
+    writers_[op.item] = 0;
+  }
+  if (auto r = publishGraph(); !r) {
     emit({BridgeEvent::Kind::dropped, ItemList::exports, op.item, {}, 0, r.error().message});
   }
 }

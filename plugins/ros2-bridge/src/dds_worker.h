@@ -79,6 +79,12 @@ class DdsWorker {
   // An exported channel's message for export `item` (loop thread): converted and written on the
   // DDS thread. False when the queue is full (dropped).
   bool write(std::size_t item, std::string_view payload);
+  // An export made while the bridge runs (a channel that a pattern matched; loop thread): its
+  // item number, after the config's exports and those added before. Its writer is made on the
+  // DDS thread (a failure comes back as a `malformed` event of the item); removeExport deletes
+  // it. The graph information follows both.
+  std::size_t addExport(TopicItem item);
+  void removeExport(std::size_t item);
   // service_exports: the hub's answer to a ROS 2 client's request (`ok` false: `value_json` is
   // why), written as the reply to `request`.
   void reply(std::size_t item, const SampleIdentity& request, bool ok, std::string value_json);
@@ -91,10 +97,12 @@ class DdsWorker {
  private:
   struct Op {
     enum class Kind : std::uint8_t {
-      imported,  // a sample of an imported topic
-      write,     // an exported channel's message
-      request,   // service_exports: a ROS 2 request read; service_imports: a hub request
-      reply,     // service_exports: the hub's answer; service_imports: a ROS 2 reply read
+      imported,       // a sample of an imported topic
+      write,          // an exported channel's message
+      request,        // service_exports: a ROS 2 request read; service_imports: a hub request
+      reply,          // service_exports: the hub's answer; service_imports: a ROS 2 reply read
+      add_export,     // `topic` becomes export `item`
+      remove_export,  // export `item` goes
     };
     Op() = default;
     Op(Kind k, ItemList l, std::size_t i, std::string b)
@@ -108,18 +116,21 @@ class DdsWorker {
     SampleIdentity identity, related;
     std::uint64_t tag = 0;
     bool ok = true;
+    TopicItem topic;  // add_export
   };
   struct ServiceEndpoints {
     EndpointId requests = 0;  // a reader (exports) or a writer (imports)
     EndpointId replies = 0;   // a writer (exports) or a reader (imports)
   };
   void handleService(Op& op);
+  void changeExports(Op& op);
   // A message of `type` from JSON, and a CDR sample checked against `type` (moved out).
   [[nodiscard]] Result<std::string> fromJson(const std::string& type,
                                              const std::string& json) const;
   [[nodiscard]] Result<std::string> checked(const std::string& type, std::string& cdr) const;
   void run(std::promise<Result<void>>& started);
   Result<void> createEndpoints();
+  Result<EndpointId> createExportWriter(std::size_t item);
   Result<void> publishGraph();
   bool enqueue(Op op);
   void emit(BridgeEvent ev);
@@ -129,7 +140,10 @@ class DdsWorker {
   const ros2::Registry& registry_;
   std::function<void()> wake_;
   std::unique_ptr<DdsParticipant> participant_;  // the DDS thread's
-  std::vector<EndpointId> readers_, writers_;    // by import and export item
+  std::vector<TopicItem> exports_;               // the DDS thread's: the config's, then added
+  std::vector<EndpointId> readers_, writers_;    // by import and export item (0: none)
+  EndpointId graph_ = 0;                         // ros_discovery_info's writer
+  std::size_t next_export_ = 0;                  // the loop's: addExport's next item
   std::vector<ServiceEndpoints> service_imports_, service_exports_;
   std::string own_prefix_;             // this participant's GUID prefix
   std::vector<std::uint64_t> frames_;  // media imports: the next frame's seq, by item

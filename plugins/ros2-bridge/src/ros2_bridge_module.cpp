@@ -6,11 +6,14 @@
 // bridge's own thread (DdsWorker); the loop only moves bytes between it and the channels.
 #include "bridge_config.h"
 #include "dds_worker.h"
+#include "ros_names.h"
 
 #include <skrobot/ros2/definitions.h>
 #include <skrobot/ros2/images.h>
+#include <skrobot/runtime/flow/name_pattern.h>
 #include <skrobot/plugin.hpp>
 #include <skrobot/plugin_channels.hpp>
+#include <skrobot/plugin_watch.hpp>
 #include <skrobot/support/config.hpp>
 #include <skrobot/support/json.hpp>
 #include <skrobot/support/media_props.hpp>
@@ -58,7 +61,7 @@ class Ros2Bridge final : public plugin::Module {
   void start() override {
     loadDefinitions();
     // Each type, and every type it uses, must be known before anything is created.
-    for (const auto* list : {&config_.imports, &config_.exports}) {
+    for (const auto* list : {&config_.imports, &config_.exports, &config_.export_patterns}) {
       for (const TopicItem& t : *list) {
         if (auto r = registry_.resolve(t.type); !r) {
           throw plugin::Failure(SKR_ERR_CONFIG, t.ros + ": " + r.error().message);
@@ -83,7 +86,7 @@ class Ros2Bridge final : public plugin::Module {
                      imports.empty() ? "no import" : imports, " (docs/security.md)");
     }
     imports_.resize(config_.imports.size());
-    exports_.resize(config_.exports.size());
+    for (const TopicItem& t : config_.exports) exports_.push_back(Export{t});
     for (std::size_t i = 0; i < config_.imports.size(); ++i) addImport(i);
     service_imports_.resize(config_.service_imports.size());
     service_exports_.resize(config_.service_exports.size());
@@ -98,17 +101,26 @@ class Ros2Bridge final : public plugin::Module {
     status_ =
         plugin::StreamChannel(host_, "status", "application/json",
                               R"({"note": "the bridge's topics and counters, every second"})");
+    if (!config_.export_patterns.empty()) {
+      for (const TopicItem& t : config_.export_patterns) {
+        patterns_.push_back(*skr::flow::NamePattern::parse(t.channel));  // checked by readConfig
+      }
+      watch_ =
+          plugin::ChannelWatch(host_, [this](const plugin::ChannelEvent& ev) { onChannel(ev); });
+    }
     status_tick_ = host_.onTick(plugin::Tick::one_sec, [this] { publishStatus(); });
     expire_tick_ = host_.onTick(plugin::Tick::slow, [this] { expireRequests(); });
     host_.log.info("ROS2-BRIDGE", "domain ", config_.participant.domain, " on ",
                    joined(config_.participant.interfaces), ", node ", config_.ns,
                    config_.ns == "/" ? "" : "/", config_.node, ", ", config_.imports.size(),
                    " import(s), ", config_.exports.size(), " export(s), ",
+                   config_.export_patterns.size(), " export pattern(s), ",
                    config_.service_imports.size() + config_.service_exports.size(), " service(s), ",
                    registry_.size(), " types; participant ", worker_->participantGuid());
   }
 
   void stop() override {
+    watch_.reset();
     if (worker_) worker_->stop();  // no wake after this
     worker_.reset();
     for (auto& [tag, p] : pending_) {
@@ -135,8 +147,11 @@ class Ros2Bridge final : public plugin::Module {
     std::uint16_t width = 0, height = 0;
   };
   struct Export {
+    explicit Export(TopicItem t) : item(std::move(t)) {}
+    TopicItem item;
     plugin::Subscription subscription;
     Counters counters;
+    bool removed = false;  // a pattern's channel that went away
   };
   struct ServiceImport {
     plugin::ServiceChannel channel;
@@ -327,25 +342,68 @@ class Ros2Bridge final : public plugin::Module {
     }
   }
 
+  // A channel added or removed: exported while it exists, by each pattern that matches it (not
+  // the bridge's own channels: imports are never sent back).
+  void onChannel(const plugin::ChannelEvent& ev) {
+    if (ev.kind != SKR_CHANNEL_STREAMING || !worker_) return;
+    if (ev.name.starts_with(std::string(host_.name()) + ".")) return;
+    for (std::size_t p = 0; p < patterns_.size(); ++p) {
+      if (!patterns_[p].matches(ev.name)) continue;
+      const auto key = std::make_pair(p, ev.name);
+      if (!ev.added) {
+        if (auto it = matched_.find(key); it != matched_.end()) {
+          worker_->removeExport(it->second);
+          exports_[it->second].removed = true;
+          exports_[it->second].subscription.reset();
+          host_.log.info("ROS2-EXPORT", ev.name, " no longer exported to ",
+                         exports_[it->second].item.ros, " (the channel went)");
+          matched_.erase(it);
+        }
+        continue;
+      }
+      if (matched_.contains(key)) continue;
+      const TopicItem& pattern = config_.export_patterns[p];
+      auto ros = rosNameForChannel(pattern.ros, ev.name, config_.ns, config_.node);
+      if (!ros) {
+        host_.log.warn("ROS2-EXPORT", ev.name, " matches ", pattern.channel,
+                       " but has no ROS name: ", ros.error().message);
+        continue;
+      }
+      TopicItem t = pattern;
+      t.ros = *ros;
+      t.channel = ev.name;
+      if (t.frame_id.empty()) t.frame_id = ev.name;
+      const std::size_t i = worker_->addExport(t);
+      if (exports_.size() != i) {  // the worker numbers them as exports_ grows
+        host_.log.error("ROS2-EXPORT", "export numbering out of step at ", ev.name);
+        continue;
+      }
+      exports_.push_back(Export{t});
+      matched_[key] = i;
+      host_.log.info("ROS2-EXPORT", ev.name, " exported to ", t.ros, " as ", t.type, " (",
+                     pattern.channel, ")");
+    }
+  }
+
   // The exported channel is subscribed to while a ROS 2 reader is matched.
   void follow(std::size_t i) {
     Export& e = exports_[i];
-    const bool wanted = e.counters.matched > 0;
+    const bool wanted = e.counters.matched > 0 && !e.removed;
     if (wanted == e.subscription.active()) return;
     if (!wanted) {
       e.subscription.reset();
       return;
     }
     try {
-      e.subscription = plugin::Subscription(host_, config_.exports[i].channel,
-                                            [this, i](std::string_view payload) {
-                                              if (!worker_ || !worker_->write(i, payload)) return;
-                                              exports_[i].counters.messages += 1;
-                                              exports_[i].counters.bytes += payload.size();
-                                            });
+      e.subscription =
+          plugin::Subscription(host_, e.item.channel, [this, i](std::string_view payload) {
+            if (!worker_ || !worker_->write(i, payload)) return;
+            exports_[i].counters.messages += 1;
+            exports_[i].counters.bytes += payload.size();
+          });
     } catch (const plugin::Failure& f) {
       exports_[i].counters.last_error = f.what();
-      host_.log.warn("ROS2-EXPORT", config_.exports[i].channel, ": ", f.what());
+      host_.log.warn("ROS2-EXPORT", exports_[i].item.channel, ": ", f.what());
     }
   }
 
@@ -357,7 +415,8 @@ class Ros2Bridge final : public plugin::Module {
         continue;
       }
       const bool import = ev.list == ItemList::imports;
-      const TopicItem& t = import ? config_.imports[ev.item] : config_.exports[ev.item];
+      if (!import && ev.item >= exports_.size()) continue;
+      const TopicItem& t = import ? config_.imports[ev.item] : exports_[ev.item].item;
       Counters& c = import ? imports_[ev.item].counters : exports_[ev.item].counters;
       switch (ev.kind) {
         case BridgeEvent::Kind::sample:
@@ -422,8 +481,8 @@ class Ros2Bridge final : public plugin::Module {
     };
     for (std::size_t i = 0; i < imports_.size(); ++i)
       add(config_.imports[i], imports_[i].counters, true);
-    for (std::size_t i = 0; i < exports_.size(); ++i) {
-      add(config_.exports[i], exports_[i].counters, false);
+    for (const Export& e : exports_) {
+      if (!e.removed) add(e.item, e.counters, false);
     }
     s["services"] = Json::Value(Json::arrayValue);
     auto addService = [&](const ServiceItem& t, const Counters& c, bool import) {
@@ -453,7 +512,11 @@ class Ros2Bridge final : public plugin::Module {
   ros2::Registry registry_;
   std::unique_ptr<DdsWorker> worker_;
   std::vector<Import> imports_;
-  std::vector<Export> exports_;
+  std::vector<Export> exports_;  // the config's, then those patterns matched (by worker item)
+  std::vector<skr::flow::NamePattern> patterns_;  // of config_.export_patterns
+  std::map<std::pair<std::size_t, std::string>, std::size_t>
+      matched_;  // (pattern, channel) -> item
+  plugin::ChannelWatch watch_;
   std::vector<ServiceImport> service_imports_;
   struct ServiceExport {
     Counters counters;
@@ -484,7 +547,8 @@ constexpr skr_config_key kConfig[] = {
     cfg::array("definitions", "[]", "folders of ROS 2 interface packages beside the shipped ones"),
     cfg::array("import", "[]", "ROS 2 topics as channels: {ros, type, channel, encoding, qos}"),
     cfg::array("export", "[]",
-               "channels as ROS 2 topics: {channel, ros, type, encoding, qos, frame_id}"),
+               "channels (or a name pattern, ros a template with {owner} and {name}) as ROS 2 "
+               "topics: {channel, ros, type, encoding, qos, frame_id}"),
     cfg::array("services_import", "[]", "ROS 2 services as service channels: {ros, type, channel}"),
     cfg::array("services_export", "[]",
                "service channels as ROS 2 services: {channel, command, ros, type, timeout_ms}"),

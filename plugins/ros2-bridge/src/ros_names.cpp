@@ -77,6 +77,31 @@ Result<std::string> ddsTopicName(std::string_view ros_name, std::string_view ns,
   return dds;
 }
 
+Result<std::string> rosNameForChannel(std::string_view tmpl, std::string_view channel,
+                                      std::string_view ns, std::string_view node) {
+  const std::size_t dot = channel.find('.');
+  std::string owner(channel.substr(0, dot));
+  std::string name(dot == std::string_view::npos ? std::string_view() : channel.substr(dot + 1));
+  for (char& c : owner) c = c == '-' ? '_' : c;
+  for (char& c : name) c = c == '-' ? '_' : c == '.' ? '/' : c;
+  std::string out;
+  for (std::size_t i = 0; i < tmpl.size();) {
+    if (tmpl.substr(i).starts_with("{owner}")) {
+      out += owner;
+      i += 7;
+    } else if (tmpl.substr(i).starts_with("{name}")) {
+      out += name;
+      i += 6;
+    } else {
+      out.push_back(tmpl[i++]);
+    }
+  }
+  auto resolved = resolveRosName(out, ns, node);
+  if (!resolved) return resolved.error();
+  if (auto dds = ddsTopicName(*resolved); !dds) return dds.error();
+  return resolved;
+}
+
 Result<std::pair<std::string, std::string>> ddsServiceTopics(std::string_view ros_name,
                                                              std::string_view ns,
                                                              std::string_view node) {

@@ -25,6 +25,14 @@ inline constexpr std::size_t kMaxDdsNameLength = 255;
 [[nodiscard]] Result<std::string> ddsTopicName(std::string_view ros_name, std::string_view ns = "/",
                                                std::string_view node = {});
 
+// An export pattern's ROS name for one of the channels it matches: `{owner}` in `tmpl` is the
+// channel's owner (before its first '.', a linked hub's prefix included), `{name}` its short name
+// with '.' as '/'; '-' (allowed in channel names, not in ROS names) becomes '_'. The result is
+// resolved as above: "/hub/{owner}/{name}" for "guest.arm.cmd" -> "/hub/guest/arm/cmd".
+[[nodiscard]] Result<std::string> rosNameForChannel(std::string_view tmpl, std::string_view channel,
+                                                    std::string_view ns = "/",
+                                                    std::string_view node = {});
+
 // The request and reply topics of a ROS service: "/add" -> "rq/addRequest", "rr/addReply".
 [[nodiscard]] Result<std::pair<std::string, std::string>> ddsServiceTopics(
     std::string_view ros_name, std::string_view ns = "/", std::string_view node = {});

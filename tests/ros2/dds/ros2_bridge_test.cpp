@@ -266,6 +266,82 @@ TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {
   })) << skr::support::writeJson(s);
 }
 
+TEST_F(Ros2Bridge, AnExportPatternFollowsTheChannelsItMatches) {
+  startBridge(R"({"export": [{"channel": "guest.robot*", "ros": "/hub/{owner}/{name}",
+                              "type": "geometry_msgs/msg/Twist", "encoding": "json"}]})");
+  auto sat = satellite("fleet");
+  sat->on([](skr::sat::Satellite& s) {
+    for (const char* name : {"robot1", "robot-2", "other"}) {
+      (void)s.addChannel({.name = name, .mime = "application/json"});
+    }
+  });
+  ASSERT_TRUE(eventually([&] { return sat->events.count("ready:guest.other") == 1; }));
+  startRos();
+  Received one, two, other;
+  (void)reader("/hub/guest/robot1", "geometry_msgs/msg/Twist", one);
+  (void)reader("/hub/guest/robot_2", "geometry_msgs/msg/Twist", two);  // '-' is not in ROS names
+  (void)reader("/hub/guest/other", "geometry_msgs/msg/Twist", other);
+  ASSERT_TRUE(matched(one) && matched(two)) << hub_->log();
+  ASSERT_TRUE(eventually([&] {
+    return sat->events.count("start:guest.robot1") == 1 &&
+           sat->events.count("start:guest.robot-2") == 1;
+  })) << sat->events.dump()
+      << hub_->log();
+  sat->on([](skr::sat::Satellite& s) {
+    (void)s.publish("robot1", R"({"linear": {"x": 1}})");
+    (void)s.publish("robot-2", R"({"linear": {"x": 2}})");
+    (void)s.publish("other", R"({"linear": {"x": 3}})");
+  });
+  ASSERT_TRUE(eventually([&] { return one.count() == 1 && two.count() == 1; })) << hub_->log();
+  EXPECT_EQ(one.samples[0], cdr("geometry_msgs/msg/Twist", R"({"linear": {"x": 1}})"));
+  EXPECT_EQ(two.samples[0], cdr("geometry_msgs/msg/Twist", R"({"linear": {"x": 2}})"));
+  EXPECT_NE(hub_->log().find("ROS2-EXPORT guest.robot1 exported to /hub/guest/robot1 as "
+                             "geometry_msgs/msg/Twist (guest.robot*)"),
+            std::string::npos)
+      << hub_->log();
+  // A channel the pattern does not match has no writer; one that goes takes its writer along,
+  // and one that comes later gets its own.
+  {
+    std::lock_guard lock(other.m);
+    EXPECT_EQ(other.matched, 0);
+  }
+  EXPECT_EQ(sat->events.count("start:guest.other"), 0u);
+  sat->on([](skr::sat::Satellite& s) { (void)s.removeChannel("robot-2"); });
+  EXPECT_TRUE(eventually([&] {
+    std::lock_guard lock(two.m);
+    return two.matched == 0;
+  })) << hub_->log();
+  // ROS 2's graph follows: the bridge's node lists the writers it has now.
+  Received graph;
+  ReaderCallbacks cb;
+  cb.on_sample = [&graph](Sample&& s) {
+    std::lock_guard lock(graph.m);
+    graph.samples.push_back(std::move(s.bytes));
+  };
+  ASSERT_TRUE(ros_->createDdsReader(kGraphTopic, kGraphType, graphQos(), std::move(cb)));
+  ros2::Registry types;
+  ASSERT_TRUE(types.addSchema(kGraphRosType, graphSchema(Distribution::jazzy)));
+  auto writersListed = [&] {
+    std::lock_guard lock(graph.m);
+    if (graph.samples.empty()) return -1;
+    auto info = ros2::cdrToJson(types, kGraphRosType, graph.samples.back());
+    return info ? static_cast<int>((*info)["node_entities_info_seq"][0]["writer_gid_seq"].size())
+                : -2;
+  };
+  EXPECT_TRUE(eventually([&] { return writersListed() == 1; })) << writersListed();
+  Received three;
+  (void)reader("/hub/guest/robot3", "geometry_msgs/msg/Twist", three);
+  sat->on([](skr::sat::Satellite& s) {
+    (void)s.addChannel({.name = "robot3", .mime = "application/json"});
+  });
+  ASSERT_TRUE(matched(three)) << hub_->log();
+  ASSERT_TRUE(eventually([&] { return sat->events.count("start:guest.robot3") == 1; }));
+  sat->on([](skr::sat::Satellite& s) { (void)s.publish("robot3", R"({"angular": {"z": 1}})"); });
+  EXPECT_TRUE(eventually([&] { return three.count() == 1; })) << hub_->log();
+  EXPECT_TRUE(eventually([&] { return writersListed() == 2; })) << writersListed();
+  ros_.reset();  // its readers' callbacks write into the locals above
+}
+
 TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
   startBridge(R"({"export": [{"channel": "guest.camera", "ros": "/camera/image_raw",
                               "type": "sensor_msgs/msg/Image", "encoding": "media",
@@ -355,6 +431,7 @@ TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
     return p["encoding"].asString() == "mono16" && p["width"].asInt() == 1 &&
            p["height"].asInt() == 2 && p["message_encoding"].asString() == "skrobot.media";
   })) << hub_->log();
+  ros_.reset();  // its endpoints' callbacks write into the locals above
 }
 
 #ifdef CYCLONE_PEER
@@ -631,6 +708,7 @@ TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
              "frame_id": "laser"},
             {"ros": "bad//name", "type": "nosuch", "encoding": "xml", "colour": 1}],
           "export": [{"ros": "/x", "type": "std_msgs/msg/String"},
+                     {"channel": "guest.*", "ros": "/hub/cmd", "type": "std_msgs/msg/String"},
                      {"channel": "a.b", "ros": "/y", "type": "std_msgs/msg/String",
                       "encoding": "media"}]}}])");
   startHub();
@@ -642,7 +720,8 @@ TEST_F(Ros2Bridge, ABadConfigIsReportedWithItsPathsAndTheHubGoesOn) {
            "import[1].encoding: must be cdr, json or media",
            "import[1].colour: unknown key",
            "export[0].channel: is required",
-           "export[1].encoding: media carries sensor_msgs/msg/Image and "
+           "export[1].ros: a pattern's channels need topics of their own",
+           "export[2].encoding: media carries sensor_msgs/msg/Image and "
            "sensor_msgs/msg/CompressedImage only (std_msgs/msg/String is cdr or json)",
            "import[0].frame_id: only media exports set a frame_id",
        }) {

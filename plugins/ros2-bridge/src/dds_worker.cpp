@@ -97,23 +97,14 @@ void DdsWorker::run(std::promise<Result<void>>& started) {
 }
 
 Result<void> DdsWorker::createEndpoints() {
+  // An import's reader exists while the hub reads its channel (setReading), but a
+  // transient_local one's from the start: what its writers keep is read once, at once.
+  readers_.assign(config_.imports.size(), 0);
   for (std::size_t i = 0; i < config_.imports.size(); ++i) {
-    const TopicItem& t = config_.imports[i];
-    ReaderCallbacks cb;
-    cb.on_sample = [this, i](Sample&& s) {
-      Op op{Op::Kind::imported, ItemList::imports, i, std::move(s.bytes)};
-      op.writer_guid = std::move(s.writer_guid);
-      enqueue(std::move(op));
-    };
-    cb.on_matched = [this, i](const MatchStatus& m) {
-      emit({BridgeEvent::Kind::matched, ItemList::imports, i, {}, m.current});
-    };
-    cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
-      emit({BridgeEvent::Kind::incompatible_qos, ItemList::imports, i, {}, 0, q.policy});
-    };
-    auto id = participant_->createReader(t.ros, t.type, t.qos, std::move(cb));
-    if (!id) return makeError(id.error().code, "import " + t.ros + ": " + id.error().message);
-    readers_.push_back(*id);
+    if (config_.imports[i].qos.durability != Durability::transient_local) continue;
+    auto id = createImportReader(i);
+    if (!id) return id.error();
+    readers_[i] = *id;
   }
   for (std::size_t i = 0; i < exports_.size(); ++i) {
     auto id = createExportWriter(i);
@@ -172,6 +163,25 @@ Result<void> DdsWorker::createEndpoints() {
   return publishGraph();
 }
 
+Result<EndpointId> DdsWorker::createImportReader(std::size_t i) {
+  const TopicItem& t = config_.imports[i];
+  ReaderCallbacks cb;
+  cb.on_sample = [this, i](Sample&& s) {
+    Op op{Op::Kind::imported, ItemList::imports, i, std::move(s.bytes)};
+    op.writer_guid = std::move(s.writer_guid);
+    enqueue(std::move(op));
+  };
+  cb.on_matched = [this, i](const MatchStatus& m) {
+    emit({BridgeEvent::Kind::matched, ItemList::imports, i, {}, m.current});
+  };
+  cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
+    emit({BridgeEvent::Kind::incompatible_qos, ItemList::imports, i, {}, 0, q.policy});
+  };
+  auto id = participant_->createReader(t.ros, t.type, t.qos, std::move(cb));
+  if (!id) return makeError(id.error().code, "import " + t.ros + ": " + id.error().message);
+  return id;
+}
+
 Result<EndpointId> DdsWorker::createExportWriter(std::size_t i) {
   const TopicItem& t = exports_[i];
   WriterCallbacks cb;
@@ -197,7 +207,9 @@ Result<void> DdsWorker::publishGraph() {
     graph_ = *graph;
   }
   std::vector<Gid> readers, writers;
-  for (EndpointId id : readers_) readers.push_back(participant_->gid(id));
+  for (EndpointId id : readers_) {
+    if (id != 0) readers.push_back(participant_->gid(id));
+  }
   for (EndpointId id : writers_) {
     if (id != 0) writers.push_back(participant_->gid(id));
   }
@@ -234,6 +246,11 @@ void DdsWorker::removeExport(std::size_t item) {
   enqueue(Op{Op::Kind::remove_export, ItemList::exports, item, {}});
 }
 
+void DdsWorker::setReading(std::size_t item, bool reading) {
+  enqueue(
+      Op{reading ? Op::Kind::start_reading : Op::Kind::stop_reading, ItemList::imports, item, {}});
+}
+
 void DdsWorker::reply(std::size_t item, const SampleIdentity& request, bool ok,
                       std::string value_json) {
   Op op{Op::Kind::reply, ItemList::service_exports, item, std::move(value_json)};
@@ -255,7 +272,8 @@ bool DdsWorker::enqueue(Op op) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return false;
-    const bool control = op.kind == Op::Kind::add_export || op.kind == Op::Kind::remove_export;
+    const bool control = op.kind != Op::Kind::imported && op.kind != Op::Kind::write &&
+                         op.kind != Op::Kind::request && op.kind != Op::Kind::reply;
     if (!control && ops_bytes_ + cost(op.bytes.size()) > config_.queue_bytes) {
       // Counted on the loop, with the others (the event is small).
       outbox_.push_back({BridgeEvent::Kind::dropped, op.list, op.item, {}, 0, "queue"});
@@ -300,6 +318,10 @@ std::string DdsWorker::participantGuid() const {
 void DdsWorker::handle(Op& op) {
   if (op.list == ItemList::service_imports || op.list == ItemList::service_exports) {
     handleService(op);
+    return;
+  }
+  if (op.kind == Op::Kind::start_reading || op.kind == Op::Kind::stop_reading) {
+    changeReading(op);
     return;
   }
   if (op.kind == Op::Kind::imported) {
@@ -353,6 +375,29 @@ void DdsWorker::handle(Op& op) {
   }
   if (auto r = participant_->write(writers_[op.item], *sample); !r) {
     emit({BridgeEvent::Kind::dropped, ItemList::exports, op.item, {}, 0, r.error().message});
+  }
+}
+
+void DdsWorker::changeReading(Op& op) {
+  const TopicItem& t = config_.imports[op.item];
+  if (t.qos.durability == Durability::transient_local) return;  // read from the start, always
+  EndpointId& reader = readers_[op.item];
+  if (op.kind == Op::Kind::start_reading) {
+    if (reader != 0) return;
+    auto id = createImportReader(op.item);
+    if (!id) {
+      emit({BridgeEvent::Kind::malformed, ItemList::imports, op.item, {}, 0, id.error().message});
+      return;
+    }
+    reader = *id;
+  } else {
+    if (reader == 0) return;
+    (void)participant_->deleteEndpoint(reader);  // no callback of it after this
+    reader = 0;
+    emit({BridgeEvent::Kind::matched, ItemList::imports, op.item, {}, 0});
+  }
+  if (auto r = publishGraph(); !r) {
+    emit({BridgeEvent::Kind::dropped, ItemList::imports, op.item, {}, 0, r.error().message});
   }
 }
 

@@ -85,6 +85,9 @@ class DdsWorker {
   // it. The graph information follows both.
   std::size_t addExport(TopicItem item);
   void removeExport(std::size_t item);
+  // Whether the hub reads import `item` (its channel has subscribers; loop thread): its reader
+  // exists while it does (a transient_local import's always).
+  void setReading(std::size_t item, bool reading);
   // service_exports: the hub's answer to a ROS 2 client's request (`ok` false: `value_json` is
   // why), written as the reply to `request`.
   void reply(std::size_t item, const SampleIdentity& request, bool ok, std::string value_json);
@@ -103,6 +106,8 @@ class DdsWorker {
       reply,          // service_exports: the hub's answer; service_imports: a ROS 2 reply read
       add_export,     // `topic` becomes export `item`
       remove_export,  // export `item` goes
+      start_reading,  // import `item`'s reader is made
+      stop_reading,   // and deleted
     };
     Op() = default;
     Op(Kind k, ItemList l, std::size_t i, std::string b)
@@ -124,12 +129,14 @@ class DdsWorker {
   };
   void handleService(Op& op);
   void changeExports(Op& op);
+  void changeReading(Op& op);
   // A message of `type` from JSON, and a CDR sample checked against `type` (moved out).
   [[nodiscard]] Result<std::string> fromJson(const std::string& type,
                                              const std::string& json) const;
   [[nodiscard]] Result<std::string> checked(const std::string& type, std::string& cdr) const;
   void run(std::promise<Result<void>>& started);
   Result<void> createEndpoints();
+  Result<EndpointId> createImportReader(std::size_t item);
   Result<EndpointId> createExportWriter(std::size_t item);
   Result<void> publishGraph();
   bool enqueue(Op op);

@@ -98,6 +98,9 @@ class Ros2Bridge final : public plugin::Module {
       worker_.reset();
       throw plugin::Failure(SKR_ERR_CONFIG, r.error().message);
     }
+    for (std::size_t i = 0; i < imports_.size(); ++i) {
+      if (imports_[i].subscribed) worker_->setReading(i, true);  // subscribed before the worker
+    }
     status_ =
         plugin::StreamChannel(host_, "status", "application/json",
                               R"({"note": "the bridge's topics and counters, every second"})");
@@ -141,6 +144,7 @@ class Ros2Bridge final : public plugin::Module {
   struct Import {
     plugin::StreamChannel channel;
     Counters counters;
+    bool subscribed = false;  // the channel has subscribers
     // media: the last frame's encoding and size, as the channel's properties say them
     bool frames_seen = false;
     media::Format format = media::Format::jpeg;
@@ -209,8 +213,12 @@ class Ros2Bridge final : public plugin::Module {
       props["flow_type"] = "FT_VIDEO_DATA";
       props["data_type"] = "T_BYTEARRAY";
     }
-    imports_[i].channel =
-        plugin::StreamChannel(host_, t.channel, mime, skr::support::writeJson(props));
+    // The topic is read while the channel has subscribers (the DDS reader follows them).
+    imports_[i].channel = plugin::StreamChannel(
+        host_, t.channel, mime, skr::support::writeJson(props), [this, i](bool first) {
+          imports_[i].subscribed = first;
+          if (worker_) worker_->setReading(i, first);
+        });
   }
 
   // A media import's channel says the encoding and size of its frames, from the first one and

@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <list>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -127,9 +128,14 @@ class Ros2Bridge : public SatTest {
     return json(text);
   }
 
+  // What a test's DDS endpoints report into: kept by the fixture until its participant is gone
+  // (a callback may come after the test's body, when the bridge deletes an endpoint).
+  Received& received() { return received_.emplace_back(); }
+
   void TearDown() override { ros_.reset(); }
 
   std::unique_ptr<DdsParticipant> ros_;
+  std::list<Received> received_;  // destroyed after ros_
 };
 
 TEST_F(Ros2Bridge, AnExportedChannelReachesRosReadersOnlyWhileOneIsMatched) {
@@ -144,7 +150,7 @@ TEST_F(Ros2Bridge, AnExportedChannelReachesRosReadersOnlyWhileOneIsMatched) {
   // No ROS 2 reader yet: the bridge does not subscribe (the channel's owner is told to wait).
   std::this_thread::sleep_for(std::chrono::milliseconds(700));
   EXPECT_EQ(sat->events.count("start:guest.cmd_vel"), 0u) << sat->events.dump();
-  Received got;
+  Received& got = received();
   const EndpointId r = reader("/cmd_vel", "geometry_msgs/msg/Twist", got);
   ASSERT_TRUE(matched(got)) << hub_->log();
   ASSERT_TRUE(eventually([&] { return sat->events.count("start:guest.cmd_vel") == 1; }))
@@ -182,7 +188,7 @@ TEST_F(Ros2Bridge, AnImportedTopicReachesSatellitesAsCdrAndAsJson) {
     s.subscribe("ros2-bridge.status");
   });
   startRos();
-  Received matches;
+  Received& matches = received();
   const EndpointId w = writer("/scan", "sensor_msgs/msg/LaserScan", matches);
   ASSERT_TRUE(matched(matches, 2)) << hub_->log();  // the bridge's two readers
   // Ranges of odd and even counts: what follows a sequence is aligned from where it ends.
@@ -222,16 +228,47 @@ TEST_F(Ros2Bridge, AnImportedTopicReachesSatellitesAsCdrAndAsJson) {
   EXPECT_EQ(s["topics"][0]["matched"].asInt(), 1) << skr::support::writeJson(s);
 }
 
+TEST_F(Ros2Bridge, AnImportedTopicIsReadOnlyWhileTheHubSubscribes) {
+  startBridge(R"({"import": [{"ros": "/camera/image_raw", "type": "sensor_msgs/msg/Image",
+                              "encoding": "media", "qos": {"profile": "sensor_data"}}]})");
+  startRos();
+  Received& matches = received();
+  const EndpointId w =
+      writer("/camera/image_raw", "sensor_msgs/msg/Image", matches, *qosProfile("sensor_data"));
+  // Nobody reads the channel: the bridge has no reader, the camera's images go nowhere.
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  {
+    std::lock_guard lock(matches.m);
+    EXPECT_EQ(matches.matched, 0);
+  }
+  auto sat = satellite("viewer");
+  sat->on([](skr::sat::Satellite& s) { s.subscribe("ros2-bridge.camera.image_raw"); });
+  ASSERT_TRUE(matched(matches)) << hub_->log();
+  const std::string image = cdr("sensor_msgs/msg/Image",
+                                R"({"height": 1, "width": 1, "encoding": "mono8", "step": 1,
+                                    "data": [7]})");
+  ASSERT_TRUE(eventually([&] {
+    (void)ros_->write(w, image);  // best effort: until one arrives
+    return sat->events.count("data:ros2-bridge.camera.image_raw:") > 0;
+  })) << hub_->log();
+  sat->on([](skr::sat::Satellite& s) { s.unsubscribe("ros2-bridge.camera.image_raw"); });
+  EXPECT_TRUE(eventually([&] {
+    std::lock_guard lock(matches.m);
+    return matches.matched == 0;
+  })) << hub_->log();
+}
+
 TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {
   startBridge(R"({"import": [{"ros": "/cmd_vel", "type": "geometry_msgs/msg/Twist"},
                              {"ros": "/odom_in", "type": "nav_msgs/msg/Odometry"}]})");
   auto sat = satellite("reader");
   sat->on([](skr::sat::Satellite& s) {
     s.subscribe("ros2-bridge.cmd_vel");
+    s.subscribe("ros2-bridge.odom_in");  // read while subscribed
     s.subscribe("ros2-bridge.status");
   });
   startRos();
-  Received matches;
+  Received& matches = received();
   // A writer that says Twist and sends a String's bytes (a node built against another type).
   const EndpointId w = writer("/cmd_vel", "geometry_msgs/msg/Twist", matches);
   ASSERT_TRUE(matched(matches)) << hub_->log();
@@ -247,7 +284,7 @@ TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {
   EXPECT_EQ(sat->events.with("data:ros2-bridge.cmd_vel:")[0],
             cdr("geometry_msgs/msg/Twist", R"({"linear": {"x": 2}})"));
   // A best-effort writer cannot serve the bridge's reliable reader: both sides say so.
-  Received odom;
+  Received& odom = received();
   Qos best_effort = *qosProfile("sensor_data");
   (void)writer("/odom_in", "nav_msgs/msg/Odometry", odom, best_effort);
   ASSERT_TRUE(
@@ -277,7 +314,9 @@ TEST_F(Ros2Bridge, AnExportPatternFollowsTheChannelsItMatches) {
   });
   ASSERT_TRUE(eventually([&] { return sat->events.count("ready:guest.other") == 1; }));
   startRos();
-  Received one, two, other;
+  Received& one = received();
+  Received& two = received();
+  Received& other = received();
   (void)reader("/hub/guest/robot1", "geometry_msgs/msg/Twist", one);
   (void)reader("/hub/guest/robot_2", "geometry_msgs/msg/Twist", two);  // '-' is not in ROS names
   (void)reader("/hub/guest/other", "geometry_msgs/msg/Twist", other);
@@ -312,7 +351,7 @@ TEST_F(Ros2Bridge, AnExportPatternFollowsTheChannelsItMatches) {
     return two.matched == 0;
   })) << hub_->log();
   // ROS 2's graph follows: the bridge's node lists the writers it has now.
-  Received graph;
+  Received& graph = received();
   ReaderCallbacks cb;
   cb.on_sample = [&graph](Sample&& s) {
     std::lock_guard lock(graph.m);
@@ -329,7 +368,7 @@ TEST_F(Ros2Bridge, AnExportPatternFollowsTheChannelsItMatches) {
                 : -2;
   };
   EXPECT_TRUE(eventually([&] { return writersListed() == 1; })) << writersListed();
-  Received three;
+  Received& three = received();
   (void)reader("/hub/guest/robot3", "geometry_msgs/msg/Twist", three);
   sat->on([](skr::sat::Satellite& s) {
     (void)s.addChannel({.name = "robot3", .mime = "application/json"});
@@ -339,7 +378,6 @@ TEST_F(Ros2Bridge, AnExportPatternFollowsTheChannelsItMatches) {
   sat->on([](skr::sat::Satellite& s) { (void)s.publish("robot3", R"({"angular": {"z": 1}})"); });
   EXPECT_TRUE(eventually([&] { return three.count() == 1; })) << hub_->log();
   EXPECT_TRUE(eventually([&] { return writersListed() == 2; })) << writersListed();
-  ros_.reset();  // its readers' callbacks write into the locals above
 }
 
 TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
@@ -362,7 +400,7 @@ TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
   ASSERT_TRUE(eventually([&] { return cam->events.count("ready:guest.camera") == 1; }));
   startRos();
   // A camera's raw frame reaches a ROS 2 reader as a sensor_msgs/msg/Image.
-  Received images;
+  Received& images = received();
   (void)reader("/camera/image_raw", "sensor_msgs/msg/Image", images);
   ASSERT_TRUE(matched(images)) << hub_->log();
   ASSERT_TRUE(eventually([&] { return cam->events.count("start:guest.camera") == 1; }));
@@ -383,7 +421,8 @@ TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
   EXPECT_EQ(image["data"][23].asInt(), 23);
 
   // A ROS 2 node's JPEG and its depth image reach a satellite as media frames.
-  Received jpeg_matches, depth_matches;
+  Received& jpeg_matches = received();
+  Received& depth_matches = received();
   const EndpointId jw =
       writer("/camera/image/compressed", "sensor_msgs/msg/CompressedImage", jpeg_matches);
   const EndpointId dw = writer("/depth", "sensor_msgs/msg/Image", depth_matches);
@@ -431,7 +470,6 @@ TEST_F(Ros2Bridge, ImagesGoBothWaysAsMediaFrames) {
     return p["encoding"].asString() == "mono16" && p["width"].asInt() == 1 &&
            p["height"].asInt() == 2 && p["message_encoding"].asString() == "skrobot.media";
   })) << hub_->log();
-  ros_.reset();  // its endpoints' callbacks write into the locals above
 }
 
 #ifdef CYCLONE_PEER
@@ -484,12 +522,15 @@ TEST_F(Ros2Bridge, TheBridgeIsANodeInRos2sGraph) {
                 (humble ? "humble" : "jazzy") + R"(",
         "import": [{"ros": "chatter", "type": "std_msgs/msg/String"}],
         "export": [{"channel": "guest.out", "ros": "/out", "type": "std_msgs/msg/String"}]})");
+    auto sat = satellite("reader");
+    sat->on([](skr::sat::Satellite& s) { s.subscribe("ros2-bridge.lab.chatter"); });
     startRos();
-    Received out, chatter;
+    Received& out = received();
+    Received& chatter = received();
     (void)reader("/out", "std_msgs/msg/String", out);
     (void)writer("/lab/chatter", "std_msgs/msg/String", chatter);
     ASSERT_TRUE(matched(out) && matched(chatter)) << hub_->log();
-    Received graph;
+    Received& graph = received();
     ReaderCallbacks cb;
     cb.on_sample = [&graph](Sample&& s) {
       std::lock_guard lock(graph.m);
@@ -561,7 +602,8 @@ TEST_F(Ros2Bridge, ServicesGoBothWaysWithRmwFastrtpsRequestsAndReplies) {
   const Qos services = *qosProfile("services");
 
   // A ROS 2 client of /add_two_ints: the hub service answers (the command is the config's).
-  Received client_writer, replies;
+  Received& client_writer = received();
+  Received& replies = received();
   ReaderCallbacks rcb;
   std::vector<Sample> reply_samples;
   std::mutex reply_mutex;
@@ -599,7 +641,8 @@ TEST_F(Ros2Bridge, ServicesGoBothWaysWithRmwFastrtpsRequestsAndReplies) {
   }
 
   // /trigger's hub service does not exist: a Trigger's reply says so (success false).
-  Received trigger_writer, trigger_replies;
+  Received& trigger_writer = received();
+  Received& trigger_replies = received();
   std::vector<std::string> trigger_samples;
   ReaderCallbacks tcb;
   tcb.on_sample = [&](Sample&& s) {
@@ -655,7 +698,7 @@ TEST_F(Ros2Bridge, ServicesGoBothWaysWithRmwFastrtpsRequestsAndReplies) {
     std::lock_guard lock(server_mutex);
     requests.push_back(std::move(s));
   };
-  Received server_replies;
+  Received& server_replies = received();
   WriterCallbacks swcb;
   swcb.on_matched = [&](const MatchStatus& m) {
     std::lock_guard lock(server_replies.m);

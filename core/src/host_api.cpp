@@ -34,7 +34,8 @@ static_assert(offsetof(skr_host_api, ws_serve) == 368);        // 1.7 ends here
 static_assert(offsetof(skr_host_api, ws_close) == 392);        // the last reserved slot (1.8)
 static_assert(sizeof(skr_path_options) == 24);
 static_assert(sizeof(skr_ws_events) == 32);
-static_assert(sizeof(skr_host_api) == 400);
+static_assert(offsetof(skr_host_api, publish_retained) == 400);  // 1.8 ends here: grows at the end
+static_assert(sizeof(skr_host_api) == 416);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
 
@@ -424,6 +425,13 @@ skr_status channelPaths(skr_module_ctx* ctx, uint16_t chan_id,
                         const skr_path_options* options) noexcept {
   return withFlow(ctx, [&](ModuleFlow& f) { return f.offerPaths(*ctx->loop, chan_id, options); });
 }
+skr_status publishRetained(skr_module_ctx* ctx, uint16_t chan_id, const char* key, const void* data,
+                           size_t size) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.publishRetained(chan_id, key, data, size); });
+}
+skr_status retainClear(skr_module_ctx* ctx, uint16_t chan_id, const char* key) noexcept {
+  return withFlow(ctx, [&](ModuleFlow& f) { return f.retainClear(chan_id, key); });
+}
 skr_status publishBegin(skr_module_ctx* ctx, uint16_t chan_id, void** slot_out,
                         size_t* capacity_out) noexcept {
   return withFlow(ctx,
@@ -520,6 +528,8 @@ const skr_host_api kHostApi = {
     .ws_unserve = &wsUnserve,
     .ws_send = &wsSend,
     .ws_close = &wsClose,
+    .publish_retained = &publishRetained,
+    .retain_clear = &retainClear,
 };
 
 }  // namespace

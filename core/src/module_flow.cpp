@@ -246,6 +246,26 @@ skr_status ModuleFlow::offerPaths(Loop& loop, uint16_t chan_id, const skr_path_o
   return SKR_OK;
 }
 
+skr_status ModuleFlow::publishRetained(uint16_t chan_id, const char* key, const void* data,
+                                       size_t size) {
+  if (key == nullptr || (data == nullptr && size > 0)) return SKR_ERR_INVALID_ARGUMENT;
+  const std::string_view payload(static_cast<const char*>(data), data != nullptr ? size : 0);
+  if (paths_ && paths_->serves(chan_id)) {
+    // Subscribers on paths get it there now (the relayed ones from the hub, below); one that
+    // subscribes later gets it from the hub.
+    begun_.erase(chan_id);
+    (void)paths_->publish(chan_id, payload, 0);
+  }
+  auto r = client_->publishRetained(chan_id, key, payload);
+  return r ? SKR_OK : fail("publish_retained", r.error());
+}
+
+skr_status ModuleFlow::retainClear(uint16_t chan_id, const char* key) {
+  auto r = key != nullptr ? client_->clearRetained(chan_id, std::string_view(key))
+                          : client_->clearRetained(chan_id, std::nullopt);
+  return r ? SKR_OK : fail("retain_clear", r.error());
+}
+
 skr_status ModuleFlow::publishBegin(uint16_t chan_id, void** slot_out, size_t* capacity_out) {
   if (slot_out == nullptr || capacity_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
   if (!paths_ || !paths_->hasRing(chan_id)) return SKR_ERR_NOT_FOUND;

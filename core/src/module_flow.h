@@ -42,6 +42,8 @@ class ModuleFlow {
   skr_status removeChannel(uint16_t chan_id);
   skr_status findChannel(const char* name, uint16_t* chan_id_out) const;
   skr_status publish(uint16_t chan_id, const void* data, size_t size);
+  skr_status publishRetained(uint16_t chan_id, const char* key, const void* data, size_t size);
+  skr_status retainClear(uint16_t chan_id, const char* key);
   skr_status subscribe(const char* name, skr_data_fn fn, void* user, skr_sub_handle* handle_out);
   skr_status unsubscribe(skr_sub_handle handle);
   skr_status request(uint16_t chan_id, uint32_t tag, const char* command, const char* value_json,

@@ -17,9 +17,11 @@ constexpr size_t kPtr = sizeof(void (*)(void));
 // 1.0, 1.1 and 1.3 to 1.8 named functions: the 49 function pointers of 1.0's table, every
 // reserved slot spent.
 constexpr size_t kFunctionSlots = 49;
+// What later minors added at the end: 1.9 two.
+constexpr size_t kGrownSlots = 2;
 
-TEST(PluginAbi, HostTableKeptItsSizeUntilTheReservedSlotsRanOut) {
-  EXPECT_EQ(sizeof(skr_host_api), kHeader + kFunctionSlots * kPtr);
+TEST(PluginAbi, HostTableKeptItsSizeUntilTheReservedSlotsRanOutThenGrewAtItsEnd) {
+  EXPECT_EQ(sizeof(skr_host_api), kHeader + (kFunctionSlots + kGrownSlots) * kPtr);
   EXPECT_EQ(offsetof(skr_host_api, ws_close), kHeader + (kFunctionSlots - 1) * kPtr);
 }
 
@@ -50,6 +52,9 @@ TEST(PluginAbi, FunctionsOfReleasedMinorsStayWhereTheyWere) {
   // 1.8: modules' WebSocket endpoints on the web port, in the last four slots.
   EXPECT_EQ(offsetof(skr_host_api, ws_serve), kHeader + 45 * kPtr);
   EXPECT_EQ(offsetof(skr_host_api, ws_close), kHeader + 48 * kPtr);
+  // 1.9: retained messages, the first members past the reserved slots.
+  EXPECT_EQ(offsetof(skr_host_api, publish_retained), kHeader + 49 * kPtr);
+  EXPECT_EQ(offsetof(skr_host_api, retain_clear), kHeader + 50 * kPtr);
 }
 
 TEST(PluginAbi, DescriptorStartsWithItsVersionedHeader) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Modules on the FlowNetwork: the ABI 1.1 calls from a C module, and in-process zero-copy.
 #include "flow_fixture.h"
+#include "log_capture.h"
 
 #include <skrobot/hub/module_host.h>
 #include <skrobot/plugin.h>
@@ -328,6 +329,71 @@ TEST_F(ModuleChannels, AModuleWatchesChannelsAndADatabaseFromWhatThereIsNow) {
   ASSERT_EQ(sync.call(msg::VarSet{"c", Variant(int64_t{3})})->kind(), Code::reply_ok);
   EXPECT_NE(addChannel(sat, "late"), 0);
   EXPECT_EQ(next(300), "");
+}
+
+// Retained messages (ABI 1.9): a subscriber that comes later gets each key's last message, oldest
+// first, before live ones; cleared keys are gone; past the limit nothing is kept or sent.
+TEST_F(ModuleChannels, RetainedMessagesReachEachLaterSubscriberFirst) {
+  LogCapture logs;
+  startHub();
+  startModules("test_retained_latch");
+  TestClient sat = flowClient();
+  TestClient probe = flowClient();
+  TestClient sync = syncClient();
+  auto info =
+      as<msg::ChannelInfoReply>(sync.call(msg::ChanInfoByName{"test_retained_latch.latched"}));
+  ASSERT_TRUE(info);
+  const uint16_t latched = info->info.id;
+  EXPECT_EQ(*info->info.props.find("retained"), Variant(true));
+  ASSERT_TRUE(probe.send(msg::Subscribe{1, latched}));
+  const uint16_t set = addChannel(sat, "set");
+  ASSERT_TRUE(sat.waitFor(Code::ev_start_publish));  // the module subscribed
+  // What `probe` (there from the start) gets live: every message; `until` is the last.
+  auto send = [&](std::initializer_list<const char*> texts, const std::string& until) {
+    for (const char* t : texts) ASSERT_TRUE(sat.send(msg::Publish{set, msg::Rest{t}}));
+    for (;;) {
+      auto d = as<msg::EvData>(probe.waitFor(Code::ev_data));
+      ASSERT_TRUE(d) << "waiting for " << until;
+      if (d->payload.bytes == until) break;
+    }
+  };
+  // Each new subscriber's first messages, up to the live `marker` that follows them.
+  auto firstMessages = [&](const std::string& marker) {
+    TestClient late = flowClient();
+    // A barrier: the hub handles `late`'s frames in order, so once the owner of a fresh channel
+    // hears that `late` subscribed to it, `late` is subscribed to `latched` too.
+    const uint16_t barrier = addChannel(sat, "barrier_" + marker);
+    EXPECT_TRUE(late.send(msg::Subscribe{2, latched}));
+    EXPECT_TRUE(late.send(msg::Subscribe{3, barrier}));
+    EXPECT_TRUE(sat.waitFor(Code::ev_start_publish));
+    send({("!" + marker).c_str()}, marker);
+    std::vector<std::string> got;
+    for (;;) {
+      auto d = as<msg::EvData>(late.waitFor(Code::ev_data));
+      if (!d) break;
+      got.emplace_back(d->payload.bytes);
+      if (got.back() == marker) break;
+    }
+    return got;
+  };
+  send({"a=1", "b=2", "a=3", "!live"}, "live");
+  EXPECT_EQ(firstMessages("m1"), (std::vector<std::string>{"2", "3", "m1"}));
+  EXPECT_EQ(firstMessages("m2"), (std::vector<std::string>{"2", "3", "m2"}));  // each one
+  send({"-b", "!cleared"}, "cleared");
+  EXPECT_EQ(firstMessages("m3"), (std::vector<std::string>{"3", "m3"}));
+  send({"-", "!all"}, "all");
+  EXPECT_EQ(firstMessages("m4"), (std::vector<std::string>{"m4"}));
+  // 64 keys at most: the 65th is refused, neither kept nor sent.
+  for (int i = 0; i < 64; ++i) {
+    const std::string kv = "k" + std::to_string(i) + "=" + std::to_string(i);
+    ASSERT_TRUE(sat.send(msg::Publish{set, msg::Rest{kv}}));
+  }
+  send({"k64=over", "!full"}, "full");
+  EXPECT_TRUE(logs.sawTag("LATCH-REFUSED")) << "the 65th key";
+  const auto kept = firstMessages("m5");
+  ASSERT_EQ(kept.size(), 65u);
+  EXPECT_EQ(kept.front(), "0");
+  EXPECT_EQ(kept[63], "63");
 }
 
 }  // namespace

@@ -175,6 +175,17 @@ Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
   return impl_->server.channels.publish(*impl_, chan_id, payload);
 }
 
+Result<void> LocalClient::publishRetained(uint16_t chan_id, std::string_view key,
+                                          std::string_view payload) {
+  ++impl_->traffic.messages_in;
+  impl_->traffic.bytes_in += payload.size();
+  return impl_->server.channels.publishRetained(*impl_, chan_id, key, payload);
+}
+
+Result<void> LocalClient::clearRetained(uint16_t chan_id, std::optional<std::string_view> key) {
+  return impl_->server.channels.clearRetained(*impl_, chan_id, key);
+}
+
 Result<void> LocalClient::offerPaths(const msg::PhysOffer& m) {
   return impl_->server.physical.offer(*impl_, m);
 }

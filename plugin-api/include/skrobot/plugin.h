@@ -49,7 +49,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 8
+#define SKR_PLUGIN_ABI_MINOR 9
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -407,8 +407,25 @@ typedef struct skr_host_api {
    * SKR_ERR_INVALID_ARGUMENT: a code that may not be sent. */
   skr_status (*ws_close)(skr_module_ctx* ctx, skr_ws_conn conn, uint16_t code, const char* reason);
 
-  /* 1.8 spent the last reserved slot: a later minor adds its members here, at the end (the
+  /* 1.8 spent the last reserved slot: later minors add their members here, at the end (the
    * table's struct_size says which a host has). */
+
+  /* --- retained messages (ABI 1.9; loop, as the calls above; docs/plugins.md "Retained
+   * messages") ---
+   * A streaming channel keeps, per key, the last message its owner published with
+   * publish_retained; each subscriber that comes later gets every one kept, oldest first, when it
+   * subscribes (a module's during its subscribe call), before any live message: a latched topic
+   * (ROS 2's transient_local: /tf_static, a map), a robot's description, a last known state. */
+  /* Publishes like publish, and keeps `data` as the message retained under `key` (1 to 255
+   * bytes; it replaces the one kept under that key, and counts as the newest). At most 64 keys
+   * and 16 MiB per channel: SKR_ERR_FAILED beyond them (nothing kept or sent; logged).
+   * SKR_ERR_NOT_FOUND: not a streaming channel of this module. */
+  skr_status (*publish_retained)(skr_module_ctx* ctx, uint16_t chan_id, const char* key,
+                                 const void* data, size_t size);
+  /* Forgets the message kept under `key`, or every one when `key` is NULL (subscribers that
+   * have them keep them). SKR_ERR_NOT_FOUND: not a streaming channel of this module, or no such
+   * key. */
+  skr_status (*retain_clear)(skr_module_ctx* ctx, uint16_t chan_id, const char* key);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

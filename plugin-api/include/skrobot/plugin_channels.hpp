@@ -84,6 +84,24 @@ class StreamChannel {
   }
   bool publish(std::string_view data) noexcept { return publish(data.data(), data.size()); }
 
+  // Retained messages (ABI 1.9; docs/plugins.md, "Retained messages"): publishes `data` and
+  // keeps it under `key`, replacing what was kept there; every later subscriber gets all kept
+  // messages, oldest first, before live ones. False when the host is older than 1.9 or refuses
+  // (over 64 keys or 16 MiB on the channel: logged by the host).
+  bool publishRetained(std::string_view key, std::string_view data) noexcept {
+    if (!state_ || state_->host.api()->abi_minor < 9) return false;
+    const std::string k(key);
+    return state_->host.api()->publish_retained(state_->host.ctx(), state_->id, k.c_str(),
+                                                data.data(), data.size()) == SKR_OK;
+  }
+  // Forgets the message kept under `key` (every one when `key` is empty).
+  bool clearRetained(std::string_view key = {}) noexcept {
+    if (!state_ || state_->host.api()->abi_minor < 9) return false;
+    const std::string k(key);
+    return state_->host.api()->retain_clear(state_->host.ctx(), state_->id,
+                                            key.empty() ? nullptr : k.c_str()) == SKR_OK;
+  }
+
   // Physical mode (ABI 1.7; docs/physical-mode.md, "Modules"): the hub serves this channel's
   // subscribers on its machine by shared memory (SKR_PATH_SHM: a ring of `slots` slots of
   // `slot_bytes`, the largest message) and/or a direct socket (SKR_PATH_DIRECT); publish() keeps

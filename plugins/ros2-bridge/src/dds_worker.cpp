@@ -172,7 +172,13 @@ Result<EndpointId> DdsWorker::createImportReader(std::size_t i) {
     enqueue(std::move(op));
   };
   cb.on_matched = [this, i](const MatchStatus& m) {
-    emit({BridgeEvent::Kind::matched, ItemList::imports, i, {}, m.current});
+    // A writer gone: what it kept is no longer the topic's (its retained message goes).
+    emit({BridgeEvent::Kind::matched,
+          ItemList::imports,
+          i,
+          {},
+          m.current,
+          m.change < 0 ? m.remote_guid : std::string()});
   };
   cb.on_incompatible_qos = [this, i](const IncompatibleQos& q) {
     emit({BridgeEvent::Kind::incompatible_qos, ItemList::imports, i, {}, 0, q.policy});
@@ -333,7 +339,8 @@ void DdsWorker::handle(Op& op) {
         emit({BridgeEvent::Kind::malformed, ItemList::imports, op.item, {}, 0, v.error().message});
         return;
       }
-      emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(op.bytes)});
+      emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(op.bytes), 0,
+            std::move(op.writer_guid)});
       return;
     }
     if (t.encoding == Encoding::media) {
@@ -348,7 +355,8 @@ void DdsWorker::handle(Op& op) {
         return;
       }
       frames_[op.item] += 1;
-      emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(*frame)});
+      emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, std::move(*frame), 0,
+            std::move(op.writer_guid)});
       return;
     }
     auto v = ros2::cdrToJson(registry_, t.type, op.bytes);
@@ -356,7 +364,8 @@ void DdsWorker::handle(Op& op) {
       emit({BridgeEvent::Kind::malformed, ItemList::imports, op.item, {}, 0, v.error().message});
       return;
     }
-    emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, support::writeJson(*v)});
+    emit({BridgeEvent::Kind::sample, ItemList::imports, op.item, support::writeJson(*v), 0,
+          std::move(op.writer_guid)});
     return;
   }
   if (op.kind == Op::Kind::add_export || op.kind == Op::Kind::remove_export) {

@@ -30,8 +30,9 @@ enum class ItemList : std::uint8_t { imports, exports, service_imports, service_
 
 struct BridgeEvent {
   enum class Kind : std::uint8_t {
-    sample,            // imports: `payload` to publish
-    matched,           // `matched` endpoints now (services: of the request endpoint)
+    sample,            // imports: `payload` to publish, from the writer `text` (its GUID)
+    matched,           // `matched` endpoints now (services: of the request endpoint); imports:
+                       // `text` the GUID of a writer that went
     incompatible_qos,  // `text`: the policy
     malformed,         // `text`: why (the sample or message is dropped)
     dropped,           // `text`: where (a queue, a failed write)

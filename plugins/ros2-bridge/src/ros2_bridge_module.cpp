@@ -169,6 +169,10 @@ class Ros2Bridge final : public plugin::Module {
     std::int64_t deadline_ns = 0;
   };
 
+  static bool latched(const TopicItem& t) {
+    return t.qos.durability == Durability::transient_local;
+  }
+
   static std::string joined(const std::vector<std::string>& list) {
     std::string out;
     for (const auto& s : list) out += (out.empty() ? "" : ", ") + s;
@@ -196,6 +200,9 @@ class Ros2Bridge final : public plugin::Module {
     Json::Value props(Json::objectValue);
     props["ros_topic"] = t.ros;
     props["ros_type"] = t.type;
+    // A transient_local topic's kept samples reach each subscriber that comes later (one per
+    // ROS 2 writer: several /tf_static broadcasters each keep theirs).
+    if (latched(t)) props["retained"] = true;
     std::string mime = "application/octet-stream";
     if (t.encoding == Encoding::cdr) {
       skr::support::addTypeProperties(props,
@@ -431,11 +438,20 @@ class Ros2Bridge final : public plugin::Module {
           c.messages += 1;
           c.bytes += ev.payload.size();
           if (t.encoding == Encoding::media) frameProperties(imports_[ev.item], ev.payload);
-          imports_[ev.item].channel.publish(ev.payload);
+          if (!latched(t) || ev.text.empty()) {
+            imports_[ev.item].channel.publish(ev.payload);
+          } else if (!imports_[ev.item].channel.publishRetained(ev.text, ev.payload)) {
+            // Over the hub's bounds (64 writers, 16 MiB): sent to those here now, not kept.
+            c.dropped += 1;
+            imports_[ev.item].channel.publish(ev.payload);
+          }
           break;
         case BridgeEvent::Kind::matched:
           c.matched = ev.matched;
           if (!import) follow(ev.item);
+          if (import && latched(t) && !ev.text.empty()) {
+            (void)imports_[ev.item].channel.clearRetained(ev.text);
+          }
           break;
         case BridgeEvent::Kind::incompatible_qos:
           if (c.incompatible != ev.text) {

@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <list>
 #include <mutex>
@@ -256,6 +257,74 @@ TEST_F(Ros2Bridge, AnImportedTopicIsReadOnlyWhileTheHubSubscribes) {
     std::lock_guard lock(matches.m);
     return matches.matched == 0;
   })) << hub_->log();
+}
+
+// A latched topic (transient_local, as tf2's static broadcasters write /tf_static): what its
+// writers kept before the bridge started reaches every hub subscriber that comes later, one
+// sample per writer, and a writer's goes when the writer does.
+TEST_F(Ros2Bridge, LatchedSamplesReachHubSubscribersThatComeLater) {
+  startRos();
+  Qos latched = *qosProfile("default");
+  latched.durability = Durability::transient_local;
+  latched.depth = 1;
+  Received& arm_matches = received();
+  Received& base_matches = received();
+  const EndpointId arm = writer("/tf_static", "tf2_msgs/msg/TFMessage", arm_matches, latched);
+  const EndpointId base = writer("/tf_static", "tf2_msgs/msg/TFMessage", base_matches, latched);
+  auto tf = [](const char* child, double x) {
+    return cdr("tf2_msgs/msg/TFMessage",
+               std::string(R"({"transforms": [{"header": {"frame_id": "world"},
+                               "child_frame_id": ")") +
+                   child + R"(", "transform": {"translation": {"x": )" + std::to_string(x) +
+                   "}}}]}");
+  };
+  ASSERT_TRUE(ros_->write(arm, tf("arm", 1)));
+  ASSERT_TRUE(ros_->write(base, tf("base", 2)));
+  ASSERT_TRUE(ros_->write(arm, tf("arm", 3)));  // keep_last 1: replaces the first
+  startBridge(R"({"import": [{"ros": "/tf_static", "type": "tf2_msgs/msg/TFMessage",
+                              "qos": {"durability": "transient_local", "depth": 1}}]})");
+  auto watcher = satellite("watcher");
+  watcher->on([](skr::sat::Satellite& s) { s.subscribe("ros2-bridge.status"); });
+  // The bridge read both writers' kept samples, with nobody subscribed yet.
+  Json::Value st;
+  ASSERT_TRUE(eventually([&] {
+    st = status(*watcher);
+    return st["topics"][0]["messages"].asUInt64() == 2 && st["topics"][0]["matched"].asInt() == 2;
+  })) << skr::support::writeJson(st)
+      << hub_->log();
+  auto firstSamples = [&](const std::string& name, std::size_t expected) {
+    auto sat = satellite(name);
+    sat->on([](skr::sat::Satellite& s) { s.subscribe("ros2-bridge.tf_static"); });
+    EXPECT_TRUE(eventually([&] {
+      return sat->events.count("data:ros2-bridge.tf_static:") >= expected;
+    })) << sat->events.dump();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // and no more
+    return sat->events.with("data:ros2-bridge.tf_static:");
+  };
+  // Each writer's last (the arm's second, not its first); the order between writers is the
+  // order their histories reached the bridge.
+  std::vector<std::string> both{tf("base", 2), tf("arm", 3)};
+  std::sort(both.begin(), both.end());
+  for (const char* name : {"late", "later"}) {
+    auto got = firstSamples(name, 2);
+    std::sort(got.begin(), got.end());
+    EXPECT_EQ(got, both) << name;
+  }
+  // The base's broadcaster goes: its transform is no longer kept.
+  ASSERT_TRUE(ros_->deleteEndpoint(base));
+  ASSERT_TRUE(eventually([&] {
+    st = status(*watcher);
+    return st["topics"][0]["matched"].asInt() == 1;
+  })) << skr::support::writeJson(st);
+  const auto got = firstSamples("last", 1);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0], tf("arm", 3));
+  // The channel says so.
+  const auto props = watcher->on([](skr::sat::Satellite& s) {
+    const auto* c = s.channel(std::string_view("ros2-bridge.tf_static"));
+    return c != nullptr ? skr::flow::variantToJsonText(c->props) : std::string();
+  });
+  EXPECT_TRUE(json(props)["retained"].asBool()) << props;
 }
 
 TEST_F(Ros2Bridge, BadSamplesAndIncompatibleQosAreCountedAndSaid) {

@@ -256,6 +256,11 @@ class LocalClient {
   // Publishes on an owned streaming channel: in-process subscribers get a view of `payload`
   // (no copy), satellites a frame each.
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
+  // publish(), keeping `payload` as the message retained under `key`, and forgetting one (or
+  // all: nullopt): ChannelTable::publishRetained, clearRetained (plugin ABI 1.9).
+  [[nodiscard]] Result<void> publishRetained(uint16_t chan_id, std::string_view key,
+                                             std::string_view payload);
+  [[nodiscard]] Result<void> clearRetained(uint16_t chan_id, std::optional<std::string_view> key);
   // Physical mode: offers paths to an owned streaming channel (PHYS_OFFER, as a satellite's
   // library sends it), and counts what its paths delivered while nobody was relayed (PHYS_COUNT).
   [[nodiscard]] Result<void> offerPaths(const msg::PhysOffer& m);

@@ -108,6 +108,18 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   if (++ch->subscriber_count == 1 && ch->owner != nullptr && ch->kind == ChannelKind::streaming) {
     ch->owner->onSubscribers(*ch, true);
   }
+  if (!ch->retained.empty()) {
+    // The retained messages, before anything live; a handler may unsubscribe, remove the channel
+    // or retain more (the copy of the list keeps these alive).
+    const auto kept = ch->retained;
+    for (const auto& [key, payload] : kept) {
+      if (find(id) != ch ||
+          std::find(e.subscribed.begin(), e.subscribed.end(), id) == e.subscribed.end()) {
+        break;
+      }
+      e.onData(*ch, *payload);
+    }
+  }
   return {};
 }
 
@@ -230,6 +242,56 @@ Result<void> ChannelTable::publish(Endpoint& e, uint16_t id, std::string_view pa
     }
     tombstoned_.clear();
   }
+  return {};
+}
+
+Result<void> ChannelTable::publishRetained(Endpoint& e, uint16_t id, std::string_view key,
+                                           std::string_view payload) {
+  if (key.empty() || key.size() > kMaxRetainedKeyBytes) {
+    return makeError(Errc::invalid_argument, "a retained message's key has 1 to " +
+                                                 std::to_string(kMaxRetainedKeyBytes) + " bytes");
+  }
+  auto found = owned(e, id, "publishes to");
+  if (!found) return found.error();
+  Channel* ch = *found;
+  if (ch->kind != ChannelKind::streaming) {
+    return makeError(Errc::invalid_argument, ch->name + " is not a streaming channel");
+  }
+  auto& kept = ch->retained;
+  auto it = std::find_if(kept.begin(), kept.end(), [&](const auto& k) { return k.first == key; });
+  const size_t replaced = it != kept.end() ? it->second->size() : 0;
+  if (it == kept.end() && kept.size() >= kMaxRetainedKeys) {
+    return makeError(Errc::limit_exceeded, ch->name + " retains " +
+                                               std::to_string(kMaxRetainedKeys) +
+                                               " messages already (one per key)");
+  }
+  if (ch->retained_bytes - replaced + payload.size() > kMaxRetainedBytes) {
+    return makeError(Errc::limit_exceeded, ch->name + " would retain more than " +
+                                               std::to_string(kMaxRetainedBytes >> 20) + " MiB");
+  }
+  if (it != kept.end()) kept.erase(it);
+  kept.emplace_back(std::string(key), std::make_shared<const std::string>(payload));
+  ch->retained_bytes = ch->retained_bytes - replaced + payload.size();
+  return publish(e, id, payload);
+}
+
+Result<void> ChannelTable::clearRetained(Endpoint& e, uint16_t id,
+                                         std::optional<std::string_view> key) {
+  auto found = owned(e, id, "clears");
+  if (!found) return found.error();
+  Channel* ch = *found;
+  if (!key) {
+    ch->retained.clear();
+    ch->retained_bytes = 0;
+    return {};
+  }
+  auto& kept = ch->retained;
+  auto it = std::find_if(kept.begin(), kept.end(), [&](const auto& k) { return k.first == *key; });
+  if (it == kept.end()) {
+    return makeError(Errc::not_found, ch->name + " retains nothing under " + std::string(*key));
+  }
+  ch->retained_bytes -= it->second->size();
+  kept.erase(it);
   return {};
 }
 

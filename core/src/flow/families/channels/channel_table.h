@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <string_view>
@@ -48,11 +49,21 @@ class Channel {
   // Messages a subscriber's queue dropped (counted where the drop happens, with the channel const).
   mutable uint64_t dropped = 0;
   size_t pending_requests = 0;  // kept by the RequestTable
+  // Retained messages (plugin ABI 1.9): the last one its owner published under each key, oldest
+  // first; each new subscriber gets them all when it subscribes. Shared so that a replay holds
+  // them while a subscriber's handler publishes again.
+  std::vector<std::pair<std::string, std::shared_ptr<const std::string>>> retained;
+  size_t retained_bytes = 0;
   // seq, bytes, dropped at the hub's last one-second ticks (rate_window.h), for hub.stats.
   using Rates = RateWindow<3>;
   [[nodiscard]] Rates::Counters rateCounters() const noexcept { return {seq, bytes, dropped}; }
   Rates rates;
 };
+
+// What a streaming channel retains at most (publishRetained).
+inline constexpr size_t kMaxRetainedKeys = 64;
+inline constexpr size_t kMaxRetainedBytes = 16u << 20;
+inline constexpr size_t kMaxRetainedKeyBytes = 255;
 
 class ChannelTable {
  public:
@@ -99,6 +110,17 @@ class ChannelTable {
   // subscribe, unsubscribe or remove the channel from inside onData. not_found,
   // permission_denied (not the owner), invalid_argument (not streaming).
   [[nodiscard]] Result<void> publish(Endpoint& e, uint16_t id, std::string_view payload);
+  // publish(), keeping `payload` as the message retained under `key` (replacing the one kept,
+  // and the newest now): subscribe() hands every retained message to each new subscriber, oldest
+  // first, before anything else. limit_exceeded past kMaxRetainedKeys or kMaxRetainedBytes
+  // (nothing kept, nothing sent), invalid_argument for an empty or longer key than
+  // kMaxRetainedKeyBytes; publish's errors.
+  [[nodiscard]] Result<void> publishRetained(Endpoint& e, uint16_t id, std::string_view key,
+                                             std::string_view payload);
+  // Forgets the message retained under `key`, or all of them (nullopt). not_found: no such key,
+  // or not a streaming channel `e` owns.
+  [[nodiscard]] Result<void> clearRetained(Endpoint& e, uint16_t id,
+                                           std::optional<std::string_view> key);
 
   // Polling (POLL_REGISTER, POLL_FETCH, POLL_DEREGISTER) of a streaming channel. not_found (no
   // such streaming channel; deregister: not registered by `endpoint`).

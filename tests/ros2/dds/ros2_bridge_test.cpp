@@ -111,6 +111,18 @@ class Ros2Bridge : public SatTest {
     EXPECT_TRUE(id) << id.error().message;
     return id ? *id : 0;
   }
+  // A reader of ros_discovery_info (the graph), as ROS 2's tools read it.
+  Received& graphReader() {
+    Received& graph = received();
+    ReaderCallbacks cb;
+    cb.on_sample = [&graph](Sample&& s) {
+      std::lock_guard lock(graph.m);
+      graph.samples.push_back(std::move(s.bytes));
+    };
+    auto id = ros_->createDdsReader(kGraphTopic, kGraphType, graphQos(), std::move(cb));
+    EXPECT_TRUE(id) << id.error().message;
+    return graph;
+  }
   static bool matched(Received& r, int n = 1) {
     return eventually([&] {
       std::lock_guard lock(r.m);
@@ -420,13 +432,7 @@ TEST_F(Ros2Bridge, AnExportPatternFollowsTheChannelsItMatches) {
     return two.matched == 0;
   })) << hub_->log();
   // ROS 2's graph follows: the bridge's node lists the writers it has now.
-  Received& graph = received();
-  ReaderCallbacks cb;
-  cb.on_sample = [&graph](Sample&& s) {
-    std::lock_guard lock(graph.m);
-    graph.samples.push_back(std::move(s.bytes));
-  };
-  ASSERT_TRUE(ros_->createDdsReader(kGraphTopic, kGraphType, graphQos(), std::move(cb)));
+  Received& graph = graphReader();
   ros2::Registry types;
   ASSERT_TRUE(types.addSchema(kGraphRosType, graphSchema(Distribution::jazzy)));
   auto writersListed = [&] {
@@ -599,13 +605,7 @@ TEST_F(Ros2Bridge, TheBridgeIsANodeInRos2sGraph) {
     (void)reader("/out", "std_msgs/msg/String", out);
     (void)writer("/lab/chatter", "std_msgs/msg/String", chatter);
     ASSERT_TRUE(matched(out) && matched(chatter)) << hub_->log();
-    Received& graph = received();
-    ReaderCallbacks cb;
-    cb.on_sample = [&graph](Sample&& s) {
-      std::lock_guard lock(graph.m);
-      graph.samples.push_back(std::move(s.bytes));
-    };
-    ASSERT_TRUE(ros_->createDdsReader(kGraphTopic, kGraphType, graphQos(), std::move(cb)));
+    Received& graph = graphReader();
     ASSERT_TRUE(eventually([&] { return graph.count() >= 1; })) << hub_->log();
     ros2::Registry types;
     ASSERT_TRUE(types.addSchema(kGraphRosType, graphSchema(d)));

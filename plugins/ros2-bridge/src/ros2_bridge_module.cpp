@@ -216,9 +216,9 @@ class Ros2Bridge final : public plugin::Module {
       mime = jpeg.mime;
     } else {
       // Which raw encoding an Image topic carries is known from its first sample (frameProperties).
+      const auto& raw = *media::encodingInfo(media::Format::rgb8);
       props["message_encoding"] = std::string(media::kMessageEncoding);
-      props["flow_type"] = "FT_VIDEO_DATA";
-      props["data_type"] = "T_BYTEARRAY";
+      props["flow_type"] = std::string(raw.flow_type);
     }
     // The topic is read while the channel has subscribers (the DDS reader follows them).
     imports_[i].channel = plugin::StreamChannel(

@@ -419,12 +419,13 @@ typedef struct skr_host_api {
   /* Publishes like publish, and keeps `data` as the message retained under `key` (1 to 255
    * bytes; it replaces the one kept under that key, and counts as the newest). At most 64 keys
    * and 16 MiB per channel: SKR_ERR_FAILED beyond them (nothing kept or sent; logged).
-   * SKR_ERR_NOT_FOUND: not a streaming channel of this module. */
+   * SKR_ERR_NOT_FOUND: no such channel; SKR_ERR_INVALID_ARGUMENT: not a streaming channel of
+   * this module, or a key of another length. */
   skr_status (*publish_retained)(skr_module_ctx* ctx, uint16_t chan_id, const char* key,
                                  const void* data, size_t size);
   /* Forgets the message kept under `key`, or every one when `key` is NULL (subscribers that
-   * have them keep them). SKR_ERR_NOT_FOUND: not a streaming channel of this module, or no such
-   * key. */
+   * have them keep them). SKR_ERR_NOT_FOUND: no such channel, or nothing kept under `key`;
+   * SKR_ERR_INVALID_ARGUMENT: not a channel of this module. */
   skr_status (*retain_clear)(skr_module_ctx* ctx, uint16_t chan_id, const char* key);
 } skr_host_api;
 

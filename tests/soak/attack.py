@@ -8,13 +8,17 @@ PING and records each round trip. Meanwhile, one after the other:
 - login flood: connections that log in with wrong passwords, as fast as they are refused;
 - slow frames: hundreds of connections that send three bytes of a frame and nothing more;
 - huge lengths: frames announcing 2 GiB before login and 1 GiB after it;
-- channel flood: one logged-in flow that asks for 5000 channels (the per-user limit refuses most).
+- channel flood: four logged-in flows that each ask for 5000 channels in batches of a hundred
+  (the per-user limit refuses most), the hub handling a budget of each one's frames per turn.
 
 Checked: every ping is answered (no error, no timeout) and the p99 of each phase stays under
-1 s; each misbehaving connection is closed or refused as docs/security.md says; the hub exits
-0 with no sanitizer report. The round trips of each phase are printed beside the calm baseline.
+ATTACK_P99_MS (500 ms by default, what the AddressSanitizer build is held to; the release build's
+test asks for 100 ms); each misbehaving connection is closed or refused as docs/security.md
+says; the hub exits 0 with no sanitizer report. The round trips of each phase are printed beside
+the calm baseline.
 
-Environment: SKROBOT_BIN, PYTHONPATH (PySketch), ATTACK_SECONDS (per phase, default 5).
+Environment: SKROBOT_BIN, PYTHONPATH (PySketch), ATTACK_SECONDS (per phase, default 5),
+ATTACK_P99_MS (default 500).
 """
 import os
 import shutil
@@ -30,7 +34,7 @@ from PySketch.flowsync import FlowSync
 from soakhub import Hub
 
 PHASE_SECONDS = float(os.environ.get("ATTACK_SECONDS", "5"))
-P99_LIMIT = 1.0
+P99_LIMIT = float(os.environ.get("ATTACK_P99_MS", "500")) / 1000.0
 failures = []
 
 
@@ -205,9 +209,7 @@ def main():
         except OSError as e:
             fail("channel flood: %s" % e)
 
-    # One flow, as the description above says (four made the hub under the sanitizers answer a
-    # ping more than 5 s late once in three runs on a 2-core machine: see the closing note).
-    during(pinger, "channel-flood", channelFlood, threads=1)
+    during(pinger, "channel-flood", channelFlood, threads=4)
     time.sleep(1.0)
     pinger.running = False
     pinger.join(10)

@@ -122,8 +122,23 @@ void Connection::closed() noexcept {
   delete this;
 }
 
+namespace {
+
+// What one connection's frames may take of a loop turn (docs/internals.md, "Fair turns"): a
+// flood of small frames in one read yields to the other connections after these many.
+constexpr int kFramesPerTurn = 64;
+constexpr size_t kBytesPerTurn = 1u << 20;
+
+}  // namespace
+
 void Connection::processInput() {
-  while (!blocked_ && state_ != State::closing) {
+  int frames = 0;
+  size_t bytes = 0;
+  while (!blocked_ && !yielding_ && state_ != State::closing) {
+    if (frames >= kFramesPerTurn || bytes >= kBytesPerTurn) {
+      if (input_.peek().status != FrameSplitter::Status::need_more) yieldTurn();
+      break;
+    }
     const auto n = input_.peek();
     if (n.status == FrameSplitter::Status::need_more) break;
     if (n.status == FrameSplitter::Status::too_large) {
@@ -138,6 +153,8 @@ void Connection::processInput() {
     }
     if (waitForPipeline(n.code)) break;  // handled once the pipeline's answers have left
     input_.consume(n);                   // before handling: a handler may block and resume later
+    ++frames;
+    bytes += n.consumed;
     ++hub_.stats.frames_in;
     ++traffic.messages_in;
     traffic.bytes_in += n.consumed;
@@ -156,7 +173,24 @@ void Connection::unblock() {
   if (!blocked_) return;
   blocked_ = false;
   processInput();
-  if (!blocked_ && state_ != State::closing) startReading();
+  if (!blocked_ && !yielding_ && state_ != State::closing) startReading();
+}
+
+void Connection::yieldTurn() {
+  yielding_ = true;
+  ++hub_.stats.turns_yielded;
+  if (reading_) transport_->pause();
+  reading_ = false;
+  hub_.loop.post([this, alive = std::weak_ptr<int>(alive_)] {
+    if (alive.lock()) resumeTurn();
+  });
+}
+
+void Connection::resumeTurn() {
+  if (!yielding_) return;
+  yielding_ = false;
+  processInput();
+  if (!blocked_ && !yielding_ && state_ != State::closing) startReading();
 }
 
 namespace {

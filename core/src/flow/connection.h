@@ -242,6 +242,10 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // An EV_DATA frame onto the output queue (dropping the oldest when full).
   void queueData(const Channel& ch, std::string_view payload);
   void resizeQueue() noexcept;  // queue_limit_ from base_queue_ and queue_asked_
+  // Fair turns: processInput handled kFramesPerTurn frames or kBytesPerTurn bytes: reading pauses
+  // and the rest is handled from a post, after the loop served the others (resumeTurn).
+  void yieldTurn();
+  void resumeTurn();
 
   Hub& hub_;
   std::unique_ptr<transport::Transport> transport_;
@@ -249,8 +253,10 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
-  FrameInput input_;                 // received bytes, frames split from them
-  bool blocked_ = false;             // a sync reply is pending: do not parse further frames
+  FrameInput input_;       // received bytes, frames split from them
+  bool blocked_ = false;   // a sync reply is pending: do not parse further frames
+  bool yielding_ = false;  // its turn's budget is spent: the rest waits for a post
+  std::shared_ptr<int> alive_ = std::make_shared<int>(0);  // a post's weak token of it
   uint32_t pipeline_in_flight_ = 0;  // pipelined requests in the hub, not answered yet
   uint64_t pipeline_bytes_ = 0;      // the data they carry or ask for
   Family pipeline_family_ = Family::blobs;

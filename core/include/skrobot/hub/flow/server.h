@@ -129,6 +129,8 @@ struct ServerStats {
   uint64_t protocol_errors = 0;  // connections closed for breaking the protocol
   uint64_t logins_failed = 0;
   uint64_t frames_in = 0;
+  // A connection's frames left for a later turn, its budget spent (fair turns: kFramesPerTurn).
+  uint64_t turns_yielded = 0;
   uint64_t data_frames_out = 0;
   uint64_t data_frames_dropped = 0;  // slow subscribers
   uint64_t tls_refused = 0;          // TLS handshakes failed, or a plain and TLS peer mismatched

@@ -125,11 +125,12 @@ void Connection::closed() noexcept {
 namespace {
 
 // What one connection's frames may take of a loop turn (docs/internals.md, "Fair turns"): a
-// flood of frames in one read yields to the other connections after these many frames, bytes or
-// nanoseconds of work (some frames cost far more than others: a channel made is told to everyone).
-constexpr int kFramesPerTurn = 64;
-constexpr size_t kBytesPerTurn = 1u << 20;
-constexpr Nanos kTimePerTurn = 2'000'000;
+// flood of frames in one read yields to the other connections after this much work, or these
+// many frames or bytes. Work, because frames differ (a channel made is told to everyone, a
+// PUBLISH takes a microsecond); generous, because each yield costs the relay a loop iteration.
+constexpr Nanos kTimePerTurn = 1'000'000;
+constexpr int kFramesPerTurn = 4096;
+constexpr size_t kBytesPerTurn = 4u << 20;
 
 }  // namespace
 
@@ -138,7 +139,7 @@ void Connection::processInput() {
   size_t bytes = 0;
   const Nanos start = monotonicNs();
   while (!blocked_ && !yielding_ && state_ != State::closing) {
-    // The clock is read every eighth frame (a PUBLISH takes a microsecond or two).
+    // The clock is read every eighth frame.
     if (frames >= kFramesPerTurn || bytes >= kBytesPerTurn ||
         (frames % 8 == 7 && monotonicNs() - start >= kTimePerTurn)) {
       if (input_.peek().status != FrameSplitter::Status::need_more) yieldTurn();

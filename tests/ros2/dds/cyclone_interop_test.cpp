@@ -308,13 +308,14 @@ void cycloneToFastDds(const std::string& topic, const std::string& type, int cou
   ASSERT_TRUE(ours.participant);
   std::mutex mutex;
   std::vector<Sample> samples;
-  std::atomic<int> matched{0};
+  // Latched: a short peer may finish and unmatch between two polls.
+  std::atomic<bool> matched{false};
   ReaderCallbacks callbacks;
   callbacks.on_sample = [&](Sample&& s) {
     std::lock_guard lock(mutex);
     samples.push_back(std::move(s));
   };
-  callbacks.on_matched = [&](const MatchStatus& s) { matched = s.current; };
+  callbacks.on_matched = [&](const MatchStatus& s) { matched = matched || s.current > 0; };
   auto reader = ours.participant->createReader(topic, type, *qosProfile("default"), callbacks);
   ASSERT_TRUE(reader.ok()) << reader.error().describe();
 
@@ -327,7 +328,7 @@ void cycloneToFastDds(const std::string& topic, const std::string& type, int cou
   ASSERT_TRUE(matched_line.has_value()) << "the peer's writer did not match";
   ASSERT_EQ((*matched_line)["event"].asString(), "matched");
   const auto peer_ms = msSince(start);
-  EXPECT_TRUE(eventually([&] { return matched > 0; }, 20000)) << "our reader did not match";
+  EXPECT_TRUE(eventually([&] { return matched.load(); }, 20000)) << "our reader did not match";
   std::cout << type << ": the peer's writer matched after " << peer_ms << " ms, ours after "
             << msSince(start) << " ms (the peer's start included)\n";
   const auto done = peer.nextLine(20000);

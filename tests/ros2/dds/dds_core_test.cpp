@@ -341,13 +341,15 @@ TEST(DdsCore, RawCdrCrossesToAnotherProcessByteForByte) {
     remotes.push_back(r);
   });
   ASSERT_TRUE(participant.ok()) << participant.error().describe();
-  std::atomic<int> matched{0};
+  // Latched: the peer writes, is acknowledged and exits (unmatching) as soon as it matched,
+  // possibly between two polls.
+  std::atomic<bool> matched{false};
   ReaderCallbacks callbacks;
   callbacks.on_sample = [&](Sample&& s) {
     std::lock_guard lock(mutex);
     samples.push_back(std::move(s));
   };
-  callbacks.on_matched = [&](const MatchStatus& s) { matched = s.current; };
+  callbacks.on_matched = [&](const MatchStatus& s) { matched = matched || s.current > 0; };
   auto reader =
       (*participant)
           ->createReader("/chatter", "std_msgs/msg/String", *qosProfile("default"), callbacks);
@@ -356,7 +358,7 @@ TEST(DdsCore, RawCdrCrossesToAnotherProcessByteForByte) {
   const auto start = std::chrono::steady_clock::now();
   const pid_t peer = spawnPeer({"pub", file});
   ASSERT_GT(peer, 0);
-  EXPECT_TRUE(eventually([&] { return matched > 0; }, 15000));
+  EXPECT_TRUE(eventually([&] { return matched.load(); }, 15000));
   const auto match_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
                             std::chrono::steady_clock::now() - start)
                             .count();

@@ -12,6 +12,7 @@ import path from 'node:path';
 import { after, before, test } from 'node:test';
 
 import { env, freePort, sleep, startHub, validate, waitFor, webRequire } from '../web/harness.mjs';
+import * as skr from '../../satellite/js/src/node.js';
 
 const WebSocket = webRequire('ws');
 const { FoxgloveClient } = webRequire('@foxglove/ws-protocol');
@@ -79,6 +80,9 @@ async function connect() {
 }
 
 const decode = (m) => JSON.parse(Buffer.from(m.data.buffer, m.data.byteOffset, m.data.byteLength).toString());
+// What the bridge's last count in the log says it could not convert.
+const skippedCount = () => Math.max(0, ...[...hub.log.matchAll(/(\d+) that could not be converted skipped/g)]
+  .map((m) => Number(m[1])));
 
 before(async () => {
   port = await freePort();
@@ -206,6 +210,26 @@ test('data flows while subscribed, in the reference schemas, and stops after uns
   // The log counts what the bridge forwarded (the camera's frames are converted on its thread).
   await waitFor('the counts in the log', () =>
     /FOXGLOVE-CLIENT client \d+ left: .*; [1-9]\d* messages forwarded, \d+ that could not be converted skipped, \d+ replaced/.test(hub.log));
+});
+
+test('JSON messages come in order, converted off the loop; one that does not parse is skipped', { timeout: 60000 }, async () => {
+  const sat = await skr.connect(hub.address, { clientName: 'foxglove burst' });
+  const burst = await sat.createChannel('burst', { mime: 'application/json' });
+  const { client, seen } = await connect();
+  await waitFor('the burst channel', () => seen.channels.has('guest.burst'), 10000);
+  const sub = client.subscribe(seen.channels.get('guest.burst').id);
+  await waitFor('the bridge subscribes', async () => JSON.parse(await hub.flowctl('--json', 'ls'))
+    .find((c) => c.name === 'guest.burst')?.subscribers === 1);
+  const skippedBefore = skippedCount();
+  // Back to back, faster than one a turn of the loop: none may be replaced by a newer one.
+  for (let i = 0; i < 500; ++i) burst.publish(i === 250 ? '{"i": 250' : JSON.stringify({ i, pad: 'x'.repeat(i) }));
+  const got = () => seen.messages.filter((m) => m.subscriptionId === sub).map((m) => decode(m).i);
+  await waitFor('499 messages', () => got().length >= 499, 10000);
+  await sleep(300);
+  assert.deepEqual(got(), [...Array(500).keys()].filter((i) => i !== 250));
+  client.close();
+  sat.close();
+  await waitFor('the skipped one counted', () => skippedCount() > skippedBefore, 10000);
 });
 
 test('raw frames come as foxglove.RawImage in the reference schema', { timeout: 60000 }, async () => {

@@ -6,7 +6,8 @@
 // malformed one closes that client there) and handed to the hub's loop thread with host.post;
 // channels, subscriptions, requests and databases are touched on the loop thread only. Camera
 // frames, annotations and joints are converted on a ConvertWorker thread (newest wins per
-// channel), which sends them itself (WsServer::send may be called from any thread). A hub
+// channel), which sends them itself (WsServer::send may be called from any thread); JSON and
+// typed messages go through it too, in order (JSON ones checked to parse). A hub
 // channel is subscribed only while some client subscribes to it. A channel's schema follows its
 // `encoding` property (a database watch per channel whose schema it decides).
 #include "convert_worker.h"
@@ -45,6 +46,9 @@ constexpr int kCloseTooBig = 1009;
 // messages): subscriptions, and parameter names it follows.
 constexpr std::size_t kMaxSubscriptions = 4096;
 constexpr std::size_t kMaxParameterSubscriptions = 4096;
+// What a JSON channel's message may be to be forwarded (the hub's own limit on a message is 64
+// MiB).
+constexpr skr::support::JsonLimits kChannelJsonLimits{256, 64u << 20};
 
 std::uint64_t wallNs() {
   return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -342,7 +346,17 @@ class FoxgloveBridge final : public skr::plugin::Module {
     }
     if (to.empty()) return;
     if (c.shape == Shape::json || c.shape == Shape::typed) {
-      send(to, Converted{std::string(payload), 0});
+      // In order, none dropped while the worker keeps up; a JSON one must parse (Foxglove's
+      // decoder would fail on it otherwise).
+      auto job = [this, json = c.shape == Shape::json, message = std::string(payload),
+                  to = std::move(to)] {
+        if (json && !skr::support::parseJson(message, kChannelJsonLimits)) {
+          ++skipped_;
+          return;
+        }
+        send(to, Converted{message, 0});
+      };
+      if (!worker_.submitInOrder(payload.size(), std::move(job))) ++dropped_;
       return;
     }
     auto job = [this, shape = c.shape, name = c.name, joints = c.joint_names,
@@ -431,7 +445,8 @@ class FoxgloveBridge final : public skr::plugin::Module {
   std::string counts() const {
     return std::to_string(forwarded_.load()) + " messages forwarded, " +
            std::to_string(skipped_.load()) + " that could not be converted skipped, " +
-           std::to_string(replaced_.load()) + " replaced by a newer one before conversion";
+           std::to_string(replaced_.load()) + " replaced by a newer one before conversion, " +
+           std::to_string(dropped_.load()) + " dropped with the worker behind";
   }
 
   void onMessage(std::uint64_t conn, const ClientMessage& msg) {
@@ -715,7 +730,7 @@ class FoxgloveBridge final : public skr::plugin::Module {
   bool inspecting_ = false;
   std::uint64_t refused_sets_ = 0;
   // Any thread.
-  std::atomic<std::uint64_t> forwarded_ = 0, skipped_ = 0, replaced_ = 0;
+  std::atomic<std::uint64_t> forwarded_ = 0, skipped_ = 0, replaced_ = 0, dropped_ = 0;
   ConvertWorker worker_;  // last: stopped (joined) before the members its jobs use go
 };
 

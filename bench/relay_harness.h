@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -327,6 +328,10 @@ class Hub {
   [[nodiscard]] PeerPtr dial(Transport t) const;
   [[nodiscard]] flow::ServerStats stats();
   [[nodiscard]] uint16_t tcpPort() const noexcept { return tcp_port_; }
+  // Runs `fn` on the hub's loop thread with its loop and server, and waits for it.
+  void onLoop(const std::function<void(skr::Loop&, flow::FlowServer&)>& fn) {
+    thread_->loop().invoke([&] { fn(thread_->loop(), *server_); });
+  }
 
  private:
   static void createAccount(const std::filesystem::path& path);

@@ -300,10 +300,11 @@ const char* moduleName(skr_module_ctx* ctx) noexcept {
 }
 
 // --- FlowNetwork channels and databases (ABI 1.1) ---
-// Modules on the hub's main loop only: the server lives there. The module's ModuleFlow (its
-// LocalClient) is made by the first call.
-// What every channel, database and web call needs: the main loop's thread (not a module's own),
-// a hub, and a lifecycle step that may register.
+// They run on the hub's main loop: the server lives there. The module's ModuleFlow (its
+// LocalClient) is made by the first call. A module on its own thread makes them from that
+// thread (ABI 1.10; module_calls.h), except those marked OwnThread::refused.
+// What every call needs on the main loop: its thread, a hub, and a lifecycle step that may
+// register.
 skr_status hubCallAllowed(skr_module_ctx* ctx) noexcept {
   if (ctx == nullptr) return SKR_ERR_INVALID_ARGUMENT;
   if (ctx->own_thread || !ctx->onLoopThread()) return SKR_ERR_NOT_ON_LOOP_THREAD;
@@ -312,15 +313,38 @@ skr_status hubCallAllowed(skr_module_ctx* ctx) noexcept {
   return SKR_OK;
 }
 
-skr_status withFlow(skr_module_ctx* ctx,
-                    const std::function<skr_status(ModuleFlow&)>& fn) noexcept {
-  if (const skr_status st = hubCallAllowed(ctx); st != SKR_OK) return st;
+// Whether a module on its own thread may make the call (ABI 1.10): those whose callbacks the
+// host hands to that thread (ModuleFlow::deliverOn), and those without callbacks.
+enum class OwnThread : bool { refused, allowed };
+
+// On the main loop thread.
+skr_status runFlow(skr_module_ctx* ctx, const std::function<skr_status(ModuleFlow&)>& fn) noexcept {
   try {
-    if (!ctx->flow) ctx->flow = std::make_unique<ModuleFlow>(*ctx->server, ctx->name, ctx->access);
+    if (!ctx->flow) {
+      ctx->flow = std::make_unique<ModuleFlow>(*ctx->server, ctx->name, ctx->access);
+      if (ctx->own_thread) ctx->flow->deliverOn(*ctx->loop);
+    }
     return fn(*ctx->flow);
   } catch (...) {
     return SKR_ERR_NO_MEMORY;
   }
+}
+
+skr_status withFlow(skr_module_ctx* ctx, const std::function<skr_status(ModuleFlow&)>& fn,
+                    OwnThread own = OwnThread::allowed) noexcept {
+  if (ctx != nullptr && ctx->own_thread && ctx->calls && ctx->onLoopThread()) {
+    // The module's own thread: the call runs on the main loop while this thread waits.
+    if (own == OwnThread::refused) return SKR_ERR_NOT_ON_LOOP_THREAD;
+    if (ctx->server == nullptr) return SKR_ERR_UNSUPPORTED;
+    if (!ctx->accepting) return SKR_ERR_BAD_STATE;
+    try {
+      return ctx->calls->call([ctx, &fn] { return runFlow(ctx, fn); });
+    } catch (...) {
+      return SKR_ERR_NO_MEMORY;
+    }
+  }
+  if (const skr_status st = hubCallAllowed(ctx); st != SKR_OK) return st;
+  return runFlow(ctx, fn);
 }
 
 skr_status channelCreate(skr_module_ctx* ctx, const char* short_name, skr_channel_kind kind,
@@ -365,39 +389,48 @@ skr_status dbSet(skr_module_ctx* ctx, const char* db, const char* key,
   return withFlow(ctx, [&](ModuleFlow& f) { return f.dbSet(db, key, value_json); });
 }
 skr_status dbSync(skr_module_ctx* ctx, skr_done_fn fn, void* user) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbSync(fn, user); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.dbSync(fn, user); }, OwnThread::refused);
 }
 skr_status blobGet(skr_module_ctx* ctx, uint16_t chan_id, const char* path, uint64_t max_bytes,
                    skr_blob_fn fn, void* user) noexcept {
-  return withFlow(ctx,
-                  [&](ModuleFlow& f) { return f.blobGet(chan_id, path, max_bytes, fn, user); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.blobGet(chan_id, path, max_bytes, fn, user); },
+      OwnThread::refused);
 }
 skr_status blobPut(skr_module_ctx* ctx, uint16_t chan_id, const char* path, const void* data,
                    size_t size, skr_blob_fn fn, void* user) noexcept {
-  return withFlow(ctx,
-                  [&](ModuleFlow& f) { return f.blobPut(chan_id, path, data, size, fn, user); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.blobPut(chan_id, path, data, size, fn, user); },
+      OwnThread::refused);
 }
 skr_status blobList(skr_module_ctx* ctx, uint16_t chan_id, const char* dir, skr_blob_fn fn,
                     void* user) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.blobList(chan_id, dir, fn, user); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.blobList(chan_id, dir, fn, user); }, OwnThread::refused);
 }
 skr_status blobDo(skr_module_ctx* ctx, uint16_t chan_id, skr_blob_op op, const char* path,
                   skr_blob_fn fn, void* user) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.blobDo(chan_id, op, path, fn, user); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.blobDo(chan_id, op, path, fn, user); },
+      OwnThread::refused);
 }
 skr_status syncPulse(skr_module_ctx* ctx, uint16_t chan_id) noexcept {
   return withFlow(ctx, [&](ModuleFlow& f) { return f.syncPulse(chan_id); });
 }
 skr_status syncFollow(skr_module_ctx* ctx, const char* name, uint32_t every, uint32_t flags,
                       skr_sync_fn fn, void* user, skr_sub_handle* out) noexcept {
-  return withFlow(ctx,
-                  [&](ModuleFlow& f) { return f.syncFollow(name, every, flags, fn, user, out); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.syncFollow(name, every, flags, fn, user, out); },
+      OwnThread::refused);
 }
 skr_status syncUnfollow(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.syncUnfollow(handle); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.syncUnfollow(handle); }, OwnThread::refused);
 }
 skr_status syncDone(skr_module_ctx* ctx, skr_sub_handle handle, uint64_t seq) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.syncDone(handle, seq); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.syncDone(handle, seq); }, OwnThread::refused);
 }
 
 const char* hubName(skr_module_ctx* ctx) noexcept {
@@ -412,10 +445,12 @@ skr_status channelUnwatch(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
 }
 skr_status dbWatch(skr_module_ctx* ctx, const char* db, skr_db_change_fn fn, void* user,
                    skr_sub_handle* out) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbWatch(db, fn, user, out); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.dbWatch(db, fn, user, out); }, OwnThread::refused);
 }
 skr_status dbUnwatch(skr_module_ctx* ctx, skr_sub_handle handle) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.dbUnwatch(handle); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.dbUnwatch(handle); }, OwnThread::refused);
 }
 skr_status dbRemove(skr_module_ctx* ctx, const char* db, const char* key) noexcept {
   return withFlow(ctx, [&](ModuleFlow& f) { return f.dbRemove(db, key); });
@@ -423,7 +458,9 @@ skr_status dbRemove(skr_module_ctx* ctx, const char* db, const char* key) noexce
 
 skr_status channelPaths(skr_module_ctx* ctx, uint16_t chan_id,
                         const skr_path_options* options) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.offerPaths(*ctx->loop, chan_id, options); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.offerPaths(*ctx->loop, chan_id, options); },
+      OwnThread::refused);
 }
 skr_status publishRetained(skr_module_ctx* ctx, uint16_t chan_id, const char* key, const void* data,
                            size_t size) noexcept {
@@ -434,12 +471,15 @@ skr_status retainClear(skr_module_ctx* ctx, uint16_t chan_id, const char* key) n
 }
 skr_status publishBegin(skr_module_ctx* ctx, uint16_t chan_id, void** slot_out,
                         size_t* capacity_out) noexcept {
-  return withFlow(ctx,
-                  [&](ModuleFlow& f) { return f.publishBegin(chan_id, slot_out, capacity_out); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.publishBegin(chan_id, slot_out, capacity_out); },
+      OwnThread::refused);
 }
 skr_status publishCommit(skr_module_ctx* ctx, uint16_t chan_id, size_t size,
                          int64_t capture_ns) noexcept {
-  return withFlow(ctx, [&](ModuleFlow& f) { return f.publishCommit(chan_id, size, capture_ns); });
+  return withFlow(
+      ctx, [&](ModuleFlow& f) { return f.publishCommit(chan_id, size, capture_ns); },
+      OwnThread::refused);
 }
 
 // The web calls (ABI 1.8).

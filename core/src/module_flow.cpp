@@ -28,15 +28,23 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
     // Index loop: a callback may subscribe or unsubscribe.
     for (size_t i = 0; i < subs_.size(); ++i) {
       const Sub s = subs_[i];
-      if (s.chan_id == chan_id) s.fn(s.user, chan_id, payload.data(), payload.size());
+      if (s.chan_id != chan_id) continue;
+      if (!live_) {
+        s.fn(s.user, chan_id, payload.data(), payload.size());
+        continue;
+      }
+      deliver(s.handle, [s, chan_id, data = std::string(payload)] {
+        s.fn(s.user, chan_id, data.data(), data.size());
+      });
     }
   };
   h.on_subscribers = [this](uint16_t chan_id, bool first) {
     if (creating_ && owned_.find(chan_id) == owned_.end()) owned_[chan_id] = *creating_;
     auto it = owned_.find(chan_id);
-    if (it != owned_.end() && it->second.on_subscribers != nullptr) {
-      it->second.on_subscribers(it->second.user, chan_id, first ? 1 : 0);
-    }
+    if (it == owned_.end() || it->second.on_subscribers == nullptr) return;
+    const Owned o = it->second;
+    if (!live_) return o.on_subscribers(o.user, chan_id, first ? 1 : 0);
+    deliver(o.key, [o, chan_id, first] { o.on_subscribers(o.user, chan_id, first ? 1 : 0); });
   };
   h.on_request = [this](uint16_t chan_id, uint64_t request, const std::string& command,
                         const std::string& requester, const flow::Variant& value) {
@@ -45,9 +53,15 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
       (void)client_->respond(chan_id, request, flow::Variant("this channel takes no requests"));
       return;
     }
-    const std::string json = flow::variantToJsonText(value);
-    it->second.on_request(it->second.user, chan_id, request, command.c_str(), requester.c_str(),
+    const Owned o = it->second;
+    std::string json = flow::variantToJsonText(value);
+    if (!live_) {
+      return o.on_request(o.user, chan_id, request, command.c_str(), requester.c_str(),
                           json.c_str());
+    }
+    deliver(o.key, [o, chan_id, request, command, requester, json = std::move(json)] {
+      o.on_request(o.user, chan_id, request, command.c_str(), requester.c_str(), json.c_str());
+    });
   };
   h.on_response = [this](uint16_t chan_id, uint32_t tag, Errc error, const flow::Variant& value) {
     auto it = pending_.find(tag);
@@ -55,8 +69,11 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
     const Pending p = it->second;
     pending_.erase(it);
     if (p.fn == nullptr) return;
-    const std::string json = flow::variantToJsonText(value);
-    p.fn(p.user, chan_id, p.tag, toStatus(error), json.c_str());
+    std::string json = flow::variantToJsonText(value);
+    if (!live_) return p.fn(p.user, chan_id, p.tag, toStatus(error), json.c_str());
+    deliver(0, [p, chan_id, status = toStatus(error), json = std::move(json)] {
+      p.fn(p.user, chan_id, p.tag, status, json.c_str());
+    });
   };
   h.on_channel = [this](uint16_t chan_id, const std::string& name, flow::ChannelKind kind,
                         const std::string& mime, bool added) {
@@ -69,10 +86,16 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
     // Index loop on a copy: a watcher may watch or unwatch from its call.
     const std::vector<ChannelWatch> watches = channel_watches_;
     for (const ChannelWatch& w : watches) {
-      if (isWatching(w.handle)) {
+      if (!isWatching(w.handle)) continue;
+      if (!live_) {
         w.fn(w.user, chan_id, name.c_str(), static_cast<skr_channel_kind>(kind), mime.c_str(),
              added ? 1 : 0);
+        continue;
       }
+      deliver(w.handle, [w, chan_id, name, kind, mime, added] {
+        w.fn(w.user, chan_id, name.c_str(), static_cast<skr_channel_kind>(kind), mime.c_str(),
+             added ? 1 : 0);
+      });
     }
   };
   h.on_sync_pulse = [this](uint16_t chan_id, uint64_t seq, uint64_t source_time_ns,
@@ -103,6 +126,10 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
 }
 
 ModuleFlow::~ModuleFlow() {
+  if (live_) {  // nothing still posted to the module's thread runs
+    std::lock_guard lock(live_->mutex);
+    live_->keys.clear();
+  }
   // Paths first: their peers are told BYE and their subscribers fall back to the relay before
   // the channels go with the client.
   if (paths_loop_ != nullptr) paths_loop_->removeTickHandler(paths_tick_);
@@ -113,6 +140,18 @@ ModuleFlow::~ModuleFlow() {
   static constexpr char kStopped[] = "the module stopped first";
   for (const auto& [id, done] : std::exchange(blobs_, {}))
     done.first(done.second, SKR_ERR_BAD_STATE, kStopped, sizeof kStopped, 0);
+}
+
+void ModuleFlow::deliverOn(Loop& module_loop) {
+  deliver_loop_ = &module_loop;
+  live_ = std::make_shared<Live>();
+  live_->add(0);
+}
+
+void ModuleFlow::deliver(skr_sub_handle key, std::function<void()> call) {
+  deliver_loop_->post([live = live_, key, call = std::move(call)] {
+    if (live->has(key)) call();
+  });
 }
 
 skr_status ModuleFlow::fail(const std::string& what, const Error& error) const {
@@ -128,12 +167,17 @@ skr_status ModuleFlow::createChannel(const char* short_name, skr_channel_kind ki
   auto props = fromJson(props_json);
   if (!props) return fail("channel_create " + std::string(short_name), props.error());
   // A waiting subscription may attach during creation: the callbacks must be known by then.
-  creating_ = Owned{on_subscribers, on_request, user};
+  const skr_sub_handle key = next_handle_++;
+  live(key);
+  creating_ = Owned{on_subscribers, on_request, user, key};
   auto r = client_->createChannel(short_name, static_cast<flow::ChannelKind>(kind),
                                   mime != nullptr ? mime : "", *props);
   creating_.reset();
-  if (!r) return fail("channel_create " + std::string(short_name), r.error());
-  owned_[*r] = Owned{on_subscribers, on_request, user};
+  if (!r) {
+    gone(key);
+    return fail("channel_create " + std::string(short_name), r.error());
+  }
+  owned_[*r] = Owned{on_subscribers, on_request, user, key};
   *chan_id_out = *r;
   return SKR_OK;
 }
@@ -141,6 +185,7 @@ skr_status ModuleFlow::createChannel(const char* short_name, skr_channel_kind ki
 skr_status ModuleFlow::removeChannel(uint16_t chan_id) {
   auto r = client_->removeChannel(chan_id);
   if (!r) return fail("channel_remove", r.error());
+  if (auto it = owned_.find(chan_id); it != owned_.end()) gone(it->second.key);
   owned_.erase(chan_id);
   begun_.erase(chan_id);
   if (paths_) paths_->unserve(chan_id);
@@ -294,8 +339,10 @@ skr_status ModuleFlow::subscribe(const char* name, skr_data_fn fn, void* user,
                                  skr_sub_handle* handle_out) {
   if (name == nullptr || fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
   const skr_sub_handle handle = next_handle_++;
+  live(handle);
   subs_.push_back(Sub{handle, name, client_->findChannel(name).value_or(0), fn, user});
   if (auto r = client_->subscribe(name); !r) {
+    gone(handle);
     subs_.pop_back();
     return fail("subscribe " + std::string(name), r.error());
   }
@@ -308,6 +355,7 @@ skr_status ModuleFlow::unsubscribe(skr_sub_handle handle) {
                          [handle](const Sub& s) { return s.handle == handle; });
   if (it == subs_.end()) return SKR_ERR_NOT_FOUND;
   const std::string name = it->name;
+  gone(handle);
   subs_.erase(it);
   const bool still =
       std::any_of(subs_.begin(), subs_.end(), [&name](const Sub& s) { return s.name == name; });
@@ -396,11 +444,18 @@ bool ModuleFlow::isWatching(skr_sub_handle handle) const {
 skr_status ModuleFlow::channelWatch(skr_channel_fn fn, void* user, skr_sub_handle* handle_out) {
   if (fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
   const skr_sub_handle handle = next_handle_++;
+  live(handle);
   channel_watches_.push_back(ChannelWatch{handle, fn, user});
   *handle_out = handle;
   for (const auto& ch : client_->channels()) {  // what there is now
     if (!isWatching(handle)) break;
-    fn(user, ch.id, ch.name.c_str(), static_cast<skr_channel_kind>(ch.kind), ch.mime.c_str(), 1);
+    if (!live_) {
+      fn(user, ch.id, ch.name.c_str(), static_cast<skr_channel_kind>(ch.kind), ch.mime.c_str(), 1);
+      continue;
+    }
+    deliver(handle, [fn, user, ch] {
+      fn(user, ch.id, ch.name.c_str(), static_cast<skr_channel_kind>(ch.kind), ch.mime.c_str(), 1);
+    });
   }
   return SKR_OK;
 }
@@ -409,6 +464,7 @@ skr_status ModuleFlow::channelUnwatch(skr_sub_handle handle) {
   auto it = std::find_if(channel_watches_.begin(), channel_watches_.end(),
                          [handle](const ChannelWatch& w) { return w.handle == handle; });
   if (it == channel_watches_.end()) return SKR_ERR_NOT_FOUND;
+  gone(handle);
   channel_watches_.erase(it);
   return SKR_OK;
 }

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // A module's satellite in the hub: the ABI 1.1 channel and database calls of one module, on top
 // of a flow::LocalClient. Created by the module's first such call, destroyed when it stops (its
-// channels and subscriptions go with it). Main loop thread only.
+// channels and subscriptions go with it). Main loop thread only; a module on its own thread
+// reaches it through ModuleCalls (module_calls.h) and gets its callbacks on its thread
+// (deliverOn).
 // Physical mode (ABI 1.7): the channels a module offers paths for are served by the owner side of
 // the runtime's flow::phys::Paths (runtime/internal/paths.h), as a satellite's are, its Host
 // bridged in-process to the hub's PhysicalPaths through the LocalClient instead of frames on a
@@ -13,11 +15,14 @@
 #include <skrobot/runtime/loop.h>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace skr::flow::phys {
@@ -73,12 +78,43 @@ class ModuleFlow {
   skr_status publishBegin(uint16_t chan_id, void** slot_out, size_t* capacity_out);
   skr_status publishCommit(uint16_t chan_id, size_t size, int64_t capture_ns);
 
+  // A module on its own thread (ABI 1.10): from now on its data, subscriber, request, response
+  // and channel-watch callbacks are copied and posted to `module_loop`, each run there only if
+  // what it belongs to (the subscription, channel, watch, this flow) still exists by then.
+  void deliverOn(Loop& module_loop);
+
  private:
   struct Owned {
     skr_subscribers_fn on_subscribers;
     skr_request_fn on_request;
     void* user;
+    skr_sub_handle key = 0;  // its callbacks' key in live_
   };
+  // The registrations whose callbacks may still run on the module's thread (deliverOn).
+  struct Live {
+    std::mutex mutex;
+    std::unordered_set<skr_sub_handle> keys;  // 0: this flow
+    [[nodiscard]] bool has(skr_sub_handle key) {
+      std::lock_guard lock(mutex);
+      return keys.count(key) != 0;
+    }
+    void add(skr_sub_handle key) {
+      std::lock_guard lock(mutex);
+      keys.insert(key);
+    }
+    void remove(skr_sub_handle key) {
+      std::lock_guard lock(mutex);
+      keys.erase(key);
+    }
+  };
+  // Runs `call` on the module's thread if `key` is still live then (deliverOn).
+  void deliver(skr_sub_handle key, std::function<void()> call);
+  void live(skr_sub_handle key) {
+    if (live_) live_->add(key);
+  }
+  void gone(skr_sub_handle key) {
+    if (live_) live_->remove(key);
+  }
   struct Sub {
     skr_sub_handle handle;
     std::string name;
@@ -144,6 +180,8 @@ class ModuleFlow {
   std::optional<Error> offer_error_;  // and what the hub said
   std::map<uint16_t, size_t> begun_;  // publish_begin's slot size, by channel
   skr_sub_handle next_handle_ = 1;
+  Loop* deliver_loop_ = nullptr;  // deliverOn's
+  std::shared_ptr<Live> live_;
 };
 
 }  // namespace skr

@@ -31,11 +31,12 @@ void requireHostThread(const Loop& main_loop, std::thread::id control, const cha
   std::abort();
 }
 
-// Runs `fn` on the module's loop thread and waits for it.
+// Runs `fn` on the module's loop thread and waits for it, running the channel calls it makes
+// meanwhile (module_calls.h).
 template <typename F>
 void onModuleThread(skr_module_ctx& m, F&& fn) {
   if (m.own_thread && m.thread) {
-    m.thread->loop().invoke(std::function<void()>(std::forward<F>(fn)));
+    m.calls->runStep(m.thread->loop(), std::function<void()>(std::forward<F>(fn)));
   } else {
     fn();
   }
@@ -152,6 +153,7 @@ void ModuleHost::initAll() {
         continue;
       }
       m.loop = &m.thread->loop();
+      m.calls = std::make_shared<ModuleCalls>(main_loop_);
     } else {
       m.loop = &main_loop_;
     }

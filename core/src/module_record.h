@@ -2,6 +2,7 @@
 // The host's record of one module; also the opaque skr_module_ctx handed to it. Internal.
 #pragma once
 
+#include "module_calls.h"
 #include "module_flow.h"
 #include "module_web.h"
 #include "shared_library.h"
@@ -93,8 +94,10 @@ struct skr_module_ctx {
 
   bool own_thread = false;
   std::unique_ptr<skr::LoopThread> thread;  // when own_thread; stopped after fini
-  skr::Loop* loop = nullptr;                // the module's loop: main or thread->loop()
-  std::thread::id control_thread;           // runs the main loop (see ModuleHost)
+  // When own_thread: its channel and database calls, run on the main loop (ABI 1.10).
+  std::shared_ptr<skr::ModuleCalls> calls;
+  skr::Loop* loop = nullptr;       // the module's loop: main or thread->loop()
+  std::thread::id control_thread;  // runs the main loop (see ModuleHost)
   std::string loop_name;
   skr_loop_info loop_info{};
 
@@ -125,8 +128,15 @@ struct skr_module_ctx {
     for (const auto& t : ticks) loop->removeTickHandler(t.second);
     ticks.clear();
     posts->close();
-    web.reset();   // its web endpoints and their connections go
-    flow.reset();  // its channels and subscriptions go, and everyone is told
+    web.reset();  // its web endpoints and their connections go
+    // Its channels and subscriptions go, and everyone is told (on the main loop, where they live).
+    if (own_thread && calls && flow && onLoopThread()) {
+      (void)calls->call([this] {
+        flow.reset();
+        return SKR_OK;
+      });
+    }
+    flow.reset();
   }
   void clearError() {
     std::lock_guard lock(error_mutex);

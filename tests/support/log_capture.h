@@ -28,6 +28,13 @@ class LogCapture {
     }
     return false;
   }
+  [[nodiscard]] bool sawLine(const std::string& line) const {
+    std::lock_guard lock(mutex_);
+    for (const auto& l : lines_) {
+      if (l == line) return true;
+    }
+    return false;
+  }
   [[nodiscard]] std::vector<std::string> lines() const {
     std::lock_guard lock(mutex_);
     return lines_;

@@ -49,7 +49,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 9
+#define SKR_PLUGIN_ABI_MINOR 10
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -260,10 +260,14 @@ typedef struct skr_host_api {
   /* The module's name in the config (its log source is "mod.<name>"). */
   const char* (*module_name)(skr_module_ctx* ctx);
 
-  /* --- FlowNetwork channels and databases (ABI 1.1; loop, modules on the hub's main loop only:
-   * a module on its own thread gets SKR_ERR_NOT_ON_LOOP_THREAD). Allowed from start until stop
+  /* --- FlowNetwork channels and databases (ABI 1.1; loop). Allowed from start until stop
    * returns; the host removes the module's channels and subscriptions when it stops. Values
-   * cross the seam as JSON text (docs/pair-databases.md gives the mapping). --- */
+   * cross the seam as JSON text (docs/pair-databases.md gives the mapping).
+   * A module on its own thread (ABI 1.10; before, SKR_ERR_NOT_ON_LOOP_THREAD): the call runs on
+   * the hub's main loop while the module's thread waits, and its callbacks run on the module's
+   * thread with copies of their data, never for a subscription, channel or watch it ended
+   * before. db_sync, db_watch, the blob, sync_follow/unfollow/done, channel_paths and
+   * publish_begin/commit calls still answer SKR_ERR_NOT_ON_LOOP_THREAD there. --- */
   /* Creates "<module name>.<short_name>" with `props_json` (a JSON object, or NULL) as its
    * database. Callbacks may be NULL. Other satellites see it at once. */
   skr_status (*channel_create)(skr_module_ctx* ctx, const char* short_name, skr_channel_kind kind,

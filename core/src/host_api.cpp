@@ -35,7 +35,8 @@ static_assert(offsetof(skr_host_api, ws_close) == 392);        // the last reser
 static_assert(sizeof(skr_path_options) == 24);
 static_assert(sizeof(skr_ws_events) == 32);
 static_assert(offsetof(skr_host_api, publish_retained) == 400);  // 1.8 ends here: grows at the end
-static_assert(sizeof(skr_host_api) == 416);
+static_assert(offsetof(skr_host_api, fail) == 416);              // 1.9 ends here
+static_assert(sizeof(skr_host_api) == 424);
 static_assert(sizeof(skr_loop_info) == 40);
 #endif
 
@@ -515,6 +516,15 @@ skr_status wsClose(skr_module_ctx* ctx, skr_ws_conn conn, uint16_t code,
   return withWeb(ctx, [&](ModuleWebSockets& w) { return w.close(conn, code, reason); });
 }
 
+// ABI 1.10: the module cannot go on.
+void moduleFail(skr_module_ctx* ctx, const char* reason) noexcept {
+  if (ctx == nullptr || ctx->failed.exchange(true) || !ctx->on_fail) return;
+  try {
+    ctx->on_fail(reason != nullptr && *reason != '\0' ? reason : "the module failed");
+  } catch (...) {
+  }
+}
+
 const skr_host_api kHostApi = {
     .struct_size = sizeof(skr_host_api),
     .abi_major = SKR_PLUGIN_ABI_MAJOR,
@@ -570,6 +580,7 @@ const skr_host_api kHostApi = {
     .ws_close = &wsClose,
     .publish_retained = &publishRetained,
     .retain_clear = &retainClear,
+    .fail = &moduleFail,
 };
 
 }  // namespace

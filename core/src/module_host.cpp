@@ -7,6 +7,7 @@
 
 #include <skrobot/support/json.hpp>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstring>
 
@@ -111,6 +112,11 @@ void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
     m->entry.config = std::move(config);  // with the declared defaults
     m->own_thread = m->entry.own_thread || (m->info.flags & SKR_MODULE_WANTS_OWN_THREAD) != 0;
     m->control_thread = control_thread_;
+    m->on_fail = [this, alive = std::weak_ptr<int>(alive_), name = m->name](std::string reason) {
+      main_loop_.post([this, alive, name, reason = std::move(reason)] {
+        if (alive.lock()) failRunning(name, reason);
+      });
+    };
     m->config_json = support::writeJson(m->entry.config);
     log::info(kSource, "MODULE-LOADED",
               describe(*m) + ": " + m->info.name + " " + m->info.version +
@@ -237,6 +243,28 @@ void ModuleHost::stopAll() noexcept {
     }
     m.state = ModuleState::stopped;
   }
+}
+
+void ModuleHost::failRunning(const std::string& name, const std::string& reason) noexcept {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::failRunning");
+  auto r = std::find_if(running_.begin(), running_.end(),
+                        [&name](const skr_module_ctx* m) { return m->name == name; });
+  if (r == running_.end()) return;
+  skr_module_ctx& m = **r;
+  running_.erase(r);
+  try {
+    fail(m, "MODULE-FAILED", reason);
+    onModuleThread(m, [&m] {
+      m.ticking = false;
+      m.clearError();
+      if (m.descriptor.stop != nullptr) (void)m.descriptor.stop(m.instance);
+      m.removeRegistrations();
+    });
+    log::info(kSource, "MODULE-STOPPED", describe(m));
+  } catch (...) {  // out of memory while logging: the module is stopped all the same
+  }
+  release(m, true);
+  std::erase_if(modules_, [&m](const std::unique_ptr<skr_module_ctx>& p) { return p.get() == &m; });
 }
 
 void ModuleHost::release(skr_module_ctx& m, bool call_fini) noexcept {

@@ -12,7 +12,9 @@
 #include <skrobot/plugin.h>
 #include <skrobot/runtime/loop.h>
 
+#include <atomic>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -111,6 +113,11 @@ struct skr_module_ctx {
   std::unique_ptr<skr::ModuleWebSockets> web;  // created by the first ws_serve (ABI 1.8)
   // What it may do: its config entry's account's rules, else the defaults (null).
   std::shared_ptr<const skr::flow::AccessRules> access;
+
+  // The host call `fail` (ABI 1.10, any thread): the first one posts the module's failure to
+  // the main loop through on_fail (ModuleHost::failRunning); later ones are ignored.
+  std::atomic<bool> failed{false};
+  std::function<void(std::string)> on_fail;
 
   std::mutex error_mutex;  // set_error / config_error may come from any thread
   std::string error;       // set_error during the current step

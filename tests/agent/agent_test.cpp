@@ -4,9 +4,12 @@
 // qrcode would, and record what the agent asks of them.
 #include "named_hub.h"
 
+#include <sys/stat.h>
+
 #include <skrobot/support/json.hpp>
 
 #include <fstream>
+#include <future>
 
 namespace skr::sat::test {
 namespace {
@@ -237,7 +240,33 @@ TEST_F(Agent, ABadRulesFileIsReportedAndTheHubGoesOn) {
   auto s = hub.satellite("probe");  // the hub is up and serves
   EXPECT_TRUE(hub.hub->waitLog("$.intents[0].phrases[0]: column 10: missing ')'"))
       << hub.hub->log();
-  EXPECT_NE(hub.hub->log().find("agent"), std::string::npos);
+  // Read after start (off the loop): the module fails then, by name, and is stopped.
+  EXPECT_TRUE(hub.hub->waitLog("MODULE-FAILED module agent")) << hub.hub->log();
+  EXPECT_TRUE(hub.hub->waitLog("MODULE-STOPPED module agent")) << hub.hub->log();
+  expectCleanStop();
+}
+
+TEST_F(Agent, TheRulesFileIsReadOffTheLoop) {
+  // A FIFO with no writer yet: opening it blocks until the test writes the rules. The hub
+  // starts and serves meanwhile; a command waits for the rules and is answered by them.
+  const fs::path rules = hub.dir.path() / "rules.fifo";
+  ASSERT_EQ(mkfifo(rules.c_str(), 0600), 0);
+  hub.modules = R"([{"name": "agent", "config": {"say": "", "expression": "", "rules": ")" +
+                rules.string() + R"("}}])";
+  ASSERT_TRUE(hub.start()) << hub.hub->log();
+  auto probe = hub.satellite("probe");  // the hub serves while the agent reads
+  ASSERT_TRUE(eventually([&] {
+    return probe->on(
+        [](Satellite& s) { return s.syncClient().value()->channel("agent.command").ok(); });
+  })) << hub.hub->log();
+  auto answer = std::async(std::launch::async, [&] {
+    return command("hear", Variant::Map{{"text", "stand up"}});
+  });
+  EXPECT_EQ(answer.wait_for(std::chrono::milliseconds(300)), std::future_status::timeout);
+  std::ofstream(rules) << R"({"intents": [{"name": "stand", "phrases": ["stand up"],
+      "actions": [{"say": "Standing."}]}]})";
+  EXPECT_EQ(answer.get()["answer"].asString(), "Standing.");
+  EXPECT_TRUE(hub.hub->waitLog("AGENT-RULES 1 intents")) << hub.hub->log();
   expectCleanStop();
 }
 

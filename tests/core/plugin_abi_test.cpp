@@ -17,8 +17,8 @@ constexpr size_t kPtr = sizeof(void (*)(void));
 // 1.0, 1.1 and 1.3 to 1.8 named functions: the 49 function pointers of 1.0's table, every
 // reserved slot spent.
 constexpr size_t kFunctionSlots = 49;
-// What later minors added at the end: 1.9 two.
-constexpr size_t kGrownSlots = 2;
+// What later minors added at the end: 1.9 two, 1.10 one.
+constexpr size_t kGrownSlots = 3;
 
 TEST(PluginAbi, HostTableKeptItsSizeUntilTheReservedSlotsRanOutThenGrewAtItsEnd) {
   EXPECT_EQ(sizeof(skr_host_api), kHeader + (kFunctionSlots + kGrownSlots) * kPtr);
@@ -55,6 +55,8 @@ TEST(PluginAbi, FunctionsOfReleasedMinorsStayWhereTheyWere) {
   // 1.9: retained messages, the first members past the reserved slots.
   EXPECT_EQ(offsetof(skr_host_api, publish_retained), kHeader + 49 * kPtr);
   EXPECT_EQ(offsetof(skr_host_api, retain_clear), kHeader + 50 * kPtr);
+  // 1.10: a module that cannot go on.
+  EXPECT_EQ(offsetof(skr_host_api, fail), kHeader + 51 * kPtr);
 }
 
 TEST(PluginAbi, DescriptorStartsWithItsVersionedHeader) {

@@ -431,6 +431,15 @@ typedef struct skr_host_api {
    * have them keep them). SKR_ERR_NOT_FOUND: no such channel, or nothing kept under `key`;
    * SKR_ERR_INVALID_ARGUMENT: not a channel of this module. */
   skr_status (*retain_clear)(skr_module_ctx* ctx, uint16_t chan_id, const char* key);
+
+  /* --- a module that cannot go on (ABI 1.10; any thread) ---
+   * For what the module learns after start (a file it reads in the background is bad, a device
+   * is gone for good): the host logs MODULE-FAILED with `reason` (NULL: a generic one), and soon
+   * after, from the main loop, stops the module as at shutdown (stop, its registrations
+   * removed, fini) and closes its library; the hub lists it with the modules that failed. Only
+   * the first call counts; one made when the module is not running (any more) is ignored. A
+   * step that fails (init, start) returns its status instead. */
+  void (*fail)(skr_module_ctx* ctx, const char* reason);
 } skr_host_api;
 
 /* --- Declared config keys (ABI 1.2) ---

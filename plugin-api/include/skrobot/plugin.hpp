@@ -199,6 +199,13 @@ class Host {
   }
 
   // --- work from other threads (any thread). Runs `fn` on the loop thread at a later pulse.
+  // The module cannot go on (ABI 1.10; any thread): the host logs MODULE-FAILED with `reason`
+  // and soon after stops the module as at shutdown (docs/plugins.md, "A module that cannot go
+  // on"). Only the first call counts.
+  void fail(const std::string& reason) const noexcept {
+    if (api_->abi_minor >= 10) api_->fail(ctx_, reason.c_str());
+  }
+
   // Returns false (and drops fn) when the module is stopping or stopped, or out of memory.
   template <typename F>
   bool post(F&& fn) const noexcept {
@@ -318,31 +325,30 @@ struct Adapter {
   SKR_MODULE_DESCRIPTOR(Class, name, version, description, flags, nullptr, 0)
 
 // The descriptor itself; `keys` (a static array of skr_config_key, or nullptr) and `key_count`.
-#define SKR_MODULE_DESCRIPTOR(Class, name, version, description, flags, keys, key_count)     \
-  extern "C" SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {            \
-    static constexpr skr_module_descriptor kDescriptor = {                                   \
-        sizeof(skr_module_descriptor),                                                       \
-        SKR_PLUGIN_ABI_MAJOR,                                                                \
-        SKR_PLUGIN_ABI_MINOR,                                                                \
-        (name),                                                                              \
-        (version),                                                                           \
-        (description),                                                                       \
-        static_cast<std::uint64_t>(flags),                                                   \
-        &::skr::plugin::detail::Adapter<Class>::init,                                        \
-        &::skr::plugin::detail::Adapter<Class>::start,                                       \
-        &::skr::plugin::detail::Adapter<Class>::stop,                                        \
-        &::skr::plugin::detail::Adapter<Class>::fini,                                        \
-        (keys),                                                                              \
-        static_cast<std::size_t>(key_count)};                                                \
-    return &kDescriptor;                                                                     \
+#define SKR_MODULE_DESCRIPTOR(Class, name, version, description, flags, keys, key_count) \
+  extern "C" SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {        \
+    static constexpr skr_module_descriptor kDescriptor = {                               \
+        sizeof(skr_module_descriptor),                                                   \
+        SKR_PLUGIN_ABI_MAJOR,                                                            \
+        SKR_PLUGIN_ABI_MINOR,                                                            \
+        (name),                                                                          \
+        (version),                                                                       \
+        (description),                                                                   \
+        static_cast<std::uint64_t>(flags),                                               \
+        &::skr::plugin::detail::Adapter<Class>::init,                                    \
+        &::skr::plugin::detail::Adapter<Class>::start,                                   \
+        &::skr::plugin::detail::Adapter<Class>::stop,                                    \
+        &::skr::plugin::detail::Adapter<Class>::fini,                                    \
+        (keys),                                                                          \
+        static_cast<std::size_t>(key_count)};                                            \
+    return &kDescriptor;                                                                 \
   }
 
 // Deprecated names (the old prefix SKROBOT_): they expand to the SKR_ macros
 // with a compiler warning, so that modules written for them build unchanged. Deprecated: these
 // aliases go in the next minor release.
-#define SKROBOT_MODULE(...)                                                            \
-  _Pragma("GCC warning \"SKROBOT_MODULE is deprecated: use SKR_MODULE\"")              \
-  SKR_MODULE(__VA_ARGS__)
+#define SKROBOT_MODULE(...) \
+  _Pragma("GCC warning \"SKROBOT_MODULE is deprecated: use SKR_MODULE\"") SKR_MODULE(__VA_ARGS__)
 #define SKROBOT_MODULE_DESCRIPTOR(...)                                                          \
   _Pragma("GCC warning \"SKROBOT_MODULE_DESCRIPTOR is deprecated: use SKR_MODULE_DESCRIPTOR\"") \
-  SKR_MODULE_DESCRIPTOR(__VA_ARGS__)
+      SKR_MODULE_DESCRIPTOR(__VA_ARGS__)

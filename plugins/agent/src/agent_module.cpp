@@ -29,10 +29,14 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <utility>
+#include <vector>
 
 namespace {
 
@@ -141,39 +145,30 @@ class Agent final : public skr::plugin::Module {
         awake_ns_(host.configInt("awake_s") * 1000 * kNsPerMs),
         code_repeat_ns_(host.configInt("code_repeat_s") * 1000 * kNsPerMs),
         speech_tail_ns_(host.configInt("speech_tail_ms") * kNsPerMs),
-        requeue_after_ns_(host.configInt("requeue_after_ms") * kNsPerMs) {
+        requeue_after_ns_(host.configInt("requeue_after_ms") * kNsPerMs),
+        rules_file_(host.configString("rules")) {
     auto pattern = skr::flow::NamePattern::parse(host.configString("recognisers"));
     if (!pattern) {
       host.configError("recognisers", pattern.error().message);
       throw skr::plugin::Failure(SKR_ERR_CONFIG, "recognisers: " + pattern.error().message);
     }
     recognisers_pattern_ = std::move(pattern).value();
-    const std::string file = host.configString("rules");
-    std::string text = kDefaultRules;
-    std::string origin = "the default rules";
-    if (!file.empty()) {
-      std::ifstream in(file);
-      std::ostringstream all;
-      all << in.rdbuf();
-      if (!in) {
-        host.configError("rules", "cannot read " + file);
-        throw skr::plugin::Failure(SKR_ERR_CONFIG, "cannot read the rules file " + file);
-      }
-      text = all.str();
-      origin = file;
+    if (rules_file_.empty()) {  // the default rules, compiled in
+      auto rules = skr::agent::parseRules(kDefaultRules, "the default rules");
+      if (!rules) throw skr::plugin::Failure(SKR_ERR_CONFIG, rules.error().message);
+      rules_ = std::move(rules).value();
+      grammar_ = rules_.grammar();
+      ready_ = true;
     }
-    auto rules = skr::agent::parseRules(text, origin);
-    if (!rules) {
-      host.configError("rules", rules.error().message);
-      throw skr::plugin::Failure(SKR_ERR_CONFIG, rules.error().message);
-    }
-    rules_ = std::move(rules).value();
-    grammar_ = rules_.grammar();
   }
+  Agent(const Agent&) = delete;
+  Agent& operator=(const Agent&) = delete;
+  Agent(Agent&&) = delete;
+  Agent& operator=(Agent&&) = delete;
+  ~Agent() override { forgetLoader(); }
 
   void start() override {
     using namespace skr::plugin;
-    requester_ = std::make_unique<Requester>(host_);
     Json::Value dialogue(Json::objectValue);
     skr::support::addTypeProperties(
         dialogue, {"json", "skrobot.agent.Dialogue", "jsonschema", kDialogueSchema});
@@ -181,6 +176,74 @@ class Agent final : public skr::plugin::Module {
     command_ = ServiceChannel(
         host_, "command", [this](const ServiceRequest& r) { onCommand(r); },
         R"({"commands":["hear","grammar","state"]})");
+    if (ready_) return listen();
+    // The rules file is read and parsed on a thread of its own, never on the loop: commands
+    // wait for it (held), the rest starts once it is in (listen); a bad one fails the module.
+    // The thread is detached (a read may block, on a FIFO say): it posts through `loader_`,
+    // which stop() closes first.
+    loader_ = std::make_shared<Loader>();
+    loader_->host = &host_;
+    std::thread([this, loader = loader_, file = rules_file_] {
+      auto rules = readRules(file);
+      std::lock_guard lock(loader->mutex);
+      if (loader->host == nullptr) return;  // stopped meanwhile
+      loader->host->post(
+          [this, rules = std::move(rules)]() mutable { rulesRead(std::move(rules)); });
+    }).detach();
+  }
+
+  void stop() override {
+    forgetLoader();
+    tick_.reset();
+    watch_.reset();
+    recognisers_.clear();
+    faces_.reset();
+    codes_.reset();
+    mic_.reset();
+    command_.reset();
+    dialogue_.reset();
+    requester_.reset();
+    held_.clear();
+  }
+
+ private:
+  static skr::Result<skr::agent::Rules> readRules(const std::string& file) {
+    std::ifstream in(file);
+    std::ostringstream all;
+    all << in.rdbuf();
+    if (!in) return skr::makeError(skr::Errc::io_error, "cannot read the rules file " + file);
+    return skr::agent::parseRules(all.str(), file);
+  }
+
+  // What the thread that reads the rules file posts through; host null once stopped.
+  struct Loader {
+    std::mutex mutex;
+    skr::plugin::Host* host = nullptr;
+  };
+  void forgetLoader() {
+    if (!loader_) return;
+    std::lock_guard lock(loader_->mutex);
+    loader_->host = nullptr;
+  }
+
+  // The loop thread: the rules file's contents, or why there are none.
+  void rulesRead(skr::Result<skr::agent::Rules> rules) {
+    if (!rules) {
+      host_.configError("rules", rules.error().message);
+      host_.fail(rules.error().message);
+      return;
+    }
+    rules_ = std::move(rules).value();
+    grammar_ = rules_.grammar();
+    ready_ = true;
+    listen();
+    for (const auto& r : std::exchange(held_, {})) onCommand(r);
+  }
+
+  // Starts hearing, watching and acting (once the rules are in).
+  void listen() {
+    using namespace skr::plugin;
+    requester_ = std::make_unique<Requester>(host_);
     if (!faces_channel_.empty()) {
       faces_ = Subscription(host_, faces_channel_, [this](std::string_view p) { onFaces(p); });
     }
@@ -195,24 +258,10 @@ class Agent final : public skr::plugin::Module {
       checkSpeaking();
       requeueDue();
     });
-    host_.log.info(
-        "AGENT-RULES", rules_.intents.size(), " intents, wake phrase '", wakePhrase(), "', ",
-        host_.configString("rules").empty() ? "default rules" : host_.configString("rules"));
+    host_.log.info("AGENT-RULES", rules_.intents.size(), " intents, wake phrase '", wakePhrase(),
+                   "', ", rules_file_.empty() ? "default rules" : rules_file_);
   }
 
-  void stop() override {
-    tick_.reset();
-    watch_.reset();
-    recognisers_.clear();
-    faces_.reset();
-    codes_.reset();
-    mic_.reset();
-    command_.reset();
-    dialogue_.reset();
-    requester_.reset();
-  }
-
- private:
   std::string wakePhrase() const {
     std::string out;
     for (const std::string& w : rules_.wake_phrase) out += (out.empty() ? "" : " ") + w;
@@ -565,6 +614,13 @@ class Agent final : public skr::plugin::Module {
 
   // --- agent.command
   void onCommand(const skr::plugin::ServiceRequest& r) {
+    if (!ready_) {  // answered once the rules are in
+      if (held_.size() < kMaxHeld)
+        held_.push_back(r);
+      else
+        command_.respond(r.id, R"({"error":"the agent is still reading its rules"})");
+      return;
+    }
     Json::Value answer(Json::objectValue);
     if (r.command == "hear") {
       auto v = skr::support::parseJson(r.value_json, kMessageLimits);
@@ -613,8 +669,13 @@ class Agent final : public skr::plugin::Module {
   const std::int64_t greet_after_ns_, awake_ns_, code_repeat_ns_, speech_tail_ns_,
       requeue_after_ns_;
   skr::flow::NamePattern recognisers_pattern_;
+  const std::string rules_file_;  // empty: the default rules
   skr::agent::Rules rules_;
   std::string grammar_;
+  bool ready_ = false;  // rules_ is in
+  static constexpr std::size_t kMaxHeld = 64;
+  std::vector<skr::plugin::ServiceRequest> held_;  // commands that came before the rules
+  std::shared_ptr<Loader> loader_;                 // while the rules file is read
 
   std::unique_ptr<skr::plugin::Requester> requester_;
   skr::plugin::StreamChannel dialogue_;

@@ -175,6 +175,10 @@ class ModuleHost {
   void start(const std::vector<ModuleEntry>& entries);
   // stopAll + unloadAll.
   void shutdown() noexcept { unloadAll(); }
+  // A running module reported that it cannot go on (the host call `fail`, ABI 1.10): logged as
+  // MODULE-FAILED with `reason`, stopped as at shutdown, its library closed; it moves from
+  // modules() to failures(). Nothing when it is not running (any more).
+  void failRunning(const std::string& name, const std::string& reason) noexcept;
 
   [[nodiscard]] std::vector<ModuleInfo> modules() const;
   [[nodiscard]] const std::vector<ModuleFailure>& failures() const noexcept { return failures_; }
@@ -196,6 +200,7 @@ class ModuleHost {
   std::vector<skr_module_ctx*> running_;                  // start order
   std::vector<std::string> started_;
   std::vector<ModuleFailure> failures_;
+  std::shared_ptr<int> alive_ = std::make_shared<int>(0);  // for work posted by `fail` calls
 };
 
 }  // namespace skr

@@ -158,6 +158,21 @@ TEST_F(ModuleChannels, InProcessSubscribersGetThePublishersBufferWithoutCopy) {
   });
 }
 
+// The hub's state belongs to its loop thread: in the debug and AddressSanitizer builds, an
+// in-process client's call from another thread aborts, naming the call.
+TEST_F(ModuleChannels, HubStateTouchedOffItsLoopAbortsInDebugBuilds) {
+#ifdef NDEBUG
+  GTEST_SKIP() << "debug assertions: the debug and AddressSanitizer builds";
+#else
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  startHub();
+  std::unique_ptr<flow::LocalClient> client;
+  onHub([&] { client = server_->attachLocal("guest", "probe", {}); });
+  EXPECT_DEATH((void)client->publish(1, "x"), "LocalClient::publish called off loop");
+  onHub([&] { client.reset(); });
+#endif
+}
+
 // The calls whose callbacks cannot come on a module's own thread yet (the blob calls among them)
 // are refused there; its channel calls work.
 TEST_F(ModuleChannels, ModulesOnTheirOwnThreadAreToldBlobCallsAreMainLoopOnly) {

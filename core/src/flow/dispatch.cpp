@@ -44,6 +44,7 @@ void run(Room& room, Connection& c, std::string_view body, const DecodeLimits& l
 }  // namespace
 
 void dispatch(Hub& hub, Connection& c, uint8_t code, std::string_view body) {
+  hub.loop.debugRequireLoopThread("flow::dispatch");
   switch (code) {
 #define SKR_FLOW_DISPATCH(value, name, minor, dir, via, family, message, reply) \
   case value:                                                                   \

@@ -134,6 +134,7 @@ std::shared_ptr<const AccessRules> FlowServer::accountAccess(const std::string& 
 LocalClient::LocalClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
 LocalClient::~LocalClient() {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::~LocalClient");
   for (uint64_t id : impl_->watches) impl_->server.databases.store().unwatch(id);
   impl_->server.removeEndpoint(*impl_);
 }
@@ -147,21 +148,25 @@ uint32_t LocalClient::id() const noexcept {
 
 Result<uint16_t> LocalClient::createChannel(const std::string& short_name, ChannelKind kind,
                                             const std::string& mime, const Variant& props) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::createChannel");
   auto r = impl_->server.channels.create(*impl_, short_name, kind, mime, props, 0);
   if (!r) return r.error();
   return (*r)->id;
 }
 
 Result<void> LocalClient::removeChannel(uint16_t chan_id) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::removeChannel");
   return impl_->server.channels.remove(*impl_, chan_id);
 }
 
 std::optional<uint16_t> LocalClient::findChannel(const std::string& name) const {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::findChannel");
   if (const Channel* ch = impl_->server.channels.findByName(name)) return ch->id;
   return std::nullopt;
 }
 
 std::vector<LocalClient::ChannelInfo> LocalClient::channels() const {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::channels");
   std::vector<ChannelInfo> out;
   impl_->server.channels.forEach([&](const Channel& ch) {
     out.push_back(ChannelInfo{ch.id, ch.name, ch.kind, ch.mime});
@@ -170,6 +175,7 @@ std::vector<LocalClient::ChannelInfo> LocalClient::channels() const {
 }
 
 Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::publish");
   ++impl_->traffic.messages_in;
   impl_->traffic.bytes_in += payload.size();
   return impl_->server.channels.publish(*impl_, chan_id, payload);
@@ -177,36 +183,44 @@ Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
 
 Result<void> LocalClient::publishRetained(uint16_t chan_id, std::string_view key,
                                           std::string_view payload) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::publishRetained");
   ++impl_->traffic.messages_in;
   impl_->traffic.bytes_in += payload.size();
   return impl_->server.channels.publishRetained(*impl_, chan_id, key, payload);
 }
 
 Result<void> LocalClient::clearRetained(uint16_t chan_id, std::optional<std::string_view> key) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::clearRetained");
   return impl_->server.channels.clearRetained(*impl_, chan_id, key);
 }
 
 Result<void> LocalClient::offerPaths(const msg::PhysOffer& m) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::offerPaths");
   return impl_->server.physical.offer(*impl_, m);
 }
 
 Result<void> LocalClient::countPaths(const msg::PhysCount& m) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::countPaths");
   return impl_->server.physical.count(*impl_, m);
 }
 
 Result<void> LocalClient::switchedPaths(const msg::PhysSwitched& m) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::switchedPaths");
   return impl_->server.physical.switched(*impl_, m);
 }
 
 Result<void> LocalClient::replayPaths(const msg::PhysReplay& m) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::replayPaths");
   return impl_->server.physical.replay(*impl_, m);
 }
 
 Result<void> LocalClient::pulse(uint16_t chan_id) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::pulse");
   return impl_->server.sync.pulse(*impl_, chan_id, static_cast<uint64_t>(monotonicNs()));
 }
 
 Result<void> LocalClient::follow(const std::string& name, uint32_t every) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::follow");
   const Channel* ch = impl_->server.channels.findByName(name);
   if (ch != nullptr) {
     if (auto r = impl_->server.sync.follow(*impl_, ch->id, every); !r) return r.error();
@@ -216,6 +230,7 @@ Result<void> LocalClient::follow(const std::string& name, uint32_t every) {
 }
 
 void LocalClient::unfollow(const std::string& name) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::unfollow");
   impl_->follows.erase(name);
   if (const Channel* ch = impl_->server.channels.findByName(name)) {
     (void)impl_->server.sync.unfollow(*impl_, ch->id);
@@ -223,10 +238,12 @@ void LocalClient::unfollow(const std::string& name) {
 }
 
 void LocalClient::syncDone(uint16_t chan_id, uint64_t seq) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::syncDone");
   impl_->server.sync.done(*impl_, chan_id, seq);
 }
 
 Result<void> LocalClient::subscribe(const std::string& name) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::subscribe");
   ChannelsRoom& channels = impl_->server.channels;
   channels.want(name, impl_->id);
   if (const Channel* ch = channels.findByName(name)) {
@@ -237,6 +254,7 @@ Result<void> LocalClient::subscribe(const std::string& name) {
 }
 
 void LocalClient::unsubscribe(const std::string& name) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::unsubscribe");
   ChannelsRoom& channels = impl_->server.channels;
   channels.unwant(name, impl_->id);
   if (const Channel* ch = channels.findByName(name)) {
@@ -247,14 +265,17 @@ void LocalClient::unsubscribe(const std::string& name) {
 
 Result<void> LocalClient::request(uint16_t chan_id, uint32_t tag, const std::string& command,
                                   const Variant& value) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::request");
   return impl_->server.services.request(*impl_, chan_id, tag, false, 0, command, value);
 }
 
 Result<void> LocalClient::respond(uint16_t chan_id, uint64_t request, const Variant& value) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::respond");
   return impl_->server.services.respond(*impl_, chan_id, request, value);
 }
 
 std::optional<Variant> LocalClient::getVariable(const std::string& db, const std::string& key) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::getVariable");
   const PairDatabase* d = impl_->server.databases.store().find(db);
   if (d == nullptr) return std::nullopt;
   if (const Variant* v = d->get(key)) return *v;
@@ -263,20 +284,24 @@ std::optional<Variant> LocalClient::getVariable(const std::string& db, const std
 
 Result<void> LocalClient::setVariable(const std::string& db, const std::string& key,
                                       const Variant& value) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::setVariable");
   return impl_->server.databases.setVar(*impl_, db, key, value);
 }
 
 std::optional<Variant> LocalClient::pairsOf(const std::string& db) const {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::pairsOf");
   const PairDatabase* d = impl_->server.databases.store().find(db);
   if (d == nullptr) return std::nullopt;
   return d->all();
 }
 
 Result<void> LocalClient::removeVariable(const std::string& db, const std::string& key) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::removeVariable");
   return impl_->server.databases.delVar(*impl_, db, key);
 }
 
 Result<uint64_t> LocalClient::watchDatabase(const std::string& db, DatabaseStore::ChangeFn fn) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::watchDatabase");
   DatabaseAccess& dbs = impl_->server.databases;
   if (!dbs.canRead(*impl_, db)) return accessDenied(impl_->user, Action::db_read, db);
   const uint64_t id = dbs.store().watch(db, std::move(fn));
@@ -285,12 +310,14 @@ Result<uint64_t> LocalClient::watchDatabase(const std::string& db, DatabaseStore
 }
 
 void LocalClient::unwatchDatabase(uint64_t id) noexcept {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::unwatchDatabase");
   auto& w = impl_->watches;
   w.erase(std::remove(w.begin(), w.end(), id), w.end());
   impl_->server.databases.store().unwatch(id);
 }
 
 void LocalClient::syncDatabases(std::function<void(Result<void>)> done) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::syncDatabases");
   impl_->server.databases.store().barrier(std::move(done));
 }
 
@@ -310,6 +337,7 @@ Result<BlobStore*> blobStore(Hub& server, const std::string& path, bool root_ok)
 
 Result<void> LocalClient::blobList(uint16_t chan_id, const std::string& dir,
                                    std::function<void(Result<Variant>)> done) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::blobList");
   auto store = blobStore(impl_->server, dir, true);
   if (!store) return store.error();
   auto ch = impl_->server.blobs.channel(*impl_, chan_id, false);
@@ -320,6 +348,7 @@ Result<void> LocalClient::blobList(uint16_t chan_id, const std::string& dir,
 
 Result<void> LocalClient::blobGet(uint16_t chan_id, const std::string& path, uint64_t max_bytes,
                                   std::function<void(Result<BlobFile>)> done) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::blobGet");
   auto store = blobStore(impl_->server, path, false);
   if (!store) return store.error();
   auto ch = impl_->server.blobs.channel(*impl_, chan_id, false);
@@ -334,6 +363,7 @@ Result<void> LocalClient::blobGet(uint16_t chan_id, const std::string& path, uin
 
 Result<void> LocalClient::blobPut(uint16_t chan_id, const std::string& path, std::string data,
                                   std::function<void(Result<uint64_t>)> done) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::blobPut");
   auto store = blobStore(impl_->server, path, false);
   if (!store) return store.error();
   auto ch = impl_->server.blobs.channel(*impl_, chan_id, true);
@@ -362,6 +392,7 @@ Result<void> LocalClient::blobPut(uint16_t chan_id, const std::string& path, std
 
 Result<void> LocalClient::blobDo(uint16_t chan_id, BlobOp op, const std::string& path,
                                  std::function<void(Result<void>)> done) {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::blobDo");
   auto store = blobStore(impl_->server, path, false);
   if (!store) return store.error();
   auto ch = impl_->server.blobs.channel(*impl_, chan_id, true);

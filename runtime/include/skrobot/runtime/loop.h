@@ -138,14 +138,30 @@ class Loop {
   // a call from any other thread writes "skrobot: <what> called off loop '<name>''s thread" to
   // stderr and aborts, as a second run* thread does. Before the loop is bound, any thread passes.
   void requireLoopThread(const char* what) const noexcept;
-  [[nodiscard]] const LoopOptions& options() const noexcept { return options_; }
-  [[nodiscard]] const std::string& name() const noexcept { return options_.name; }
-  [[nodiscard]] const LoopStats& stats() const noexcept { return stats_; }
+  // requireLoopThread in builds without NDEBUG (debug, AddressSanitizer), nothing in release:
+  // for checks on hot paths of state owned by the loop's thread (docs/internals.md, "Threads and
+  // what each owns").
+  void debugRequireLoopThread([[maybe_unused]] const char* what) const noexcept {
+#ifndef NDEBUG
+    requireLoopThread(what);
+#endif
+  }
+  [[nodiscard]] const LoopOptions& options() const noexcept {
+    return options_;
+  }
+  [[nodiscard]] const std::string& name() const noexcept {
+    return options_.name;
+  }
+  [[nodiscard]] const LoopStats& stats() const noexcept {
+    return stats_;
+  }
 
   // The libuv loop, for the runtime's own transports (the hub's server and connections, the
   // satellite library's link to its hub, loop_handles.h). Do not use it in new code: timers,
   // descriptor and signal watches are in skrobot/runtime/loop_handles.h. Loop thread only.
-  [[nodiscard]] uv_loop_s* uv() noexcept { return uv_; }
+  [[nodiscard]] uv_loop_s* uv() noexcept {
+    return uv_;
+  }
 
  private:
   struct Handler {

@@ -5,7 +5,9 @@
 //   - 1:1 streaming throughput at the same sizes over the same three paths (messages/s received,
 //     and what the hubs dropped for a subscriber that fell behind);
 //   - a 640x360 RGB video channel at 15 fps on one hub and across one link: frames delivered per
-//     second and the latency from publish to receipt (one machine, one clock).
+//     second and the latency from publish to receipt (one machine, one clock);
+//   - a sync source at 100 Hz followed on each of the three paths at once: the followers' period
+//     error and delay from the source, and the jitter one link adds.
 // Each hub is a FlowServer on a loop thread of its own; satellites are skr::sat::Satellite on
 // their own loop threads, the caller a SyncClient. Two cores are shared by everything.
 //
@@ -185,6 +187,80 @@ Video video(Sat& pub, Sat& sub, const std::string& name, double seconds) {
   return Video{double(frames) / elapsed, spreadOf(lat)};
 }
 
+// --- the sync pulse across links -----------------------------------------------------------------
+
+struct Pulses {
+  size_t received = 0;
+  uint64_t dropped = 0;
+  Spread period_err_us, delay_us;
+};
+
+// A source on `owner` pulsing at `hz` for `seconds`, followed at once by each of `followers`
+// (`names[i]` is the source's name where follower i is).
+std::vector<Pulses> pulses(Sat& owner, const std::vector<Sat*>& followers,
+                           const std::vector<std::string>& names, double hz, double seconds) {
+  struct Seen {
+    std::mutex m;
+    std::vector<Nanos> arrivals;
+    std::vector<double> delays;
+    uint64_t dropped = 0;
+    skr::Connection conn;
+  };
+  std::vector<std::unique_ptr<Seen>> seen;
+  for (size_t i = 0; i < followers.size(); ++i) {
+    seen.push_back(std::make_unique<Seen>());
+    Seen& r = *seen.back();
+    followers[i]->on([&](sat::Satellite& s) {
+      r.conn = s.syncPulse.connect(&s, [&r](const sat::SyncPulse& p) {
+        std::lock_guard lock(r.m);
+        r.arrivals.push_back(p.arrival_ns);
+        r.delays.push_back(double(p.arrival_ns - Nanos(p.source_time_ns)) / 1e3);
+        r.dropped += p.dropped;
+      });
+      s.follow(names[i]);
+    });
+  }
+  // Every follower gets pulses (across a link, once the link follows over there) before timing.
+  const auto all = [&] {
+    for (auto& r : seen) {
+      std::lock_guard lock(r->m);
+      if (r->arrivals.empty()) return false;
+    }
+    return true;
+  };
+  for (int i = 0; i < 500 && !all(); ++i) {
+    (void)owner.on([](sat::Satellite& s) { return bool(s.pulse("clock")); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!all()) fail("a follower got no pulse");
+  for (auto& r : seen) {
+    std::lock_guard lock(r->m);
+    r->arrivals.clear();
+    r->delays.clear();
+    r->dropped = 0;
+  }
+  const int count = int(seconds * hz);
+  const Nanos t0 = monotonicNs();
+  for (int i = 0; i < count; ++i) {
+    std::this_thread::sleep_until(std::chrono::steady_clock::time_point(
+        std::chrono::nanoseconds(t0 + Nanos(double(i) * 1e9 / hz))));
+    if (!owner.on([](sat::Satellite& s) { return bool(s.pulse("clock")); })) fail("pulse");
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::vector<Pulses> out;
+  for (size_t i = 0; i < followers.size(); ++i) {
+    followers[i]->on([&](sat::Satellite& s) {
+      s.unfollow(names[i]);
+      seen[i]->conn.disconnect();
+    });
+    std::lock_guard lock(seen[i]->m);
+    out.push_back(Pulses{seen[i]->arrivals.size(), seen[i]->dropped,
+                         spreadOf(periodErrorsUs(seen[i]->arrivals, 1e9 / hz)),
+                         spreadOf(seen[i]->delays)});
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -199,7 +275,8 @@ int main(int argc, char** argv) {
   Sat owner(h0, "owner");
   if (!owner.on([](sat::Satellite& s) {
         return bool(s.addChannel({.name = "echo", .kind = flow::ChannelKind::service})) &&
-               bool(s.addChannel({.name = "load"})) && bool(s.addChannel({.name = "video"}));
+               bool(s.addChannel({.name = "load"})) && bool(s.addChannel({.name = "video"})) &&
+               bool(s.addChannel({.name = "clock", .kind = flow::ChannelKind::sync}));
       })) {
     fail("owner channels");
   }
@@ -263,6 +340,26 @@ int main(int argc, char** argv) {
     std::printf("%-10s %7.1f %9.0f %9.0f %9.0f\n", p.name, v.fps, v.latency_us.p50,
                 v.latency_us.p99, v.latency_us.max);
   }
+  const double hz = 100;
+  std::printf(
+      "\nA sync source at %.0f Hz for %.0f s, followed on each path at once: period "
+      "error and source-to-follower delay (us)\n",
+      hz, secs);
+  std::printf("%-10s %9s %8s %9s %9s %9s %9s\n", "path", "pulses", "dropped", "err p50", "err p99",
+              "delay p50", "delay p99");
+  const auto got = pulses(owner, {&on_h0, &on_h1, &on_h2},
+                          {"guest.clock", "h0/guest.clock", "h0/guest.clock"}, hz, secs);
+  for (size_t i = 0; i < got.size(); ++i) {
+    const Pulses& p = got[i];
+    std::printf("%-10s %9zu %8llu %9.1f %9.1f %9.1f %9.1f\n", paths[i].name, p.received,
+                (unsigned long long)p.dropped, p.period_err_us.p50, p.period_err_us.p99,
+                p.delay_us.p50, p.delay_us.p99);
+  }
+  std::printf(
+      "jitter a link adds (period error p99, one link minus one hub): %.1f us; delay p50 "
+      "it adds: %.1f us\n",
+      got[1].period_err_us.p99 - got[0].period_err_us.p99,
+      got[1].delay_us.p50 - got[0].delay_us.p50);
   std::printf(
       "\nTargets: one link's round trip p50 within 2x one hub's (worst %.2fx: %s); "
       "throughput through one link at least 0.5x one hub's (worst %.2fx: %s)\n",

@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 // Hub links (docs/hub-links.md): hubs started as processes on one machine, each with its own app
 // name, socket and data directory; satellites of one use the channels of another by name.
+#include <chrono>
 #include <cmath>
 #include <set>
+#include <sstream>
+#include <thread>
 
 #include "named_hub.h"
 
@@ -114,6 +117,52 @@ TEST_F(HubLinks, ARemoteChannelIsSubscribedOnDemandAndItsDataCrossesOnce) {
   })) << s1->events.dump();
   ASSERT_TRUE(owner->on([](Satellite& s) { return s.removeChannel("counter"); }));
   ASSERT_TRUE(eventually([&] { return s1->events.count("removed:bee/guest.counter") == 1; }));
+}
+
+// What the connections of `hub` follow (their flow databases' sync_following), joined.
+std::string followedOn(NamedHub& hub, const std::string& tag) {
+  Child dbs({FLOWCTL_BIN, "--address", hub.hub->address(), "db", "databases"}, {},
+            hub.dir.path() / (tag + "-dbs.out"));
+  if (dbs.wait() != 0) return "flowctl db databases failed: " + dbs.output();
+  std::istringstream names(dbs.output());
+  std::string name, all;
+  while (std::getline(names, name)) {
+    if (!name.starts_with("_flow.")) continue;
+    Child get(
+        {FLOWCTL_BIN, "--address", hub.hub->address(), "db", "get", "--db", name, "sync_following"},
+        {}, hub.dir.path() / (tag + "-get.out"));
+    if (get.wait() != 0) continue;
+    std::string v = get.output();
+    while (!v.empty() && (v.back() == '\n' || v.back() == '"')) v.pop_back();
+    if (!v.empty() && v.front() == '"') v.erase(0, 1);
+    if (!v.empty()) all += (all.empty() ? "" : ",") + v;
+  }
+  return all;
+}
+
+// Sync sources cross links (docs/hub-links.md): the far source is followed only while someone
+// here follows its name, and each of its pulses is pulsed again here.
+TEST_F(HubLinks, ASyncSourceIsFollowedAcrossTheLinkWhileSomeoneHereFollowsIt) {
+  auto clock = b->satellite("clock");
+  ASSERT_TRUE(clock->on([](Satellite& s) {
+    return s.addChannel({.name = "tick", .kind = flow::ChannelKind::sync});
+  }));
+  auto follower = a->satellite("follower");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*follower, "bee/guest.tick"); })) << logs();
+  EXPECT_EQ(follower->on([](Satellite& s) { return s.channel("bee/guest.tick")->kind; }),
+            uint8_t(flow::ChannelKind::sync));
+  EXPECT_EQ(followedOn(*b, "before"), "") << "nobody follows it on ay yet";
+  follower->on([](Satellite& s) { s.follow("bee/guest.tick"); });
+  ASSERT_TRUE(eventually([&] { return followedOn(*b, "during") == "guest.tick"; })) << logs();
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_TRUE(clock->on([](Satellite& s) { return s.pulse("tick"); }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(eventually([&] { return follower->events.count("pulse:bee/guest.tick:5:") == 1; }))
+      << follower->events.dump() << logs();
+  EXPECT_EQ(follower->events.count("pulse:bee/guest.tick:"), 5u) << follower->events.dump();
+  follower->on([](Satellite& s) { s.unfollow("bee/guest.tick"); });
+  ASSERT_TRUE(eventually([&] { return followedOn(*b, "after").empty(); })) << logs();
 }
 
 TEST_F(HubLinks, RemoteServicesAnswerWithTheErrorsOfLocalOnes) {

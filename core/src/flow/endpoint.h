@@ -117,6 +117,9 @@ class Endpoint {
   // A pulse of a sync source it follows; it answers with SyncPulses::done when its tick is over.
   virtual void onSyncPulse(const Channel& /*ch*/, uint64_t /*seq*/, uint64_t /*source_time_ns*/,
                            uint32_t /*dropped*/) {}
+  // A sync source it owns got its first target (`first`) or lost its last one (SyncPulses): a
+  // hub link follows the far source only while someone here does.
+  virtual void onFollowers(const Channel& /*ch*/, bool /*first*/) {}
 };
 
 // The endpoints connected now, by id. Does not own them.

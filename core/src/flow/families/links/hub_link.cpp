@@ -59,6 +59,7 @@ HubLink::HubLink(Hub& hub, HubLinkOptions options) : hub_(hub), opt_(std::move(o
   sat_->channelChanged.connect(sat_.get(), [this](const msg::ChannelInfo& i) { changed(i); });
   sat_->dataView.connect(sat_.get(),
                          [this](uint16_t id, std::string_view payload) { data(id, payload); });
+  sat_->syncPulse.connect(sat_.get(), [this](const sat::SyncPulse& p) { farPulse(p); });
   sat_->linkWanted.connect(sat_.get(), [this](const std::string&) { offerAll(); });
   sat_->startPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, true); });
   sat_->stopPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, false); });
@@ -163,7 +164,7 @@ void HubLink::dropAll() {
 void HubLink::added(const msg::ChannelInfo& info) {
   if (!up_ || by_remote_.contains(info.id) || offered(info)) return;
   const auto kind = static_cast<ChannelKind>(info.kind);
-  if (kind != ChannelKind::streaming && kind != ChannelKind::service) return;  // not carried yet
+  if (kind == ChannelKind::blob) return;  // not carried yet
   const std::string name = linkedName(info.name, opt_.name, hub_.hub_name);
   if (name.empty()) return;
   const std::vector<std::string> route = hubRoute(info.props, opt_.name);
@@ -210,10 +211,14 @@ void HubLink::removed(uint16_t remote_id) {
 void HubLink::shownNoMore(const Channel& ch) {
   auto it = by_local_.find(ch.id);
   if (it == by_local_.end() || ch.owner != this || !sat_) return;
-  // Its subscribers here went with it, without a last-subscriber event: so goes our
-  // subscription over there, which the satellite would otherwise keep by name and make again
-  // when the far channel comes back, with nobody behind it.
-  sat_->unsubscribe(it->second.remote_name);
+  // Its subscribers (or a source's targets) here went with it, without a last-subscriber event:
+  // so goes our subscription over there, which the satellite would otherwise keep by name and
+  // make again when the far channel comes back, with nobody behind it.
+  if (ch.kind == ChannelKind::sync) {
+    sat_->unfollow(it->second.remote_name);
+  } else {
+    sat_->unsubscribe(it->second.remote_name);
+  }
   by_remote_.erase(it->second.remote_id);
   by_local_.erase(it);
 }
@@ -245,6 +250,26 @@ void HubLink::onSubscribers(const Channel& ch, bool first) {
   } else {
     sat_->unsubscribe(it->second.remote_name);
   }
+}
+
+void HubLink::onFollowers(const Channel& ch, bool first) {
+  auto it = by_local_.find(ch.id);
+  if (it == by_local_.end()) return;
+  if (first) {
+    sat_->follow(it->second.remote_name);
+  } else {
+    sat_->unfollow(it->second.remote_name);
+  }
+}
+
+// A pulse of a far source that someone here follows: pulsed again here, as its owner, with the
+// far source's time (CLOCK_MONOTONIC: comparable on one machine only, as for any source). The
+// far hub hears that we are done when this returns; targets here that lag lose pulses here.
+void HubLink::farPulse(const sat::SyncPulse& p) {
+  auto it = by_remote_.find(p.chan_id);
+  if (it == by_remote_.end()) return;
+  ++traffic.messages_in;
+  (void)hub_.sync.pulse(*this, it->second, p.source_time_ns);
 }
 
 void HubLink::onRequest(const Channel& ch, uint64_t request, const std::string& command,

@@ -2,8 +2,9 @@
 // HubLink: this hub's link to another (docs/hub-links.md). A satellite of the far hub, on this
 // hub's loop (skr::sat::Satellite: reconnection with backoff, subscriptions by name, request
 // timeouts), and an Endpoint here that owns the far hub's channels as "<hub>/<user>.<name>".
-// Data crosses only while someone here subscribes; service requests are passed on with what is
-// left of their time. Main loop thread only.
+// Data crosses only while someone here subscribes, a sync source's pulses only while someone here
+// follows it; service requests are passed on with what is left of their time. Main loop thread
+// only.
 #pragma once
 
 #include "endpoint.h"
@@ -22,6 +23,7 @@
 
 namespace skr::sat {
 class Satellite;
+struct SyncPulse;
 }  // namespace skr::sat
 
 namespace skr::flow {
@@ -70,6 +72,7 @@ class HubLink final : public Endpoint {
   [[nodiscard]] const char* kind() const override { return "link"; }
   void onData(const Channel& ch, std::string_view payload) override;
   void onSubscribers(const Channel& ch, bool first) override;
+  void onFollowers(const Channel& ch, bool first) override;
   void onRequest(const Channel& ch, uint64_t request, const std::string& command,
                  const std::string& requester, const Variant& value) override;
   void onResponse(uint16_t chan_id, uint32_t tag, bool sync, ErrorCode error,
@@ -95,6 +98,7 @@ class HubLink final : public Endpoint {
   void shownNoMore(const Channel& ch);
   void changed(const msg::ChannelInfo& info);
   void data(uint16_t remote_id, std::string_view payload);
+  void farPulse(const sat::SyncPulse& p);
   void timeSample(int64_t round_trip_ns, int64_t offset_ns);
   void writeDb();
   void dropAll();

@@ -29,9 +29,11 @@ Result<void> SyncPulses::follow(Endpoint& e, uint16_t chan_id, uint32_t every) {
   auto& targets = sources_[chan_id].targets;
   auto it = std::find_if(targets.begin(), targets.end(),
                          [&](const Target& t) { return t.endpoint == e.id; });
+  const bool first = targets.empty();
   if (it == targets.end()) it = targets.insert(targets.end(), Target{.endpoint = e.id});
   it->every = std::max<uint32_t>(every, 1);
   it->skipped = 0;
+  if (first && (*ch)->owner != nullptr) (*ch)->owner->onFollowers(**ch, true);
   return {};
 }
 
@@ -39,7 +41,11 @@ Result<void> SyncPulses::unfollow(Endpoint& e, uint16_t chan_id) {
   auto ch = source(channels_, chan_id);
   if (!ch) return ch.error();
   if (auto s = sources_.find(chan_id); s != sources_.end()) {
-    std::erase_if(s->second.targets, [&](const Target& t) { return t.endpoint == e.id; });
+    const size_t erased =
+        std::erase_if(s->second.targets, [&](const Target& t) { return t.endpoint == e.id; });
+    if (erased != 0 && s->second.targets.empty() && (*ch)->owner != nullptr) {
+      (*ch)->owner->onFollowers(**ch, false);
+    }
   }
   return {};
 }
@@ -113,8 +119,17 @@ std::string SyncPulses::followedBy(uint32_t endpoint) const {
 }
 
 void SyncPulses::dropEndpoint(uint32_t endpoint) {
+  std::vector<uint16_t> unfollowed;  // told after the loop: an owner may follow or unfollow
   for (auto& [id, s] : sources_) {
-    std::erase_if(s.targets, [&](const Target& t) { return t.endpoint == endpoint; });
+    const size_t erased =
+        std::erase_if(s.targets, [&](const Target& t) { return t.endpoint == endpoint; });
+    if (erased != 0 && s.targets.empty()) unfollowed.push_back(id);
+  }
+  for (uint16_t id : unfollowed) {
+    const Channel* ch = channels_.find(id);
+    if (ch != nullptr && ch->owner != nullptr && ch->owner->id != endpoint) {
+      ch->owner->onFollowers(*ch, false);
+    }
   }
 }
 

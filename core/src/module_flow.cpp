@@ -340,13 +340,32 @@ skr_status ModuleFlow::subscribe(const char* name, skr_data_fn fn, void* user,
   if (name == nullptr || fn == nullptr || handle_out == nullptr) return SKR_ERR_INVALID_ARGUMENT;
   const skr_sub_handle handle = next_handle_++;
   live(handle);
-  subs_.push_back(Sub{handle, name, client_->findChannel(name).value_or(0), fn, user});
+  const bool again =
+      std::any_of(subs_.begin(), subs_.end(), [name](const Sub& s) { return s.name == name; });
+  const uint16_t chan_id = client_->findChannel(name).value_or(0);
+  subs_.push_back(Sub{handle, name, chan_id, fn, user});
   if (auto r = client_->subscribe(name); !r) {
     gone(handle);
     subs_.pop_back();
     return fail("subscribe " + std::string(name), r.error());
   }
   *handle_out = handle;
+  // The hub has one subscription of this module per channel, and handed the retained messages
+  // to the first Sub only: this one gets them here, before anything live.
+  if (again && chan_id != 0) {
+    for (const auto& payload : client_->retained(chan_id)) {
+      const bool still = std::any_of(subs_.begin(), subs_.end(),
+                                     [handle](const Sub& s) { return s.handle == handle; });
+      if (!still) break;  // unsubscribed from its own call
+      if (!live_) {
+        fn(user, chan_id, payload->data(), payload->size());
+        continue;
+      }
+      deliver(handle, [fn, user, chan_id, payload] {
+        fn(user, chan_id, payload->data(), payload->size());
+      });
+    }
+  }
   return SKR_OK;
 }
 

@@ -413,6 +413,22 @@ TEST_F(ModuleChannels, RetainedMessagesReachEachLaterSubscriberFirst) {
     return got;
   };
   send({"a=1", "b=2", "a=3", "!live"}, "live");
+  // The module's own subscriptions: each new one gets the kept messages, the others do not
+  // again (one subscription of the module's flow in the hub for both).
+  auto heard = [&] {
+    std::vector<std::string> out;
+    for (const auto& line : logs.lines()) {
+      if (line.rfind("LATCH-HEARD ", 0) == 0) out.push_back(line.substr(12));
+    }
+    return out;
+  };
+  send({"?", "!one"}, "one");
+  EXPECT_TRUE(eventually([&] { return heard().size() >= 3; }));
+  EXPECT_EQ(heard(), (std::vector<std::string>{"1:2", "1:3", "1:one"}));
+  send({"?", "!two"}, "two");
+  EXPECT_TRUE(eventually([&] { return heard().size() >= 7; }));
+  EXPECT_EQ(heard(),
+            (std::vector<std::string>{"1:2", "1:3", "1:one", "2:2", "2:3", "1:two", "2:two"}));
   EXPECT_EQ(firstMessages("m1"), (std::vector<std::string>{"2", "3", "m1"}));
   EXPECT_EQ(firstMessages("m2"), (std::vector<std::string>{"2", "3", "m2"}));  // each one
   send({"-b", "!cleared"}, "cleared");

@@ -5,6 +5,8 @@
  *   "key=value"  publish_retained("value") under "key"
  *   "!value"     publish("value"), not retained
  *   "-key"       retain_clear("key");  "-" alone: retain_clear(NULL), every key
+ *   "?"          one more subscription of its own to test_retained_latch.latched (at most 8):
+ *                subscription n logs LATCH-HEARD "<n>:<payload>" for each message it gets
  * A refused call is logged as LATCH-REFUSED with the call and its status. */
 #include <skrobot/plugin.h>
 
@@ -12,11 +14,27 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct latch {
+typedef struct latch latch;
+typedef struct listener {
+  latch* owner;
+  int n;
+} listener;
+
+struct latch {
   const skr_host_api* host;
   skr_module_ctx* ctx;
   uint16_t out;
-} latch;
+  listener listeners[8];
+  int listening;
+};
+
+static void on_own(void* user, uint16_t chan_id, const void* data, size_t size) {
+  listener* who = (listener*)user;
+  char line[600];
+  (void)chan_id;
+  snprintf(line, sizeof line, "%d:%.*s", who->n, (int)(size < 512 ? size : 512), (const char*)data);
+  who->owner->host->log(who->owner->ctx, SKR_LOG_INFO, "LATCH-HEARD", line);
+}
 
 static void refused(latch* l, const char* call, skr_status s) {
   char line[128];
@@ -33,7 +51,14 @@ static void on_data(void* user, uint16_t chan_id, const void* data, size_t size)
   if (size == 0 || size >= sizeof text) return;
   memcpy(text, data, size);
   text[size] = '\0';
-  if (text[0] == '!') {
+  if (text[0] == '?' && l->listening < 8) {
+    skr_sub_handle h = 0;
+    listener* who = &l->listeners[l->listening++];
+    who->owner = l;
+    who->n = l->listening;
+    s = l->host->subscribe(l->ctx, "test_retained_latch.latched", on_own, who, &h);
+    if (s != SKR_OK) refused(l, "subscribe", s);
+  } else if (text[0] == '!') {
     s = l->host->publish(l->ctx, l->out, text + 1, size - 1);
     if (s != SKR_OK) refused(l, "publish", s);
   } else if (text[0] == '-') {

@@ -165,6 +165,15 @@ std::optional<uint16_t> LocalClient::findChannel(const std::string& name) const 
   return std::nullopt;
 }
 
+std::vector<std::shared_ptr<const std::string>> LocalClient::retained(uint16_t chan_id) const {
+  impl_->server.loop.debugRequireLoopThread("LocalClient::retained");
+  std::vector<std::shared_ptr<const std::string>> out;
+  if (const Channel* ch = impl_->server.channels.find(chan_id)) {
+    for (const auto& [key, payload] : ch->retained) out.push_back(payload);
+  }
+  return out;
+}
+
 std::vector<LocalClient::ChannelInfo> LocalClient::channels() const {
   impl_->server.loop.debugRequireLoopThread("LocalClient::channels");
   std::vector<ChannelInfo> out;

@@ -247,6 +247,9 @@ class LocalClient {
   [[nodiscard]] Result<void> removeChannel(uint16_t chan_id);
   // The channel's current id, if it exists now.
   [[nodiscard]] std::optional<uint16_t> findChannel(const std::string& name) const;
+  // The messages channel `chan_id` retains (plugin ABI 1.9), oldest first; none when there is
+  // no such channel. For a second subscriber inside one client (a module's Subscriptions).
+  [[nodiscard]] std::vector<std::shared_ptr<const std::string>> retained(uint16_t chan_id) const;
   struct ChannelInfo {
     uint16_t id = 0;
     std::string name;

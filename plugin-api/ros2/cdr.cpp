@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <skrobot/ros2/cdr.h>
 
+#include "cdr_stream.h"
+
 #include <algorithm>
 #include <bit>
 #include <charconv>
@@ -53,56 +55,9 @@ double shortestAsDouble(float v) {
 
 // --- reading ---------------------------------------------------------------------------------
 
-class Reader {
- public:
-  Reader(std::string_view bytes, bool little) : bytes_(bytes), little_(little) {}
-
-  [[nodiscard]] std::size_t at() const noexcept { return pos_; }
-  [[nodiscard]] std::size_t left() const noexcept { return bytes_.size() - pos_; }
-
-  bool align(std::size_t n) {
-    const std::size_t off = (pos_ - kEncapsulationBytes) % n;
-    if (off == 0) return true;
-    return skip(n - off);
-  }
-  bool skip(std::size_t n) {
-    if (left() < n) return false;
-    pos_ += n;
-    return true;
-  }
-  template <typename T>
-  bool read(T& out) {
-    if (!align(sizeof(T)) || left() < sizeof(T)) return false;
-    std::memcpy(&out, bytes_.data() + pos_, sizeof(T));
-    if (!little_ && sizeof(T) > 1) out = byteswap(out);
-    pos_ += sizeof(T);
-    return true;
-  }
-  bool bytes(std::size_t n, std::string_view& out) {
-    if (left() < n) return false;
-    out = bytes_.substr(pos_, n);
-    pos_ += n;
-    return true;
-  }
-
- private:
-  template <typename T>
-  static T byteswap(T v) {
-    unsigned char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
-    std::memcpy(&v, b, sizeof(T));
-    return v;
-  }
-
-  std::string_view bytes_;
-  bool little_;
-  std::size_t pos_ = kEncapsulationBytes;
-};
-
 struct Decoder {
   const Registry& registry;
-  Reader in;
+  CdrIn in;
   std::string path;  // the field being read, without the index of the array element
   std::string why;
   bool build = true;  // false: only check (validate), no JSON built
@@ -256,7 +211,7 @@ const Json::Value kNull;
 
 struct Encoder {
   const Registry& registry;
-  std::string out;
+  CdrOut out;
   std::string path;  // as the decoder's
   std::string why;
   std::vector<std::pair<std::size_t, std::uint32_t>> indices;
@@ -269,16 +224,9 @@ struct Encoder {
     why = at + ": " + what;
     return false;
   }
-  void align(std::size_t n) {
-    const std::size_t off = (out.size() - kEncapsulationBytes) % n;
-    if (off != 0) out.append(n - off, '\0');
-  }
   template <typename T>
   void put(T v) {
-    align(sizeof(T));
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    out.append(b, sizeof(T));
+    out.put(v);
   }
 
   template <typename T>
@@ -346,7 +294,7 @@ struct Encoder {
                       std::to_string(bound));
         }
         put(static_cast<std::uint32_t>(s.size() + 1));
-        out.append(s).push_back('\0');
+        out.append(std::string_view(s.c_str(), s.size() + 1));  // its NUL too
         return true;
       }
       case Primitive::wstring:
@@ -431,7 +379,7 @@ Result<Json::Value> decode(const Registry& registry, std::string_view type, std:
     return makeError(Errc::parse_error,
                      std::string(type) + ": not a CDR sample (its encapsulation header)");
   }
-  Decoder d{registry, Reader(bytes, bytes[1] == 1), def->name, {}, build, {}};
+  Decoder d{registry, CdrIn(bytes, bytes[1] == 1), def->name, {}, build, {}};
   Json::Value out;
   if (!d.message(def->name, out, 0)) return makeError(Errc::parse_error, d.why);
   if (d.in.left() > 3) {
@@ -457,9 +405,9 @@ Result<std::string> jsonToCdr(const Registry& registry, std::string_view type,
                               const Json::Value& value) {
   const MessageDefinition* def = registry.find(type);
   if (def == nullptr) return makeError(Errc::not_found, "no definition of " + std::string(type));
-  Encoder e{registry, std::string("\x00\x01\x00\x00", 4), def->name, {}, {}};
+  Encoder e{registry, CdrOut(), def->name, {}, {}};
   if (!e.message(def->name, value, 0)) return makeError(Errc::invalid_argument, e.why);
-  return std::move(e.out);
+  return e.out.take();
 }
 
 }  // namespace skr::ros2

@@ -4,6 +4,8 @@
 
 #include <skrobot/media_frame.hpp>
 
+#include "cdr_stream.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cstring>
@@ -28,24 +30,16 @@ bool imageEncoding(media::Format f) {
   }
 }
 
-// Little-endian CDR written in order, aligned from the end of the encapsulation header.
+// The fields of an image message written in order (CdrOut: aligned, CDR_LE).
 class Writer {
  public:
-  explicit Writer(std::size_t reserve) {
-    out_.reserve(reserve);
-    out_.append("\x00\x01\x00\x00", kEncapsulationBytes);
-  }
-  void u8(std::uint8_t v) { out_.push_back(static_cast<char>(v)); }
-  void u32(std::uint32_t v) {
-    align4();
-    char b[4];
-    for (int i = 0; i < 4; ++i) b[i] = static_cast<char>(v >> (8 * i) & 0xff);
-    out_.append(b, 4);
-  }
+  explicit Writer(std::size_t reserve) : out_(reserve) {}
+  void u8(std::uint8_t v) { out_.put(v); }
+  void u32(std::uint32_t v) { out_.put(v); }
   void string(std::string_view s) {
     u32(static_cast<std::uint32_t>(s.size() + 1));
     out_.append(s);
-    out_.push_back('\0');
+    out_.append(std::string_view("\0", 1));
   }
   void bytes(std::string_view b) {
     u32(static_cast<std::uint32_t>(b.size()));
@@ -56,19 +50,18 @@ class Writer {
     u32(static_cast<std::uint32_t>(static_cast<std::int32_t>(sec)));
     u32(static_cast<std::uint32_t>(ns - sec * 1000000000));
   }
-  std::string take() { return std::move(out_); }
+  std::string take() { return out_.take(); }
 
  private:
-  void align4() {
-    while ((out_.size() - kEncapsulationBytes) % 4 != 0) out_.push_back('\0');
-  }
-  std::string out_;
+  CdrOut out_;
 };
 
-// CDR read in order with every length checked against what is left; an error names the field.
+// The fields of an image message read in order (CdrIn), every length checked against what is
+// left; an error names the field.
 class Reader {
  public:
-  Reader(std::string_view type, std::string_view bytes) : type_(type), bytes_(bytes) {}
+  Reader(std::string_view type, std::string_view bytes)
+      : type_(type), bytes_(bytes), in_(bytes, true) {}
 
   Result<void> start() {
     if (bytes_.size() < kEncapsulationBytes || bytes_[0] != 0 ||
@@ -76,41 +69,35 @@ class Reader {
       return makeError(Errc::parse_error,
                        std::string(type_) + ": not a CDR sample (its encapsulation header)");
     }
-    little_ = bytes_[1] == 1;
+    in_ = CdrIn(bytes_, bytes_[1] == 1);
     return {};
   }
   Result<std::uint8_t> u8(const char* field) {
-    if (pos_ >= bytes_.size()) return short_(field, 1);
-    return static_cast<std::uint8_t>(bytes_[pos_++]);
+    std::uint8_t v = 0;
+    if (!in_.read(v)) return short_(field, 1);
+    return v;
   }
   Result<std::uint32_t> u32(const char* field) {
-    pos_ += (4 - (pos_ - kEncapsulationBytes) % 4) % 4;
-    if (pos_ > bytes_.size() || bytes_.size() - pos_ < 4) return short_(field, 4);
     std::uint32_t v = 0;
-    for (int i = 0; i < 4; ++i) {
-      const auto b = static_cast<std::uint32_t>(static_cast<unsigned char>(bytes_[pos_ + i]));
-      v |= b << (8 * (little_ ? i : 3 - i));
-    }
-    pos_ += 4;
+    if (!in_.read(v)) return short_(field, 4);
     return v;
   }
   // A string without its NUL.
   Result<std::string_view> string(const char* field) {
     auto n = u32(field);
     if (!n) return n.error();
-    if (*n == 0 || *n > bytes_.size() - pos_) return short_(field, *n);
-    std::string_view s = bytes_.substr(pos_, *n - 1);
-    if (bytes_[pos_ + *n - 1] != '\0') return error(field, "a string without its terminating NUL");
+    std::string_view s;
+    if (*n == 0 || !in_.bytes(*n, s)) return short_(field, *n);
+    if (s.back() != '\0') return error(field, "a string without its terminating NUL");
+    s.remove_suffix(1);
     if (s.find('\0') != std::string_view::npos) return error(field, "a string with a NUL inside");
-    pos_ += *n;
     return s;
   }
   Result<std::string_view> bytes(const char* field) {
     auto n = u32(field);
     if (!n) return n.error();
-    if (*n > bytes_.size() - pos_) return short_(field, *n);
-    std::string_view s = bytes_.substr(pos_, *n);
-    pos_ += *n;
+    std::string_view s;
+    if (!in_.bytes(*n, s)) return short_(field, *n);
     return s;
   }
   Result<std::int64_t> stamp() {
@@ -123,28 +110,26 @@ class Reader {
   }
   // At most 3 bytes of padding after the last field, as cdrToJson allows.
   Result<void> end() {
-    if (bytes_.size() - pos_ > 3) {
-      return error("", std::to_string(bytes_.size() - pos_) + " bytes left after the last field");
+    if (in_.left() > 3) {
+      return error("", std::to_string(in_.left()) + " bytes left after the last field");
     }
     return {};
   }
   Error error(std::string_view field, const std::string& why) const {
     return makeError(Errc::parse_error, std::string(type_) + (field.empty() ? "" : ": ") +
                                             std::string(field) + ": " + why + " (offset " +
-                                            std::to_string(pos_) + ")");
+                                            std::to_string(in_.at()) + ")");
   }
-  [[nodiscard]] bool little() const { return little_; }
+  [[nodiscard]] bool little() const { return in_.little(); }
 
  private:
   Error short_(const char* field, std::size_t need) const {
-    return error(field, "needs " + std::to_string(need) + " bytes, " +
-                            std::to_string(pos_ < bytes_.size() ? bytes_.size() - pos_ : 0) +
-                            " left");
+    return error(
+        field, "needs " + std::to_string(need) + " bytes, " + std::to_string(in_.left()) + " left");
   }
   std::string_view type_;
   std::string_view bytes_;
-  std::size_t pos_ = kEncapsulationBytes;
-  bool little_ = true;
+  CdrIn in_;
 };
 
 Result<std::string> imageToRaw(Reader& r, std::int64_t stamp, std::uint64_t seq) {

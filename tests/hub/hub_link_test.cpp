@@ -154,13 +154,20 @@ TEST_F(HubLinks, ASyncSourceIsFollowedAcrossTheLinkWhileSomeoneHereFollowsIt) {
   EXPECT_EQ(followedOn(*b, "before"), "") << "nobody follows it on ay yet";
   follower->on([](Satellite& s) { s.follow("bee/guest.tick"); });
   ASSERT_TRUE(eventually([&] { return followedOn(*b, "during") == "guest.tick"; })) << logs();
-  for (int i = 0; i < 5; ++i) {
+  // Pulses until five arrived here (a busy machine may drop one for a target still busy, on
+  // either hub: counted, never reordered).
+  for (int i = 0; i < 200 && follower->events.count("pulse:bee/guest.tick:") < 5; ++i) {
     EXPECT_TRUE(clock->on([](Satellite& s) { return s.pulse("tick"); }));
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  ASSERT_TRUE(eventually([&] { return follower->events.count("pulse:bee/guest.tick:5:") == 1; }))
-      << follower->events.dump() << logs();
-  EXPECT_EQ(follower->events.count("pulse:bee/guest.tick:"), 5u) << follower->events.dump();
+  const auto got = follower->events.with("pulse:bee/guest.tick:");
+  ASSERT_GE(got.size(), 5u) << follower->events.dump() << logs();
+  uint64_t last = 0;
+  for (const std::string& e : got) {  // "<seq>:<dropped>"
+    const uint64_t seq = std::stoull(e.substr(0, e.find(':')));
+    EXPECT_GT(seq, last) << follower->events.dump();
+    last = seq;
+  }
   follower->on([](Satellite& s) { s.unfollow("bee/guest.tick"); });
   ASSERT_TRUE(eventually([&] { return followedOn(*b, "after").empty(); })) << logs();
 }

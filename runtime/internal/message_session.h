@@ -8,7 +8,7 @@
 //
 // A carrier derives its session from this class: sendFrame() hands one frame to it, leaveCarrier()
 // makes it forget the session. The carrier calls received(), carrierEnded() and carrierRoom().
-// The derived class's destructor calls detach() (the base cannot: leaveCarrier is virtual).
+// The derived class's destructor calls leave() (the base cannot: leaveCarrier is virtual).
 //
 // Used by the serial line (runtime/src/transport/serial_port.cpp), the hub's UDP port
 // (core/src/flow/udp_port.cpp) and the client's UDP session (runtime/src/transport/udp_client.cpp).
@@ -60,7 +60,7 @@ class MessageSession : public Transport {
   // received(), carrierEnded() or carrierRoom() from inside this call.
   virtual void leaveCarrier() noexcept = 0;
   // Leaves the carrier if still attached. Derived destructors call it.
-  void detach() noexcept;
+  void leave() noexcept;
   [[nodiscard]] bool attached() const noexcept { return attached_; }
 
  private:

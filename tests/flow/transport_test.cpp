@@ -91,6 +91,49 @@ class TransportPair : public ::testing::Test {
     EXPECT_EQ(server_sink_.bytes, "gathered in one write");
   }
 
+  // The server's end moves to another loop mid-stream (detach, then adopt there): what the
+  // client wrote meanwhile arrives there, once, and the moved end writes back from there.
+  void moveServerMidStream() {
+    exchange();  // read on loop_
+    server_->pause();
+    const std::string_view more = "written during the move";
+    ASSERT_TRUE(client_->tryWrite({&more, 1}));
+    loop_.runFor(20 * kNsPerMs);
+    const std::string_view pending = "!";
+    ASSERT_TRUE(server_->write({&pending, 1}));
+    auto busy = server_->detach();  // not with a write under way
+    ASSERT_FALSE(busy);
+    EXPECT_EQ(busy.error().code, Errc::invalid_argument);
+    ASSERT_TRUE(loop_.runUntil([&] { return server_sink_.writes == 1; }, kWait));
+    const PeerIdentity before = server_->peer();
+    auto detached = server_->detach();
+    ASSERT_TRUE(detached) << detached.error().message;
+    EXPECT_EQ(detached->peer().source(), before.source());
+    server_.reset();
+    Loop other;
+    auto moved = adopt(other, std::move(detached).value());
+    ASSERT_TRUE(moved) << moved.error().message;
+    Sink there;
+    ASSERT_TRUE((*moved)->start(there));
+    ASSERT_TRUE(other.runUntil([&] { return there.bytes.size() >= more.size(); }, kWait));
+    EXPECT_EQ(there.bytes, more);
+    EXPECT_EQ((*moved)->peer().source(), before.source());
+    const std::string_view back = "from the other loop";
+    ASSERT_TRUE((*moved)->tryWrite({&back, 1}));
+    ASSERT_TRUE(
+        loop_.runUntil([&] { return client_sink_.bytes.size() >= 1 + back.size(); }, kWait));
+    EXPECT_EQ(client_sink_.bytes, "!from the other loop");
+    // The old end closed without a word: neither its receiver nor the client heard a close.
+    loop_.runFor(20 * kNsPerMs);
+    EXPECT_FALSE(server_sink_.closed_);
+    EXPECT_FALSE(client_sink_.end);
+    // Closed over there, the client hears it.
+    (*moved)->close("moved end closes");
+    ASSERT_TRUE(other.runUntil([&] { return there.closed_; }, kWait));
+    ASSERT_TRUE(loop_.runUntil([&] { return client_sink_.end.has_value(); }, kWait));
+    EXPECT_EQ(client_sink_.end->why, TransportEnd::Why::peer_closed);
+  }
+
   TempDir dir_{"transport-test"};
   Loop loop_;
   std::unique_ptr<Listener> listener_;
@@ -154,6 +197,16 @@ TEST_F(TransportPair, TcpNamesItsPeerByAddressAndRefusesATlsClient) {
   EXPECT_TRUE(server_sink_.bytes.empty());
 }
 
+TEST_F(TransportPair, AUnixConnectionMovesToAnotherLoopMidStream) {
+  connect(Address{.kind = Address::Kind::local, .path = (dir_.path() / "m.sock").string()});
+  moveServerMidStream();
+}
+
+TEST_F(TransportPair, ATcpConnectionMovesToAnotherLoopMidStream) {
+  connect(Address{.kind = Address::Kind::tcp, .host = "127.0.0.1", .port = 0});
+  moveServerMidStream();
+}
+
 class TlsPair : public TransportPair {
  protected:
   void SetUp() override {
@@ -198,6 +251,9 @@ TEST_F(TlsPair, TlsCarriesBytesBothWaysAndNamesTheCertificate) {
   EXPECT_NE(client_->peer().certificate.find("CN="), std::string::npos)
       << client_->peer().certificate;
   EXPECT_EQ(server_->descriptor(), -1);  // bytes are transformed: no zero-copy calls
+  auto detached = server_->detach();     // a TLS session's state does not travel yet
+  ASSERT_FALSE(detached);
+  EXPECT_EQ(detached.error().code, Errc::unsupported);
 
   // close_notify: the peer hears a close, not a cut connection.
   client_->close("done");

@@ -78,7 +78,7 @@ class Session final : public transport::MessageSession {
       : MessageSession(loop, TransportKind::udp, std::move(peer), max_frame, kPendingBytes,
                        "the UDP session ended"),
         port_(port) {}
-  ~Session() override { detach(); }
+  ~Session() override { leave(); }
 
   // From the port.
   void frame(std::string_view bytes, transport::UdpStats& stats) {

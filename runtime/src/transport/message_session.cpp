@@ -27,7 +27,7 @@ Result<void> MessageSession::resume() {
   return {};
 }
 
-void MessageSession::detach() noexcept {
+void MessageSession::leave() noexcept {
   if (!attached_) return;
   attached_ = false;
   leaveCarrier();
@@ -99,7 +99,7 @@ void MessageSession::carrierRoom() {
 void MessageSession::close(std::string_view) noexcept {
   if (closing_) return;
   closing_ = true;
-  detach();
+  leave();
   pending_.clear();
   later_.startIn(0);
 }

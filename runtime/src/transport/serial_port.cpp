@@ -78,7 +78,7 @@ class Session final : public MessageSession {
       : MessageSession(loop, TransportKind::serial, std::move(peer), max_frame, kPendingBytes,
                        "the serial session ended"),
         port_(port) {}
-  ~Session() override { detach(); }
+  ~Session() override { leave(); }
 
   // From the port.
   void frame(std::string_view bytes, SerialStats& stats) {
@@ -92,7 +92,7 @@ class Session final : public MessageSession {
   void leaveCarrier() noexcept override;
 
   Port* port_;                         // while attached()
-  std::unique_ptr<SerialPort> owned_;  // last: destroyed after detach()
+  std::unique_ptr<SerialPort> owned_;  // last: destroyed after leave()
 };
 
 class Port final : public SerialPort {

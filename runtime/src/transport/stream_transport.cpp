@@ -3,9 +3,14 @@
 
 #include <skrobot/runtime/loop.h>
 
+#include <fcntl.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include <array>
+#include <cerrno>
+#include <cstring>
+#include <utility>
 #include <vector>
 
 namespace skr::flow::transport {
@@ -165,6 +170,7 @@ Result<void> StreamTransport::write(std::span<const std::string_view> buffers) {
   const auto cb = [](uv_write_t* req, int status) {
     auto* self = static_cast<Handle*>(req->data)->owner;
     if (self == nullptr || self->closing_) return;  // cancelled by close
+    self->writing_ = false;
     if (status < 0) {
       self->rx_->written(uvError("write", status));
     } else {
@@ -174,7 +180,65 @@ Result<void> StreamTransport::write(std::span<const std::string_view> buffers) {
   if (int rc = uv_write(&h_->write, h_->stream(), bufs.data(), bufs.count(), cb); rc < 0) {
     return uvError("write", rc);
   }
+  writing_ = true;
   return {};
+}
+
+Result<Detached> StreamTransport::detach() {
+  if (closing_ || h_ == nullptr) return makeError(Errc::closed, "closed");
+  if (writing_) return makeError(Errc::invalid_argument, "a write is under way");
+  pause();
+  const int own = descriptor();
+  const int fd = own >= 0 ? ::fcntl(own, F_DUPFD_CLOEXEC, 0) : -1;
+  if (fd < 0) return makeError(Errc::io_error, std::string("dup: ") + std::strerror(errno));
+  Detached out(kind_, fd, peer());
+  // Closed here without a callback: the connection lives on in `fd`.
+  rx_ = nullptr;
+  closing_ = true;
+  h_->owner = nullptr;
+  uv_close(h_->handle(), [](uv_handle_t* h) { delete static_cast<Handle*>(h->data); });
+  h_ = nullptr;
+  return out;
+}
+
+Result<void> StreamTransport::open(int fd) {
+  const int rc =
+      kind_ == TransportKind::tcp ? uv_tcp_open(&h_->u.tcp, fd) : uv_pipe_open(&h_->u.pipe, fd);
+  if (rc < 0) return uvError("adopt", rc);
+  if (kind_ == TransportKind::tcp) uv_tcp_nodelay(&h_->u.tcp, 1);
+  return {};
+}
+
+Detached::~Detached() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+Detached::Detached(Detached&& other) noexcept
+    : kind_(other.kind_), fd_(std::exchange(other.fd_, -1)), peer_(std::move(other.peer_)) {}
+
+Detached& Detached::operator=(Detached&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    kind_ = other.kind_;
+    fd_ = std::exchange(other.fd_, -1);
+    peer_ = std::move(other.peer_);
+  }
+  return *this;
+}
+
+int Detached::release() noexcept {
+  return std::exchange(fd_, -1);
+}
+
+Result<std::unique_ptr<Transport>> adopt(Loop& loop, Detached detached) {
+  if (detached.kind() != TransportKind::unix_socket && detached.kind() != TransportKind::tcp) {
+    return makeError(Errc::unsupported, std::string(transportKindName(detached.kind())) +
+                                            " connections cannot be adopted");
+  }
+  auto t = std::make_unique<StreamTransport>(loop, detached.kind());
+  if (auto r = t->open(detached.descriptor()); !r) return r.error();  // `detached` closes it
+  (void)detached.release();
+  return std::unique_ptr<Transport>(std::move(t));
 }
 
 void StreamTransport::close(std::string_view) noexcept {

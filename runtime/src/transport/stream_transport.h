@@ -40,6 +40,9 @@ class StreamTransport final : public Transport {
     return kind_ == TransportKind::unix_socket;
   }
   [[nodiscard]] int descriptor() const noexcept override;
+  [[nodiscard]] Result<Detached> detach() override;
+  // Takes `fd` (a connected socket of this transport's kind) as its own.
+  [[nodiscard]] Result<void> open(int fd);
 
  private:
   struct Handle;
@@ -50,6 +53,7 @@ class StreamTransport final : public Transport {
   TransportKind kind_;
   Receiver* rx_ = nullptr;
   bool reading_ = false;
+  bool writing_ = false;  // a write() under way
   bool closing_ = false;
   bool ended_ = false;
   bool check_tls_ = false;

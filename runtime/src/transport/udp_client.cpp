@@ -133,7 +133,7 @@ UdpClientSession::UdpClientSession(Loop& loop, int fd, PeerIdentity peer,
 }
 
 UdpClientSession::~UdpClientSession() {
-  detach();
+  leave();
   closeSocket();
 }
 

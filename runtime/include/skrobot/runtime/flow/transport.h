@@ -35,10 +35,10 @@
 //   line's listener hands the next session over as a new Transport. The device is the
 //   listener's to open and close, never a session's.
 // - A logged-in connection handed to another thread: pause(), let the write under way finish
-//   (written()), then a transport gives up its loop (a `detach()` returning what it holds: the
-//   descriptor, a TlsSession, bytes already read) and the other loop's transport of the same kind
-//   adopts it; no byte is lost because the receiver's buffer goes with the connection. Nothing
-//   in this interface ties a transport to its loop beyond its construction.
+//   (written()), then the transport gives up its loop (`detach()`, returning what it holds: the
+//   descriptor and the peer's identity) and `adopt()` makes a transport of the same kind on the
+//   other loop; no byte is lost because the receiver's buffer goes with the connection. Unix
+//   sockets and TCP do it; a TLS session's state and WebSocket's framing do not travel yet.
 // - Descriptor access: descriptor() is the plain socket for zero-copy system calls (sendfile,
 //   splice, MSG_ZEROCOPY) and socket options; -1 where bytes are transformed (TLS) or there is no
 //   descriptor (memory, a multiplexed session).
@@ -99,6 +99,31 @@ struct TransportEnd {
   };
   Why why = Why::error;
   std::string message;
+};
+
+// What a transport gives up to move its connection to another loop (Transport::detach, then
+// adopt there): the socket and who is at the other end. It owns the descriptor: closed when
+// dropped, unless adopted.
+class Detached {
+ public:
+  Detached(TransportKind kind, int fd, PeerIdentity peer) noexcept
+      : kind_(kind), fd_(fd), peer_(std::move(peer)) {}
+  ~Detached();
+  Detached(Detached&& other) noexcept;
+  Detached& operator=(Detached&& other) noexcept;
+  Detached(const Detached&) = delete;
+  Detached& operator=(const Detached&) = delete;
+
+  [[nodiscard]] TransportKind kind() const noexcept { return kind_; }
+  [[nodiscard]] int descriptor() const noexcept { return fd_; }
+  [[nodiscard]] const PeerIdentity& peer() const noexcept { return peer_; }
+  // The descriptor, no longer closed by this object.
+  [[nodiscard]] int release() noexcept;
+
+ private:
+  TransportKind kind_;
+  int fd_;
+  PeerIdentity peer_;
 };
 
 class Transport {
@@ -177,7 +202,20 @@ class Transport {
   [[nodiscard]] virtual bool passesDescriptors() const noexcept { return false; }
   // The plain socket underneath for zero-copy system calls and socket options; -1 otherwise.
   [[nodiscard]] virtual int descriptor() const noexcept { return -1; }
+
+  // Gives up the connection, to be adopted on another loop (adopt()): paused first, with no
+  // write() under way (Errc::invalid_argument otherwise), it closes here without a callback and
+  // nothing it read is lost (the bytes the receiver took stay with the receiver). Unix sockets
+  // and TCP; Errc::unsupported for the other kinds (TLS, WebSocket and message sessions keep
+  // state of their own that does not travel yet).
+  [[nodiscard]] virtual Result<Detached> detach() {
+    return makeError(Errc::unsupported, std::string(transportKindName(kind())) +
+                                            " connections cannot move to another loop yet");
+  }
 };
+
+// The connection `detached` gave up, as a transport of `loop` (start() it there).
+[[nodiscard]] Result<std::unique_ptr<Transport>> adopt(Loop& loop, Detached detached);
 
 // What listening on an address needs beyond the address.
 struct ListenOptions {

@@ -204,6 +204,7 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   o.durability = s.durability;
   o.compact_bytes = s.compact_bytes;
   o.blob_channel_bytes = s.blob_channel_bytes;
+  o.blob_io_threads = s.blob_io_threads;
   o.blob_channel_files = s.blob_channel_files;
   o.users_file = s.users_file;
   o.dev_account = s.dev_account;

@@ -447,6 +447,7 @@ void readServer(const Json::Value& d, const fs::path& base_dir, HubConfig& cfg) 
   if (const Json::Value& b = d["blobs"]; b.isObject()) {
     out.blob_channel_bytes = b["max_channel_mib"].asUInt64() << 20;
     out.blob_channel_files = b["max_channel_files"].asUInt64();
+    out.blob_io_threads = b["io_threads"].asUInt();
   }
   const Json::Value& a = d["accounts"];
   const std::string users =
@@ -524,7 +525,8 @@ s::Schema hubSchema() {
       s::optional(
           "blobs",
           s::object({s::optional("max_channel_mib", s::integer().range(0, 100000000), 0),
-                     s::optional("max_channel_files", s::integer().range(0, 100000000), 0)}),
+                     s::optional("max_channel_files", s::integer().range(0, 100000000), 0),
+                     s::optional("io_threads", s::integer().range(0, 16), 1)}),
           Json::objectValue),
       s::optional("server", serverSchema(), Json::objectValue),
       s::optional("sync",

@@ -62,6 +62,45 @@ class FrameInput {
     }
   }
 
+  // Bytes of whole frames handed from one thread to another (the hub's I/O threads,
+  // core/src/flow/io_relay.h): a buffer and the range [begin, end) of it that holds them.
+  struct Block {
+    std::unique_ptr<char[]> buf;
+    size_t cap = 0, begin = 0, end = 0;
+    [[nodiscard]] size_t size() const noexcept { return end - begin; }
+  };
+  // The whole frames at the front, taken as a block: the buffer itself when they are large (no
+  // copy; what follows them moves to a new buffer), a copy of them otherwise. Empty when no
+  // frame is whole yet; a frame above the limit, or empty, is left for peek() to report.
+  [[nodiscard]] Block takeFrames() {
+    size_t pos = start_;
+    for (;;) {
+      const auto n = splitter_.next(reinterpret_cast<const uint8_t*>(buf_.get()) + pos, end_ - pos);
+      if (n.status != FrameSplitter::Status::frame) {
+        if (n.status == FrameSplitter::Status::need_more) need_ = n.wanted + (pos - start_);
+        break;
+      }
+      pos += n.consumed;
+    }
+    return take(pos);
+  }
+  // Every byte received and not taken (whole frames or not), as a block.
+  [[nodiscard]] Block takeAll() { return take(end_); }
+  // A block from another thread's takeFrames() or takeAll(): kept as the buffer when nothing is
+  // waiting here (no copy), appended otherwise.
+  void adopt(Block block) {
+    if (block.size() == 0) return;
+    if (start_ != end_) {
+      append({block.buf.get() + block.begin, block.size()});
+      return;
+    }
+    buf_ = std::move(block.buf);
+    cap_ = block.cap;
+    start_ = block.begin;
+    end_ = block.end;
+    need_ = 0;
+  }
+
   // Gives the whole buffer away (bodies that view it live on in it) and goes on with a new one
   // holding the bytes not taken yet.
   [[nodiscard]] std::shared_ptr<const char[]> giveAway() {
@@ -76,6 +115,35 @@ class FrameInput {
   }
 
  private:
+  static constexpr size_t kMoveBlock = size_t{256} * 1024;  // take() moves the buffer from here
+
+  // The bytes [start_, until) as a block; the rest stays.
+  Block take(size_t until) {
+    Block b;
+    const size_t n = until - start_;
+    if (n == 0) return b;
+    if (n < kMoveBlock) {
+      b.buf = std::make_unique_for_overwrite<char[]>(n);
+      std::memcpy(b.buf.get(), buf_.get() + start_, n);
+      b.cap = b.end = n;
+      start_ = until;
+      need_ = need_ > n ? need_ - n : 0;
+      return b;
+    }
+    const size_t rest = end_ - until;
+    b.buf = std::move(buf_);
+    b.cap = cap_;
+    b.begin = start_;
+    b.end = until;
+    cap_ = std::max(kReadChunk, rest);
+    buf_ = std::make_unique_for_overwrite<char[]>(cap_);
+    if (rest > 0) std::memcpy(buf_.get(), b.buf.get() + until, rest);
+    start_ = 0;
+    end_ = rest;
+    need_ = need_ > n ? need_ - n : 0;
+    return b;
+  }
+
   // Room for at least `want` more bytes at the end.
   void reserve(size_t want) {
     if (cap_ - end_ >= want) return;

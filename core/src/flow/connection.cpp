@@ -3,6 +3,7 @@
 
 #include "dispatch.h"
 #include "hub.h"
+#include "io_relay.h"
 
 #include <skrobot/runtime/log.h>
 
@@ -138,7 +139,7 @@ void Connection::processInput() {
   int frames = 0;
   size_t bytes = 0;
   const Nanos start = monotonicNs();
-  while (!blocked_ && !yielding_ && state_ != State::closing) {
+  while (!blocked_ && !yielding_ && !moving_ && state_ != State::closing) {
     // The clock is read every eighth frame.
     if (frames >= kFramesPerTurn || bytes >= kBytesPerTurn ||
         (frames % 8 == 7 && monotonicNs() - start >= kTimePerTurn)) {
@@ -157,6 +158,10 @@ void Connection::processInput() {
       protocolError("frame length 0 (a frame holds at least its code)");
       return;
     }
+    if (movesToIoThread(n.code)) {
+      startMove();  // the frame is handled once there
+      break;
+    }
     if (waitForPipeline(n.code)) break;  // handled once the pipeline's answers have left
     input_.consume(n);                   // before handling: a handler may block and resume later
     ++frames;
@@ -169,6 +174,53 @@ void Connection::processInput() {
   input_.settle();
 }
 
+void Connection::relayedInput(FrameInput::Block block) {
+  hub_.loop.noteActivity();
+  input_.adopt(std::move(block));
+  processInput();
+}
+
+bool Connection::movesToIoThread(uint8_t code) const {
+  if (stays_ || state_ != State::sync || hub_.blobs.ioThread(id) == nullptr) return false;
+  const CodeInfo* info = codeInfo(code);
+  if (info == nullptr || info->family != Family::blobs) return false;
+  const auto kind = transport_->kind();
+  return kind == transport::TransportKind::unix_socket || kind == transport::TransportKind::tcp;
+}
+
+void Connection::startMove() {
+  moving_ = true;
+  if (reading_) transport_->pause();
+  reading_ = false;
+  hub_.loop.post([this, alive = std::weak_ptr<int>(alive_)] {
+    if (alive.lock()) finishMove();
+  });
+}
+
+void Connection::finishMove() {
+  if (state_ == State::closing) return;
+  if (output_.writing()) {
+    move_after_write_ = true;  // written() comes back here
+    return;
+  }
+  stays_ = true;
+  auto detached = transport_->detach();
+  if (detached) {
+    transport_ = std::make_unique<RelayTransport>(
+        hub_.loop, hub_.blobs.ioThread(id), std::move(*detached), input_.takeAll(),
+        input_.splitter().maxFrameBytes(),
+        [this](FrameInput::Block block) { relayedInput(std::move(block)); });
+    reading_started_ = false;
+    ++hub_.stats.connections_moved;
+  } else {
+    log::debug(kLogSource, "FLOW-IO-THREAD",
+               describe() + " stays on the main loop: " + detached.error().message);
+  }
+  moving_ = false;
+  processInput();
+  if (!blocked_ && !yielding_ && !moving_ && state_ != State::closing) startReading();
+}
+
 void Connection::block() {
   blocked_ = true;
   if (reading_) transport_->pause();
@@ -179,7 +231,7 @@ void Connection::unblock() {
   if (!blocked_) return;
   blocked_ = false;
   processInput();
-  if (!blocked_ && !yielding_ && state_ != State::closing) startReading();
+  if (!blocked_ && !yielding_ && !moving_ && state_ != State::closing) startReading();
 }
 
 void Connection::yieldTurn() {
@@ -196,7 +248,7 @@ void Connection::resumeTurn() {
   if (!yielding_) return;
   yielding_ = false;
   processInput();
-  if (!blocked_ && !yielding_ && state_ != State::closing) startReading();
+  if (!blocked_ && !yielding_ && !moving_ && state_ != State::closing) startReading();
 }
 
 namespace {
@@ -578,6 +630,10 @@ void Connection::written(Result<void> result) {
     return;
   }
   if (output_.pending() || !dropped_.empty() || close_after_flush_) flush();
+  if (move_after_write_ && !output_.writing()) {
+    move_after_write_ = false;
+    finishMove();
+  }
 }
 
 void Connection::onSyncPulse(const Channel& ch, uint64_t seq, uint64_t source_time_ns,

@@ -224,6 +224,13 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   void closed() noexcept override;
 
   void processInput();
+  // Blocks of whole frames from an I/O thread (io_relay.h), once the connection moved there.
+  void relayedInput(FrameInput::Block block);
+  // A synchronous connection's first blob request: its socket moves to an I/O thread
+  // (io_relay.h) before the request is handled, there or here (a kind that cannot move, TLS).
+  [[nodiscard]] bool movesToIoThread(uint8_t code) const;
+  void startMove();
+  void finishMove();
   // A frame: checked against the catalogue and the session's state, then dispatched.
   void handleFrame(uint8_t code, std::string_view body);
   void dispatchFrame(uint8_t code, std::string_view body);
@@ -253,9 +260,12 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   State state_ = State::login;
   uint16_t minor_ = 0;  // the connection's protocol minor: the lower of the client's and ours
   ValueEncoding enc_ = ValueEncoding::binary;
-  FrameInput input_;       // received bytes, frames split from them
-  bool blocked_ = false;   // a sync reply is pending: do not parse further frames
-  bool yielding_ = false;  // its turn's budget is spent: the rest waits for a post
+  FrameInput input_;               // received bytes, frames split from them
+  bool blocked_ = false;           // a sync reply is pending: do not parse further frames
+  bool yielding_ = false;          // its turn's budget is spent: the rest waits for a post
+  bool moving_ = false;            // its socket is moving to an I/O thread: frames wait
+  bool move_after_write_ = false;  // ... once the write under way is done
+  bool stays_ = false;             // it moved, or cannot: it is not asked again
   std::shared_ptr<int> alive_ = std::make_shared<int>(0);  // a post's weak token of it
   uint32_t pipeline_in_flight_ = 0;  // pipelined requests in the hub, not answered yet
   uint64_t pipeline_bytes_ = 0;      // the data they carry or ask for

@@ -61,6 +61,7 @@ struct ServerConfig {
   uint64_t compact_bytes = 4u << 20;                         // "databases.compact_bytes"
   uint64_t blob_channel_bytes = 0;   // "blobs.max_channel_mib", in bytes; 0: no limit
   uint64_t blob_channel_files = 0;   // "blobs.max_channel_files"; 0: no limit
+  uint32_t blob_io_threads = 1;      // "blobs.io_threads"
   std::filesystem::path users_file;  // resolved; default <data_dir>/users.json
   std::optional<std::pair<std::string, std::string>> dev_account;  // user, password
 };

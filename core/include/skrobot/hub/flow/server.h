@@ -114,6 +114,9 @@ struct ServerOptions {
   // What one blob channel may hold (0: no limit); its files live in <data_dir>/blobs.
   uint64_t blob_channel_bytes = 0;
   uint64_t blob_channel_files = 0;
+  // Threads that serve synchronous connections once they transfer files (Unix sockets and TCP;
+  // docs/internals.md, "Threads"); 0: the main loop serves them.
+  uint32_t blob_io_threads = 1;
   // A development account accepted on the Unix socket only (guest/password in the default
   // config). TCP never starts without real accounts in the users file.
   std::optional<std::pair<std::string, std::string>> dev_account;
@@ -131,6 +134,8 @@ struct ServerStats {
   uint64_t frames_in = 0;
   // A connection's frames left for a later turn, its budget spent (fair turns: kFramesPerTurn).
   uint64_t turns_yielded = 0;
+  // Synchronous connections handed to an I/O thread at their first blob request (blob_io_threads).
+  uint64_t connections_moved = 0;
   uint64_t data_frames_out = 0;
   uint64_t data_frames_dropped = 0;  // slow subscribers
   uint64_t tls_refused = 0;          // TLS handshakes failed, or a plain and TLS peer mismatched

@@ -9,6 +9,7 @@
 
 #include "connection.h"
 #include "hub.h"
+#include "io_relay.h"
 
 #include <skrobot/runtime/log.h>
 
@@ -38,6 +39,9 @@ Result<void> BlobsRoom::start() {
       [&l = hub_.loop](std::function<void()> fn) { l.post(std::move(fn)); });
   auto stored = store_->open();
   if (!stored) return stored.error();
+  for (uint32_t i = 0; i < opt.blob_io_threads; ++i) {
+    io_.push_back(std::make_shared<IoThread>("flow-io" + std::to_string(i)));
+  }
   for (const auto& s : *stored) {
     const std::string prefix = s.owner + ".";
     if (s.name.rfind(prefix, 0) != 0) {
@@ -65,6 +69,8 @@ Result<void> BlobsRoom::start() {
 }
 
 void BlobsRoom::stop() noexcept {
+  for (auto& io : io_) io->stop();  // the connections it served were closed before
+  io_.clear();
   store_.reset();  // what was asked of the store runs first
 }
 

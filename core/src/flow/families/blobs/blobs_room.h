@@ -14,11 +14,13 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace skr::flow {
 
 class Channel;
 class Connection;
+class IoThread;
 
 class BlobsRoom final : public Room {
  public:
@@ -29,6 +31,11 @@ class BlobsRoom final : public Room {
 
   // The store; null without a data directory (blob requests are answered `unsupported`).
   [[nodiscard]] BlobStore* store() noexcept { return store_.get(); }
+  // The I/O thread that serves connection `id` once it transfers files (io_relay.h); null when
+  // the main loop serves them (no store, or server.blobs.io_threads 0).
+  [[nodiscard]] std::shared_ptr<IoThread> ioThread(uint32_t id) const {
+    return io_.empty() ? nullptr : io_[id % io_.size()];
+  }
 
   // The blob channel `name` already there for `owner`: it becomes its owner again when it takes
   // events (a flow). Null when there is none.
@@ -71,6 +78,7 @@ class BlobsRoom final : public Room {
   void changeFile(Connection& c, Code code, uint16_t chan_id, const std::string& path);
 
   std::unique_ptr<BlobStore> store_;
+  std::vector<std::shared_ptr<IoThread>> io_;
 };
 
 }  // namespace skr::flow

@@ -101,10 +101,10 @@ class Store : public ::testing::TestWithParam<Resolver> {
   Result<uint64_t> put(const std::string& path, const std::string& data, BlobQuota user = {},
                        const std::string& channel = "guest.maps") {
     auto at = wait<BlobStore::PutAt>(
-        [&](auto done) { store_->put(channel, user, path, data.size(), 0, done); });
+        [&](auto done) { store_->put(1, channel, user, path, data.size(), 0, done); });
     if (!at) return at.error();
     auto w = wait<BlobStore::Written>(
-        [&](auto done) { store_->chunk(channel, at->upload_id, 0, data, done); });
+        [&](auto done) { store_->chunk(1, channel, at->upload_id, 0, data, done); });
     if (!w) return w.error();
     return w->version;
   }
@@ -186,22 +186,28 @@ TEST_P(Store, AnUploadReplacesTheFileAtItsLastByteOnly) {
   ASSERT_TRUE(create());
   ASSERT_TRUE(put("cal.yaml", "old version"));
   auto at = wait<BlobStore::PutAt>(
-      [&](auto done) { store_->put("guest.maps", {}, "cal.yaml", 11, 0, done); });
+      [&](auto done) { store_->put(1, "guest.maps", {}, "cal.yaml", 11, 0, done); });
   ASSERT_TRUE(at);
   ASSERT_TRUE(wait<BlobStore::Written>(
-      [&](auto done) { store_->chunk("guest.maps", at->upload_id, 0, "new v", done); }));
+      [&](auto done) { store_->chunk(1, "guest.maps", at->upload_id, 0, "new v", done); }));
   EXPECT_EQ(get("cal.yaml")->data, "old version");  // half an upload is seen by nobody
   // Out of order: refused, nothing lost.
   auto wrong = wait<BlobStore::Written>(
-      [&](auto done) { store_->chunk("guest.maps", at->upload_id, 2, "xx", done); });
+      [&](auto done) { store_->chunk(1, "guest.maps", at->upload_id, 2, "xx", done); });
   EXPECT_FALSE(wrong);
   open();  // the hub restarts: the upload resumes from what it had
   auto again = wait<BlobStore::PutAt>(
-      [&](auto done) { store_->put("guest.maps", {}, "cal.yaml", 11, at->upload_id, done); });
+      [&](auto done) { store_->put(2, "guest.maps", {}, "cal.yaml", 11, at->upload_id, done); });
   ASSERT_TRUE(again) << again.error().message;
   EXPECT_EQ(again->offset, 5u);
+  // Resumed by connection 2: a chunk that connection 1 sent before it was cut is refused, and the
+  // offset stays the one the resume was given.
+  auto stale = wait<BlobStore::Written>(
+      [&](auto done) { store_->chunk(1, "guest.maps", at->upload_id, 5, "ERSION", done); });
+  ASSERT_FALSE(stale);
+  EXPECT_EQ(stale.error().code, Errc::invalid_argument);
   auto w = wait<BlobStore::Written>(
-      [&](auto done) { store_->chunk("guest.maps", at->upload_id, 5, "ersion", done); });
+      [&](auto done) { store_->chunk(2, "guest.maps", at->upload_id, 5, "ersion", done); });
   ASSERT_TRUE(w) << w.error().message;
   EXPECT_NE(w->version, 0u);
   ASSERT_TRUE(w->event);
@@ -356,13 +362,13 @@ TEST(BlobCommit, WriteSyncRenameSyncDirInThatOrder) {
   ASSERT_TRUE(store.open());
   ASSERT_TRUE(wait<void>([&](auto done) { store.create("guest.maps", "guest", done); }));
   auto at = wait<BlobStore::PutAt>(
-      [&](auto done) { store.put("guest.maps", {}, "floor/map", 6, 0, done); });
+      [&](auto done) { store.put(1, "guest.maps", {}, "floor/map", 6, 0, done); });
   ASSERT_TRUE(at);
   io->ops.clear();
   ASSERT_TRUE(wait<BlobStore::Written>(
-      [&](auto done) { store.chunk("guest.maps", at->upload_id, 0, "abc", done); }));
+      [&](auto done) { store.chunk(1, "guest.maps", at->upload_id, 0, "abc", done); }));
   ASSERT_TRUE(wait<BlobStore::Written>(
-      [&](auto done) { store.chunk("guest.maps", at->upload_id, 3, "def", done); }));
+      [&](auto done) { store.chunk(1, "guest.maps", at->upload_id, 3, "def", done); }));
   std::vector<std::string> seq;
   for (const auto& op : io->ops) seq.push_back(op.what);
   ASSERT_EQ(seq, (std::vector<std::string>{"write", "write", "sync", "rename", "syncDir"}));

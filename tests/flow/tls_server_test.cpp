@@ -2,8 +2,11 @@
 // The FlowServer's TLS listener in process: bad files stop the start; frames inside TLS go
 // through the same frame splitter (a bad length still closes that connection with
 // FLOW-PROTOCOL); a plain client gets a plain REPLY_ERROR; garbage records are refused; the
-// server goes on. Clients here are blocking sockets with skr::flow::TlsSession.
+// server goes on; a blob transfer moves the session to an I/O thread. Clients here are blocking
+// sockets with skr::flow::TlsSession, and the satellite library's SyncClient.
 #include "flow_fixture.h"
+
+#include <skrobot/satellite/sync_client.h>
 
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/flow/tls.h>
@@ -233,6 +236,40 @@ TEST_F(TlsServer, PlainClientsAndGarbageRecordsAreRefused) {
   ASSERT_TRUE(ok);
   EXPECT_EQ(ok->first, uint8_t(Code::reply_ok));
   EXPECT_EQ(stats().protocol_errors, 0u);
+}
+
+}  // namespace
+}  // namespace skr::test
+
+namespace skr::test {
+namespace {
+
+// A synchronous connection's TLS session moves to an I/O thread with its socket at the first
+// blob request (core/src/flow/io_relay.h), and the transfer goes on inside the same session.
+TEST_F(TlsServer, ABlobTransferMovesTheTlsSessionToAnIoThread) {
+  ASSERT_TRUE(startHub(tlsOptions()));
+  sat::ConnectOptions o;
+  o.address.kind = flow::Address::Kind::tls;
+  o.address.host = "localhost";
+  o.address.port = port();
+  o.user = "alice";
+  o.password = "s3cret-pass";
+  o.tls.ca_file = file("ca.pem");
+  auto c = sat::SyncClient::connect(o);
+  ASSERT_TRUE(c) << c.error().message;
+  ASSERT_TRUE(c->ping());
+  auto ch = c->createBlobChannel("maps");
+  ASSERT_TRUE(ch) << ch.error().message;
+  EXPECT_EQ(stats().connections_moved, 1u);
+  std::string data(3 * sat::SyncClient::kBlobChunk + 5, '\0');
+  for (size_t i = 0; i < data.size(); ++i) data[i] = char(i * 31 + i / 4096);
+  ASSERT_TRUE(c->blobPut(ch->id, "map.bin", data));
+  auto back = c->blobGet(ch->id, "map.bin");
+  ASSERT_TRUE(back) << back.error().message;
+  EXPECT_TRUE(*back == data);
+  ASSERT_TRUE(c->ping());
+  EXPECT_EQ(stats().protocol_errors, 0u);
+  EXPECT_EQ(stats().tls_refused, 0u);
 }
 
 }  // namespace

@@ -62,7 +62,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // A kept upload resumes where its part ends, or is refused; never a crash.
   for (const auto& s : *stored) {
     std::promise<void> done;
-    store.put(s.name, {}, "x", 3, 0xaa, [&](auto) { done.set_value(); });
+    store.put(1, s.name, {}, "x", 3, 0xaa, [&](auto) { done.set_value(); });
     done.get_future().wait();
   }
   return 0;

@@ -185,7 +185,8 @@ bool Connection::movesToIoThread(uint8_t code) const {
   const CodeInfo* info = codeInfo(code);
   if (info == nullptr || info->family != Family::blobs) return false;
   const auto kind = transport_->kind();
-  return kind == transport::TransportKind::unix_socket || kind == transport::TransportKind::tcp;
+  return kind == transport::TransportKind::unix_socket || kind == transport::TransportKind::tcp ||
+         kind == transport::TransportKind::tls;
 }
 
 void Connection::startMove() {

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Synchronous connections served on I/O threads (docs/internals.md, "Threads"): once a
-// synchronous connection sends its first blob request, its socket moves to an I/O thread, which
-// reads and splits its frames and writes its output. The Connection stays on the main loop with
+// synchronous connection sends its first blob request, its socket (Unix, TCP, or TLS with its
+// session) moves to an I/O thread, which reads and splits its frames and writes its output (and
+// decrypts and encrypts a TLS session's records). The Connection stays on the main loop with
 // everything it knows (the session, the rights, the blob pipeline); its transport becomes a
 // RelayTransport, whose input arrives as blocks of whole frames (moved, not copied: a blob
 // chunk's bytes are read once, on the I/O thread, and reach the store as they are) and whose

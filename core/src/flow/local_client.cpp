@@ -382,14 +382,15 @@ Result<void> LocalClient::blobPut(uint16_t chan_id, const std::string& path, std
   Hub& server = impl_->server;
   const std::string name = (*ch)->name;
   const uint64_t size = data.size();
-  (*store)->put(name, quota, path, size, 0,
-                [&server, name, id = chan_id, hash = (*ch)->hash, data = std::move(data),
+  const uint32_t writer = impl_->id;
+  (*store)->put(writer, name, quota, path, size, 0,
+                [&server, writer, name, id = chan_id, hash = (*ch)->hash, data = std::move(data),
                  done = std::move(done)](Result<BlobStore::PutAt> at) mutable {
                   if (!at) return done(at.error());
                   BlobStore* store = server.blobs.store();
                   if (store == nullptr) return done(makeError(Errc::closed, "the hub is stopping"));
                   store->chunk(
-                      name, at->upload_id, 0, std::move(data),
+                      writer, name, at->upload_id, 0, std::move(data),
                       [&server, id, hash, done = std::move(done)](Result<BlobStore::Written> w) {
                         if (!w) return done(w.error());
                         if (w->event) server.blobs.changed(id, hash, *w->event);

@@ -277,7 +277,7 @@ bool TlsSession::hasOutput() const noexcept {
 }
 
 bool TlsSession::established() const noexcept {
-  return !impl_->failed && SSL_is_init_finished(impl_->ssl) != 0;
+  return impl_ != nullptr && !impl_->failed && SSL_is_init_finished(impl_->ssl) != 0;
 }
 
 void TlsSession::shutdown() noexcept {
@@ -287,6 +287,7 @@ void TlsSession::shutdown() noexcept {
 
 std::string TlsSession::peerSubject() const {
   std::string subject;
+  if (impl_ == nullptr) return subject;  // moved away
   if (X509* peer = SSL_get1_peer_certificate(impl_->ssl)) {
     char name[256] = {};
     X509_NAME_oneline(X509_get_subject_name(peer), name, sizeof name);

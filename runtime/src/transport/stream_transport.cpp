@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "stream_transport.h"
 
+#include "tls_transport.h"
+
 #include <skrobot/runtime/loop.h>
 
 #include <fcntl.h>
@@ -214,7 +216,11 @@ Detached::~Detached() {
 }
 
 Detached::Detached(Detached&& other) noexcept
-    : kind_(other.kind_), fd_(std::exchange(other.fd_, -1)), peer_(std::move(other.peer_)) {}
+    : kind_(other.kind_),
+      fd_(std::exchange(other.fd_, -1)),
+      peer_(std::move(other.peer_)),
+      tls_(std::move(other.tls_)),
+      tls_server_(other.tls_server_) {}
 
 Detached& Detached::operator=(Detached&& other) noexcept {
   if (this != &other) {
@@ -222,6 +228,8 @@ Detached& Detached::operator=(Detached&& other) noexcept {
     kind_ = other.kind_;
     fd_ = std::exchange(other.fd_, -1);
     peer_ = std::move(other.peer_);
+    tls_ = std::move(other.tls_);
+    tls_server_ = other.tls_server_;
   }
   return *this;
 }
@@ -231,14 +239,18 @@ int Detached::release() noexcept {
 }
 
 Result<std::unique_ptr<Transport>> adopt(Loop& loop, Detached detached) {
-  if (detached.kind() != TransportKind::unix_socket && detached.kind() != TransportKind::tcp) {
-    return makeError(Errc::unsupported, std::string(transportKindName(detached.kind())) +
-                                            " connections cannot be adopted");
+  const TransportKind kind = detached.kind();
+  const bool tls = kind == TransportKind::tls && detached.tlsSession().has_value();
+  if (kind != TransportKind::unix_socket && kind != TransportKind::tcp && !tls) {
+    return makeError(Errc::unsupported,
+                     std::string(transportKindName(kind)) + " connections cannot be adopted");
   }
-  auto t = std::make_unique<StreamTransport>(loop, detached.kind());
+  auto t = std::make_unique<StreamTransport>(loop, tls ? TransportKind::tcp : kind);
   if (auto r = t->open(detached.descriptor()); !r) return r.error();  // `detached` closes it
   (void)detached.release();
-  return std::unique_ptr<Transport>(std::move(t));
+  if (!tls) return std::unique_ptr<Transport>(std::move(t));
+  return std::unique_ptr<Transport>(TlsTransport::adopted(
+      loop, std::move(t), std::move(*detached.tlsSession()), detached.tlsServer()));
 }
 
 void StreamTransport::close(std::string_view) noexcept {

@@ -37,10 +37,35 @@ void TlsTransport::handshake(std::function<void(std::optional<TransportEnd>)> do
   if (auto r = sendNow(); !r) end({TransportEnd::Why::error, r.error().message});  // ClientHello
 }
 
+std::unique_ptr<TlsTransport> TlsTransport::adopted(Loop& loop, std::unique_ptr<Transport> below,
+                                                    TlsSession session, bool server) {
+  auto t = std::make_unique<TlsTransport>(loop, std::move(below), std::move(session), server);
+  t->first_input_ = false;  // its first bytes were read on the other loop
+  return t;
+}
+
 Result<void> TlsTransport::start(Transport::Receiver& receiver) {
   rx_ = &receiver;
-  if (!server_) later_.startIn(0);  // what came with the handshake's last records
+  // What came with the handshake's last records (a client), or what a moved session decrypted.
+  if (!server_ || !first_input_) later_.startIn(0);
   return below_->start(*this);
+}
+
+Result<Detached> TlsTransport::detach() {
+  if (closing_ || ended_) return makeError(Errc::closed, "closed");
+  if (!session_.established())
+    return makeError(Errc::invalid_argument, "the TLS handshake is under way");
+  session_.takeOutput(cipher_out_);
+  if (below_writing_ || user_write_ || !cipher_out_.empty()) {
+    return makeError(Errc::invalid_argument, "a write is under way");
+  }
+  PeerIdentity who = peer();
+  auto below = below_->detach();
+  if (!below) return below.error();
+  later_.stop();
+  closing_ = true;  // nothing more here; the session lives on in the other loop's transport
+  rx_ = nullptr;
+  return Detached(below->release(), std::move(who), std::move(session_), server_);
 }
 
 void TlsTransport::pause() noexcept {

@@ -29,6 +29,10 @@ class TlsTransport final : public Transport, private Transport::Receiver {
   // (established) or why it failed, from the loop. Bytes that came with the handshake's end are
   // delivered once start() is called.
   void handshake(std::function<void(std::optional<TransportEnd>)> done);
+  // A session another loop's transport gave up (detach()), established, over `below` here.
+  [[nodiscard]] static std::unique_ptr<TlsTransport> adopted(Loop& loop,
+                                                             std::unique_ptr<Transport> below,
+                                                             TlsSession session, bool server);
 
   [[nodiscard]] TransportKind kind() const noexcept override { return TransportKind::tls; }
   [[nodiscard]] Result<void> start(Transport::Receiver& receiver) override;
@@ -38,6 +42,7 @@ class TlsTransport final : public Transport, private Transport::Receiver {
   [[nodiscard]] Result<void> write(std::span<const std::string_view> buffers) override;
   void close(std::string_view reason) noexcept override;
   [[nodiscard]] PeerIdentity peer() const override;
+  [[nodiscard]] Result<Detached> detach() override;
 
  private:
   // The layer below's receiver.

@@ -85,8 +85,9 @@ class Blobs(HubTestCase):
         self.assertTrue(upload)
         again = self.sync()
         resumed = []
-        self.assertTrue(again.blobPutFile(ch, src, "run.bin",
-                                          lambda done, total: resumed.append(done), upload))
+        put = again.blobPutFile(ch, src, "run.bin",
+                                lambda done, total: resumed.append(done), upload)
+        self.assertTrue(put, again.lastError and again.lastError.message)
         self.assertGreaterEqual(resumed[0], 3 * 256 * 1024)
         self.assertEqual(again.blobGet(ch, "run.bin"), data)
 

@@ -114,7 +114,7 @@ struct ServerOptions {
   // What one blob channel may hold (0: no limit); its files live in <data_dir>/blobs.
   uint64_t blob_channel_bytes = 0;
   uint64_t blob_channel_files = 0;
-  // Threads that serve synchronous connections once they transfer files (Unix sockets and TCP;
+  // Threads that serve synchronous connections once they transfer files (Unix sockets, TCP, TLS;
   // docs/internals.md, "Threads"); 0: the main loop serves them.
   uint32_t blob_io_threads = 1;
   // A development account accepted on the Unix socket only (guest/password in the default

@@ -176,6 +176,7 @@ struct BlobStore::Upload {
   std::string channel, path;
   uint64_t total = 0, received = 0;
   Fd fd;
+  uint32_t writer = 0;  // the connection that started or last resumed it: its chunks only
 };
 
 struct BlobStore::Reading {
@@ -556,8 +557,9 @@ void BlobStore::readAll(const std::string& channel, const std::string& path, uin
   });
 }
 
-void BlobStore::put(const std::string& channel, BlobQuota user_quota, const std::string& path,
-                    uint64_t total_size, uint64_t upload_id, Done<PutAt> done) {
+void BlobStore::put(uint32_t writer, const std::string& channel, BlobQuota user_quota,
+                    const std::string& path, uint64_t total_size, uint64_t upload_id,
+                    Done<PutAt> done) {
   enqueue([=, this, done = std::move(done)]() mutable {
     const auto started = [&]() -> Result<PutAt> {
       State& s = *state_;
@@ -575,6 +577,9 @@ void BlobStore::put(const std::string& channel, BlobQuota user_quota, const std:
                                                        it->second.path + " of " +
                                                        std::to_string(it->second.total) + " bytes");
         }
+        // Resumed: chunks still coming from the connection that was cut are refused from now
+        // on, so the offset given here stays the one to go on from.
+        it->second.writer = writer;
         return PutAt{upload_id, it->second.received};
       }
       auto parts = blob::splitPath(path, false);
@@ -618,6 +623,7 @@ void BlobStore::put(const std::string& channel, BlobQuota user_quota, const std:
       u.channel = channel;
       u.path = path;
       u.total = total_size;
+      u.writer = writer;
       const std::string part = hex16(id) + ".part";
       u.fd = Fd(::openat(ch.uploads.get(), part.c_str(),
                          O_CREAT | O_EXCL | O_RDWR | O_NOFOLLOW | O_CLOEXEC, 0600));
@@ -636,8 +642,8 @@ void BlobStore::put(const std::string& channel, BlobQuota user_quota, const std:
   });
 }
 
-void BlobStore::chunk(const std::string& channel, uint64_t upload_id, uint64_t offset,
-                      SharedBytes data, Done<Written> done) {
+void BlobStore::chunk(uint32_t writer, const std::string& channel, uint64_t upload_id,
+                      uint64_t offset, SharedBytes data, Done<Written> done) {
   enqueue([=, this, data = std::move(data), done = std::move(done)]() mutable {
     const auto written = [&]() -> Result<Written> {
       State& s = *state_;
@@ -647,6 +653,10 @@ void BlobStore::chunk(const std::string& channel, uint64_t upload_id, uint64_t o
                                               channel + ": start it again");
       }
       Upload& u = it->second;
+      if (u.writer != writer) {
+        return makeError(Errc::invalid_argument, "upload " + std::to_string(upload_id) +
+                                                     " was resumed by another connection");
+      }
       if (offset != u.received) {
         return makeError(Errc::invalid_argument,
                          "upload " + std::to_string(upload_id) + " goes on at offset " +

@@ -100,10 +100,13 @@ class BlobStore {
   // The whole current version of `path` (limit_exceeded when it is larger than `max_bytes`).
   void readAll(const std::string& channel, const std::string& path, uint64_t max_bytes,
                Done<Read> done);
-  void put(const std::string& channel, BlobQuota user_quota, const std::string& path,
-           uint64_t total_size, uint64_t upload_id, Done<PutAt> done);
-  void chunk(const std::string& channel, uint64_t upload_id, uint64_t offset, SharedBytes data,
-             Done<Written> done);
+  // An upload belongs to `writer` (a connection's endpoint id), the one that started it or last
+  // resumed it (upload_id != 0): chunks from any other are refused, so that chunks still coming
+  // from a connection that was cut never move the offset a resume was given.
+  void put(uint32_t writer, const std::string& channel, BlobQuota user_quota,
+           const std::string& path, uint64_t total_size, uint64_t upload_id, Done<PutAt> done);
+  void chunk(uint32_t writer, const std::string& channel, uint64_t upload_id, uint64_t offset,
+             SharedBytes data, Done<Written> done);
   void modify(const std::string& channel, BlobQuota user_quota, const std::string& path,
               uint64_t offset, SharedBytes data, Done<Written> done);
   void abort(const std::string& channel, uint64_t upload_id, Done<void> done);

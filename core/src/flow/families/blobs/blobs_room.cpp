@@ -264,7 +264,7 @@ void BlobsRoom::handle(Connection& c, msg::BlobPut& m) {
   if (ch == nullptr) return;
   const BlobQuota quota{uint64_t(c.limits.blob_mib) << 20, c.limits.blob_files};
   store_->put(
-      ch->name, quota, m.path, m.total_size, m.upload_id,
+      c.id, ch->name, quota, m.path, m.total_size, m.upload_id,
       later<BlobStore::PutAt>(c, Code::blob_put, 0, [](Connection& c, Result<BlobStore::PutAt>& r) {
         c.send(msg::BlobPutOk{r->upload_id, r->offset});
       }));
@@ -275,7 +275,7 @@ void BlobsRoom::handle(Connection& c, msg::BlobChunk& m) {
   Channel* ch = channelFor(c, Code::blob_chunk, m.chan_id, true);
   if (ch == nullptr) return;
   const uint64_t bytes = m.data.bytes.size();
-  store_->chunk(ch->name, m.upload_id, m.offset, c.takeBody(m.data.bytes),
+  store_->chunk(c.id, ch->name, m.upload_id, m.offset, c.takeBody(m.data.bytes),
                 later<BlobStore::Written>(
                     c, Code::blob_chunk, bytes,
                     [chan = ch->id, hash = ch->hash](Connection& c, Result<BlobStore::Written>& r) {

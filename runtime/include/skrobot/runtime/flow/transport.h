@@ -36,9 +36,10 @@
 //   listener's to open and close, never a session's.
 // - A logged-in connection handed to another thread: pause(), let the write under way finish
 //   (written()), then the transport gives up its loop (`detach()`, returning what it holds: the
-//   descriptor and the peer's identity) and `adopt()` makes a transport of the same kind on the
-//   other loop; no byte is lost because the receiver's buffer goes with the connection. Unix
-//   sockets and TCP do it; a TLS session's state and WebSocket's framing do not travel yet.
+//   descriptor, the peer's identity, a TLS session) and `adopt()` makes a transport of the same
+//   kind on the other loop; no byte is lost because the receiver's buffer goes with the
+//   connection, and a TLS session with what it decrypted. Unix sockets, TCP and TLS do it;
+//   WebSocket's framing and message sessions do not travel.
 // - Descriptor access: descriptor() is the plain socket for zero-copy system calls (sendfile,
 //   splice, MSG_ZEROCOPY) and socket options; -1 where bytes are transformed (TLS) or there is no
 //   descriptor (memory, a multiplexed session).
@@ -102,12 +103,20 @@ struct TransportEnd {
 };
 
 // What a transport gives up to move its connection to another loop (Transport::detach, then
-// adopt there): the socket and who is at the other end. It owns the descriptor: closed when
-// dropped, unless adopted.
+// adopt there): the socket and who is at the other end, and a TLS connection's session. It owns
+// the descriptor: closed when dropped, unless adopted.
 class Detached {
  public:
   Detached(TransportKind kind, int fd, PeerIdentity peer) noexcept
       : kind_(kind), fd_(fd), peer_(std::move(peer)) {}
+  // A TLS connection: its session (established) goes with the socket, holding what it read and
+  // did not deliver yet; `server`: the accepting side's.
+  Detached(int fd, PeerIdentity peer, TlsSession session, bool server) noexcept
+      : kind_(TransportKind::tls),
+        fd_(fd),
+        peer_(std::move(peer)),
+        tls_(std::move(session)),
+        tls_server_(server) {}
   ~Detached();
   Detached(Detached&& other) noexcept;
   Detached& operator=(Detached&& other) noexcept;
@@ -119,11 +128,16 @@ class Detached {
   [[nodiscard]] const PeerIdentity& peer() const noexcept { return peer_; }
   // The descriptor, no longer closed by this object.
   [[nodiscard]] int release() noexcept;
+  // TLS: the session (adopt() takes it) and its side.
+  [[nodiscard]] std::optional<TlsSession>& tlsSession() noexcept { return tls_; }
+  [[nodiscard]] bool tlsServer() const noexcept { return tls_server_; }
 
  private:
   TransportKind kind_;
   int fd_;
   PeerIdentity peer_;
+  std::optional<TlsSession> tls_;
+  bool tls_server_ = false;
 };
 
 class Transport {
@@ -205,9 +219,9 @@ class Transport {
 
   // Gives up the connection, to be adopted on another loop (adopt()): paused first, with no
   // write() under way (Errc::invalid_argument otherwise), it closes here without a callback and
-  // nothing it read is lost (the bytes the receiver took stay with the receiver). Unix sockets
-  // and TCP; Errc::unsupported for the other kinds (TLS, WebSocket and message sessions keep
-  // state of their own that does not travel yet).
+  // nothing it read is lost (the bytes the receiver took stay with the receiver). Unix sockets,
+  // TCP and TLS (established, with no record waiting to be sent); Errc::unsupported for the
+  // other kinds (WebSocket and message sessions keep state of their own that does not travel).
   [[nodiscard]] virtual Result<Detached> detach() {
     return makeError(Errc::unsupported, std::string(transportKindName(kind())) +
                                             " connections cannot move to another loop yet");

@@ -9,6 +9,7 @@
 #include <skrobot/satellite/sync_client.h>
 
 #include <atomic>
+#include <chrono>
 #include <thread>
 
 namespace skr::test {
@@ -83,7 +84,13 @@ TEST_F(BlobIoThread, AConnectionMovesAtItsFirstBlobRequestAndKeepsItsAnswersInOr
   ASSERT_TRUE(flow::encode(burst, msg::Ping{msg::Rest{"one"}}));
   ASSERT_TRUE(flow::encode(burst, msg::BlobList{ch->id, ""}));
   ASSERT_TRUE(flow::encode(burst, msg::Ping{msg::Rest{"two"}}));
+  // ... and the start of a fifth, whose rest comes later: the I/O thread must get it whole.
+  std::string fifth;
+  ASSERT_TRUE(flow::encode(fifth, msg::Ping{msg::Rest{"three"}}));
+  burst += fifth.substr(0, 3);
   ASSERT_TRUE(bob.sendRaw(burst));  // one write: the hub reads them together
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_TRUE(bob.sendRaw(std::string_view(fifth).substr(3)));
   for (const char* pong : {"one", "two"}) {
     auto listed = as<msg::ReplyValue>(bob.recv());
     ASSERT_TRUE(listed);
@@ -92,6 +99,13 @@ TEST_F(BlobIoThread, AConnectionMovesAtItsFirstBlobRequestAndKeepsItsAnswersInOr
     ASSERT_TRUE(f);
     EXPECT_EQ(f->body, pong);
   }
+  auto third = bob.recv();
+  ASSERT_TRUE(third);
+  EXPECT_EQ(third->body, "three");
+  ASSERT_TRUE(bob.send(msg::Ping{msg::Rest{"four"}}));  // and the connection reads on
+  auto fourth = bob.recv();
+  ASSERT_TRUE(fourth);
+  EXPECT_EQ(fourth->body, "four");
   EXPECT_EQ(stats().connections_moved, 2u);
   EXPECT_EQ(stats().protocol_errors, 0u);
 }

@@ -30,6 +30,26 @@ size_t userChannels(Satellite& sat) {
   return n;
 }
 
+// A file of 9 MiB, more than two of the hub's 4 MiB chunks, that no two chunks repeat.
+std::string mapFile() {
+  std::string map(9u << 20, '\0');
+  for (size_t i = 0; i < map.size(); ++i) map[i] = char((i * 7919u) >> 5);
+  return map;
+}
+
+// `owner`'s blob channel "maps" with "floor/map.pgm" (mapFile) and "notes.txt": its id.
+Result<uint16_t> makeMaps(SatOnThread& owner) {
+  return owner.on([](Satellite& s) -> Result<uint16_t> {
+    auto c = s.syncClient();
+    if (!c) return c.error();
+    auto ch = (*c)->createBlobChannel("maps");
+    if (!ch) return ch.error();
+    if (auto r = (*c)->blobPut(ch->id, "floor/map.pgm", mapFile()); !r) return r.error();
+    if (auto r = (*c)->blobPut(ch->id, "notes.txt", "kitchen"); !r) return r.error();
+    return ch->id;
+  });
+}
+
 class HubLinks : public ::testing::Test {
  protected:
   // B, and A linked to it.
@@ -290,6 +310,15 @@ TEST(HubLinkChain, TheFarHubsChannelsKeepTheirOwnHubName) {
   }));
   EXPECT_EQ(viewer->on([](Satellite& s) { return s.get("floor", "sea/maps"); }).value(), Variant(2))
       << logs();
+
+  // And its blob channels' files, through B, chunk by chunk.
+  ASSERT_TRUE(makeMaps(*owner));
+  ASSERT_TRUE(eventually([&] { return hasChannel(*viewer, "sea/guest.maps"); })) << logs();
+  const auto map = viewer->on([](Satellite& s) {
+    return s.syncClient().value()->blobGet(s.channel("sea/guest.maps")->id, "floor/map.pgm");
+  });
+  ASSERT_TRUE(map) << map.error().message << logs();
+  EXPECT_TRUE(*map == mapFile());
 }
 
 // The link databases of two hubs that list each other: {hub's, the other's}.
@@ -634,6 +663,91 @@ TEST_F(HubLinks, AFarHubsDatabasesAreReadUnderItsNameAndNeverWritten) {
     auto r = reader->on([](Satellite& s) { return s.get("focal", "bee/calib"); });
     return !r && r.error().code == Errc::not_found;
   })) << a->hub->log();
+}
+
+TEST_F(HubLinks, AFarHubsBlobChannelIsReadThroughTheLinkAndWrittenOnlyThere) {
+  auto owner = b->satellite("mapper");
+  const auto maps = makeMaps(*owner);
+  ASSERT_TRUE(maps) << maps.error().message;
+  auto reader = a->satellite("planner");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*reader, "bee/guest.maps"); })) << logs();
+  const ChannelInfo info = reader->on([](Satellite& s) { return *s.channel("bee/guest.maps"); });
+  EXPECT_EQ(info.kind, uint8_t(flow::ChannelKind::blob));
+  // Its changes are heard here by those who subscribe (the link subscribes there).
+  reader->on([](Satellite& s) { s.subscribe("bee/guest.maps"); });
+  ASSERT_TRUE(eventually([&] {
+    return owner->on([](Satellite& s) {
+      return s.syncClient().value()->channel("guest.maps").value().subscribers;
+    }) == 1u;
+  })) << logs();
+
+  const auto sync = [&](auto fn) {
+    return reader->on([&](Satellite& s) { return fn(*s.syncClient().value()); });
+  };
+  const auto list = sync([&](SyncClient& c) { return c.blobList(info.id, "floor"); });
+  ASSERT_TRUE(list) << list.error().message;
+  ASSERT_EQ(list->size(), 1u);
+  EXPECT_EQ((*list)[0].name, "map.pgm");
+  EXPECT_EQ((*list)[0].size, 9u << 20);
+  const auto got = sync([&](SyncClient& c) { return c.blobGet(info.id, "floor/map.pgm"); });
+  ASSERT_TRUE(got) << got.error().message << logs();
+  EXPECT_TRUE(*got == mapFile());
+  // The far hub's refusal, named; and nothing written here.
+  const auto missing = sync([&](SyncClient& c) { return c.blobGet(info.id, "nowhere.bin"); });
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().code, Errc::not_found);
+  EXPECT_NE(missing.error().message.find("hub bee: "), std::string::npos)
+      << missing.error().message;
+  const auto put = sync([&](SyncClient& c) { return c.blobPut(info.id, "mine.txt", "x"); });
+  ASSERT_FALSE(put);
+  EXPECT_EQ(put.error().code, Errc::permission_denied) << put.error().message;
+  EXPECT_NE(put.error().message.find("another hub"), std::string::npos) << put.error().message;
+  const auto removed = sync([&](SyncClient& c) { return c.blobRemove(info.id, "notes.txt"); });
+  ASSERT_FALSE(removed);
+  EXPECT_EQ(removed.error().code, Errc::permission_denied) << removed.error().message;
+  EXPECT_FALSE(fs::exists(a->dir.path() / "data" / "blobs" / "bee"));
+
+  // Written there: heard here, and its new version read through.
+  ASSERT_TRUE(owner->on(
+      [&](Satellite& s) { return s.syncClient().value()->blobPut(*maps, "notes.txt", "hall"); }));
+  ASSERT_TRUE(eventually([&] {
+    return reader->events.count("blob:bee/guest.maps:notes.txt:4") == 1;
+  })) << reader->events.dump()
+      << logs();
+  const auto notes = sync([&](SyncClient& c) { return c.blobGet(info.id, "notes.txt"); });
+  ASSERT_TRUE(notes) << notes.error().message;
+  EXPECT_EQ(*notes, "hall");
+}
+
+TEST(HubLinkBlobs, AFarBlobChannelIsReadOnlyByThoseWhoseRulesHereAllowItsName) {
+  NamedHub b("bee");
+  ASSERT_TRUE(b.start()) << b.hub->log();
+  NamedHub a("ay");
+  a.account = "viewer";  // may read guest.* here, not bee/guest.*
+  a.rules = {{"subscribe", {"guest.*"}}};
+  ASSERT_TRUE(a.link(b).start()) << a.hub->log();
+  auto owner = b.satellite("mapper");
+  ASSERT_TRUE(makeMaps(*owner));
+  auto guest = a.satellite("planner");
+  ASSERT_TRUE(eventually([&] { return hasChannel(*guest, "bee/guest.maps"); })) << a.hub->log();
+  const uint16_t id = guest->on([](Satellite& s) { return s.channel("bee/guest.maps")->id; });
+  ConnectOptions o;
+  o.address = Address::parse(a.hub->tcpAddress()).value();
+  o.user = "viewer";
+  o.password = "s3cret-pass";
+  auto viewer = SyncClient::connect(o);
+  ASSERT_TRUE(viewer) << viewer.error().message;
+  const auto refused = viewer->blobGet(id, "notes.txt");
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, Errc::permission_denied) << refused.error().message;
+  const auto listed = viewer->blobList(id);
+  ASSERT_FALSE(listed);
+  EXPECT_EQ(listed.error().code, Errc::permission_denied);
+  // The development account may, and the link's account over there may too.
+  const auto read =
+      guest->on([&](Satellite& s) { return s.syncClient().value()->blobGet(id, "notes.txt"); });
+  ASSERT_TRUE(read) << read.error().message;
+  EXPECT_EQ(*read, "kitchen");
 }
 
 TEST(HubLinkRoutes, AChannelReachedTwoWaysComesOnceAndSwitchesWhenItsRouteFails) {

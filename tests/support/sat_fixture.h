@@ -129,6 +129,9 @@ class SatOnThread {
     s.error.connect(&s, [this](const FlowError& e) { events.add("error:" + e.message); });
     s.databasesSynced.connect(
         &s, [this](uint32_t tag) { events.add("synced:" + std::to_string(tag)); });
+    s.blobChanged.connect(&s, [this, name](const BlobChange& b) {
+      events.add("blob:" + name(b.chan_id) + ":" + b.path + ":" + std::to_string(b.size));
+    });
     s.syncPulse.connect(&s, [this, name](const SyncPulse& p) {
       events.add("pulse:" + name(p.chan_id) + ":" + std::to_string(p.seq) + ":" +
                  std::to_string(p.dropped));

@@ -419,6 +419,24 @@ void Connection::pausePipeline() {
   block();
 }
 
+void Connection::pipelineAnswer(uint64_t place, uint64_t bytes,
+                                std::function<void(Connection&)> answer) {
+  if (place != pipeline_sent_) {
+    pipeline_held_.emplace(place, Held{bytes, std::move(answer)});
+    return;
+  }
+  answer(*this);
+  ++pipeline_sent_;
+  pipelineAnswered(bytes);
+  while (!pipeline_held_.empty() && pipeline_held_.begin()->first == pipeline_sent_) {
+    Held next = std::move(pipeline_held_.begin()->second);
+    pipeline_held_.erase(pipeline_held_.begin());
+    next.answer(*this);
+    ++pipeline_sent_;
+    pipelineAnswered(next.bytes);
+  }
+}
+
 void Connection::pipelineAnswered(uint64_t bytes) {
   --pipeline_in_flight_;
   pipeline_bytes_ -= bytes;

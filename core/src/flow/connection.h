@@ -237,6 +237,9 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   // Before handling a frame: a request of another family than the pipeline's waits until the
   // pipeline's answers have left. True when it must wait.
   bool waitForPipeline(uint8_t code);
+  // The answer at `place` in the pipeline: sent when every answer before it has left, else held
+  // until then (a far hub's answer may come before the store's to an earlier request).
+  void pipelineAnswer(uint64_t place, uint64_t bytes, std::function<void(Connection&)> answer);
   void pipelineAnswered(uint64_t bytes);
 
   void queued();  // after queueing output: limits, then flush scheduling
@@ -270,9 +273,16 @@ class Connection final : public Endpoint, private transport::Transport::Receiver
   uint32_t pipeline_in_flight_ = 0;  // pipelined requests in the hub, not answered yet
   uint64_t pipeline_bytes_ = 0;      // the data they carry or ask for
   Family pipeline_family_ = Family::blobs;
-  bool pipeline_waiting_ = false;  // reading paused until a pipelined answer leaves
-  uint8_t current_code_ = 0;       // the code of the frame being handled
-  bool wide_send_buffer_ = false;  // widened for downloads (widenSendBuffer)
+  uint64_t pipeline_next_ = 0;  // the place of the next pipelined request
+  uint64_t pipeline_sent_ = 0;  // the place of the next answer to leave
+  struct Held {
+    uint64_t bytes = 0;
+    std::function<void(Connection&)> answer;
+  };
+  std::map<uint64_t, Held> pipeline_held_;  // answers that came early, by place
+  bool pipeline_waiting_ = false;           // reading paused until a pipelined answer leaves
+  uint8_t current_code_ = 0;                // the code of the frame being handled
+  bool wide_send_buffer_ = false;           // widened for downloads (widenSendBuffer)
   bool reading_ = false;
   bool reading_started_ = false;  // the transport was started (later: resume)
 
@@ -308,11 +318,13 @@ std::function<void(Result<T>)> Connection::pipelined(
   }
   ++pipeline_in_flight_;
   pipeline_bytes_ += bytes;
-  return [&hub = hub_, my_id = id, bytes, then = std::move(then)](Result<T> r) {
+  return [&hub = hub_, my_id = id, place = pipeline_next_++, bytes,
+          then = std::move(then)](Result<T> r) mutable {
     Connection* c = connectionOf(hub, my_id);
     if (c == nullptr) return;
-    then(*c, r);
-    c->pipelineAnswered(bytes);
+    c->pipelineAnswer(
+        place, bytes,
+        [then = std::move(then), r = std::move(r)](Connection& c) mutable { then(c, r); });
   };
 }
 

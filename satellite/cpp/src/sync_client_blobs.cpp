@@ -49,10 +49,37 @@ Result<ChannelInfo> SyncClient::createBlobChannel(const std::string& short_name)
   return std::move(info->info);
 }
 
+Result<Variant> SyncClient::blobListValue(uint16_t chan_id, const std::string& dir) {
+  SKR_NEEDS_BLOBS();
+  return expectValue(request(msg::BlobList{chan_id, dir}, options_.timeout_ms));
+}
+
+Result<SyncClient::BlobPiece> SyncClient::blobRead(uint16_t chan_id, const std::string& path,
+                                                   uint64_t version, uint64_t offset,
+                                                   uint32_t max_bytes, size_t head_room) {
+  SKR_NEEDS_BLOBS();
+  std::string frame;
+  if (!flow::encode(frame, msg::BlobGet{chan_id, path, version, offset, max_bytes})) {
+    return makeError(Errc::invalid_argument, "the path is longer than 65535 bytes");
+  }
+  if (auto s = sendFrame(frame); !s) return s.error();
+  auto r = receiveView(options_.timeout_ms);
+  if (!r) return r.error();
+  if (r->code != static_cast<uint8_t>(Code::reply_ok)) {
+    return hubError(last_error_, std::string(r->body));
+  }
+  auto d = flow::decode<msg::BlobData>(r->body);
+  if (!d) return fail(Errc::protocol_error, "BLOB_GET: " + d.error().message);
+  BlobPiece piece{d->version, d->total_size, {}};
+  piece.data.reserve(head_room + d->data.bytes.size());
+  piece.data.resize(head_room);
+  piece.data.append(d->data.bytes);
+  return piece;
+}
+
 Result<std::vector<SyncClient::BlobEntry>> SyncClient::blobList(uint16_t chan_id,
                                                                 const std::string& dir) {
-  SKR_NEEDS_BLOBS();
-  auto v = expectValue(request(msg::BlobList{chan_id, dir}, options_.timeout_ms));
+  auto v = blobListValue(chan_id, dir);
   if (!v) return v.error();
   std::vector<BlobEntry> out;
   const auto* list = v->asList();

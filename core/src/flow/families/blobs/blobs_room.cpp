@@ -8,6 +8,7 @@
 #include "families/blobs/blobs_room.h"
 
 #include "connection.h"
+#include "families/links/hub_link.h"
 #include "hub.h"
 #include "io_relay.h"
 
@@ -76,10 +77,11 @@ void BlobsRoom::stop() noexcept {
 
 void BlobsRoom::endpointLeft(Endpoint& e) {
   if (store_) store_->forget(e.id);
+  for (const auto& link : hub_.links.all()) link->forgetReader(e.id);
 }
 
 void BlobsRoom::channelRemoved(const Channel& ch) {
-  if (ch.kind != ChannelKind::blob || !store_) return;
+  if (ch.kind != ChannelKind::blob || ch.far || !store_) return;
   store_->drop(ch.name, [name = ch.name](Result<void> r) {
     if (!r) {
       log::error(kLogSource, "BLOB-IO", "removing the files of " + name + ": " + r.error().message);
@@ -137,6 +139,10 @@ Result<Channel*> BlobsRoom::channel(const Endpoint& e, uint16_t id, bool write) 
   if (ch == nullptr || ch->kind != ChannelKind::blob) {
     return makeError(Errc::not_found, "no blob channel with id " + std::to_string(id));
   }
+  if (write && ch->far) {
+    return makeError(Errc::permission_denied,
+                     ch->name + " is a blob channel of another hub: its files are written there");
+  }
   if (write && ch->owner_user != e.user) {
     return makeError(Errc::permission_denied,
                      "only " + ch->owner_user + " writes to the blob channel " + ch->name);
@@ -187,24 +193,30 @@ void BlobsRoom::refuseNow(Connection& c, Code code, const Error& e) {
 }
 
 void BlobsRoom::refuse(Connection& c, Code code, const Error& e) {
-  if (c.pipelineDepth() == 0 || !store_) return refuseNow(c, code, e);
-  // Behind the answers still to come.
-  auto answer =
-      c.pipelined<void>(0, [code, e](Connection& c, Result<void>&) { refuseNow(c, code, e); });
-  store_->barrier([answer = std::move(answer)] { answer({}); });
+  // Behind the answers still to come (at once when there are none).
+  c.pipelined<void>(0, [code, e](Connection& c, Result<void>&) { refuseNow(c, code, e); })({});
 }
 
 Channel* BlobsRoom::channelFor(Connection& c, Code code, uint16_t id, bool write) {
-  if (!store_) {
+  auto ch = channel(c, id, write);
+  if (!store_ && !(ch && (*ch)->far)) {  // another hub's are read through its link
     refuse(c, code, makeError(Errc::unsupported, "this hub keeps no files: it has no data_dir"));
     return nullptr;
   }
-  auto ch = channel(c, id, write);
   if (!ch) {
     refuse(c, code, ch.error());
     return nullptr;
   }
+  if ((*ch)->far && farLink(**ch) == nullptr) {
+    refuse(c, code, makeError(Errc::not_found, "the link that showed " + (*ch)->name + " is gone"));
+    return nullptr;
+  }
   return *ch;
+}
+
+HubLink* BlobsRoom::farLink(const Channel& ch) const {
+  if (!ch.far) return nullptr;
+  return ch.owner != nullptr ? hub_.links.link(*ch.owner) : nullptr;
 }
 
 void BlobsRoom::admitted(Connection& c) {
@@ -230,17 +242,21 @@ void BlobsRoom::handle(Connection& c, msg::BlobCreate& m) {
   auto r = hub_.channels.create(c, m.short_name, ChannelKind::blob, "", Variant(), 0, answer);
   // Refused at once (an existing channel of another kind or user, a rule, a limit): the refusal
   // still leaves behind the answers before it.
-  if (!r) store_->barrier([answer, e = r.error()] { answer(e); });
+  if (!r) answer(r.error());
   admitted(c);
 }
 
 void BlobsRoom::handle(Connection& c, msg::BlobList& m) {
   Channel* ch = channelFor(c, Code::blob_list, m.chan_id, false);
   if (ch == nullptr) return;
-  store_->list(ch->name, m.dir,
-               later<Variant>(c, Code::blob_list, 0, [](Connection& c, Result<Variant>& r) {
-                 c.send(msg::ReplyValue{std::move(r).value()});
-               }));
+  auto done = later<Variant>(c, Code::blob_list, 0, [](Connection& c, Result<Variant>& r) {
+    c.send(msg::ReplyValue{std::move(r).value()});
+  });
+  if (HubLink* link = farLink(*ch)) {
+    link->blobList(c.id, *ch, m.dir, std::move(done));
+  } else {
+    store_->list(ch->name, m.dir, std::move(done));
+  }
   admitted(c);
 }
 
@@ -251,11 +267,15 @@ void BlobsRoom::handle(Connection& c, msg::BlobGet& m) {
   // Room for the reply's header in a frame of the hub's limit.
   const uint32_t most =
       std::min<uint32_t>({m.max_bytes, BlobStore::kMaxChunk, hub_.opt.max_frame_bytes - 64});
-  store_->get(c.id, ch->name, m.path, m.version, m.offset, most, blobDataHead(),
-              later<BlobStore::Read>(
-                  c, Code::blob_get, most, [](Connection& c, Result<BlobStore::Read>& r) {
-                    c.sendBlobData(r->version, r->total_size, std::move(r->data));
-                  }));
+  auto done = later<BlobStore::Read>(
+      c, Code::blob_get, most, [](Connection& c, Result<BlobStore::Read>& r) {
+        c.sendBlobData(r->version, r->total_size, std::move(r->data));
+      });
+  if (HubLink* link = farLink(*ch)) {
+    link->blobGet(c.id, *ch, m.path, m.version, m.offset, most, blobDataHead(), std::move(done));
+  } else {
+    store_->get(c.id, ch->name, m.path, m.version, m.offset, most, blobDataHead(), std::move(done));
+  }
   admitted(c);
 }
 

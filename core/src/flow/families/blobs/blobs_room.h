@@ -20,6 +20,7 @@ namespace skr::flow {
 
 class Channel;
 class Connection;
+class HubLink;
 class IoThread;
 
 class BlobsRoom final : public Room {
@@ -75,6 +76,9 @@ class BlobsRoom final : public Room {
   Channel* channelFor(Connection& c, Code code, uint16_t id, bool write);
   // Enough of this connection's requests in the hub: the next ones wait for answers.
   static void admitted(Connection& c);
+  // The link that shows `ch`, a far hub's blob channel (null: a channel of this hub). A far one
+  // whose link is gone is not in the table any more.
+  [[nodiscard]] HubLink* farLink(const Channel& ch) const;
   void changeFile(Connection& c, Code code, uint16_t chan_id, const std::string& path);
 
   std::unique_ptr<BlobStore> store_;

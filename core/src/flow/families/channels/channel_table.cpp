@@ -105,7 +105,8 @@ Result<void> ChannelTable::subscribe(Endpoint& e, uint16_t id) {
   }
   ch->subscribers.push_back(&e);
   e.subscribed.push_back(id);
-  if (++ch->subscriber_count == 1 && ch->owner != nullptr && ch->kind == ChannelKind::streaming) {
+  if (++ch->subscriber_count == 1 && ch->owner != nullptr &&
+      (ch->kind == ChannelKind::streaming || ch->far)) {
     ch->owner->onSubscribers(*ch, true);
   }
   if (!ch->retained.empty()) {
@@ -139,8 +140,9 @@ Result<void> ChannelTable::unsubscribe(Endpoint& e, uint16_t id) {
     return {};
   }
   std::erase(e.subscribed, id);
+  // A far blob channel's link follows its changes over there while someone here subscribes.
   if (--ch->subscriber_count == 0 && ch->owner != nullptr && ch->owner != &e &&
-      ch->kind == ChannelKind::streaming) {
+      (ch->kind == ChannelKind::streaming || ch->far)) {
     ch->owner->onSubscribers(*ch, false);
   }
   return {};

@@ -34,6 +34,9 @@ class Channel {
   // (owner nullptr), and only that user writes to it.
   Endpoint* owner = nullptr;
   std::string owner_user;
+  // A blob channel of another hub that a link (its owner) shows here: its files stay there, the
+  // link passes reads on, and nothing is written here (docs/hub-links.md, "Blob channels").
+  bool far = false;
   // May hold nullptr tombstones while a publish is being dispatched (see ChannelTable::publish).
   std::vector<Endpoint*> subscribers;
   // Subscribers whose physical path works (physical_paths.h): still subscribed, not relayed to.

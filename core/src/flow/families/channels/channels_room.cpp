@@ -34,10 +34,11 @@ Result<Channel*> ChannelsRoom::createAs(Endpoint& owner, const std::string& user
   }
   BlobsRoom& blobs = hub_.blobs;
   const bool blob = kind == ChannelKind::blob;
-  if (blob && blobs.store() == nullptr) {
+  const bool far = blob && hub_.links.link(owner) != nullptr;  // its files stay on the far hub
+  if (blob && !far && blobs.store() == nullptr) {
     return makeError(Errc::unsupported, "this hub keeps no files: it has no data_dir");
   }
-  if (blob) {
+  if (blob && !far) {
     if (Channel* again = blobs.reattach(owner, name, tag)) {
       // Answered after what the store was asked before, never from inside this call.
       if (stored) blobs.store()->barrier([stored = std::move(stored)] { stored({}); });
@@ -57,13 +58,14 @@ Result<Channel*> ChannelsRoom::createAs(Endpoint& owner, const std::string& user
   auto added = add(holder, user, short_name, kind, mime);
   if (!added) return added;
   Channel* raw = *added;
+  raw->far = far;
   const uint16_t id = raw->id;
   if (auto db = hub_.databases.createChannelDb(raw->name, user, holder ? owner.id : 0, props);
       !db) {
     (void)erase(*raw);
     return db.error();
   }
-  if (blob) blobs.made(*raw, owner.id, tag, std::move(stored));
+  if (blob && !far) blobs.made(*raw, owner.id, tag, std::move(stored));
   log::info(kLogSource, "FLOW-CHANNEL-ADDED",
             raw->name + " id " + std::to_string(id) + " (" + std::string(channelKindName(kind)) +
                 ") by " + owner.describe());
@@ -137,7 +139,7 @@ void ChannelsRoom::endpointLeft(Endpoint& e) {
   }
   for (uint16_t id : std::vector<uint16_t>(e.owned)) {
     Channel* ch = find(id);
-    if (ch != nullptr && ch->kind == ChannelKind::blob) {
+    if (ch != nullptr && ch->kind == ChannelKind::blob && !ch->far) {
       hub_.blobs.detach(e, *ch);  // a store outlives its owner's connection
     } else {
       (void)remove(e, id);

@@ -3,6 +3,7 @@
 #include "families/links/hub_link.h"
 
 #include "connection.h"
+#include "families/links/far_blobs.h"
 #include "families/links/hub_route.h"
 #include "hub.h"
 
@@ -64,6 +65,7 @@ HubLink::HubLink(Hub& hub, HubLinkOptions options) : hub_(hub), opt_(std::move(o
   sat_->startPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, true); });
   sat_->stopPublish.connect(sat_.get(), [this](uint16_t id) { farDemand(id, false); });
   sat_->serviceRequest.connect(sat_.get(), [this](const sat::Request& r) { farRequest(r); });
+  sat_->blobChanged.connect(sat_.get(), [this](const sat::BlobChange& b) { farBlobChanged(b); });
   sat_->timeSample.connect(
       sat_.get(), [this](const sat::TimeSample& t) { timeSample(t.roundTripNs(), t.offsetNs()); });
   sat_->error.connect(sat_.get(), [this](const sat::FlowError& e) {
@@ -79,7 +81,8 @@ HubLink::HubLink(Hub& hub, HubLinkOptions options) : hub_(hub), opt_(std::move(o
 }
 
 HubLink::~HubLink() {
-  sat_.reset();  // no handler of it runs any more
+  sat_.reset();    // no handler of it runs any more
+  blobs_.reset();  // nor a read of it (their answers find their connections by id)
   hub_.databases.removeOwnedDb(db_);
   hub_.removeEndpoint(*this);  // its channels go, everyone is told
 }
@@ -164,7 +167,6 @@ void HubLink::dropAll() {
 void HubLink::added(const msg::ChannelInfo& info) {
   if (!up_ || by_remote_.contains(info.id) || offered(info)) return;
   const auto kind = static_cast<ChannelKind>(info.kind);
-  if (kind == ChannelKind::blob) return;  // not carried yet
   const std::string name = linkedName(info.name, opt_.name, hub_.hub_name);
   if (name.empty()) return;
   const std::vector<std::string> route = hubRoute(info.props, opt_.name);
@@ -290,6 +292,58 @@ void HubLink::onRequest(const Channel& ch, uint64_t request, const std::string& 
                                 Variant("hub " + opt_.name + ": " + sent.error().message),
                                 ErrorCode::owner_gone);
   }
+}
+
+void HubLink::farBlobChanged(const sat::BlobChange& b) {
+  auto it = by_remote_.find(b.chan_id);
+  if (it == by_remote_.end()) return;
+  const Channel* ch = hub_.channels.find(it->second);
+  if (ch == nullptr) return;
+  ++traffic.messages_in;
+  hub_.blobs.changed(ch->id, ch->hash, BlobEvent{uint8_t(b.change), b.path, b.size, b.version});
+}
+
+Result<uint16_t> HubLink::farBlobId(const Channel& ch) const {
+  auto it = by_local_.find(ch.id);
+  if (!up_ || it == by_local_.end() || !ch.far) {
+    return makeError(Errc::not_found, "hub " + opt_.name + " shows no blob channel " + ch.name);
+  }
+  return it->second.remote_id;
+}
+
+FarBlobs& HubLink::farBlobs() {
+  if (!blobs_) {  // the link's account, as its satellite (up: its address parsed)
+    sat::ConnectOptions o = sat_->options().connection;
+    o.client_name = "hub " + hub_.hub_name + " blob reads";
+    blobs_ = std::make_unique<FarBlobs>(
+        opt_.name, std::move(o),
+        [&l = hub_.loop](std::function<void()> fn) { l.post(std::move(fn)); });
+  }
+  return *blobs_;
+}
+
+void HubLink::blobList(uint32_t reader, const Channel& ch, std::string dir,
+                       std::function<void(Result<Variant>)> done) {
+  auto far = farBlobId(ch);
+  if (!far) return done(far.error());
+  ++requests_;
+  readers_.insert(reader);
+  farBlobs().list(reader, *far, std::move(dir), std::move(done));
+}
+
+void HubLink::blobGet(uint32_t reader, const Channel& ch, std::string path, uint64_t version,
+                      uint64_t offset, uint32_t max_bytes, size_t head_room,
+                      std::function<void(Result<BlobStore::Read>)> done) {
+  auto far = farBlobId(ch);
+  if (!far) return done(far.error());
+  ++requests_;
+  readers_.insert(reader);
+  farBlobs().get(reader, *far, std::move(path), version, offset, max_bytes, head_room,
+                 std::move(done));
+}
+
+void HubLink::forgetReader(uint32_t reader) {
+  if (readers_.erase(reader) != 0 && blobs_) blobs_->forget(reader);
 }
 
 bool HubLink::reaches(std::string_view hub) const {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "endpoint.h"
+#include "families/blobs/blob_store.h"
 
 #include <skrobot/hub/flow/server.h>  // HubLinkOptions
 #include <skrobot/runtime/clock.h>
@@ -19,15 +20,18 @@
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace skr::sat {
 class Satellite;
+struct BlobChange;
 struct SyncPulse;
 }  // namespace skr::sat
 
 namespace skr::flow {
 
+class FarBlobs;
 struct Hub;
 
 class HubLink final : public Endpoint {
@@ -64,6 +68,17 @@ class HubLink final : public Endpoint {
   // account; `done` gets the value or the far hub's error (io_error when the link drops first).
   void readDatabase(const std::string& db, msg::DbReadWhat what, const std::string& key,
                     std::function<void(Result<Variant>)> done);
+
+  // --- the far hub's blob channels shown here: reads passed on (far_blobs.h) for the connection
+  // `reader` here, which the blobs room checked against its rules; the far hub checks the link's
+  // account. not_found when `ch` is not one of this link's.
+  void blobList(uint32_t reader, const Channel& ch, std::string dir,
+                std::function<void(Result<Variant>)> done);
+  void blobGet(uint32_t reader, const Channel& ch, std::string path, uint64_t version,
+               uint64_t offset, uint32_t max_bytes, size_t head_room,
+               std::function<void(Result<BlobStore::Read>)> done);
+  // The connection `reader` left: its connection to the far hub closes.
+  void forgetReader(uint32_t reader);
 
   // --- Endpoint: what happens here to the channels it owns
   [[nodiscard]] bool receivesEvents() const override { return true; }
@@ -108,11 +123,18 @@ class HubLink final : public Endpoint {
   [[nodiscard]] bool offered(const msg::ChannelInfo& info);  // made over there: keep its id
   void farDemand(uint16_t far_id, bool first);
   void farRequest(const msg::EvServiceRequest& r);
+  void farBlobChanged(const sat::BlobChange& b);
+  // The far channel behind the local one `ch`, or not_found; and the reads' worker, made on
+  // first use.
+  Result<uint16_t> farBlobId(const Channel& ch) const;
+  FarBlobs& farBlobs();
   void stopOffering();
 
   Hub& hub_;
   HubLinkOptions opt_;
   std::unique_ptr<sat::Satellite> sat_;
+  std::unique_ptr<FarBlobs> blobs_;
+  std::unordered_set<uint32_t> readers_;  // connections here that read far blobs
   bool up_ = false;
   bool limit_logged_ = false;
   std::string state_ = "connecting";

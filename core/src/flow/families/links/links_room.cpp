@@ -96,6 +96,13 @@ Result<void> LinksRoom::accept(Connection& c, const std::string& name) {
   return {};
 }
 
+HubLink* LinksRoom::link(const Endpoint& e) const {
+  for (const auto& link : links_) {
+    if (link.get() == &e) return link.get();
+  }
+  return nullptr;
+}
+
 HubLink* LinksRoom::shared(const Endpoint& c) const {
   if (c.id == 0) return nullptr;
   for (const auto& link : links_) {

@@ -33,6 +33,8 @@ class LinksRoom final : public Room {
   // The link that reaches hub `hub`: the link to it, else one that shows its channels. Null when
   // none is up.
   [[nodiscard]] HubLink* toward(std::string_view hub) const;
+  // The link that `e` is (the owner of the far channels it shows), if it is one.
+  [[nodiscard]] HubLink* link(const Endpoint& e) const;
   // The link of this hub's config that took `c` as their shared connection, if any.
   [[nodiscard]] HubLink* shared(const Endpoint& c) const;
   // Whether a linked hub's channel `name` may be shown here by a route of `hops` links: when no

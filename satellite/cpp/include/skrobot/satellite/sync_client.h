@@ -122,6 +122,18 @@ class SyncClient {
   [[nodiscard]] Result<ChannelInfo> createBlobChannel(const std::string& short_name);
   [[nodiscard]] Result<std::vector<BlobEntry>> blobList(uint16_t chan_id,
                                                         const std::string& dir = {});
+  // The same as the hub's answer: a list of maps (name, dir, size, mtime_ns, version).
+  [[nodiscard]] Result<flow::Variant> blobListValue(uint16_t chan_id, const std::string& dir = {});
+  // One BLOB_GET: at most `max_bytes` of `path` from `offset`, of `version` (0: the current one;
+  // a version that was replaced is not_found). `data` starts after `head_room` bytes left for the
+  // caller (a relay writes its own header there).
+  struct BlobPiece {
+    uint64_t version = 0, total_size = 0;
+    std::string data;
+  };
+  [[nodiscard]] Result<BlobPiece> blobRead(uint16_t chan_id, const std::string& path,
+                                           uint64_t version, uint64_t offset, uint32_t max_bytes,
+                                           size_t head_room = 0);
   // One whole version of `path` (a reader never mixes two versions: when the file is replaced
   // during a download, the download goes on from the version it started with).
   [[nodiscard]] Result<std::string> blobGet(uint16_t chan_id, const std::string& path,

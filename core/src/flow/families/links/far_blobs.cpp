@@ -1,0 +1,115 @@
+// SPDX-License-Identifier: Apache-2.0
+// A link's reads of the far hub's blob channels (see far_blobs.h).
+#include "families/links/far_blobs.h"
+
+#include <skrobot/satellite/sync_client.h>
+
+namespace skr::flow {
+
+FarBlobs::FarBlobs(std::string hub, sat::ConnectOptions options, Post post)
+    : hub_(std::move(hub)), options_(std::move(options)), post_(std::move(post)) {
+  thread_ = std::thread([this] { run(); });
+}
+
+FarBlobs::~FarBlobs() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    queue_.clear();
+  }
+  cv_.notify_one();
+  thread_.join();
+}
+
+void FarBlobs::enqueue(std::function<void()> job) {
+  {
+    std::lock_guard lock(mutex_);
+    queue_.push_back(std::move(job));
+  }
+  cv_.notify_one();
+}
+
+void FarBlobs::run() {
+  for (;;) {
+    std::function<void()> job;
+    {
+      std::unique_lock lock(mutex_);
+      cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      if (stopping_) break;
+      job = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    job();
+  }
+  clients_.clear();
+}
+
+Result<sat::SyncClient*> FarBlobs::client(uint32_t reader) {
+  for (auto it = clients_.begin(); it != clients_.end(); ++it) {
+    if (it->first != reader) continue;
+    if (!it->second->isOpen()) {  // dropped: opened again below
+      clients_.erase(it);
+      break;
+    }
+    clients_.splice(clients_.begin(), clients_, it);
+    return clients_.front().second.get();
+  }
+  auto opened = sat::SyncClient::connect(options_);
+  if (!opened) return opened.error();
+  if (clients_.size() >= kMaxReaders) clients_.pop_back();
+  clients_.emplace_front(reader, std::make_unique<sat::SyncClient>(std::move(opened).value()));
+  return clients_.front().second.get();
+}
+
+Error FarBlobs::farError(uint32_t reader, const Error& e) {
+  // A connection that failed is opened again at the reader's next request.
+  std::erase_if(clients_,
+                [reader](const auto& c) { return c.first == reader && !c.second->isOpen(); });
+  Errc code = e.code;
+  if (code == Errc::io_error || code == Errc::timeout || code == Errc::auth_failed) {
+    code = Errc::io_error;  // the way there failed, not the request
+  }
+  return makeError(code, "hub " + hub_ + ": " + e.message);
+}
+
+void FarBlobs::list(uint32_t reader, uint16_t far_id, std::string dir,
+                    std::function<void(Result<Variant>)> done) {
+  enqueue([this, reader, far_id, dir = std::move(dir), done = std::move(done)]() mutable {
+    Result<Variant> r = [&]() -> Result<Variant> {
+      auto c = client(reader);
+      if (!c) return farError(reader, c.error());
+      auto v = (*c)->blobListValue(far_id, dir);
+      if (!v) return farError(reader, v.error());
+      return v;
+    }();
+    post_([done = std::move(done), r = std::move(r)]() mutable { done(std::move(r)); });
+  });
+}
+
+void FarBlobs::get(uint32_t reader, uint16_t far_id, std::string path, uint64_t version,
+                   uint64_t offset, uint32_t max_bytes, size_t head_room,
+                   std::function<void(Result<BlobStore::Read>)> done) {
+  enqueue([=, this, path = std::move(path), done = std::move(done)]() mutable {
+    Result<BlobStore::Read> r = [&]() -> Result<BlobStore::Read> {
+      auto c = client(reader);
+      if (!c) return farError(reader, c.error());
+      auto piece = (*c)->blobRead(far_id, path, version, offset, max_bytes, head_room);
+      if (!piece) return farError(reader, piece.error());
+      BlobStore::Read read;
+      read.version = piece->version;
+      read.total_size = piece->total_size;
+      read.data = std::move(piece->data);
+      read.head = head_room;
+      return read;
+    }();
+    post_([done = std::move(done), r = std::move(r)]() mutable { done(std::move(r)); });
+  });
+}
+
+void FarBlobs::forget(uint32_t reader) {
+  enqueue([this, reader] {
+    std::erase_if(clients_, [reader](const auto& c) { return c.first == reader; });
+  });
+}
+
+}  // namespace skr::flow

@@ -7,7 +7,8 @@
 //   - a 640x360 RGB video channel at 15 fps on one hub and across one link: frames delivered per
 //     second and the latency from publish to receipt (one machine, one clock);
 //   - a sync source at 100 Hz followed on each of the three paths at once: the followers' period
-//     error and delay from the source, and the jitter one link adds.
+//     error and delay from the source, and the jitter one link adds;
+//   - a blob download (64 MiB; --quick 8 MiB) on each path: MB/s against one hub's.
 // Each hub is a FlowServer on a loop thread of its own; satellites are skr::sat::Satellite on
 // their own loop threads, the caller a SyncClient. Two cores are shared by everything.
 //
@@ -55,6 +56,7 @@ class Hub : public bench::InProcessHub {
       : InProcessHub(dir, name,
                      [&](flow::ServerOptions& so) {
                        so.hub_name = name;
+                       so.data_dir = dir / (name + "-data");
                        if (to == nullptr) return;
                        flow::HubLinkOptions link;
                        link.name = to->name_;
@@ -70,6 +72,26 @@ class Hub : public bench::InProcessHub {
 };
 
 // --- service round trips ------------------------------------------------------------------------
+
+// MB/s of downloads of `path` from the blob channel `channel` as seen on `hub` (the best of
+// `runs`).
+double download(const Hub& hub, const std::string& channel, const std::string& path, uint64_t size,
+                int runs) {
+  auto c = sat::SyncClient::connect(hub.connect("downloader"));
+  if (!c) fail("downloader: " + c.error().message);
+  auto info = c->channel(channel);
+  if (!info) fail(channel + ": " + info.error().message);
+  double best = 0;
+  for (int i = 0; i < runs; ++i) {
+    const Nanos start = monotonicNs();
+    auto got =
+        c->blobGetStream(info->id, path, [](std::string_view) -> Result<void> { return {}; });
+    if (!got || *got != size)
+      fail("download on " + channel + ": " + (got ? "short" : got.error().message));
+    best = std::max(best, double(size) / 1e6 / (double(monotonicNs() - start) / 1e9));
+  }
+  return best;
+}
 
 Spread roundTrips(const Hub& hub, const std::string& service, size_t bytes, int count) {
   auto c = sat::SyncClient::connect(hub.connect("caller"));
@@ -360,6 +382,26 @@ int main(int argc, char** argv) {
       "it adds: %.1f us\n",
       got[1].period_err_us.p99 - got[0].period_err_us.p99,
       got[1].delay_us.p50 - got[0].delay_us.p50);
+  const uint64_t blob_bytes = quick ? (8u << 20) : (64u << 20);
+  {
+    auto c = sat::SyncClient::connect(h0.connect("uploader"));
+    if (!c) fail("uploader: " + c.error().message);
+    auto ch = c->createBlobChannel("maps");
+    if (!ch) fail("blob channel: " + ch.error().message);
+    if (auto r = c->blobPut(ch->id, "map.bin", std::string(blob_bytes, 'm')); !r) {
+      fail("upload: " + r.error().message);
+    }
+  }
+  if (!waitFor([&] { return sees(on_h2, "h0/guest.maps"); })) fail("h0/guest.maps not seen on h2");
+  std::printf("\nBlob download of %llu MiB (best of 3), MB/s; ratio against one hub's\n",
+              (unsigned long long)(blob_bytes >> 20));
+  std::printf("%-10s %9s %7s\n", "path", "MB/s", "ratio");
+  double blob_base = 0;
+  for (const Path& p : paths) {
+    const double mbs = download(p.hub, p.prefix + "guest.maps", "map.bin", blob_bytes, 3);
+    if (blob_base == 0) blob_base = mbs;
+    std::printf("%-10s %9.0f %7.2f\n", p.name, mbs, mbs / blob_base);
+  }
   std::printf(
       "\nTargets: one link's round trip p50 within 2x one hub's (worst %.2fx: %s); "
       "throughput through one link at least 0.5x one hub's (worst %.2fx: %s)\n",

@@ -719,6 +719,49 @@ TEST_F(HubLinks, AFarHubsBlobChannelIsReadThroughTheLinkAndWrittenOnlyThere) {
   EXPECT_EQ(*notes, "hall");
 }
 
+TEST_F(HubLinks, AFarBlobReadCutWithTheLinkResumesFromItsOffset) {
+  auto owner = b->satellite("mapper");
+  ASSERT_TRUE(makeMaps(*owner));
+  owner.reset();
+  ConnectOptions o;
+  o.address = Address::parse(a->hub->address()).value();
+  auto c = SyncClient::connect(o);
+  ASSERT_TRUE(c) << c.error().message;
+  const auto farId = [&]() -> uint16_t {
+    auto info = c->channel("bee/guest.maps");
+    return info ? info->id : 0;
+  };
+  ASSERT_TRUE(eventually([&] { return farId() != 0; })) << logs();
+  const std::string path = "floor/map.pgm";
+  constexpr uint32_t kPiece = 1u << 20;
+  auto first = c->blobRead(farId(), path, 0, 0, kPiece);
+  ASSERT_TRUE(first) << first.error().message;
+  const uint64_t version = first->version;
+  std::string got = first->data;
+
+  // The link is cut (hub B stops): the read fails with an error, and the connection here stays.
+  const uint16_t before = farId();
+  ASSERT_EQ(b->hub->stop(), 0);
+  ASSERT_TRUE(eventually([&] { return farId() == 0; })) << logs();
+  auto cut = c->blobRead(before, path, version, got.size(), kPiece);
+  ASSERT_FALSE(cut);
+  EXPECT_TRUE(cut.error().code == Errc::not_found || cut.error().code == Errc::io_error)
+      << cut.error().message;
+  EXPECT_TRUE(c->ping());
+
+  // B is back with its files: the read goes on from its offset, of the same version.
+  ASSERT_TRUE(b->hub->start()) << b->hub->log();
+  ASSERT_TRUE(eventually([&] { return farId() != 0; }, 20000)) << logs();
+  while (got.size() < first->total_size) {
+    auto piece = c->blobRead(farId(), path, version, got.size(), kPiece);
+    ASSERT_TRUE(piece) << piece.error().message << logs();
+    ASSERT_EQ(piece->version, version);
+    ASSERT_FALSE(piece->data.empty());
+    got += piece->data;
+  }
+  EXPECT_TRUE(got == mapFile());
+}
+
 TEST(HubLinkBlobs, AFarBlobChannelIsReadOnlyByThoseWhoseRulesHereAllowItsName) {
   NamedHub b("bee");
   ASSERT_TRUE(b.start()) << b.hub->log();

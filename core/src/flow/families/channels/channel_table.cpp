@@ -26,7 +26,11 @@ Result<Channel*> ChannelTable::existing(uint16_t id) {
 
 Result<Channel*> ChannelTable::owned(const Endpoint& e, uint16_t id, const char* action) {
   auto ch = existing(id);
-  if (ch && ((*ch)->kind == ChannelKind::blob ? (*ch)->owner_user != e.user : (*ch)->owner != &e)) {
+  // A blob channel is its user's, whichever connection made it; a far one, its link's.
+  const auto owns = [&e](const Channel& c) {
+    return c.kind == ChannelKind::blob && !c.far ? c.owner_user == e.user : c.owner == &e;
+  };
+  if (ch && !owns(**ch)) {
     return makeError(Errc::permission_denied,
                      std::string("only the owner ") + action + " " + (*ch)->name);
   }

@@ -53,8 +53,12 @@ class FarBlobs {
 
  private:
   void enqueue(std::function<void()> job);
-  // The reader's connection, opened if needed (worker thread).
-  Result<sat::SyncClient*> client(uint32_t reader);
+  // The reader's connection, opened if needed (`*opened` says so) (worker thread).
+  Result<sat::SyncClient*> client(uint32_t reader, bool* opened);
+  // `fn` on the reader's connection; one that broke since its last use (the far hub restarted)
+  // is opened again once (worker thread).
+  template <class T>
+  Result<T> call(uint32_t reader, const std::function<Result<T>(sat::SyncClient&)>& fn);
   // An error of the far hub, or of the way there, as this hub's readers see it (worker thread).
   Error farError(uint32_t reader, const Error& e);
   void run();

@@ -304,8 +304,9 @@ void HubLink::farBlobChanged(const sat::BlobChange& b) {
 }
 
 Result<uint16_t> HubLink::farBlobId(const Channel& ch) const {
+  if (!up_) return makeError(Errc::io_error, "the link to hub " + opt_.name + " is down");
   auto it = by_local_.find(ch.id);
-  if (!up_ || it == by_local_.end() || !ch.far) {
+  if (it == by_local_.end() || !ch.far) {
     return makeError(Errc::not_found, "hub " + opt_.name + " shows no blob channel " + ch.name);
   }
   return it->second.remote_id;

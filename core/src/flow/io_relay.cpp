@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "io_relay.h"
 
+#include "families/blobs/blob_store.h"  // kBulkNice
 #include "uv_handle.h"
 
 #include <skrobot/runtime/flow/protocol.h>
@@ -17,10 +18,6 @@
 #include <vector>
 
 namespace skr::flow {
-
-namespace {
-constexpr int kNice = 10;  // the I/O threads' niceness, as the blob store's
-}  // namespace
 
 // What the two ends of a moved connection share: the socket's transport and its frame splitting
 // (I/O thread), and the inbox the main loop drains (under the mutex).
@@ -162,7 +159,7 @@ IoThread::IoThread(std::string name) : thread_(LoopOptions{.name = std::move(nam
   thread_.start();
   // Below the main loop, as the store's thread: under load the flows' loop is scheduled first.
   thread_.loop().post(
-      [] { (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kNice); });
+      [] { (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kBulkNice); });
 }
 
 IoThread::~IoThread() {

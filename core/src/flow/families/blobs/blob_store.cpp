@@ -6,6 +6,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -24,7 +25,6 @@ using blob::fsError;
 namespace {
 
 constexpr const char* kLog = "blob";
-constexpr int kNice = 10;                      // the store thread's niceness, above the loop's
 constexpr size_t kWriteBackFrom = 256 * 1024;  // BlobIo::write starts write-back from this size
 
 uint64_t versionOf(const struct stat& st) {
@@ -352,7 +352,8 @@ void BlobStore::enqueue(std::function<void()> job) {
 void BlobStore::run() {
   // Bulk file work yields the CPU to the hub's loop (the relay, service calls, pings): on a
   // machine of two cores a transfer competes with it otherwise. Best effort.
-  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kNice);
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kBulkNice);
+  (void)::pthread_setname_np(::pthread_self(), "blob-store");
   for (;;) {
     std::function<void()> job;
     {

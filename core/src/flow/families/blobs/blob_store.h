@@ -55,6 +55,10 @@ struct BlobEvent {
   uint64_t version = 0;
 };
 
+// The niceness of the threads that move files' bytes (the store's, the I/O threads'): above the
+// hub's loop, so that under load the flows are scheduled first. Best effort.
+inline constexpr int kBulkNice = 10;
+
 class BlobStore {
  public:
   using Post = std::function<void(std::function<void()>)>;

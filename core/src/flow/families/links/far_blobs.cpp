@@ -4,6 +4,8 @@
 
 #include <skrobot/satellite/sync_client.h>
 
+#include <pthread.h>
+
 namespace skr::flow {
 
 FarBlobs::FarBlobs(std::string hub, sat::ConnectOptions options, Post post)
@@ -30,6 +32,7 @@ void FarBlobs::enqueue(std::function<void()> job) {
 }
 
 void FarBlobs::run() {
+  (void)::pthread_setname_np(::pthread_self(), ("far-" + hub_).substr(0, 15).c_str());
   for (;;) {
     std::function<void()> job;
     {

@@ -33,9 +33,13 @@ ModuleFlow::ModuleFlow(flow::FlowServer& server, const std::string& module_name,
         s.fn(s.user, chan_id, payload.data(), payload.size());
         continue;
       }
-      deliver(s.handle, [s, chan_id, data = std::string(payload)] {
-        s.fn(s.user, chan_id, data.data(), data.size());
-      });
+      if (!roomFor(chan_id, payload.size())) continue;
+      deliver(
+          s.handle,
+          [s, chan_id, data = std::string(payload)] {
+            s.fn(s.user, chan_id, data.data(), data.size());
+          },
+          payload.size());
     }
   };
   h.on_subscribers = [this](uint16_t chan_id, bool first) {
@@ -148,10 +152,29 @@ void ModuleFlow::deliverOn(Loop& module_loop) {
   live_->add(0);
 }
 
-void ModuleFlow::deliver(skr_sub_handle key, std::function<void()> call) {
-  deliver_loop_->post([live = live_, key, call = std::move(call)] {
+void ModuleFlow::deliver(skr_sub_handle key, std::function<void()> call, size_t bytes) {
+  live_->behind += bytes;
+  deliver_loop_->post([live = live_, key, call = std::move(call), bytes] {
     if (live->has(key)) call();
+    live->behind -= bytes;
   });
+}
+
+bool ModuleFlow::roomFor(uint16_t chan_id, size_t bytes) {
+  if (live_->behind.load() + bytes <= kMaxBehindBytes) return true;
+  client_->dropped(chan_id);
+  ++behind_dropped_;
+  const Nanos now = monotonicNs();
+  if (now - behind_logged_ >= kNsPerSec) {
+    log::warn("mod." + name_, "MODULE-BEHIND",
+              "its thread is " + std::to_string(live_->behind.load() >> 20) +
+                  " MiB of messages behind: " + std::to_string(behind_dropped_) +
+                  " dropped since the last line (at most " + std::to_string(kMaxBehindBytes >> 20) +
+                  " MiB wait for a module's thread)");
+    behind_logged_ = now;
+    behind_dropped_ = 0;
+  }
+  return false;
 }
 
 skr_status ModuleFlow::fail(const std::string& what, const Error& error) const {
@@ -361,9 +384,11 @@ skr_status ModuleFlow::subscribe(const char* name, skr_data_fn fn, void* user,
         fn(user, chan_id, payload->data(), payload->size());
         continue;
       }
-      deliver(handle, [fn, user, chan_id, payload] {
-        fn(user, chan_id, payload->data(), payload->size());
-      });
+      if (!roomFor(chan_id, payload->size())) continue;
+      deliver(
+          handle,
+          [fn, user, chan_id, payload] { fn(user, chan_id, payload->data(), payload->size()); },
+          payload->size());
     }
   }
   return SKR_OK;

@@ -12,8 +12,10 @@
 
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/plugin.h>
+#include <skrobot/runtime/clock.h>
 #include <skrobot/runtime/loop.h>
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -33,6 +35,10 @@ namespace skr {
 
 class ModuleFlow {
  public:
+  // What a module on its own thread may be behind by: data posted to its thread and not run yet.
+  // Beyond it, messages for it are dropped (as a slow satellite's queue drops them).
+  static constexpr size_t kMaxBehindBytes = size_t{64} << 20;
+
   ModuleFlow(flow::FlowServer& server, const std::string& module_name,
              std::shared_ptr<const flow::AccessRules> access);
   ~ModuleFlow();
@@ -94,6 +100,7 @@ class ModuleFlow {
   struct Live {
     std::mutex mutex;
     std::unordered_set<skr_sub_handle> keys;  // 0: this flow
+    std::atomic<size_t> behind{0};            // data posted to the module's thread, not run yet
     [[nodiscard]] bool has(skr_sub_handle key) {
       std::lock_guard lock(mutex);
       return keys.count(key) != 0;
@@ -107,8 +114,13 @@ class ModuleFlow {
       keys.erase(key);
     }
   };
-  // Runs `call` on the module's thread if `key` is still live then (deliverOn).
-  void deliver(skr_sub_handle key, std::function<void()> call);
+  // Runs `call` on the module's thread if `key` is still live then (deliverOn). `bytes`: the data
+  // it carries, counted in Live::behind until it ran.
+  void deliver(skr_sub_handle key, std::function<void()> call, size_t bytes = 0);
+  // Whether a message of `chan_id` of `bytes` may still be posted to the module's thread
+  // (kMaxBehindBytes); else it is dropped, counted (LocalClient::dropped) and logged
+  // (MODULE-BEHIND, at most once a second, with the count since the line before).
+  bool roomFor(uint16_t chan_id, size_t bytes);
   void live(skr_sub_handle key) {
     if (live_) live_->add(key);
   }
@@ -182,6 +194,8 @@ class ModuleFlow {
   skr_sub_handle next_handle_ = 1;
   Loop* deliver_loop_ = nullptr;  // deliverOn's
   std::shared_ptr<Live> live_;
+  uint64_t behind_dropped_ = 0;  // messages dropped since the last MODULE-BEHIND line
+  Nanos behind_logged_ = 0;      // when that line was written
 };
 
 }  // namespace skr

@@ -3,6 +3,7 @@
  *   test_channel_echo.out  streaming: republishes what arrives on guest.in (a subscription made
  *                          before guest.in exists), produced only while someone listens
  *   test_channel_echo.svc  service: answers every request with {"echo": <value>, "cmd": <cmd>}
+ *                          ("sleep" <ms> first holds its thread that long)
  * and writes the number of echoed messages to its own database, key "echoed". It watches
  * channels and logs ECHO-SEEN <name> when guest.late is added. Run on its own thread (ABI 1.10),
  * every call comes from that thread; a callback on any other thread than init's logs
@@ -13,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 typedef struct echo {
   const skr_host_api* host;
@@ -55,6 +57,7 @@ static void on_request(void* user, uint16_t chan_id, uint64_t request, const cha
   char* answer = (char*)malloc(n);
   (void)requester;
   check_thread(e, "on_request");
+  if (strcmp(command, "sleep") == 0) usleep((useconds_t)atoi(value_json) * 1000u);
   snprintf(answer, n, "{\"cmd\":\"%s\",\"echo\":%s}", command, value_json);
   e->host->service_respond(e->ctx, chan_id, request, answer);
   free(answer);

@@ -190,6 +190,11 @@ Result<void> LocalClient::publish(uint16_t chan_id, std::string_view payload) {
   return impl_->server.channels.publish(*impl_, chan_id, payload);
 }
 
+void LocalClient::dropped(uint16_t chan_id) {
+  ++impl_->traffic.dropped;
+  if (const Channel* ch = impl_->server.channels.find(chan_id)) ++ch->dropped;
+}
+
 Result<void> LocalClient::publishRetained(uint16_t chan_id, std::string_view key,
                                           std::string_view payload) {
   impl_->server.loop.debugRequireLoopThread("LocalClient::publishRetained");

@@ -266,6 +266,10 @@ class LocalClient {
   // Publishes on an owned streaming channel: in-process subscribers get a view of `payload`
   // (no copy), satellites a frame each.
   [[nodiscard]] Result<void> publish(uint16_t chan_id, std::string_view payload);
+  // A message of `chan_id` delivered here that its receiver could not take (a module's thread
+  // too far behind): counted as a subscriber's queue drop is, for the flow and the channel
+  // (hub.stats `dropped`).
+  void dropped(uint16_t chan_id);
   // publish(), keeping `payload` as the message retained under `key`, and forgetting one (or
   // all: nullopt): ChannelTable::publishRetained, clearRetained (plugin ABI 1.9).
   [[nodiscard]] Result<void> publishRetained(uint16_t chan_id, std::string_view key,

@@ -6,8 +6,6 @@
 
 #include <dirent.h>
 #include <fcntl.h>
-#include <pthread.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -250,12 +248,7 @@ BlobStore::BlobStore(std::filesystem::path root, BlobQuota per_channel, Post pos
       state_(std::make_unique<State>()) {}
 
 BlobStore::~BlobStore() {
-  {
-    const std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  cv_.notify_all();
-  if (thread_.joinable()) thread_.join();
+  worker_.stop();  // what was asked runs first, while the state is still here
 }
 
 Result<std::vector<BlobStore::Stored>> BlobStore::open() {
@@ -337,34 +330,10 @@ Result<std::vector<BlobStore::Stored>> BlobStore::open() {
       if (s.uploads.count(id) == 0) ::unlinkat(ch.uploads.get(), p.c_str(), 0);
     }
   }
-  thread_ = std::thread([this] { run(); });
-  return stored;
-}
-
-void BlobStore::enqueue(std::function<void()> job) {
-  {
-    const std::lock_guard lock(mutex_);
-    queue_.push_back(std::move(job));
-  }
-  cv_.notify_one();
-}
-
-void BlobStore::run() {
   // Bulk file work yields the CPU to the hub's loop (the relay, service calls, pings): on a
-  // machine of two cores a transfer competes with it otherwise. Best effort.
-  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kBulkNice);
-  (void)::pthread_setname_np(::pthread_self(), "blob-store");
-  for (;;) {
-    std::function<void()> job;
-    {
-      std::unique_lock lock(mutex_);
-      cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // stopping, and everything asked has run
-      job = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    job();
-  }
+  // machine of two cores a transfer competes with it otherwise (kBulkNice).
+  worker_.start();
+  return stored;
 }
 
 template <class T>

@@ -12,21 +12,18 @@
 #include <skrobot/runtime/flow/bytes.h>
 
 #include "families/blobs/blob_path.h"
+#include "work_thread.h"
 
 #include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/result.h>
 
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <string_view>
-#include <thread>
 #include <vector>
 
 namespace skr::flow {
@@ -131,7 +128,7 @@ class BlobStore {
   struct Reading;
   struct State;
 
-  void enqueue(std::function<void()> job);
+  void enqueue(std::function<void()> job) { worker_.post(std::move(job)); }
   // Runs `op` on the parent directory of `path` in `channel`'s tree (made when `make`), then
   // makes the directory's change durable (worker thread).
   using PathOp = std::function<Result<BlobEvent>(Channel&, int parent, const std::string& name)>;
@@ -141,7 +138,6 @@ class BlobStore {
   Result<Reading> openReading(const std::string& channel, const std::string& path);
   template <class T>
   void answer(Done<T> done, Result<T> r);
-  void run();
 
   std::filesystem::path root_;
   BlobQuota per_channel_;
@@ -149,11 +145,7 @@ class BlobStore {
   std::shared_ptr<BlobIo> io_;
   std::unique_ptr<State> state_;  // the worker's only
 
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> queue_;
-  bool stopping_ = false;
-  std::thread thread_;
+  WorkThread worker_{"blob-store", kBulkNice, WorkThread::AtStop::finish};
 };
 
 }  // namespace skr::flow

@@ -4,47 +4,19 @@
 
 #include <skrobot/satellite/sync_client.h>
 
-#include <pthread.h>
-
 namespace skr::flow {
 
 FarBlobs::FarBlobs(std::string hub, sat::ConnectOptions options, Post post)
-    : hub_(std::move(hub)), options_(std::move(options)), post_(std::move(post)) {
-  thread_ = std::thread([this] { run(); });
+    : hub_(std::move(hub)),
+      options_(std::move(options)),
+      post_(std::move(post)),
+      worker_("far-" + hub_, 0, WorkThread::AtStop::drop) {
+  worker_.start();
 }
 
 FarBlobs::~FarBlobs() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-    queue_.clear();
-  }
-  cv_.notify_one();
-  thread_.join();
-}
-
-void FarBlobs::enqueue(std::function<void()> job) {
-  {
-    std::lock_guard lock(mutex_);
-    queue_.push_back(std::move(job));
-  }
-  cv_.notify_one();
-}
-
-void FarBlobs::run() {
-  (void)::pthread_setname_np(::pthread_self(), ("far-" + hub_).substr(0, 15).c_str());
-  for (;;) {
-    std::function<void()> job;
-    {
-      std::unique_lock lock(mutex_);
-      cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-      if (stopping_) break;
-      job = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    job();
-  }
-  clients_.clear();
+  worker_.stop();
+  clients_.clear();  // the worker's, now that it stopped
 }
 
 Result<sat::SyncClient*> FarBlobs::client(uint32_t reader, bool* opened) {
@@ -93,7 +65,7 @@ Error FarBlobs::farError(uint32_t reader, const Error& e) {
 
 void FarBlobs::list(uint32_t reader, uint16_t far_id, std::string dir,
                     std::function<void(Result<Variant>)> done) {
-  enqueue([this, reader, far_id, dir = std::move(dir), done = std::move(done)]() mutable {
+  worker_.post([this, reader, far_id, dir = std::move(dir), done = std::move(done)]() mutable {
     Result<Variant> r =
         call<Variant>(reader, [&](sat::SyncClient& c) { return c.blobListValue(far_id, dir); });
     post_([done = std::move(done), r = std::move(r)]() mutable { done(std::move(r)); });
@@ -103,7 +75,7 @@ void FarBlobs::list(uint32_t reader, uint16_t far_id, std::string dir,
 void FarBlobs::get(uint32_t reader, uint16_t far_id, std::string path, uint64_t version,
                    uint64_t offset, uint32_t max_bytes, size_t head_room,
                    std::function<void(Result<BlobStore::Read>)> done) {
-  enqueue([=, this, path = std::move(path), done = std::move(done)]() mutable {
+  worker_.post([=, this, path = std::move(path), done = std::move(done)]() mutable {
     Result<BlobStore::Read> r =
         call<BlobStore::Read>(reader, [&](sat::SyncClient& c) -> Result<BlobStore::Read> {
           auto piece = c.blobRead(far_id, path, version, offset, max_bytes, head_room);
@@ -120,7 +92,7 @@ void FarBlobs::get(uint32_t reader, uint16_t far_id, std::string path, uint64_t 
 }
 
 void FarBlobs::forget(uint32_t reader) {
-  enqueue([this, reader] {
+  worker_.post([this, reader] {
     std::erase_if(clients_, [reader](const auto& c) { return c.first == reader; });
   });
 }

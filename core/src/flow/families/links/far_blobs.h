@@ -8,20 +8,17 @@
 #pragma once
 
 #include "families/blobs/blob_store.h"
+#include "work_thread.h"
 
 #include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/result.h>
 #include <skrobot/satellite/address.h>
 
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <list>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <utility>
 
 namespace skr::sat {
@@ -52,7 +49,6 @@ class FarBlobs {
   static constexpr size_t kMaxReaders = 16;
 
  private:
-  void enqueue(std::function<void()> job);
   // The reader's connection, opened if needed (`*opened` says so) (worker thread).
   Result<sat::SyncClient*> client(uint32_t reader, bool* opened);
   // `fn` on the reader's connection; one that broke since its last use (the far hub restarted)
@@ -61,7 +57,6 @@ class FarBlobs {
   Result<T> call(uint32_t reader, const std::function<Result<T>(sat::SyncClient&)>& fn);
   // An error of the far hub, or of the way there, as this hub's readers see it (worker thread).
   Error farError(uint32_t reader, const Error& e);
-  void run();
 
   std::string hub_;
   sat::ConnectOptions options_;
@@ -69,11 +64,7 @@ class FarBlobs {
   // The worker's only: connections by reader, the most recently used first.
   std::list<std::pair<uint32_t, std::unique_ptr<sat::SyncClient>>> clients_;
 
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> queue_;
-  bool stopping_ = false;
-  std::thread thread_;
+  WorkThread worker_;  // last: stops (dropping what did not start) before the rest goes
 };
 
 }  // namespace skr::flow

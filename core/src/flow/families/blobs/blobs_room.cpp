@@ -77,7 +77,9 @@ void BlobsRoom::stop() noexcept {
 
 void BlobsRoom::endpointLeft(Endpoint& e) {
   if (store_) store_->forget(e.id);
-  for (const auto& link : hub_.links.all()) link->forgetReader(e.id);
+  for (const auto& link : hub_.links.all()) {
+    if (link) link->forgetReader(e.id);  // null while that link is being destroyed
+  }
 }
 
 void BlobsRoom::channelRemoved(const Channel& ch) {

@@ -144,30 +144,10 @@ case "$MODE" in
     echo "install them with: sudo apt install ./build/packages/skrobot_*.deb [./build/packages/skrobot-dev_*.deb]"
     ;;
   run)
+    # The hub starts its satellites itself (config/default.json's "satellites": the speech
+    # recogniser; docs/robot.md) and stops them with it.
     step "starting the hub: build/release/bin/skrobot --config config/default.json (Ctrl-C stops it)"
-    ASR="$ROOT/build/release/bin/skrobot-asr"
-    if [ ! -x "$ASR" ]; then
-      exec "$ROOT/build/release/bin/skrobot" --config "$ROOT/config/default.json" "$@"
-    fi
-    # The hub, and a speech recogniser for the agent (docs/asr.md) once the hub listens.
-    "$ROOT/build/release/bin/skrobot" --config "$ROOT/config/default.json" "$@" &
-    hub=$!
-    asr=""
-    trap 'kill $hub $asr 2>/dev/null; wait' INT TERM
-    for _ in $(seq 100); do
-      [ -S /tmp/Robot ] && break
-      kill -0 "$hub" 2>/dev/null || break
-      sleep 0.2
-    done
-    if kill -0 "$hub" 2>/dev/null; then
-      step "starting a speech recogniser: build/release/bin/skrobot-asr --name asr (speak to the page)"
-      "$ASR" --name asr &
-      asr=$!
-    fi
-    wait "$hub"
-    status=$?
-    if [ -n "$asr" ]; then kill "$asr" 2>/dev/null; wait "$asr" 2>/dev/null; fi
-    exit "$status"
+    exec "$ROOT/build/release/bin/skrobot" --config "$ROOT/config/default.json" "$@"
     ;;
   test)
     # docs/testing.md: what each step runs, and the heavy tests the asan build leaves out.

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
-// skrobot: the hub executable. Loads the config, starts the modules on the main loop, runs until
-// SIGINT/SIGTERM, then stops the modules in reverse order and exits 0.
+// skrobot: the hub executable. Loads the config, starts the modules on the main loop, then the
+// supervised satellites, runs until SIGINT/SIGTERM, then stops the satellites and the modules in
+// reverse order and exits 0.
 #include <skrobot/hub/flow/hub_stats.h>
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/hub/hub_config.h>
 #include <skrobot/hub/install_layout.h>
 #include <skrobot/hub/module_host.h>
+#include <skrobot/hub/supervisor.h>
 #include <skrobot/plugin.h>
 #include <skrobot/runtime/log.h>
 #include <skrobot/runtime/loop.h>
@@ -14,6 +16,7 @@
 
 #include "user_command.h"
 
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -42,9 +45,10 @@ constexpr const char* kUsage =
     "                     config/default.json of the current directory)\n"
     "  --check-config     validate the config, that every enabled module can be loaded and\n"
     "                     that its config object fits the keys the module declares (without\n"
-    "                     starting it), and that the TLS files can be loaded; exit 0 when all\n"
-    "                     is well, 1 when a module would fail (MODULE-CONFIG lines name each\n"
-    "                     bad key), 3 on hub config errors (a bad TLS file included)\n"
+    "                     starting it), that the TLS files can be loaded and that each\n"
+    "                     satellite's program is there; exit 0 when all is well, 1 when a\n"
+    "                     module would fail (MODULE-CONFIG lines name each bad key) or a\n"
+    "                     program is missing, 3 on hub config errors (a bad TLS file included)\n"
     "  --list-modules     list the module files found on the search path\n"
     "  --describe-module NAME\n"
     "                     print the config keys a module declares (NAME or a path to a .so)\n"
@@ -54,7 +58,8 @@ constexpr const char* kUsage =
     "\n"
     "  user ...           manage the accounts of the users file (docs/accounts.md)\n"
     "\n"
-    "SIGINT or SIGTERM stops the modules in reverse order and exits 0.\n"
+    "SIGINT or SIGTERM stops the satellites (docs/robot.md), then the modules, in reverse\n"
+    "order, and exits 0; a second signal stops at once.\n"
     "Config reference: docs/config.md; modules: docs/plugins.md.\n";
 
 struct Options {
@@ -85,6 +90,22 @@ int checkConfig(const skr::HubConfig& cfg) {
     std::printf("  %-20s needed  %s: %s\n", "environment", n.path.c_str(), n.reason.c_str());
   }
   int problems = 0;
+  int missing = 0;  // satellites' programs
+  // Each enabled satellite's program, found as the supervisor will (docs/robot.md).
+  for (const skr::SatelliteEntry& sat : cfg.satellites) {
+    if (!sat.enabled) {
+      std::printf("  %-20s disabled (satellite)\n", sat.name.c_str());
+      continue;
+    }
+    auto program = skr::findProgram(sat.command[0], skr::satellitePath(sat, skr::executableDir()));
+    if (program) {
+      std::printf("  %-20s ok  satellite %s\n", sat.name.c_str(), program->c_str());
+    } else {
+      ++missing;
+      std::printf("  %-20s SATELLITE %s: %s\n", sat.name.c_str(), sat.json_path.c_str(),
+                  program.error().message.c_str());
+    }
+  }
   const auto search = skr::moduleSearchPath(cfg.module_paths);
   size_t enabled = 0;
   for (const skr::ModuleCheck& c : skr::checkModules(cfg.modules, search)) {
@@ -113,8 +134,12 @@ int checkConfig(const skr::HubConfig& cfg) {
     std::printf("config %s is valid, but %d of %zu enabled modules would fail to load\n",
                 cfg.config_file.c_str(), problems, enabled);
     for (const auto& dir : search) std::printf("  searched: %s\n", dir.c_str());
-    return kExitCheckFailed;
   }
+  if (missing > 0) {
+    std::printf("config %s is valid, but %d satellites' programs are missing\n",
+                cfg.config_file.c_str(), missing);
+  }
+  if (problems > 0 || missing > 0) return kExitCheckFailed;
   std::printf("config %s is valid; %zu enabled modules can be loaded\n", cfg.config_file.c_str(),
               enabled);
   return kExitOk;
@@ -215,12 +240,38 @@ skr::flow::ServerOptions serverOptions(const skr::HubConfig& cfg) {
   return o;
 }
 
+// Where the supervisor finds skrobot-reaper, what it puts first in the satellites' PATH, and
+// the secrets of the hub's environment that they do not get.
+skr::SupervisorOptions supervisorOptions(const skr::HubConfig& cfg) {
+  skr::SupervisorOptions o;
+  o.bin_dir = skr::executableDir();
+  o.reaper = o.bin_dir / "skrobot-reaper";
+  for (const Json::Value& l : cfg.raw["links"]) {
+    if (l.isObject() && l["password_env"].isString()) {
+      o.hidden_env.push_back(l["password_env"].asString());
+    }
+  }
+  return o;
+}
+
 int runHub(const skr::HubConfig& cfg) {
   skr::Loop loop(cfg.loop);
-  const auto signals = skr::stopOnSignals(loop, [](int signum) {
+  // SIGINT or SIGTERM: the satellites stop (each within its grace period), then the loop; a
+  // second signal stops the loop at once (the reapers then kill what is left).
+  skr::Supervisor* supervisor = nullptr;
+  bool stopping = false;
+  const auto on_signal = [&](int signum) {
     skr::log::info("hub", "HUB-SIGNAL",
                    std::string("received ") + strsignal(signum) + ", stopping");
-  });
+    if (stopping || supervisor == nullptr) return loop.stop();
+    stopping = true;
+    supervisor->stopAll([&loop] { loop.stop(); });
+  };
+  skr::SignalWatch signals[2];
+  for (int i = 0; i < 2; ++i) {
+    auto w = skr::SignalWatch::open(loop, i == 0 ? SIGINT : SIGTERM, on_signal);
+    if (w) signals[i] = std::move(w).value();
+  }
   skr::log::info("hub", "HUB-START",
                  "skrobot " SKROBOT_VERSION " app " + cfg.app_name + ", config " +
                      cfg.config_file.string() + ", loop " +
@@ -253,7 +304,16 @@ int runHub(const skr::HubConfig& cfg) {
     skr::log::info("hub", "HUB-READY",
                    std::to_string(host.modules().size()) + " modules running, " +
                        std::to_string(host.failures().size()) + " failed");
-    loop.run();
+    {
+      // The satellites start once the modules run, and stop before them.
+      skr::Supervisor satellites(loop, server, cfg.satellites, supervisorOptions(cfg));
+      stats->addSection("satellites", [&satellites] { return satellites.list(); });
+      supervisor = &satellites;
+      satellites.startAll();
+      loop.run();
+      supervisor = nullptr;
+      stats->removeSection("satellites");
+    }
     host.shutdown();
   }
   pulser.reset();

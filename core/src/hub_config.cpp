@@ -3,6 +3,7 @@
 
 #include "http_head.h"
 #include "link_config.h"
+#include "satellite_config.h"
 
 #include <arpa/inet.h>
 #include <json/reader.h>
@@ -482,6 +483,7 @@ Result<HubConfig> build(const Json::Value& doc, const std::string& origin, const
     if (d["sync"].isObject()) cfg.sync_hub_source = d["sync"]["hub_source"].asString();
     readServer(d, base_dir, cfg);
     readLinks(d, base_dir, purpose, cfg, problems);
+    readSatellites(d, base_dir, cfg, problems);
     if (cfg.server.tls && !cfg.server.tcp_enabled && !cfg.server.web) {
       problems.push_back({"$.server.tls",
                           "TLS is served on the TCP listener and the web port: set \"tcp\": true "
@@ -536,6 +538,7 @@ s::Schema hubSchema() {
       s::optional("links", linksSchema(), Json::arrayValue),
       s::optional("link_hops", linkHopsSchema(), 8),
       s::optional("replicas", replicasSchema(), Json::arrayValue),
+      s::optional("satellites", satellitesSchema(), Json::arrayValue),
   });
 }
 

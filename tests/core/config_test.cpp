@@ -368,6 +368,50 @@ TEST(ConfigTest, DuplicateEnabledModuleNames) {
   EXPECT_TRUE(parse(R"({"modules": [{"name": "cam"}, {"name": "cam", "enabled": false}]})").ok());
 }
 
+TEST(ConfigTest, SatellitesAreReadWithTheirDefaultsAndPathsResolved) {
+  Result<HubConfig> r = parse(R"({"satellites": [
+      {"name": "asr", "command": ["skrobot-asr", "--name", "asr"], "account": "guest",
+       "ready": "login"},
+      {"name": "drive", "command": ["bin/drive.py"], "after": ["asr", "base.odom"],
+       "env": {"A": "1"}, "cwd": "run", "restart": "always", "stop_signal": "SIGINT",
+       "limits": {"memory_mib": 64, "open_files": 100, "nice": 3}}]})");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->satellites.size(), 2u);
+  const SatelliteEntry& asr = r->satellites[0];
+  EXPECT_EQ(asr.command[0], "skrobot-asr");  // looked up in PATH at start
+  EXPECT_EQ(asr.cwd, "/etc/robot");
+  EXPECT_EQ(asr.restart, SatelliteEntry::Restart::on_failure);
+  EXPECT_EQ(asr.ready, "login");
+  EXPECT_EQ(asr.stop_signal, 15);
+  EXPECT_EQ(asr.grace_ms, 5000u);
+  EXPECT_EQ(asr.backoff_ms, 1000u);
+  EXPECT_EQ(asr.max_restarts_per_minute, 5u);
+  const SatelliteEntry& drive = r->satellites[1];
+  EXPECT_EQ(drive.command[0], "/etc/robot/bin/drive.py");
+  EXPECT_EQ(drive.cwd, "/etc/robot/run");
+  EXPECT_EQ(drive.ready, "started");
+  EXPECT_EQ(drive.stop_signal, 2);
+  EXPECT_EQ(drive.memory_bytes, 64u << 20);
+  EXPECT_EQ(drive.open_files, 100u);
+  EXPECT_EQ(drive.nice, 3);
+  EXPECT_EQ(drive.after, (std::vector<std::string>{"asr", "base.odom"}));
+  EXPECT_EQ(drive.env, (std::vector<std::pair<std::string, std::string>>{{"A", "1"}}));
+}
+
+TEST(ConfigTest, BadSatellitesAreReportedWithTheirPaths) {
+  const std::string msg = errorOf(R"({"satellites": [
+      {"name": "a", "command": ["x"], "after": ["b"]},
+      {"name": "b", "command": ["x"], "after": ["a", "nobody"], "ready": "soon"},
+      {"name": "a", "command": [], "env": {"ROBOT_PASSWORD": "x"}, "restart": "sometimes"},
+      {"name": "c d", "command": ["x"], "after": ["c d"]}]})");
+  EXPECT_HAS(msg, "$.satellites[0].after: a circle: a -> b -> a (each waits for the other)");
+  EXPECT_HAS(msg, "$.satellites[1].after: no satellite nobody (a channel's name has a '.')");
+  EXPECT_HAS(msg, R"($.satellites[1].ready: expected "started", "login" or a channel's name)");
+  EXPECT_HAS(msg, "$.satellites[2].command: must have at least 1 items");
+  EXPECT_HAS(msg, "$.satellites[2].restart:");
+  EXPECT_HAS(msg, "$.satellites[3].name: may contain only letters, digits, '_' and '-'");
+}
+
 TEST(ConfigTest, AppNameMustNameASocketFile) {
   EXPECT_EQ(errorOf(R"({"app_name": ""})"), "test.json: $.app_name: must not be empty");
   EXPECT_HAS(errorOf(R"({"app_name": "my robot"})"),

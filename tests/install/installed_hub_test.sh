@@ -64,6 +64,12 @@ grep -q "config $tmp/prefix/share/skrobot/default.json" "$tmp/hub.log" ||
 for m in websocket-ui video-mono face-detect motion qrcode fft-audio speech nao-bridge; do
   grep "MODULE-STARTED" "$tmp/hub.log" | grep -q "$m" || fail "module $m did not start"
 done
+# Its satellite (config/default.json's "satellites"): the installed skrobot-asr, found in the hub's
+# own bin directory, under the installed skrobot-reaper, logged in with the password made for it.
+if [[ -x $bin/skrobot-asr ]]; then
+  for _ in $(seq 300); do grep -q "SAT-READY asr" "$tmp/hub.log" && break; sleep 0.1; done
+  grep -q "SAT-READY asr is up (logged in)" "$tmp/hub.log" || { cat "$tmp/hub.log"; fail "the asr satellite is not up"; }
+fi
 page=$(curl -sf http://127.0.0.1:8080/) || fail "no page on :8080"
 grep -qi "<html" <<<"$page" || fail "the page is not HTML"
 curl -sf -o "$tmp/three.js" http://127.0.0.1:8080/vendor/three.module.js || fail "no three.js"

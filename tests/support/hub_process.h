@@ -193,6 +193,17 @@ class HubProcess {
     return child_ && child_->waitOutput(text, timeout_ms);
   }
   [[nodiscard]] std::string log() const { return logs_ + (child_ ? child_->output() : ""); }
+  // Sends `sig` to the hub (SIGKILL: a crash) and waits for it to end; its exit code.
+  int kill(int sig) {
+    if (!child_) return 0;
+    child_->signal(sig);
+    const int code = child_->wait();
+    logs_ += child_->output();
+    child_.reset();
+    return code;
+  }
+  [[nodiscard]] pid_t pid() const { return child_ ? child_->pid() : -1; }
+  [[nodiscard]] const fs::path& dir() const { return dir_; }
   ~HubProcess() { stop(); }
   HubProcess(const HubProcess&) = delete;
   HubProcess& operator=(const HubProcess&) = delete;

@@ -68,7 +68,7 @@ export async function waitFor(what, fn, timeoutMs = 30000, everyMs = 100) {
 // build's module directory) and `users` ([{name, password, role, rules: {action: [patterns]}}],
 // added to its users file first).
 // Resolves once it logged HUB-READY.
-export async function startHub(modules, { users = [], server = {} } = {}) {
+export async function startHub(modules, { users = [], server = {}, satellites = [] } = {}) {
   const dir = mkdtempSync(path.join(os.tmpdir(), 'skrobot-web-'));
   const socket = path.join(dir, 'hub.sock');
   const usersFile = path.join(dir, 'data', 'users.json');
@@ -90,7 +90,7 @@ export async function startHub(modules, { users = [], server = {} } = {}) {
   const config = {
     app_name: 'WebTest', server: { unix_path: socket, ...server }, data_dir: path.join(dir, 'data'),
     accounts: { dev_account: { user: 'guest', password: 'password' } },
-    module_paths: [env.moduleDir], modules,
+    module_paths: [env.moduleDir], modules, satellites,
   };
   writeFileSync(path.join(dir, 'config.json'), JSON.stringify(config, null, 2));
   const proc = spawn(env.skrobot, ['--config', path.join(dir, 'config.json')], { stdio: ['ignore', 'pipe', 'pipe'] });

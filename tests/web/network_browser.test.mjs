@@ -29,6 +29,9 @@ test('the network page shows the hub live, previews channels and edits as its ac
       web: { port, flows: true, page_account: 'netadmin' },
       udp: { address: '127.0.0.1', port: 0 }, serial: [{ device: tty, baud: 115200 }],
     },
+    // A supervised satellite (docs/robot.md), and one whose program is missing.
+    satellites: [{ name: 'sleeper', command: ['sleep', '1000'] },
+      { name: 'ghost', command: ['no-such-program-here'] }],
   });
   t.after(() => hub.stop());
   const traffic = spawn('python3', [path.join(env.source, 'tests/web/network_traffic.py'),
@@ -60,6 +63,12 @@ test('the network page shows the hub live, previews channels and edits as its ac
   assert.equal(lines.length, 2, lines.join(' | '));
   assert.ok(lines[0].startsWith(`${tty}away0 B0 B00`), lines[0]);
   assert.match(lines[1], /^udp :\d+0 open/, lines[1]);
+  // The satellites the hub supervises.
+  await waitFor('the satellites table', async () => !(await page.locator('#satellites').isHidden()), 30000);
+  const sats = await page.locator('#satellites tbody tr').allTextContents();
+  assert.equal(sats.length, 2, sats.join(' | '));
+  assert.match(sats[0], /^sleeperrunning\d+\d+ s0-$/, sats[0]);
+  assert.match(sats[1], /^ghostfailed--0no program no-such-program-here/, sats[1]);
 
   // Every channel and both flows of the satellite, with publish and subscribe edges.
   const want = CHANNELS + 5;

@@ -5,6 +5,7 @@
 #include <skrobot/satellite.h>
 
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -58,6 +59,12 @@ std::optional<skr::sat::SyncClient> connectSync(const Cli& cli, int& code);
 // serial: and udp: addresses carry the flow only (connectSync refuses them): commands that run on
 // a flow skip their synchronous checks there.
 [[nodiscard]] bool flowOnly(const Cli& cli);
+// Runs one ADMIN command (administrators only; docs/security.md) and prints its answer: JSON
+// with --json, else `print`. Exit 7 for an account that is not an administrator.
+int runAdmin(const Cli& cli, const std::string& command, const skr::flow::Variant& args,
+             const std::function<void(const skr::flow::Variant&)>& print);
+// A member of a map as text: a string as it is, anything else as JSON, "" when absent.
+std::string field(const skr::flow::Variant& map, const char* key);
 // Parses a number argument; false (after printing a usage error) when it is not one.
 bool parseNumber(const std::string& text, const char* what, double& out);
 // Parses a JSON value argument; nullopt (after a usage error that says how to quote) when it is
@@ -68,27 +75,32 @@ std::optional<skr::flow::Variant> jsonArg(const std::string& text, const char* w
 int usageError(const Cli& cli);
 
 // The handlers of the commands' rows (commands.cpp), by file. Each returns an exit code.
-int cmdLs(const Cli& cli);      // cmd_ls.cpp
-int cmdEcho(const Cli& cli);    // cmd_echo_poll.cpp
-int cmdPoll(const Cli& cli);    // cmd_echo_poll.cpp
-int cmdPub(const Cli& cli);     // cmd_pub.cpp
-int cmdCall(const Cli& cli);    // cmd_call.cpp
-int cmdDb(const Cli& cli);      // cmd_db.cpp
-int cmdFlows(const Cli& cli);   // cmd_admin.cpp
-int cmdKick(const Cli& cli);    // cmd_admin.cpp
-int cmdChan(const Cli& cli);    // cmd_admin.cpp
-int cmdUsers(const Cli& cli);   // cmd_admin.cpp
-int cmdUser(const Cli& cli);    // cmd_admin.cpp
-int cmdBlob(const Cli& cli);    // cmd_blob.cpp
-int cmdSync(const Cli& cli);    // cmd_sync.cpp
-int cmdLink(const Cli& cli);    // cmd_link.cpp
-int cmdTop(const Cli& cli);     // cmd_top.cpp
-int cmdHz(const Cli& cli);      // cmd_hz_bw.cpp
-int cmdBw(const Cli& cli);      // cmd_hz_bw.cpp
-int cmdInfo(const Cli& cli);    // cmd_info.cpp
-int cmdGraph(const Cli& cli);   // cmd_graph.cpp
-int cmdRecord(const Cli& cli);  // cmd_record.cpp
-int cmdPlay(const Cli& cli);    // cmd_play.cpp
-int cmdMcap(const Cli& cli);    // cmd_mcap.cpp
+int cmdLs(const Cli& cli);       // cmd_ls.cpp
+int cmdEcho(const Cli& cli);     // cmd_echo_poll.cpp
+int cmdPoll(const Cli& cli);     // cmd_echo_poll.cpp
+int cmdPub(const Cli& cli);      // cmd_pub.cpp
+int cmdCall(const Cli& cli);     // cmd_call.cpp
+int cmdDb(const Cli& cli);       // cmd_db.cpp
+int cmdFlows(const Cli& cli);    // cmd_admin.cpp
+int cmdKick(const Cli& cli);     // cmd_admin.cpp
+int cmdChan(const Cli& cli);     // cmd_admin.cpp
+int cmdUsers(const Cli& cli);    // cmd_admin.cpp
+int cmdUser(const Cli& cli);     // cmd_admin.cpp
+int cmdPs(const Cli& cli);       // cmd_sat.cpp
+int cmdStart(const Cli& cli);    // cmd_sat.cpp
+int cmdStop(const Cli& cli);     // cmd_sat.cpp
+int cmdRestart(const Cli& cli);  // cmd_sat.cpp
+int cmdLogs(const Cli& cli);     // cmd_sat.cpp
+int cmdBlob(const Cli& cli);     // cmd_blob.cpp
+int cmdSync(const Cli& cli);     // cmd_sync.cpp
+int cmdLink(const Cli& cli);     // cmd_link.cpp
+int cmdTop(const Cli& cli);      // cmd_top.cpp
+int cmdHz(const Cli& cli);       // cmd_hz_bw.cpp
+int cmdBw(const Cli& cli);       // cmd_hz_bw.cpp
+int cmdInfo(const Cli& cli);     // cmd_info.cpp
+int cmdGraph(const Cli& cli);    // cmd_graph.cpp
+int cmdRecord(const Cli& cli);   // cmd_record.cpp
+int cmdPlay(const Cli& cli);     // cmd_play.cpp
+int cmdMcap(const Cli& cli);     // cmd_mcap.cpp
 
 }  // namespace flowctl

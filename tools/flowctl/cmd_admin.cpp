@@ -10,35 +10,6 @@ namespace flowctl {
 
 using skr::flow::Variant;
 
-namespace {
-
-// Runs one ADMIN command and prints its answer (JSON with --json, else `print`).
-template <class Print>
-int runAdmin(const Cli& cli, const std::string& command, const Variant& args, Print&& print) {
-  int code = kOk;
-  auto sync = connectSync(cli, code);
-  if (!sync) return code;
-  auto answer = sync->admin(command, args);
-  if (!answer) return fail(exitFor(answer.error()), command + ": " + answer.error().message);
-  if (cli.json) {
-    std::printf("%s\n", skr::flow::variantToJsonText(*answer).c_str());
-  } else {
-    print(*answer);
-  }
-  return kOk;
-}
-
-std::string text(const Variant& map, const char* key) {
-  const auto* m = map.asMap();
-  if (m == nullptr) return {};
-  auto it = m->find(key);
-  if (it == m->end()) return {};
-  if (const auto* s = it->second.asString()) return *s;
-  return skr::flow::variantToJsonText(it->second);
-}
-
-}  // namespace
-
 int cmdFlows(const Cli& cli) {
   Args args(cli.args);
   if (!args.rest().empty() || !args.error().empty()) return usageError(cli);
@@ -47,10 +18,10 @@ int cmdFlows(const Cli& cli) {
                 "SOURCE", "CHANS", "SUBS");
     if (const auto* list = answer.asList()) {
       for (const auto& f : *list) {
-        std::printf("%-6s %-16s %-16s %-10s %-22s %5s %5s\n", text(f, "id").c_str(),
-                    text(f, "user").c_str(), text(f, "client").c_str(),
-                    text(f, "transport").c_str(), text(f, "source").c_str(),
-                    text(f, "channels").c_str(), text(f, "subscribed").c_str());
+        std::printf("%-6s %-16s %-16s %-10s %-22s %5s %5s\n", field(f, "id").c_str(),
+                    field(f, "user").c_str(), field(f, "client").c_str(),
+                    field(f, "transport").c_str(), field(f, "source").c_str(),
+                    field(f, "channels").c_str(), field(f, "subscribed").c_str());
       }
     }
   });
@@ -64,7 +35,7 @@ int cmdKick(const Cli& cli) {
   if (!parseNumber(rest[0], "ID", id)) return kUsage;
   return runAdmin(
       cli, "kick", Variant::Map{{"connection", static_cast<int64_t>(id)}},
-      [](const Variant& a) { std::printf("disconnected %s\n", text(a, "kicked").c_str()); });
+      [](const Variant& a) { std::printf("disconnected %s\n", field(a, "kicked").c_str()); });
 }
 
 int cmdChan(const Cli& cli) {
@@ -72,7 +43,7 @@ int cmdChan(const Cli& cli) {
   const auto rest = args.rest();
   if (rest.size() != 2 || rest[0] != "rm" || !args.error().empty()) return usageError(cli);
   return runAdmin(cli, "chan_rm", Variant::Map{{"name", rest[1]}}, [](const Variant& a) {
-    std::printf("removed %s\n", text(a, "removed").c_str());
+    std::printf("removed %s\n", field(a, "removed").c_str());
   });
 }
 
@@ -82,8 +53,8 @@ int cmdUsers(const Cli& cli) {
   return runAdmin(cli, "users", Variant(), [](const Variant& answer) {
     if (const auto* list = answer.asList()) {
       for (const auto& u : *list) {
-        std::printf("%-20s %-6s %s\n", text(u, "user").c_str(), text(u, "role").c_str(),
-                    text(u, "created").c_str());
+        std::printf("%-20s %-6s %s\n", field(u, "user").c_str(), field(u, "role").c_str(),
+                    field(u, "created").c_str());
       }
     }
   });
@@ -118,7 +89,7 @@ int cmdUser(const Cli& cli) {
     return usageError(cli);
   }
   return runAdmin(cli, "user_" + op, Variant(std::move(a)), [&](const Variant& answer) {
-    std::printf("%s %s\n", text(answer, "done").c_str(), text(answer, "user").c_str());
+    std::printf("%s %s\n", field(answer, "done").c_str(), field(answer, "user").c_str());
   });
 }
 

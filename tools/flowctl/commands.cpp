@@ -276,6 +276,50 @@ constexpr Command kCommands[] = {
         {"$base64": ...} for binary).
 )",
      .run = cmdMcap},
+    {.name = "ps",
+     .synopsis = "ps",
+     .summary = "the hub's supervised satellites: state, pid, uptime, restarts,\n"
+                "last exit, flows, channels (administrators)",
+     .usage = "usage: flowctl ps",
+     .help = R"(usage: flowctl ps
+  The satellites the hub supervises ("satellites" in its config, docs/robot.md; administrators
+  only): state (waiting, with what it waits for; starting; running; stopping; backoff, until its
+  next start; stopped; failed), pid, uptime, restarts, how its last run ended, the flows it
+  logged in with and their channels. --json prints the whole answer.
+)",
+     .run = cmdPs},
+    {.name = "start",
+     .synopsis = "start|stop|restart NAME",
+     .summary = "start, stop or restart a supervised satellite (administrators)",
+     .usage = "usage: flowctl start NAME",
+     .help = R"(usage: flowctl start NAME
+  Starts a supervised satellite that is stopped or failed (its restart count and delay start
+  afresh), once what its "after" names is up. docs/robot.md.
+)",
+     .run = cmdStart},
+    {.name = "stop",
+     .usage = "usage: flowctl stop NAME",
+     .help = R"(usage: flowctl stop NAME
+  Stops a supervised satellite: its stop signal, then SIGKILL to it and everything it started
+  after its grace period. It is not restarted until flowctl start. docs/robot.md.
+)",
+     .run = cmdStop},
+    {.name = "restart",
+     .usage = "usage: flowctl restart NAME",
+     .help = R"(usage: flowctl restart NAME
+  Stops a supervised satellite as flowctl stop does, then starts it again. docs/robot.md.
+)",
+     .run = cmdRestart},
+    {.name = "logs",
+     .synopsis = "logs NAME [-f]",
+     .summary = "a supervised satellite's last lines of output (administrators)",
+     .usage = "usage: flowctl logs NAME [-f] [--lines N]",
+     .help = R"(usage: flowctl logs NAME [-f] [--lines N]
+  Prints the last N lines (100; the hub keeps up to 2000) that a supervised satellite wrote to its
+  standard output and error (the latter marked "! "), then, with -f, each new one as it comes
+  until interrupted. The hub's log has them too, at most log_lines_per_second a second.
+)",
+     .run = cmdLogs},
     {.name = "users",
      .synopsis = "users",
      .summary = "the accounts of the users file (administrators)",

@@ -119,4 +119,28 @@ std::optional<skr::flow::Variant> jsonArg(const std::string& text, const char* w
   return std::nullopt;
 }
 
+int runAdmin(const Cli& cli, const std::string& command, const skr::flow::Variant& args,
+             const std::function<void(const skr::flow::Variant&)>& print) {
+  int code = kOk;
+  auto sync = connectSync(cli, code);
+  if (!sync) return code;
+  auto answer = sync->admin(command, args);
+  if (!answer) return fail(exitFor(answer.error()), command + ": " + answer.error().message);
+  if (cli.json) {
+    std::printf("%s\n", skr::flow::variantToJsonText(*answer).c_str());
+  } else {
+    print(*answer);
+  }
+  return kOk;
+}
+
+std::string field(const skr::flow::Variant& map, const char* key) {
+  const auto* m = map.asMap();
+  if (m == nullptr) return {};
+  auto it = m->find(key);
+  if (it == m->end()) return {};
+  if (const auto* s = it->second.asString()) return *s;
+  return skr::flow::variantToJsonText(it->second);
+}
+
 }  // namespace flowctl

@@ -99,6 +99,7 @@ function render() {
   graph.update(g);
   renderTable(stats);
   renderSerial(stats);
+  renderSatellites(stats);
   renderDetails();
   const channels = [...g.nodes.values()].filter((n) => n.type === 'channel').length;
   const flows = g.nodes.size - channels;
@@ -146,6 +147,23 @@ function renderSerial(stats) {
     if (r.dropped > 0) tr.className = 'drop';
     tr.append(text('td', r.port), text('td', r.state), text('td', formatBytes(r.in)),
       text('td', formatBytes(r.out)), text('td', String(r.dropped)), text('td', String(r.sessions)));
+    return tr;
+  }));
+}
+
+// The config's satellites (docs/robot.md): hub.stats's "satellites", the list of flowctl ps.
+function renderSatellites(stats) {
+  const sats = stats.satellites || [];
+  $('satellites').hidden = sats.length === 0;
+  $('satellites').tBodies[0].replaceChildren(...sats.map((s) => {
+    const tr = document.createElement('tr');
+    tr.dataset.satellite = s.name;
+    if (s.state === 'failed' || s.state === 'backoff') tr.className = 'drop';
+    const state = s.state === 'waiting' && s.waiting_for.length > 0
+      ? `waiting for ${s.waiting_for.join(', ')}` : s.state;
+    tr.append(text('td', s.name), text('td', state), text('td', s.pid ? String(s.pid) : '-'),
+      text('td', s.pid ? `${Math.floor(s.uptime_s)} s` : '-'), text('td', String(s.restarts)),
+      text('td', s.last_exit || '-'));
     return tr;
   }));
 }

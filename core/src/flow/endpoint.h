@@ -42,6 +42,8 @@ class Endpoint {
   std::string current_db;
   // A connection from another hub that said HUB_LINK_HELLO: that hub's name (hub links).
   std::string linked_hub;
+  // A supervised satellite that logged in with the password made for its run: its name.
+  std::string satellite;
   // What it may do (flow/access.h): a connection's is its user's, set at login; the development
   // account's and a module's are the defaults (every rule "**", no administrator role).
   std::shared_ptr<const AccessRules> access = AccessRules::defaults();

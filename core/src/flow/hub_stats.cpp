@@ -324,7 +324,16 @@ Variant HubStats::current() const {
                            {"late_wakeups", l.late_wakeups},
                            {"late_skipped_ticks", l.late_skipped_ticks},
                            {"load_warnings", l.load_warnings}});
+  for (const auto& [key, read] : sections_) out.asMap()->emplace(key, read());
   return out;
+}
+
+void HubStats::addSection(const std::string& key, std::function<Variant()> read) {
+  sections_[key] = std::move(read);
+}
+
+void HubStats::removeSection(const std::string& key) noexcept {
+  sections_.erase(key);
 }
 
 // Every second the rate windows move on, whoever reads them; the snapshot and its JSON only

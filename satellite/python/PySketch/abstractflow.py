@@ -294,8 +294,10 @@ class AbstractFlow(object):
     """Credentials, the client name, the LOGIN frame and frame splitting."""
 
     def __init__(self):
-        self._userName = "guest"
-        self._passwd = "password"
+        # $ROBOT_USER and $ROBOT_PASSWORD (a hub's supervised satellite gets its account's
+        # there, docs/robot.md), else the development account; setLogin() overrides them.
+        self._userName = os.environ.get("ROBOT_USER") or "guest"
+        self._passwd = os.environ.get("ROBOT_PASSWORD") or "password"
         self._appName = None
         self._nodeName = None
         self._address = None

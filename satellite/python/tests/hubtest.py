@@ -75,12 +75,13 @@ class Hub(object):
     """A hub on /tmp/<unique app name>, with guest/password and optionally the echo module."""
 
     def __init__(self, name, echo_module=False, hub_name=None, links=(), modules=(), server=None,
-                 project_modules=()):
+                 project_modules=(), satellites=()):
         """hub_name and links (other Hub objects, linked with guest/password): hub links;
         modules: names of more test modules (<name>.so in SKROBOT_TEST_MODULE_DIR) to load;
         project_modules: entries of the config's "modules" list, as given ({"name": "face-detect",
         "config": {...}}: the project's modules, found beside the hub binary);
-        server: keys of the config's "server" object."""
+        server: keys of the config's "server" object; satellites: entries of its "satellites"
+        list (processes the hub supervises, docs/robot.md)."""
         self.dir = tempfile.mkdtemp(prefix="pysat-")
         self.app = "pysat-%s-%d-%d" % (name, os.getpid(), next(_counter))
         self.address = "local:/tmp/" + self.app
@@ -98,6 +99,8 @@ class Hub(object):
             cfg.setdefault("modules", []).append({"path": os.path.join(moduleDir(), m + ".so")})
         for m in project_modules:
             cfg.setdefault("modules", []).append(dict(m))
+        if satellites:
+            cfg["satellites"] = [dict(s) for s in satellites]
         if hub_name:
             cfg["hub_name"] = hub_name
             self.hub_name = hub_name

@@ -37,6 +37,34 @@ struct ModuleEntry {
   std::string json_path;  // where it stands in the config, e.g. "$.modules[2]"
 };
 
+// One entry of "satellites" (docs/robot.md): a process the hub starts, watches and restarts.
+struct SatelliteEntry {
+  enum class Restart { always, on_failure, never };
+  std::string name;                  // [A-Za-z0-9_-]: its log source "sat.<name>"
+  std::vector<std::string> command;  // program and arguments; a program with a '/' is resolved
+                                     // against the config's directory, else looked up in PATH
+  std::vector<std::pair<std::string, std::string>> env;  // added to the hub's environment
+  std::filesystem::path cwd;  // resolved; default: the config file's directory
+  std::string account;  // logs in as it (empty: as its own name, with the default rules), with
+                        // a password made for each run
+  Restart restart = Restart::on_failure;
+  uint32_t backoff_ms = 1000;  // the first restart's delay, doubled at each failure
+  uint32_t max_backoff_ms = 30000;
+  uint32_t max_restarts_per_minute = 5;  // beyond it: failed, until started again
+  std::vector<std::string> after;        // satellites that must be up, or channels ("u.c") that
+                                         // must exist, before it starts
+  std::string ready;                     // "started", "login" or a channel name
+  uint32_t ready_timeout_ms = 30000;     // warned about once when readiness takes longer
+  int stop_signal = 15;                  // SIGTERM
+  uint32_t grace_ms = 5000;              // after the stop signal, SIGKILL
+  uint64_t memory_bytes = 0;             // RLIMIT_DATA; 0: none
+  uint32_t open_files = 0;               // RLIMIT_NOFILE; 0: the hub's
+  int nice = 0;                          // added to the hub's niceness
+  uint32_t log_lines_per_second = 100;   // into the hub's log; the rest counted, not logged
+  bool enabled = true;
+  std::string json_path;  // "$.satellites[N]"
+};
+
 // The FlowNetwork server, its databases and accounts ("server", "data_dir", "accounts").
 struct ServerConfig {
   bool unix_enabled = true;
@@ -84,6 +112,7 @@ struct HubConfig {
   std::vector<flow::HubLinkOptions> links;
   uint32_t link_hops = 8;  // a far channel that went through more links is not shown
   std::vector<flow::ReplicaOptions> replicas;  // "replicas": [{"from", "as"}]
+  std::vector<SatelliteEntry> satellites;      // "satellites" (docs/robot.md)
   std::string sync_hub_source;  // "sync.hub_source": the hub pulses hub.<name> on its fast tick
   std::filesystem::path config_file;  // absolute path of the file loaded
   Json::Value raw;  // the whole document, with hubSchema()'s defaults filled in, for later sections

@@ -139,6 +139,8 @@ struct LoginResult {
   // the password. Do not send it to the client: telling unknown names from wrong passwords
   // there would reveal which names exist.
   std::string reason;
+  // A supervised satellite's name when it logged in with the password made for its run.
+  std::string satellite{};
 };
 
 // Verifies logins for the hub's server without blocking its loop.
@@ -194,6 +196,16 @@ class Authenticator {
   // A copy of the users file as last loaded.
   [[nodiscard]] UsersFile snapshot() const;
 
+  // A password for one run of a supervised satellite (docs/robot.md): random, accepted for
+  // `user` on any transport until removed, and never written anywhere but the satellite's
+  // environment. `user` is an account (users file or development account; else
+  // Errc::not_found) or, with `own_name`, the satellite's own name, which must be no account
+  // (Errc::already_exists): it then has the default rules, as a module without an account.
+  [[nodiscard]] Result<std::string> addSatellitePassword(const std::string& user,
+                                                         const std::string& satellite,
+                                                         bool own_name);
+  void removeSatellitePassword(const std::string& user, const std::string& password);
+
   // True when the users file (as last loaded) has `user`.
   [[nodiscard]] bool hasUser(std::string_view user) const;
   // The UDP key of `user` in the users file as last loaded; nullopt when none. Never blocks on
@@ -238,6 +250,8 @@ class Authenticator {
 
   [[nodiscard]] Digest credentialDigest(std::string_view user, std::string_view password) const;
   [[nodiscard]] Digest passwordDigest(std::string_view password) const;
+  // The supervised satellite whose password this is (compared in constant time), if any.
+  [[nodiscard]] std::optional<std::string> satelliteOf(const Digest& credential) const;
   // The answer if the cache knows (user, password) with the user's current hash.
   [[nodiscard]] bool cacheHit(const Digest& key, std::string_view user) const;
   void remember(const Digest& key, std::string_view user, std::string hash);
@@ -250,7 +264,9 @@ class Authenticator {
   std::array<unsigned char, 32> key_{};  // BLAKE2b key, random per process
   std::optional<DevDigest> dev_;
 
-  mutable std::mutex users_mutex_;  // guards users_, cache_, cache_seq_
+  mutable std::mutex users_mutex_;  // guards users_, cache_, cache_seq_, satellites_
+  // Supervised satellites' passwords: the digest of (user, password) -> the satellite's name.
+  std::map<Digest, std::string> satellites_;
   UsersFile users_;
   std::map<Digest, CacheEntry> cache_;
   uint64_t cache_seq_ = 0;

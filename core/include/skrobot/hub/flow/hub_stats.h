@@ -13,6 +13,8 @@
 #include <skrobot/runtime/loop.h>
 
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -116,7 +118,8 @@ struct HubSnapshot {
 //        replayed, lost, reordered, too_large, send_failed, overrun, sessions, timeouts}
 //   web (when server.web is set): {port, requests, files, not_found, upgrades, tokens,
 //        refused_host, refused_origin, refused}
-// (HubStats adds "loop", the main loop's figures.)
+// (HubStats adds "loop", the main loop's figures, and the sections of addSection: "satellites",
+// the supervisor's list, skrobot/hub/supervisor.h.)
 [[nodiscard]] Variant statsOf(const HubSnapshot& snapshot, const std::string& hub_name);
 
 class HubStats {
@@ -133,6 +136,10 @@ class HubStats {
   // The statistics now: totals as they stand, rates as of the last one-second tick (the same
   // for every reader until the next), and the loop's figures.
   [[nodiscard]] Variant current() const;
+  // A section another part of the hub adds to the statistics under `key` (the supervisor's
+  // "satellites"), read at each publication. Remove it before that part goes.
+  void addSection(const std::string& key, std::function<Variant()> read);
+  void removeSection(const std::string& key) noexcept;
 
  private:
   void everySecond();
@@ -143,6 +150,7 @@ class HubStats {
   uint16_t stats_chan_ = 0, inspect_chan_ = 0;
   bool watched_ = false;  // hub.stats has a subscriber
   TickId tick_{};
+  std::map<std::string, std::function<Variant()>> sections_;
 };
 
 }  // namespace skr::flow

@@ -230,6 +230,29 @@ class FlowServer {
   // The role, rules and limits of an account of the users file; null when there is none.
   [[nodiscard]] std::shared_ptr<const AccessRules> accountAccess(const std::string& account) const;
 
+  // --- what the hub's supervisor of satellites asks (docs/robot.md; supervised.cpp)
+  // A password for one run of the supervised satellite `name`, accepted for `account` (empty:
+  // the satellite's own name, with the default rules) until removed
+  // (Authenticator::addSatellitePassword). Removed with the user it logs in as.
+  [[nodiscard]] Result<std::string> addSatellitePassword(const std::string& account,
+                                                         const std::string& name);
+  void removeSatellitePassword(const std::string& user, const std::string& password);
+  // Called on the loop thread each time a satellite logs in with its run's password.
+  void onSatelliteLogin(std::function<void(const std::string& name, uint32_t connection)> fn);
+  [[nodiscard]] bool hasChannel(const std::string& name) const;
+  // The connections logged in with satellite `name`'s passwords now, with their channels.
+  struct SatelliteFlow {
+    uint32_t id = 0;
+    std::string user, client;
+    std::vector<std::string> channels;
+  };
+  [[nodiscard]] std::vector<SatelliteFlow> flowsOfSatellite(const std::string& name) const;
+  // An ADMIN command answered by another part of the hub (administrators only, as every ADMIN
+  // command; logged FLOW-ADMIN). Remove it before that part goes.
+  using AdminCommand = std::function<Result<Variant>(const Variant& args)>;
+  void addAdminCommand(const std::string& name, AdminCommand run);
+  void removeAdminCommand(const std::string& name) noexcept;
+
   struct Impl;
 
  private:

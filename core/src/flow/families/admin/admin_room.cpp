@@ -212,10 +212,12 @@ Result<Variant> AdminRoom::command(Connection& by, const std::string& command,
     if (auto r = hub_.databases.remove(by, *name); !r) return r.error();
     return Variant(Variant::Map{{"removed", *name}});
   }
+  if (auto it = more.find(command); it != more.end()) return it->second(args);
+  std::string known =
+      "flows, kick, chan_rm, db_rm, users, user_add, user_del, user_passwd, user_role, user_rule";
+  for (const auto& [name, run] : more) known += ", " + name;
   return makeError(Errc::invalid_argument,
-                   "ADMIN: unknown command \"" + command +
-                       "\" (flows, kick, chan_rm, db_rm, users, user_add, user_del, "
-                       "user_passwd, user_role, user_rule)");
+                   "ADMIN: unknown command \"" + command + "\" (" + known + ")");
 }
 
 }  // namespace skr::flow

@@ -9,6 +9,8 @@
 
 #include <skrobot/runtime/flow/messages.h>
 
+#include <functional>
+#include <map>
 #include <string>
 
 namespace skr::flow {
@@ -21,6 +23,9 @@ class AdminRoom final : public Room {
 
   // Its rows (catalogue.h, family admin): handle(Connection&, msg::X&) for each.
   SKR_FLOW_ROOM_HANDLERS(admin)
+
+  // Commands of the hub's other parts (FlowServer::addAdminCommand): the supervisor's sat_*.
+  std::map<std::string, std::function<Result<Variant>(const Variant& args)>> more;
 
  private:
   // flows, kick, chan_rm, db_rm: answered at once.

@@ -117,6 +117,10 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
     answer(std::move(done), {false, "password empty or longer than 1024 bytes"});
     return;
   }
+  if (auto satellite = satelliteOf(credentialDigest(user, password))) {
+    answer(std::move(done), {true, "supervised satellite " + *satellite, *satellite});
+    return;
+  }
   if (dev_ && user == dev_->user) {
     const bool real = [&] {
       std::lock_guard lock(users_mutex_);
@@ -160,6 +164,44 @@ void Authenticator::verify(std::string user, std::string password, Transport tra
   queue_.push_back(Job{std::move(user), std::move(password), std::move(done), {}});
   lock.unlock();
   queue_cv_.notify_one();
+}
+
+Result<std::string> Authenticator::addSatellitePassword(const std::string& user,
+                                                        const std::string& satellite,
+                                                        bool own_name) {
+  const bool known = (dev_ && dev_->user == user) || hasUser(user);
+  if (own_name && known) {
+    return makeError(
+        Errc::already_exists,
+        "its name " + user + " is an account: say which account it logs in as (\"account\")");
+  }
+  if (!own_name && !known) {
+    return makeError(Errc::not_found, "no account " + user + " (users file or dev_account)");
+  }
+  unsigned char raw[32];
+  randombytes_buf(raw, sizeof raw);
+  char hex[sizeof raw * 2 + 1];
+  sodium_bin2hex(hex, sizeof hex, raw, sizeof raw);
+  sodium_memzero(raw, sizeof raw);
+  std::string password(hex);
+  sodium_memzero(hex, sizeof hex);
+  std::lock_guard lock(users_mutex_);
+  satellites_[credentialDigest(user, password)] = satellite;
+  return password;
+}
+
+void Authenticator::removeSatellitePassword(const std::string& user, const std::string& password) {
+  std::lock_guard lock(users_mutex_);
+  satellites_.erase(credentialDigest(user, password));
+}
+
+std::optional<std::string> Authenticator::satelliteOf(const Digest& credential) const {
+  std::lock_guard lock(users_mutex_);
+  if (satellites_.empty()) return std::nullopt;
+  for (const auto& [digest, name] : satellites_) {
+    if (sodium_memcmp(digest.data(), credential.data(), digest.size()) == 0) return name;
+  }
+  return std::nullopt;
 }
 
 void Authenticator::changeUsers(Change change, std::function<void(Result<void>)> done) {

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// LOGIN, LOGIN_TOKEN, GO_ASYNC and PING: a connection becomes a logged-in synchronous connection, then a flow.
+// LOGIN, LOGIN_TOKEN, GO_ASYNC and PING: a connection becomes a logged-in synchronous connection,
+// then a flow.
 #include "families/session/session_room.h"
 
 #include "connection.h"
@@ -201,11 +202,15 @@ void SessionRoom::finishLogin(Connection& c, const std::string& user, uint16_t m
     c.closeAfterFlush("connection limit");
     return;
   }
+  c.satellite = r.satellite;
   c.loggedIn(minor);
   hub_.loggedIn(c);
   c.send(
       msg::LoginOk{kProtocolMajor, kProtocolMinor, c.id, hub_.opt.app_name, c.user, c.current_db});
-  log::info(kLogSource, "FLOW-LOGIN", c.describe() + " logged in");
+  log::info(kLogSource, "FLOW-LOGIN",
+            c.describe() + " logged in" +
+                (c.satellite.empty() ? "" : " (supervised satellite " + c.satellite + ")"));
+  if (!c.satellite.empty() && on_satellite_login) on_satellite_login(c.satellite, c.id);
   c.unblock();
 }
 

@@ -12,6 +12,7 @@
 #include <skrobot/hub/flow/accounts.h>
 #include <skrobot/runtime/flow/messages.h>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -29,6 +30,9 @@ class SessionRoom final : public Room {
   LoginThrottle throttle;
   // Page tokens (server.web with flows): issued at POST /skrobot/token; null without.
   std::unique_ptr<PageTokens> page_tokens;
+
+  // Called (on the loop thread) when a supervised satellite logged in with its run's password.
+  std::function<void(const std::string& satellite, uint32_t connection)> on_satellite_login;
 
   // The built-in page account (server.web.page_account's default): read-only, in memory.
   static constexpr std::string_view kBuiltInPageAccount = "web-page";

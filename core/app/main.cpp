@@ -5,6 +5,7 @@
 #include <skrobot/hub/flow/hub_stats.h>
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/hub/hub_config.h>
+#include <skrobot/hub/hub_reload.h>
 #include <skrobot/hub/install_layout.h>
 #include <skrobot/hub/module_host.h>
 #include <skrobot/hub/supervisor.h>
@@ -21,8 +22,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace {
 
@@ -59,7 +62,8 @@ constexpr const char* kUsage =
     "  user ...           manage the accounts of the users file (docs/accounts.md)\n"
     "\n"
     "SIGINT or SIGTERM stops the satellites (docs/robot.md), then the modules, in reverse\n"
-    "order, and exits 0; a second signal stops at once.\n"
+    "order, and exits 0; a second signal stops at once. SIGHUP reads the config again and\n"
+    "applies what changed (modules, satellites, log level; docs/robot.md).\n"
     "Config reference: docs/config.md; modules: docs/plugins.md.\n";
 
 struct Options {
@@ -254,7 +258,7 @@ skr::SupervisorOptions supervisorOptions(const skr::HubConfig& cfg) {
   return o;
 }
 
-int runHub(const skr::HubConfig& cfg) {
+int runHub(const skr::HubConfig& cfg, std::optional<skr::log::Level> fixed_level) {
   skr::Loop loop(cfg.loop);
   // SIGINT or SIGTERM: the satellites stop (each within its grace period), then the loop; a
   // second signal stops the loop at once (the reapers then kill what is left).
@@ -310,6 +314,11 @@ int runHub(const skr::HubConfig& cfg) {
       stats->addSection("satellites", [&satellites] { return satellites.list(); });
       supervisor = &satellites;
       satellites.startAll();
+      // SIGHUP or flowctl reload: the config read again, its changes applied (docs/robot.md).
+      skr::Reloader reloader(loop, server, host, satellites, cfg, fixed_level);
+      auto hangup = skr::SignalWatch::open(loop, SIGHUP, [&reloader](int) {
+        reloader.reload([](const skr::Result<std::vector<std::string>>&) {});  // it logs
+      });
       loop.run();
       supervisor = nullptr;
       stats->removeSection("satellites");
@@ -391,5 +400,8 @@ int main(int argc, char** argv) {
   if (opt.check) return checkConfig(*cfg);
   if (opt.list) return listModules(cfg->module_paths);
   if (!opt.describe.empty()) return describeModule(opt.describe, cfg->module_paths);
-  return runHub(*cfg);
+  std::optional<skr::log::Level> fixed_level;
+  if (!opt.log_level.empty()) fixed_level = skr::log::Level{};
+  if (fixed_level) skr::log::parseLevel(opt.log_level, *fixed_level);
+  return runHub(*cfg, fixed_level);
 }

@@ -229,20 +229,44 @@ void ModuleHost::stopAll() noexcept {
   while (!running_.empty()) {
     skr_module_ctx& m = *running_.back();
     running_.pop_back();
-    skr_status status = SKR_OK;
-    try {
-      onModuleThread(m, [&m, &status] {
-        m.ticking = false;
-        m.clearError();
-        if (m.descriptor.stop != nullptr) status = m.descriptor.stop(m.instance);
-        m.removeRegistrations();  // whatever it forgot, and work it posted that did not run
-      });
-      if (status != SKR_OK) fail(m, "MODULE-STOP", "stop failed: " + stepFailure(m, status));
-      log::info(kSource, "MODULE-STOPPED", describe(m));
-    } catch (...) {  // out of memory while logging: the module is stopped all the same
-    }
-    m.state = ModuleState::stopped;
+    stopOne(m);
   }
+}
+
+void ModuleHost::stopOne(skr_module_ctx& m) noexcept {
+  skr_status status = SKR_OK;
+  try {
+    onModuleThread(m, [&m, &status] {
+      m.ticking = false;
+      m.clearError();
+      if (m.descriptor.stop != nullptr) status = m.descriptor.stop(m.instance);
+      m.removeRegistrations();  // whatever it forgot, and work it posted that did not run
+    });
+    if (status != SKR_OK) fail(m, "MODULE-STOP", "stop failed: " + stepFailure(m, status));
+    log::info(kSource, "MODULE-STOPPED", describe(m));
+  } catch (...) {  // out of memory while logging: the module is stopped all the same
+  }
+  m.state = ModuleState::stopped;
+}
+
+bool ModuleHost::unload(const std::string& name) noexcept {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::unload");
+  auto it = std::find_if(modules_.begin(), modules_.end(),
+                         [&name](const auto& m) { return m->name == name; });
+  if (it == modules_.end()) return false;
+  skr_module_ctx& m = **it;
+  if (auto r = std::find(running_.begin(), running_.end(), &m); r != running_.end()) {
+    running_.erase(r);
+    stopOne(m);
+  }
+  if (m.state != ModuleState::unloaded) release(m, m.state != ModuleState::loaded);
+  std::erase(started_, name);
+  try {
+    log::info(kSource, "MODULE-UNLOADED", describe(m));
+  } catch (...) {
+  }
+  modules_.erase(it);
+  return true;
 }
 
 void ModuleHost::failRunning(const std::string& name, const std::string& reason) noexcept {

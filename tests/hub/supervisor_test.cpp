@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The hub's supervised satellites (docs/robot.md) as a user sees them: a real hub with a
 // "satellites" section, its log, flowctl ps/start/stop/restart/logs, and the processes themselves.
-#include "hub_process.h"
+#include "supervised_hub.h"
 
 #include <skrobot/runtime/flow/variant.h>
 #include <skrobot/satellite.h>
@@ -20,65 +20,10 @@
 namespace {
 
 using skr::flow::Variant;
-using skr::sat::test::Child;
 using skr::sat::test::eventually;
-using skr::sat::test::HubProcess;
+using skr::sat::test::SupervisedHub;
 using skr::sat::test::TempDir;
 namespace fs = std::filesystem;
-
-constexpr const char* kAdmin = "ops";  // HubProcess's users-file account, made an administrator
-
-// A hub whose config has `satellites` (a JSON array), with the administrator "ops".
-struct SupervisedHub {
-  explicit SupervisedHub(const std::string& satellites)
-      : hub(SKROBOT_BIN, dir.path(), kAdmin, "", R"("satellites": )" + satellites + ", ") {
-    Child role({SKROBOT_BIN, "user", "role", kAdmin, "admin", "--users",
-                (dir.path() / "users.json").string()},
-               {}, dir.path() / "role.log");
-    role.wait();
-  }
-  // flowctl as the administrator; its output, and its exit code in `code`.
-  std::string flowctl(const std::vector<std::string>& args, int* code = nullptr,
-                      const std::string& user = kAdmin) {
-    std::vector<std::string> argv{FLOWCTL_BIN};
-    argv.insert(argv.end(), args.begin(), args.end());
-    const fs::path out = dir.path() / ("flowctl-" + std::to_string(++runs) + ".out");
-    Child c(argv,
-            {"ROBOT_ADDRESS=" + hub.address(), "ROBOT_USER=" + user,
-             "ROBOT_PASSWORD=" + std::string(user == kAdmin ? "s3cret-pass" : "password")},
-            out);
-    const int rc = c.wait(20000);
-    if (code != nullptr) *code = rc;
-    return c.output();
-  }
-  // The satellite `name` of `flowctl --json ps`.
-  Variant ps(const std::string& name) {
-    auto v = skr::flow::variantFromJsonText(flowctl({"--json", "ps"}));
-    if (!v || v->asList() == nullptr) return {};
-    for (const auto& s : *v->asList()) {
-      if (s.asMap() != nullptr && s.asMap()->at("name").asString() != nullptr &&
-          *s.asMap()->at("name").asString() == name) {
-        return s;
-      }
-    }
-    return {};
-  }
-  static std::string text(const Variant& sat, const char* key) {
-    if (sat.asMap() == nullptr || sat.asMap()->count(key) == 0) return {};
-    const Variant& v = sat.asMap()->at(key);
-    return v.asString() != nullptr ? *v.asString() : skr::flow::variantToJsonText(v);
-  }
-  [[nodiscard]] size_t count(const std::string& text) const {
-    const std::string log = hub.log();
-    size_t n = 0;
-    for (size_t at = log.find(text); at != std::string::npos; at = log.find(text, at + 1)) ++n;
-    return n;
-  }
-
-  TempDir dir;
-  HubProcess hub;
-  int runs = 0;
-};
 
 // A process that is gone, or a zombie waiting for a parent that is not ours to wait.
 bool gone(pid_t pid) {

@@ -128,22 +128,27 @@ class HubProcess {
       : binary_(std::move(binary)), dir_(dir), socket_(dir / "hub.sock") {
     static int counter = 0;
     app_ = "skrobot-sat-" + std::to_string(getpid()) + "-" + std::to_string(++counter);
-    std::string tcp;
     if (!tcp_user.empty()) {
       const fs::path users = dir_ / "users.json";
       Child add({binary_, "user", "add", tcp_user, "--users", users.string(), "--password-stdin"},
                 {}, dir_ / "user-add.log", "s3cret-pass\n");
       add.wait();
-      tcp = R"(, "tcp": true, "tcp_port": 0)" + server_keys + R"(}, "accounts": {"users_file": ")" +
-            users.string() + R"(", )";
+      tcp_ = R"(, "tcp": true, "tcp_port": 0)" + server_keys +
+             R"(}, "accounts": {"users_file": ")" + users.string() + R"(", )";
     } else {
-      tcp = R"(}, "accounts": {)";
+      tcp_ = R"(}, "accounts": {)";
     }
+    writeConfig(top_keys, modules);
+  }
+
+  // Writes the config again with other `top_keys` and `modules` (the rest as made): what a
+  // reload (SIGHUP, flowctl reload) then reads.
+  void writeConfig(const std::string& top_keys, const std::string& modules) {
     std::ofstream(dir_ / "hub.json") << R"({"app_name": ")" << app_ << R"(",
       "data_dir": ")" << (dir_ / "data").string()
                                      << R"(",
       "server": {"unix_path": ")" << socket_.string()
-                                     << R"(")" << tcp << R"(
+                                     << R"(")" << tcp_ << R"(
         "dev_account": {"user": "guest", "password": "password"}},
       )" << top_keys << R"("modules": )"
                                      << modules << "}";
@@ -193,6 +198,10 @@ class HubProcess {
     return child_ && child_->waitOutput(text, timeout_ms);
   }
   [[nodiscard]] std::string log() const { return logs_ + (child_ ? child_->output() : ""); }
+  // Sends `sig` to the running hub (SIGHUP: a reload).
+  void signal(int sig) const {
+    if (child_) child_->signal(sig);
+  }
   // Sends `sig` to the hub (SIGKILL: a crash) and waits for it to end; its exit code.
   int kill(int sig) {
     if (!child_) return 0;
@@ -215,6 +224,7 @@ class HubProcess {
   fs::path dir_;
   fs::path socket_;
   std::string app_;
+  std::string tcp_;  // the config's TCP and accounts part
   int starts_ = 0;
   std::unique_ptr<Child> child_;
   std::string logs_;

@@ -86,6 +86,8 @@ int cmdKick(const Cli& cli);     // cmd_admin.cpp
 int cmdChan(const Cli& cli);     // cmd_admin.cpp
 int cmdUsers(const Cli& cli);    // cmd_admin.cpp
 int cmdUser(const Cli& cli);     // cmd_admin.cpp
+int cmdReload(const Cli& cli);   // cmd_admin.cpp
+int cmdModule(const Cli& cli);   // cmd_admin.cpp
 int cmdPs(const Cli& cli);       // cmd_sat.cpp
 int cmdStart(const Cli& cli);    // cmd_sat.cpp
 int cmdStop(const Cli& cli);     // cmd_sat.cpp

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// flowctl flows, kick, chan rm, users and user: an administrator's commands (ADMIN, protocol
-// 1.1; docs/security.md). Refused with exit 7 for an account that is not an administrator.
+// flowctl flows, kick, chan rm, users, user, reload and module: an administrator's commands
+// (ADMIN, protocol 1.1; docs/security.md). Refused with exit 7 for an account that is not an
+// administrator.
 #include <iostream>
 #include <string>
 
@@ -90,6 +91,42 @@ int cmdUser(const Cli& cli) {
   }
   return runAdmin(cli, "user_" + op, Variant(std::move(a)), [&](const Variant& answer) {
     std::printf("%s %s\n", field(answer, "done").c_str(), field(answer, "user").c_str());
+  });
+}
+
+int cmdReload(const Cli& cli) {
+  Args args(cli.args);
+  if (!args.rest().empty() || !args.error().empty()) return usageError(cli);
+  return runAdmin(cli, "reload", Variant(), [](const Variant& answer) {
+    const auto* m = answer.asMap();
+    if (m == nullptr || m->count("changes") == 0 || m->at("changes").asList() == nullptr) return;
+    for (const auto& line : *m->at("changes").asList()) {
+      if (line.asString() != nullptr) std::printf("%s\n", line.asString()->c_str());
+    }
+  });
+}
+
+int cmdModule(const Cli& cli) {
+  Args args(cli.args);
+  const auto config = args.option("--config");
+  const auto rest = args.rest();
+  if (rest.size() != 2 || (rest[0] != "load" && rest[0] != "unload") || !args.error().empty() ||
+      (config && rest[0] != "load")) {
+    return usageError(cli);
+  }
+  Variant::Map a{{"name", rest[1]}};
+  if (config) {
+    auto value = jsonArg(*config, "--config");
+    if (!value) return kUsage;
+    a["config"] = std::move(*value);
+  }
+  return runAdmin(cli, "module_" + rest[0], Variant(std::move(a)), [](const Variant& answer) {
+    if (!field(answer, "loaded").empty()) {
+      std::printf("loaded %s (%s)\n", field(answer, "loaded").c_str(),
+                  field(answer, "file").c_str());
+    } else {
+      std::printf("unloaded %s\n", field(answer, "unloaded").c_str());
+    }
   });
 }
 

@@ -276,6 +276,33 @@ constexpr Command kCommands[] = {
         {"$base64": ...} for binary).
 )",
      .run = cmdMcap},
+    {.name = "reload",
+     .synopsis = "reload",
+     .summary = "read the hub's config again and apply what changed (administrators)",
+     .usage = "usage: flowctl reload",
+     .help = R"(usage: flowctl reload
+  The hub reads its config file again (as SIGHUP does) and applies the difference: modules added
+  are loaded, removed ones stopped and unloaded, changed ones restarted (and those that failed
+  tried again); satellites likewise; the log level. Other sections take a restart of the hub:
+  their changes are listed, not applied. A config with a problem changes nothing: its problems
+  are printed with their JSON paths (exit 1). Prints one line per change. docs/robot.md.
+)",
+     .run = cmdReload},
+    {.name = "module",
+     .synopsis = "module load|unload NAME",
+     .summary = "load a module dropped into module_paths, or unload one\n"
+                "(administrators)",
+     .usage = "usage: flowctl module load NAME [--config JSON] | module unload NAME",
+     .help = R"(usage: flowctl module load NAME [--config JSON]
+       flowctl module unload NAME
+  load: the hub loads and starts the module NAME, found on its module search path (module_paths,
+  then its own modules) by name, never by a path, with --config checked against the keys it
+  declares, as at start (problems are printed). For a new .so dropped into a directory of
+  module_paths: install it by renaming a complete file into place, never by copying over a
+  loaded one. It is not written into the config: a restart forgets it (add it to "modules").
+  unload: stops and unloads a running module. docs/robot.md.
+)",
+     .run = cmdModule},
     {.name = "ps",
      .synopsis = "ps",
      .summary = "the hub's supervised satellites: state, pid, uptime, restarts,\n"

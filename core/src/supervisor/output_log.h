@@ -40,6 +40,8 @@ class OutputLog {
   // hub's log, and lets the next `lines_per_second` in.
   void everySecond();
 
+  void setRate(uint32_t lines_per_second) noexcept { per_second_ = lines_per_second; }
+
   // Up to `max` lines after `seq` (the last `max` when there are more).
   [[nodiscard]] std::vector<LogLine> after(uint64_t seq, size_t max) const;
   [[nodiscard]] uint64_t lastSeq() const noexcept { return seq_; }

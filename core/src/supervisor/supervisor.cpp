@@ -18,6 +18,7 @@
 #include <cstring>
 #include <deque>
 #include <map>
+#include <optional>
 #include <set>
 
 extern char** environ;
@@ -129,8 +130,10 @@ struct Supervisor::Sat {
       : e(std::move(entry)), log("sat." + e.name, e.log_lines_per_second) {}
   SatelliteEntry e;
   State state = State::stopped;
-  bool wanted = false;              // it should run: started, and not stopped since
-  bool restart_after_stop = false;  // flowctl restart: start again once it exited
+  bool wanted = false;                 // it should run: started, and not stopped since
+  bool restart_after_stop = false;     // flowctl restart: start again once it exited
+  bool removed = false;                // a reload took it out: it goes once it exited
+  std::optional<SatelliteEntry> next;  // a reload changed it: its entry from its next start
   std::unique_ptr<supervisor::ChildProcess> child;
   supervisor::OutputLog log;
   Timer timer;  // the next start (backoff), or the readiness warning (starting)
@@ -166,24 +169,25 @@ Supervisor::Supervisor(Loop& loop, flow::FlowServer& server, std::vector<Satelli
     }
   });
   const auto named = [this](Result<Variant> (Supervisor::*fn)(const std::string&)) {
-    return [this, fn](const Variant& args) -> Result<Variant> {
+    return [this, fn](const Variant& args, flow::FlowServer::AdminAnswer answer) {
       auto name = stringArg(args, "name");
-      if (!name) return name.error();
-      return (this->*fn)(*name);
+      answer(name ? (this->*fn)(*name) : Result<Variant>(name.error()));
     };
   };
-  server_.addAdminCommand("sat_ps", [this](const Variant&) -> Result<Variant> { return list(); });
+  server_.addAdminCommand(
+      "sat_ps", [this](const Variant&, flow::FlowServer::AdminAnswer answer) { answer(list()); });
   server_.addAdminCommand("sat_start", named(&Supervisor::start));
   server_.addAdminCommand("sat_stop", named(&Supervisor::stop));
   server_.addAdminCommand("sat_restart", named(&Supervisor::restart));
-  server_.addAdminCommand("sat_logs", [this](const Variant& args) -> Result<Variant> {
-    auto name = stringArg(args, "name");
-    if (!name) return name.error();
-    const int64_t lines = intArg(args, "lines", 100);
-    return logs(
-        *name, static_cast<uint64_t>(std::max<int64_t>(0, intArg(args, "after", 0))),
-        static_cast<size_t>(std::clamp<int64_t>(lines, 1, supervisor::OutputLog::kMaxLines)));
-  });
+  server_.addAdminCommand(
+      "sat_logs", [this](const Variant& args, flow::FlowServer::AdminAnswer answer) {
+        auto name = stringArg(args, "name");
+        if (!name) return answer(name.error());
+        const int64_t lines = intArg(args, "lines", 100);
+        answer(logs(
+            *name, static_cast<uint64_t>(std::max<int64_t>(0, intArg(args, "after", 0))),
+            static_cast<size_t>(std::clamp<int64_t>(lines, 1, supervisor::OutputLog::kMaxLines))));
+      });
 }
 
 Supervisor::~Supervisor() {
@@ -362,6 +366,18 @@ void Supervisor::exited(Sat& s, int status) {
   const std::string ran = std::to_string((now - s.started_at) / kNsPerMs) + " ms";
   const std::string line = s.e.name + " (reaper " + std::to_string(reaper) +
                            ") exited: " + s.last_exit + " after " + ran;
+  if (s.next) {
+    s.e = std::move(*s.next);
+    s.next.reset();
+    s.log.setRate(s.e.log_lines_per_second);
+  }
+  if (s.removed) {
+    log::info(kLogSource, "SAT-EXITED", line);
+    s.state = State::stopped;
+    forgetRemoved();
+    if (stopping_all_) stopSome();
+    return;
+  }
   if (asked) {
     log::info(kLogSource, "SAT-EXITED", line);
     s.state = State::stopped;
@@ -450,6 +466,70 @@ void Supervisor::stopSome() {
     stopped_ = nullptr;
     done();
   }
+}
+
+void Supervisor::add(SatelliteEntry entry) {
+  if (find(entry.name) != nullptr) return replace(std::move(entry));
+  sats_.push_back(std::make_unique<Sat>(std::move(entry)));
+  Sat& s = *sats_.back();
+  if (!timers_->second.active()) timers_->second.startEvery(kNsPerSec);
+  log::info(kLogSource, "SAT-ADDED", s.e.name + " (" + s.e.json_path + ")");
+  if (!s.e.enabled || stopping_all_) return;
+  s.wanted = true;
+  s.state = State::waiting;
+  evaluate();
+}
+
+void Supervisor::remove(const std::string& name) {
+  Sat* s = find(name);
+  if (s == nullptr) return;
+  log::info(kLogSource, "SAT-REMOVED", name);
+  s->removed = true;
+  s->wanted = false;
+  s->restart_after_stop = false;
+  s->timer.stop();
+  if (s->state == State::starting || s->state == State::running) {
+    s->state = State::stopping;
+    s->child->stop();
+  } else if (!s->child) {
+    forgetRemoved();
+  }
+}
+
+void Supervisor::replace(SatelliteEntry entry) {
+  Sat* s = find(entry.name);
+  if (s == nullptr) return add(std::move(entry));
+  log::info(kLogSource, "SAT-CHANGED", entry.name + " (" + entry.json_path + ")");
+  const bool was_enabled = s->e.enabled;
+  if (s->child) {
+    s->next = std::move(entry);
+    if (s->state == State::starting || s->state == State::running) {
+      s->restart_after_stop = s->next->enabled;
+      s->wanted = s->next->enabled;
+      s->state = State::stopping;
+      s->child->stop();
+    }
+    return;
+  }
+  s->e = std::move(entry);
+  s->log.setRate(s->e.log_lines_per_second);
+  if (!s->e.enabled) {
+    s->timer.stop();
+    s->wanted = false;
+    s->state = State::stopped;
+  } else if (!was_enabled && !stopping_all_) {
+    s->wanted = true;
+    s->state = State::waiting;
+    evaluate();
+  }
+}
+
+// Removed satellites whose run ended go, once no callback of theirs is running.
+void Supervisor::forgetRemoved() {
+  loop_.post([this, alive = std::weak_ptr<int>(alive_)] {
+    if (alive.expired()) return;
+    std::erase_if(sats_, [](const auto& s) { return s->removed && !s->child; });
+  });
 }
 
 Result<Variant> Supervisor::start(const std::string& name) {

@@ -15,7 +15,8 @@
 //   MODULE-INIT        init failed (the module's set_error message, or its status)
 //   MODULE-START       start failed
 //   MODULE-STOP        stop failed (the cleanup goes on)
-// Progress lines (info): MODULE-DISABLED, MODULE-LOADED, MODULE-STARTED, MODULE-STOPPED.
+// Progress lines (info): MODULE-DISABLED, MODULE-LOADED, MODULE-STARTED, MODULE-STOPPED,
+// MODULE-UNLOADED (unload: a reload removed it).
 // Lines written by a module carry the source "mod.<name>"; its config problems MODULE-CONFIG.
 #pragma once
 
@@ -179,6 +180,9 @@ class ModuleHost {
   // MODULE-FAILED with `reason`, stopped as at shutdown, its library closed; it moves from
   // modules() to failures(). Nothing when it is not running (any more).
   void failRunning(const std::string& name, const std::string& reason) noexcept;
+  // Stops one module (if it runs) and unloads it, as at shutdown (a reload that removes or
+  // changes it): logged MODULE-STOPPED, MODULE-UNLOADED. False when there is none of that name.
+  bool unload(const std::string& name) noexcept;
 
   [[nodiscard]] std::vector<ModuleInfo> modules() const;
   [[nodiscard]] const std::vector<ModuleFailure>& failures() const noexcept { return failures_; }
@@ -191,6 +195,8 @@ class ModuleHost {
  private:
   void fail(skr_module_ctx& m, std::string_view tag, const std::string& reason);
   void release(skr_module_ctx& m, bool call_fini) noexcept;
+  // Stops a running module (stop, then what it left registered), as stopAll does for each.
+  void stopOne(skr_module_ctx& m) noexcept;
 
   Loop& main_loop_;
   flow::FlowServer* server_;

@@ -61,6 +61,13 @@ class Supervisor {
   // Stops them all, those nothing else waits for first; `done` once none runs.
   void stopAll(std::function<void()> done);
 
+  // A reload's changes (skrobot/hub/hub_reload.h): a new satellite starts (if enabled), a
+  // removed one stops and goes, a changed one is restarted with its new entry if it runs (else
+  // its entry is replaced, and it starts if it was disabled and is enabled now).
+  void add(SatelliteEntry entry);
+  void remove(const std::string& name);
+  void replace(SatelliteEntry entry);
+
   // One entry per satellite: name, state, pid, uptime_s, restarts, last_exit, account, command,
   // flows [{id, user, client}], channels, next_start_s (while it waits to be restarted).
   [[nodiscard]] flow::Variant list() const;
@@ -83,6 +90,7 @@ class Supervisor {
   void becameReady(Sat& s, const std::string& how);
   void poll();
   void stopSome();
+  void forgetRemoved();
   std::vector<std::string> environment(const Sat& s, const std::string& password) const;
 
   Loop& loop_;
@@ -92,6 +100,7 @@ class Supervisor {
   std::unique_ptr<struct SupervisorTimers> timers_;
   std::function<void()> stopped_;  // stopAll's `done`
   bool stopping_all_ = false;
+  std::shared_ptr<int> alive_ = std::make_shared<int>(0);  // for the removals posted
 };
 
 }  // namespace skr

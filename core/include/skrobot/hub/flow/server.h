@@ -248,8 +248,11 @@ class FlowServer {
   };
   [[nodiscard]] std::vector<SatelliteFlow> flowsOfSatellite(const std::string& name) const;
   // An ADMIN command answered by another part of the hub (administrators only, as every ADMIN
-  // command; logged FLOW-ADMIN). Remove it before that part goes.
-  using AdminCommand = std::function<Result<Variant>(const Variant& args)>;
+  // command; logged FLOW-ADMIN): `answer` once, now or later, on the loop thread (the
+  // connection waits; an answer for a connection gone is dropped). Remove it before that part
+  // goes.
+  using AdminAnswer = std::function<void(Result<Variant>)>;
+  using AdminCommand = std::function<void(const Variant& args, AdminAnswer answer)>;
   void addAdminCommand(const std::string& name, AdminCommand run);
   void removeAdminCommand(const std::string& name) noexcept;
 

@@ -122,6 +122,26 @@ Result<Authenticator::Change> userChange(const std::string& command, const Varia
 
 void AdminRoom::handle(Connection& c, msg::Admin& m) {
   if (m.command == "users" || m.command.rfind("user_", 0) == 0) return users(c, m.command, m.args);
+  if (auto it = more.find(m.command); it != more.end()) {
+    if (!c.access->admin()) {
+      c.replyError(ErrorCode::permission_denied,
+                   "ADMIN " + m.command + ": user " + c.user + " is not an administrator");
+      return;
+    }
+    log::info(kLogSource, "FLOW-ADMIN",
+              c.describe() + ": " + m.command + " " + variantToJsonText(m.args));
+    c.block();              // answered when the command is done
+    auto run = it->second;  // the command may remove itself
+    run(m.args, c.whenRead([](Connection& c, Result<Variant> r) {
+      if (r) {
+        c.send(msg::ReplyValue{std::move(r).value()});
+      } else {
+        c.reply(r.error());
+      }
+      c.unblock();
+    }));
+    return;
+  }
   auto r = command(c, m.command, m.args);
   if (!r) return c.reply(r.error());
   c.send(msg::ReplyValue{std::move(r).value()});
@@ -212,7 +232,6 @@ Result<Variant> AdminRoom::command(Connection& by, const std::string& command,
     if (auto r = hub_.databases.remove(by, *name); !r) return r.error();
     return Variant(Variant::Map{{"removed", *name}});
   }
-  if (auto it = more.find(command); it != more.end()) return it->second(args);
   std::string known =
       "flows, kick, chan_rm, db_rm, users, user_add, user_del, user_passwd, user_role, user_rule";
   for (const auto& [name, run] : more) known += ", " + name;

@@ -25,7 +25,9 @@ class AdminRoom final : public Room {
   SKR_FLOW_ROOM_HANDLERS(admin)
 
   // Commands of the hub's other parts (FlowServer::addAdminCommand): the supervisor's sat_*.
-  std::map<std::string, std::function<Result<Variant>(const Variant& args)>> more;
+  std::map<std::string,
+           std::function<void(const Variant& args, std::function<void(Result<Variant>)> answer)>>
+      more;
 
  private:
   // flows, kick, chan_rm, db_rm: answered at once.

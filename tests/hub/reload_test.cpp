@@ -1,0 +1,210 @@
+// SPDX-License-Identifier: Apache-2.0
+// Reloading the hub's config while it runs (flowctl reload, SIGHUP; docs/robot.md): modules and
+// satellites added, changed and removed while what did not change goes on, and a bad config that
+// changes nothing.
+#include "supervised_hub.h"
+
+#include <skrobot/satellite.h>
+
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <algorithm>
+#include <atomic>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using skr::sat::test::eventually;
+using skr::sat::test::SupervisedHub;
+
+std::string ticker() {
+  return std::string(R"({"name": "ticker", "command": [")") + FLOWCTL_BIN +
+         R"(", "pub", "tick", "x", "--rate", "50", "--wait-ms", "0"],
+         "account": "guest", "ready": "guest.tick"})";
+}
+
+std::string example(const std::string& greeting) {
+  return R"({"name": "example", "config": {"period_ms": 50, "greeting": ")" + greeting + R"("}})";
+}
+
+// The config's top keys for `satellites`, as HubProcess::writeConfig takes them.
+std::string sats(const std::string& list) {
+  return R"("satellites": )" + list + ", ";
+}
+
+TEST(Reload, ModulesComeAndGoWhileASubscriberOfASatelliteKeepsReceiving) {
+  SupervisedHub h("[" + ticker() + "]");
+  ASSERT_TRUE(h.hub.start());
+  ASSERT_TRUE(h.hub.waitLog("SAT-READY ticker")) << h.hub.log();
+
+  // The subscriber on a thread of its own, so that the arrivals are the hub's pace, not the
+  // test's.
+  std::mutex mutex;
+  std::vector<skr::Nanos> arrivals;
+  std::atomic<bool> done{false};
+  const auto received = [&] {
+    std::lock_guard lock(mutex);
+    return arrivals.size();
+  };
+  std::thread listener([&] {
+    skr::Loop loop;
+    auto opts = skr::sat::SatelliteOptions::fromEnvironment("listener").value();
+    opts.connection.address = skr::sat::Address::parse(h.hub.address()).value();
+    skr::sat::Satellite sat(loop, opts);
+    sat.data.connect(&sat, [&](uint16_t, const std::string&) {
+      std::lock_guard lock(mutex);
+      arrivals.push_back(skr::monotonicNs());
+    });
+    sat.subscribe("guest.tick");
+    sat.start();
+    loop.runUntil([&] { return done.load(); }, 120 * skr::kNsPerSec);
+  });
+  struct Join {
+    std::atomic<bool>& done;
+    std::thread& t;
+    ~Join() {
+      done = true;
+      t.join();
+    }
+  } join{done, listener};
+  std::string out;
+  const auto reload = [&] {
+    int code = -1;
+    out = h.flowctl({"reload"}, &code);
+    return code;
+  };
+  ASSERT_TRUE(eventually([&] { return received() >= 5; }));
+
+  h.hub.writeConfig(sats("[" + ticker() + "]"), "[" + example("one") + "]");
+  EXPECT_EQ(reload(), 0) << out;
+  EXPECT_EQ(out, "module added: example\n");
+  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-START greeting 'one'")) << h.hub.log();
+
+  h.hub.writeConfig(sats("[" + ticker() + "]"), "[" + example("two") + "]");
+  EXPECT_EQ(reload(), 0) << out;
+  EXPECT_EQ(out, "module changed, restarted: example\n");
+  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-START greeting 'two'")) << h.hub.log();
+
+  EXPECT_EQ(reload(), 0) << out;
+  EXPECT_EQ(out, "nothing changed\n");
+
+  h.hub.writeConfig(sats("[" + ticker() + "]"), "[]");
+  EXPECT_EQ(reload(), 0) << out;
+  EXPECT_EQ(out, "module removed: example\n");
+  EXPECT_TRUE(h.hub.waitLog("MODULE-UNLOADED module example")) << h.hub.log();
+
+  const size_t before = received();
+  ASSERT_TRUE(eventually([&] { return received() >= before + 5; }));
+  // The satellite was not touched, and its subscriber heard it all along: 50 a second, no pause.
+  EXPECT_EQ(h.count("SAT-STARTED ticker"), 1u);
+  std::lock_guard lock(mutex);
+  skr::Nanos widest = 0;
+  for (size_t i = 1; i < arrivals.size(); ++i) {
+    widest = std::max(widest, arrivals[i] - arrivals[i - 1]);
+  }
+  EXPECT_LT(widest, 500 * skr::kNsPerMs) << "a pause of " << widest / skr::kNsPerMs << " ms";
+}
+
+TEST(Reload, ABadConfigChangesNothingAndSaysWhere) {
+  SupervisedHub h(R"([{"name": "idle", "command": ["sleep", "1000"]}])",
+                  "[" + example("one") + "]");
+  ASSERT_TRUE(h.hub.start());
+  ASSERT_TRUE(h.hub.waitLog("EXAMPLE-START")) << h.hub.log();
+  // A schema problem, and a module config that breaks its declared keys: both named.
+  h.hub.writeConfig(sats(R"([{"name": "idle"}])"),
+                    R"([{"name": "example", "config": {"period_ms": "soon"}}])");
+  int code = 0;
+  std::string out = h.flowctl({"reload"}, &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("$.satellites[0]"), std::string::npos) << out;
+  h.hub.writeConfig(sats(R"([{"name": "idle", "command": ["sleep", "1000"]}])"),
+                    R"([{"name": "example", "config": {"period_ms": "soon"}}])");
+  out = h.flowctl({"reload"}, &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("$.modules[0].config.period_ms"), std::string::npos) << out;
+  EXPECT_NE(h.hub.log().find("HUB-RELOAD-REFUSED nothing changed"), std::string::npos);
+  // Nothing stopped.
+  EXPECT_EQ(h.count("MODULE-STOPPED"), 0u) << h.hub.log();
+  EXPECT_EQ(h.count("SAT-STOPPING"), 0u) << h.hub.log();
+  EXPECT_EQ(SupervisedHub::text(h.ps("idle"), "state"), "running");
+  // A non-administrator may not reload.
+  out = h.flowctl({"reload"}, &code, "guest");
+  EXPECT_EQ(code, 7) << out;
+}
+
+TEST(Reload, SighupAddsChangesAndRemovesSatellitesAndSaysWhatTakesARestart) {
+  SupervisedHub h("[" + ticker() + "]");
+  ASSERT_TRUE(h.hub.start());
+  ASSERT_TRUE(h.hub.waitLog("SAT-READY ticker")) << h.hub.log();
+
+  h.hub.writeConfig(sats("[" + ticker() + R"(, {"name": "idle", "command": ["sleep", "1000"]}])"),
+                    "[]");
+  h.hub.signal(SIGHUP);
+  ASSERT_TRUE(h.hub.waitLog("HUB-RELOAD satellite added: idle")) << h.hub.log();
+  ASSERT_TRUE(h.hub.waitLog("SAT-STARTED idle")) << h.hub.log();
+
+  // idle changed, ticker removed, and a key read only at start.
+  h.hub.writeConfig(
+      R"("link_hops": 4, )" + sats(R"([{"name": "idle", "command": ["sleep", "999"]}])"), "[]");
+  h.hub.signal(SIGHUP);
+  ASSERT_TRUE(h.hub.waitLog("HUB-RELOAD satellite removed: ticker")) << h.hub.log();
+  EXPECT_TRUE(h.hub.waitLog("HUB-RELOAD satellite changed, restarted: idle")) << h.hub.log();
+  EXPECT_TRUE(h.hub.waitLog("HUB-RELOAD $.link_hops changed: not applied")) << h.hub.log();
+  EXPECT_TRUE(h.hub.waitLog("SAT-EXITED ticker")) << h.hub.log();
+  EXPECT_TRUE(eventually([&] { return h.count("SAT-STARTED idle") == 2; })) << h.hub.log();
+  EXPECT_NE(h.hub.log().find("/sleep, as idle"), std::string::npos);
+  EXPECT_TRUE(eventually([&] {
+    return SupervisedHub::text(h.ps("idle"), "state") == "running" &&
+           SupervisedHub::text(h.ps("ticker"), "state").empty();
+  })) << h.flowctl({"ps"});
+  EXPECT_NE(SupervisedHub::text(h.ps("idle"), "command").find("999"), std::string::npos);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Reload, AModuleDroppedIntoModulePathsIsLoadedByNameByAnAdministrator) {
+  skr::test::TempDir drop;
+  SupervisedHub h("[]");
+  h.hub.writeConfig(R"("module_paths": [")" + drop.path().string() + R"("], "satellites": [], )",
+                    "[]");
+  ASSERT_TRUE(h.hub.start());
+  // Installed by a rename of a complete file, as docs/robot.md says.
+  std::filesystem::copy_file(std::string(SKROBOT_MODULE_DIR) + "/example.so",
+                             drop.path() / ".dropped.so.part");
+  std::filesystem::rename(drop.path() / ".dropped.so.part", drop.path() / "dropped.so");
+  int code = 0;
+  std::string out = h.flowctl(
+      {"module", "load", "dropped", "--config", R"({"period_ms": 50, "greeting": "dropped in"})"},
+      &code);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(out, "loaded dropped (" + (drop.path() / "dropped.so").string() + ")\n");
+  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-START greeting 'dropped in'")) << h.hub.log();
+  // Never a path; not twice; only what the search path has; its config checked; only by an
+  // administrator.
+  out = h.flowctl({"module", "load", "../dropped"}, &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("never by a path"), std::string::npos) << out;
+  out = h.flowctl({"module", "load", "dropped"}, &code);
+  EXPECT_NE(out.find("module dropped runs"), std::string::npos) << out;
+  out = h.flowctl({"module", "load", "nowhere"}, &code);
+  EXPECT_NE(out.find("MODULE-NOT-FOUND"), std::string::npos) << out;
+  out = h.flowctl({"module", "unload", "dropped"}, &code, "guest");
+  EXPECT_EQ(code, 7) << out;
+  out = h.flowctl({"module", "unload", "dropped"}, &code);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(out, "unloaded dropped\n");
+  EXPECT_TRUE(h.hub.waitLog("MODULE-UNLOADED module dropped")) << h.hub.log();
+  out = h.flowctl({"module", "load", "dropped", "--config", R"({"period_ms": "soon"})"}, &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("MODULE-CONFIG"), std::string::npos) << out;
+  EXPECT_EQ(h.count("EXAMPLE-START"), 1u) << h.hub.log();
+}
+
+}  // namespace

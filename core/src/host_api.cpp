@@ -22,7 +22,8 @@ namespace skr {
 static_assert(offsetof(skr_module_descriptor, name) == 8);
 static_assert(offsetof(skr_module_descriptor, init) == 40);
 static_assert(offsetof(skr_module_descriptor, config_keys) == 72);  // 1.0 and 1.1 end here
-static_assert(sizeof(skr_module_descriptor) == 88);
+static_assert(offsetof(skr_module_descriptor, reconfigure) == 88);  // 1.2 to 1.10 end here
+static_assert(sizeof(skr_module_descriptor) == 96);                 // 1.11
 static_assert(offsetof(skr_host_api, log) == 8);
 static_assert(offsetof(skr_host_api, channel_create) == 144);  // 1.0 ends here
 static_assert(offsetof(skr_host_api, db_sync) == 224);         // 1.2 ends here

@@ -40,10 +40,19 @@ ReloadPlan planReload(const HubConfig& now, const HubConfig& next) {
   ReloadPlan plan;
   const auto before = modulesByName(now);
   const auto after = modulesByName(next);
+  // Changed in its config alone: a candidate for the module's reconfigure step.
+  const auto configOnly = [](Json::Value a, Json::Value b) {
+    a.removeMember("config");
+    b.removeMember("config");
+    return a == b;
+  };
+  std::set<std::string> reconfigured;
   for (const auto& [name, entry] : before) {
     auto it = after.find(name);
     if (it == after.end()) {
       plan.unload.push_back(name);
+    } else if (it->second != entry && configOnly(it->second, entry)) {
+      reconfigured.insert(name);
     } else if (it->second != entry) {
       plan.unload.push_back(name);
       plan.restarted.push_back(name);
@@ -52,7 +61,11 @@ ReloadPlan planReload(const HubConfig& now, const HubConfig& next) {
   for (const ModuleEntry& m : next.modules) {
     if (!m.enabled) continue;
     auto it = before.find(m.name);
-    if (it == before.end() || it->second != after.at(m.name)) plan.load.push_back(m);
+    if (reconfigured.count(m.name) != 0) {
+      plan.reconfigure.push_back(m);
+    } else if (it == before.end() || it->second != after.at(m.name)) {
+      plan.load.push_back(m);
+    }
   }
   const auto sats_before = satellitesByName(now.raw["satellites"]);
   const auto sats_after = satellitesByName(next.raw["satellites"]);
@@ -178,7 +191,9 @@ void Reloader::reload(Done done) {
            done = std::move(done)]() mutable -> std::function<void()> {
     Result<HubConfig> next = loadHubConfig(file);
     if (next) {
-      std::vector<ModuleEntry> load = planReload(now, *next).load;
+      const ReloadPlan plan = planReload(now, *next);
+      std::vector<ModuleEntry> load = plan.load;
+      load.insert(load.end(), plan.reconfigure.begin(), plan.reconfigure.end());
       std::string problems;
       for (const ModuleCheck& c : checkModules(load, search)) {
         if (c.ok() || !c.enabled) continue;
@@ -248,6 +263,7 @@ void Reloader::apply(HubConfig next, Done done) {
   for (const ModuleInfo& m : modules_.modules()) running.insert(m.name);
   std::set<std::string> loading;
   for (const ModuleEntry& m : plan.load) loading.insert(m.name);
+  std::erase_if(plan.reconfigure, [&](const ModuleEntry& m) { return running.count(m.name) == 0; });
   for (const ModuleEntry& m : next.modules) {
     if (m.enabled && running.count(m.name) == 0 && loading.count(m.name) == 0) {
       plan.load.push_back(m);
@@ -257,6 +273,17 @@ void Reloader::apply(HubConfig next, Done done) {
   for (const auto& name : plan.satellites_removed) satellites_.remove(name);
   for (auto& s : plan.satellites_changed) satellites_.replace(s);
   for (auto& s : plan.satellites_added) satellites_.add(s);
+  // Changed in their config alone: in place when the module can, else restarted.
+  for (const ModuleEntry& m : plan.reconfigure) {
+    auto r = modules_.reconfigure(m);
+    if (r) {
+      lines.push_back("module reconfigured: " + m.name);
+      continue;
+    }
+    lines.push_back("module changed, restarted: " + m.name + " (" + r.error().message + ")");
+    plan.unload.push_back(m.name);
+    plan.load.push_back(m);
+  }
   for (const auto& name : plan.unload) modules_.unload(name);
   const size_t failed_before = modules_.failures().size();
   if (!plan.load.empty()) {

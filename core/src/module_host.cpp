@@ -108,6 +108,11 @@ void ModuleHost::load(const std::vector<ModuleEntry>& entries) {
     // Only the 1.0 fields: a 1.1 module's descriptor ends there (the rest stays zero).
     std::memcpy(&m->descriptor, opened.descriptor, offsetof(skr_module_descriptor, config_keys));
     m->descriptor.struct_size = sizeof(skr_module_descriptor);
+    // ABI 1.11: its reconfigure step, when its descriptor is that long.
+    if (opened.descriptor->struct_size >=
+        offsetof(skr_module_descriptor, reconfigure) + sizeof(m->descriptor.reconfigure)) {
+      m->descriptor.reconfigure = opened.descriptor->reconfigure;
+    }
     m->info = std::move(opened.info);
     m->entry.config = std::move(config);  // with the declared defaults
     m->own_thread = m->entry.own_thread || (m->info.flags & SKR_MODULE_WANTS_OWN_THREAD) != 0;
@@ -247,6 +252,44 @@ void ModuleHost::stopOne(skr_module_ctx& m) noexcept {
   } catch (...) {  // out of memory while logging: the module is stopped all the same
   }
   m.state = ModuleState::stopped;
+}
+
+Result<void> ModuleHost::reconfigure(const ModuleEntry& entry) {
+  requireHostThread(main_loop_, control_thread_, "ModuleHost::reconfigure");
+  auto r = std::find_if(running_.begin(), running_.end(),
+                        [&entry](const skr_module_ctx* m) { return m->name == entry.name; });
+  if (r == running_.end()) return makeError(Errc::not_found, "no module " + entry.name + " runs");
+  skr_module_ctx& m = **r;
+  if (m.descriptor.reconfigure == nullptr) {
+    return makeError(Errc::unsupported, entry.name + " has no reconfigure step");
+  }
+  Json::Value filled;
+  const schema::Problems problems =
+      checkModuleConfig(m.info, entry.config, m.json_path + ".config", filled);
+  if (!problems.empty()) {
+    std::string text;
+    for (const auto& p : problems) text += (text.empty() ? "" : "; ") + p.path + ": " + p.reason;
+    return makeError(Errc::config_error, text);
+  }
+  skr_status status = SKR_OK;
+  onModuleThread(m, [&m, &filled, &status] {
+    // The old config lives until the step returned: strings read from it stay valid until then.
+    Json::Value old = std::exchange(m.entry.config, std::move(filled));
+    std::string old_json = std::exchange(m.config_json, support::writeJson(m.entry.config));
+    m.clearError();
+    status = m.descriptor.reconfigure(m.instance);
+    if (status != SKR_OK) {
+      m.entry.config = std::move(old);
+      m.config_json = std::move(old_json);
+    }
+  });
+  if (status != SKR_OK) {
+    const std::string why = stepFailure(m, status);
+    return makeError(status == SKR_ERR_UNSUPPORTED ? Errc::unsupported : Errc::module_failed,
+                     entry.name + " did not take the change: " + why);
+  }
+  log::info(kSource, "MODULE-RECONFIGURED", describe(m) + ": " + m.config_json);
+  return {};
 }
 
 bool ModuleHost::unload(const std::string& name) noexcept {

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <atomic>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -21,6 +22,60 @@ namespace {
 
 using skr::sat::test::eventually;
 using skr::sat::test::SupervisedHub;
+
+// A subscriber on a thread of its own, so that what it records is the hub's pace, not the
+// test's: each payload of `channel` with its arrival time.
+class Listener {
+ public:
+  Listener(const std::string& address, const std::string& channel)
+      : thread_([this, address, channel] {
+          skr::Loop loop;
+          auto opts = skr::sat::SatelliteOptions::fromEnvironment("listener").value();
+          opts.connection.address = skr::sat::Address::parse(address).value();
+          skr::sat::Satellite sat(loop, opts);
+          sat.data.connect(&sat, [this](uint16_t id, const std::string& payload) {
+            std::lock_guard lock(mutex_);
+            got_.push_back({skr::monotonicNs(), payload});
+            ids_.insert(id);
+          });
+          sat.subscribe(channel);
+          sat.start();
+          loop.runUntil([this] { return done_.load(); }, 300 * skr::kNsPerSec);
+        }) {}
+  ~Listener() {
+    done_ = true;
+    thread_.join();
+  }
+  Listener(const Listener&) = delete;
+  Listener& operator=(const Listener&) = delete;
+
+  struct Message {
+    skr::Nanos at;
+    std::string payload;
+  };
+  std::vector<Message> got() {
+    std::lock_guard lock(mutex_);
+    return got_;
+  }
+  size_t count() { return got().size(); }
+  // How many ids the channel had while subscribed (a channel made again gets a new one).
+  size_t ids() {
+    std::lock_guard lock(mutex_);
+    return ids_.size();
+  }
+  bool has(const std::string& payload) {
+    const auto all = got();
+    return std::any_of(all.begin(), all.end(),
+                       [&](const Message& m) { return m.payload == payload; });
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<Message> got_;
+  std::set<uint16_t> ids_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
 
 std::string ticker() {
   return std::string(R"({"name": "ticker", "command": [")") + FLOWCTL_BIN +
@@ -42,36 +97,8 @@ TEST(Reload, ModulesComeAndGoWhileASubscriberOfASatelliteKeepsReceiving) {
   ASSERT_TRUE(h.hub.start());
   ASSERT_TRUE(h.hub.waitLog("SAT-READY ticker")) << h.hub.log();
 
-  // The subscriber on a thread of its own, so that the arrivals are the hub's pace, not the
-  // test's.
-  std::mutex mutex;
-  std::vector<skr::Nanos> arrivals;
-  std::atomic<bool> done{false};
-  const auto received = [&] {
-    std::lock_guard lock(mutex);
-    return arrivals.size();
-  };
-  std::thread listener([&] {
-    skr::Loop loop;
-    auto opts = skr::sat::SatelliteOptions::fromEnvironment("listener").value();
-    opts.connection.address = skr::sat::Address::parse(h.hub.address()).value();
-    skr::sat::Satellite sat(loop, opts);
-    sat.data.connect(&sat, [&](uint16_t, const std::string&) {
-      std::lock_guard lock(mutex);
-      arrivals.push_back(skr::monotonicNs());
-    });
-    sat.subscribe("guest.tick");
-    sat.start();
-    loop.runUntil([&] { return done.load(); }, 120 * skr::kNsPerSec);
-  });
-  struct Join {
-    std::atomic<bool>& done;
-    std::thread& t;
-    ~Join() {
-      done = true;
-      t.join();
-    }
-  } join{done, listener};
+  Listener listener(h.hub.address(), "guest.tick");
+  const auto received = [&] { return listener.count(); };
   std::string out;
   const auto reload = [&] {
     int code = -1;
@@ -87,8 +114,8 @@ TEST(Reload, ModulesComeAndGoWhileASubscriberOfASatelliteKeepsReceiving) {
 
   h.hub.writeConfig(sats("[" + ticker() + "]"), "[" + example("two") + "]");
   EXPECT_EQ(reload(), 0) << out;
-  EXPECT_EQ(out, "module changed, restarted: example\n");
-  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-START greeting 'two'")) << h.hub.log();
+  EXPECT_EQ(out, "module reconfigured: example\n");  // in place: its config alone changed
+  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-RECONFIGURED greeting 'two'")) << h.hub.log();
 
   EXPECT_EQ(reload(), 0) << out;
   EXPECT_EQ(out, "nothing changed\n");
@@ -102,10 +129,10 @@ TEST(Reload, ModulesComeAndGoWhileASubscriberOfASatelliteKeepsReceiving) {
   ASSERT_TRUE(eventually([&] { return received() >= before + 5; }));
   // The satellite was not touched, and its subscriber heard it all along: 50 a second, no pause.
   EXPECT_EQ(h.count("SAT-STARTED ticker"), 1u);
-  std::lock_guard lock(mutex);
+  const auto arrivals = listener.got();
   skr::Nanos widest = 0;
   for (size_t i = 1; i < arrivals.size(); ++i) {
-    widest = std::max(widest, arrivals[i] - arrivals[i - 1]);
+    widest = std::max(widest, arrivals[i].at - arrivals[i - 1].at);
   }
   EXPECT_LT(widest, 500 * skr::kNsPerMs) << "a pause of " << widest / skr::kNsPerMs << " ms";
 }
@@ -205,6 +232,55 @@ TEST(Reload, AModuleDroppedIntoModulePathsIsLoadedByNameByAnAdministrator) {
   EXPECT_EQ(code, 1) << out;
   EXPECT_NE(out.find("MODULE-CONFIG"), std::string::npos) << out;
   EXPECT_EQ(h.count("EXAMPLE-START"), 1u) << h.hub.log();
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Reload, AModuleReconfiguredInPlaceKeepsItsChannelsAndTheirSubscribers) {
+  const auto pub = [](const std::string& name, const std::string& text) {
+    return std::string(R"({"name": ")") + name + R"(", "account": "guest", "command": [")" +
+           FLOWCTL_BIN + R"(", "pub", ")" + name + R"(", ")" + text +
+           R"(", "--rate", "20", "--wait-ms", "0"]})";
+  };
+  const std::string satellites = "[" + pub("a", "from a") + ", " + pub("b", "from b") + "]";
+  const auto modules = [](const std::string& input, const std::string& forward,
+                          const std::string& greeting) {
+    return std::string(R"([{"name": "echo", "path": ")") + SKROBOT_TEST_MODULE_DIR +
+           R"(/test_channels_cpp.so", "config": {"input": ")" + input + R"(", "forward": ")" +
+           forward + R"("}}, )" + example(greeting) + "]";
+  };
+  SupervisedHub h(satellites, modules("guest.a", "", "one"));
+  ASSERT_TRUE(h.hub.start());
+  Listener listener(h.hub.address(), "echo.upper");
+  ASSERT_TRUE(eventually([&] { return listener.has("FROM A"); })) << h.hub.log();
+
+  // Only the configs changed: both modules take them in place.
+  h.hub.writeConfig(sats(satellites), modules("guest.b", "", "two"));
+  int code = 0;
+  std::string out = h.flowctl({"reload"}, &code);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(out, "module reconfigured: echo\nmodule reconfigured: example\n");
+  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-RECONFIGURED greeting 'two', period 50 ms")) << h.hub.log();
+  const size_t before = listener.count();
+  EXPECT_TRUE(eventually([&] {
+    const auto got = listener.got();
+    return std::any_of(got.begin() + static_cast<std::ptrdiff_t>(before), got.end(),
+                       [](const auto& m) { return m.payload == "FROM B"; });
+  })) << h.hub.log();
+  EXPECT_EQ(listener.ids(), 1u) << "echo.upper was made again";
+  EXPECT_EQ(h.count("MODULE-STOPPED"), 0u) << h.hub.log();
+  EXPECT_EQ(h.count("MODULE-RECONFIGURED"), 2u) << h.hub.log();
+
+  // A change it does not take in place ("forward"): restarted, and said why.
+  h.hub.writeConfig(sats(satellites), modules("guest.b", "nowhere.ask", "two"));
+  out = h.flowctl({"reload"}, &code);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(out.rfind("module changed, restarted: echo (echo did not take the change", 0), 0u)
+      << out;
+  EXPECT_TRUE(h.hub.waitLog("MODULE-STOPPED module echo")) << h.hub.log();
+  EXPECT_TRUE(eventually([&] { return listener.ids() == 2; })) << "echo.upper not made again";
 }
 
 }  // namespace

@@ -24,7 +24,7 @@ static skr_status bad_init(const skr_host_api* host, skr_module_ctx* ctx, void**
 #endif
 
 static const skr_module_descriptor k_descriptor = {
-    SIZE, MAJOR, MINOR, "bad", "0.1.0", "a defective descriptor", 0, bad_init, 0, 0, 0, 0, 0};
+    SIZE, MAJOR, MINOR, "bad", "0.1.0", "a defective descriptor", 0, bad_init, 0, 0, 0, 0, 0, 0};
 
 SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {
 #ifdef CASE_NULL_DESCRIPTOR

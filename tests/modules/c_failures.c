@@ -31,7 +31,8 @@ static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor)
                                                    0,
                                                    0,
                                                    NULL,
-                                                   0};
+                                                   0,
+                                                   NULL};
 
 SKR_EXPORT const skr_module_descriptor* skrobot_module_entry(void) {
   return &k_descriptor;

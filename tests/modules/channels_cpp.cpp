@@ -5,6 +5,7 @@
 //                  Requester and answers with {"forwarded": <the answer>} or {"error": ...};
 //                  the command "sync" writes its value to key "synced" and answers "on disk"
 //                  after a database barrier (plugin ABI 1.3)
+// A reload that changes "input" alone is taken in place (reconfigure, ABI 1.11).
 // With config "follow" (a sync source, plugin_sync.hpp) it publishes "pulse:<seq>:<dropped>" on
 // <name>.upper for each pulse of that source and passes the pulse on to its own source
 // <name>.tock: a chain in lockstep.
@@ -29,7 +30,6 @@ class ChannelsCpp final : public skr::plugin::Module {
 
   void start() override {
     using namespace skr::plugin;
-    const std::string self(host_.name());
     upper_ = StreamChannel(host_, "upper", "text/plain", R"({"case":"upper"})");
     ask_ = ServiceChannel(host_, "ask", [this](const ServiceRequest& r) { onAsk(r); });
     requester_.emplace(host_);
@@ -40,7 +40,36 @@ class ChannelsCpp final : public skr::plugin::Module {
         tock_.pulse();
       });
     }
-    in_ = Subscription(host_, input_, [this, self](std::string_view payload) {
+    subscribeInput();
+  }
+  // ABI 1.11: a new "input" is followed in place (its channels stay, with their subscribers);
+  // a change of anything else restarts it.
+  bool reconfigure() override {
+    if (host_.configString("forward", "") != forward_ ||
+        host_.configString("follow", "") != follow_) {
+      return false;
+    }
+    const std::string input = host_.configString("input", "guest.in");
+    if (input != input_) {
+      input_ = input;
+      subscribeInput();
+    }
+    host_.log.info("RECONFIGURED", "input ", input_);
+    return true;
+  }
+  void stop() override {
+    clock_.reset();
+    tock_.reset();
+    in_.reset();
+    requester_.reset();
+    ask_.reset();
+    upper_.reset();
+  }
+
+ private:
+  void subscribeInput() {
+    const std::string self(host_.name());
+    in_ = skr::plugin::Subscription(host_, input_, [this, self](std::string_view payload) {
       if (auto frame = skr::media::parseFrame(payload)) {
         skr::plugin::dbSet(host_, self, "media_seq", std::to_string(frame->header.seq));
         return;
@@ -53,16 +82,7 @@ class ChannelsCpp final : public skr::plugin::Module {
       skr::plugin::dbSet(host_, self + ".upper", "last_length", std::to_string(text.size()));
     });
   }
-  void stop() override {
-    clock_.reset();
-    tock_.reset();
-    in_.reset();
-    requester_.reset();
-    ask_.reset();
-    upper_.reset();
-  }
 
- private:
   void onAsk(const skr::plugin::ServiceRequest& r) {
     const uint64_t id = r.id;
     if (r.command == "sync") {  // a write, then a barrier: answered once both are on disk

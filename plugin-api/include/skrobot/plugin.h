@@ -49,7 +49,7 @@ extern "C" {
  * refused on the descriptor's first 8 bytes (struct_size, abi_major, abi_minor) alone: the host
  * reads nothing else of it, so these three fields keep their place in every future major. */
 #define SKR_PLUGIN_ABI_MAJOR 1
-#define SKR_PLUGIN_ABI_MINOR 10
+#define SKR_PLUGIN_ABI_MINOR 11
 
 #define SKR_EXPORT __attribute__((visibility("default")))
 #define SKR_MODULE_ENTRY_SYMBOL "skrobot_module_entry"
@@ -513,6 +513,15 @@ typedef struct skr_module_descriptor {
    * `skrobot --check-config` without init. */
   const skr_config_key* config_keys;
   size_t config_key_count;
+
+  /* --- ABI 1.11 (read only when struct_size covers it) --- */
+  /* Optional. The module's config changed while it runs (a reload of the hub's config): the
+   * config calls now read the new object, checked against the declared keys first and with
+   * their defaults. Apply it in place and return SKR_OK (its channels and state stay), or return
+   * non-OK (SKR_ERR_UNSUPPORTED: not this change) to be restarted with it instead. Called on
+   * the module's loop thread, between start and stop. Strings the config calls returned before
+   * stay valid until it returns, not after. NULL: always restarted. */
+  skr_status (*reconfigure)(void* instance);
 } skr_module_descriptor;
 
 typedef const skr_module_descriptor* (*skr_module_entry_fn)(void);

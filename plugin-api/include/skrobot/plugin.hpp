@@ -261,6 +261,10 @@ class Module {
 
   virtual void start() {}
   virtual void stop() {}
+  // ABI 1.11: the config changed while the module runs (Host's config calls read the new one,
+  // checked against the declared keys). Return true once applied in place (its channels and
+  // state stay); false (the default) to be restarted with it. Runs on the module's loop thread.
+  virtual bool reconfigure() { return false; }
 };
 
 namespace detail {
@@ -306,6 +310,16 @@ struct Adapter {
     return guarded(inst->host.api(), inst->host.ctx(), "stop", [&] { inst->module->stop(); });
   }
 
+  static skr_status reconfigure(void* instance) noexcept {
+    auto* inst = static_cast<Instance*>(instance);
+    if (!inst->started) return SKR_ERR_UNSUPPORTED;
+    bool applied = false;
+    const skr_status st = guarded(inst->host.api(), inst->host.ctx(), "reconfigure",
+                                  [&] { applied = inst->module->reconfigure(); });
+    if (st != SKR_OK) return st;
+    return applied ? SKR_OK : SKR_ERR_UNSUPPORTED;
+  }
+
   static void fini(void* instance) noexcept {
     auto* inst = static_cast<Instance*>(instance);
     // A destructor that throws terminates anyway; catch what the members' cleanup may throw.
@@ -340,7 +354,8 @@ struct Adapter {
         &::skr::plugin::detail::Adapter<Class>::stop,                                    \
         &::skr::plugin::detail::Adapter<Class>::fini,                                    \
         (keys),                                                                          \
-        static_cast<std::size_t>(key_count)};                                            \
+        static_cast<std::size_t>(key_count),                                             \
+        &::skr::plugin::detail::Adapter<Class>::reconfigure};                            \
     return &kDescriptor;                                                                 \
   }
 

@@ -33,12 +33,12 @@ class Example final : public skr::plugin::Module {
 
   // start: register tick handlers and start the worker. Runs on the module's loop thread.
   void start() override {
-    const std::int64_t period_ns = period_ms_ * 1'000'000;
-    next_tick_ns_ = host_.nowNs() + period_ns;
+    next_tick_ns_ = host_.nowNs() + period_ms_ * 1'000'000;
     // FastTick is the loop's resolution: check a deadline there, never sleep in a handler.
-    fast_ = host_.onTick(Tick::fast, [this, period_ns] {
+    fast_ = host_.onTick(Tick::fast, [this] {
       const std::int64_t now = host_.nowNs();
       if (now < next_tick_ns_) return;
+      const std::int64_t period_ns = period_ms_ * 1'000'000;
       next_tick_ns_ += period_ns;  // absolute deadlines: no drift
       if (next_tick_ns_ <= now) next_tick_ns_ = now + period_ns;
       host_.log.info("EXAMPLE-TICK", greeting_, " #", ++ticks_);
@@ -51,6 +51,18 @@ class Example final : public skr::plugin::Module {
     worker_ = std::thread([this] { work(); });
     host_.log.info("EXAMPLE-START", "greeting '", greeting_, "', period ", period_ms_, " ms on ",
                    host_.loopInfo().loop_name);
+  }
+
+  // reconfigure (ABI 1.11): a reload of the hub's config changed ours while we run. The host has
+  // checked the new one against kConfig; we take it in place, from the next tick on (returning
+  // false instead would have the host restart us with it).
+  bool reconfigure() override {
+    greeting_ = host_.configString("greeting");
+    period_ms_ = host_.configInt("period_ms");
+    next_tick_ns_ = host_.nowNs() + period_ms_ * 1'000'000;
+    host_.log.info("EXAMPLE-RECONFIGURED", "greeting '", greeting_, "', period ", period_ms_,
+                   " ms");
+    return true;
   }
 
   // stop: undo start (called once, only after a successful start). Join our own thread first so
@@ -97,8 +109,8 @@ class Example final : public skr::plugin::Module {
   }
 
   Host& host_;
-  const std::string greeting_;
-  const std::int64_t period_ms_;
+  std::string greeting_;  // loop thread only (read in ticks, changed by reconfigure)
+  std::int64_t period_ms_;
   skr::plugin::TickHandle fast_, slow_, second_;  // RAII: a reset handle is unregistered
   std::int64_t next_tick_ns_ = 0;
   std::uint64_t ticks_ = 0, slow_ticks_ = 0, results_ = 0;  // loop thread only

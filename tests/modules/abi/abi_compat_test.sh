@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # Plugin ABI compatibility with modules compiled now, with the build's C compiler and flags,
-# against: the frozen 1.0 to 1.9 headers (abi/1.0, abi/1.1: module_1_0.c, module_1_1.c;
-# abi/1.2 to abi/1.9: module_current.c as it was), the
+# against: the frozen 1.0 to 1.10 headers (abi/1.0, abi/1.1: module_1_0.c, module_1_1.c;
+# abi/1.2 to abi/1.10: module_current.c as it was), the
 # current plugin.h, and copies of it with the minor or the major raised by one (module_current.c).
 # The hub (--check-config, then a real start and SIGTERM) must load and run the older and current
 # modules with the values of their config, and refuse the newer minor and the other major with
@@ -35,7 +35,7 @@ major=$(sed -n 's/^#define SKR_PLUGIN_ABI_MAJOR \([0-9]*\)$/\1/p' "$current")
 minor=$(sed -n 's/^#define SKR_PLUGIN_ABI_MINOR \([0-9]*\)$/\1/p' "$current")
 [[ -n $major && -n $minor ]] || fail "no SKR_PLUGIN_ABI_MAJOR/MINOR in $current"
 cur=$major.$minor newer=$major.$((minor + 1)) other=$((major + 1)).0
-step "hub ABI $cur; modules for 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, $cur, $newer (refused), $other (refused)"
+step "hub ABI $cur; modules for 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 1.10, $cur, $newer (refused), $other (refused)"
 
 # A copy of the current header with the version macros replaced (it includes no other header of
 # ours, so the copy stands alone).
@@ -75,6 +75,7 @@ build abi_1_6 module_current.c "$here/1.6"
 build abi_1_7 module_current.c "$here/1.7"
 build abi_1_8 module_current.c "$here/1.8"
 build abi_1_9 module_current.c "$here/1.9"
+build abi_1_10 module_current.c "$here/1.10"
 build "abi_${major}_$minor" module_current.c "$include"
 build "abi_${major}_$((minor + 1))" module_current.c "$tmp/include-$newer"
 build "abi_${major}_$((minor + 1))_header_only" module_current.c "$tmp/include-$newer" \
@@ -105,6 +106,7 @@ cat > "$tmp/hub.json" <<JSON
     { "name": "abi_1_7", "config": { "count": 12, "label": "one-seven" } },
     { "name": "abi_1_8", "config": { "count": 13, "label": "one-eight" } },
     { "name": "abi_1_9", "config": { "count": 14, "label": "one-nine" } },
+    { "name": "abi_1_10", "config": { "count": 15, "label": "one-ten" } },
     { "name": "$cur_mod", "config": { "label": "current" } }
   ] }
 JSON
@@ -123,6 +125,7 @@ expect "$tmp/check.txt" "(ABI 1.6)"
 expect "$tmp/check.txt" "(ABI 1.7)"
 expect "$tmp/check.txt" "(ABI 1.8)"
 expect "$tmp/check.txt" "(ABI 1.9)"
+expect "$tmp/check.txt" "(ABI 1.10)"
 expect "$tmp/check.txt" "(ABI $cur)"
 for m in "$newer_mod" "${newer_mod}_header_only"; do
   grep -E "^ +$m +MODULE-ABI .*built for ABI $newer, this hub has ABI $cur" "$tmp/check.txt" \
@@ -130,7 +133,7 @@ for m in "$newer_mod" "${newer_mod}_header_only"; do
 done
 grep -E "MODULE-ABI .*built for ABI $other, this hub has ABI $cur" "$tmp/check.txt" \
   > /dev/null || { cat "$tmp/check.txt"; fail "the other major is not refused"; }
-expect "$tmp/check.txt" "3 of 14 enabled modules would fail to load"
+expect "$tmp/check.txt" "3 of 15 enabled modules would fail to load"
 refuse "$tmp/check.txt" "-INIT"
 
 step "skrobot --describe-module: old modules declare no keys"
@@ -164,7 +167,7 @@ wait "$hub" || rc=$?
 hub=""
 [[ $rc == 0 ]] || { cat "$tmp/hub.log"; fail "the hub exited $rc"; }
 log=$tmp/hub.log
-expect "$log" "11 modules running, 3 failed"
+expect "$log" "12 modules running, 3 failed"
 expect "$log" "ABI10-INIT count=3 label=old host=$cur"
 expect "$log" "ABI10-START abi_1_0"
 expect "$log" "ABI10-STOP abi_1_0"
@@ -180,8 +183,9 @@ expect "$log" "ABI16-INIT count=11 label=one-six has_count=1"
 expect "$log" "ABI17-INIT count=12 label=one-seven has_count=1"
 expect "$log" "ABI18-INIT count=13 label=one-eight has_count=1"
 expect "$log" "ABI19-INIT count=14 label=one-nine has_count=1"
+expect "$log" "ABI110-INIT count=15 label=one-ten has_count=1"
 expect "$log" "$cur_tag count=5 label=current has_count=1"
-for m in abi_1_0 abi_1_1 abi_1_2 abi_1_3 abi_1_4 abi_1_5 abi_1_6 abi_1_7 abi_1_8 abi_1_9 "$cur_mod"; do expect "$log" "MODULE-STOPPED module $m"; done
+for m in abi_1_0 abi_1_1 abi_1_2 abi_1_3 abi_1_4 abi_1_5 abi_1_6 abi_1_7 abi_1_8 abi_1_9 abi_1_10 "$cur_mod"; do expect "$log" "MODULE-STOPPED module $m"; done
 for m in "$newer_mod" "${newer_mod}_header_only"; do
   grep -E "MODULE-ABI module $m .*built for ABI $newer, this hub has ABI $cur" "$log" \
     > /dev/null || { cat "$log"; fail "$m not refused as a newer minor"; }

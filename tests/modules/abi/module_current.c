@@ -50,7 +50,11 @@ static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor)
                                                    NULL,
                                                    NULL,
                                                    k_keys,
-                                                   sizeof k_keys / sizeof k_keys[0]};
+                                                   sizeof k_keys / sizeof k_keys[0],
+#if SKR_PLUGIN_ABI_MAJOR > 1 || SKR_PLUGIN_ABI_MINOR >= 11
+                                                   NULL /* reconfigure */
+#endif
+};
 
 #ifdef ABI_TEST_HEADER_ONLY
 enum { kHeaderBytes = 8 };

@@ -28,6 +28,8 @@ struct ReloadPlan {
   std::vector<ModuleEntry> load;       // new ones and changed ones (the new entry)
   std::vector<std::string> unload;     // removed or disabled ones, and changed ones
   std::vector<std::string> restarted;  // the changed ones (in both lists above)
+  // Changed in their `config` alone: given it in place (ABI 1.11 reconfigure), else restarted.
+  std::vector<ModuleEntry> reconfigure;
   // Satellites by name.
   std::vector<SatelliteEntry> satellites_added;
   std::vector<std::string> satellites_removed;
@@ -36,7 +38,7 @@ struct ReloadPlan {
   // Top-level keys that changed and take a restart of the hub to apply ("$.server", ...).
   std::vector<std::string> not_applied;
   [[nodiscard]] bool empty() const noexcept {
-    return load.empty() && unload.empty() && satellites_added.empty() &&
+    return load.empty() && unload.empty() && reconfigure.empty() && satellites_added.empty() &&
            satellites_removed.empty() && satellites_changed.empty() && !log_level;
   }
 };

@@ -16,7 +16,7 @@
 //   MODULE-START       start failed
 //   MODULE-STOP        stop failed (the cleanup goes on)
 // Progress lines (info): MODULE-DISABLED, MODULE-LOADED, MODULE-STARTED, MODULE-STOPPED,
-// MODULE-UNLOADED (unload: a reload removed it).
+// MODULE-UNLOADED (unload: a reload removed it), MODULE-RECONFIGURED (reconfigure, ABI 1.11).
 // Lines written by a module carry the source "mod.<name>"; its config problems MODULE-CONFIG.
 #pragma once
 
@@ -180,6 +180,12 @@ class ModuleHost {
   // MODULE-FAILED with `reason`, stopped as at shutdown, its library closed; it moves from
   // modules() to failures(). Nothing when it is not running (any more).
   void failRunning(const std::string& name, const std::string& reason) noexcept;
+  // ABI 1.11: gives a running module its changed config in place (`entry.config`, checked
+  // against its declared keys first), through its reconfigure step: MODULE-RECONFIGURED.
+  // Errc::unsupported when it has no step or declined this change (then restart it),
+  // config_error when the config breaks its keys, module_failed when the step failed (its old
+  // config stays), not_found when it does not run.
+  [[nodiscard]] Result<void> reconfigure(const ModuleEntry& entry);
   // Stops one module (if it runs) and unloads it, as at shutdown (a reload that removes or
   // changes it): logged MODULE-STOPPED, MODULE-UNLOADED. False when there is none of that name.
   bool unload(const std::string& name) noexcept;

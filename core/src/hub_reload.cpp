@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <skrobot/hub/hub_reload.h>
 
+#include "families/admin/admin_args.h"
+
 #include <skrobot/hub/flow/server.h>
 #include <skrobot/hub/module_host.h>
 #include <skrobot/hub/supervisor.h>
@@ -135,34 +137,28 @@ Reloader::Reloader(Loop& loop, flow::FlowServer& server, ModuleHost& modules,
           answer(flow::Variant(flow::Variant::Map{{"changes", flow::Variant(std::move(lines))}}));
         });
       });
-  server_.addAdminCommand("module_load", [this](const flow::Variant& args,
-                                                flow::FlowServer::AdminAnswer answer) {
-    const auto* m = args.asMap();
-    const flow::Variant* name = m != nullptr && m->count("name") != 0 ? &m->at("name") : nullptr;
-    if (name == nullptr || name->asString() == nullptr) {
-      return answer(makeError(Errc::invalid_argument, "needs {\"name\": <string>}"));
-    }
-    Json::Value config;
-    if (m->count("config") != 0) config = m->at("config").toJson();
-    loadModule(*name->asString(), std::move(config),
-               [answer = std::move(answer), n = *name->asString()](Result<std::string> r) {
-                 if (!r) return answer(r.error());
-                 answer(flow::Variant(flow::Variant::Map{{"loaded", n}, {"file", *r}}));
-               });
-  });
-  server_.addAdminCommand("module_unload", [this](const flow::Variant& args,
-                                                  flow::FlowServer::AdminAnswer answer) {
-    const auto* m = args.asMap();
-    const flow::Variant* name = m != nullptr && m->count("name") != 0 ? &m->at("name") : nullptr;
-    if (name == nullptr || name->asString() == nullptr) {
-      return answer(makeError(Errc::invalid_argument, "needs {\"name\": <string>}"));
-    }
-    if (!modules_.unload(*name->asString())) {
-      return answer(makeError(Errc::not_found, "no module " + *name->asString() + " runs"));
-    }
-    log::info(kLogSource, "HUB-MODULE-UNLOAD", *name->asString());
-    answer(flow::Variant(flow::Variant::Map{{"unloaded", *name->asString()}}));
-  });
+  server_.addAdminCommand(
+      "module_load", [this](const flow::Variant& args, flow::FlowServer::AdminAnswer answer) {
+        auto name = flow::adminString(args, "name");
+        if (!name) return answer(name.error());
+        Json::Value config;
+        if (args.asMap()->count("config") != 0) config = args.asMap()->at("config").toJson();
+        loadModule(*name, std::move(config),
+                   [answer = std::move(answer), n = *name](Result<std::string> r) {
+                     if (!r) return answer(r.error());
+                     answer(flow::Variant(flow::Variant::Map{{"loaded", n}, {"file", *r}}));
+                   });
+      });
+  server_.addAdminCommand(
+      "module_unload", [this](const flow::Variant& args, flow::FlowServer::AdminAnswer answer) {
+        auto name = flow::adminString(args, "name");
+        if (!name) return answer(name.error());
+        if (!modules_.unload(*name)) {
+          return answer(makeError(Errc::not_found, "no module " + *name + " runs"));
+        }
+        log::info(kLogSource, "HUB-MODULE-UNLOAD", *name);
+        answer(flow::Variant(flow::Variant::Map{{"unloaded", *name}}));
+      });
 }
 
 Reloader::~Reloader() {

@@ -3,6 +3,7 @@
 // order, its restarts, its stop, and the ADMIN commands that show and drive them.
 #include <skrobot/hub/supervisor.h>
 
+#include "families/admin/admin_args.h"
 #include "supervisor/child_process.h"
 #include "supervisor/output_log.h"
 
@@ -82,24 +83,6 @@ bool executable(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::access(path.c_str(), X_OK) == 0;
 }
 
-Result<std::string> stringArg(const Variant& args, const char* key) {
-  if (const auto* m = args.asMap()) {
-    if (auto it = m->find(key); it != m->end() && it->second.asString() != nullptr) {
-      return *it->second.asString();
-    }
-  }
-  return makeError(Errc::invalid_argument, std::string("needs {\"") + key + "\": <string>}");
-}
-
-int64_t intArg(const Variant& args, const char* key, int64_t def) {
-  if (const auto* m = args.asMap()) {
-    if (auto it = m->find(key); it != m->end()) {
-      if (auto n = it->second.asInt64()) return *n;
-    }
-  }
-  return def;
-}
-
 }  // namespace
 
 Result<std::string> findProgram(const std::string& program, const std::string& path) {
@@ -170,7 +153,7 @@ Supervisor::Supervisor(Loop& loop, flow::FlowServer& server, std::vector<Satelli
   });
   const auto named = [this](Result<Variant> (Supervisor::*fn)(const std::string&)) {
     return [this, fn](const Variant& args, flow::FlowServer::AdminAnswer answer) {
-      auto name = stringArg(args, "name");
+      auto name = flow::adminString(args, "name");
       answer(name ? (this->*fn)(*name) : Result<Variant>(name.error()));
     };
   };
@@ -181,11 +164,13 @@ Supervisor::Supervisor(Loop& loop, flow::FlowServer& server, std::vector<Satelli
   server_.addAdminCommand("sat_restart", named(&Supervisor::restart));
   server_.addAdminCommand(
       "sat_logs", [this](const Variant& args, flow::FlowServer::AdminAnswer answer) {
-        auto name = stringArg(args, "name");
+        auto name = flow::adminString(args, "name");
         if (!name) return answer(name.error());
-        const int64_t lines = intArg(args, "lines", 100);
+        const auto lines_arg = flow::adminInt(args, "lines");
+        const auto after_arg = flow::adminInt(args, "after");
+        const int64_t lines = lines_arg ? *lines_arg : 100;
         answer(logs(
-            *name, static_cast<uint64_t>(std::max<int64_t>(0, intArg(args, "after", 0))),
+            *name, static_cast<uint64_t>(std::max<int64_t>(0, after_arg ? *after_arg : 0)),
             static_cast<size_t>(std::clamp<int64_t>(lines, 1, supervisor::OutputLog::kMaxLines))));
       });
 }

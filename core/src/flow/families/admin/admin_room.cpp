@@ -11,6 +11,8 @@
 //   user_role   {"user", "role"}               user_rule {"user", "action", "patterns": [...]}
 #include "families/admin/admin_room.h"
 
+#include "families/admin/admin_args.h"
+
 #include "connection.h"
 #include "hub.h"
 
@@ -20,42 +22,20 @@ namespace skr::flow {
 
 namespace {
 
-Result<std::string> stringArg(const Variant& args, const char* key) {
-  const auto* map = args.asMap();
-  const Variant* v = nullptr;
-  if (map != nullptr) {
-    if (auto it = map->find(key); it != map->end()) v = &it->second;
-  }
-  if (v == nullptr || v->asString() == nullptr) {
-    return makeError(Errc::invalid_argument, std::string("needs {\"") + key + "\": <string>}");
-  }
-  return *v->asString();
-}
-
-Result<int64_t> intArg(const Variant& args, const char* key) {
-  const auto* map = args.asMap();
-  if (map != nullptr) {
-    if (auto it = map->find(key); it != map->end()) {
-      if (auto n = it->second.asInt64()) return *n;
-    }
-  }
-  return makeError(Errc::invalid_argument, std::string("needs {\"") + key + "\": <integer>}");
-}
-
 // The change a user_* command makes to the users file; invalid_argument for bad arguments.
 Result<Authenticator::Change> userChange(const std::string& command, const Variant& args) {
-  auto user = stringArg(args, "user");
+  auto user = adminString(args, "user");
   if (!user) return user.error();
   const std::string u = *user;
   if (command == "user_del") {
     return Authenticator::Change([u](UsersFile& f) { return f.remove(u); });
   }
   if (command == "user_add" || command == "user_passwd") {
-    auto password = stringArg(args, "password");
+    auto password = adminString(args, "password");
     if (!password) return password.error();
     Role role = Role::user;
     if (command == "user_add" && args.asMap() != nullptr && args.asMap()->count("role") != 0) {
-      auto r = stringArg(args, "role");
+      auto r = adminString(args, "role");
       if (!r || (*r != "admin" && *r != "user")) {
         return makeError(Errc::invalid_argument, "role must be \"admin\" or \"user\"");
       }
@@ -73,7 +53,7 @@ Result<Authenticator::Change> userChange(const std::string& command, const Varia
     });
   }
   if (command == "user_role") {
-    auto r = stringArg(args, "role");
+    auto r = adminString(args, "role");
     if (!r || (*r != "admin" && *r != "user")) {
       return makeError(Errc::invalid_argument, "needs {\"role\": \"admin\" | \"user\"}");
     }
@@ -86,7 +66,7 @@ Result<Authenticator::Change> userChange(const std::string& command, const Varia
     });
   }
   if (command == "user_rule") {
-    auto action_name = stringArg(args, "action");
+    auto action_name = adminString(args, "action");
     if (!action_name) return action_name.error();
     std::optional<Action> action;
     for (auto a :
@@ -167,7 +147,7 @@ void AdminRoom::users(Connection& c, const std::string& command, const Variant& 
   }
   auto change = userChange(command, args);
   if (!change) return c.reply(change.error());
-  const std::string target = *stringArg(args, "user");
+  const std::string target = *adminString(args, "user");
   log::info(kLogSource, "FLOW-ADMIN", c.describe() + ": " + command + " " + target);
   c.block();  // answered when the worker is done
   auth.changeUsers(std::move(change).value(), c.whenDone([command, target](Connection& c,
@@ -205,7 +185,7 @@ Result<Variant> AdminRoom::command(Connection& by, const std::string& command,
     return Variant(std::move(out));
   }
   if (command == "kick") {
-    auto id = intArg(args, "connection");
+    auto id = adminInt(args, "connection");
     if (!id) return id.error();
     auto it = hub_.connections.find(static_cast<uint32_t>(*id));
     if (it == hub_.connections.end()) {
@@ -219,7 +199,7 @@ Result<Variant> AdminRoom::command(Connection& by, const std::string& command,
     return Variant(Variant::Map{{"kicked", who}});
   }
   if (command == "chan_rm") {
-    auto name = stringArg(args, "name");
+    auto name = adminString(args, "name");
     if (!name) return name.error();
     const Channel* ch = hub_.channels.findByName(*name);
     if (ch == nullptr) return makeError(Errc::not_found, "no channel \"" + *name + "\"");
@@ -227,7 +207,7 @@ Result<Variant> AdminRoom::command(Connection& by, const std::string& command,
     return Variant(Variant::Map{{"removed", *name}});
   }
   if (command == "db_rm") {
-    auto name = stringArg(args, "name");
+    auto name = adminString(args, "name");
     if (!name) return name.error();
     if (auto r = hub_.databases.remove(by, *name); !r) return r.error();
     return Variant(Variant::Map{{"removed", *name}});

@@ -292,6 +292,13 @@ Result<void> ModuleHost::reconfigure(const ModuleEntry& entry) {
   return {};
 }
 
+Result<ModuleHost::Settings> ModuleHost::settings(const std::string& name) const {
+  for (const skr_module_ctx* m : running_) {
+    if (m->name == name) return Settings{m->info, m->entry.config};
+  }
+  return makeError(Errc::not_found, "no module " + name + " runs");
+}
+
 bool ModuleHost::unload(const std::string& name) noexcept {
   requireHostThread(main_loop_, control_thread_, "ModuleHost::unload");
   auto it = std::find_if(modules_.begin(), modules_.end(),

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Config loading and validation: defaults, every kind of error, path resolution.
+#include <skrobot/hub/config_edit.h>
 #include <skrobot/hub/hub_config.h>
 #include <skrobot/hub/json_schema.h>
 
@@ -410,6 +411,34 @@ TEST(ConfigTest, BadSatellitesAreReportedWithTheirPaths) {
   EXPECT_HAS(msg, "$.satellites[2].command: must have at least 1 items");
   EXPECT_HAS(msg, "$.satellites[2].restart:");
   EXPECT_HAS(msg, "$.satellites[3].name: may contain only letters, digits, '_' and '-'");
+}
+
+TEST(ConfigEditTest, OnlyTheChangedValuesOfAModulesConfigAreWritten) {
+  const std::string text = R"(// the robot
+{ "modules": [ {"name": "a"},
+    { "name": "b", "config": { "greeting": "one", /* why */ "period_ms": 10 } },
+    { "name": "c", "config": {} } ],
+  "satellites": [ {"name": "s", "command": ["x"]} ] })";
+  Json::Value v;
+  v["greeting"] = "two";
+  v["extra"] = true;
+  auto b = editModuleConfig(text, 1, v);
+  ASSERT_TRUE(b.ok()) << b.error().message;
+  EXPECT_EQ(*b, R"(// the robot
+{ "modules": [ {"name": "a"},
+    { "name": "b", "config": {"extra": true,  "greeting": "two", /* why */ "period_ms": 10 } },
+    { "name": "c", "config": {} } ],
+  "satellites": [ {"name": "s", "command": ["x"]} ] })");
+  Json::Value p;
+  p["period_ms"] = 20;
+  auto a = editModuleConfig(text, 0, p);  // no config object yet
+  ASSERT_TRUE(a.ok());
+  EXPECT_NE(a->find(R"({ "config": {"period_ms": 20}, "name": "a"})"), std::string::npos) << *a;
+  auto c = editModuleConfig(text, 2, p);  // an empty one
+  ASSERT_TRUE(c.ok());
+  EXPECT_NE(c->find(R"("config": {"period_ms": 20})"), std::string::npos) << *c;
+  EXPECT_FALSE(editModuleConfig(text, 3, p).ok());
+  EXPECT_FALSE(editModuleConfig("{", 0, p).ok());
 }
 
 TEST(ConfigTest, AppNameMustNameASocketFile) {

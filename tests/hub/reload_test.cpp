@@ -12,8 +12,11 @@
 
 #include <algorithm>
 #include <atomic>
+#include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -281,6 +284,56 @@ TEST(Reload, AModuleReconfiguredInPlaceKeepsItsChannelsAndTheirSubscribers) {
       << out;
   EXPECT_TRUE(h.hub.waitLog("MODULE-STOPPED module echo")) << h.hub.log();
   EXPECT_TRUE(eventually([&] { return listener.ids() == 2; })) << "echo.upper not made again";
+}
+
+}  // namespace
+
+namespace {
+
+std::string slurp(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(Reload, AModulesConfigChangedAtRunTimeIsSavedOnlyWhenAskedAndOnlyItsValue) {
+  SupervisedHub h(R"([{"name": "idle", "command": ["sleep", "1000"]}])",
+                  "[" + example("one") + "]");
+  const std::filesystem::path file = h.dir.path() / "hub.json";
+  {  // a comment of the user's, which a save must keep
+    const std::string text = "// the robot of room 12\n" + slurp(file);
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << text;
+  }
+  const std::string original = slurp(file);
+  ASSERT_TRUE(h.hub.start());
+  int code = 0;
+  std::string out = h.flowctl({"module", "config", "example"}, &code);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_NE(out.find(R"(greeting           = "one")"), std::string::npos) << out;
+  EXPECT_NE(out.find("integer, default 1000, >= 1, <= 3600000; the EXAMPLE-TICK period"),
+            std::string::npos)
+      << out;
+
+  out = h.flowctl({"module", "config", "example", "greeting=three"}, &code);
+  EXPECT_EQ(out, "example reconfigured\n");
+  EXPECT_TRUE(h.hub.waitLog("EXAMPLE-RECONFIGURED greeting 'three'")) << h.hub.log();
+  EXPECT_EQ(slurp(file), original) << "saved without --save";
+
+  out = h.flowctl({"module", "config", "example", "period_ms=soon"}, &code);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("$.modules[0].config.period_ms"), std::string::npos) << out;
+  EXPECT_EQ(h.count("MODULE-RECONFIGURED"), 1u) << h.hub.log();
+
+  out = h.flowctl({"module", "config", "example", "greeting=four", "--save"}, &code);
+  EXPECT_EQ(out, "example reconfigured, saved in " + file.string() + "\n");
+  std::string expected = original;
+  expected.replace(expected.find(R"("greeting": "one")"), 17, R"("greeting": "four")");
+  EXPECT_EQ(slurp(file), expected);
+  EXPECT_EQ(h.flowctl({"reload"}, &code), "nothing changed\n");
+  // Only administrators.
+  out = h.flowctl({"module", "config", "example", "greeting=five"}, &code, "guest");
+  EXPECT_EQ(code, 7) << out;
 }
 
 }  // namespace

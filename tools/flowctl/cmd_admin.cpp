@@ -106,11 +106,72 @@ int cmdReload(const Cli& cli) {
   });
 }
 
+namespace {
+
+// flowctl module config NAME [KEY=VALUE...] [--save]: VALUE is JSON, else a string.
+int moduleConfig(const Cli& cli, const std::string& name, const std::vector<std::string>& sets,
+                 bool save) {
+  Variant::Map a{{"name", name}};
+  if (!sets.empty()) {
+    Variant::Map set;
+    for (const std::string& kv : sets) {
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos || eq == 0) return fail(kUsage, "expected KEY=VALUE, got " + kv);
+      const std::string value = kv.substr(eq + 1);
+      auto json = skr::flow::variantFromJsonText(value);
+      set[kv.substr(0, eq)] = json ? *json : Variant(value);
+    }
+    a["set"] = Variant(std::move(set));
+    a["save"] = save;
+  } else if (save) {
+    return usageError(cli);
+  }
+  return runAdmin(cli, "module_config", Variant(std::move(a)), [](const Variant& answer) {
+    if (!field(answer, "applied").empty()) {
+      std::printf(
+          "%s %s%s\n", field(answer, "module").c_str(), field(answer, "applied").c_str(),
+          field(answer, "saved").empty() ? "" : (", saved in " + field(answer, "saved")).c_str());
+      return;
+    }
+    const auto* m = answer.asMap();
+    if (m == nullptr || m->count("keys") == 0 || m->at("keys").asList() == nullptr) return;
+    if (m->at("keys").asList()->empty()) std::printf("(it declares no keys)\n");
+    // A member as JSON ("one" quoted), a number as a person writes it (1, not 1.0).
+    const auto json = [](const Variant& map, const char* key) -> std::string {
+      const auto* mm = map.asMap();
+      if (mm == nullptr || mm->count(key) == 0) return {};
+      const Variant& v = mm->at(key);
+      if (auto d = v.asDouble(); d && *d == static_cast<double>(static_cast<int64_t>(*d))) {
+        return std::to_string(static_cast<int64_t>(*d));
+      }
+      return skr::flow::variantToJsonText(v);
+    };
+    for (const auto& k : *m->at("keys").asList()) {
+      std::string rules = field(k, "type");
+      if (field(k, "required") == "true") rules += ", required";
+      if (!json(k, "default").empty()) rules += ", default " + json(k, "default");
+      if (!json(k, "min").empty()) rules += ", >= " + json(k, "min");
+      if (!json(k, "max").empty()) rules += ", <= " + json(k, "max");
+      if (!json(k, "choices").empty()) rules += ", one of " + json(k, "choices");
+      std::printf("%-18s = %s\n  %-16s   %s; %s\n", field(k, "key").c_str(),
+                  json(k, "value").c_str(), "", rules.c_str(), field(k, "description").c_str());
+    }
+  });
+}
+
+}  // namespace
+
 int cmdModule(const Cli& cli) {
   Args args(cli.args);
   const auto config = args.option("--config");
+  const bool save = args.flag("--save");
   const auto rest = args.rest();
-  if (rest.size() != 2 || (rest[0] != "load" && rest[0] != "unload") || !args.error().empty() ||
+  if (!args.error().empty() || rest.size() < 2) return usageError(cli);
+  if (rest[0] == "config") {
+    if (config) return usageError(cli);
+    return moduleConfig(cli, rest[1], std::vector<std::string>(rest.begin() + 2, rest.end()), save);
+  }
+  if (rest.size() != 2 || (rest[0] != "load" && rest[0] != "unload") || save ||
       (config && rest[0] != "load")) {
     return usageError(cli);
   }

@@ -289,18 +289,26 @@ constexpr Command kCommands[] = {
 )",
      .run = cmdReload},
     {.name = "module",
-     .synopsis = "module load|unload NAME",
-     .summary = "load a module dropped into module_paths, or unload one\n"
-                "(administrators)",
-     .usage = "usage: flowctl module load NAME [--config JSON] | module unload NAME",
+     .synopsis = "module load|unload|config NAME",
+     .summary = "load a module dropped into module_paths, unload one, or show and\n"
+                "change a running one's config (administrators)",
+     .usage = "usage: flowctl module load NAME [--config JSON] | unload NAME |\n"
+              "                     config NAME [KEY=VALUE...] [--save]",
      .help = R"(usage: flowctl module load NAME [--config JSON]
        flowctl module unload NAME
+       flowctl module config NAME [KEY=VALUE...] [--save]
   load: the hub loads and starts the module NAME, found on its module search path (module_paths,
   then its own modules) by name, never by a path, with --config checked against the keys it
   declares, as at start (problems are printed). For a new .so dropped into a directory of
   module_paths: install it by renaming a complete file into place, never by copying over a
   loaded one. It is not written into the config: a restart forgets it (add it to "modules").
-  unload: stops and unloads a running module. docs/robot.md.
+  unload: stops and unloads a running module.
+  config: without KEY=VALUE, the keys a running module declares (type, default, range, choices,
+  description) and their values now; with them (VALUE is JSON, else a string), its config
+  changed at run time: checked against its keys, given in place when the module can (plugin ABI
+  1.11 reconfigure) or by a restart. --save also writes those values into the config file (only
+  them: its comments and the rest stay as they are); unsaved, a reload or restart goes back to
+  the file's. docs/robot.md.
 )",
      .run = cmdModule},
     {.name = "ps",

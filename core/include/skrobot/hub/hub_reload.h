@@ -5,6 +5,7 @@
 #pragma once
 
 #include <skrobot/hub/hub_config.h>
+#include <skrobot/runtime/flow/variant.h>
 #include <skrobot/runtime/loop.h>
 #include <skrobot/runtime/result.h>
 
@@ -79,6 +80,15 @@ class Reloader {
   // module_unload: a running module stopped and unloaded (config's or not).
   using ModuleDone = std::function<void(Result<std::string>)>;
   void loadModule(const std::string& name, Json::Value config, ModuleDone done);
+  // ADMIN module_config (flowctl module config): without `set` (null), a running module's
+  // declared keys (key, type, required, default, min, max, choices, description) with their
+  // values now; with it (an object of keys and values), the module's config changed at run time:
+  // checked against its keys, given in place (reconfigure) or by a restart, and with `save`
+  // written into the config file (only those values: config_edit.h). Unsaved, the next reload
+  // or restart goes back to the file's. `done` gets {"module", "keys"} or {"module", "applied":
+  // "reconfigured" | "restarted", "saved": file}.
+  using ConfigDone = std::function<void(Result<flow::Variant>)>;
+  void moduleConfig(const std::string& name, const flow::Variant& set, bool save, ConfigDone done);
 
  private:
   void apply(HubConfig next, Done done);

@@ -186,6 +186,13 @@ class ModuleHost {
   // config_error when the config breaks its keys, module_failed when the step failed (its old
   // config stays), not_found when it does not run.
   [[nodiscard]] Result<void> reconfigure(const ModuleEntry& entry);
+  // A running module's declared keys (ModuleFileInfo::config_keys) and its config now, with its
+  // defaults. not_found when it does not run.
+  struct Settings {
+    ModuleFileInfo info;
+    Json::Value config;
+  };
+  [[nodiscard]] Result<Settings> settings(const std::string& name) const;
   // Stops one module (if it runs) and unloads it, as at shutdown (a reload that removes or
   // changes it): logged MODULE-STOPPED, MODULE-UNLOADED. False when there is none of that name.
   bool unload(const std::string& name) noexcept;

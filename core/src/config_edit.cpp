@@ -23,6 +23,7 @@ Result<Json::Value> parseWithOffsets(std::string_view text) {
   Json::CharReaderBuilder builder;
   builder["collectComments"] = false;
   builder["rejectDupKeys"] = true;
+  builder["failIfExtra"] = true;  // as the hub reads it (hub_config.cpp)
   const std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
   Json::Value doc;
   std::string errs;
@@ -44,9 +45,11 @@ std::string member(const std::string& key, const Json::Value& value) {
 
 Result<std::string> editModuleConfig(std::string_view text, std::size_t index,
                                      const Json::Value& values) {
-  auto doc = parseWithOffsets(text);
-  if (!doc) return doc.error();
-  const Json::Value& modules = (*doc)["modules"];
+  auto parsed = parseWithOffsets(text);
+  if (!parsed) return parsed.error();
+  const Json::Value& doc = *parsed;  // const: reading a missing key never makes it
+  if (!doc.isObject()) return makeError(Errc::config_error, "the config file is not an object");
+  const Json::Value& modules = doc["modules"];
   if (!modules.isArray() || index >= modules.size() ||
       !modules[static_cast<Json::ArrayIndex>(index)].isObject()) {
     return makeError(Errc::config_error,

@@ -26,6 +26,7 @@ bool parse(const std::string& text, Json::Value& doc) {
   Json::CharReaderBuilder builder;
   builder["collectComments"] = false;
   builder["rejectDupKeys"] = true;
+  builder["failIfExtra"] = true;
   const std::unique_ptr<Json::CharReader> reader(builder.newCharReader());
   std::string errs;
   try {
@@ -46,15 +47,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   values["period_ms"] = 20;
   auto edited = skr::editModuleConfig(text, index, values);
   if (!edited) return 0;
-  Json::Value before, after;
+  Json::Value before;
+  Json::Value after;
   if (!parse(text, before)) fail("an edit of a text that does not parse");
   if (!parse(*edited, after)) fail("the edited text does not parse:\n" + *edited);
   const auto i = static_cast<Json::ArrayIndex>(index);
-  const Json::Value& config = after["modules"][i]["config"];
+  const Json::Value& edited_doc = after;  // const: reading never adds
+  const Json::Value& original = before;
+  if (!edited_doc.isObject()) fail("the edited text is not an object:\n" + *edited);
+  const Json::Value& config = edited_doc["modules"][i]["config"];
   for (const std::string& key : values.getMemberNames()) {
     if (config[key] != values[key]) fail("the value of " + key + " was not set:\n" + *edited);
   }
-  const Json::Value& old = before["modules"][i]["config"];
+  const Json::Value& old = original["modules"][i]["config"];
   for (const std::string& key : old.getMemberNames()) {
     if (!values.isMember(key) && config[key] != old[key]) fail(key + " changed:\n" + *edited);
   }

@@ -324,7 +324,7 @@ constexpr Command kCommands[] = {
 )",
      .run = cmdPs},
     {.name = "start",
-     .synopsis = "start|stop|restart NAME",
+     .synopsis = "start NAME | stop NAME | restart NAME",
      .summary = "start, stop or restart a supervised satellite (administrators)",
      .usage = "usage: flowctl start NAME",
      .help = R"(usage: flowctl start NAME

@@ -38,21 +38,22 @@ static skr_status current_init(const skr_host_api* host, skr_module_ctx* ctx, vo
   return SKR_OK;
 }
 
-static const skr_module_descriptor k_descriptor = {sizeof(skr_module_descriptor),
-                                                   SKR_PLUGIN_ABI_MAJOR,
-                                                   SKR_PLUGIN_ABI_MINOR,
-                                                   "abi_module",
-                                                   ABI_VERSION ".0",
-                                                   "test: built against plugin.h " ABI_VERSION,
-                                                   0,
-                                                   current_init,
-                                                   NULL,
-                                                   NULL,
-                                                   NULL,
-                                                   k_keys,
-                                                   sizeof k_keys / sizeof k_keys[0],
+static const skr_module_descriptor k_descriptor = {
+    sizeof(skr_module_descriptor),
+    SKR_PLUGIN_ABI_MAJOR,
+    SKR_PLUGIN_ABI_MINOR,
+    "abi_module",
+    ABI_VERSION ".0",
+    "test: built against plugin.h " ABI_VERSION,
+    0,
+    current_init,
+    NULL,
+    NULL,
+    NULL,
+    k_keys,
+    sizeof k_keys / sizeof k_keys[0],
 #if SKR_PLUGIN_ABI_MAJOR > 1 || SKR_PLUGIN_ABI_MINOR >= 11
-                                                   NULL /* reconfigure */
+    NULL /* reconfigure */
 #endif
 };
 

@@ -140,10 +140,10 @@ ChildProcess::~ChildProcess() {
   out_watch_[1] = {};
   closeFd(control_);  // the reaper kills every descendant and exits
   if (!exited_ && reaper_ > 0) {
-    // Reaped here if it already went; otherwise init reaps it once the hub is gone, or the next
-    // waitpid of a later run does not see it (it is not ours to wait for after this).
+    // Reaped now if it already went; never waited for on the loop thread (it ends on its own once
+    // the socket closed, and init reaps it when the hub is gone).
     int status = 0;
-    for (int i = 0; i < 50 && ::waitpid(reaper_, &status, WNOHANG) == 0; ++i) ::usleep(2000);
+    (void)::waitpid(reaper_, &status, WNOHANG);
   }
   closeFd(pidfd_);
   closeFd(out_[0]);

@@ -316,11 +316,13 @@ int runHub(const skr::HubConfig& cfg, std::optional<skr::log::Level> fixed_level
       satellites.startAll();
       // SIGHUP or flowctl reload: the config read again, its changes applied (docs/robot.md).
       skr::Reloader reloader(loop, server, host, satellites, cfg, fixed_level);
+      stats->addSection("modules", [&reloader] { return reloader.modules(); });
       auto hangup = skr::SignalWatch::open(loop, SIGHUP, [&reloader](int) {
         reloader.reload([](const skr::Result<std::vector<std::string>>&) {});  // it logs
       });
       loop.run();
       supervisor = nullptr;
+      stats->removeSection("modules");
       stats->removeSection("satellites");
     }
     host.shutdown();

@@ -89,6 +89,10 @@ class Reloader {
   // "reconfigured" | "restarted", "saved": file}.
   using ConfigDone = std::function<void(Result<flow::Variant>)>;
   void moduleConfig(const std::string& name, const flow::Variant& set, bool save, ConfigDone done);
+  // hub.stats's "modules" (the network page's table): each running module's name, version,
+  // description, state, file and number of declared settings, then each failed one's name,
+  // file and reason (state "failed").
+  [[nodiscard]] flow::Variant modules() const;
 
  private:
   void apply(HubConfig next, Done done);

@@ -16,7 +16,8 @@ let b;
 
 before(async () => {
   hub = await startHub([], {
-    users: [{ name: 'reader', password: 'secret', rules: { db_write: ['nothing-here'] } }],
+    users: [{ name: 'reader', password: 'secret', rules: { db_write: ['nothing-here'] } },
+      { name: 'boss', password: 'secret', role: 'admin' }],
   });
   a = await skr.connect(hub.address, { clientName: 'js-a' });
   b = await skr.connect(hub.address, { clientName: 'js-b' });
@@ -204,6 +205,18 @@ test('hub.stats: the hub\'s figures, with this client among its flows', async ()
   s.close();
   assert.ok(typeof stats.hub === 'string' && stats.hub.length > 0, "the hub's name");
   assert.ok(JSON.stringify(stats.flows).includes('js-a'), 'the client name is shown');
+});
+
+test('admin: an administrator\'s command is answered; another account\'s is refused', async () => {
+  const boss = await skr.connect(hub.address, { user: 'boss', password: 'secret', clientName: 'js-boss' });
+  try {
+    const flows = await boss.admin('flows');
+    assert.ok(flows.some((f) => f.client === 'js-a' && f.user === 'guest'), JSON.stringify(flows, (k, v) => (typeof v === 'bigint' ? Number(v) : v)));
+    await assert.rejects(boss.admin('module_config', { name: 'no-such-module' }), skr.NotFoundError);
+    await assert.rejects(a.admin('flows'), skr.PermissionDeniedError);
+  } finally {
+    boss.close();
+  }
 });
 
 test('media frames published by one client parse on the other', async () => {

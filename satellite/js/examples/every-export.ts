@@ -85,6 +85,8 @@ export async function main(): Promise<void> {
   follower.close();
   (await hub.createChannel('beat', { kind: 'sync' })).pulse();
   hub.stats((s: any) => console.log(s.hub)).close();
+  const answer: any = await hub.admin('module_config', { name: 'example' });
+  console.log(answer.keys);
   hub.close();
 
   // The codec and its tables.

@@ -660,4 +660,18 @@ export class Hub {
   stats(fn) {
     return this.subscribe('hub.stats', (m) => fn(m.json()));
   }
+
+  /**
+   * An administrator's command (FlowProtocol's ADMIN: the commands flowctl sends, such as
+   * `flows`, `reload` or `module_config`; docs/flow-protocol.md): resolves with its answer.
+   * PermissionDeniedError for an account that is not an administrator. Sent on the synchronous
+   * connection (Hub.syncConnection()).
+   * @param {string} command @param {Record<string, unknown>} [args]
+   * @returns {Promise<any>}
+   */
+  async admin(command, args = {}) {
+    const conn = await this.syncConnection();
+    const { value } = await conn.call('ADMIN', { command, args });
+    return value;
+  }
 }

@@ -230,6 +230,15 @@ export class Hub {
      * @param {(stats: any) => void} fn @returns {Subscription}
      */
     stats(fn: (stats: any) => void): Subscription;
+    /**
+     * An administrator's command (FlowProtocol's ADMIN: the commands flowctl sends, such as
+     * `flows`, `reload` or `module_config`; docs/flow-protocol.md): resolves with its answer.
+     * PermissionDeniedError for an account that is not an administrator. Sent on the synchronous
+     * connection (Hub.syncConnection()).
+     * @param {string} command @param {Record<string, unknown>} [args]
+     * @returns {Promise<any>}
+     */
+    admin(command: string, args?: Record<string, unknown>): Promise<any>;
 }
 export type HubOptions = {
     /**

@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // The network page (/network) in Debian's chromium against a real hub with 200 channels
-// (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the busiest-channels
-// table, previews of JSON, JPEG, gray, rgb8, audio and detections, a channel's properties, and editing a
-// variable as an administrator page account. Then the avatar demo's hub (config/default.json): its
-// graph at "fit" on a 1280x720 and a 1920x1080 page, the wheel's zoom, and an edit refused to the
-// read-only page account. The page is served by the hub's web port and is a satellite on the
-// JavaScript library (page tokens, hub.stats, maxHz subscriptions, database watches). Screenshots go to
+// (SKROBOT_NETWORK_CHANNELS for more): the graph's nodes, edges and live rates, the
+// busiest-channels table, previews of JSON, JPEG, gray, rgb8, audio and detections, a channel's
+// properties, editing a variable and a module's settings as an administrator page account. Then
+// the avatar demo's hub (config/default.json): its graph at "fit" on a 1280x720 and a 1920x1080
+// page, the wheel's zoom, and an edit and the modules' settings refused to the read-only page
+// account. The page is served by the hub's web port and is a satellite on the JavaScript library
+// (page tokens, hub.stats, maxHz subscriptions, database watches, ADMIN). Screenshots go to
 // <build>/test-output/network_browser/ (docs/images/network-*.jpg are two of them).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -23,7 +24,8 @@ test('the network page shows the hub live, previews channels and edits as its ac
   // Boards' lines: the UDP port on (loopback, any free port) and a serial port whose device is
   // not plugged in; the page lists both.
   const tty = `/tmp/skrobot-network-browser-${process.pid}-tty`;
-  const hub = await startHub([], {
+  // A module whose declared settings the page changes (docs/observability.md, "Settings").
+  const hub = await startHub([{ name: 'example', config: { period_ms: 1000, greeting: 'hello' } }], {
     users: [{ name: 'netadmin', role: 'admin' }],
     server: {
       web: { port, flows: true, page_account: 'netadmin' },
@@ -124,6 +126,34 @@ test('the network page shows the hub live, previews channels and edits as its ac
   assert.equal(await hub.dbGet('guest.c003', 'gain'), 2.5);
   await waitFor('the new row', async () =>
     (await page.locator('#db tbody tr[data-key="gain"] td').nth(1).textContent().catch(() => '')) === '2.5', 5000);
+
+  // The modules, and one's settings: its declared keys with their rules; a value out of range
+  // refused by the hub; two changes given in place and saved into the config file.
+  await waitFor('the modules table', async () => !(await page.locator('#modules').isHidden()), 10000);
+  const example = page.locator('#modules tbody tr[data-module="example"]');
+  assert.equal(await example.textContent(), 'examplestarted1.0.02');
+  await example.click();
+  const row = (k) => page.locator(`#settings-keys tbody tr[data-key="${k}"]`);
+  await waitFor('its settings', async () => (await page.locator('#settings-keys tbody tr').count()) === 2, 10000);
+  assert.equal(await page.locator('#details-title').textContent(), 'module example');
+  assert.match(await row('period_ms').textContent(), /integer, 1 to 3600000, default 1000the EXAMPLE-TICK period/);
+  assert.equal(await row('period_ms').locator('input').inputValue(), '1000');
+  assert.equal(await row('greeting').locator('input').inputValue(), 'hello');
+  await row('period_ms').locator('input').fill('0');
+  await page.click('#settings-form button[type=submit]');
+  await waitFor('the refusal', async () => /period_ms/.test(await page.locator('#settings-status').textContent()), 10000);
+  assert.equal(await page.locator('#settings-status').getAttribute('class'), 'error');
+  assert.doesNotMatch(hub.log, /HUB-MODULE-CONFIG/);
+  await row('period_ms').locator('input').fill('200');
+  await row('greeting').locator('input').fill('hi from the page');
+  await page.click('#settings-save');
+  await waitFor('applied in place and saved', async () =>
+    /^example reconfigured, saved in .*config\.json$/.test(await page.locator('#settings-status').textContent()), 10000);
+  const saved = JSON.parse(readFileSync(path.join(hub.dir, 'config.json'), 'utf8'));
+  assert.deepEqual(saved.modules[0].config, { period_ms: 200, greeting: 'hi from the page' });
+  await waitFor('the module ticking with its new greeting', () => /EXAMPLE-TICK.*hi from the page/.test(hub.log), 10000);
+  await waitFor('the values read back', async () => (await row('period_ms').locator('input').inputValue()) === '200', 10000);
+  await page.screenshot({ path: path.join(shots, 'network-settings.png') });
 
   // Frames, audio and detections.
   await pick('guest.camera');
@@ -246,6 +276,11 @@ test("the demo's graph fills the pane at fit with readable labels, the wheel zoo
   await waitFor('the refusal', async () =>
     /^gain: permission_denied/.test(await page.locator('#db-status').textContent()), 5000);
   assert.equal(await hub.dbGet('fft-audio.bands', 'gain'), undefined);
+  // A module's settings are an administrator's: the page says so.
+  await page.locator('#modules tbody tr[data-module="fft-audio"]').click();
+  await waitFor('settings refused', async () =>
+    /^Only an administrator .* logs in as web-page/.test(await page.locator('#settings-note').textContent()), 10000);
+  assert.ok(await page.locator('#settings-form').isHidden());
   assert.deepEqual(errors, [], 'no errors in the page');
   const exit = await hub.stop();
   assert.deepEqual(exit, { code: 0, signal: null }, `the hub stops cleanly:\n${hub.log.slice(-4000)}`);

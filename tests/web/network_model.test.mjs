@@ -5,6 +5,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { buildGraph, detectionBoxes, formatRate, layout } from '../../web/js/network-model.js';
 import { wheelZoom } from '../../web/js/network-graph.js';
+import { parseSetting, settingRule } from '../../web/js/network-settings.js';
 
 const flow = (id, name, extra = {}) => ({
   id, name, user: name.split('/')[0], client: name.split('/')[1], kind: 'satellite',
@@ -172,4 +173,20 @@ test('one wheel event zooms by 1.2 a notch, never more than 1.25', () => {
   assert.equal(wheelZoom({ deltaY: 1000, deltaMode: 0 }), 1 / 1.25);
   assert.ok(wheelZoom({ deltaY: -3, deltaMode: 1 }) > 1.2, 'three lines (Firefox)');
   assert.ok(wheelZoom({ deltaY: -4, deltaMode: 0 }) < 1.01, 'a touchpad');
+});
+
+test("a module's settings: each key's rule in words, and a field's text as the key's type", () => {
+  assert.equal(settingRule({ key: 'period_ms', type: 'integer', min: 1n, max: 3600000n, default: 1000n }),
+    'integer, 1 to 3600000, default 1000');
+  assert.equal(settingRule({ key: 'mode', type: 'string', choices: ['a', 'b'], required: true }),
+    'string, one of "a", "b", required');
+  assert.equal(settingRule({ key: 'gain', type: 'number', min: 0.5 }), 'number, at least 0.5');
+  assert.equal(parseSetting({ key: 'n', type: 'integer' }, ' 42 '), 42);
+  assert.throws(() => parseSetting({ key: 'n', type: 'integer' }, '4.5'), /n: "4.5" is not an integer/);
+  assert.throws(() => parseSetting({ key: 'n', type: 'number' }, ''), /is not a number/);
+  assert.equal(parseSetting({ key: 'g', type: 'number' }, '2.5'), 2.5);
+  assert.equal(parseSetting({ key: 's', type: 'string' }, '007'), '007');
+  assert.equal(parseSetting({ key: 'b', type: 'boolean' }, false), false);
+  assert.deepEqual(parseSetting({ key: 'l', type: 'array' }, '[1, "x"]'), [1, 'x']);
+  assert.throws(() => parseSetting({ key: 'o', type: 'object' }, '{x'), /o: not JSON/);
 });

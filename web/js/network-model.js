@@ -16,6 +16,16 @@ export function formatBytes(n) {
   return `${Math.round(n)} B`;
 }
 
+// A value as JSON text: 64-bit integers (BigInt) as numbers when exact, else as strings; typed
+// arrays as arrays.
+export function jsonText(value, indent) {
+  return JSON.stringify(value, (k, v) => {
+    if (typeof v === 'bigint') return Number.isSafeInteger(Number(v)) ? Number(v) : v.toString();
+    if (ArrayBuffer.isView(v)) return Array.from(/** @type {any} */ (v));
+    return v;
+  }, indent);
+}
+
 const isHubOwn = (name) => name.startsWith('hub.');
 
 // The path the i-th of a channel's subscriber_flows takes (subscriber_paths): 'relay' through the

@@ -4,11 +4,13 @@
 // figures, rate history, properties and databases, a preview. It is a satellite on the JavaScript
 // library: it logs in with a page token as the hub's page account (server.web.page_account), follows
 // hub.stats, previews a channel by subscribing to it at PREVIEW_HZ, watches the database shown and
-// sets variables as that account, under its rules.
+// sets variables as that account, under its rules; for an administrator account, a module's
+// settings (network-settings.js).
 import { channelType, connectPage, typeProblem } from '/skrobot/index.js';
 import { NetworkGraph } from './network-graph.js';
-import { buildGraph, formatBytes, formatRate, pathLabel, subscriberPath } from './network-model.js';
+import { buildGraph, formatBytes, formatRate, jsonText, pathLabel, subscriberPath } from './network-model.js';
 import { Preview } from './network-preview.js';
+import { SettingsPanel } from './network-settings.js';
 
 const HISTORY = 120;                // seconds of rates kept per channel
 const PREVIEW_HZ = 5;               // previews of a channel a second, at most (the newest wins)
@@ -41,16 +43,6 @@ function text(tag, content, cls) {
   return e;
 }
 
-// A value as JSON text: 64-bit integers (BigInt) as numbers when exact, else as strings; typed
-// arrays as arrays.
-function jsonText(value, indent) {
-  return JSON.stringify(value, (k, v) => {
-    if (typeof v === 'bigint') return Number.isSafeInteger(Number(v)) ? Number(v) : v.toString();
-    if (ArrayBuffer.isView(v)) return Array.from(/** @type {any} */ (v));
-    return v;
-  }, indent);
-}
-
 // Logs in, retrying with a growing wait until the hub answers (the library reconnects after).
 async function connect() {
   for (let waitMs = 500; ; waitMs = Math.min(waitMs * 2, 8000)) {
@@ -72,6 +64,7 @@ hub.on('offline', () => { $('status').textContent = 'disconnected, retrying…';
 // What no request awaits: a subscription refused, a channel gone.
 hub.on('error', (e) => preview.notice(e.message));
 hub.stats(onStats);
+const settings = new SettingsPanel(hub, $);
 
 function onStats(stats) {
   if (!stats || !Array.isArray(stats.channels)) return;
@@ -100,6 +93,7 @@ function render() {
   renderTable(stats);
   renderSerial(stats);
   renderSatellites(stats);
+  renderModules(stats);
   renderDetails();
   const channels = [...g.nodes.values()].filter((n) => n.type === 'channel').length;
   const flows = g.nodes.size - channels;
@@ -168,6 +162,22 @@ function renderSatellites(stats) {
   }));
 }
 
+// The modules the hub runs and those that failed (hub.stats's "modules"); a row shows the
+// module's details and settings.
+function renderModules(stats) {
+  const mods = stats.modules || [];
+  $('modules').hidden = mods.length === 0;
+  $('modules').tBodies[0].replaceChildren(...mods.map((m) => {
+    const tr = document.createElement('tr');
+    tr.dataset.module = m.name;
+    if (m.state === 'failed') tr.className = 'drop';
+    tr.append(text('td', m.name), text('td', m.state === 'failed' ? `failed: ${m.reason}` : m.state),
+      text('td', m.version ?? '-'), text('td', m.settings === undefined ? '-' : String(m.settings)));
+    tr.addEventListener('click', () => select(`m:${m.name}`));
+    return tr;
+  }));
+}
+
 graph.addEventListener('select', (e) => select(e.detail));
 // A new filter: drawn at once, and zoomed to what is left.
 for (const [id, event] of [['show-hub', 'change'], ['filter', 'input']]) {
@@ -184,6 +194,9 @@ function channelOf(id) {
 function flowOf(id) {
   return state.stats?.flows.find((f) => `f:${f.id}` === id);
 }
+function moduleOf(id) {
+  return state.stats?.modules?.find((m) => `m:${m.name}` === id);
+}
 
 // A node was clicked: its details, its database, and for a channel a preview.
 function select(id) {
@@ -195,7 +208,14 @@ function select(id) {
   const dbs = c ? [c.name] : f ? [`_flow.${f.id}`, f.user] : [];
   const choose = $('db-choice');
   choose.replaceChildren(...dbs.map((d) => text('option', d)));
+  choose.hidden = dbs.length === 0;
+  $('db').hidden = dbs.length === 0;
+  $('preview-title').hidden = !c;
+  $('preview').hidden = !c;
   watchDatabase(dbs[0] || '');
+  // A module's declared settings (administrators only).
+  const module = f?.kind === 'module' ? f.client : id?.startsWith('m:') ? id.slice(2) : null;
+  settings.show(module);
   if (c && c.kind === 'streaming') {
     preview.show(c.name, c.mime);
     previewChannels([c.name]);
@@ -341,6 +361,11 @@ function renderDetails() {
       ['out', `${formatRate(f.out_hz, f.out_bytes_per_s)} (${f.messages_out} messages)`],
       ['queued', `${formatBytes(f.queued_bytes)} (${Math.round(100 * f.queue_fill)}% full)`],
       ['dropped', `${f.dropped} (${f.dropped_per_s}/s)`], ['pending requests', String(f.pending_requests)]);
+  } else if (moduleOf(id)) {
+    const m = moduleOf(id);
+    $('details-title').textContent = `module ${m.name}`;
+    facts.push(['state', m.state], ['version', m.version ?? '-'], ['file', m.file || '-'],
+      [m.state === 'failed' ? 'reason' : 'about', (m.state === 'failed' ? m.reason : m.description) || '-']);
   } else {
     $('details-title').textContent = `${id} (gone)`;
   }

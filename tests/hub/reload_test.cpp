@@ -203,7 +203,7 @@ TEST(Reload, AModuleDroppedIntoModulePathsIsLoadedByNameByAnAdministrator) {
   skr::test::TempDir drop;
   SupervisedHub h("[]");
   h.hub.writeConfig(R"("module_paths": [")" + drop.path().string() + R"("], "satellites": [], )",
-                    "[]");
+                    R"([{"name": "absent"}])");
   ASSERT_TRUE(h.hub.start());
   // Installed by a rename of a complete file, as docs/robot.md says.
   std::filesystem::copy_file(std::string(SKROBOT_MODULE_DIR) + "/example.so",
@@ -216,6 +216,20 @@ TEST(Reload, AModuleDroppedIntoModulePathsIsLoadedByNameByAnAdministrator) {
   EXPECT_EQ(code, 0) << out;
   EXPECT_EQ(out, "loaded dropped (" + (drop.path() / "dropped.so").string() + ")\n");
   EXPECT_TRUE(h.hub.waitLog("EXAMPLE-START greeting 'dropped in'")) << h.hub.log();
+  // hub.stats lists it with its settings, and the config's module that failed, with why.
+  const auto stats =
+      skr::flow::variantFromJsonText(h.flowctl({"--json", "call", "hub.inspect", "stats", "{}"}));
+  ASSERT_TRUE(stats && stats->asMap() && stats->asMap()->count("modules")) << h.hub.log();
+  const std::string modules = skr::flow::variantToJsonText(stats->asMap()->at("modules"));
+  EXPECT_NE(modules.find(R"({"description":"Tutorial: config, log, ticks, a worker thread",)"
+                         R"("file":")" +
+                         (drop.path() / "dropped.so").string() +
+                         R"(","name":"dropped","settings":2,"state":"started","version":"1.0.0"})"),
+            std::string::npos)
+      << modules;
+  EXPECT_NE(modules.find(R"({"file":"","name":"absent","reason":"MODULE-NOT-FOUND: )"),
+            std::string::npos)
+      << modules;
   // Never a path; not twice; only what the search path has; its config checked; only by an
   // administrator.
   out = h.flowctl({"module", "load", "../dropped"}, &code);

@@ -40,7 +40,7 @@ struct BlinkCommand {
   std::int64_t close_ms, hold_ms, open_ms;
 };
 struct ExpressionCommand {
-  std::string name;  // "happy", "surprised"
+  std::string name;  // "happy", "surprised" (the page knows docs/websocket-ui.md's six)
   double weight;
   std::int64_t duration_ms;
 };

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // Mouth shapes for the avatar from the speech module's phoneme timeline (espeak-ng phoneme
-// mnemonics, e.g. "h", "@", "l", "oU", "a:", "_:"). Five shapes and rest are enough for a
-// stylised head: the browser turns each into jaw/wide/round morph weights.
+// mnemonics, e.g. "h", "@", "l", "'oU", "a:", "_:", "tS"). Fifteen visemes (docs/websocket-ui.md);
+// the browser has one morph target per name and blends neighbours (coarticulation) itself.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -11,14 +12,19 @@
 
 namespace skr::wsui {
 
+// Every viseme name visemeFor() returns; the page's morph targets have these names.
+inline constexpr std::array<std::string_view, 15> kVisemeNames = {
+    "sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "I", "O", "U"};
+
 struct Viseme {
-  std::string name;  // "rest", "AA", "EE", "OO", "MBP", "FV", "CH"
+  std::string name;  // one of kVisemeNames
   double open;       // jaw opening 0..1
   double wide;       // lip spread 0..1
   double round;      // lip rounding 0..1
 };
 
-// The mouth shape of one phoneme.
+// The mouth shape of one phoneme: stress marks (' , % =) are dropped, then the longest known
+// prefix of the mnemonic decides ("tS;" -> CH, "a:" -> aa, "@L" -> nn); unknown: "sil".
 Viseme visemeFor(std::string_view phoneme);
 
 struct TimedPhoneme {
@@ -30,8 +36,9 @@ struct TimedViseme {
   Viseme viseme;
 };
 
-// One viseme per phoneme, merged where the shape does not change, ending with "rest" at
-// `duration_ms`. Input must be in time order (the speech module guarantees it).
+// One viseme per change, merged where the shape does not change, ending with "sil" at
+// `duration_ms` (or earlier, at a pause). Input must be in time order (the speech module
+// guarantees it).
 std::vector<TimedViseme> visemeTimeline(const std::vector<TimedPhoneme>& phonemes,
                                         double duration_ms);
 

@@ -96,7 +96,8 @@ class WebsocketUi final : public skr::plugin::Module {
     say["commands"] = "say, expression";
     say["value"] =
         "say: {\"text\": string, \"voice\": string}; expression: {\"name\": "
-        "\"happy\"|\"surprised\", \"weight\": 0..1, \"duration_ms\": number}";
+        "\"neutral\"|\"happy\"|\"surprised\"|\"thinking\"|\"listening\"|\"sad\", "
+        "\"weight\": 0..1, \"duration_ms\": number}";
     say_ = ServiceChannel(
         host_, "say", [this](const ServiceRequest& r) { onSayRequest(r); }, writeJson(say));
     requester_.emplace(host_);

@@ -99,7 +99,7 @@ $('say-form').addEventListener('submit', (e) => {
 let last = performance.now();
 let statusAt = 0;
 function frame(now) {
-  const dt = Math.min(0.1, (now - last) / 1000);
+  const dt = Math.max(0, Math.min(0.1, (now - last) / 1000));  // rAF time may precede `last`
   last = now;
   const mouth = voice.mouth();
   avatar.update(now, dt, mouth);

@@ -57,7 +57,8 @@ export class Voice {
     return u;
   }
 
-  // The mouth shape now: { open, wide, round } and whether the avatar is speaking.
+  // The mouth shape now: { open, wide, round } of the viseme playing, whether the avatar is
+  // speaking, and the utterance's viseme timeline with the time on it (ms).
   mouth() {
     const u = this.current;
     const rest = { open: 0, wide: 0, round: 0, speaking: false };
@@ -69,7 +70,9 @@ export class Voice {
       if (v.t_ms > ms) break;
       shape = v;
     }
-    if (!shape) return { ...rest, speaking: true, text: u.text };
-    return { open: shape.open, wide: shape.wide, round: shape.round, speaking: true, viseme: shape.v, text: u.text };
+    // The timeline and the time on it go along: the avatar blends the shapes (coarticulation).
+    const on = { speaking: true, text: u.text, timeline: u.visemes, ms };
+    if (!shape) return { ...rest, ...on };
+    return { open: shape.open, wide: shape.wide, round: shape.round, viseme: shape.v, ...on };
   }
 }

@@ -20,6 +20,19 @@ namespace {
 
 constexpr std::string_view kLogSource = "hub";
 
+// Loads and starts one module; its failure (the MODULE-* tag and reason) as module_failed.
+Result<void> startOne(ModuleHost& modules, const ModuleEntry& entry) {
+  const size_t failed_before = modules.failures().size();
+  modules.load({entry});
+  modules.initAll();
+  modules.startAll();
+  if (modules.failures().size() > failed_before) {
+    const ModuleFailure& f = modules.failures().back();
+    return makeError(Errc::module_failed, f.tag + " " + f.name + ": " + f.reason);
+  }
+  return {};
+}
+
 // A module's declared keys, with their values in `config`, as ADMIN module_config answers.
 flow::Variant keysOf(const ModuleHost::Settings& s) {
   flow::Variant::List keys;
@@ -94,14 +107,7 @@ void Reloader::loadModule(const std::string& name, Json::Value config, ModuleDon
         return done(
             makeError(Errc::module_failed, check.tag + " " + entry.name + ": " + check.reason));
       }
-      const size_t failed_before = modules_.failures().size();
-      modules_.load({entry});
-      modules_.initAll();
-      modules_.startAll();
-      if (modules_.failures().size() > failed_before) {
-        const ModuleFailure& f = modules_.failures().back();
-        return done(makeError(Errc::module_failed, f.tag + " " + f.name + ": " + f.reason));
-      }
+      if (auto started = startOne(modules_, entry); !started) return done(started.error());
       log::info(kLogSource, "HUB-MODULE-LOAD", entry.name + " from " + check.file.string());
       done(check.file.string());
     };
@@ -149,14 +155,7 @@ void Reloader::moduleConfig(const std::string& name, const flow::Variant& set, b
     if (r.error().code != Errc::unsupported) return done(r.error());  // nothing changed
     applied = "restarted";
     modules_.unload(name);
-    const size_t failed_before = modules_.failures().size();
-    modules_.load({entry});
-    modules_.initAll();
-    modules_.startAll();
-    if (modules_.failures().size() > failed_before) {
-      const ModuleFailure& f = modules_.failures().back();
-      return done(makeError(Errc::module_failed, f.tag + " " + f.name + ": " + f.reason));
-    }
+    if (auto started = startOne(modules_, entry); !started) return done(started.error());
   }
   log::info(kLogSource, "HUB-MODULE-CONFIG",
             name + " " + applied + ": " + support::writeJson(values) + (save ? ", saved" : ""));

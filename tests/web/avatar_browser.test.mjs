@@ -35,7 +35,9 @@ before(async () => {
   port = await freePort();
   hub = await startHub([
     // On the hub's web port (websocket-ui's default: no `port` of its own).
-    { name: 'websocket-ui', config: { faces: 'face-detect.faces', speech: 'speech.say',
+    // Colours of its own, close to the defaults (the screenshots are docs/images').
+    { name: 'websocket-ui', config: { avatar_light: '#80e8ff', avatar_eyes: '#36bfe6',
+      faces: 'face-detect.faces', speech: 'speech.say',
       voice: 'speech.voice', phonemes: 'speech.phonemes', dialogue: 'agent.dialogue' } },
     { name: 'face-detect', config: { input: 'websocket-ui.camera' } },
     { name: 'speech', config: {} },
@@ -63,6 +65,16 @@ const state = () => page.evaluate(() => window.skrobot.state);
 test('the page connects and draws the avatar with WebGL', async () => {
   await waitFor('connected', async () => (await state()).connected);
   assert.equal((await state()).webgl, true);
+  // The config's colours: the lips' light and the irises' texture.
+  await waitFor('the colours', async () => (await state()).colours?.light === '#80e8ff');
+  const [lips, iris] = await page.evaluate(() => {
+    const m = window.skrobot.avatar.materials;
+    // The iris at 62% of its ring (web/js/avatar-look.js), between two fibres.
+    const c = m.eye.map.image.getContext('2d').getImageData(1, 33, 1, 1).data;
+    return [m.lips.color.getHexString(), [...c].slice(0, 3)];
+  });
+  assert.equal(lips, '80e8ff');
+  assert.ok([0x36, 0xbf, 0xe6].every((v, i) => Math.abs(iris[i] - v) <= 8), `iris ${iris}`);
 });
 
 test('camera frames and microphone audio reach their channels', async () => {

@@ -87,7 +87,7 @@ TEST_F(WebsocketUiModule, AQuoteInTheSpeechChannelNameRoundTrips) {
 }
 
 // The declared config keys: the host refuses out-of-range values and unknown keys, naming them;
-// the blink interval's order is the module's own check.
+// the blink interval's order and the colours are the module's own checks.
 TEST_F(WebsocketUiModule, BadConfigFailsNamingTheKey) {
   startHub();
   int n = 0;
@@ -106,6 +106,11 @@ TEST_F(WebsocketUiModule, BadConfigFailsNamingTheKey) {
   }
   const std::string f = failure(R"({"port":0,"blink_min_ms":500,"blink_max_ms":400})");
   EXPECT_NE(f.find("invalid blink_max_ms"), std::string::npos) << f;
+  // A colour that is not "#rrggbb".
+  for (const char* colour : {"blue", "#12345", "#12345g"}) {
+    const std::string c = failure(std::string(R"({"port":0,"avatar_light":")") + colour + "\"}");
+    EXPECT_NE(c.find("invalid avatar_light"), std::string::npos) << colour << ": " << c;
+  }
 }
 
 // Without a `port` the module is an endpoint of the hub's web port: with none, it fails naming

@@ -85,7 +85,9 @@ test('serves files with the right MIME types and a strict content security polic
 
 test('bad messages close only their own connection', async () => {
   const good = await open();
-  await waitFor('welcome', () => good.messages.find((m) => m.type === 'welcome'));
+  const welcome = await waitFor('welcome', () => good.messages.find((m) => m.type === 'welcome'));
+  // The character's colours, the config's defaults.
+  assert.deepEqual(welcome.avatar, { light: '#7fe6ff', eyes: '#38c2e8' });
 
   const big = await open();
   big.ws.send(Buffer.alloc(MAX + 1));

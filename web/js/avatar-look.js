@@ -6,8 +6,11 @@ import * as THREE from '../vendor/three.module.js';
 
 export const GLOW = new THREE.Color(0x7fe6ff);
 
-// The eyeball's texture: its top rows are the pole the pupil sits on (SphereGeometry's uv).
-function eyeTexture() {
+// The eyeball's texture, its iris of `colour`: its top rows are the pole the pupil sits on
+// (SphereGeometry's uv).
+function eyeTexture(colour) {
+  const base = new THREE.Color(colour);
+  const shade = (l) => `#${base.clone().offsetHSL(0, 0, l).getHexString()}`;
   const w = 256;
   const h = 256;
   const c = document.createElement('canvas');
@@ -27,10 +30,10 @@ function eyeTexture() {
   const ring = g.createLinearGradient(0, 0, 0, iris * 1.12);
   ring.addColorStop(0, '#0a1c2a');
   ring.addColorStop(pupil / (iris * 1.12), '#0a1c2a');
-  ring.addColorStop(pupil / (iris * 1.12) + 0.02, '#1f8fc0');
-  ring.addColorStop(0.62, '#38c2e8');
-  ring.addColorStop(0.86, '#1c6f9a');
-  ring.addColorStop(0.9, '#0f3146');
+  ring.addColorStop(pupil / (iris * 1.12) + 0.02, shade(-0.12));
+  ring.addColorStop(0.62, shade(0));
+  ring.addColorStop(0.86, shade(-0.2));
+  ring.addColorStop(0.9, shade(-0.36));
   ring.addColorStop(1, 'rgba(15,49,70,0)');
   g.fillStyle = ring;
   g.fillRect(0, 0, w, iris * 1.12);
@@ -51,8 +54,10 @@ const shown = (colour) => new THREE.MeshBasicMaterial({
   color: new THREE.Color(colour), side: THREE.DoubleSide, toneMapped: false,
 });
 
+export const EYES = '#38c2e8';
+
 export function makeMaterials() {
-  const eyeMap = eyeTexture();
+  const eyeMap = eyeTexture(EYES);
   return {
     shell: new THREE.MeshStandardMaterial({ color: 0xeef1f5, roughness: 0.32, metalness: 0.0 }),
     trim: new THREE.MeshStandardMaterial({ color: 0x9aa6b5, roughness: 0.35, metalness: 0.55 }),
@@ -69,6 +74,22 @@ export function makeMaterials() {
     teeth: shown(0xe9f7ff),
     tongue: shown(0xff7d96),
   };
+}
+
+// The light's and the irises' colours (websocket-ui's avatar_light and avatar_eyes, "#rrggbb"):
+// the light goes into `light`, which the avatar scales each frame.
+export function setColours(materials, light, { light: glow, eyes } = {}) {
+  if (glow) {
+    light.set(glow);
+    materials.lips.color.set(glow);
+  }
+  if (eyes) {
+    const map = eyeTexture(eyes);
+    materials.eye.map.dispose();
+    materials.eye.map = map;
+    materials.eye.emissiveMap = map;
+    materials.eye.needsUpdate = true;
+  }
 }
 
 // A studio to reflect: a dim room with a large warm panel up right, a cool one on the left and

@@ -3,7 +3,9 @@
 // (gaze, blinks, expressions) and what the voice plays (visemes on the audio clock), and lives
 // when idle (avatar-motion.js). State is kept even when WebGL is missing, so the page still works.
 import * as THREE from '../vendor/three.module.js';
-import { addLights, GLOW, makeEnvironment, makeMaterials, softwareRenderer } from './avatar-look.js';
+import {
+  addLights, GLOW, makeEnvironment, makeMaterials, setColours, softwareRenderer,
+} from './avatar-look.js';
 import {
   approach, EXPRESSIONS, ExpressionBlend, expressionName, Idle, VISEME_NAMES, visemeWeights,
 } from './avatar-motion.js';
@@ -53,6 +55,7 @@ export class Avatar {
     this.camera.position.set(0, -0.12, 8.6);
     this.camera.lookAt(0, -0.2, 0);
     this.materials = makeMaterials();
+    this.light = GLOW.clone();  // the light's colour at full strength
     this.parts = makeRobot(this.materials);
     this.scene.add(this.parts.root);
     this.mouthIndex = MOUTH_TARGETS.map(([name]) => this.parts.mouth[0].morphTargetDictionary[name]);
@@ -107,6 +110,12 @@ export class Avatar {
       q.lowered++;
       this.renderer.setPixelRatio(q.ratio);
     }
+  }
+
+  // The colours websocket-ui's config names (its welcome's `avatar`: {light, eyes}).
+  configure(colours) {
+    this.state.colours = { ...this.state.colours, ...colours };
+    if (this.hasWebGL && colours) setColours(this.materials, this.light, colours);
   }
 
   // Holds a pose until pose(null): {viseme, expression, gaze: [x, y], blink: false}, each optional.
@@ -203,7 +212,7 @@ export class Avatar {
     }
     // Ears and antenna: brighter when listening or speaking.
     const glow = Math.min(1, 0.35 + blend.glow() + (s.speaking ? 0.25 + 0.2 * Math.sin(now / 90) : 0));
-    for (const e of parts.ears) e.ring.material.color.copy(GLOW).multiplyScalar(0.35 + 0.9 * glow);
+    for (const e of parts.ears) e.ring.material.color.copy(this.light).multiplyScalar(0.35 + 0.9 * glow);
     this.resize();
     this.renderer.render(this.scene, this.camera);
   }

@@ -47,6 +47,7 @@ link.addEventListener('command', ({ detail: msg }) => {
   switch (msg.type) {
     case 'welcome':
       camera.configure(msg.camera);
+      avatar.configure(msg.avatar);
       mic.sampleRate = msg.mic_sample_rate;
       break;
     case 'gaze': case 'blink': case 'expression':

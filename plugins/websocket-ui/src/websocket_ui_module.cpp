@@ -65,6 +65,8 @@ class WebsocketUi final : public skr::plugin::Module {
     camera_height_ = static_cast<int>(host.configInt("camera_height"));
     camera_fps_ = static_cast<int>(host.configInt("camera_fps"));
     jpeg_quality_ = host.configDouble("jpeg_quality");
+    light_colour_ = colour(host, "avatar_light");
+    eye_colour_ = colour(host, "avatar_eyes");
     // Other modules' channels: named by the config (config/default.json wires the demo), none
     // by default.
     faces_ = host.configString("faces");
@@ -173,6 +175,18 @@ class WebsocketUi final : public skr::plugin::Module {
   }
 
  private:
+  // A "#rrggbb" colour of the config.
+  static std::string colour(skr::plugin::Host& host, const char* key) {
+    std::string c = host.configString(key);
+    const bool ok = c.size() == 7 && c[0] == '#' &&
+                    c.find_first_not_of("0123456789abcdefABCDEF", 1) == std::string::npos;
+    if (!ok) {
+      host.configError(key, "a colour \"#rrggbb\", not \"" + c + "\"");
+      throw Failure(SKR_ERR_CONFIG, std::string("invalid ") + key);
+    }
+    return c;
+  }
+
   static AvatarOptions readAvatar(skr::plugin::Host& host) {
     AvatarOptions o;
     o.blink_min_ms = host.configInt("blink_min_ms");
@@ -238,6 +252,8 @@ class WebsocketUi final : public skr::plugin::Module {
     v["camera"]["fps"] = camera_fps_;
     v["camera"]["jpeg_quality"] = jpeg_quality_;
     v["mic_sample_rate"] = limits_.mic_sample_rate;
+    v["avatar"]["light"] = light_colour_;
+    v["avatar"]["eyes"] = eye_colour_;
     return writeJson(v);
   }
 
@@ -490,6 +506,8 @@ class WebsocketUi final : public skr::plugin::Module {
   InboundLimits limits_;
   int camera_width_ = 640, camera_height_ = 360, camera_fps_ = 15;
   double jpeg_quality_ = 0.7;
+  std::string light_colour_;  // "#rrggbb", for the page (welcome)
+  std::string eye_colour_;
   std::string faces_, motion_, codes_, bands_, speech_, voice_, phonemes_, dialogue_;
 
   AvatarBehaviour avatar_;
@@ -564,6 +582,10 @@ constexpr skr_config_key kConfig[] = {
     cfg::number("min_motion", "0.004", "fraction of moving pixels that draws the gaze").range(0, 1),
     cfg::integer("face_hold_ms", "1000", "how long a face keeps the gaze after it was last seen")
         .min(0),
+    // The character's colours (docs/websocket-ui.md, "The character").
+    cfg::string("avatar_light", "#7fe6ff",
+                "the robot's light: brows, mouth, ears and antenna, \"#rrggbb\""),
+    cfg::string("avatar_eyes", "#38c2e8", "the robot's irises, \"#rrggbb\""),
 };
 
 SKR_MODULE_WITH_CONFIG(

@@ -188,20 +188,17 @@ void Reloader::moduleConfig(const std::string& name, const flow::Variant& set, b
 
 flow::Variant Reloader::modules() const {
   flow::Variant::List list;
+  std::set<std::string> shown;
   for (const ModuleInfo& m : modules_.modules()) {
-    flow::Variant::Map entry{{"name", m.name},
-                             {"version", m.version},
-                             {"description", m.description},
-                             {"state", std::string(moduleStateName(m.state))},
-                             {"file", m.file.string()}};
-    if (auto s = modules_.settings(m.name)) {
-      entry["settings"] = static_cast<uint64_t>(s->info.config_keys.size());
-    }
-    list.emplace_back(std::move(entry));
+    list.emplace_back(flow::Variant::Map{{"name", m.name},
+                                         {"version", m.version},
+                                         {"description", m.description},
+                                         {"state", std::string(moduleStateName(m.state))},
+                                         {"file", m.file.string()},
+                                         {"settings", static_cast<uint64_t>(m.settings)}});
+    shown.insert(m.name);
   }
   // The last failure of each module that does not run (the host keeps every one).
-  std::set<std::string> shown;
-  for (const ModuleInfo& m : modules_.modules()) shown.insert(m.name);
   const auto& failures = modules_.failures();
   for (auto f = failures.rbegin(); f != failures.rend(); ++f) {
     if (!shown.insert(f->name).second) continue;

@@ -377,7 +377,7 @@ std::vector<ModuleInfo> ModuleHost::modules() const {
   out.reserve(modules_.size());
   for (const auto& m : modules_) {
     out.push_back(ModuleInfo{m->name, m->info.name, m->info.version, m->info.description, m->file,
-                             m->state, m->own_thread});
+                             m->state, m->own_thread, m->info.config_keys.size()});
   }
   return out;
 }

@@ -7,15 +7,16 @@ import {
   addLights, GLOW, makeEnvironment, makeMaterials, setColours, softwareRenderer,
 } from './avatar-look.js';
 import {
-  approach, EXPRESSIONS, ExpressionBlend, expressionName, Idle, VISEME_NAMES, visemeWeights,
+  approach, ExpressionBlend, expressionName, Idle, VISEME_NAMES, visemeWeights,
 } from './avatar-motion.js';
 import { lidAngles, MOUTH_TARGETS } from './robot-face.js';
 import { makeRobot } from './robot-head.js';
 
 const MAX_YAW = 0.5;    // radians the eyes turn at the image edge
 const MAX_PITCH = 0.32;
-// Resolution: lowered in steps while the median frame over the last FRAMES frames takes more
-// than SLOW_MS, down to MIN_RATIO of the page's pixels.
+// Resolution: lowered in steps while a quarter of the last FRAMES frames took more than SLOW_MS
+// (their 75th percentile: a mix of fast and slow frames, whose median flips between the two,
+// still counts as slow), down to MIN_RATIO of the page's pixels.
 const FRAMES = 45;
 const SLOW_MS = 21;
 const MIN_RATIO = 0.45;
@@ -44,7 +45,7 @@ export class Avatar {
     this.renderer.toneMapping = THREE.ACESFilmicToneMapping;
     this.renderer.toneMappingExposure = 1.05;
     this.scene = new THREE.Scene();
-    this.environment = makeEnvironment(this.renderer);
+    this.environment = null;  // the studio, made when reflections are first on
     this.scene.environmentIntensity = 0.8;
     this.gaps = [];
     this.quality = { software, mode: 'auto', ratio: 1, reflections: false, lowered: 0 };
@@ -58,7 +59,13 @@ export class Avatar {
     this.light = GLOW.clone();  // the light's colour at full strength
     this.parts = makeRobot(this.materials);
     this.scene.add(this.parts.root);
-    this.mouthIndex = MOUTH_TARGETS.map(([name]) => this.parts.mouth[0].morphTargetDictionary[name]);
+    // Each mouth target's influence slot, and what drives it: a viseme's weight or an
+    // expression's ("x-happy"). The mouth's meshes have the same targets: one array for all.
+    const slots = this.parts.mouth[0].morphTargetDictionary;
+    for (const m of this.parts.mouth) m.morphTargetInfluences = this.parts.mouth[0].morphTargetInfluences;
+    this.mouthTargets = MOUTH_TARGETS.map(([name]) => ({
+      slot: slots[name], expression: name.startsWith('x-') ? name.slice(2) : null, viseme: name,
+    }));
   }
 
   get hasWebGL() { return this.renderer !== null; }
@@ -92,6 +99,7 @@ export class Avatar {
     q.mode = mode;
     q.ratio = full;
     q.reflections = mode === 'high' || !q.software;
+    if (q.reflections && !this.environment) this.environment = makeEnvironment(this.renderer);
     this.scene.environment = q.reflections ? this.environment : null;
     this.renderer.setPixelRatio(q.ratio);
     this.gaps = [];
@@ -103,9 +111,9 @@ export class Avatar {
     if (q.mode !== 'auto' || dt <= 0) return;
     this.gaps.push(dt * 1000);
     if (this.gaps.length < FRAMES) return;
-    const median = [...this.gaps].sort((a, b) => a - b)[FRAMES >> 1];
+    const slow = [...this.gaps].sort((a, b) => a - b)[Math.floor(FRAMES * 0.75)];
     this.gaps = [];
-    if (median > SLOW_MS && q.ratio > MIN_RATIO) {
+    if (slow > SLOW_MS && q.ratio > MIN_RATIO) {
       q.ratio = Math.max(MIN_RATIO, Math.round((q.ratio - 0.1) * 100) / 100);
       q.lowered++;
       this.renderer.setPixelRatio(q.ratio);
@@ -201,14 +209,10 @@ export class Avatar {
       f[2] = blend.sum('brows', 'worry');
     });
     // The mouth: visemes, and the expressions' shapes on top.
-    const names = MOUTH_TARGETS.map(([n]) => n);
-    for (const mesh of parts.mouth) {
-      const f = mesh.morphTargetInfluences;
-      names.forEach((n, k) => {
-        const i = this.mouthIndex[k];
-        if (n.startsWith('x-')) f[i] = blend.weights[n.slice(2)] ?? 0;
-        else f[i] = n === 'sil' ? 0 : s.visemes[n];
-      });
+    const f = parts.mouth[0].morphTargetInfluences;
+    for (const t of this.mouthTargets) {
+      if (t.expression) f[t.slot] = blend.weights[t.expression] ?? 0;
+      else f[t.slot] = t.viseme === 'sil' ? 0 : s.visemes[t.viseme];
     }
     // Ears and antenna: brighter when listening or speaking.
     const glow = Math.min(1, 0.35 + blend.glow() + (s.speaking ? 0.25 + 0.2 * Math.sin(now / 90) : 0));
@@ -238,4 +242,3 @@ export class Avatar {
   }
 }
 
-export { EXPRESSIONS, VISEME_NAMES };

@@ -102,6 +102,12 @@ function render() {
     `updated ${new Date(stats.time_ms).toLocaleTimeString()} (${state.renderMs.toFixed(0)} ms)`;
 }
 
+// A side table: a row per item (makeRow(item) -> tr), hidden while there is none.
+function fillTable(id, items, makeRow) {
+  $(id).hidden = items.length === 0;
+  $(id).tBodies[0].replaceChildren(...items.map(makeRow));
+}
+
 // The busiest channels, like flowctl top.
 function renderTable(stats) {
   const body = $('top').tBodies[0];
@@ -135,21 +141,19 @@ function renderSerial(stats) {
       dropped: u.bad_mac + u.replayed + u.lost + u.malformed + u.unknown_session, sessions: u.sessions,
     });
   }
-  $('serial').hidden = rows.length === 0;
-  $('serial').tBodies[0].replaceChildren(...rows.map((r) => {
+  fillTable('serial', rows, (r) => {
     const tr = document.createElement('tr');
     if (r.dropped > 0) tr.className = 'drop';
     tr.append(text('td', r.port), text('td', r.state), text('td', formatBytes(r.in)),
       text('td', formatBytes(r.out)), text('td', String(r.dropped)), text('td', String(r.sessions)));
     return tr;
-  }));
+  });
 }
 
 // The config's satellites (docs/robot.md): hub.stats's "satellites", the list of flowctl ps.
 function renderSatellites(stats) {
   const sats = stats.satellites || [];
-  $('satellites').hidden = sats.length === 0;
-  $('satellites').tBodies[0].replaceChildren(...sats.map((s) => {
+  fillTable('satellites', sats, (s) => {
     const tr = document.createElement('tr');
     tr.dataset.satellite = s.name;
     if (s.state === 'failed' || s.state === 'backoff') tr.className = 'drop';
@@ -159,15 +163,14 @@ function renderSatellites(stats) {
       text('td', s.pid ? `${Math.floor(s.uptime_s)} s` : '-'), text('td', String(s.restarts)),
       text('td', s.last_exit || '-'));
     return tr;
-  }));
+  });
 }
 
 // The modules the hub runs and those that failed (hub.stats's "modules"); a row shows the
 // module's details and settings.
 function renderModules(stats) {
   const mods = stats.modules || [];
-  $('modules').hidden = mods.length === 0;
-  $('modules').tBodies[0].replaceChildren(...mods.map((m) => {
+  fillTable('modules', mods, (m) => {
     const tr = document.createElement('tr');
     tr.dataset.module = m.name;
     if (m.state === 'failed') tr.className = 'drop';
@@ -175,7 +178,7 @@ function renderModules(stats) {
       text('td', m.version ?? '-'), text('td', m.settings === undefined ? '-' : String(m.settings)));
     tr.addEventListener('click', () => select(`m:${m.name}`));
     return tr;
-  }));
+  });
 }
 
 graph.addEventListener('select', (e) => select(e.detail));

@@ -6,7 +6,7 @@
 import * as THREE from '../vendor/three.module.js';
 import { EXPRESSIONS, VISEMES, VISEME_NAMES } from './avatar-motion.js';
 import {
-  faceNormal, facePoint, fanIndex, latheGeometry, morphedGeometry, stripIndex, taperedTube,
+  faceNormal, facePoint, fanIndex, latheGeometry, morphedGeometry, screenPositions, stripIndex, taperedTube,
 } from './robot-shapes.js';
 
 export const EYE = { a: 0.34, b: 0.07, radius: 0.21 };
@@ -56,18 +56,13 @@ const PARTS = {
     const c = mouthCurves(p);
     const rows = [c.map((q) => [q.x, q.upIn]), c.map((q) => [q.xo, q.upOut]),
       c.map((q) => [q.x, q.loIn]), c.map((q) => [q.xo, q.loOut])];
-    const out = new Float32Array(4 * N * 3);
-    rows.forEach((row, r) => row.forEach(([a, b], i) => facePoint(a, b, 0.012).toArray(out, (r * N + i) * 3)));
-    return out;
+    return screenPositions(rows.flat(), 0.012);
   },
   inside(p) {
     const c = mouthCurves(p);
     const outline = [...c.map((q) => [q.x, q.upIn]), ...c.slice(1, -1).reverse().map((q) => [q.x, q.loIn])];
     const mid = c[(N - 1) / 2];
-    const pts = [[0, (mid.upIn + mid.loIn) / 2], ...outline];
-    const out = new Float32Array(pts.length * 3);
-    pts.forEach(([a, b], i) => facePoint(a, b, 0.004).toArray(out, i * 3));
-    return out;
+    return screenPositions([[0, (mid.upIn + mid.loIn) / 2], ...outline], 0.004);
   },
   teeth(p) {
     const c = mouthCurves(p).filter((q) => Math.abs(q.t) <= 0.76);
@@ -78,9 +73,7 @@ const PARTS = {
       c.map((q) => [q.x, q.loIn + Math.min(0.036 * p.lowTeeth, 0.4 * gap(q))]),
       c.map((q) => [q.x, q.loIn - 0.004]),
     ];
-    const out = new Float32Array(rows.length * rows[0].length * 3);
-    rows.forEach((row, r) => row.forEach(([a, b], i) => facePoint(a, b, 0.008).toArray(out, (r * row.length + i) * 3)));
-    return out;
+    return screenPositions(rows.flat(), 0.008);
   },
   tongue(p) {
     const c = mouthCurves(p);
@@ -97,9 +90,7 @@ const PARTS = {
       const y = cy + ry * Math.sin(w);
       pts.push([x, Math.min(at(c, x, 'upIn') - 0.003, Math.max(at(c, x, 'loIn') - 0.02 * p.tongueOut, y))]);
     }
-    const out = new Float32Array(pts.length * 3);
-    pts.forEach(([a, b], i) => facePoint(a, b, 0.006).toArray(out, i * 3));
-    return out;
+    return screenPositions(pts, 0.006);
   },
 };
 

@@ -128,11 +128,11 @@ export function taperedTube(points, radiusAt, { segments = 24, sides = 10 } = {}
   });
 }
 
-// A flat shape on the screen from 2D points [a, b] of one outline (a fan around its centre).
-export function fanPositions(outline, centre, lift) {
-  const pts = [centre, ...outline];
-  const out = new Float32Array(pts.length * 3);
-  pts.forEach(([a, b], i) => facePoint(a, b, lift).toArray(out, i * 3));
+// Positions on the screen, `lift` above it, of 2D points [a, b] (a flat list: a fan's centre
+// and outline, or strips' rows one after the other).
+export function screenPositions(points, lift) {
+  const out = new Float32Array(points.length * 3);
+  points.forEach(([a, b], i) => facePoint(a, b, lift).toArray(out, i * 3));
   return out;
 }
 
@@ -142,14 +142,7 @@ export function fanIndex(n, closed = true) {
   return index;
 }
 
-// A strip between two rows of 2D points (same length) on the screen.
-export function stripPositions(rowA, rowB, lift) {
-  const out = new Float32Array(rowA.length * 2 * 3);
-  rowA.forEach(([a, b], i) => facePoint(a, b, lift).toArray(out, i * 3));
-  rowB.forEach(([a, b], i) => facePoint(a, b, lift).toArray(out, (rowA.length + i) * 3));
-  return out;
-}
-
+// Triangles between two rows of n points (the second row follows the first).
 export function stripIndex(n) {
   const index = [];
   for (let i = 0; i < n - 1; i++) index.push(i, n + i, i + 1, i + 1, n + i, n + i + 1);

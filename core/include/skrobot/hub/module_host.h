@@ -55,6 +55,7 @@ struct ModuleInfo {
   std::filesystem::path file;
   ModuleState state = ModuleState::loaded;
   bool own_thread = false;
+  std::size_t settings = 0;  // config keys it declares
 };
 
 struct ModuleFailure {
